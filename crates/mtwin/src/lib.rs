@@ -1,4 +1,16 @@
-//! mtwin: machine-tool accuracy.
+//! mtwin: the accuracy of machine tools.
+//!
+//! The library holds the domain: the machine model and its geometric errors
+//! ([`model`]), exact kinematics ([`kinematics`]), least-squares identification
+//! ([`fit`]), ARX system identification ([`sysid`]), the G-code engine
+//! ([`gcode`]), the measurement methods built on them ([`methods`]) and
+//! reports. It has no command-line or terminal dependencies.
+//!
+//! Units follow the project conventions: mm, degrees for rotary axis
+//! positions, rad for small angular errors, s for time, rev/min for spindle
+//! speed.
+
 pub mod fit;
 pub mod gcode;
+pub mod io;
 pub mod sysid;

@@ -1,0 +1,71 @@
+//! Output conventions shared by every subcommand (00 §7): `--format json` prints
+//! machine-readable JSON on stdout and nothing else; notes, warnings and progress
+//! go to stderr; output files are written atomically.
+
+use std::io::IsTerminal;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use clap::ValueEnum;
+
+static QUIET: AtomicBool = AtomicBool::new(false);
+
+/// Silence notes and progress (`--quiet`).
+pub fn set_quiet(q: bool) {
+    QUIET.store(q, Ordering::Relaxed);
+}
+
+/// True under `--quiet`.
+pub fn quiet() -> bool {
+    QUIET.load(Ordering::Relaxed)
+}
+
+/// How a subcommand prints its numbers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
+pub enum Format {
+    /// Tables and sentences for people.
+    #[default]
+    Human,
+    /// One JSON document on stdout, nothing else on stdout.
+    Json,
+}
+
+/// A note for the user on stderr (suppressed by `--quiet`).
+pub fn note(msg: impl AsRef<str>) {
+    if !quiet() {
+        eprintln!("note: {}", msg.as_ref());
+    }
+}
+
+/// A warning on stderr (always shown: it may change how a result is read).
+pub fn warn(msg: impl AsRef<str>) {
+    eprintln!("warning: {}", msg.as_ref());
+}
+
+/// Print an error and its causes on stderr.
+pub fn print_error(e: &anyhow::Error) {
+    eprintln!("error: {e}");
+    for cause in e.chain().skip(1) {
+        eprintln!("  caused by: {cause}");
+    }
+}
+
+/// Print a JSON value on stdout (pretty, one document).
+pub fn print_json(v: &serde_json::Value) -> anyhow::Result<()> {
+    println!("{}", serde_json::to_string_pretty(v)?);
+    Ok(())
+}
+
+/// A progress bar on stderr when stderr is a terminal and not `--quiet`; hidden otherwise.
+pub fn progress(len: u64, what: &str) -> indicatif::ProgressBar {
+    if quiet() || !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let pb = indicatif::ProgressBar::new(len);
+    pb.set_style(
+        indicatif::ProgressStyle::with_template("{msg:>12} [{bar:40}] {pos}/{len} ({eta})")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    pb.set_message(what.to_string());
+    pb
+}

@@ -1,0 +1,16 @@
+//! Reading and writing the data files of 00 §6: CSV tables matched by
+//! header name, full-precision number formatting, and atomic output files.
+//!
+//! Every reader reports problems as a [`Diagnostic`] naming the file, the
+//! line and (where it applies) the column, so the CLI can print one plain
+//! sentence per problem.
+
+mod atomic;
+mod diagnostic;
+mod number;
+mod table;
+
+pub use atomic::{write_atomic, write_atomic_with};
+pub use diagnostic::{Diagnostic, Diagnostics};
+pub use number::{fmt_f64, write_csv_row};
+pub use table::{Column, Table};
