@@ -14,3 +14,5 @@ pub mod fit;
 pub mod gcode;
 pub mod io;
 pub mod sysid;
+pub mod kinematics;
+pub mod model;

@@ -1,0 +1,292 @@
+//! Forward kinematics of a [`Machine`] with its geometric errors, exact (00 §3–4):
+//! `A_i(q) = P_i·L_i·J_i(q)·E_i(q)`, `T_WT = T_MW⁻¹·T_MT`.
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use super::transform::{Rigid, rxyz, sin_cos};
+use crate::model::{AxisKind, ErrorFunction, Machine};
+
+/// Tool tip (mm) and unit tool axis in the workpiece frame W.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ToolPose {
+    /// Tool tip position in W, mm.
+    pub tip: Vector3<f64>,
+    /// Unit tool-axis direction in W (from the tip towards the spindle).
+    pub axis: Vector3<f64>,
+}
+
+/// One axis, compiled for fast evaluation.
+#[derive(Debug, Clone)]
+pub(crate) struct AxisKin {
+    pub(crate) name: String,
+    pub(crate) kind: AxisKind,
+    pub(crate) dir: Vector3<f64>,
+    pub(crate) travel: [f64; 2],
+    /// `P_i·L_i` (placement in the parent and location error).
+    pub(crate) pl: Rigid,
+    /// `P_i` translation `o_i − o_parent`.
+    pub(crate) p: Vector3<f64>,
+    /// Location error values `EX0, EY0, EZ0, EA0, EB0, EC0`.
+    pub(crate) loc: [f64; 6],
+    pub(crate) has_loc_rotation: bool,
+    pub(crate) pdge: [Option<ErrorFunction>; 6],
+    pub(crate) has_pdge: bool,
+}
+
+impl AxisKin {
+    /// Values of the six PDGE components at `q`.
+    #[inline]
+    pub(crate) fn pdge_values(&self, q: f64) -> [f64; 6] {
+        let mut e = [0.0; 6];
+        for (k, f) in self.pdge.iter().enumerate() {
+            if let Some(f) = f {
+                e[k] = f.eval(q, self.travel);
+            }
+        }
+        e
+    }
+
+    /// Derivatives of the six PDGE components with respect to `q`.
+    pub(crate) fn pdge_derivs(&self, q: f64) -> [f64; 6] {
+        let mut e = [0.0; 6];
+        for (k, f) in self.pdge.iter().enumerate() {
+            if let Some(f) = f {
+                e[k] = f.deriv(q, self.travel);
+            }
+        }
+        e
+    }
+
+    /// `E_i(q)`.
+    #[inline]
+    pub(crate) fn e_transform(&self, q: f64) -> Rigid {
+        if !self.has_pdge {
+            return Rigid::identity();
+        }
+        let e = self.pdge_values(q);
+        Rigid::from_error(Vector3::new(e[0], e[1], e[2]), e[3], e[4], e[5])
+    }
+
+    /// Joint angle in rad for a rotary axis.
+    #[inline]
+    pub(crate) fn angle(q: f64) -> f64 {
+        q.to_radians()
+    }
+
+    /// `J_i(q)`.
+    #[inline]
+    pub(crate) fn j_transform(&self, q: f64) -> Rigid {
+        match self.kind {
+            AxisKind::Linear => Rigid::translation(self.dir * q),
+            AxisKind::Rotary => Rigid::rotation(&self.dir, Self::angle(q)),
+        }
+    }
+
+    /// `A_i(q) = P_i·L_i·J_i(q)·E_i(q)`.
+    pub(crate) fn transform(&self, q: f64) -> Rigid {
+        self.pl.compose(&self.j_transform(q)).compose(&self.e_transform(q))
+    }
+
+    /// Apply `A_i(q)` to a point and a vector.
+    #[inline]
+    fn apply(&self, q: f64, p: &mut Vector3<f64>, v: &mut Vector3<f64>) {
+        if self.has_pdge {
+            let e = self.pdge_values(q);
+            let r = rxyz(e[3], e[4], e[5]);
+            *p = r * *p + Vector3::new(e[0], e[1], e[2]);
+            *v = r * *v;
+        }
+        match self.kind {
+            AxisKind::Linear => *p += self.dir * q,
+            AxisKind::Rotary => {
+                let (s, c) = sin_cos(Self::angle(q));
+                *p = rodrigues(&self.dir, s, c, p);
+                *v = rodrigues(&self.dir, s, c, v);
+            }
+        }
+        if self.has_loc_rotation {
+            *p = self.pl.r * *p;
+            *v = self.pl.r * *v;
+        }
+        *p += self.pl.t;
+    }
+
+    /// Apply `A_i(q)⁻¹` to a point and a vector.
+    #[inline]
+    fn apply_inv(&self, q: f64, p: &mut Vector3<f64>, v: &mut Vector3<f64>) {
+        *p -= self.pl.t;
+        if self.has_loc_rotation {
+            *p = self.pl.r.tr_mul(p);
+            *v = self.pl.r.tr_mul(v);
+        }
+        match self.kind {
+            AxisKind::Linear => *p -= self.dir * q,
+            AxisKind::Rotary => {
+                let (s, c) = sin_cos(Self::angle(q));
+                *p = rodrigues(&self.dir, -s, c, p);
+                *v = rodrigues(&self.dir, -s, c, v);
+            }
+        }
+        if self.has_pdge {
+            let e = self.pdge_values(q);
+            let r = rxyz(e[3], e[4], e[5]);
+            *p = r.tr_mul(&(*p - Vector3::new(e[0], e[1], e[2])));
+            *v = r.tr_mul(v);
+        }
+    }
+}
+
+/// `Rot(u, θ)·x` from `sin θ`, `cos θ` (Rodrigues, vector form).
+#[inline]
+fn rodrigues(u: &Vector3<f64>, s: f64, c: f64, x: &Vector3<f64>) -> Vector3<f64> {
+    x * c + u.cross(x) * s + u * (u.dot(x) * (1.0 - c))
+}
+
+/// The kinematics of one machine with its current geometric errors, compiled from a
+/// [`Machine`]. Axis positions are always given in the machine's axis order (mm, degree).
+///
+/// Build a new one after changing the machine's errors (it is cheap).
+#[derive(Debug, Clone)]
+pub struct Kinematics {
+    pub(crate) axes: Vec<AxisKin>,
+    pub(crate) tool_chain: Vec<usize>,
+    pub(crate) work_chain: Vec<usize>,
+    /// `tip − o_last_tool_axis`: the tool tip in the last tool-chain frame.
+    pub(crate) tool_point: Vector3<f64>,
+    pub(crate) tool_dir: Vector3<f64>,
+    /// `origin − o_last_workpiece_axis`.
+    pub(crate) work_point: Vector3<f64>,
+}
+
+impl Kinematics {
+    /// The actual machine: nominal geometry plus every geometric error of `machine`.
+    pub fn new(machine: &Machine) -> Self {
+        let mut axes: Vec<AxisKin> = machine
+            .axes
+            .iter()
+            .map(|a| {
+                let loc = a.errors.location;
+                let l = Rigid::from_error(Vector3::new(loc[0], loc[1], loc[2]), loc[3], loc[4], loc[5]);
+                AxisKin {
+                    name: a.name.clone(),
+                    kind: a.kind,
+                    dir: a.direction,
+                    travel: a.travel,
+                    pl: l,
+                    p: Vector3::zeros(),
+                    loc,
+                    has_loc_rotation: loc[3] != 0.0 || loc[4] != 0.0 || loc[5] != 0.0,
+                    pdge: a.errors.pdge.clone(),
+                    has_pdge: a.errors.has_pdge(),
+                }
+            })
+            .collect();
+        for chain in [&machine.tool_chain, &machine.workpiece_chain] {
+            let mut parent_origin = Vector3::zeros();
+            for &i in chain.iter() {
+                let o = machine.axes[i].origin;
+                let p = o - parent_origin;
+                axes[i].p = p;
+                axes[i].pl = Rigid::translation(p).compose(&axes[i].pl);
+                parent_origin = o;
+            }
+        }
+        let last = |chain: &[usize]| chain.last().map_or(Vector3::zeros(), |&i| machine.axes[i].origin);
+        Kinematics {
+            axes,
+            tool_chain: machine.tool_chain.clone(),
+            work_chain: machine.workpiece_chain.clone(),
+            tool_point: machine.tool_tip - last(&machine.tool_chain),
+            tool_dir: machine.tool_direction,
+            work_point: machine.workpiece_origin - last(&machine.workpiece_chain),
+        }
+    }
+
+    /// The nominal machine: `machine`'s geometry with every error removed.
+    pub fn nominal(machine: &Machine) -> Self {
+        Self::new(&machine.nominal())
+    }
+
+    /// Number of axes (length of every position vector).
+    pub fn n_axes(&self) -> usize {
+        self.axes.len()
+    }
+
+    /// Axis names in position-vector order.
+    pub fn axis_names(&self) -> Vec<&str> {
+        self.axes.iter().map(|a| a.name.as_str()).collect()
+    }
+
+    /// Tool tip and tool axis in W at axis positions `q` (mm, degree).
+    #[inline]
+    pub fn pose(&self, q: &[f64]) -> ToolPose {
+        debug_assert_eq!(q.len(), self.axes.len());
+        let mut p = self.tool_point;
+        let mut v = self.tool_dir;
+        for &i in self.tool_chain.iter().rev() {
+            self.axes[i].apply(q[i], &mut p, &mut v);
+        }
+        for &i in &self.work_chain {
+            self.axes[i].apply_inv(q[i], &mut p, &mut v);
+        }
+        p -= self.work_point;
+        ToolPose { tip: p, axis: v }
+    }
+
+    /// Poses for many positions: `qs` holds `n_axes` values per pose, row after row.
+    /// Runs in parallel (rayon) in chunks.
+    pub fn poses(&self, qs: &[f64]) -> Vec<ToolPose> {
+        let n = self.axes.len().max(1);
+        qs.par_chunks(n * 1024).flat_map_iter(|c| c.chunks_exact(n).map(|q| self.pose(q))).collect()
+    }
+
+    /// `T_MT(q)`: the tool frame in M.
+    pub fn tool_frame(&self, q: &[f64]) -> Rigid {
+        let mut g = Rigid::identity();
+        for &i in &self.tool_chain {
+            g = g.compose(&self.axes[i].transform(q[i]));
+        }
+        g.compose(&Rigid::translation(self.tool_point))
+    }
+
+    /// `T_MW(q)`: the workpiece frame in M.
+    pub fn workpiece_frame(&self, q: &[f64]) -> Rigid {
+        let mut g = Rigid::identity();
+        for &i in &self.work_chain {
+            g = g.compose(&self.axes[i].transform(q[i]));
+        }
+        g.compose(&Rigid::translation(self.work_point))
+    }
+
+    /// `T_WT(q) = T_MW⁻¹·T_MT`: the tool frame in W (full transform).
+    pub fn tool_in_workpiece(&self, q: &[f64]) -> Rigid {
+        self.workpiece_frame(q).inverse().compose(&self.tool_frame(q))
+    }
+
+    /// The transform `A_i(q)` of axis `i` alone (its frame in its parent's frame).
+    pub fn axis_transform(&self, i: usize, q: f64) -> Rigid {
+        self.axes[i].transform(q)
+    }
+
+    /// Travel of axis `i`.
+    pub fn travel(&self, i: usize) -> [f64; 2] {
+        self.axes[i].travel
+    }
+
+    /// Kind of axis `i`.
+    pub fn kind(&self, i: usize) -> AxisKind {
+        self.axes[i].kind
+    }
+
+    /// Name of axis `i`.
+    pub fn axis_name(&self, i: usize) -> &str {
+        &self.axes[i].name
+    }
+
+    /// Location error values of axis `i` in [`Component::ALL`] order.
+    pub fn location(&self, i: usize) -> [f64; 6] {
+        self.axes[i].loc
+    }
+}
+

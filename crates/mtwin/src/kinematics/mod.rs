@@ -1,0 +1,19 @@
+//! The one kinematics engine of mtwin: exact forward kinematics with geometric errors,
+//! exact Jacobians with respect to error components and axis positions, and inverse
+//! kinematics on the actual (erroneous) machine.
+//!
+//! Frames and conventions are those of the project (00 §2–4): `T_ab` maps coordinates in b
+//! to a; the tool pose is reported in the workpiece frame W.
+
+mod chain;
+mod ik;
+mod jacobian;
+pub mod transform;
+
+pub use chain::{Kinematics, ToolPose};
+pub use ik::{IkError, IkOptions, IkTarget};
+pub use jacobian::{PoseDerivative, PoseJacobian, SLOTS};
+pub use transform::Rigid;
+
+#[cfg(test)]
+mod tests;

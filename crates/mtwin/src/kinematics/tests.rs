@@ -1,0 +1,255 @@
+//! Tests of the kinematics engine against closed forms, finite differences and round trips.
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Rotation3, Unit, Vector3};
+
+use super::*;
+use crate::model::{Component, ErrorFunction, Machine, read_machine};
+
+fn example(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/machines").join(name)
+}
+
+fn load(name: &str) -> Machine {
+    read_machine(&example(name)).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Deterministic pseudo-random poses inside the travels.
+fn poses(m: &Machine, n: usize, seed: u64) -> Vec<Vec<f64>> {
+    let mut s = seed;
+    let mut next = || {
+        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    };
+    (0..n)
+        .map(|_| m.axes.iter().map(|a| a.travel[0] + (a.travel[1] - a.travel[0]) * (0.05 + 0.9 * next())).collect())
+        .collect()
+}
+
+fn rot(axis: Vector3<f64>, deg: f64) -> Rotation3<f64> {
+    Rotation3::from_axis_angle(&Unit::new_normalize(axis), deg.to_radians())
+}
+
+/// The nominal AC trunnion by hand: tool at (x, y, z) in M, table turned by Rx(a)·Rz(c)
+/// about lines through the origin, workpiece origin (0, 0, −150).
+fn ac_nominal_by_hand(q: &[f64]) -> (Vector3<f64>, Vector3<f64>) {
+    let (y, x, z, a, c) = (q[0], q[1], q[2], q[3], q[4]);
+    let r_mw = rot(Vector3::x(), a) * rot(Vector3::z(), c);
+    let t_mw = r_mw * Vector3::new(0.0, 0.0, -150.0);
+    let tip_m = Vector3::new(x, y, z);
+    (r_mw.inverse() * (tip_m - t_mw), r_mw.inverse() * Vector3::z())
+}
+
+#[test]
+fn zero_errors_give_the_nominal_pose() {
+    let m = load("ac-trunnion.toml");
+    let k = Kinematics::new(&m);
+    for q in poses(&m, 200, 1) {
+        let p = k.pose(&q);
+        let (tip, axis) = ac_nominal_by_hand(&q);
+        assert!((p.tip - tip).norm() < 1e-12, "{q:?}");
+        assert!((p.axis - axis).norm() < 1e-15);
+    }
+    // And the error-free kinematics of the machine with errors is the same nominal one.
+    let me = load("ac-trunnion-with-errors.toml");
+    let kn = Kinematics::nominal(&me);
+    for q in poses(&m, 50, 2) {
+        assert!((kn.pose(&q).tip - ac_nominal_by_hand(&q).0).norm() < 1e-12);
+    }
+}
+
+#[test]
+fn a_pure_positioning_error_shifts_the_tip_by_exactly_that_amount() {
+    let mut m = load("ac-trunnion.toml");
+    let ix = m.axis_index("X").unwrap();
+    m.axes[ix].errors.pdge[Component::Tx.index()] = Some(ErrorFunction::Constant(0.0123));
+    let iz = m.axis_index("Z").unwrap();
+    m.axes[iz].errors.pdge[Component::Tz.index()] = Some(ErrorFunction::Poly(vec![0.0, 1e-5]));
+    let k = Kinematics::new(&m);
+    for q in poses(&m, 100, 3) {
+        let (tip, _) = ac_nominal_by_hand(&q);
+        let r_wm = (rot(Vector3::x(), q[3]) * rot(Vector3::z(), q[4])).inverse();
+        let shift_m = Vector3::new(0.0123, 0.0, 1e-5 * q[2]);
+        assert!((k.pose(&q).tip - (tip + r_wm * shift_m)).norm() < 1e-12);
+    }
+}
+
+#[test]
+fn a_rotary_location_tilt_turns_points_about_the_tilted_line() {
+    // C tilted by EA0C = ε about x, everything else nominal, A = 0: the table point that
+    // sits at W coordinates w is at Rx(ε)·Rz(c)·(w + o_W) in M, an exact rotation about the
+    // tilted C line; so the tool at M position p sees W coordinates Rz(−c)·Rx(−ε)·p − o_W.
+    let eps = 2.0e-4;
+    let mut m = load("ac-trunnion.toml");
+    let ic = m.axis_index("C").unwrap();
+    m.axes[ic].errors.location[Component::Rx.index()] = eps;
+    let k = Kinematics::new(&m);
+    for q in poses(&m, 100, 4) {
+        let q = [q[0], q[1], q[2], 0.0, q[4]];
+        let p_m = Vector3::new(q[1], q[0], q[2]);
+        let r = Rotation3::from_axis_angle(&Vector3::x_axis(), eps) * rot(Vector3::z(), q[4]);
+        let expect = r.inverse() * p_m - Vector3::new(0.0, 0.0, -150.0);
+        assert!((k.pose(&q).tip - expect).norm() < 1e-12);
+        // The radius about the tilted line is preserved: the exact rotation moves the point
+        // at radius r along a circle of radius r.
+        let line = Rotation3::from_axis_angle(&Vector3::x_axis(), eps) * Vector3::z();
+        let w_in_m = |c: f64| Rotation3::from_axis_angle(&Vector3::x_axis(), eps) * rot(Vector3::z(), c) * Vector3::new(100.0, 0.0, -150.0);
+        let radius = |v: Vector3<f64>| (v - line * line.dot(&v)).norm();
+        assert!((radius(w_in_m(q[4])) - radius(w_in_m(0.0))).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn rotation_parts_are_orthonormal() {
+    for name in ["ac-trunnion-with-errors.toml", "afp-gantry-with-errors.toml", "skiving-with-errors.toml"] {
+        let m = load(name);
+        let k = Kinematics::new(&m);
+        for q in poses(&m, 50, 5) {
+            let t = k.tool_in_workpiece(&q);
+            assert!((t.r.transpose() * t.r - nalgebra::Matrix3::identity()).norm() < 1e-12);
+            assert!((t.r.determinant() - 1.0).abs() < 1e-12);
+            // The fast point/vector path equals the full transform.
+            let p = k.pose(&q);
+            assert!((t.t - p.tip).norm() < 1e-9, "{name}");
+            assert!((t.r * m.tool_direction - p.axis).norm() < 1e-12);
+            assert!((p.axis.norm() - 1.0).abs() < 1e-12);
+        }
+    }
+}
+
+fn add_to_component(m: &mut Machine, axis: usize, slot: usize, h: f64) {
+    let e = &mut m.axes[axis].errors;
+    if slot >= 6 {
+        e.location[slot - 6] += h;
+        return;
+    }
+    e.pdge[slot] = Some(match e.pdge[slot].take() {
+        None => ErrorFunction::Constant(h),
+        Some(ErrorFunction::Constant(c)) => ErrorFunction::Constant(c + h),
+        Some(ErrorFunction::Poly(mut c)) => {
+            c[0] += h;
+            ErrorFunction::Poly(c)
+        }
+        Some(ErrorFunction::Cheb(mut c)) => {
+            c[0] += h;
+            ErrorFunction::Cheb(c)
+        }
+        Some(ErrorFunction::Table { q, e }) => ErrorFunction::Table { q, e: e.iter().map(|v| v + h).collect() },
+    });
+}
+
+fn close(a: f64, b: f64, scale: f64) -> bool {
+    (a - b).abs() <= 1e-6 * a.abs().max(b.abs()).max(scale)
+}
+
+#[test]
+fn component_jacobians_match_central_differences() {
+    for name in ["ac-trunnion-with-errors.toml", "afp-gantry-with-errors.toml", "skiving-with-errors.toml"] {
+        let m = load(name);
+        let k = Kinematics::new(&m);
+        for q in poses(&m, 6, 6) {
+            let jac = k.jacobian(&q);
+            assert!((jac.pose.tip - k.pose(&q).tip).norm() < 1e-9);
+            for i in 0..m.n_axes() {
+                for slot in 0..SLOTS {
+                    let h = if slot % 6 >= 3 { 1e-6 } else { 1e-4 };
+                    let (mut mp, mut mm) = (m.clone(), m.clone());
+                    add_to_component(&mut mp, i, slot, h);
+                    add_to_component(&mut mm, i, slot, -h);
+                    let (pp, pm) = (Kinematics::new(&mp).pose(&q), Kinematics::new(&mm).pose(&q));
+                    let fd_tip = (pp.tip - pm.tip) / (2.0 * h);
+                    let fd_ax = (pp.axis - pm.axis) / (2.0 * h);
+                    let d = jac.components[i][slot];
+                    // The scale of a tip derivative is the lever arm (mm/rad) or 1 (mm/mm).
+                    let scale = if slot % 6 >= 3 { 1000.0 } else { 1.0 };
+                    for r in 0..3 {
+                        assert!(close(d[r], fd_tip[r], scale), "{name} axis {i} slot {slot} tip {r}: {} vs {}", d[r], fd_tip[r]);
+                        assert!(close(d[3 + r], fd_ax[r], 1.0), "{name} axis {i} slot {slot} axis {r}: {} vs {}", d[3 + r], fd_ax[r]);
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn position_jacobians_match_central_differences() {
+    for name in ["ac-trunnion-with-errors.toml", "afp-gantry-with-errors.toml", "skiving-with-errors.toml"] {
+        let m = load(name);
+        let k = Kinematics::new(&m);
+        for q in poses(&m, 10, 7) {
+            let jac = k.jacobian(&q);
+            for i in 0..m.n_axes() {
+                let h = 1e-4;
+                let (mut qp, mut qm) = (q.clone(), q.clone());
+                qp[i] += h;
+                qm[i] -= h;
+                let (pp, pm) = (k.pose(&qp), k.pose(&qm));
+                let fd_tip = (pp.tip - pm.tip) / (2.0 * h);
+                let fd_ax = (pp.axis - pm.axis) / (2.0 * h);
+                let d = jac.positions[i];
+                for r in 0..3 {
+                    assert!(close(d[r], fd_tip[r], 1.0), "{name} axis {i} tip {r}: {} vs {}", d[r], fd_tip[r]);
+                    assert!(close(d[3 + r], fd_ax[r], 1e-3), "{name} axis {i} axis {r}: {} vs {}", d[3 + r], fd_ax[r]);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn inverse_of_forward_round_trips_on_every_example() {
+    for name in ["ac-trunnion-with-errors.toml", "afp-gantry-with-errors.toml", "skiving-with-errors.toml"] {
+        let m = load(name);
+        let k = Kinematics::new(&m);
+        let kn = Kinematics::nominal(&m);
+        let linear: Vec<bool> = m.axes.iter().map(|a| a.kind == crate::model::AxisKind::Linear).collect();
+        let all = vec![true; m.n_axes()];
+        for q in poses(&m, 40, 8) {
+            // Position only, linear axes free: reach the nominal tip with the actual machine.
+            let nominal = kn.pose(&q);
+            let target = IkTarget { tip: nominal.tip, axis: None };
+            let sol = k.inverse(&target, &q, &linear, &IkOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert!((k.pose(&sol).tip - nominal.tip).norm() < 1e-9, "{name}");
+            // Round trip: FK of q, then IK from a perturbed start, must give back q.
+            let actual = k.pose(&q);
+            let start: Vec<f64> = q.iter().enumerate().map(|(i, v)| if linear[i] { v + 0.5 } else { v + 0.2 }).collect();
+            let with_axis = IkTarget { tip: actual.tip, axis: Some(actual.axis) };
+            let n_rot = linear.iter().filter(|l| !**l).count();
+            let free = if n_rot >= 2 && n_rot + 3 <= 5 { all.clone() } else { linear.clone() };
+            let tgt = if free == all { with_axis } else { IkTarget { tip: actual.tip, axis: None } };
+            let start = if free == all { start } else { q.iter().enumerate().map(|(i, v)| if linear[i] { v + 0.5 } else { *v }).collect() };
+            let back = k.inverse(&tgt, &start, &free, &IkOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert!((k.pose(&back).tip - actual.tip).norm() < 1e-9, "{name}");
+            for i in 0..q.len() {
+                assert!((back[i] - q[i]).abs() < 1e-8, "{name} axis {i}: {} vs {}", back[i], q[i]);
+            }
+        }
+    }
+}
+
+#[test]
+fn inverse_reports_leaving_the_travel() {
+    let m = load("ac-trunnion-with-errors.toml");
+    let k = Kinematics::new(&m);
+    let q = [0.0, 299.9999, 0.0, 0.0, 0.0];
+    let target = IkTarget { tip: Kinematics::nominal(&m).pose(&q).tip + Vector3::new(1.0, 0.0, 0.0), axis: None };
+    let free = [true, true, true, false, false];
+    let e = k.inverse(&target, &q, &free, &IkOptions::default()).unwrap_err();
+    assert!(matches!(e, IkError::OutOfTravel { ref axis, .. } if axis == "X"), "{e}");
+    assert!(e.to_string().contains("outside its travel"));
+}
+
+#[test]
+fn batch_equals_single_poses() {
+    let m = load("ac-trunnion-with-errors.toml");
+    let k = Kinematics::new(&m);
+    let ps = poses(&m, 5000, 9);
+    let flat: Vec<f64> = ps.iter().flatten().copied().collect();
+    let batch = k.poses(&flat);
+    assert_eq!(batch.len(), ps.len());
+    for (q, b) in ps.iter().zip(&batch) {
+        assert_eq!(k.pose(q), *b);
+    }
+}
