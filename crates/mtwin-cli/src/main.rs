@@ -4,6 +4,7 @@
 //! computation lives in the `mtwin` library. Each subcommand family has its own
 //! module under `cmd/`.
 
+mod bundled;
 mod cmd;
 mod output;
 

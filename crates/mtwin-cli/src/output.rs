@@ -36,6 +36,7 @@ pub fn note(msg: impl AsRef<str>) {
     }
 }
 
+#[allow(dead_code)] // used by the identification commands
 /// A warning on stderr (always shown: it may change how a result is read).
 pub fn warn(msg: impl AsRef<str>) {
     eprintln!("warning: {}", msg.as_ref());
@@ -55,6 +56,7 @@ pub fn print_json(v: &serde_json::Value) -> anyhow::Result<()> {
     Ok(())
 }
 
+#[allow(dead_code)] // used by long-running commands
 /// A progress bar on stderr when stderr is a terminal and not `--quiet`; hidden otherwise.
 pub fn progress(len: u64, what: &str) -> indicatif::ProgressBar {
     if quiet() || !std::io::stderr().is_terminal() {

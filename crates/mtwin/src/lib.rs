@@ -13,6 +13,9 @@
 pub mod fit;
 pub mod gcode;
 pub mod io;
-pub mod sysid;
 pub mod kinematics;
+pub mod sysid;
+
+/// Re-export of the linear-algebra crate used in the public API (vectors, matrices).
+pub use nalgebra;
 pub mod model;

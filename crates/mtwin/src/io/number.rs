@@ -20,7 +20,7 @@ pub fn fmt_f64(x: f64) -> String {
 }
 
 /// Write one CSV row of numbers at full precision, comma separated, newline terminated.
-pub fn write_csv_row<W: Write>(w: &mut W, values: &[f64]) -> io::Result<()> {
+pub fn write_csv_row<W: Write + ?Sized>(w: &mut W, values: &[f64]) -> io::Result<()> {
     let mut buf = ryu::Buffer::new();
     for (i, &v) in values.iter().enumerate() {
         if i > 0 {
@@ -42,7 +42,16 @@ mod tests {
 
     #[test]
     fn shortest_round_trip() {
-        for &x in &[0.1, -0.0403, 1e-7, 123456.789, 1.0 / 3.0, 2.0, -5e-310, 1e300] {
+        for &x in &[
+            0.1,
+            -0.0403,
+            1e-7,
+            123456.789,
+            1.0 / 3.0,
+            2.0,
+            -5e-310,
+            1e300,
+        ] {
             let s = fmt_f64(x);
             assert_eq!(s.parse::<f64>().unwrap(), x, "{s}");
         }

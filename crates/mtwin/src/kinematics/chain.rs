@@ -85,7 +85,9 @@ impl AxisKin {
 
     /// `A_i(q) = P_i·L_i·J_i(q)·E_i(q)`.
     pub(crate) fn transform(&self, q: f64) -> Rigid {
-        self.pl.compose(&self.j_transform(q)).compose(&self.e_transform(q))
+        self.pl
+            .compose(&self.j_transform(q))
+            .compose(&self.e_transform(q))
     }
 
     /// Apply `A_i(q)` to a point and a vector.
@@ -167,7 +169,8 @@ impl Kinematics {
             .iter()
             .map(|a| {
                 let loc = a.errors.location;
-                let l = Rigid::from_error(Vector3::new(loc[0], loc[1], loc[2]), loc[3], loc[4], loc[5]);
+                let l =
+                    Rigid::from_error(Vector3::new(loc[0], loc[1], loc[2]), loc[3], loc[4], loc[5]);
                 AxisKin {
                     name: a.name.clone(),
                     kind: a.kind,
@@ -192,7 +195,11 @@ impl Kinematics {
                 parent_origin = o;
             }
         }
-        let last = |chain: &[usize]| chain.last().map_or(Vector3::zeros(), |&i| machine.axes[i].origin);
+        let last = |chain: &[usize]| {
+            chain
+                .last()
+                .map_or(Vector3::zeros(), |&i| machine.axes[i].origin)
+        };
         Kinematics {
             axes,
             tool_chain: machine.tool_chain.clone(),
@@ -238,7 +245,9 @@ impl Kinematics {
     /// Runs in parallel (rayon) in chunks.
     pub fn poses(&self, qs: &[f64]) -> Vec<ToolPose> {
         let n = self.axes.len().max(1);
-        qs.par_chunks(n * 1024).flat_map_iter(|c| c.chunks_exact(n).map(|q| self.pose(q))).collect()
+        qs.par_chunks(n * 1024)
+            .flat_map_iter(|c| c.chunks_exact(n).map(|q| self.pose(q)))
+            .collect()
     }
 
     /// `T_MT(q)`: the tool frame in M.
@@ -261,7 +270,9 @@ impl Kinematics {
 
     /// `T_WT(q) = T_MW⁻¹·T_MT`: the tool frame in W (full transform).
     pub fn tool_in_workpiece(&self, q: &[f64]) -> Rigid {
-        self.workpiece_frame(q).inverse().compose(&self.tool_frame(q))
+        self.workpiece_frame(q)
+            .inverse()
+            .compose(&self.tool_frame(q))
     }
 
     /// The transform `A_i(q)` of axis `i` alone (its frame in its parent's frame).
@@ -289,4 +300,3 @@ impl Kinematics {
         self.axes[i].loc
     }
 }
-

@@ -30,7 +30,12 @@ pub struct IkOptions {
 
 impl Default for IkOptions {
     fn default() -> Self {
-        IkOptions { max_iterations: 50, tip_tolerance: 1e-11, axis_tolerance: 1e-13, check_travel: true }
+        IkOptions {
+            max_iterations: 50,
+            tip_tolerance: 1e-11,
+            axis_tolerance: 1e-13,
+            check_travel: true,
+        }
     }
 }
 
@@ -75,7 +80,13 @@ impl Kinematics {
     /// position-only target on a five-axis machine, free only the linear axes (the usual
     /// choice) or all axes (minimum-norm steps). Converges quadratically; for the small
     /// geometric errors of a machine tool two or three steps reach 1e-11 mm.
-    pub fn inverse(&self, target: &IkTarget, start: &[f64], free: &[bool], opts: &IkOptions) -> Result<Vec<f64>, IkError> {
+    pub fn inverse(
+        &self,
+        target: &IkTarget,
+        start: &[f64],
+        free: &[bool],
+        opts: &IkOptions,
+    ) -> Result<Vec<f64>, IkError> {
         let free_idx: Vec<usize> = (0..self.n_axes()).filter(|&i| free[i]).collect();
         if free_idx.is_empty() {
             return Err(IkError::NoFreeAxis);
@@ -87,7 +98,10 @@ impl Kinematics {
             let jac = self.jacobian(&q);
             let dp = jac.pose.tip - target.tip;
             let (dv, ang) = match target.axis {
-                Some(t) => (jac.pose.axis - t, jac.pose.axis.cross(&t).norm().atan2(jac.pose.axis.dot(&t))),
+                Some(t) => (
+                    jac.pose.axis - t,
+                    jac.pose.axis.cross(&t).norm().atan2(jac.pose.axis.dot(&t)),
+                ),
                 None => (Vector3::zeros(), 0.0),
             };
             last = (dp.norm(), ang);
@@ -124,7 +138,11 @@ impl Kinematics {
                 q[i] += step[c];
             }
         }
-        Err(IkError::NotConverged { iterations: opts.max_iterations, tip_residual: last.0, axis_residual: last.1 })
+        Err(IkError::NotConverged {
+            iterations: opts.max_iterations,
+            tip_residual: last.0,
+            axis_residual: last.1,
+        })
     }
 
     /// An error naming the first axis of `q` outside its travel.
@@ -133,7 +151,13 @@ impl Kinematics {
             let [lo, hi] = a.travel;
             let tol = 1e-9 * (hi - lo).abs().max(1.0);
             if v < lo - tol || v > hi + tol {
-                return Err(IkError::OutOfTravel { axis: a.name.clone(), value: v, unit: a.kind.unit(), lo, hi });
+                return Err(IkError::OutOfTravel {
+                    axis: a.name.clone(),
+                    value: v,
+                    unit: a.kind.unit(),
+                    lo,
+                    hi,
+                });
             }
         }
         Ok(())

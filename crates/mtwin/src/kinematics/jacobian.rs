@@ -52,13 +52,26 @@ fn frames(kin: &Kinematics, chain: &[usize], q: &[f64]) -> (Vec<(usize, Frames)>
         let after_l = g.compose(&a.pl);
         let after_j = after_l.compose(&a.j_transform(q[i]));
         let after_e = after_j.compose(&a.e_transform(q[i]));
-        out.push((i, Frames { prev, after_l, after_j, after_e }));
+        out.push((
+            i,
+            Frames {
+                prev,
+                after_l,
+                after_j,
+                after_e,
+            },
+        ));
         g = after_e;
     }
     (out, g)
 }
 
-fn pack(sign: f64, rt: &nalgebra::Matrix3<f64>, dp: Vector3<f64>, dv: Vector3<f64>) -> PoseDerivative {
+fn pack(
+    sign: f64,
+    rt: &nalgebra::Matrix3<f64>,
+    dp: Vector3<f64>,
+    dv: Vector3<f64>,
+) -> PoseDerivative {
     let p = rt * dp * sign;
     let v = rt * dv * sign;
     [p.x, p.y, p.z, v.x, v.y, v.z]
@@ -125,7 +138,10 @@ fn axis_derivatives(
         AxisKind::Rotary => {
             // x = R_J·y with y the coordinates after J; d/dq = (π/180)·d × x, in the frame after L.
             let k = std::f64::consts::PI / 180.0;
-            (f.after_l.r * (a.dir.cross(&x) * k), f.after_l.r * (a.dir.cross(&xv) * k))
+            (
+                f.after_l.r * (a.dir.cross(&x) * k),
+                f.after_l.r * (a.dir.cross(&xv) * k),
+            )
         }
     };
     *dq = pack(sign, rt, jp + rj * d_es, jv + rj * d_ew);
@@ -142,15 +158,32 @@ impl Kinematics {
         let t_mw = g_w.compose(&Rigid::translation(self.work_point));
         let pm = t_mt.t;
         let om = t_mt.r * self.tool_dir;
-        let pose = ToolPose { tip: t_mw.inv_point(&pm), axis: t_mw.inv_vector(&om) };
+        let pose = ToolPose {
+            tip: t_mw.inv_point(&pm),
+            axis: t_mw.inv_vector(&om),
+        };
         let rt = t_mw.r.transpose();
         let mut components = vec![[[0.0; 6]; SLOTS]; n];
         let mut positions = vec![[0.0; 6]; n];
         for (chain, sign) in [(&tool_frames, 1.0), (&work_frames, -1.0)] {
             for (i, f) in chain {
-                axis_derivatives(&self.axes[*i], q[*i], f, &pm, &om, &rt, sign, &mut components[*i], &mut positions[*i]);
+                axis_derivatives(
+                    &self.axes[*i],
+                    q[*i],
+                    f,
+                    &pm,
+                    &om,
+                    &rt,
+                    sign,
+                    &mut components[*i],
+                    &mut positions[*i],
+                );
             }
         }
-        PoseJacobian { pose, components, positions }
+        PoseJacobian {
+            pose,
+            components,
+            positions,
+        }
     }
 }

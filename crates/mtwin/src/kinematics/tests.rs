@@ -8,7 +8,9 @@ use super::*;
 use crate::model::{Component, ErrorFunction, Machine, read_machine};
 
 fn example(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/machines").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/machines")
+        .join(name)
 }
 
 fn load(name: &str) -> Machine {
@@ -19,11 +21,18 @@ fn load(name: &str) -> Machine {
 fn poses(m: &Machine, n: usize, seed: u64) -> Vec<Vec<f64>> {
     let mut s = seed;
     let mut next = || {
-        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (s >> 11) as f64 / (1u64 << 53) as f64
     };
     (0..n)
-        .map(|_| m.axes.iter().map(|a| a.travel[0] + (a.travel[1] - a.travel[0]) * (0.05 + 0.9 * next())).collect())
+        .map(|_| {
+            m.axes
+                .iter()
+                .map(|a| a.travel[0] + (a.travel[1] - a.travel[0]) * (0.05 + 0.9 * next()))
+                .collect()
+        })
         .collect()
 }
 
@@ -38,7 +47,10 @@ fn ac_nominal_by_hand(q: &[f64]) -> (Vector3<f64>, Vector3<f64>) {
     let r_mw = rot(Vector3::x(), a) * rot(Vector3::z(), c);
     let t_mw = r_mw * Vector3::new(0.0, 0.0, -150.0);
     let tip_m = Vector3::new(x, y, z);
-    (r_mw.inverse() * (tip_m - t_mw), r_mw.inverse() * Vector3::z())
+    (
+        r_mw.inverse() * (tip_m - t_mw),
+        r_mw.inverse() * Vector3::z(),
+    )
 }
 
 #[test]
@@ -94,7 +106,11 @@ fn a_rotary_location_tilt_turns_points_about_the_tilted_line() {
         // The radius about the tilted line is preserved: the exact rotation moves the point
         // at radius r along a circle of radius r.
         let line = Rotation3::from_axis_angle(&Vector3::x_axis(), eps) * Vector3::z();
-        let w_in_m = |c: f64| Rotation3::from_axis_angle(&Vector3::x_axis(), eps) * rot(Vector3::z(), c) * Vector3::new(100.0, 0.0, -150.0);
+        let w_in_m = |c: f64| {
+            Rotation3::from_axis_angle(&Vector3::x_axis(), eps)
+                * rot(Vector3::z(), c)
+                * Vector3::new(100.0, 0.0, -150.0)
+        };
         let radius = |v: Vector3<f64>| (v - line * line.dot(&v)).norm();
         assert!((radius(w_in_m(q[4])) - radius(w_in_m(0.0))).abs() < 1e-12);
     }
@@ -102,7 +118,11 @@ fn a_rotary_location_tilt_turns_points_about_the_tilted_line() {
 
 #[test]
 fn rotation_parts_are_orthonormal() {
-    for name in ["ac-trunnion-with-errors.toml", "afp-gantry-with-errors.toml", "skiving-with-errors.toml"] {
+    for name in [
+        "ac-trunnion-with-errors.toml",
+        "afp-gantry-with-errors.toml",
+        "skiving-with-errors.toml",
+    ] {
         let m = load(name);
         let k = Kinematics::new(&m);
         for q in poses(&m, 50, 5) {
@@ -135,7 +155,10 @@ fn add_to_component(m: &mut Machine, axis: usize, slot: usize, h: f64) {
             c[0] += h;
             ErrorFunction::Cheb(c)
         }
-        Some(ErrorFunction::Table { q, e }) => ErrorFunction::Table { q, e: e.iter().map(|v| v + h).collect() },
+        Some(ErrorFunction::Table { q, e }) => ErrorFunction::Table {
+            q,
+            e: e.iter().map(|v| v + h).collect(),
+        },
     });
 }
 
@@ -145,7 +168,11 @@ fn close(a: f64, b: f64, scale: f64) -> bool {
 
 #[test]
 fn component_jacobians_match_central_differences() {
-    for name in ["ac-trunnion-with-errors.toml", "afp-gantry-with-errors.toml", "skiving-with-errors.toml"] {
+    for name in [
+        "ac-trunnion-with-errors.toml",
+        "afp-gantry-with-errors.toml",
+        "skiving-with-errors.toml",
+    ] {
         let m = load(name);
         let k = Kinematics::new(&m);
         for q in poses(&m, 6, 6) {
@@ -164,8 +191,18 @@ fn component_jacobians_match_central_differences() {
                     // The scale of a tip derivative is the lever arm (mm/rad) or 1 (mm/mm).
                     let scale = if slot % 6 >= 3 { 1000.0 } else { 1.0 };
                     for r in 0..3 {
-                        assert!(close(d[r], fd_tip[r], scale), "{name} axis {i} slot {slot} tip {r}: {} vs {}", d[r], fd_tip[r]);
-                        assert!(close(d[3 + r], fd_ax[r], 1.0), "{name} axis {i} slot {slot} axis {r}: {} vs {}", d[3 + r], fd_ax[r]);
+                        assert!(
+                            close(d[r], fd_tip[r], scale),
+                            "{name} axis {i} slot {slot} tip {r}: {} vs {}",
+                            d[r],
+                            fd_tip[r]
+                        );
+                        assert!(
+                            close(d[3 + r], fd_ax[r], 1.0),
+                            "{name} axis {i} slot {slot} axis {r}: {} vs {}",
+                            d[3 + r],
+                            fd_ax[r]
+                        );
                     }
                 }
             }
@@ -175,7 +212,11 @@ fn component_jacobians_match_central_differences() {
 
 #[test]
 fn position_jacobians_match_central_differences() {
-    for name in ["ac-trunnion-with-errors.toml", "afp-gantry-with-errors.toml", "skiving-with-errors.toml"] {
+    for name in [
+        "ac-trunnion-with-errors.toml",
+        "afp-gantry-with-errors.toml",
+        "skiving-with-errors.toml",
+    ] {
         let m = load(name);
         let k = Kinematics::new(&m);
         for q in poses(&m, 10, 7) {
@@ -190,8 +231,18 @@ fn position_jacobians_match_central_differences() {
                 let fd_ax = (pp.axis - pm.axis) / (2.0 * h);
                 let d = jac.positions[i];
                 for r in 0..3 {
-                    assert!(close(d[r], fd_tip[r], 1.0), "{name} axis {i} tip {r}: {} vs {}", d[r], fd_tip[r]);
-                    assert!(close(d[3 + r], fd_ax[r], 1e-3), "{name} axis {i} axis {r}: {} vs {}", d[3 + r], fd_ax[r]);
+                    assert!(
+                        close(d[r], fd_tip[r], 1.0),
+                        "{name} axis {i} tip {r}: {} vs {}",
+                        d[r],
+                        fd_tip[r]
+                    );
+                    assert!(
+                        close(d[3 + r], fd_ax[r], 1e-3),
+                        "{name} axis {i} axis {r}: {} vs {}",
+                        d[3 + r],
+                        fd_ax[r]
+                    );
                 }
             }
         }
@@ -200,30 +251,75 @@ fn position_jacobians_match_central_differences() {
 
 #[test]
 fn inverse_of_forward_round_trips_on_every_example() {
-    for name in ["ac-trunnion-with-errors.toml", "afp-gantry-with-errors.toml", "skiving-with-errors.toml"] {
+    for name in [
+        "ac-trunnion-with-errors.toml",
+        "afp-gantry-with-errors.toml",
+        "skiving-with-errors.toml",
+    ] {
         let m = load(name);
         let k = Kinematics::new(&m);
         let kn = Kinematics::nominal(&m);
-        let linear: Vec<bool> = m.axes.iter().map(|a| a.kind == crate::model::AxisKind::Linear).collect();
+        let linear: Vec<bool> = m
+            .axes
+            .iter()
+            .map(|a| a.kind == crate::model::AxisKind::Linear)
+            .collect();
         let all = vec![true; m.n_axes()];
         for q in poses(&m, 40, 8) {
             // Position only, linear axes free: reach the nominal tip with the actual machine.
             let nominal = kn.pose(&q);
-            let target = IkTarget { tip: nominal.tip, axis: None };
-            let sol = k.inverse(&target, &q, &linear, &IkOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"));
+            let target = IkTarget {
+                tip: nominal.tip,
+                axis: None,
+            };
+            let sol = k
+                .inverse(&target, &q, &linear, &IkOptions::default())
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
             assert!((k.pose(&sol).tip - nominal.tip).norm() < 1e-9, "{name}");
             // Round trip: FK of q, then IK from a perturbed start, must give back q.
             let actual = k.pose(&q);
-            let start: Vec<f64> = q.iter().enumerate().map(|(i, v)| if linear[i] { v + 0.5 } else { v + 0.2 }).collect();
-            let with_axis = IkTarget { tip: actual.tip, axis: Some(actual.axis) };
+            let start: Vec<f64> = q
+                .iter()
+                .enumerate()
+                .map(|(i, v)| if linear[i] { v + 0.5 } else { v + 0.2 })
+                .collect();
+            let with_axis = IkTarget {
+                tip: actual.tip,
+                axis: Some(actual.axis),
+            };
             let n_rot = linear.iter().filter(|l| !**l).count();
-            let free = if n_rot >= 2 && n_rot + 3 <= 5 { all.clone() } else { linear.clone() };
-            let tgt = if free == all { with_axis } else { IkTarget { tip: actual.tip, axis: None } };
-            let start = if free == all { start } else { q.iter().enumerate().map(|(i, v)| if linear[i] { v + 0.5 } else { *v }).collect() };
-            let back = k.inverse(&tgt, &start, &free, &IkOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"));
+            let free = if n_rot >= 2 && n_rot + 3 <= 5 {
+                all.clone()
+            } else {
+                linear.clone()
+            };
+            let tgt = if free == all {
+                with_axis
+            } else {
+                IkTarget {
+                    tip: actual.tip,
+                    axis: None,
+                }
+            };
+            let start = if free == all {
+                start
+            } else {
+                q.iter()
+                    .enumerate()
+                    .map(|(i, v)| if linear[i] { v + 0.5 } else { *v })
+                    .collect()
+            };
+            let back = k
+                .inverse(&tgt, &start, &free, &IkOptions::default())
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
             assert!((k.pose(&back).tip - actual.tip).norm() < 1e-9, "{name}");
             for i in 0..q.len() {
-                assert!((back[i] - q[i]).abs() < 1e-8, "{name} axis {i}: {} vs {}", back[i], q[i]);
+                assert!(
+                    (back[i] - q[i]).abs() < 1e-8,
+                    "{name} axis {i}: {} vs {}",
+                    back[i],
+                    q[i]
+                );
             }
         }
     }
@@ -234,10 +330,18 @@ fn inverse_reports_leaving_the_travel() {
     let m = load("ac-trunnion-with-errors.toml");
     let k = Kinematics::new(&m);
     let q = [0.0, 299.9999, 0.0, 0.0, 0.0];
-    let target = IkTarget { tip: Kinematics::nominal(&m).pose(&q).tip + Vector3::new(1.0, 0.0, 0.0), axis: None };
+    let target = IkTarget {
+        tip: Kinematics::nominal(&m).pose(&q).tip + Vector3::new(1.0, 0.0, 0.0),
+        axis: None,
+    };
     let free = [true, true, true, false, false];
-    let e = k.inverse(&target, &q, &free, &IkOptions::default()).unwrap_err();
-    assert!(matches!(e, IkError::OutOfTravel { ref axis, .. } if axis == "X"), "{e}");
+    let e = k
+        .inverse(&target, &q, &free, &IkOptions::default())
+        .unwrap_err();
+    assert!(
+        matches!(e, IkError::OutOfTravel { ref axis, .. } if axis == "X"),
+        "{e}"
+    );
     assert!(e.to_string().contains("outside its travel"));
 }
 

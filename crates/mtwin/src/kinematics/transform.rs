@@ -12,7 +12,9 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
     if x.abs() < 1e-2 {
         let x2 = x * x;
         let s = x * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0))));
-        let c = 1.0 - x2 / 2.0 * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0 * (1.0 - x2 / 90.0))));
+        let c = 1.0
+            - x2 / 2.0
+                * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0 * (1.0 - x2 / 90.0))));
         (s, c)
     } else {
         x.sin_cos()
@@ -80,35 +82,53 @@ impl Default for Rigid {
 impl Rigid {
     /// The identity.
     pub fn identity() -> Self {
-        Rigid { r: Matrix3::identity(), t: Vector3::zeros() }
+        Rigid {
+            r: Matrix3::identity(),
+            t: Vector3::zeros(),
+        }
     }
 
     /// `Trans(v)`.
     pub fn translation(v: Vector3<f64>) -> Self {
-        Rigid { r: Matrix3::identity(), t: v }
+        Rigid {
+            r: Matrix3::identity(),
+            t: v,
+        }
     }
 
     /// `Rot(u, angle)` about the line through the origin (angle in rad).
     pub fn rotation(u: &Vector3<f64>, angle: f64) -> Self {
-        Rigid { r: rot(u, angle), t: Vector3::zeros() }
+        Rigid {
+            r: rot(u, angle),
+            t: Vector3::zeros(),
+        }
     }
 
     /// `Trans(t)·Rx(a)·Ry(b)·Rz(c)`: the error transform of 00 §4.
     pub fn from_error(t: Vector3<f64>, a: f64, b: f64, c: f64) -> Self {
-        Rigid { r: rxyz(a, b, c), t }
+        Rigid {
+            r: rxyz(a, b, c),
+            t,
+        }
     }
 
     /// `self · other`.
     #[inline]
     pub fn compose(&self, other: &Rigid) -> Rigid {
-        Rigid { r: self.r * other.r, t: self.r * other.t + self.t }
+        Rigid {
+            r: self.r * other.r,
+            t: self.r * other.t + self.t,
+        }
     }
 
     /// The inverse transform.
     #[inline]
     pub fn inverse(&self) -> Rigid {
         let rt = self.r.transpose();
-        Rigid { r: rt, t: -(rt * self.t) }
+        Rigid {
+            r: rt,
+            t: -(rt * self.t),
+        }
     }
 
     /// Transform a point.
@@ -194,8 +214,14 @@ mod tests {
 
     #[test]
     fn compose_and_inverse() {
-        let a = Rigid { r: rxyz(0.1, 0.2, 0.3), t: Vector3::new(1.0, 2.0, 3.0) };
-        let b = Rigid { r: rxyz(-0.3, 0.5, 0.1), t: Vector3::new(-4.0, 0.0, 7.0) };
+        let a = Rigid {
+            r: rxyz(0.1, 0.2, 0.3),
+            t: Vector3::new(1.0, 2.0, 3.0),
+        };
+        let b = Rigid {
+            r: rxyz(-0.3, 0.5, 0.1),
+            t: Vector3::new(-4.0, 0.0, 7.0),
+        };
         let p = Vector3::new(0.5, -0.25, 2.0);
         assert!((a.compose(&b).point(&p) - a.point(&b.point(&p))).norm() < 1e-14);
         assert!((a.inverse().point(&a.point(&p)) - p).norm() < 1e-14);

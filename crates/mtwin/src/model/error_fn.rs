@@ -50,7 +50,10 @@ impl Form {
             Form::Constant => ErrorFunction::Constant(0.0),
             Form::Poly(d) => ErrorFunction::Poly(vec![0.0; d + 1]),
             Form::Cheb(d) => ErrorFunction::Cheb(vec![0.0; d + 1]),
-            Form::Table(q) => ErrorFunction::Table { q: q.clone(), e: vec![0.0; q.len()] },
+            Form::Table(q) => ErrorFunction::Table {
+                q: q.clone(),
+                e: vec![0.0; q.len()],
+            },
         }
     }
 
@@ -261,7 +264,10 @@ mod tests {
             ErrorFunction::Constant(0.012),
             ErrorFunction::Poly(vec![0.001, 2e-6, -3e-9, 4e-12]),
             ErrorFunction::Cheb(vec![0.001, 0.004, -0.002, 0.0005, 1e-4]),
-            ErrorFunction::Table { q: vec![-200.0, 0.0, 100.0, 400.0], e: vec![0.0, 0.003, -0.001, 0.002] },
+            ErrorFunction::Table {
+                q: vec![-200.0, 0.0, 100.0, 400.0],
+                e: vec![0.0, 0.003, -0.001, 0.002],
+            },
         ]
     }
 
@@ -273,7 +279,11 @@ mod tests {
         for &q in &[-300.0, -123.0, 0.0, 250.0, 500.0] {
             let u: f64 = (2.0 * q - TRAVEL[0] - TRAVEL[1]) / (TRAVEL[1] - TRAVEL[0]);
             let t = u.clamp(-1.0, 1.0).acos();
-            let expect: f64 = c.iter().enumerate().map(|(k, ck)| ck * (k as f64 * t).cos()).sum();
+            let expect: f64 = c
+                .iter()
+                .enumerate()
+                .map(|(k, ck)| ck * (k as f64 * t).cos())
+                .sum();
             assert!((f.eval(q, TRAVEL) - expect).abs() < 1e-14);
         }
     }
@@ -283,7 +293,10 @@ mod tests {
         let f = ErrorFunction::Poly(vec![1.0, 2.0, 3.0]);
         assert_eq!(f.eval(2.0, TRAVEL), 1.0 + 4.0 + 12.0);
         assert_eq!(f.deriv(2.0, TRAVEL), 2.0 + 12.0);
-        let t = ErrorFunction::Table { q: vec![0.0, 10.0], e: vec![1.0, 3.0] };
+        let t = ErrorFunction::Table {
+            q: vec![0.0, 10.0],
+            e: vec![1.0, 3.0],
+        };
         assert_eq!(t.eval(5.0, TRAVEL), 2.0);
         assert_eq!(t.eval(-5.0, TRAVEL), 1.0);
         assert_eq!(t.eval(50.0, TRAVEL), 3.0);
@@ -304,7 +317,10 @@ mod tests {
                     let mut g = f.clone();
                     g.coeffs_mut()[k] += 1.0;
                     let d = g.eval(q, TRAVEL) - f.eval(q, TRAVEL);
-                    assert!((d - b[k]).abs() <= 1e-9 * b[k].abs().max(1.0), "{f:?} k={k}");
+                    assert!(
+                        (d - b[k]).abs() <= 1e-9 * b[k].abs().max(1.0),
+                        "{f:?} k={k}"
+                    );
                 }
             }
         }
@@ -317,7 +333,10 @@ mod tests {
                 let h = 1e-3;
                 let fd = (f.eval(q + h, TRAVEL) - f.eval(q - h, TRAVEL)) / (2.0 * h);
                 let d = f.deriv(q, TRAVEL);
-                assert!((fd - d).abs() <= 1e-6 * d.abs().max(1e-9), "{f:?} q={q}: {d} vs {fd}");
+                assert!(
+                    (fd - d).abs() <= 1e-6 * d.abs().max(1e-9),
+                    "{f:?} q={q}: {d} vs {fd}"
+                );
             }
         }
     }

@@ -26,8 +26,14 @@ pub enum Component {
 
 impl Component {
     /// All six in the order used by every array indexed by component: X, Y, Z, A, B, C.
-    pub const ALL: [Component; 6] =
-        [Component::Tx, Component::Ty, Component::Tz, Component::Rx, Component::Ry, Component::Rz];
+    pub const ALL: [Component; 6] = [
+        Component::Tx,
+        Component::Ty,
+        Component::Tz,
+        Component::Rx,
+        Component::Ry,
+        Component::Rz,
+    ];
 
     /// Index 0..6 in [`Component::ALL`] order.
     pub fn index(self) -> usize {
@@ -86,7 +92,9 @@ pub enum ErrorNameError {
     #[error("`{0}` is not an ISO 230-1 error name: it must start with `E` (e.g. `EXX`, `EY0A`)")]
     NoE(String),
     /// The component letter is not X, Y, Z, A, B or C.
-    #[error("`{0}` is not an ISO 230-1 error name: the letter after `E` must be X, Y, Z, A, B or C")]
+    #[error(
+        "`{0}` is not an ISO 230-1 error name: the letter after `E` must be X, Y, Z, A, B or C"
+    )]
     BadComponent(String),
     /// Nothing after the component (and the optional `0`).
     #[error("`{0}` is not an ISO 230-1 error name: the axis name is missing")]
@@ -96,12 +104,20 @@ pub enum ErrorNameError {
 impl ErrorName {
     /// A PDGE name, e.g. `ErrorName::pdge(Component::Tx, "X")` is `EXX`.
     pub fn pdge(component: Component, axis: &str) -> Self {
-        Self { kind: ErrorKind::Pdge, component, axis: axis.to_string() }
+        Self {
+            kind: ErrorKind::Pdge,
+            component,
+            axis: axis.to_string(),
+        }
     }
 
     /// A location name, e.g. `ErrorName::location(Component::Ty, "A")` is `EY0A`.
     pub fn location(component: Component, axis: &str) -> Self {
-        Self { kind: ErrorKind::Location, component, axis: axis.to_string() }
+        Self {
+            kind: ErrorKind::Location,
+            component,
+            axis: axis.to_string(),
+        }
     }
 
     /// True for a location (constant) error.
@@ -130,7 +146,11 @@ impl FromStr for ErrorName {
         if axis.is_empty() {
             return Err(ErrorNameError::NoAxis(s.to_string()));
         }
-        Ok(ErrorName { kind, component, axis: axis.to_string() })
+        Ok(ErrorName {
+            kind,
+            component,
+            axis: axis.to_string(),
+        })
     }
 }
 
@@ -152,7 +172,10 @@ mod tests {
         let n: ErrorName = "EY0A".parse().unwrap();
         assert_eq!(n, ErrorName::location(Component::Ty, "A"));
         let n: ErrorName = "EC0Y".parse().unwrap();
-        assert_eq!((n.kind, n.component, n.axis.as_str()), (ErrorKind::Location, Component::Rz, "Y"));
+        assert_eq!(
+            (n.kind, n.component, n.axis.as_str()),
+            (ErrorKind::Location, Component::Rz, "Y")
+        );
         let n: ErrorName = "ECC".parse().unwrap();
         assert_eq!(n, ErrorName::pdge(Component::Rz, "C"));
         assert!("XXX".parse::<ErrorName>().is_err());

@@ -46,12 +46,17 @@ impl AxisErrors {
     /// True when every error is zero.
     pub fn is_zero(&self) -> bool {
         self.location.iter().all(|&v| v == 0.0)
-            && self.pdge.iter().all(|f| f.as_ref().is_none_or(|f| f.is_zero()))
+            && self
+                .pdge
+                .iter()
+                .all(|f| f.as_ref().is_none_or(|f| f.is_zero()))
     }
 
     /// True when some PDGE is present and not identically zero.
     pub fn has_pdge(&self) -> bool {
-        self.pdge.iter().any(|f| f.as_ref().is_some_and(|f| !f.is_zero()))
+        self.pdge
+            .iter()
+            .any(|f| f.as_ref().is_some_and(|f| !f.is_zero()))
     }
 }
 
@@ -93,7 +98,13 @@ pub struct Axis {
 
 impl Axis {
     /// An error-free axis.
-    pub fn new(name: &str, kind: AxisKind, direction: [f64; 3], origin: [f64; 3], travel: [f64; 2]) -> Self {
+    pub fn new(
+        name: &str,
+        kind: AxisKind,
+        direction: [f64; 3],
+        origin: [f64; 3],
+        travel: [f64; 2],
+    ) -> Self {
         Axis {
             name: name.to_string(),
             kind,
@@ -115,7 +126,9 @@ impl Axis {
 
     /// The value of error `component` of kind PDGE at position `q` (0 when absent).
     pub fn pdge_at(&self, component: Component, q: f64) -> f64 {
-        self.errors.pdge[component.index()].as_ref().map_or(0.0, |f| f.eval(q, self.travel))
+        self.errors.pdge[component.index()]
+            .as_ref()
+            .map_or(0.0, |f| f.eval(q, self.travel))
     }
 }
 
@@ -170,7 +183,11 @@ impl Machine {
 
     /// The chain axis `i` is in.
     pub fn chain_of(&self, i: usize) -> Chain {
-        if self.tool_chain.contains(&i) { Chain::Tool } else { Chain::Workpiece }
+        if self.tool_chain.contains(&i) {
+            Chain::Tool
+        } else {
+            Chain::Workpiece
+        }
     }
 
     /// A copy with every geometric error removed (the nominal machine).
@@ -195,7 +212,12 @@ impl Machine {
 
     /// The first axis position outside its travel, as `(axis index, value)`.
     pub fn out_of_travel(&self, q: &[f64]) -> Option<(usize, f64)> {
-        self.axes.iter().zip(q).enumerate().find(|(_, (a, v))| !a.in_travel(**v)).map(|(i, (_, v))| (i, *v))
+        self.axes
+            .iter()
+            .zip(q)
+            .enumerate()
+            .find(|(_, (a, v))| !a.in_travel(**v))
+            .map(|(i, (_, v))| (i, *v))
     }
 
     /// Total number of error terms present and not identically zero (a PDGE counts once).
@@ -204,7 +226,11 @@ impl Machine {
             .iter()
             .map(|a| {
                 a.errors.location.iter().filter(|&&v| v != 0.0).count()
-                    + a.errors.pdge.iter().filter(|f| f.as_ref().is_some_and(|f| !f.is_zero())).count()
+                    + a.errors
+                        .pdge
+                        .iter()
+                        .filter(|f| f.as_ref().is_some_and(|f| !f.is_zero()))
+                        .count()
             })
             .sum()
     }

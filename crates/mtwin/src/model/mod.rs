@@ -5,6 +5,7 @@ mod error_fn;
 pub mod error_name;
 mod machine;
 mod parameters;
+mod poses;
 mod toml_read;
 mod toml_write;
 
@@ -12,5 +13,6 @@ pub use error_fn::{ErrorFunction, Form};
 pub use error_name::{Component, ErrorKind, ErrorName};
 pub use machine::{Axis, AxisErrors, AxisKind, Chain, DEFAULT_RAPID_FEED, Machine, ServoTable};
 pub use parameters::{FittedError, ParameterSet, SpecError};
+pub use poses::read_poses;
 pub use toml_read::{UNIT_TOLERANCE, parse_machine, read_machine};
 pub use toml_write::machine_to_toml;

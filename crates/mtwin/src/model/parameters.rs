@@ -68,7 +68,11 @@ pub struct ParameterSet {
 }
 
 fn parse_form(s: &str) -> Result<Form, SpecError> {
-    let deg = |p: &str| s.strip_prefix(p).and_then(|d| d.parse::<usize>().ok()).filter(|&d| d <= 64);
+    let deg = |p: &str| {
+        s.strip_prefix(p)
+            .and_then(|d| d.parse::<usize>().ok())
+            .filter(|&d| d <= 64)
+    };
     if s == "const" {
         Ok(Form::Constant)
     } else if let Some(d) = deg("cheb") {
@@ -92,7 +96,11 @@ impl ParameterSet {
                 list.push((name, axis, form));
             }
         };
-        let items: Vec<&str> = spec.split(',').map(str::trim).filter(|s| !s.is_empty()).collect();
+        let items: Vec<&str> = spec
+            .split(',')
+            .map(str::trim)
+            .filter(|s| !s.is_empty())
+            .collect();
         if items.is_empty() {
             return Err(SpecError::Empty);
         }
@@ -116,16 +124,25 @@ impl ParameterSet {
                     Some((n, f)) => (n, Some(f)),
                     None => (item, None),
                 };
-                let name: ErrorName = n
-                    .parse()
-                    .map_err(|e: super::error_name::ErrorNameError| SpecError::BadItem { item: item.into(), reason: e.to_string() })?;
-                let axis = machine.axis_index(&name.axis).ok_or_else(|| SpecError::UnknownAxis {
-                    item: item.into(),
-                    axis: name.axis.clone(),
-                    axes: axes.clone(),
-                })?;
+                let name: ErrorName =
+                    n.parse().map_err(|e: super::error_name::ErrorNameError| {
+                        SpecError::BadItem {
+                            item: item.into(),
+                            reason: e.to_string(),
+                        }
+                    })?;
+                let axis =
+                    machine
+                        .axis_index(&name.axis)
+                        .ok_or_else(|| SpecError::UnknownAxis {
+                            item: item.into(),
+                            axis: name.axis.clone(),
+                            axes: axes.clone(),
+                        })?;
                 let form = match (name.kind, f) {
-                    (ErrorKind::Location, None) | (ErrorKind::Location, Some("const")) => Form::Constant,
+                    (ErrorKind::Location, None) | (ErrorKind::Location, Some("const")) => {
+                        Form::Constant
+                    }
                     (ErrorKind::Location, Some(_)) => {
                         return Err(SpecError::BadItem {
                             item: item.into(),
@@ -152,12 +169,20 @@ impl ParameterSet {
         let errors = list
             .into_iter()
             .map(|(name, axis, form)| {
-                let e = FittedError { name, axis, offset, form };
+                let e = FittedError {
+                    name,
+                    axis,
+                    offset,
+                    form,
+                };
                 offset += e.form.n_coeffs();
                 e
             })
             .collect();
-        ParameterSet { errors, len: offset }
+        ParameterSet {
+            errors,
+            len: offset,
+        }
     }
 
     /// Number of parameters (length of θ).
@@ -194,7 +219,10 @@ impl ParameterSet {
     pub fn is_rotation(&self) -> Vec<bool> {
         let mut out = Vec::with_capacity(self.len);
         for e in &self.errors {
-            out.extend(std::iter::repeat_n(e.name.component.is_rotation(), e.form.n_coeffs()));
+            out.extend(std::iter::repeat_n(
+                e.name.component.is_rotation(),
+                e.form.n_coeffs(),
+            ));
         }
         out
     }
@@ -244,7 +272,8 @@ impl ParameterSet {
         for e in &self.errors {
             let n = e.form.n_coeffs();
             let ax = &machine.axes[e.axis];
-            e.form.basis(q[e.axis], ax.travel, &mut out[e.offset..e.offset + n]);
+            e.form
+                .basis(q[e.axis], ax.travel, &mut out[e.offset..e.offset + n]);
         }
     }
 }
@@ -254,7 +283,13 @@ impl fmt::Display for ParameterSet {
         let parts: Vec<String> = self
             .errors
             .iter()
-            .map(|e| if e.name.is_location() { e.name.to_string() } else { format!("{}:{}", e.name, e.form.label()) })
+            .map(|e| {
+                if e.name.is_location() {
+                    e.name.to_string()
+                } else {
+                    format!("{}:{}", e.name, e.form.label())
+                }
+            })
             .collect();
         write!(f, "{}", parts.join(","))
     }

@@ -32,7 +32,9 @@ pub fn parse_machine(path: &Path, text: &str) -> Result<Machine, Diagnostics> {
         }
     };
     let m = cx.machine(doc.as_table());
-    cx.diags.into_result(()).map(|()| m.expect("no diagnostics means a machine was built"))
+    cx.diags
+        .into_result(())
+        .map(|()| m.expect("no diagnostics means a machine was built"))
 }
 
 struct Cx<'a> {
@@ -47,7 +49,11 @@ impl<'a> Cx<'a> {
     fn new(path: &'a Path, text: &str) -> Self {
         let mut line_starts = vec![0];
         line_starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
-        Cx { path, line_starts, diags: Diagnostics::default() }
+        Cx {
+            path,
+            line_starts,
+            diags: Diagnostics::default(),
+        }
     }
 
     fn line(&self, span: Span) -> usize {
@@ -63,14 +69,21 @@ impl<'a> Cx<'a> {
     }
 
     fn key_span(t: &dyn TableLike, k: &str) -> Span {
-        t.get_key_value(k).and_then(|(key, item)| key_span(key).or_else(|| item.span()))
+        t.get_key_value(k)
+            .and_then(|(key, item)| key_span(key).or_else(|| item.span()))
     }
 
     fn check_keys(&mut self, t: &dyn TableLike, allowed: &[&str], what: &str) {
         for (k, _) in t.iter() {
             if !allowed.contains(&k) {
                 let span = Self::key_span(t, k);
-                self.err(span, format!("unknown key `{k}` in {what} (allowed: {})", allowed.join(", ")));
+                self.err(
+                    span,
+                    format!(
+                        "unknown key `{k}` in {what} (allowed: {})",
+                        allowed.join(", ")
+                    ),
+                );
             }
         }
     }
@@ -105,7 +118,10 @@ impl<'a> Cx<'a> {
     fn vec3(&mut self, v: &Value, what: &str) -> Option<Vector3<f64>> {
         let n = self.numbers(v, what)?;
         if n.len() != 3 {
-            self.err(v.span(), format!("{what} must have 3 numbers, it has {}", n.len()));
+            self.err(
+                v.span(),
+                format!("{what} must have 3 numbers, it has {}", n.len()),
+            );
             return None;
         }
         Some(Vector3::new(n[0], n[1], n[2]))
@@ -115,24 +131,42 @@ impl<'a> Cx<'a> {
         let d = self.vec3(v, what)?;
         let norm = d.norm();
         if (norm - 1.0).abs() > UNIT_TOLERANCE {
-            self.err(v.span(), format!("{what} must be a unit vector, its length is {norm}"));
+            self.err(
+                v.span(),
+                format!("{what} must be a unit vector, its length is {norm}"),
+            );
             return None;
         }
         Some(d)
     }
 
-    fn value<'t>(&mut self, t: &'t dyn TableLike, k: &str, what: &str, span: Span) -> Option<&'t Value> {
+    fn value<'t>(
+        &mut self,
+        t: &'t dyn TableLike,
+        k: &str,
+        what: &str,
+        span: Span,
+    ) -> Option<&'t Value> {
         match t.get(k) {
             Some(Item::Value(v)) => Some(v),
             Some(other) => {
-                self.err(other.span().or(span), format!("`{k}` in {what} must be a value, not a table"));
+                self.err(
+                    other.span().or(span),
+                    format!("`{k}` in {what} must be a value, not a table"),
+                );
                 None
             }
             None => None,
         }
     }
 
-    fn required<'t>(&mut self, t: &'t dyn TableLike, k: &str, what: &str, span: Span) -> Option<&'t Value> {
+    fn required<'t>(
+        &mut self,
+        t: &'t dyn TableLike,
+        k: &str,
+        what: &str,
+        span: Span,
+    ) -> Option<&'t Value> {
         let v = self.value(t, k, what, span.clone());
         if v.is_none() && t.get(k).is_none() {
             self.err(span, format!("{what} has no `{k}`"));
@@ -150,7 +184,10 @@ impl<'a> Cx<'a> {
             match x {
                 Value::String(s) => out.push((s.value().clone(), x.span())),
                 _ => {
-                    self.err(x.span(), format!("every element of {what} must be an axis name in quotes"));
+                    self.err(
+                        x.span(),
+                        format!("every element of {what} must be an axis name in quotes"),
+                    );
                     return None;
                 }
             }
@@ -161,7 +198,15 @@ impl<'a> Cx<'a> {
     fn machine(&mut self, root: &toml_edit::Table) -> Option<Machine> {
         self.check_keys(
             root,
-            &["name", "tool_chain", "workpiece_chain", "tool", "workpiece", "axes", "rapid_feed"],
+            &[
+                "name",
+                "tool_chain",
+                "workpiece_chain",
+                "tool",
+                "workpiece",
+                "axes",
+                "rapid_feed",
+            ],
             "the machine file",
         );
         let name = match root.get("name") {
@@ -194,11 +239,16 @@ impl<'a> Cx<'a> {
                     tool_tip = self.vec3(v, "`tip` of [tool] (mm)").unwrap_or(tool_tip);
                 }
                 if let Some(v) = self.value(t, "direction", "[tool]", span) {
-                    tool_direction = self.unit3(v, "`direction` of [tool]").unwrap_or(tool_direction);
+                    tool_direction = self
+                        .unit3(v, "`direction` of [tool]")
+                        .unwrap_or(tool_direction);
                 }
             }
             Some(other) => self.err(other.span(), "`tool` must be a table [tool]"),
-            None => self.err(None, "the machine file has no [tool] table (with `tip` and `direction`)"),
+            None => self.err(
+                None,
+                "the machine file has no [tool] table (with `tip` and `direction`)",
+            ),
         }
         // [workpiece]
         let mut workpiece_origin = Vector3::zeros();
@@ -207,11 +257,16 @@ impl<'a> Cx<'a> {
                 let span = t.span();
                 self.check_keys(t, &["origin"], "[workpiece]");
                 if let Some(v) = self.required(t, "origin", "[workpiece]", span) {
-                    workpiece_origin = self.vec3(v, "`origin` of [workpiece] (mm)").unwrap_or(workpiece_origin);
+                    workpiece_origin = self
+                        .vec3(v, "`origin` of [workpiece] (mm)")
+                        .unwrap_or(workpiece_origin);
                 }
             }
             Some(other) => self.err(other.span(), "`workpiece` must be a table [workpiece]"),
-            None => self.err(None, "the machine file has no [workpiece] table (with `origin`)"),
+            None => self.err(
+                None,
+                "the machine file has no [workpiece] table (with `origin`)",
+            ),
         }
 
         // [[axes]]: names are collected even when an axis is otherwise invalid, so the
@@ -225,9 +280,14 @@ impl<'a> Cx<'a> {
                         Some(Item::Value(Value::String(s))) => s.value().clone(),
                         _ => String::new(),
                     };
-                    if let Some((_, first)) = names.iter().find(|(n, _)| !n.is_empty() && *n == name) {
+                    if let Some((_, first)) =
+                        names.iter().find(|(n, _)| !n.is_empty() && *n == name)
+                    {
                         let first_line = self.line(first.clone());
-                        self.err(t.span(), format!("axis `{name}` is defined twice (first at line {first_line})"));
+                        self.err(
+                            t.span(),
+                            format!("axis `{name}` is defined twice (first at line {first_line})"),
+                        );
                         continue;
                     }
                     names.push((name, t.span()));
@@ -242,16 +302,24 @@ impl<'a> Cx<'a> {
         let chain = |cx: &mut Self, key: &str| -> Vec<usize> {
             let Some(v) = cx.value(root, key, "the machine file", None) else {
                 if root.get(key).is_none() {
-                    cx.err(None, format!("the machine file has no `{key}` (use [] for an empty chain)"));
+                    cx.err(
+                        None,
+                        format!("the machine file has no `{key}` (use [] for an empty chain)"),
+                    );
                 }
                 return Vec::new();
             };
-            let Some(listed) = cx.strings(v, &format!("`{key}`")) else { return Vec::new() };
+            let Some(listed) = cx.strings(v, &format!("`{key}`")) else {
+                return Vec::new();
+            };
             let mut out = Vec::new();
             for (n, span) in listed {
                 match names.iter().position(|(a, _)| *a == n) {
                     Some(i) => out.push(i),
-                    None => cx.err(span, format!("`{key}` names axis `{n}`, which is not defined by any [[axes]]")),
+                    None => cx.err(
+                        span,
+                        format!("`{key}` names axis `{n}`, which is not defined by any [[axes]]"),
+                    ),
                 }
             }
             out
@@ -259,12 +327,19 @@ impl<'a> Cx<'a> {
         let tool_chain = chain(self, "tool_chain");
         let workpiece_chain = chain(self, "workpiece_chain");
         for (i, (a, span)) in names.iter().enumerate() {
-            let n = tool_chain.iter().chain(&workpiece_chain).filter(|&&j| j == i).count();
+            let n = tool_chain
+                .iter()
+                .chain(&workpiece_chain)
+                .filter(|&&j| j == i)
+                .count();
             if a.is_empty() {
                 continue;
             }
             if n == 0 {
-                self.err(span.clone(), format!("axis `{a}` is in neither `tool_chain` nor `workpiece_chain`"));
+                self.err(
+                    span.clone(),
+                    format!("axis `{a}` is in neither `tool_chain` nor `workpiece_chain`"),
+                );
             } else if n > 1 {
                 self.err(span.clone(), format!("axis `{a}` appears {n} times in the chains; each axis belongs to exactly one place"));
             }
@@ -285,7 +360,17 @@ impl<'a> Cx<'a> {
         let span = t.span();
         self.check_keys(
             t,
-            &["name", "kind", "direction", "origin", "travel", "errors", "servo", "max_velocity", "max_acceleration"],
+            &[
+                "name",
+                "kind",
+                "direction",
+                "origin",
+                "travel",
+                "errors",
+                "servo",
+                "max_velocity",
+                "max_acceleration",
+            ],
             "[[axes]]",
         );
         let name = match self.required(t, "name", "an [[axes]] table", span.clone()) {
@@ -311,7 +396,10 @@ impl<'a> Cx<'a> {
             Some(Value::String(s)) if s.value() == "linear" => Some(AxisKind::Linear),
             Some(Value::String(s)) if s.value() == "rotary" => Some(AxisKind::Rotary),
             Some(v) => {
-                self.err(v.span(), format!("`kind` of {what} must be \"linear\" or \"rotary\""));
+                self.err(
+                    v.span(),
+                    format!("`kind` of {what} must be \"linear\" or \"rotary\""),
+                );
                 None
             }
             None => None,
@@ -323,18 +411,32 @@ impl<'a> Cx<'a> {
             Some(v) => self.vec3(v, &format!("`origin` of {what} (mm)")),
             None => Some(Vector3::zeros()),
         };
-        let travel = self.required(t, "travel", &what, span.clone()).and_then(|v| {
-            let n = self.numbers(v, &format!("`travel` of {what}"))?;
-            if n.len() != 2 {
-                self.err(v.span(), format!("`travel` of {what} must be [lo, hi], it has {} numbers", n.len()));
-                return None;
-            }
-            if n[0] >= n[1] {
-                self.err(v.span(), format!("`travel` of {what} is empty: lo = {} is not below hi = {}", n[0], n[1]));
-                return None;
-            }
-            Some([n[0], n[1]])
-        });
+        let travel = self
+            .required(t, "travel", &what, span.clone())
+            .and_then(|v| {
+                let n = self.numbers(v, &format!("`travel` of {what}"))?;
+                if n.len() != 2 {
+                    self.err(
+                        v.span(),
+                        format!(
+                            "`travel` of {what} must be [lo, hi], it has {} numbers",
+                            n.len()
+                        ),
+                    );
+                    return None;
+                }
+                if n[0] >= n[1] {
+                    self.err(
+                        v.span(),
+                        format!(
+                            "`travel` of {what} is empty: lo = {} is not below hi = {}",
+                            n[0], n[1]
+                        ),
+                    );
+                    return None;
+                }
+                Some([n[0], n[1]])
+            });
         let positive = |cx: &mut Self, key: &str, unit: &str| -> Option<f64> {
             let v = cx.value(t, key, &what, None)?;
             let x = cx.number(v, &format!("`{key}` of {what} ({unit})"))?;
@@ -353,7 +455,10 @@ impl<'a> Cx<'a> {
         let errors = match t.get("errors") {
             Some(Item::Table(e)) => self.errors(e, &name, travel),
             Some(other) => {
-                self.err(other.span(), format!("`errors` of {what} must be a table [axes.errors]"));
+                self.err(
+                    other.span(),
+                    format!("`errors` of {what} must be a table [axes.errors]"),
+                );
                 AxisErrors::default()
             }
             None => AxisErrors::default(),
@@ -362,7 +467,10 @@ impl<'a> Cx<'a> {
             Some(Item::Table(s)) => self.servo(s, &what),
             Some(Item::Value(Value::InlineTable(s))) => self.servo(s, &what),
             Some(other) => {
-                self.err(other.span(), format!("`servo` of {what} must be a table [axes.servo]"));
+                self.err(
+                    other.span(),
+                    format!("`servo` of {what} must be a table [axes.servo]"),
+                );
                 None
             }
             None => None,
@@ -399,7 +507,12 @@ impl<'a> Cx<'a> {
                 continue;
             }
             let Item::Value(v) = item else {
-                self.err(item.span().or(span), format!("error `{k}` must be a number or an inline table like {{ cheb = [..] }}"));
+                self.err(
+                    item.span().or(span),
+                    format!(
+                        "error `{k}` must be a number or an inline table like {{ cheb = [..] }}"
+                    ),
+                );
                 continue;
             };
             let i = name.component.index();
@@ -426,9 +539,18 @@ impl<'a> Cx<'a> {
     }
 
     fn function(&mut self, v: &Value, k: &str, travel: Option<[f64; 2]>) -> Option<ErrorFunction> {
-        let unit = if k.parse::<ErrorName>().is_ok_and(|n| n.component.is_rotation()) { "rad" } else { "mm" };
+        let unit = if k
+            .parse::<ErrorName>()
+            .is_ok_and(|n| n.component.is_rotation())
+        {
+            "rad"
+        } else {
+            "mm"
+        };
         match v {
-            Value::Float(_) | Value::Integer(_) => self.number(v, &format!("error `{k}` ({unit})")).map(ErrorFunction::Constant),
+            Value::Float(_) | Value::Integer(_) => self
+                .number(v, &format!("error `{k}` ({unit})"))
+                .map(ErrorFunction::Constant),
             Value::InlineTable(it) => {
                 let keys: Vec<&str> = it.iter().map(|(k, _)| k).collect();
                 if keys.len() != 1 {
@@ -444,17 +566,27 @@ impl<'a> Cx<'a> {
                     "poly" | "cheb" => {
                         let c = self.numbers(val, &format!("`{form}` of error `{k}`"))?;
                         if c.is_empty() {
-                            self.err(val.span(), format!("`{form}` of error `{k}` needs at least one coefficient"));
+                            self.err(
+                                val.span(),
+                                format!("`{form}` of error `{k}` needs at least one coefficient"),
+                            );
                             return None;
                         }
                         if form == "cheb" && travel.is_none() {
                             return None;
                         }
-                        Some(if form == "poly" { ErrorFunction::Poly(c) } else { ErrorFunction::Cheb(c) })
+                        Some(if form == "poly" {
+                            ErrorFunction::Poly(c)
+                        } else {
+                            ErrorFunction::Cheb(c)
+                        })
                     }
                     "table" => {
                         let Value::InlineTable(tt) = val else {
-                            self.err(val.span(), format!("`table` of error `{k}` must be {{ q = [..], e = [..] }}"));
+                            self.err(
+                                val.span(),
+                                format!("`table` of error `{k}` must be {{ q = [..], e = [..] }}"),
+                            );
                             return None;
                         };
                         for (kk, _) in tt.iter() {
@@ -463,10 +595,17 @@ impl<'a> Cx<'a> {
                                 self.err(span.or(tt.span()), format!("unknown key `{kk}` in `table` of error `{k}` (allowed: q, e)"));
                             }
                         }
-                        let q = tt.get("q").and_then(|x| self.numbers(x, &format!("`q` of the table of `{k}`")));
-                        let e = tt.get("e").and_then(|x| self.numbers(x, &format!("`e` of the table of `{k}`")));
+                        let q = tt
+                            .get("q")
+                            .and_then(|x| self.numbers(x, &format!("`q` of the table of `{k}`")));
+                        let e = tt
+                            .get("e")
+                            .and_then(|x| self.numbers(x, &format!("`e` of the table of `{k}`")));
                         let (Some(q), Some(e)) = (q, e) else {
-                            self.err(tt.span(), format!("`table` of error `{k}` needs both `q` and `e`"));
+                            self.err(
+                                tt.span(),
+                                format!("`table` of error `{k}` needs both `q` and `e`"),
+                            );
                             return None;
                         };
                         if q.len() != e.len() || q.is_empty() {
@@ -474,20 +613,33 @@ impl<'a> Cx<'a> {
                             return None;
                         }
                         if q.windows(2).any(|w| w[1] <= w[0]) {
-                            self.err(tt.span(), format!("`q` of the table of `{k}` must be strictly increasing"));
+                            self.err(
+                                tt.span(),
+                                format!("`q` of the table of `{k}` must be strictly increasing"),
+                            );
                             return None;
                         }
                         Some(ErrorFunction::Table { q, e })
                     }
                     other => {
                         let span = it.get_key_value(other).and_then(|(key, _)| key_span(key));
-                        self.err(span.or(it.span()), format!("unknown error form `{other}` in `{k}` (allowed: poly, cheb, table)"));
+                        self.err(
+                            span.or(it.span()),
+                            format!(
+                                "unknown error form `{other}` in `{k}` (allowed: poly, cheb, table)"
+                            ),
+                        );
                         None
                     }
                 }
             }
             _ => {
-                self.err(v.span(), format!("error `{k}` must be a number or an inline table like {{ cheb = [..] }}"));
+                self.err(
+                    v.span(),
+                    format!(
+                        "error `{k}` must be a number or an inline table like {{ cheb = [..] }}"
+                    ),
+                );
                 None
             }
         }
@@ -495,7 +647,11 @@ impl<'a> Cx<'a> {
 
     fn servo(&mut self, t: &dyn TableLike, what: &str) -> Option<ServoTable> {
         let span = None;
-        self.check_keys(t, &["ts", "b", "a", "nk"], &format!("the servo table of {what}"));
+        self.check_keys(
+            t,
+            &["ts", "b", "a", "nk"],
+            &format!("the servo table of {what}"),
+        );
         let w = format!("the servo table of {what}");
         let ts = self.required(t, "ts", &w, span.clone()).and_then(|v| {
             let x = self.number(v, &format!("`ts` of {w} (s)"))?;
@@ -505,7 +661,9 @@ impl<'a> Cx<'a> {
             }
             Some(x)
         });
-        let b = self.required(t, "b", &w, span.clone()).and_then(|v| self.numbers(v, &format!("`b` of {w}")));
+        let b = self
+            .required(t, "b", &w, span.clone())
+            .and_then(|v| self.numbers(v, &format!("`b` of {w}")));
         let a = self.required(t, "a", &w, span.clone()).and_then(|v| {
             let a = self.numbers(v, &format!("`a` of {w}"))?;
             if a.first() != Some(&1.0) {
@@ -517,7 +675,10 @@ impl<'a> Cx<'a> {
         let nk = match self.value(t, "nk", &w, span) {
             Some(Value::Integer(i)) if *i.value() >= 0 => Some(*i.value() as usize),
             Some(v) => {
-                self.err(v.span(), format!("`nk` of {w} must be a non-negative integer (samples)"));
+                self.err(
+                    v.span(),
+                    format!("`nk` of {w} must be a non-negative integer (samples)"),
+                );
                 None
             }
             None => Some(0),
@@ -528,7 +689,12 @@ impl<'a> Cx<'a> {
             self.err(None, format!("`b` of {w} needs at least one coefficient"));
             return None;
         }
-        Some(ServoTable { ts: ts?, b: b?, a: a?, nk: nk? })
+        Some(ServoTable {
+            ts: ts?,
+            b: b?,
+            a: a?,
+            nk: nk?,
+        })
     }
 }
 
@@ -589,36 +755,86 @@ travel = [-360, 360]
     fn expect_error(s: &str, line: usize, needle: &str) {
         let e = parse(s).unwrap_err();
         assert!(
-            e.0.iter().any(|d| d.line == line && d.message.contains(needle)),
+            e.0.iter()
+                .any(|d| d.line == line && d.message.contains(needle)),
             "wanted line {line} `{needle}` in:\n{e}"
         );
     }
 
     #[test]
     fn every_problem_has_its_line() {
-        expect_error(&GOOD.replace("origin = [0, 0, -10]", "origin = [0, 0, -10]\ncolour = 3"), 10, "unknown key `colour`");
-        expect_error(&GOOD.replace("EC0X = 1e-5", "EC0Y = 1e-5"), 17, "names axis `Y`");
-        expect_error(&GOOD.replace("direction = [1, 0, 0]", "direction = [1, 0.1, 0]"), 13, "unit vector");
-        expect_error(&GOOD.replace("travel = [-100, 100]", "travel = [100, 100]"), 14, "empty");
-        expect_error(&GOOD.replace("EX0C = 0.01", "EX0C = { poly = [0.01] }"), 25, "must be a constant");
-        expect_error(&GOOD.replace("name = \"C\"", "name = \"X\""), 18, "defined twice");
-        expect_error(&GOOD.replace("workpiece_chain = [\"C\"]", "workpiece_chain = [\"C\", \"B\"]"), 4, "axis `B`");
-        expect_error(&GOOD.replace("ECC = { table", "ECC = { spline"), 26, "unknown error form");
-        expect_error(&GOOD.replace("a = [1.0, -0.5]", "a = [2.0, -0.5]"), 30, "a_0 = 1");
-        expect_error(&GOOD.replace("EXX = {", "EQX = {"), 16, "not an ISO 230-1 error name");
+        expect_error(
+            &GOOD.replace("origin = [0, 0, -10]", "origin = [0, 0, -10]\ncolour = 3"),
+            10,
+            "unknown key `colour`",
+        );
+        expect_error(
+            &GOOD.replace("EC0X = 1e-5", "EC0Y = 1e-5"),
+            17,
+            "names axis `Y`",
+        );
+        expect_error(
+            &GOOD.replace("direction = [1, 0, 0]", "direction = [1, 0.1, 0]"),
+            13,
+            "unit vector",
+        );
+        expect_error(
+            &GOOD.replace("travel = [-100, 100]", "travel = [100, 100]"),
+            14,
+            "empty",
+        );
+        expect_error(
+            &GOOD.replace("EX0C = 0.01", "EX0C = { poly = [0.01] }"),
+            25,
+            "must be a constant",
+        );
+        expect_error(
+            &GOOD.replace("name = \"C\"", "name = \"X\""),
+            18,
+            "defined twice",
+        );
+        expect_error(
+            &GOOD.replace(
+                "workpiece_chain = [\"C\"]",
+                "workpiece_chain = [\"C\", \"B\"]",
+            ),
+            4,
+            "axis `B`",
+        );
+        expect_error(
+            &GOOD.replace("ECC = { table", "ECC = { spline"),
+            26,
+            "unknown error form",
+        );
+        expect_error(
+            &GOOD.replace("a = [1.0, -0.5]", "a = [2.0, -0.5]"),
+            30,
+            "a_0 = 1",
+        );
+        expect_error(
+            &GOOD.replace("EXX = {", "EQX = {"),
+            16,
+            "not an ISO 230-1 error name",
+        );
         expect_error("name = [", 1, "not valid TOML");
     }
 
     #[test]
     fn reports_all_problems_at_once_without_cascades() {
-        let bad = GOOD.replace("direction = [1, 0, 0]", "direction = [2, 0, 0]").replace("EC0X = 1e-5", "EC0Y = 1e-5");
+        let bad = GOOD
+            .replace("direction = [1, 0, 0]", "direction = [2, 0, 0]")
+            .replace("EC0X = 1e-5", "EC0Y = 1e-5");
         let e = parse(&bad).unwrap_err();
         assert_eq!(e.0.len(), 2, "{e}");
     }
 
     #[test]
     fn axis_in_no_chain() {
-        expect_error(&GOOD.replace("workpiece_chain = [\"C\"]", "workpiece_chain = []"), 18, "neither");
+        expect_error(
+            &GOOD.replace("workpiece_chain = [\"C\"]", "workpiece_chain = []"),
+            18,
+            "neither",
+        );
     }
 
     proptest::proptest! {

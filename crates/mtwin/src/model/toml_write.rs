@@ -7,15 +7,29 @@ use super::{Component, ErrorFunction, Machine};
 /// A TOML float at full precision (shortest round-trip text; always a float literal).
 fn num(x: f64) -> String {
     let mut b = ryu::Buffer::new();
-    if x.is_finite() { b.format_finite(x).to_string() } else { "nan".to_string() }
+    if x.is_finite() {
+        b.format_finite(x).to_string()
+    } else {
+        "nan".to_string()
+    }
 }
 
 fn arr(v: &[f64]) -> String {
-    format!("[{}]", v.iter().map(|&x| num(x)).collect::<Vec<_>>().join(", "))
+    format!(
+        "[{}]",
+        v.iter().map(|&x| num(x)).collect::<Vec<_>>().join(", ")
+    )
 }
 
 fn names(m: &Machine, chain: &[usize]) -> String {
-    format!("[{}]", chain.iter().map(|&i| format!("\"{}\"", m.axes[i].name)).collect::<Vec<_>>().join(", "))
+    format!(
+        "[{}]",
+        chain
+            .iter()
+            .map(|&i| format!("\"{}\"", m.axes[i].name))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
 }
 
 fn escape(s: &str) -> String {
@@ -27,7 +41,9 @@ fn function(f: &ErrorFunction) -> String {
         ErrorFunction::Constant(c) => num(*c),
         ErrorFunction::Poly(c) => format!("{{ poly = {} }}", arr(c)),
         ErrorFunction::Cheb(c) => format!("{{ cheb = {} }}", arr(c)),
-        ErrorFunction::Table { q, e } => format!("{{ table = {{ q = {}, e = {} }} }}", arr(q), arr(e)),
+        ErrorFunction::Table { q, e } => {
+            format!("{{ table = {{ q = {}, e = {} }} }}", arr(q), arr(e))
+        }
     }
 }
 
@@ -40,8 +56,16 @@ pub fn machine_to_toml(m: &Machine, header: &[&str]) -> String {
         let _ = writeln!(s, "# {h}");
     }
     let _ = writeln!(s, "name = \"{}\"", escape(&m.name));
-    let _ = writeln!(s, "tool_chain = {}          # base -> spindle", names(m, &m.tool_chain));
-    let _ = writeln!(s, "workpiece_chain = {}     # base -> table", names(m, &m.workpiece_chain));
+    let _ = writeln!(
+        s,
+        "tool_chain = {}          # base -> spindle",
+        names(m, &m.tool_chain)
+    );
+    let _ = writeln!(
+        s,
+        "workpiece_chain = {}     # base -> table",
+        names(m, &m.workpiece_chain)
+    );
     if m.rapid_feed != super::machine::DEFAULT_RAPID_FEED {
         let _ = writeln!(s, "rapid_feed = {}          # mm/min", num(m.rapid_feed));
     }
@@ -63,7 +87,8 @@ pub fn machine_to_toml(m: &Machine, header: &[&str]) -> String {
         if let Some(v) = a.max_acceleration {
             let _ = writeln!(s, "max_acceleration = {}", num(v));
         }
-        let has_errors = a.errors.pdge.iter().any(|f| f.is_some()) || a.errors.location.iter().any(|&v| v != 0.0);
+        let has_errors = a.errors.pdge.iter().any(|f| f.is_some())
+            || a.errors.location.iter().any(|&v| v != 0.0);
         if has_errors {
             let _ = writeln!(s, "  [axes.errors]");
             for c in Component::ALL {
@@ -104,7 +129,8 @@ mod tests {
             if p.extension().is_some_and(|x| x == "toml") {
                 let m = crate::model::read_machine(&p).unwrap_or_else(|e| panic!("{e}"));
                 let text = machine_to_toml(&m, &["round trip"]);
-                let back = parse_machine(Path::new("back.toml"), &text).unwrap_or_else(|e| panic!("{e}\n{text}"));
+                let back = parse_machine(Path::new("back.toml"), &text)
+                    .unwrap_or_else(|e| panic!("{e}\n{text}"));
                 assert_eq!(m, back, "{}", p.display());
                 n += 1;
             }
