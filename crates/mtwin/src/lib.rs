@@ -10,6 +10,9 @@
 //! positions, rad for small angular errors, s for time, rev/min for spindle
 //! speed.
 
+// Index loops over small fixed-size arrays are the clearest form of numeric kernels.
+#![allow(clippy::needless_range_loop)]
+
 pub mod fit;
 pub mod gcode;
 pub mod io;

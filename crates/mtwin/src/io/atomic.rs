@@ -29,7 +29,7 @@ where
         fill(&mut w)?;
         w.flush()?;
     }
-    tmp.persist(path).map_err(|e| io::Error::from(e.error))?;
+    tmp.persist(path).map_err(|e| e.error)?;
     Ok(())
 }
 

@@ -16,6 +16,93 @@ pub struct ToolPose {
     pub axis: Vector3<f64>,
 }
 
+/// Largest polynomial degree evaluated on the fast path.
+const FAST_DEGREE: usize = 7;
+
+/// The six PDGE functions of an axis compiled for speed: where every component is a
+/// constant, power polynomial or Chebyshev series of degree ≤ 7, all six are held as
+/// power series in one argument `u = scale·q + offset` and evaluated together by Horner's
+/// rule. (A Chebyshev series is converted to the power basis in its normalised argument
+/// `u ∈ [−1, 1]`, which is well conditioned at these degrees.) Tables fall back to the
+/// general path.
+#[derive(Debug, Clone)]
+#[allow(clippy::large_enum_variant)] // inline on purpose: it is read on every pose
+pub(crate) enum CompiledPdge {
+    /// No PDGE at all.
+    None,
+    /// Power series: value_c = Σ_k coeff[k][c] · u_c^k with u_c = scale[c]·q + offset[c].
+    Fast {
+        degree: usize,
+        scale: [f64; 6],
+        offset: [f64; 6],
+        coeff: [[f64; 6]; FAST_DEGREE + 1],
+    },
+    /// Anything else: evaluate each function.
+    General,
+}
+
+impl CompiledPdge {
+    fn new(pdge: &[Option<ErrorFunction>; 6], travel: [f64; 2]) -> Self {
+        if pdge.iter().all(|f| f.as_ref().is_none_or(|f| f.is_zero())) {
+            return CompiledPdge::None;
+        }
+        let mut degree = 0;
+        let mut scale = [0.0; 6];
+        let mut offset = [0.0; 6];
+        let mut coeff = [[0.0; 6]; FAST_DEGREE + 1];
+        for (c, f) in pdge.iter().enumerate() {
+            match f {
+                None => {}
+                Some(ErrorFunction::Constant(v)) => coeff[0][c] = *v,
+                Some(ErrorFunction::Poly(p)) if p.len() <= FAST_DEGREE + 1 => {
+                    scale[c] = 1.0;
+                    for (k, &v) in p.iter().enumerate() {
+                        coeff[k][c] = v;
+                    }
+                    degree = degree.max(p.len() - 1);
+                }
+                Some(ErrorFunction::Cheb(ch)) if ch.len() <= FAST_DEGREE + 1 => {
+                    let w = travel[1] - travel[0];
+                    scale[c] = 2.0 / w;
+                    offset[c] = -(travel[0] + travel[1]) / w;
+                    // T_k in the power basis by T_{k+1} = 2u·T_k − T_{k−1}.
+                    let mut t_prev = [0.0; FAST_DEGREE + 1];
+                    let mut t_cur = [0.0; FAST_DEGREE + 1];
+                    t_cur[0] = 1.0;
+                    for (k, &ck) in ch.iter().enumerate() {
+                        if k == 1 {
+                            t_prev = t_cur;
+                            t_cur = [0.0; FAST_DEGREE + 1];
+                            t_cur[1] = 1.0;
+                        } else if k > 1 {
+                            let mut next = [0.0; FAST_DEGREE + 1];
+                            for j in 0..FAST_DEGREE {
+                                next[j + 1] += 2.0 * t_cur[j];
+                            }
+                            for j in 0..=FAST_DEGREE {
+                                next[j] -= t_prev[j];
+                            }
+                            t_prev = t_cur;
+                            t_cur = next;
+                        }
+                        for j in 0..=FAST_DEGREE {
+                            coeff[j][c] += ck * t_cur[j];
+                        }
+                    }
+                    degree = degree.max(ch.len() - 1);
+                }
+                Some(_) => return CompiledPdge::General,
+            }
+        }
+        CompiledPdge::Fast {
+            degree,
+            scale,
+            offset,
+            coeff,
+        }
+    }
+}
+
 /// One axis, compiled for fast evaluation.
 #[derive(Debug, Clone)]
 pub(crate) struct AxisKin {
@@ -32,6 +119,7 @@ pub(crate) struct AxisKin {
     pub(crate) has_loc_rotation: bool,
     pub(crate) pdge: [Option<ErrorFunction>; 6],
     pub(crate) has_pdge: bool,
+    pub(crate) compiled: CompiledPdge,
 }
 
 impl AxisKin {
@@ -39,9 +127,31 @@ impl AxisKin {
     #[inline]
     pub(crate) fn pdge_values(&self, q: f64) -> [f64; 6] {
         let mut e = [0.0; 6];
-        for (k, f) in self.pdge.iter().enumerate() {
-            if let Some(f) = f {
-                e[k] = f.eval(q, self.travel);
+        match &self.compiled {
+            CompiledPdge::None => {}
+            CompiledPdge::Fast {
+                degree,
+                scale,
+                offset,
+                coeff,
+            } => {
+                let mut u = [0.0; 6];
+                for c in 0..6 {
+                    u[c] = scale[c] * q + offset[c];
+                }
+                e = coeff[*degree];
+                for k in (0..*degree).rev() {
+                    for c in 0..6 {
+                        e[c] = e[c] * u[c] + coeff[k][c];
+                    }
+                }
+            }
+            CompiledPdge::General => {
+                for (k, f) in self.pdge.iter().enumerate() {
+                    if let Some(f) = f {
+                        e[k] = f.eval(q, self.travel);
+                    }
+                }
             }
         }
         e
@@ -182,6 +292,7 @@ impl Kinematics {
                     has_loc_rotation: loc[3] != 0.0 || loc[4] != 0.0 || loc[5] != 0.0,
                     pdge: a.errors.pdge.clone(),
                     has_pdge: a.errors.has_pdge(),
+                    compiled: CompiledPdge::new(&a.errors.pdge, a.travel),
                 }
             })
             .collect();

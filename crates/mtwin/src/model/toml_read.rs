@@ -561,7 +561,7 @@ impl<'a> Cx<'a> {
                     return None;
                 }
                 let form = keys[0];
-                let Some(val) = it.get(form) else { return None };
+                let val = it.get(form)?;
                 match form {
                     "poly" | "cheb" => {
                         let c = self.numbers(val, &format!("`{form}` of error `{k}`"))?;
