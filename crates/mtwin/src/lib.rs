@@ -13,4 +13,5 @@
 pub mod fit;
 pub mod gcode;
 pub mod io;
+pub mod methods;
 pub mod sysid;

@@ -25,7 +25,7 @@ mod arx;
 mod error;
 mod fit;
 mod order;
-mod sampling;
+pub(crate) mod sampling;
 mod servo;
 mod servo_fit;
 pub(crate) mod toml_read;

@@ -8,7 +8,12 @@ pub(crate) const PERIOD_TOLERANCE: f64 = 0.01;
 
 /// The median of the positive intervals between successive `times`, if any.
 pub(crate) fn median_interval(times: &[f64]) -> Option<f64> {
-    let mut d: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
+    median_positive(times.windows(2).map(|w| w[1] - w[0]).collect())
+}
+
+/// The median of the positive values of `d`, if any.
+pub(crate) fn median_positive(mut d: Vec<f64>) -> Option<f64> {
+    d.retain(|v| *v > 0.0);
     if d.is_empty() {
         return None;
     }

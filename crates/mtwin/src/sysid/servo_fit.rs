@@ -6,7 +6,7 @@ use std::path::Path;
 use thiserror::Error;
 
 use super::sampling::{check_sampling, median_interval};
-use super::toml_read::{Reader, parse};
+use super::toml_read::{Reader, fmt_f64_float, parse};
 use super::{Criterion, OrderGrid, OrderSelection, Run, Servo, Stability, Start, SysidError, select_orders};
 use crate::io::{Diagnostic, Diagnostics, Table, fmt_f64};
 
@@ -210,12 +210,6 @@ fn rms(it: impl Iterator<Item = f64>) -> f64 {
 fn array(values: &[f64]) -> String {
     let items: Vec<String> = values.iter().map(|&v| fmt_f64_float(v)).collect();
     format!("[{}]", items.join(", "))
-}
-
-/// Full-precision text that TOML reads as a float (`1` becomes `1.0`).
-pub(crate) fn fmt_f64_float(v: f64) -> String {
-    let s = fmt_f64(v);
-    if s.contains(['.', 'e', 'E']) || !v.is_finite() { s } else { format!("{s}.0") }
 }
 
 impl Servo {

@@ -159,8 +159,10 @@ impl<'a> Reader<'a> {
         }
         ok.then_some(out)
     }
+}
 
-    pub fn finish<T>(self, value: T) -> Result<T, Diagnostics> {
-        self.diags.into_result(value)
-    }
+/// Full-precision text that TOML reads as a float (`1` becomes `1.0`).
+pub(crate) fn fmt_f64_float(v: f64) -> String {
+    let s = crate::io::fmt_f64(v);
+    if s.contains(['.', 'e', 'E']) || !v.is_finite() { s } else { format!("{s}.0") }
 }
