@@ -51,6 +51,10 @@ fn relative_error(machine: &TruthMachine, noise_mm: f64, seed: u64, dir: &Path) 
     assert!(fit.warnings.is_empty(), "{:?}", fit.warnings);
     assert_eq!(fit.runs, 3);
     assert_eq!(fit.model.heights().len(), 4);
+    let json = fit.to_json();
+    assert_eq!(json["heights"].as_array().unwrap().len(), 4);
+    assert_eq!(json["heights"][0]["z_mm"], -350.0);
+    assert_eq!(json["heights"][0]["grid"].as_array().unwrap().len(), 4 * 5);
     let model_path = dir.join("THERMAL.toml");
     fit.model.write(&model_path).unwrap();
     let model = read_model(&model_path).unwrap();

@@ -33,6 +33,15 @@ impl ArxOrders {
         self.inputs.iter().map(|o| o.nb + o.nk).fold(self.na, usize::max)
     }
 
+    /// `{"na": …, "nb": […], "nk": […]}`.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "na": self.na,
+            "nb": self.inputs.iter().map(|o| o.nb).collect::<Vec<_>>(),
+            "nk": self.inputs.iter().map(|o| o.nk).collect::<Vec<_>>(),
+        })
+    }
+
     /// True when no input acts on the output at the same sample (every `nk ≥ 1`).
     pub fn is_strictly_proper(&self) -> bool {
         self.inputs.iter().all(|o| o.nk >= 1)

@@ -1,6 +1,7 @@
 use std::ops::RangeInclusive;
 
 use rayon::prelude::*;
+use serde_json::json;
 
 use super::{ArxFit, ArxOrders, FitStats, InputOrder, Run, Start, SysidError, fit_arx};
 
@@ -116,6 +117,64 @@ impl OrderSelection {
     /// fits when none is stable).
     pub fn best_by(&self, criterion: Criterion) -> Option<usize> {
         best_index(&self.table, criterion)
+    }
+
+    /// The grid table as JSON: one object per structure with its orders and
+    /// either its statistics or its `error`; the chosen one has `"chosen": true`.
+    pub fn table_json(&self) -> serde_json::Value {
+        let rows: Vec<serde_json::Value> = self
+            .table
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let mut v = r.orders.to_json();
+                let obj = v.as_object_mut().expect("orders are an object");
+                match &r.outcome {
+                    Ok(s) => {
+                        obj.insert("samples".into(), json!(s.samples));
+                        obj.insert("params".into(), json!(s.params));
+                        obj.insert("fpe".into(), json!(s.fpe));
+                        obj.insert("aic".into(), json!(s.aic));
+                        obj.insert("one_step_rms".into(), json!(s.one_step_rms));
+                        obj.insert("simulation_rms".into(), json!(s.simulation_rms));
+                        obj.insert("stable".into(), json!(r.is_stable_fit()));
+                    }
+                    Err(e) => {
+                        obj.insert("error".into(), json!(e.to_string()));
+                    }
+                }
+                obj.insert("chosen".into(), json!(i == self.best));
+                v
+            })
+            .collect();
+        serde_json::Value::Array(rows)
+    }
+
+    /// The grid table as aligned text, the chosen row marked `*`; RMS values
+    /// in the data's unit.
+    pub fn table_text(&self) -> String {
+        let mut out = format!(
+            "  {:<28} {:>6} {:>3} {:>12} {:>10} {:>12} {:>12} {:>6}\n",
+            "orders", "N", "d", "FPE", "AIC", "one-step RMS", "sim RMS", "stable"
+        );
+        for (i, r) in self.table.iter().enumerate() {
+            let mark = if i == self.best { '*' } else { ' ' };
+            match &r.outcome {
+                Ok(s) => out.push_str(&format!(
+                    "{mark} {:<28} {:>6} {:>3} {:>12.4e} {:>10.1} {:>12.4e} {:>12.4e} {:>6}\n",
+                    r.orders.to_string(),
+                    s.samples,
+                    s.params,
+                    s.fpe,
+                    s.aic,
+                    s.one_step_rms,
+                    s.simulation_rms,
+                    if r.is_stable_fit() { "yes" } else { "NO" }
+                )),
+                Err(e) => out.push_str(&format!("{mark} {:<28} not fitted: {e}\n", r.orders.to_string())),
+            }
+        }
+        out
     }
 }
 
@@ -237,6 +296,11 @@ mod tests {
             assert!((s.fpe - s.loss * (n + d) / (n - d)).abs() <= 1e-12 * s.fpe);
             assert!((s.aic - (n * s.loss.ln() + 2.0 * d)).abs() < 1e-9);
         }
+        let json = sel.table_json();
+        assert_eq!(json.as_array().unwrap().len(), sel.table.len());
+        assert_eq!(json[sel.best]["chosen"], true);
+        assert_eq!(json[0]["na"], 1);
+        assert_eq!(sel.table_text().lines().filter(|l| l.starts_with('*')).count(), 1);
         let best = sel.table[sel.best].outcome.as_ref().unwrap().fpe;
         assert!(sel.table.iter().all(|r| r.outcome.as_ref().unwrap().fpe >= best));
         let tiny = vec![Run::new(vec![0.0; 3], vec![vec![1.0; 3]]).unwrap()];

@@ -128,6 +128,34 @@ impl ServoFit {
         w
     }
 
+    /// The summary for `--format json`: the transfer function (`ts` s, `b`,
+    /// `a`, `nk`), chosen orders, `simulation_rms` (log unit), `bandwidth_hz`,
+    /// `velocity_lag_s`, `max_velocity` and `following_error_at_max_velocity`
+    /// (log unit per s, log unit), `dc_gain`, `stable`, `spectral_radius`, the
+    /// whole order `grid` and the `warnings`.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "ts": self.servo.ts(),
+            "b": self.servo.b(),
+            "a": self.servo.a(),
+            "nk": self.servo.nk(),
+            "orders": self.selection.table[self.selection.best].orders.to_json(),
+            "criterion": format!("{:?}", self.selection.criterion).to_lowercase(),
+            "samples": self.selection.fit.stats.samples,
+            "one_step_rms": self.selection.fit.stats.one_step_rms,
+            "simulation_rms": self.simulation_rms,
+            "bandwidth_hz": self.bandwidth_hz,
+            "velocity_lag_s": self.velocity_lag_s,
+            "max_velocity": self.max_velocity,
+            "following_error_at_max_velocity": self.following_error_at_max_velocity,
+            "dc_gain": self.dc_gain,
+            "stable": self.stability.is_stable(),
+            "spectral_radius": self.stability.spectral_radius(),
+            "grid": self.selection.table_json(),
+            "warnings": self.warnings(),
+        })
+    }
+
     /// `SERVO.toml`: top-level `ts`, `b`, `a`, `nk` (05), with the fit summary as comments.
     pub fn to_toml(&self) -> String {
         let s = &self.selection.fit.stats;
@@ -374,6 +402,11 @@ mod tests {
             let mag = axis.gain(got, ts);
             assert!((mag - std::f64::consts::FRAC_1_SQRT_2).abs() < 0.01, "|H({got} Hz)| = {mag}");
             assert!(fit.simulation_rms < 0.001);
+            let j = fit.to_json();
+            assert_eq!(j["nk"], fit.servo.nk());
+            assert_eq!(j["a"][0], 1.0);
+            let back = servo_from_toml_str(Path::new("S.toml"), &fit.to_toml()).unwrap();
+            assert_eq!(back, fit.servo);
         }
     }
 

@@ -6,6 +6,7 @@ use std::path::Path;
 
 use rand::{SeedableRng, rngs::StdRng};
 use rand_distr::{Distribution, Normal};
+use serde_json::json;
 
 use super::data::{TrainingData, read_training};
 use super::model::{HeightModel, HeightStats, InputChannel, ThermalModel};
@@ -197,6 +198,53 @@ pub struct ThermalFit {
     pub runs: usize,
     /// Plain sentences for the user (unstable models, …).
     pub warnings: Vec<String>,
+}
+
+impl ThermalFit {
+    /// The summary for `--format json`: `period_min`, `runs`, `inputs`
+    /// (`name`, `scale`), per height `z_mm`, chosen `orders`, `a`, `b`, `nk`,
+    /// their standard uncertainties `a_std`, `b_std`, `samples`, `params`,
+    /// `fpe` (mm²), `aic`, `one_step_rms_mm`, `simulation_rms_mm`, `stable`,
+    /// `spectral_radius` and the whole order `grid`; then the `warnings`.
+    pub fn to_json(&self) -> serde_json::Value {
+        let heights: Vec<serde_json::Value> = self
+            .model
+            .heights()
+            .iter()
+            .zip(&self.heights)
+            .map(|(h, r)| {
+                let m = &h.model;
+                let n = m.n_inputs();
+                let s = &r.selection.fit.stats;
+                let fit = &r.selection.fit;
+                json!({
+                    "z_mm": h.z_mm,
+                    "orders": m.orders().to_json(),
+                    "a": m.a(),
+                    "b": (0..n).map(|i| m.b(i).to_vec()).collect::<Vec<_>>(),
+                    "nk": (0..n).map(|i| m.nk(i)).collect::<Vec<_>>(),
+                    "a_std": fit.std_a(),
+                    "b_std": (0..n).map(|i| fit.std_b(i)).collect::<Vec<_>>(),
+                    "samples": s.samples,
+                    "params": s.params,
+                    "fpe": s.fpe,
+                    "aic": s.aic,
+                    "one_step_rms_mm": s.one_step_rms,
+                    "simulation_rms_mm": s.simulation_rms,
+                    "stable": m.stability().is_stable(),
+                    "spectral_radius": s.spectral_radius,
+                    "grid": r.selection.table_json(),
+                })
+            })
+            .collect();
+        json!({
+            "period_min": self.model.period_min(),
+            "runs": self.runs,
+            "inputs": self.model.inputs().iter().map(|c| json!({"name": c.name, "scale": c.scale})).collect::<Vec<_>>(),
+            "heights": heights,
+            "warnings": self.warnings,
+        })
+    }
 }
 
 /// Fit one ARX model per height (orders by `options.criterion` over
