@@ -46,7 +46,11 @@ fn rms(v: impl Iterator<Item = f64>) -> f64 {
 /// measured heights; returns error RMS / drift RMS.
 fn relative_error(machine: &TruthMachine, noise_mm: f64, seed: u64, dir: &Path) -> f64 {
     let train = dir.join("TRAIN.csv");
-    std::fs::write(&train, machine.training_csv(&training_runs(), &MEASURED, noise_mm, seed)).unwrap();
+    std::fs::write(
+        &train,
+        machine.training_csv(&training_runs(), &MEASURED, noise_mm, seed),
+    )
+    .unwrap();
     let fit = fit_csv(&train, &ThermalFitOptions::default()).unwrap();
     assert!(fit.warnings.is_empty(), "{:?}", fit.warnings);
     assert_eq!(fit.runs, 3);
@@ -99,7 +103,10 @@ fn tolerates_heat_growing_faster_than_speed() {
     // Bearing friction heat grows faster than linearly with speed: the linear
     // ARX model is then only an approximation, and must still hold 15 %.
     let dir = tempfile::tempdir().unwrap();
-    let machine = TruthMachine { speed_exponent: 1.2, ..TruthMachine::demo() };
+    let machine = TruthMachine {
+        speed_exponent: 1.2,
+        ..TruthMachine::demo()
+    };
     let r = relative_error(&machine, 0.0005, 11, dir.path());
     eprintln!("heat ~ n^1.2: error RMS / drift RMS = {r:.4}");
     assert!(r <= 0.15, "{r}");
@@ -112,7 +119,11 @@ fn noise_free_measured_heights_are_reproduced_exactly() {
     let dir = tempfile::tempdir().unwrap();
     let machine = TruthMachine::demo();
     let train = dir.path().join("TRAIN.csv");
-    std::fs::write(&train, machine.training_csv(&training_runs(), &MEASURED, 0.0, 0)).unwrap();
+    std::fs::write(
+        &train,
+        machine.training_csv(&training_runs(), &MEASURED, 0.0, 0),
+    )
+    .unwrap();
     let fit = fit_csv(&train, &ThermalFitOptions::default()).unwrap();
     let speeds = cutting(5);
     let programme = mtwin::methods::thermal::Programme::speeds(&speeds);

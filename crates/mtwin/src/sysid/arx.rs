@@ -30,7 +30,10 @@ impl ArxOrders {
 
     /// The largest lag any regressor reaches back (samples).
     pub fn max_lag(&self) -> usize {
-        self.inputs.iter().map(|o| o.nb + o.nk).fold(self.na, usize::max)
+        self.inputs
+            .iter()
+            .map(|o| o.nb + o.nk)
+            .fold(self.na, usize::max)
     }
 
     /// `{"na": …, "nb": […], "nk": […]}`.
@@ -120,13 +123,14 @@ pub struct Arx {
 impl Arx {
     /// A model from `a = [1, a_1, …, a_na]` and, per input, `(b_0..b_nb, nk)`.
     pub fn new(a: Vec<f64>, inputs: Vec<(Vec<f64>, usize)>) -> Result<Arx, SysidError> {
-        match a.first() {
-            Some(&a0) if a0 == 1.0 => {}
-            Some(&a0) => return Err(SysidError::LeadingA(a0)),
-            None => return Err(SysidError::LeadingA(f64::NAN)),
+        let a0 = a.first().copied().unwrap_or(f64::NAN);
+        if a0 != 1.0 {
+            return Err(SysidError::LeadingA(a0));
         }
         if a.iter().any(|v| !v.is_finite()) {
-            return Err(SysidError::NotFinite { what: "the `a` polynomial".into() });
+            return Err(SysidError::NotFinite {
+                what: "the `a` polynomial".into(),
+            });
         }
         let mut b = Vec::with_capacity(inputs.len());
         let mut nk = Vec::with_capacity(inputs.len());
@@ -135,7 +139,9 @@ impl Arx {
                 return Err(SysidError::EmptyB { input: i });
             }
             if bi.iter().any(|v| !v.is_finite()) {
-                return Err(SysidError::NotFinite { what: format!("the `b` coefficients of input {i}") });
+                return Err(SysidError::NotFinite {
+                    what: format!("the `b` coefficients of input {i}"),
+                });
             }
             b.push(bi);
             nk.push(ki);
@@ -149,7 +155,11 @@ impl Arx {
     /// # Panics
     /// If `theta.len() != orders.n_params()` (a programming error).
     pub fn from_params(orders: &ArxOrders, theta: &[f64]) -> Arx {
-        assert_eq!(theta.len(), orders.n_params(), "parameter vector does not match the orders");
+        assert_eq!(
+            theta.len(),
+            orders.n_params(),
+            "parameter vector does not match the orders"
+        );
         let mut a = Vec::with_capacity(orders.na + 1);
         a.push(1.0);
         a.extend_from_slice(&theta[..orders.na]);
@@ -159,7 +169,11 @@ impl Arx {
             b.push(theta[at..at + o.nb + 1].to_vec());
             at += o.nb + 1;
         }
-        Arx { a, b, nk: orders.inputs.iter().map(|o| o.nk).collect() }
+        Arx {
+            a,
+            b,
+            nk: orders.inputs.iter().map(|o| o.nk).collect(),
+        }
     }
 
     /// The free parameters `θ = [a_1..a_na, b_{0,·}, b_{1,·}, …]`.
@@ -175,7 +189,15 @@ impl Arx {
     pub fn orders(&self) -> ArxOrders {
         ArxOrders {
             na: self.a.len() - 1,
-            inputs: self.b.iter().zip(&self.nk).map(|(b, &nk)| InputOrder { nb: b.len() - 1, nk }).collect(),
+            inputs: self
+                .b
+                .iter()
+                .zip(&self.nk)
+                .map(|(b, &nk)| InputOrder {
+                    nb: b.len() - 1,
+                    nk,
+                })
+                .collect(),
         }
     }
 
@@ -205,16 +227,27 @@ impl Arx {
         if self.nk.contains(&0) {
             return None;
         }
-        Some(Arx { a: self.a.clone(), b: self.b.clone(), nk: self.nk.iter().map(|k| k - 1).collect() })
+        Some(Arx {
+            a: self.a.clone(),
+            b: self.b.clone(),
+            nk: self.nk.iter().map(|k| k - 1).collect(),
+        })
     }
 
     fn check_inputs(&self, len: usize, inputs: &[&[f64]]) -> Result<(), SysidError> {
         if inputs.len() != self.b.len() {
-            return Err(SysidError::InputCount { expected: self.b.len(), found: inputs.len() });
+            return Err(SysidError::InputCount {
+                expected: self.b.len(),
+                found: inputs.len(),
+            });
         }
         for (i, u) in inputs.iter().enumerate() {
             if u.len() != len {
-                return Err(SysidError::LengthMismatch { input: i, expected: len, found: u.len() });
+                return Err(SysidError::LengthMismatch {
+                    input: i,
+                    expected: len,
+                    found: u.len(),
+                });
             }
         }
         Ok(())
@@ -242,7 +275,9 @@ impl Arx {
     /// the inputs; values before sample 0 are taken as zero (a run from rest).
     pub fn predict(&self, output: &[f64], inputs: &[&[f64]]) -> Result<Vec<f64>, SysidError> {
         self.check_inputs(output.len(), inputs)?;
-        Ok((0..output.len()).map(|k| self.equation(k, output, inputs)).collect())
+        Ok((0..output.len())
+            .map(|k| self.equation(k, output, inputs))
+            .collect())
     }
 
     /// The right-hand side of the model equation at sample `k` with the given
@@ -289,7 +324,12 @@ impl Arx {
     pub fn stepper(&self) -> ArxStepper {
         ArxStepper {
             y_past: vec![0.0; self.a.len() - 1],
-            u_past: self.b.iter().zip(&self.nk).map(|(b, &nk)| vec![0.0; b.len() + nk]).collect(),
+            u_past: self
+                .b
+                .iter()
+                .zip(&self.nk)
+                .map(|(b, &nk)| vec![0.0; b.len() + nk])
+                .collect(),
             model: self.clone(),
         }
     }
@@ -330,7 +370,11 @@ impl ArxStepper {
     /// # Panics
     /// If `inputs.len()` differs from the model's number of inputs.
     pub fn push(&mut self, inputs: &[f64]) -> f64 {
-        assert_eq!(inputs.len(), self.u_past.len(), "one value per model input is needed");
+        assert_eq!(
+            inputs.len(),
+            self.u_past.len(),
+            "one value per model input is needed"
+        );
         for (hist, &u) in self.u_past.iter_mut().zip(inputs) {
             hist.rotate_right(1);
             hist[0] = u;
@@ -362,13 +406,23 @@ mod tests {
     use super::*;
 
     fn model() -> Arx {
-        Arx::new(vec![1.0, -1.5, 0.7], vec![(vec![0.5, 0.25], 1), (vec![-0.3], 0)]).unwrap()
+        Arx::new(
+            vec![1.0, -1.5, 0.7],
+            vec![(vec![0.5, 0.25], 1), (vec![-0.3], 0)],
+        )
+        .unwrap()
     }
 
     #[test]
     fn invariants_are_checked() {
-        assert_eq!(Arx::new(vec![0.9], vec![(vec![1.0], 0)]), Err(SysidError::LeadingA(0.9)));
-        assert!(matches!(Arx::new(vec![1.0], vec![(vec![], 0)]), Err(SysidError::EmptyB { input: 0 })));
+        assert_eq!(
+            Arx::new(vec![0.9], vec![(vec![1.0], 0)]),
+            Err(SysidError::LeadingA(0.9))
+        );
+        assert!(matches!(
+            Arx::new(vec![1.0], vec![(vec![], 0)]),
+            Err(SysidError::EmptyB { input: 0 })
+        ));
         assert!(Arx::new(vec![1.0, f64::NAN], vec![(vec![1.0], 0)]).is_err());
     }
 
@@ -413,7 +467,11 @@ mod tests {
         assert!(m.stability().is_stable());
         // z² - 2 r cosφ z + r², r = 1.1: unstable complex pair.
         let r: f64 = 1.1;
-        let m = Arx::new(vec![1.0, -2.0 * r * 0.3f64.cos(), r * r], vec![(vec![1.0], 1)]).unwrap();
+        let m = Arx::new(
+            vec![1.0, -2.0 * r * 0.3f64.cos(), r * r],
+            vec![(vec![1.0], 1)],
+        )
+        .unwrap();
         let s = m.stability();
         assert!(!s.is_stable());
         assert!((s.spectral_radius() - r).abs() < 1e-12);
@@ -444,10 +502,20 @@ mod tests {
     #[test]
     fn wrong_input_shapes_are_errors() {
         let m = model();
-        assert!(matches!(m.simulate(&[&[1.0]]), Err(SysidError::InputCount { expected: 2, found: 1 })));
+        assert!(matches!(
+            m.simulate(&[&[1.0]]),
+            Err(SysidError::InputCount {
+                expected: 2,
+                found: 1
+            })
+        ));
         assert!(matches!(
             m.simulate(&[&[1.0, 2.0], &[1.0]]),
-            Err(SysidError::LengthMismatch { input: 1, expected: 2, found: 1 })
+            Err(SysidError::LengthMismatch {
+                input: 1,
+                expected: 2,
+                found: 1
+            })
         ));
     }
 }

@@ -40,7 +40,9 @@ pub enum SysidError {
         found: usize,
     },
     /// Fewer regression rows than parameters (plus one, to estimate the noise).
-    #[error("{rows} usable samples cannot determine {params} parameters (more than {params} are needed)")]
+    #[error(
+        "{rows} usable samples cannot determine {params} parameters (more than {params} are needed)"
+    )]
     TooFewSamples {
         /// Regression rows available.
         rows: usize,

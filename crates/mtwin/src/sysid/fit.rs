@@ -16,14 +16,22 @@ impl Run {
     pub fn new(output: Vec<f64>, inputs: Vec<Vec<f64>>) -> Result<Run, SysidError> {
         for (i, u) in inputs.iter().enumerate() {
             if u.len() != output.len() {
-                return Err(SysidError::LengthMismatch { input: i, expected: output.len(), found: u.len() });
+                return Err(SysidError::LengthMismatch {
+                    input: i,
+                    expected: output.len(),
+                    found: u.len(),
+                });
             }
             if u.iter().any(|v| !v.is_finite()) {
-                return Err(SysidError::NotFinite { what: format!("input {i} of a run") });
+                return Err(SysidError::NotFinite {
+                    what: format!("input {i} of a run"),
+                });
             }
         }
         if output.iter().any(|v| !v.is_finite()) {
-            return Err(SysidError::NotFinite { what: "the output of a run".into() });
+            return Err(SysidError::NotFinite {
+                what: "the output of a run".into(),
+            });
         }
         Ok(Run { output, inputs })
     }
@@ -118,7 +126,11 @@ pub struct ArxFit {
 impl ArxFit {
     /// Standard uncertainties of `θ` (order of [`Arx::params`]).
     pub fn std_params(&self) -> Vec<f64> {
-        self.covariance.diagonal().iter().map(|v| v.max(0.0).sqrt()).collect()
+        self.covariance
+            .diagonal()
+            .iter()
+            .map(|v| v.max(0.0).sqrt())
+            .collect()
     }
 
     /// Standard uncertainties of `a_1..a_na`.
@@ -147,7 +159,10 @@ pub(crate) fn regression(
     let first = start.first_row(orders);
     for r in runs {
         if r.n_inputs() != orders.inputs.len() {
-            return Err(SysidError::InputCount { expected: orders.inputs.len(), found: r.n_inputs() });
+            return Err(SysidError::InputCount {
+                expected: orders.inputs.len(),
+                found: r.n_inputs(),
+            });
         }
     }
     let rows: usize = runs.iter().map(|r| r.len().saturating_sub(first)).sum();
@@ -200,7 +215,11 @@ pub fn fit_arx(runs: &[Run], orders: &ArxOrders, start: Start) -> Result<ArxFit,
     let mut sim_n = 0usize;
     for r in runs {
         let sim = model.simulate(&r.input_slices())?;
-        sim_ss += sim.iter().zip(&r.output).map(|(s, m)| (m - s) * (m - s)).sum::<f64>();
+        sim_ss += sim
+            .iter()
+            .zip(&r.output)
+            .map(|(s, m)| (m - s) * (m - s))
+            .sum::<f64>();
         sim_n += r.len();
     }
     let stats = FitStats {
@@ -210,24 +229,40 @@ pub fn fit_arx(runs: &[Run], orders: &ArxOrders, start: Start) -> Result<ArxFit,
         fpe: loss * (1.0 + ratio) / (1.0 - ratio),
         aic: n as f64 * loss.ln() + 2.0 * d as f64,
         one_step_rms: loss.sqrt(),
-        simulation_rms: if sim_n > 0 { (sim_ss / sim_n as f64).sqrt() } else { 0.0 },
+        simulation_rms: if sim_n > 0 {
+            (sim_ss / sim_n as f64).sqrt()
+        } else {
+            0.0
+        },
         spectral_radius: model.stability().spectral_radius(),
     };
-    Ok(ArxFit { model, stats, covariance })
+    Ok(ArxFit {
+        model,
+        stats,
+        covariance,
+    })
 }
 
 /// Solve `min |y − Φθ|` by QR with unit-norm columns. Returns `θ`,
 /// `(ΦᵀΦ)⁻¹` and the residual sum of squares.
-fn least_squares(mut phi: DMatrix<f64>, y: DVector<f64>) -> Result<(DVector<f64>, DMatrix<f64>, f64), SysidError> {
+fn least_squares(
+    mut phi: DMatrix<f64>,
+    y: DVector<f64>,
+) -> Result<(DVector<f64>, DMatrix<f64>, f64), SysidError> {
     let (n, d) = phi.shape();
     if phi.iter().any(|v| !v.is_finite()) || y.iter().any(|v| !v.is_finite()) {
-        return Err(SysidError::NotFinite { what: "the regression".into() });
+        return Err(SysidError::NotFinite {
+            what: "the regression".into(),
+        });
     }
     let mut scale = vec![1.0; d];
     for (j, s) in scale.iter_mut().enumerate() {
         let norm = phi.column(j).norm();
         if norm == 0.0 {
-            return Err(SysidError::RankDeficient { params: d, rcond: 0.0 });
+            return Err(SysidError::RankDeficient {
+                params: d,
+                rcond: 0.0,
+            });
         }
         *s = norm;
         phi.column_mut(j).unscale_mut(norm);
@@ -245,7 +280,9 @@ fn least_squares(mut phi: DMatrix<f64>, y: DVector<f64>) -> Result<(DVector<f64>
     qr.q_tr_mul(&mut qty);
     let ssr = qty.rows(d, n - d).norm_squared();
     let head = qty.rows(0, d).into_owned();
-    let z = r.solve_upper_triangular(&head).ok_or(SysidError::RankDeficient { params: d, rcond })?;
+    let z = r
+        .solve_upper_triangular(&head)
+        .ok_or(SysidError::RankDeficient { params: d, rcond })?;
     let r_inv = r
         .solve_upper_triangular(&DMatrix::identity(d, d))
         .ok_or(SysidError::RankDeficient { params: d, rcond })?;
@@ -268,14 +305,22 @@ mod tests {
 
     fn truth() -> Arx {
         // Poles 0.9 ± 0.2i (stable), two inputs.
-        Arx::new(vec![1.0, -1.8, 0.85], vec![(vec![0.4, -0.2, 0.1], 1), (vec![0.3], 2)]).unwrap()
+        Arx::new(
+            vec![1.0, -1.8, 0.85],
+            vec![(vec![0.4, -0.2, 0.1], 1), (vec![0.3], 2)],
+        )
+        .unwrap()
     }
 
     /// A run of the truth with white equation noise `sigma` (noise enters the
     /// ARX equation, so least squares is consistent).
     fn run(model: &Arx, n: usize, sigma: f64, rng: &mut StdRng) -> Run {
-        let u1: Vec<f64> = (0..n).map(|_| rng.sample::<f64, _>(StandardNormal)).collect();
-        let u2: Vec<f64> = (0..n).map(|_| if rng.r#gen::<bool>() { 1.0 } else { -1.0 }).collect();
+        let u1: Vec<f64> = (0..n)
+            .map(|_| rng.sample::<f64, _>(StandardNormal))
+            .collect();
+        let u2: Vec<f64> = (0..n)
+            .map(|_| if rng.r#gen::<bool>() { 1.0 } else { -1.0 })
+            .collect();
         let mut y = vec![0.0; n];
         for k in 0..n {
             let e: f64 = rng.sample::<f64, _>(StandardNormal) * sigma;
@@ -313,13 +358,19 @@ mod tests {
         assert!(phi.row(100).iter().all(|&v| v == 0.0));
         let joined = Run::new(
             [r1.output(), r2.output()].concat(),
-            vec![[r1.input(0), r2.input(0)].concat(), [r1.input(1), r2.input(1)].concat()],
+            vec![
+                [r1.input(0), r2.input(0)].concat(),
+                [r1.input(1), r2.input(1)].concat(),
+            ],
         )
         .unwrap();
         let sep = fit_arx(&[r1, r2], &m.orders(), Start::AtRest).unwrap();
         let one = fit_arx(&[joined], &m.orders(), Start::AtRest).unwrap();
         assert!(sep.stats.loss < 1e-20);
-        assert!(one.stats.loss > 1e-8, "joining runs must break the exact fit");
+        assert!(
+            one.stats.loss > 1e-8,
+            "joining runs must break the exact fit"
+        );
     }
 
     #[test]
@@ -349,7 +400,10 @@ mod tests {
         // y(k) = b_0 · 1 + e: the fit of b_0 is the mean, σ_b0 = s/√N.
         let y = [1.0, 2.0, 4.0, 3.0, 5.0];
         let run = Run::new(y.to_vec(), vec![vec![1.0; 5]]).unwrap();
-        let o = ArxOrders { na: 0, inputs: vec![InputOrder { nb: 0, nk: 0 }] };
+        let o = ArxOrders {
+            na: 0,
+            inputs: vec![InputOrder { nb: 0, nk: 0 }],
+        };
         let f = fit_arx(&[run], &o, Start::AtRest).unwrap();
         let mean = 3.0;
         let s2 = y.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / 4.0;
@@ -360,12 +414,21 @@ mod tests {
 
     #[test]
     fn degenerate_data_are_errors() {
-        let o = ArxOrders { na: 1, inputs: vec![InputOrder { nb: 1, nk: 0 }] };
+        let o = ArxOrders {
+            na: 1,
+            inputs: vec![InputOrder { nb: 1, nk: 0 }],
+        };
         let run = Run::new(vec![0.0, 1.0], vec![vec![1.0, 1.0]]).unwrap();
-        assert!(matches!(fit_arx(&[run], &o, Start::AtRest), Err(SysidError::TooFewSamples { .. })));
+        assert!(matches!(
+            fit_arx(&[run], &o, Start::AtRest),
+            Err(SysidError::TooFewSamples { .. })
+        ));
         // A constant input with nb = 1 gives two identical columns (after the first row).
         let run = Run::new((0..20).map(f64::from).collect(), vec![vec![1.0; 20]]).unwrap();
-        assert!(matches!(fit_arx(&[run], &o, Start::From(1)), Err(SysidError::RankDeficient { .. })));
+        assert!(matches!(
+            fit_arx(&[run], &o, Start::From(1)),
+            Err(SysidError::RankDeficient { .. })
+        ));
         assert!(Run::new(vec![1.0], vec![vec![]]).is_err());
     }
 }

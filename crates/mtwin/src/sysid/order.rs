@@ -49,13 +49,26 @@ impl OrderGrid {
     pub fn up_to(max: usize, nk: &[usize]) -> OrderGrid {
         OrderGrid {
             na: 1..=max.max(1),
-            inputs: nk.iter().map(|&k| InputGrid { nb: 0..=max, nk: k..=k }).collect(),
+            inputs: nk
+                .iter()
+                .map(|&k| InputGrid {
+                    nb: 0..=max,
+                    nk: k..=k,
+                })
+                .collect(),
         }
     }
 
     /// Every structure of the grid, `na` varying slowest.
     pub fn structures(&self) -> Vec<ArxOrders> {
-        let mut out: Vec<ArxOrders> = self.na.clone().map(|na| ArxOrders { na, inputs: Vec::new() }).collect();
+        let mut out: Vec<ArxOrders> = self
+            .na
+            .clone()
+            .map(|na| ArxOrders {
+                na,
+                inputs: Vec::new(),
+            })
+            .collect();
         for g in &self.inputs {
             let mut next = Vec::new();
             for o in &out {
@@ -74,12 +87,20 @@ impl OrderGrid {
 
     /// The largest lag of any structure in the grid.
     pub fn max_lag(&self) -> usize {
-        self.structures().iter().map(ArxOrders::max_lag).max().unwrap_or(0)
+        self.structures()
+            .iter()
+            .map(ArxOrders::max_lag)
+            .max()
+            .unwrap_or(0)
     }
 
     /// The largest number of parameters of any structure in the grid.
     pub fn max_params(&self) -> usize {
-        self.structures().iter().map(ArxOrders::n_params).max().unwrap_or(0)
+        self.structures()
+            .iter()
+            .map(ArxOrders::n_params)
+            .max()
+            .unwrap_or(0)
     }
 }
 
@@ -95,7 +116,9 @@ pub struct GridRow {
 impl GridRow {
     /// True when the fit succeeded and its model is stable.
     pub fn is_stable_fit(&self) -> bool {
-        self.outcome.as_ref().is_ok_and(|s| s.spectral_radius < 1.0 - 1e-9)
+        self.outcome
+            .as_ref()
+            .is_ok_and(|s| s.spectral_radius < 1.0 - 1e-9)
     }
 }
 
@@ -171,7 +194,10 @@ impl OrderSelection {
                     s.simulation_rms,
                     if r.is_stable_fit() { "yes" } else { "NO" }
                 )),
-                Err(e) => out.push_str(&format!("{mark} {:<28} not fitted: {e}\n", r.orders.to_string())),
+                Err(e) => out.push_str(&format!(
+                    "{mark} {:<28} not fitted: {e}\n",
+                    r.orders.to_string()
+                )),
             }
         }
         out
@@ -213,18 +239,36 @@ pub fn select_orders(
     if structures.is_empty() {
         return Err(SysidError::NoOrderFits("the grid is empty".into()));
     }
-    let fits: Vec<Result<ArxFit, SysidError>> = structures.par_iter().map(|o| fit_arx(runs, o, start)).collect();
+    let fits: Vec<Result<ArxFit, SysidError>> = structures
+        .par_iter()
+        .map(|o| fit_arx(runs, o, start))
+        .collect();
     let table: Vec<GridRow> = structures
         .iter()
         .zip(&fits)
-        .map(|(o, f)| GridRow { orders: o.clone(), outcome: f.as_ref().map(|f| f.stats.clone()).map_err(Clone::clone) })
+        .map(|(o, f)| GridRow {
+            orders: o.clone(),
+            outcome: f.as_ref().map(|f| f.stats.clone()).map_err(Clone::clone),
+        })
         .collect();
     let Some(best) = best_index(&table, criterion) else {
-        let first_err = fits.iter().find_map(|f| f.as_ref().err()).map_or_else(String::new, ToString::to_string);
+        let first_err = fits
+            .iter()
+            .find_map(|f| f.as_ref().err())
+            .map_or_else(String::new, ToString::to_string);
         return Err(SysidError::NoOrderFits(first_err));
     };
-    let fit = fits.into_iter().nth(best).and_then(Result::ok).expect("the best row is a successful fit");
-    Ok(OrderSelection { table, criterion, best, fit })
+    let fit = fits
+        .into_iter()
+        .nth(best)
+        .and_then(Result::ok)
+        .expect("the best row is a successful fit");
+    Ok(OrderSelection {
+        table,
+        criterion,
+        best,
+        fit,
+    })
 }
 
 #[cfg(test)]
@@ -236,7 +280,19 @@ mod tests {
 
     #[test]
     fn grid_enumerates_every_combination() {
-        let g = OrderGrid { na: 1..=2, inputs: vec![InputGrid { nb: 0..=2, nk: 1..=1 }, InputGrid { nb: 0..=1, nk: 0..=1 }] };
+        let g = OrderGrid {
+            na: 1..=2,
+            inputs: vec![
+                InputGrid {
+                    nb: 0..=2,
+                    nk: 1..=1,
+                },
+                InputGrid {
+                    nb: 0..=1,
+                    nk: 0..=1,
+                },
+            ],
+        };
         let s = g.structures();
         assert_eq!(s.len(), 2 * 3 * 2 * 2);
         let unique: std::collections::HashSet<_> = s.iter().cloned().collect();
@@ -279,7 +335,10 @@ mod tests {
                 }
                 assert_eq!(sel.table.len(), 4 * 5);
             }
-            assert!(exact * 10 >= seeds * 6, "{criterion:?} found the true orders in {exact}/{seeds} seeds");
+            assert!(
+                exact * 10 >= seeds * 6,
+                "{criterion:?} found the true orders in {exact}/{seeds} seeds"
+            );
         }
     }
 
@@ -300,10 +359,23 @@ mod tests {
         assert_eq!(json.as_array().unwrap().len(), sel.table.len());
         assert_eq!(json[sel.best]["chosen"], true);
         assert_eq!(json[0]["na"], 1);
-        assert_eq!(sel.table_text().lines().filter(|l| l.starts_with('*')).count(), 1);
+        assert_eq!(
+            sel.table_text()
+                .lines()
+                .filter(|l| l.starts_with('*'))
+                .count(),
+            1
+        );
         let best = sel.table[sel.best].outcome.as_ref().unwrap().fpe;
-        assert!(sel.table.iter().all(|r| r.outcome.as_ref().unwrap().fpe >= best));
+        assert!(
+            sel.table
+                .iter()
+                .all(|r| r.outcome.as_ref().unwrap().fpe >= best)
+        );
         let tiny = vec![Run::new(vec![0.0; 3], vec![vec![1.0; 3]]).unwrap()];
-        assert!(matches!(select_orders(&tiny, &grid, Criterion::Fpe, Start::AtRest), Err(SysidError::NoOrderFits(_))));
+        assert!(matches!(
+            select_orders(&tiny, &grid, Criterion::Fpe, Start::AtRest),
+            Err(SysidError::NoOrderFits(_))
+        ));
     }
 }

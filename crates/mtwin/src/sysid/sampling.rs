@@ -35,7 +35,11 @@ pub(crate) fn check_sampling(
     within: &str,
     diags: &mut Diagnostics,
 ) {
-    let ctx = if within.is_empty() { String::new() } else { format!(" within {within}") };
+    let ctx = if within.is_empty() {
+        String::new()
+    } else {
+        format!(" within {within}")
+    };
     for i in 1..times.len() {
         let dt = times[i] - times[i - 1];
         if dt <= 0.0 {

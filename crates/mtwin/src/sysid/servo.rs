@@ -24,13 +24,19 @@ impl Servo {
         if !(ts.is_finite() && ts > 0.0) {
             return Err(SysidError::BadPeriod(ts));
         }
-        Ok(Servo { ts, model: Arx::new(a, vec![(b, nk)])? })
+        Ok(Servo {
+            ts,
+            model: Arx::new(a, vec![(b, nk)])?,
+        })
     }
 
     /// A servo from a single-input ARX model.
     pub fn from_arx(ts: f64, model: &Arx) -> Result<Servo, SysidError> {
         if model.n_inputs() != 1 {
-            return Err(SysidError::InputCount { expected: 1, found: model.n_inputs() });
+            return Err(SysidError::InputCount {
+                expected: 1,
+                found: model.n_inputs(),
+            });
         }
         Servo::new(ts, model.b(0).to_vec(), model.a().to_vec(), model.nk(0))
     }
@@ -69,14 +75,21 @@ impl Servo {
 
     /// A streaming simulator: push one command, get one encoder position.
     pub fn stepper(&self) -> ServoStepper {
-        ServoStepper { inner: self.model.stepper(), origin: None }
+        ServoStepper {
+            inner: self.model.stepper(),
+            origin: None,
+        }
     }
 
     /// Frequency response `H(e^{jωts})` at `f_hz` (Hz).
     pub fn frequency_response(&self, f_hz: f64) -> Complex<f64> {
         let w = 2.0 * std::f64::consts::PI * f_hz * self.ts;
         let q = Complex::from_polar(1.0, -w);
-        let poly = |c: &[f64]| c.iter().rev().fold(Complex::new(0.0, 0.0), |acc, &v| acc * q + v);
+        let poly = |c: &[f64]| {
+            c.iter()
+                .rev()
+                .fold(Complex::new(0.0, 0.0), |acc, &v| acc * q + v)
+        };
         q.powu(self.nk() as u32) * poly(self.b()) / poly(self.a())
     }
 
@@ -131,11 +144,17 @@ impl Servo {
         let b1: f64 = self.b().iter().sum();
         if a1.abs() < 1e-300 || b1.abs() < 1e-300 {
             return Err(SysidError::Degenerate(
-                "the servo has no finite nonzero static gain, so it has no steady following error".into(),
+                "the servo has no finite nonzero static gain, so it has no steady following error"
+                    .into(),
             ));
         }
         let nk = self.nk() as f64;
-        let mb: f64 = self.b().iter().enumerate().map(|(j, b)| (j as f64 + nk) * b).sum();
+        let mb: f64 = self
+            .b()
+            .iter()
+            .enumerate()
+            .map(|(j, b)| (j as f64 + nk) * b)
+            .sum();
         let ma: f64 = self.a().iter().enumerate().map(|(i, a)| i as f64 * a).sum();
         Ok(self.ts * (mb / b1 - ma / a1))
     }
@@ -169,7 +188,13 @@ mod tests {
 
     /// The spec's example servo (00 §5).
     fn example() -> Servo {
-        Servo::new(0.001, vec![0.0, 0.0183, 0.0171], vec![1.0, -1.8106, 0.8460], 0).unwrap()
+        Servo::new(
+            0.001,
+            vec![0.0, 0.0183, 0.0171],
+            vec![1.0, -1.8106, 0.8460],
+            0,
+        )
+        .unwrap()
     }
 
     #[test]
@@ -216,7 +241,12 @@ mod tests {
         let bw = s.bandwidth_hz().unwrap();
         assert!((bw - f).abs() < 1e-9 * f, "{bw} vs {f}");
         // A pure gain never drops 3 dB.
-        assert!(Servo::new(ts, vec![1.0], vec![1.0], 3).unwrap().bandwidth_hz().is_none());
+        assert!(
+            Servo::new(ts, vec![1.0], vec![1.0], 3)
+                .unwrap()
+                .bandwidth_hz()
+                .is_none()
+        );
     }
 
     #[test]
@@ -228,9 +258,9 @@ mod tests {
         let u: Vec<f64> = (0..n).map(|k| (w * k as f64).sin()).collect();
         let y = s.simulate(&u);
         let h = s.frequency_response(f);
-        for k in n - 50..n {
+        for (k, yk) in y.iter().enumerate().skip(n - 50) {
             let want = h.norm() * (w * k as f64 + h.arg()).sin();
-            assert!((y[k] - want).abs() < 1e-9, "{} vs {want}", y[k]);
+            assert!((yk - want).abs() < 1e-9, "{yk} vs {want}");
         }
     }
 }

@@ -7,7 +7,9 @@ use thiserror::Error;
 
 use super::sampling::{check_sampling, median_interval};
 use super::toml_read::{Reader, fmt_f64_float, parse};
-use super::{Criterion, OrderGrid, OrderSelection, Run, Servo, Stability, Start, SysidError, select_orders};
+use super::{
+    Criterion, OrderGrid, OrderSelection, Run, Servo, Stability, Start, SysidError, select_orders,
+};
 use crate::io::{Diagnostic, Diagnostics, Table, fmt_f64};
 
 /// A servo log: commands and encoder positions (mm or deg) every `ts` seconds.
@@ -25,12 +27,22 @@ impl ServoLog {
             return Err(SysidError::BadPeriod(ts));
         }
         if command.len() != feedback.len() {
-            return Err(SysidError::LengthMismatch { input: 0, expected: feedback.len(), found: command.len() });
+            return Err(SysidError::LengthMismatch {
+                input: 0,
+                expected: feedback.len(),
+                found: command.len(),
+            });
         }
         if command.iter().chain(&feedback).any(|v| !v.is_finite()) {
-            return Err(SysidError::NotFinite { what: "the servo log".into() });
+            return Err(SysidError::NotFinite {
+                what: "the servo log".into(),
+            });
         }
-        Ok(ServoLog { ts, command, feedback })
+        Ok(ServoLog {
+            ts,
+            command,
+            feedback,
+        })
     }
 
     /// Sample period, s.
@@ -87,7 +99,11 @@ pub struct ServoFitOptions {
 
 impl Default for ServoFitOptions {
     fn default() -> Self {
-        ServoFitOptions { max_order: 4, max_delay: 3, criterion: Criterion::Fpe }
+        ServoFitOptions {
+            max_order: 4,
+            max_delay: 3,
+            criterion: Criterion::Fpe,
+        }
     }
 }
 
@@ -171,7 +187,10 @@ impl ServoFit {
             out.push_str(&format!("# bandwidth (-3 dB) {} Hz\n", fmt_f64(bw)));
         }
         if let Some(lag) = self.velocity_lag_s {
-            out.push_str(&format!("# following error = velocity x {} s\n", fmt_f64(lag)));
+            out.push_str(&format!(
+                "# following error = velocity x {} s\n",
+                fmt_f64(lag)
+            ));
         }
         out.push_str(&self.servo.to_toml());
         out
@@ -203,13 +222,20 @@ pub fn fit_servo(log: &ServoLog, options: &ServoFitOptions) -> Result<ServoFit, 
     let run = Run::new(y, vec![u])?;
     let grid = OrderGrid {
         na: 1..=options.max_order.max(1),
-        inputs: vec![super::InputGrid { nb: 0..=options.max_order, nk: 0..=options.max_delay }],
+        inputs: vec![super::InputGrid {
+            nb: 0..=options.max_order,
+            nk: 0..=options.max_delay,
+        }],
     };
     let selection = select_orders(&[run], &grid, options.criterion, Start::From(0))?;
     let servo = Servo::from_arx(log.ts, &selection.fit.model)?;
     let sim = servo.simulate(&log.command);
     let simulation_rms = rms(sim.iter().zip(&log.feedback).map(|(s, m)| m - s));
-    let max_velocity = log.command.windows(2).map(|w| ((w[1] - w[0]) / log.ts).abs()).fold(0.0, f64::max);
+    let max_velocity = log
+        .command
+        .windows(2)
+        .map(|w| ((w[1] - w[0]) / log.ts).abs())
+        .fold(0.0, f64::max);
     let velocity_lag_s = servo.velocity_lag_s().ok();
     Ok(ServoFit {
         bandwidth_hz: servo.bandwidth_hz(),
@@ -260,9 +286,15 @@ pub fn servo_from_toml_str(path: &Path, text: &str) -> Result<Servo, Diagnostics
     let root = doc.as_table();
     let mut r = Reader::new(path, text);
     r.check_keys(root, &["ts", "b", "a", "nk"], "the servo file");
-    let ts = r.required(root, "ts", "the servo file", None).and_then(|i| r.number(i, "ts"));
-    let b = r.required(root, "b", "the servo file", None).and_then(|i| r.numbers(i, "b"));
-    let a = r.required(root, "a", "the servo file", None).and_then(|i| r.numbers(i, "a"));
+    let ts = r
+        .required(root, "ts", "the servo file", None)
+        .and_then(|i| r.number(i, "ts"));
+    let b = r
+        .required(root, "b", "the servo file", None)
+        .and_then(|i| r.numbers(i, "b"));
+    let a = r
+        .required(root, "a", "the servo file", None)
+        .and_then(|i| r.numbers(i, "a"));
     let nk = match root.get("nk") {
         Some(i) => r.count(i, "nk"),
         None => Some(0),
@@ -320,14 +352,22 @@ mod tests {
             m.view_mut((0, 0), (2, 2)).copy_from(&(a * ts));
             m.view_mut((0, 2), (2, 1)).copy_from(&(b * ts));
             let e = m.exp();
-            Axis { ad: e.fixed_view::<2, 2>(0, 0).into_owned(), bd: e.fixed_view::<2, 1>(0, 2).into_owned() }
+            Axis {
+                ad: e.fixed_view::<2, 2>(0, 0).into_owned(),
+                bd: e.fixed_view::<2, 1>(0, 2).into_owned(),
+            }
         }
 
         /// `|C (zI − Ad)⁻¹ Bd|` at `z = e^{jωts}`, `C = [1, 0]`.
         fn gain(&self, f_hz: f64, ts: f64) -> f64 {
             use nalgebra::Complex;
             let z = Complex::from_polar(1.0, 2.0 * std::f64::consts::PI * f_hz * ts);
-            let (a, b, c, d) = (self.ad[(0, 0)], self.ad[(0, 1)], self.ad[(1, 0)], self.ad[(1, 1)]);
+            let (a, b, c, d) = (
+                self.ad[(0, 0)],
+                self.ad[(0, 1)],
+                self.ad[(1, 0)],
+                self.ad[(1, 1)],
+            );
             let det = (z - a) * (z - d) - b * c;
             // First row of the adjugate of (zI − Ad): [z − d, b].
             ((z - d) * self.bd[0] + b * self.bd[1]).norm() / det.norm()
@@ -383,12 +423,23 @@ mod tests {
             let fit = fit_servo(&log, &ServoFitOptions::default()).unwrap();
             // Held-out command: a different excitation, compared noise-free.
             let mut rng = StdRng::seed_from_u64(99);
-            let u2: Vec<f64> = excitation(3000, &mut rng).iter().map(|v| 5.0 + 0.7 * v).collect();
+            let u2: Vec<f64> = excitation(3000, &mut rng)
+                .iter()
+                .map(|v| 5.0 + 0.7 * v)
+                .collect();
             let truth = axis.run(&u2);
             let sim = fit.servo.simulate(&u2);
             let err = rms(truth.iter().zip(&sim).map(|(a, b)| a - b));
-            assert!(err < 0.001, "{fn_hz} Hz: held-out RMS {err} mm ({})", fit.selection.fit.model.orders());
-            assert!(fit.stability.is_stable() && fit.warnings().is_empty(), "{:?}", fit.warnings());
+            assert!(
+                err < 0.001,
+                "{fn_hz} Hz: held-out RMS {err} mm ({})",
+                fit.selection.fit.model.orders()
+            );
+            assert!(
+                fit.stability.is_stable() && fit.warnings().is_empty(),
+                "{:?}",
+                fit.warnings()
+            );
             // Velocity lag of the true sampled axis: steady error of a long ramp.
             let v = 50.0;
             let ramp: Vec<f64> = (0..3000).map(|k| v * ts * k as f64).collect();
@@ -400,7 +451,10 @@ mod tests {
             let got = fit.bandwidth_hz.unwrap();
             assert!((15.0..=100.0).contains(&got));
             let mag = axis.gain(got, ts);
-            assert!((mag - std::f64::consts::FRAC_1_SQRT_2).abs() < 0.01, "|H({got} Hz)| = {mag}");
+            assert!(
+                (mag - std::f64::consts::FRAC_1_SQRT_2).abs() < 0.01,
+                "|H({got} Hz)| = {mag}"
+            );
             assert!(fit.simulation_rms < 0.001);
             let j = fit.to_json();
             assert_eq!(j["nk"], fit.servo.nk());
@@ -412,15 +466,33 @@ mod tests {
 
     #[test]
     fn servo_toml_round_trip_and_errors() {
-        let s = Servo::new(0.001, vec![0.0, 0.0183, 0.0171], vec![1.0, -1.8106, 0.846], 2).unwrap();
+        let s = Servo::new(
+            0.001,
+            vec![0.0, 0.0183, 0.0171],
+            vec![1.0, -1.8106, 0.846],
+            2,
+        )
+        .unwrap();
         let back = servo_from_toml_str(Path::new("S.toml"), &s.to_toml()).unwrap();
         assert_eq!(back, s);
-        let e = servo_from_toml_str(Path::new("S.toml"), "ts = 0.001\nb = [1.0]\na = [2.0, 0.5]\nfoo = 1\n")
-            .unwrap_err();
+        let e = servo_from_toml_str(
+            Path::new("S.toml"),
+            "ts = 0.001\nb = [1.0]\na = [2.0, 0.5]\nfoo = 1\n",
+        )
+        .unwrap_err();
         let msgs: Vec<String> = e.0.iter().map(ToString::to_string).collect();
-        assert!(msgs.iter().any(|m| m.starts_with("S.toml:4:") && m.contains("`foo`")), "{msgs:?}");
-        assert!(msgs.iter().any(|m| m.starts_with("S.toml:3:") && m.contains("a_0 = 1")), "{msgs:?}");
-        let e = servo_from_toml_str(Path::new("S.toml"), "ts = 0.001\nb = [1.0, \"x\"]\n").unwrap_err();
+        assert!(
+            msgs.iter()
+                .any(|m| m.starts_with("S.toml:4:") && m.contains("`foo`")),
+            "{msgs:?}"
+        );
+        assert!(
+            msgs.iter()
+                .any(|m| m.starts_with("S.toml:3:") && m.contains("a_0 = 1")),
+            "{msgs:?}"
+        );
+        let e =
+            servo_from_toml_str(Path::new("S.toml"), "ts = 0.001\nb = [1.0, \"x\"]\n").unwrap_err();
         assert!(e.0.iter().any(|d| d.line == 2), "{e}");
         assert!(e.0.iter().any(|d| d.message.contains("`a`")), "{e}");
         let e = servo_from_toml_str(Path::new("S.toml"), "ts = \n").unwrap_err();
@@ -431,13 +503,29 @@ mod tests {
     fn log_errors_have_lines() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("LOG.csv");
-        std::fs::write(&p, "t_s,command_mm,feedback_mm\n0,0,0\n0.001,1,0\n0.001,1,0.5\n0.002,1,0.7\n0.0045,1,1\n")
-            .unwrap();
+        std::fs::write(
+            &p,
+            "t_s,command_mm,feedback_mm\n0,0,0\n0.001,1,0\n0.001,1,0.5\n0.002,1,0.7\n0.0045,1,1\n",
+        )
+        .unwrap();
         let e = read_servo_log(&p).unwrap_err();
-        assert!(e.0.iter().any(|d| d.line == 4 && d.message.contains("does not increase")), "{e}");
-        assert!(e.0.iter().any(|d| d.line == 6 && d.message.contains("uneven")), "{e}");
+        assert!(
+            e.0.iter()
+                .any(|d| d.line == 4 && d.message.contains("does not increase")),
+            "{e}"
+        );
+        assert!(
+            e.0.iter()
+                .any(|d| d.line == 6 && d.message.contains("uneven")),
+            "{e}"
+        );
         std::fs::write(&p, "t_s,command_mm\n0,0\n").unwrap();
-        assert!(read_servo_log(&p).unwrap_err().to_string().contains("feedback_mm"));
+        assert!(
+            read_servo_log(&p)
+                .unwrap_err()
+                .to_string()
+                .contains("feedback_mm")
+        );
     }
 
     proptest::proptest! {

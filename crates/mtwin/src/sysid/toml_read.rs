@@ -14,13 +14,21 @@ pub(crate) fn parse<'t>(path: &Path, text: &'t str) -> Result<ImDocument<&'t str
     ImDocument::parse(text).map_err(|e| {
         let line = e.span().map_or(0, |s| line_of(text, s.start));
         let msg = e.message().trim().trim_end_matches('.').to_string();
-        Diagnostics::from(Diagnostic::at_line(path, line, format!("not valid TOML: {msg}")))
+        Diagnostics::from(Diagnostic::at_line(
+            path,
+            line,
+            format!("not valid TOML: {msg}"),
+        ))
     })
 }
 
 /// 1-based line of byte `offset` in `text`.
 pub(crate) fn line_of(text: &str, offset: usize) -> usize {
-    text.as_bytes()[..offset.min(text.len())].iter().filter(|&&b| b == b'\n').count() + 1
+    text.as_bytes()[..offset.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
 }
 
 /// Collects the problems of one file while values are read from it.
@@ -32,7 +40,11 @@ pub(crate) struct Reader<'a> {
 
 impl<'a> Reader<'a> {
     pub fn new(path: &'a Path, text: &'a str) -> Self {
-        Reader { path, text, diags: Diagnostics::default() }
+        Reader {
+            path,
+            text,
+            diags: Diagnostics::default(),
+        }
     }
 
     /// Line of a span (0, "the whole file", when unknown).
@@ -42,7 +54,8 @@ impl<'a> Reader<'a> {
 
     pub fn error(&mut self, span: Option<Range<usize>>, message: impl Into<String>) {
         let line = self.line(span);
-        self.diags.push(Diagnostic::at_line(self.path, line, message));
+        self.diags
+            .push(Diagnostic::at_line(self.path, line, message));
     }
 
     /// Report every key of `table` not in `allowed`.
@@ -52,7 +65,10 @@ impl<'a> Reader<'a> {
                 let span = table.key(key).and_then(|k| k.span());
                 self.error(
                     span,
-                    format!("unknown key `{key}` in {what} (allowed: {})", allowed.join(", ")),
+                    format!(
+                        "unknown key `{key}` in {what} (allowed: {})",
+                        allowed.join(", ")
+                    ),
                 );
             }
         }
@@ -75,11 +91,16 @@ impl<'a> Reader<'a> {
 
     /// A finite number (integer or float).
     pub fn number(&mut self, item: &Item, key: &str) -> Option<f64> {
-        let v = item.as_float().or_else(|| item.as_integer().map(|i| i as f64));
+        let v = item
+            .as_float()
+            .or_else(|| item.as_integer().map(|i| i as f64));
         match v {
             Some(v) if v.is_finite() => Some(v),
             _ => {
-                self.error(item.span(), format!("`{key}` must be a finite number, not {}", item.type_name()));
+                self.error(
+                    item.span(),
+                    format!("`{key}` must be a finite number, not {}", item.type_name()),
+                );
                 None
             }
         }
@@ -90,7 +111,10 @@ impl<'a> Reader<'a> {
         match item.as_integer() {
             Some(i) if i >= 0 => usize::try_from(i).ok(),
             _ => {
-                self.error(item.span(), format!("`{key}` must be a non-negative integer"));
+                self.error(
+                    item.span(),
+                    format!("`{key}` must be a non-negative integer"),
+                );
                 None
             }
         }
@@ -101,7 +125,10 @@ impl<'a> Reader<'a> {
         match item.as_str() {
             Some(s) => Some(s.to_string()),
             None => {
-                self.error(item.span(), format!("`{key}` must be a string, not {}", item.type_name()));
+                self.error(
+                    item.span(),
+                    format!("`{key}` must be a string, not {}", item.type_name()),
+                );
                 None
             }
         }
@@ -110,7 +137,13 @@ impl<'a> Reader<'a> {
     /// An array of finite numbers.
     pub fn numbers(&mut self, item: &Item, key: &str) -> Option<Vec<f64>> {
         let Some(arr) = item.as_array() else {
-            self.error(item.span(), format!("`{key}` must be an array of numbers, not {}", item.type_name()));
+            self.error(
+                item.span(),
+                format!(
+                    "`{key}` must be an array of numbers, not {}",
+                    item.type_name()
+                ),
+            );
             return None;
         };
         let mut out = Vec::with_capacity(arr.len());
@@ -120,7 +153,10 @@ impl<'a> Reader<'a> {
                 Some(x) if x.is_finite() => out.push(x),
                 _ => {
                     let span = v.span().or_else(|| item.span());
-                    self.error(span, format!("every element of `{key}` must be a finite number"));
+                    self.error(
+                        span,
+                        format!("every element of `{key}` must be a finite number"),
+                    );
                     ok = false;
                 }
             }
@@ -131,7 +167,10 @@ impl<'a> Reader<'a> {
     /// An array of arrays of finite numbers.
     pub fn number_rows(&mut self, item: &Item, key: &str) -> Option<Vec<Vec<f64>>> {
         let Some(arr) = item.as_array() else {
-            self.error(item.span(), format!("`{key}` must be an array of arrays of numbers"));
+            self.error(
+                item.span(),
+                format!("`{key}` must be an array of arrays of numbers"),
+            );
             return None;
         };
         let mut out = Vec::with_capacity(arr.len());
@@ -141,18 +180,28 @@ impl<'a> Reader<'a> {
                 Some(inner) => {
                     let row: Option<Vec<f64>> = inner
                         .iter()
-                        .map(|x| x.as_float().or_else(|| x.as_integer().map(|i| i as f64)).filter(|x| x.is_finite()))
+                        .map(|x| {
+                            x.as_float()
+                                .or_else(|| x.as_integer().map(|i| i as f64))
+                                .filter(|x| x.is_finite())
+                        })
                         .collect();
                     match row {
                         Some(r) => out.push(r),
                         None => {
-                            self.error(v.span(), format!("every element of `{key}` must be a finite number"));
+                            self.error(
+                                v.span(),
+                                format!("every element of `{key}` must be a finite number"),
+                            );
                             ok = false;
                         }
                     }
                 }
                 None => {
-                    self.error(v.span(), format!("every element of `{key}` must be an array of numbers"));
+                    self.error(
+                        v.span(),
+                        format!("every element of `{key}` must be an array of numbers"),
+                    );
                     ok = false;
                 }
             }
@@ -164,5 +213,9 @@ impl<'a> Reader<'a> {
 /// Full-precision text that TOML reads as a float (`1` becomes `1.0`).
 pub(crate) fn fmt_f64_float(v: f64) -> String {
     let s = crate::io::fmt_f64(v);
-    if s.contains(['.', 'e', 'E']) || !v.is_finite() { s } else { format!("{s}.0") }
+    if s.contains(['.', 'e', 'E']) || !v.is_finite() {
+        s
+    } else {
+        format!("{s}.0")
+    }
 }

@@ -37,7 +37,11 @@ impl HeightData {
 
     /// File line of the first sample of this height.
     pub fn first_line(&self) -> usize {
-        self.series.iter().filter_map(|s| s.lines.first().copied()).min().unwrap_or(0)
+        self.series
+            .iter()
+            .filter_map(|s| s.lines.first().copied())
+            .min()
+            .unwrap_or(0)
     }
 }
 
@@ -65,13 +69,18 @@ pub fn read_training(path: &Path, extra_inputs: &[String]) -> Result<TrainingDat
 /// Check and group a `TRAIN.csv` table. Reports, each at its line: missing
 /// columns, bad numbers, a time that does not increase within a run and
 /// height, uneven sampling, and two speeds for the same run and time.
-pub fn training_from_table(table: &Table, extra_inputs: &[String]) -> Result<TrainingData, Diagnostics> {
+pub fn training_from_table(
+    table: &Table,
+    extra_inputs: &[String],
+) -> Result<TrainingData, Diagnostics> {
     let path = table.path();
     let mut names: Vec<&str> = vec!["t_min", "z_mm", "drift_mm", "speed_rpm"];
     names.extend(extra_inputs.iter().map(String::as_str));
     let values = table.number_rows(&names)?;
     if values.is_empty() {
-        return Err(Diagnostic::at_line(path, table.header_line(), "the file has no data rows").into());
+        return Err(
+            Diagnostic::at_line(path, table.header_line(), "the file has no data rows").into(),
+        );
     }
     let run_col = table.column("run");
     let label = |r: usize| run_col.map_or(String::new(), |c| table.text(r, c).to_string());
@@ -131,9 +140,20 @@ pub fn training_from_table(table: &Table, extra_inputs: &[String]) -> Result<Tra
         return Err(diags);
     };
     for (run, z, rows) in &groups {
-        let within =
-            if run.is_empty() { format!("z = {z} mm") } else { format!("run `{run}` at z = {z} mm") };
-        check_sampling(table, rows, &times(rows), period, "min", &within, &mut diags);
+        let within = if run.is_empty() {
+            format!("z = {z} mm")
+        } else {
+            format!("run `{run}` at z = {z} mm")
+        };
+        check_sampling(
+            table,
+            rows,
+            &times(rows),
+            period,
+            "min",
+            &within,
+            &mut diags,
+        );
     }
     if !diags.is_empty() {
         return Err(diags);
@@ -144,12 +164,17 @@ pub fn training_from_table(table: &Table, extra_inputs: &[String]) -> Result<Tra
         let series = Series {
             run,
             drift: rows.iter().map(|&r| values[r][2]).collect(),
-            inputs: (3..names.len()).map(|k| rows.iter().map(|&r| values[r][k]).collect()).collect(),
+            inputs: (3..names.len())
+                .map(|k| rows.iter().map(|&r| values[r][k]).collect())
+                .collect(),
             lines: rows.iter().map(|&r| table.line(r)).collect(),
         };
         match heights.iter_mut().find(|h| h.z_mm == z) {
             Some(h) => h.series.push(series),
-            None => heights.push(HeightData { z_mm: z, series: vec![series] }),
+            None => heights.push(HeightData {
+                z_mm: z,
+                series: vec![series],
+            }),
         }
     }
     heights.sort_by(|a, b| a.z_mm.total_cmp(&b.z_mm));
@@ -167,7 +192,10 @@ mod tests {
     use super::*;
 
     fn parse(text: &str) -> Result<TrainingData, Diagnostics> {
-        training_from_table(&Table::from_reader(Path::new("TRAIN.csv"), text.as_bytes()).unwrap(), &[])
+        training_from_table(
+            &Table::from_reader(Path::new("TRAIN.csv"), text.as_bytes()).unwrap(),
+            &[],
+        )
     }
 
     #[test]
@@ -192,17 +220,27 @@ mod tests {
 
     #[test]
     fn bad_files_name_the_line() {
-        let not_increasing = "t_min,speed_rpm,z_mm,drift_mm\n0,5,-50,0\n10,5,-50,1\n10,5,-50,2\n20,5,-50,2\n";
+        let not_increasing =
+            "t_min,speed_rpm,z_mm,drift_mm\n0,5,-50,0\n10,5,-50,1\n10,5,-50,2\n20,5,-50,2\n";
         let e = parse(not_increasing).unwrap_err();
-        assert!(e.0.iter().any(|d| d.line == 4 && d.message.contains("does not increase")), "{e}");
+        assert!(
+            e.0.iter()
+                .any(|d| d.line == 4 && d.message.contains("does not increase")),
+            "{e}"
+        );
         let uneven = "t_min,speed_rpm,z_mm,drift_mm\n0,5,-50,0\n10,5,-50,1\n20,5,-50,2\n35,5,-50,2\n45,5,-50,2\n";
         let e = parse(uneven).unwrap_err();
         assert_eq!(e.0.len(), 1, "{e}");
         assert!(e.0[0].line == 5 && e.0[0].message.contains("uneven"), "{e}");
         assert!(e.to_string().starts_with("TRAIN.csv:5:"), "{e}");
-        let two_speeds = "t_min,speed_rpm,z_mm,drift_mm\n0,5,-50,0\n0,6,-150,0\n10,5,-50,1\n10,5,-150,1\n";
+        let two_speeds =
+            "t_min,speed_rpm,z_mm,drift_mm\n0,5,-50,0\n0,6,-150,0\n10,5,-50,1\n10,5,-150,1\n";
         let e = parse(two_speeds).unwrap_err();
-        assert!(e.0.iter().any(|d| d.line == 3 && d.message.contains("speed_rpm")), "{e}");
+        assert!(
+            e.0.iter()
+                .any(|d| d.line == 3 && d.message.contains("speed_rpm")),
+            "{e}"
+        );
         let bad_number = "t_min,speed_rpm,z_mm,drift_mm\n0,5,-50,x\n";
         assert_eq!(parse(bad_number).unwrap_err().0[0].column, Some(4));
         let missing = "t_min,speed_rpm,drift_mm\n0,5,0\n";

@@ -37,11 +37,21 @@ use crate::sysid::toml_read::{Reader, parse};
 use crate::sysid::toml_read::fmt_f64_float as float;
 
 fn array(values: &[f64]) -> String {
-    format!("[{}]", values.iter().map(|&v| float(v)).collect::<Vec<_>>().join(", "))
+    format!(
+        "[{}]",
+        values
+            .iter()
+            .map(|&v| float(v))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
 }
 
 fn arrays(rows: &[Vec<f64>]) -> String {
-    format!("[{}]", rows.iter().map(|r| array(r)).collect::<Vec<_>>().join(", "))
+    format!(
+        "[{}]",
+        rows.iter().map(|r| array(r)).collect::<Vec<_>>().join(", ")
+    )
 }
 
 impl ThermalModel {
@@ -54,7 +64,11 @@ impl ThermalModel {
         );
         s.push_str(&format!("period_min = {}\n", float(self.period_min())));
         for c in self.inputs() {
-            s.push_str(&format!("\n[[inputs]]\nname = {}\nscale = {}\n", toml_string(&c.name), float(c.scale)));
+            s.push_str(&format!(
+                "\n[[inputs]]\nname = {}\nscale = {}\n",
+                toml_string(&c.name),
+                float(c.scale)
+            ));
         }
         for h in self.heights() {
             let m = &h.model;
@@ -64,7 +78,10 @@ impl ThermalModel {
                 float(h.z_mm),
                 array(m.a()),
                 arrays(&(0..n).map(|i| m.b(i).to_vec()).collect::<Vec<_>>()),
-                (0..n).map(|i| m.nk(i).to_string()).collect::<Vec<_>>().join(", ")
+                (0..n)
+                    .map(|i| m.nk(i).to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ));
             if let Some(st) = &h.stats {
                 s.push_str(&format!(
@@ -108,8 +125,14 @@ pub fn model_from_toml_str(path: &Path, text: &str) -> Result<ThermalModel, Diag
     let doc = parse(path, text)?;
     let root = doc.as_table();
     let mut r = Reader::new(path, text);
-    r.check_keys(root, &["period_min", "inputs", "heights"], "the thermal model");
-    let period = r.required(root, "period_min", "the thermal model", None).and_then(|i| r.number(i, "period_min"));
+    r.check_keys(
+        root,
+        &["period_min", "inputs", "heights"],
+        "the thermal model",
+    );
+    let period = r
+        .required(root, "period_min", "the thermal model", None)
+        .and_then(|i| r.number(i, "period_min"));
     if let Some(p) = period.filter(|p| *p <= 0.0) {
         let span = root.get("period_min").and_then(Item::span);
         r.error(span, format!("`period_min` must be positive, not {p}"));
@@ -117,16 +140,26 @@ pub fn model_from_toml_str(path: &Path, text: &str) -> Result<ThermalModel, Diag
 
     let mut inputs = Vec::new();
     match root.get("inputs").map(|i| (i, i.as_array_of_tables())) {
-        None => r.error(None, "the thermal model lacks `[[inputs]]` (at least the spindle speed)"),
+        None => r.error(
+            None,
+            "the thermal model lacks `[[inputs]]` (at least the spindle speed)",
+        ),
         Some((i, None)) => r.error(i.span(), "`inputs` must be an array of tables `[[inputs]]`"),
         Some((_, Some(arr))) => {
             for t in arr.iter() {
                 let at = t.span();
                 r.check_keys(t, &["name", "scale"], "an `[[inputs]]` table");
-                let name = r.required(t, "name", "an `[[inputs]]` table", at.clone()).and_then(|i| r.string(i, "name"));
-                let scale = r.required(t, "scale", "an `[[inputs]]` table", at.clone()).and_then(|i| r.number(i, "scale"));
+                let name = r
+                    .required(t, "name", "an `[[inputs]]` table", at.clone())
+                    .and_then(|i| r.string(i, "name"));
+                let scale = r
+                    .required(t, "scale", "an `[[inputs]]` table", at.clone())
+                    .and_then(|i| r.number(i, "scale"));
                 if let Some(s) = scale.filter(|s| *s <= 0.0) {
-                    r.error(t.get("scale").and_then(Item::span), format!("`scale` must be positive, not {s}"));
+                    r.error(
+                        t.get("scale").and_then(Item::span),
+                        format!("`scale` must be positive, not {s}"),
+                    );
                 } else if let (Some(name), Some(scale)) = (name, scale) {
                     inputs.push(InputChannel { name, scale });
                 }
@@ -138,7 +171,10 @@ pub fn model_from_toml_str(path: &Path, text: &str) -> Result<ThermalModel, Diag
     let mut spans: Vec<Option<Range<usize>>> = Vec::new();
     match root.get("heights").map(|i| (i, i.as_array_of_tables())) {
         None => r.error(None, "the thermal model lacks `[[heights]]`"),
-        Some((i, None)) => r.error(i.span(), "`heights` must be an array of tables `[[heights]]`"),
+        Some((i, None)) => r.error(
+            i.span(),
+            "`heights` must be an array of tables `[[heights]]`",
+        ),
         Some((_, Some(arr))) => {
             for t in arr.iter() {
                 if let Some(h) = height(&mut r, t, t.span(), inputs.len()) {
@@ -150,8 +186,14 @@ pub fn model_from_toml_str(path: &Path, text: &str) -> Result<ThermalModel, Diag
     }
     // Duplicate heights, at the line of the second.
     for i in 0..heights.len() {
-        if heights[..i].iter().any(|h: &HeightModel| h.z_mm == heights[i].z_mm) {
-            r.error(spans[i].clone(), format!("the height z = {} mm appears twice", heights[i].z_mm));
+        if heights[..i]
+            .iter()
+            .any(|h: &HeightModel| h.z_mm == heights[i].z_mm)
+        {
+            r.error(
+                spans[i].clone(),
+                format!("the height z = {} mm appears twice", heights[i].z_mm),
+            );
         }
     }
     let diags = r.diags;
@@ -161,15 +203,27 @@ pub fn model_from_toml_str(path: &Path, text: &str) -> Result<ThermalModel, Diag
     let Some(period) = period else {
         return Err(Diagnostic::whole(path, "`period_min` is missing").into());
     };
-    ThermalModel::new(period, inputs, heights).map_err(|e| Diagnostic::whole(path, e.to_string()).into())
+    ThermalModel::new(period, inputs, heights)
+        .map_err(|e| Diagnostic::whole(path, e.to_string()).into())
 }
 
-fn height(r: &mut Reader<'_>, t: &dyn TableLike, at: Option<Range<usize>>, n_inputs: usize) -> Option<HeightModel> {
+fn height(
+    r: &mut Reader<'_>,
+    t: &dyn TableLike,
+    at: Option<Range<usize>>,
+    n_inputs: usize,
+) -> Option<HeightModel> {
     let what = "a `[[heights]]` table";
     r.check_keys(t, &["z_mm", "a", "b", "nk", "fit"], what);
-    let z = r.required(t, "z_mm", what, at.clone()).and_then(|i| r.number(i, "z_mm"));
-    let a = r.required(t, "a", what, at.clone()).and_then(|i| r.numbers(i, "a"));
-    let b = r.required(t, "b", what, at.clone()).and_then(|i| r.number_rows(i, "b"));
+    let z = r
+        .required(t, "z_mm", what, at.clone())
+        .and_then(|i| r.number(i, "z_mm"));
+    let a = r
+        .required(t, "a", what, at.clone())
+        .and_then(|i| r.numbers(i, "a"));
+    let b = r
+        .required(t, "b", what, at.clone())
+        .and_then(|i| r.number_rows(i, "b"));
     let nk_item = r.required(t, "nk", what, at.clone());
     let nk: Option<Vec<usize>> = nk_item.and_then(|i| r.numbers(i, "nk")).and_then(|v| {
         let ok = v.iter().all(|x| *x >= 1.0 && x.fract() == 0.0);
@@ -193,7 +247,10 @@ fn height(r: &mut Reader<'_>, t: &dyn TableLike, at: Option<Range<usize>>, n_inp
     };
     let (z, a, b, nk) = (z?, a?, b?, nk?);
     if a.first() != Some(&1.0) {
-        r.error(t.get("a").and_then(Item::span), "`a` must start with a_0 = 1");
+        r.error(
+            t.get("a").and_then(Item::span),
+            "`a` must start with a_0 = 1",
+        );
         return None;
     }
     if b.len() != n_inputs || nk.len() != n_inputs || b.iter().any(Vec::is_empty) {
@@ -209,10 +266,18 @@ fn height(r: &mut Reader<'_>, t: &dyn TableLike, at: Option<Range<usize>>, n_inp
         return None;
     }
     let model = Arx::new(a, b.into_iter().zip(nk).collect()).ok()?;
-    Some(HeightModel { z_mm: z, model, stats })
+    Some(HeightModel {
+        z_mm: z,
+        model,
+        stats,
+    })
 }
 
-fn fit_stats(r: &mut Reader<'_>, f: &dyn TableLike, at: Option<Range<usize>>) -> Option<HeightStats> {
+fn fit_stats(
+    r: &mut Reader<'_>,
+    f: &dyn TableLike,
+    at: Option<Range<usize>>,
+) -> Option<HeightStats> {
     let what = "a `[heights.fit]` table";
     let keys = [
         "samples",
@@ -226,16 +291,27 @@ fn fit_stats(r: &mut Reader<'_>, f: &dyn TableLike, at: Option<Range<usize>>) ->
         "b_std",
     ];
     r.check_keys(f, &keys, what);
-    let num = |r: &mut Reader<'_>, k: &str| r.required(f, k, what, at.clone()).and_then(|i| r.number(i, k));
+    let num = |r: &mut Reader<'_>, k: &str| {
+        r.required(f, k, what, at.clone())
+            .and_then(|i| r.number(i, k))
+    };
     let fpe = num(r, "fpe");
     let aic = num(r, "aic");
     let one = num(r, "one_step_rms_mm");
     let sim = num(r, "simulation_rms_mm");
     let rad = num(r, "spectral_radius");
-    let samples = r.required(f, "samples", what, at.clone()).and_then(|i| r.count(i, "samples"));
-    let params = r.required(f, "params", what, at.clone()).and_then(|i| r.count(i, "params"));
-    let a_std = r.required(f, "a_std", what, at.clone()).and_then(|i| r.numbers(i, "a_std"));
-    let b_std = r.required(f, "b_std", what, at.clone()).and_then(|i| r.number_rows(i, "b_std"));
+    let samples = r
+        .required(f, "samples", what, at.clone())
+        .and_then(|i| r.count(i, "samples"));
+    let params = r
+        .required(f, "params", what, at.clone())
+        .and_then(|i| r.count(i, "params"));
+    let a_std = r
+        .required(f, "a_std", what, at.clone())
+        .and_then(|i| r.numbers(i, "a_std"));
+    let b_std = r
+        .required(f, "b_std", what, at.clone())
+        .and_then(|i| r.number_rows(i, "b_std"));
     Some(HeightStats {
         samples: samples?,
         params: params?,
@@ -267,17 +343,31 @@ mod tests {
         };
         let h1 = HeightModel {
             z_mm: -50.0,
-            model: Arx::new(vec![1.0, -1.6, 0.64], vec![(vec![0.1, -0.05], 1), (vec![0.3], 2)]).unwrap(),
+            model: Arx::new(
+                vec![1.0, -1.6, 0.64],
+                vec![(vec![0.1, -0.05], 1), (vec![0.3], 2)],
+            )
+            .unwrap(),
             stats: Some(stats),
         };
         let h2 = HeightModel {
             z_mm: -150.0,
-            model: Arx::new(vec![1.0, -0.9], vec![(vec![0.1], 1), (vec![0.2, 0.1, 0.05], 1)]).unwrap(),
+            model: Arx::new(
+                vec![1.0, -0.9],
+                vec![(vec![0.1], 1), (vec![0.2, 0.1, 0.05], 1)],
+            )
+            .unwrap(),
             stats: None,
         };
         let inputs = vec![
-            InputChannel { name: "speed_rpm".into(), scale: 8000.0 },
-            InputChannel { name: "temp \"ambient\"".into(), scale: 0.1 + 0.2 },
+            InputChannel {
+                name: "speed_rpm".into(),
+                scale: 8000.0,
+            },
+            InputChannel {
+                name: "temp \"ambient\"".into(),
+                scale: 0.1 + 0.2,
+            },
         ];
         ThermalModel::new(10.0, inputs, vec![h1, h2]).unwrap()
     }
@@ -298,25 +388,51 @@ mod tests {
         let text = good.replacen("period_min = 10.0\n", "period_min = 10.0\ncolour = 3\n", 1);
         let line = text.lines().position(|l| l.starts_with("colour")).unwrap() + 1;
         let e = model_from_toml_str(p, &text).unwrap_err();
-        assert!(e.0.iter().any(|d| d.line == line && d.message.contains("`colour`")), "{e}");
+        assert!(
+            e.0.iter()
+                .any(|d| d.line == line && d.message.contains("`colour`")),
+            "{e}"
+        );
         // a_0 ≠ 1 and nk = 0.
-        let text = good.replacen("a = [1.0, -0.9]", "a = [2.0, -0.9]", 1).replacen("nk = [1, 2]", "nk = [0, 2]", 1);
+        let text = good
+            .replacen("a = [1.0, -0.9]", "a = [2.0, -0.9]", 1)
+            .replacen("nk = [1, 2]", "nk = [0, 2]", 1);
         let e = model_from_toml_str(p, &text).unwrap_err();
-        let a_line = text.lines().position(|l| l.starts_with("a = [2.0")).unwrap() + 1;
+        let a_line = text
+            .lines()
+            .position(|l| l.starts_with("a = [2.0"))
+            .unwrap()
+            + 1;
         let nk_line = text.lines().position(|l| l.starts_with("nk = [0")).unwrap() + 1;
-        assert!(e.0.iter().any(|d| d.line == a_line && d.message.contains("a_0 = 1")), "{e}");
-        assert!(e.0.iter().any(|d| d.line == nk_line && d.message.contains("nk")), "{e}");
+        assert!(
+            e.0.iter()
+                .any(|d| d.line == a_line && d.message.contains("a_0 = 1")),
+            "{e}"
+        );
+        assert!(
+            e.0.iter()
+                .any(|d| d.line == nk_line && d.message.contains("nk")),
+            "{e}"
+        );
         // Duplicate height.
         let text = good.replacen("z_mm = -150.0", "z_mm = -50.0", 1);
         let e = model_from_toml_str(p, &text).unwrap_err();
-        assert!(e.0.iter().any(|d| d.message.contains("twice") && d.line > 0), "{e}");
+        assert!(
+            e.0.iter()
+                .any(|d| d.message.contains("twice") && d.line > 0),
+            "{e}"
+        );
         // Syntax error.
         let e = model_from_toml_str(p, "period_min = 10.0\n[[heights]\n").unwrap_err();
         assert_eq!(e.0[0].line, 2, "{e}");
         // Missing key, at the table header.
         let text = good.replacen("z_mm = -150.0\n", "", 1);
         let e = model_from_toml_str(p, &text).unwrap_err();
-        assert!(e.0.iter().any(|d| d.message.contains("`z_mm`") && d.line > 0), "{e}");
+        assert!(
+            e.0.iter()
+                .any(|d| d.message.contains("`z_mm`") && d.line > 0),
+            "{e}"
+        );
     }
 
     proptest::proptest! {

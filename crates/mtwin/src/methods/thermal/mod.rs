@@ -31,8 +31,8 @@ pub use model::{
     Drift, HeightModel, HeightRange, HeightStats, InputChannel, ThermalModel, ThermalPredictor,
 };
 pub use predict::{
-    HeightReport, Prediction, Programme, SimulatedData, ThermalFit, ThermalFitOptions, fit, fit_csv,
-    predict, read_programme, simulate,
+    HeightReport, Prediction, Programme, SimulatedData, ThermalFit, ThermalFitOptions, fit,
+    fit_csv, predict, read_programme, simulate,
 };
 pub use synthetic::TruthMachine;
 

@@ -87,17 +87,26 @@ pub struct ThermalModel {
 impl ThermalModel {
     /// A model; checks the period, the scales, distinct heights, that every
     /// height model takes every input, and that every input delay is ≥ 1.
-    pub fn new(period_min: f64, inputs: Vec<InputChannel>, mut heights: Vec<HeightModel>) -> Result<Self, ThermalError> {
+    pub fn new(
+        period_min: f64,
+        inputs: Vec<InputChannel>,
+        mut heights: Vec<HeightModel>,
+    ) -> Result<Self, ThermalError> {
         let bad = |m: String| Err(ThermalError::Model(m));
         if !(period_min.is_finite() && period_min > 0.0) {
-            return bad(format!("the sample period must be positive, not {period_min} min"));
+            return bad(format!(
+                "the sample period must be positive, not {period_min} min"
+            ));
         }
         if inputs.is_empty() {
             return bad("a thermal model needs at least one input (the spindle speed)".into());
         }
         for c in &inputs {
             if !(c.scale.is_finite() && c.scale > 0.0) {
-                return bad(format!("the scale of input `{}` must be positive, not {}", c.name, c.scale));
+                return bad(format!(
+                    "the scale of input `{}` must be positive, not {}",
+                    c.name, c.scale
+                ));
             }
         }
         if heights.is_empty() {
@@ -127,7 +136,11 @@ impl ThermalModel {
         if let Some(w) = heights.windows(2).find(|w| w[0].z_mm == w[1].z_mm) {
             return bad(format!("the height z = {} mm appears twice", w[0].z_mm));
         }
-        Ok(ThermalModel { period_min, inputs, heights })
+        Ok(ThermalModel {
+            period_min,
+            inputs,
+            heights,
+        })
     }
 
     /// Sample period, min.
@@ -151,10 +164,16 @@ impl ThermalModel {
         let zs = &self.heights;
         let last = zs.len() - 1;
         if z_mm < zs[0].z_mm {
-            return Drift { mm: values[0], range: HeightRange::Below };
+            return Drift {
+                mm: values[0],
+                range: HeightRange::Below,
+            };
         }
         if z_mm > zs[last].z_mm {
-            return Drift { mm: values[last], range: HeightRange::Above };
+            return Drift {
+                mm: values[last],
+                range: HeightRange::Above,
+            };
         }
         // First index with z > z_mm, in 1..=last+1.
         let i = zs.partition_point(|h| h.z_mm <= z_mm);
@@ -165,7 +184,10 @@ impl ThermalModel {
             let w = (z_mm - z0) / (z1 - z0);
             values[i - 1] + w * (values[i] - values[i - 1])
         };
-        Drift { mm, range: HeightRange::Inside }
+        Drift {
+            mm,
+            range: HeightRange::Inside,
+        }
     }
 
     /// A streaming predictor from cold at `t = 0`.
@@ -173,9 +195,19 @@ impl ThermalModel {
         let steppers = self
             .heights
             .iter()
-            .map(|h| h.model.advanced().expect("thermal models are strictly proper").stepper())
+            .map(|h| {
+                h.model
+                    .advanced()
+                    .expect("thermal models are strictly proper")
+                    .stepper()
+            })
             .collect();
-        ThermalPredictor { model: self, steppers, drift: vec![0.0; self.heights.len()], sample: 0 }
+        ThermalPredictor {
+            model: self,
+            steppers,
+            drift: vec![0.0; self.heights.len()],
+            sample: 0,
+        }
     }
 
     /// Drift at every measured height at the samples `t = kT`,
@@ -219,7 +251,10 @@ impl ThermalModel {
         }
         p.advance(input(k));
         let next = p.drift(z_mm);
-        Drift { mm: here.mm + frac * (next.mm - here.mm), range: here.range }
+        Drift {
+            mm: here.mm + frac * (next.mm - here.mm),
+            range: here.range,
+        }
     }
 }
 
@@ -263,8 +298,16 @@ impl ThermalPredictor<'_> {
     /// # Panics
     /// If `inputs.len()` differs from the model's number of inputs.
     pub fn advance(&mut self, inputs: &[f64]) {
-        assert_eq!(inputs.len(), self.model.inputs.len(), "one value per model input is needed");
-        let scaled: Vec<f64> = inputs.iter().zip(&self.model.inputs).map(|(v, c)| v / c.scale).collect();
+        assert_eq!(
+            inputs.len(),
+            self.model.inputs.len(),
+            "one value per model input is needed"
+        );
+        let scaled: Vec<f64> = inputs
+            .iter()
+            .zip(&self.model.inputs)
+            .map(|(v, c)| v / c.scale)
+            .collect();
         for (d, s) in self.drift.iter_mut().zip(&mut self.steppers) {
             *d = s.push(&scaled);
         }
@@ -278,12 +321,24 @@ mod tests {
 
     fn first_order(z: f64, gain: f64) -> HeightModel {
         // e(k) = 0.8 e(k−1) + gain·0.2·n(k−1)/scale: static gain `gain` per unit scaled speed.
-        HeightModel { z_mm: z, model: Arx::new(vec![1.0, -0.8], vec![(vec![0.2 * gain], 1)]).unwrap(), stats: None }
+        HeightModel {
+            z_mm: z,
+            model: Arx::new(vec![1.0, -0.8], vec![(vec![0.2 * gain], 1)]).unwrap(),
+            stats: None,
+        }
     }
 
     fn model() -> ThermalModel {
-        let inputs = vec![InputChannel { name: "speed_rpm".into(), scale: 1000.0 }];
-        ThermalModel::new(10.0, inputs, vec![first_order(-50.0, 0.01), first_order(-150.0, 0.03)]).unwrap()
+        let inputs = vec![InputChannel {
+            name: "speed_rpm".into(),
+            scale: 1000.0,
+        }];
+        ThermalModel::new(
+            10.0,
+            inputs,
+            vec![first_order(-50.0, 0.01), first_order(-150.0, 0.03)],
+        )
+        .unwrap()
     }
 
     #[test]
@@ -291,11 +346,35 @@ mod tests {
         let m = model();
         let v = [1.0, 3.0]; // at z = -150 and -50 after sorting: heights sorted ascending
         assert_eq!(m.heights()[0].z_mm, -150.0);
-        assert_eq!(m.interpolate(&v, -100.0), Drift { mm: 2.0, range: HeightRange::Inside });
+        assert_eq!(
+            m.interpolate(&v, -100.0),
+            Drift {
+                mm: 2.0,
+                range: HeightRange::Inside
+            }
+        );
         assert_eq!(m.interpolate(&v, -150.0).mm, 1.0);
-        assert_eq!(m.interpolate(&v, -50.0), Drift { mm: 3.0, range: HeightRange::Inside });
-        assert_eq!(m.interpolate(&v, -400.0), Drift { mm: 1.0, range: HeightRange::Below });
-        assert_eq!(m.interpolate(&v, 10.0), Drift { mm: 3.0, range: HeightRange::Above });
+        assert_eq!(
+            m.interpolate(&v, -50.0),
+            Drift {
+                mm: 3.0,
+                range: HeightRange::Inside
+            }
+        );
+        assert_eq!(
+            m.interpolate(&v, -400.0),
+            Drift {
+                mm: 1.0,
+                range: HeightRange::Below
+            }
+        );
+        assert_eq!(
+            m.interpolate(&v, 10.0),
+            Drift {
+                mm: 3.0,
+                range: HeightRange::Above
+            }
+        );
     }
 
     #[test]
@@ -325,10 +404,24 @@ mod tests {
 
     #[test]
     fn invariants() {
-        let inputs = vec![InputChannel { name: "speed_rpm".into(), scale: 1000.0 }];
-        let direct = HeightModel { z_mm: 0.0, model: Arx::new(vec![1.0], vec![(vec![1.0], 0)]).unwrap(), stats: None };
+        let inputs = vec![InputChannel {
+            name: "speed_rpm".into(),
+            scale: 1000.0,
+        }];
+        let direct = HeightModel {
+            z_mm: 0.0,
+            model: Arx::new(vec![1.0], vec![(vec![1.0], 0)]).unwrap(),
+            stats: None,
+        };
         assert!(ThermalModel::new(10.0, inputs.clone(), vec![direct]).is_err());
-        assert!(ThermalModel::new(10.0, inputs.clone(), vec![first_order(1.0, 1.0), first_order(1.0, 2.0)]).is_err());
+        assert!(
+            ThermalModel::new(
+                10.0,
+                inputs.clone(),
+                vec![first_order(1.0, 1.0), first_order(1.0, 2.0)]
+            )
+            .is_err()
+        );
         assert!(ThermalModel::new(0.0, inputs.clone(), vec![first_order(1.0, 1.0)]).is_err());
         assert!(ThermalModel::new(10.0, inputs, vec![]).is_err());
     }

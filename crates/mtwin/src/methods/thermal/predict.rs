@@ -8,9 +8,9 @@ use rand::{SeedableRng, rngs::StdRng};
 use rand_distr::{Distribution, Normal};
 use serde_json::json;
 
+use super::ThermalError;
 use super::data::{TrainingData, read_training};
 use super::model::{HeightModel, HeightStats, InputChannel, ThermalModel};
-use super::ThermalError;
 use crate::io::{Diagnostic, Diagnostics, Table, write_atomic_with, write_csv_row};
 use crate::sysid::{Criterion, OrderGrid, OrderSelection, Run, Start, select_orders};
 
@@ -63,7 +63,9 @@ pub fn read_programme(path: &Path, model: &ThermalModel) -> Result<Programme, Di
     names.extend(model.inputs().iter().map(|c| c.name.as_str()));
     let rows = table.number_rows(&names)?;
     if rows.is_empty() {
-        return Err(Diagnostic::at_line(path, table.header_line(), "the file has no data rows").into());
+        return Err(
+            Diagnostic::at_line(path, table.header_line(), "the file has no data rows").into(),
+        );
     }
     let period = model.period_min();
     let mut diags = Diagnostics::default();
@@ -119,7 +121,10 @@ pub struct Prediction {
 impl Prediction {
     /// Plain sentences for the heights outside the measured range.
     pub fn warnings(&self, model: &ThermalModel) -> Vec<String> {
-        let (lo, hi) = (model.heights()[0].z_mm, model.heights()[model.heights().len() - 1].z_mm);
+        let (lo, hi) = (
+            model.heights()[0].z_mm,
+            model.heights()[model.heights().len() - 1].z_mm,
+        );
         self.extrapolated
             .iter()
             .map(|z| {
@@ -148,14 +153,22 @@ impl Prediction {
 pub fn predict(model: &ThermalModel, programme: &Programme, heights: &[f64]) -> Prediction {
     let history = model.drift_history(programme);
     let mut rows = Vec::with_capacity(heights.len() * programme.len());
-    for (k, values) in history.iter().enumerate().take(programme.len()).skip(programme.first_given()) {
+    for (k, values) in history
+        .iter()
+        .enumerate()
+        .take(programme.len())
+        .skip(programme.first_given())
+    {
         let t = k as f64 * model.period_min();
         for &z in heights {
             rows.push([t, z, model.interpolate(values, z).mm]);
         }
     }
-    let extrapolated =
-        heights.iter().copied().filter(|&z| model.interpolate(&history[0], z).is_extrapolated()).collect();
+    let extrapolated = heights
+        .iter()
+        .copied()
+        .filter(|&z| model.interpolate(&history[0], z).is_extrapolated())
+        .collect();
     Prediction { rows, extrapolated }
 }
 
@@ -174,7 +187,12 @@ pub struct ThermalFitOptions {
 
 impl Default for ThermalFitOptions {
     fn default() -> Self {
-        ThermalFitOptions { max_order: 4, delay: 1, criterion: Criterion::Fpe, extra_inputs: Vec::new() }
+        ThermalFitOptions {
+            max_order: 4,
+            delay: 1,
+            criterion: Criterion::Fpe,
+            extra_inputs: Vec::new(),
+        }
     }
 }
 
@@ -291,24 +309,35 @@ pub fn fit(data: &TrainingData, options: &ThermalFitOptions) -> Result<ThermalFi
                 .iter()
                 .flat_map(|h| h.series.iter().flat_map(move |s| s.inputs[i].iter()))
                 .fold(0.0f64, |m, v| m.max(v.abs()));
-            InputChannel { name: name.clone(), scale: if max > 0.0 { max } else { 1.0 } }
+            InputChannel {
+                name: name.clone(),
+                scale: if max > 0.0 { max } else { 1.0 },
+            }
         })
         .collect();
     let mut reports = Vec::new();
     let mut models = Vec::new();
     let mut warnings = Vec::new();
     for h in &data.heights {
-        let fail = |source| ThermalError::Fit { z_mm: h.z_mm, source };
+        let fail = |source| ThermalError::Fit {
+            z_mm: h.z_mm,
+            source,
+        };
         let runs: Vec<Run> = h
             .series
             .iter()
             .map(|s| {
-                let scaled = s.inputs.iter().zip(&inputs).map(|(u, c)| u.iter().map(|v| v / c.scale).collect());
+                let scaled = s
+                    .inputs
+                    .iter()
+                    .zip(&inputs)
+                    .map(|(u, c)| u.iter().map(|v| v / c.scale).collect());
                 Run::new(s.drift.clone(), scaled.collect())
             })
             .collect::<Result<_, _>>()
             .map_err(fail)?;
-        let selection = select_orders(&runs, &grid, options.criterion, Start::AtRest).map_err(fail)?;
+        let selection =
+            select_orders(&runs, &grid, options.criterion, Start::AtRest).map_err(fail)?;
         let fit = &selection.fit;
         if let Some(w) = fit.model.stability().warning() {
             warnings.push(format!("z = {} mm: {w}", h.z_mm));
@@ -324,11 +353,23 @@ pub fn fit(data: &TrainingData, options: &ThermalFitOptions) -> Result<ThermalFi
             a_std: fit.std_a(),
             b_std: (0..n_inputs).map(|i| fit.std_b(i)).collect(),
         };
-        models.push(HeightModel { z_mm: h.z_mm, model: fit.model.clone(), stats: Some(stats) });
-        reports.push(HeightReport { z_mm: h.z_mm, selection });
+        models.push(HeightModel {
+            z_mm: h.z_mm,
+            model: fit.model.clone(),
+            stats: Some(stats),
+        });
+        reports.push(HeightReport {
+            z_mm: h.z_mm,
+            selection,
+        });
     }
     let model = ThermalModel::new(data.period_min, inputs, models)?;
-    Ok(ThermalFit { model, heights: reports, runs: data.runs.len(), warnings })
+    Ok(ThermalFit {
+        model,
+        heights: reports,
+        runs: data.runs.len(),
+        warnings,
+    })
 }
 
 /// `mtwin thermal fit --data TRAIN.csv`: read, check and fit.
@@ -374,7 +415,11 @@ pub fn simulate(
     noise_mm: f64,
     seed: u64,
 ) -> Result<SimulatedData, ThermalError> {
-    let bad = || ThermalError::Model(format!("the noise level must be finite and >= 0, not {noise_mm} mm"));
+    let bad = || {
+        ThermalError::Model(format!(
+            "the noise level must be finite and >= 0, not {noise_mm} mm"
+        ))
+    };
     if !(noise_mm.is_finite() && noise_mm >= 0.0) {
         return Err(bad());
     }
@@ -387,10 +432,18 @@ pub fn simulate(
         .iter()
         .map(|&[t, z, e]| {
             let k = (t / period).round() as usize;
-            (t, programme.sample(k).to_vec(), z, e + noise.sample(&mut rng))
+            (
+                t,
+                programme.sample(k).to_vec(),
+                z,
+                e + noise.sample(&mut rng),
+            )
         })
         .collect();
-    Ok(SimulatedData { input_names: model.inputs().iter().map(|c| c.name.clone()).collect(), rows })
+    Ok(SimulatedData {
+        input_names: model.inputs().iter().map(|c| c.name.clone()).collect(),
+        rows,
+    })
 }
 
 #[cfg(test)]
@@ -404,7 +457,10 @@ mod tests {
             model: Arx::new(vec![1.0, -0.8], vec![(vec![0.2 * g], 1)]).unwrap(),
             stats: None,
         };
-        let inputs = vec![InputChannel { name: "speed_rpm".into(), scale: 1000.0 }];
+        let inputs = vec![InputChannel {
+            name: "speed_rpm".into(),
+            scale: 1000.0,
+        }];
         ThermalModel::new(10.0, inputs, vec![h(-50.0, 0.01), h(-150.0, 0.03)]).unwrap()
     }
 
@@ -429,14 +485,28 @@ mod tests {
         let out = dir.path().join("DRIFT.csv");
         pred.write_csv(&out).unwrap();
         let text = std::fs::read_to_string(&out).unwrap();
-        assert!(text.starts_with("t_min,z_mm,drift_mm\n20,-100,0\n"), "{text}");
+        assert!(
+            text.starts_with("t_min,z_mm,drift_mm\n20,-100,0\n"),
+            "{text}"
+        );
         let back = Table::read(&out).unwrap();
-        assert_eq!(back.numbers(back.column("drift_mm").unwrap()).unwrap()[4], pred.rows[4][2]);
+        assert_eq!(
+            back.numbers(back.column("drift_mm").unwrap()).unwrap()[4],
+            pred.rows[4][2]
+        );
 
         std::fs::write(&p, "t_min,speed_rpm\n0,1000\n10,1000\n25,0\n40,0\n").unwrap();
         let e = read_programme(&p, &m).unwrap_err();
-        assert!(e.0.iter().any(|d| d.line == 4 && d.message.contains("grid")), "{e}");
-        assert!(e.0.iter().any(|d| d.line == 5 && d.message.contains("does not follow")), "{e}");
+        assert!(
+            e.0.iter()
+                .any(|d| d.line == 4 && d.message.contains("grid")),
+            "{e}"
+        );
+        assert!(
+            e.0.iter()
+                .any(|d| d.line == 5 && d.message.contains("does not follow")),
+            "{e}"
+        );
     }
 
     #[test]

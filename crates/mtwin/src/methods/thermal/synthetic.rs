@@ -78,8 +78,15 @@ impl TruthMachine {
 
     /// `TRAIN.csv` text for `runs` (label, speeds per sample) measured at
     /// `heights`, with white probing noise `noise_mm` drawn from `seed`.
-    pub fn training_csv(&self, runs: &[(&str, Vec<f64>)], heights: &[f64], noise_mm: f64, seed: u64) -> String {
-        let noise = Normal::new(0.0, noise_mm.max(0.0)).expect("a finite non-negative standard deviation");
+    pub fn training_csv(
+        &self,
+        runs: &[(&str, Vec<f64>)],
+        heights: &[f64],
+        noise_mm: f64,
+        seed: u64,
+    ) -> String {
+        let noise =
+            Normal::new(0.0, noise_mm.max(0.0)).expect("a finite non-negative standard deviation");
         let mut rng = StdRng::seed_from_u64(seed);
         let mut s = String::from("run,t_min,speed_rpm,z_mm,drift_mm\n");
         for (label, speeds) in runs {
@@ -87,7 +94,10 @@ impl TruthMachine {
             for (k, n) in speeds.iter().enumerate() {
                 for (z, d) in heights.iter().zip(&drifts) {
                     let e = d[k] + noise.sample(&mut rng);
-                    s.push_str(&format!("{label},{},{n},{z},{e}\n", k as f64 * self.period_min));
+                    s.push_str(&format!(
+                        "{label},{},{n},{z},{e}\n",
+                        k as f64 * self.period_min
+                    ));
                 }
             }
         }
@@ -112,6 +122,8 @@ mod tests {
                     + m.slow_gain_mm * m.slow_weight(-50.0) * (1.0 - (-t / 150.0).exp()));
             assert!((ek - want).abs() < 1e-15, "{ek} vs {want}");
         }
-        assert!((m.slow_weight(0.0) - 1.0).abs() < 1e-15 && (m.slow_weight(-400.0) - 0.3).abs() < 1e-15);
+        assert!(
+            (m.slow_weight(0.0) - 1.0).abs() < 1e-15 && (m.slow_weight(-400.0) - 0.3).abs() < 1e-15
+        );
     }
 }
