@@ -246,4 +246,25 @@ mod tests {
         let missing = "t_min,speed_rpm,drift_mm\n0,5,0\n";
         assert!(parse(missing).unwrap_err().to_string().contains("`z_mm`"));
     }
+
+    proptest::proptest! {
+        #[test]
+        fn never_panics(rows in proptest::collection::vec(
+            ("[ab]?", -5.0f64..50.0, 0.0f64..9000.0, proptest::sample::select(vec![-50.0, -150.0, 0.0, -0.0]), -1.0f64..1.0),
+            0..30,
+        )) {
+            let mut text = String::from("run,t_min,speed_rpm,z_mm,drift_mm\n");
+            for (run, t, n, z, e) in rows {
+                text.push_str(&format!("{run},{},{n},{z},{e}\n", (t * 0.2).round() * 5.0));
+            }
+            if let Ok(d) = parse(&text) {
+                proptest::prop_assert!(d.period_min > 0.0);
+                for h in &d.heights {
+                    for s in &h.series {
+                        proptest::prop_assert_eq!(s.drift.len(), s.lines.len());
+                    }
+                }
+            }
+        }
+    }
 }
