@@ -17,8 +17,9 @@ pub mod fit;
 pub mod gcode;
 pub mod io;
 pub mod kinematics;
+pub mod methods;
+pub mod model;
 pub mod sysid;
 
 /// Re-export of the linear-algebra crate used in the public API (vectors, matrices).
 pub use nalgebra;
-pub mod model;

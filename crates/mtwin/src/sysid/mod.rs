@@ -1,1 +1,41 @@
-//! sysid
+//! ARX system identification: linear discrete-time models of an output driven
+//! by one or several exogenous inputs, fitted by least squares.
+//!
+//! The model (05 §3, and 04 with the sign of the `a` coefficients flipped):
+//!
+//! ```text
+//! y(k) = −Σ_{i=1..na} a_i·y(k−i) + Σ_u Σ_{j=0..nb_u} b_{u,j}·u(k−j−nk_u),   a_0 = 1
+//! ```
+//!
+//! * [`Arx`]: the model, one-step prediction, free-run simulation, poles and
+//!   stability, a streaming [`ArxStepper`];
+//! * [`fit_arx`]: least squares (Householder QR, never the normal equations)
+//!   over one or several [`Run`]s, each from its own initial state, with the
+//!   coefficient standard uncertainties and the fit statistics;
+//! * [`select_orders`]: FPE and AIC over a grid of orders, with the whole
+//!   grid table;
+//! * [`Servo`]: the per-axis transfer function of 05 §3 (`[axes.servo]`),
+//!   run on deviations from the first command, with its bandwidth and
+//!   following error, and [`fit_servo`] which identifies it from a log.
+//!
+//! Units are those of the data: the module never rescales outputs; inputs
+//! and outputs keep whatever unit the caller gives them.
+
+mod arx;
+mod error;
+mod fit;
+mod order;
+pub(crate) mod sampling;
+mod servo;
+mod servo_fit;
+pub(crate) mod toml_read;
+
+pub use arx::{Arx, ArxOrders, ArxStepper, InputOrder, Stability};
+pub use error::SysidError;
+pub use fit::{ArxFit, FitStats, Run, Start, fit_arx};
+pub use order::{Criterion, GridRow, InputGrid, OrderGrid, OrderSelection, select_orders};
+pub use servo::{Servo, ServoStepper};
+pub use servo_fit::{
+    ServoFit, ServoFitError, ServoFitOptions, ServoLog, fit_servo, fit_servo_csv, read_servo_log,
+    read_servo_toml, servo_from_toml_str,
+};

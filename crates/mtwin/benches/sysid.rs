@@ -1,0 +1,110 @@
+//! ARX identification and simulation speed: a servo log fit (one structure and
+//! the whole order grid), long servo simulations, and a thermal drift fit.
+
+use std::hint::black_box;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use mtwin::methods::thermal::{Programme, ThermalFitOptions, TruthMachine, fit_csv};
+use mtwin::sysid::{
+    ArxOrders, Criterion as Ic, InputOrder, OrderGrid, Run, Servo, ServoFitOptions, ServoLog,
+    Start, fit_arx, fit_servo, select_orders,
+};
+
+/// A servo log of `n` samples: the example servo of 00 §5 driven by a swept sine.
+fn servo_log(n: usize) -> (Servo, ServoLog) {
+    let servo = Servo::new(
+        0.001,
+        vec![0.0, 0.0183, 0.0171],
+        vec![1.0, -1.8106, 0.846],
+        0,
+    )
+    .unwrap();
+    let u: Vec<f64> = (0..n)
+        .map(|k| {
+            let t = k as f64 * 0.001;
+            (2.0 * std::f64::consts::PI * (1.0 + 20.0 * t) * t).sin() + 0.3 * (k / 100 % 2) as f64
+        })
+        .collect();
+    let y: Vec<f64> = servo
+        .simulate(&u)
+        .iter()
+        .enumerate()
+        .map(|(k, v)| v + 1e-4 * ((k * 7919) % 13) as f64)
+        .collect();
+    (servo.clone(), ServoLog::new(0.001, u, y).unwrap())
+}
+
+fn benches(c: &mut Criterion) {
+    let (servo, log) = servo_log(10_000);
+    let run = Run::new(log.feedback().to_vec(), vec![log.command().to_vec()]).unwrap();
+    let orders = ArxOrders {
+        na: 2,
+        inputs: vec![InputOrder { nb: 2, nk: 0 }],
+    };
+    c.bench_function("fit_arx 10k samples, 5 params", |b| {
+        b.iter(|| {
+            fit_arx(
+                black_box(std::slice::from_ref(&run)),
+                &orders,
+                Start::From(0),
+            )
+            .unwrap()
+        })
+    });
+    let grid = OrderGrid::up_to(4, &[0]);
+    c.bench_function("select_orders 10k samples, 20 structures", |b| {
+        b.iter(|| {
+            select_orders(
+                black_box(std::slice::from_ref(&run)),
+                &grid,
+                Ic::Fpe,
+                Start::AtRest,
+            )
+            .unwrap()
+        })
+    });
+    c.bench_function("fit_servo 10k samples (default grid, 80 structures)", |b| {
+        b.iter(|| fit_servo(black_box(&log), &ServoFitOptions::default()).unwrap())
+    });
+    let long: Vec<f64> = (0..1_000_000).map(|k| (k as f64 * 1e-3).sin()).collect();
+    c.bench_function("Servo::simulate 1M samples", |b| {
+        b.iter(|| servo.simulate(black_box(&long)))
+    });
+
+    let dir = tempfile::tempdir().unwrap();
+    let train = dir.path().join("TRAIN.csv");
+    let machine = TruthMachine::demo();
+    let runs = vec![
+        ("a", vec![4000.0; 48]),
+        ("b", vec![8000.0; 48]),
+        (
+            "c",
+            [2000.0, 6000.0, 0.0, 8000.0]
+                .iter()
+                .flat_map(|&s| [s; 12])
+                .collect(),
+        ),
+    ];
+    std::fs::write(
+        &train,
+        machine.training_csv(&runs, &[-50.0, -150.0, -250.0, -350.0], 5e-4, 1),
+    )
+    .unwrap();
+    c.bench_function("thermal fit_csv 3 runs x 4 heights, order <= 4", |b| {
+        b.iter(|| fit_csv(black_box(&train), &ThermalFitOptions::default()).unwrap())
+    });
+    let model = fit_csv(&train, &ThermalFitOptions::default())
+        .unwrap()
+        .model;
+    let prog = Programme::speeds(
+        &(0..10_000)
+            .map(|k| (k % 9) as f64 * 1000.0)
+            .collect::<Vec<_>>(),
+    );
+    c.bench_function("thermal drift_history 10k samples x 4 heights", |b| {
+        b.iter(|| model.drift_history(black_box(&prog)))
+    });
+}
+
+criterion_group!(sysid, benches);
+criterion_main!(sysid);

@@ -1,0 +1,455 @@
+//! The thermal model file (TOML):
+//!
+//! ```toml
+//! period_min = 10.0              # sample period T, min
+//!
+//! [[inputs]]                     # in the order the models take them
+//! name = "speed_rpm"             # CSV column
+//! scale = 8000.0                 # the model sees value / scale
+//!
+//! [[heights]]
+//! z_mm = -50.0
+//! a = [1.0, -1.62, 0.65]         # a_0..a_na, a_0 = 1 (e(k) = −Σ a_i e(k−i) + …)
+//! b = [[0.0012, -0.0008]]        # per input b_0..b_nb (mm per unit of scaled input)
+//! nk = [1]                       # per input delay, samples, >= 1
+//!   [heights.fit]                # optional, statistics of the fit
+//!   samples = 147
+//!   params = 4
+//!   fpe = 2.6e-7                 # mm²
+//!   aic = -2200.0
+//!   one_step_rms_mm = 0.0005
+//!   simulation_rms_mm = 0.0009
+//!   spectral_radius = 0.95
+//!   a_std = [0.01, 0.01]
+//!   b_std = [[1e-5, 1e-5]]
+//! ```
+
+use std::ops::Range;
+use std::path::Path;
+
+use toml_edit::{Item, TableLike};
+
+use super::model::{HeightModel, HeightStats, InputChannel, ThermalModel};
+use crate::io::{Diagnostic, Diagnostics};
+use crate::sysid::Arx;
+use crate::sysid::toml_read::{Reader, parse};
+
+use crate::sysid::toml_read::fmt_f64_float as float;
+
+fn array(values: &[f64]) -> String {
+    format!(
+        "[{}]",
+        values
+            .iter()
+            .map(|&v| float(v))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
+}
+
+fn arrays(rows: &[Vec<f64>]) -> String {
+    format!(
+        "[{}]",
+        rows.iter().map(|r| array(r)).collect::<Vec<_>>().join(", ")
+    )
+}
+
+impl ThermalModel {
+    /// The model file text (schema in this module's docs), numbers at full precision.
+    pub fn to_toml(&self) -> String {
+        let mut s = String::from(
+            "# mtwin thermal drift model (04): one ARX model per measured height,\n\
+             # e(k) = -sum a_i e(k-i) + sum_inputs sum_j b_j u(k-j-nk), u = value / scale,\n\
+             # drift in mm (tool relative to workpiece, +Z), time in min, cold before t = 0.\n",
+        );
+        s.push_str(&format!("period_min = {}\n", float(self.period_min())));
+        for c in self.inputs() {
+            s.push_str(&format!(
+                "\n[[inputs]]\nname = {}\nscale = {}\n",
+                toml_string(&c.name),
+                float(c.scale)
+            ));
+        }
+        for h in self.heights() {
+            let m = &h.model;
+            let n = m.n_inputs();
+            s.push_str(&format!(
+                "\n[[heights]]\nz_mm = {}\na = {}\nb = {}\nnk = [{}]\n",
+                float(h.z_mm),
+                array(m.a()),
+                arrays(&(0..n).map(|i| m.b(i).to_vec()).collect::<Vec<_>>()),
+                (0..n)
+                    .map(|i| m.nk(i).to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+            if let Some(st) = &h.stats {
+                s.push_str(&format!(
+                    "  [heights.fit]\n  samples = {}\n  params = {}\n  fpe = {}\n  aic = {}\n  \
+                     one_step_rms_mm = {}\n  simulation_rms_mm = {}\n  spectral_radius = {}\n  \
+                     a_std = {}\n  b_std = {}\n",
+                    st.samples,
+                    st.params,
+                    float(st.fpe),
+                    float(st.aic),
+                    float(st.one_step_rms_mm),
+                    float(st.simulation_rms_mm),
+                    float(st.spectral_radius),
+                    array(&st.a_std),
+                    arrays(&st.b_std)
+                ));
+            }
+        }
+        s
+    }
+
+    /// Write the model file atomically.
+    pub fn write(&self, path: &Path) -> std::io::Result<()> {
+        crate::io::write_atomic(path, self.to_toml().as_bytes())
+    }
+}
+
+fn toml_string(s: &str) -> String {
+    toml_edit::Value::from(s).to_string().trim().to_string()
+}
+
+/// Read a thermal model file.
+pub fn read_model(path: &Path) -> Result<ThermalModel, Diagnostics> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Diagnostic::whole(path, format!("cannot read the file: {e}")))?;
+    model_from_toml_str(path, &text)
+}
+
+/// Parse a thermal model file; every problem is reported with its line.
+pub fn model_from_toml_str(path: &Path, text: &str) -> Result<ThermalModel, Diagnostics> {
+    let doc = parse(path, text)?;
+    let root = doc.as_table();
+    let mut r = Reader::new(path, text);
+    r.check_keys(
+        root,
+        &["period_min", "inputs", "heights"],
+        "the thermal model",
+    );
+    let period = r
+        .required(root, "period_min", "the thermal model", None)
+        .and_then(|i| r.number(i, "period_min"));
+    if let Some(p) = period.filter(|p| *p <= 0.0) {
+        let span = root.get("period_min").and_then(Item::span);
+        r.error(span, format!("`period_min` must be positive, not {p}"));
+    }
+
+    let mut inputs = Vec::new();
+    match root.get("inputs").map(|i| (i, i.as_array_of_tables())) {
+        None => r.error(
+            None,
+            "the thermal model lacks `[[inputs]]` (at least the spindle speed)",
+        ),
+        Some((i, None)) => r.error(i.span(), "`inputs` must be an array of tables `[[inputs]]`"),
+        Some((_, Some(arr))) => {
+            for t in arr.iter() {
+                let at = t.span();
+                r.check_keys(t, &["name", "scale"], "an `[[inputs]]` table");
+                let name = r
+                    .required(t, "name", "an `[[inputs]]` table", at.clone())
+                    .and_then(|i| r.string(i, "name"));
+                let scale = r
+                    .required(t, "scale", "an `[[inputs]]` table", at.clone())
+                    .and_then(|i| r.number(i, "scale"));
+                if let Some(s) = scale.filter(|s| *s <= 0.0) {
+                    r.error(
+                        t.get("scale").and_then(Item::span),
+                        format!("`scale` must be positive, not {s}"),
+                    );
+                } else if let (Some(name), Some(scale)) = (name, scale) {
+                    inputs.push(InputChannel { name, scale });
+                }
+            }
+        }
+    }
+
+    let mut heights = Vec::new();
+    let mut spans: Vec<Option<Range<usize>>> = Vec::new();
+    match root.get("heights").map(|i| (i, i.as_array_of_tables())) {
+        None => r.error(None, "the thermal model lacks `[[heights]]`"),
+        Some((i, None)) => r.error(
+            i.span(),
+            "`heights` must be an array of tables `[[heights]]`",
+        ),
+        Some((_, Some(arr))) => {
+            for t in arr.iter() {
+                if let Some(h) = height(&mut r, t, t.span(), inputs.len()) {
+                    heights.push(h);
+                    spans.push(t.span());
+                }
+            }
+        }
+    }
+    // Duplicate heights, at the line of the second.
+    for i in 0..heights.len() {
+        if heights[..i]
+            .iter()
+            .any(|h: &HeightModel| h.z_mm == heights[i].z_mm)
+        {
+            r.error(
+                spans[i].clone(),
+                format!("the height z = {} mm appears twice", heights[i].z_mm),
+            );
+        }
+    }
+    let diags = r.diags;
+    if !diags.is_empty() {
+        return Err(diags);
+    }
+    let Some(period) = period else {
+        return Err(Diagnostic::whole(path, "`period_min` is missing").into());
+    };
+    ThermalModel::new(period, inputs, heights)
+        .map_err(|e| Diagnostic::whole(path, e.to_string()).into())
+}
+
+fn height(
+    r: &mut Reader<'_>,
+    t: &dyn TableLike,
+    at: Option<Range<usize>>,
+    n_inputs: usize,
+) -> Option<HeightModel> {
+    let what = "a `[[heights]]` table";
+    r.check_keys(t, &["z_mm", "a", "b", "nk", "fit"], what);
+    let z = r
+        .required(t, "z_mm", what, at.clone())
+        .and_then(|i| r.number(i, "z_mm"));
+    let a = r
+        .required(t, "a", what, at.clone())
+        .and_then(|i| r.numbers(i, "a"));
+    let b = r
+        .required(t, "b", what, at.clone())
+        .and_then(|i| r.number_rows(i, "b"));
+    let nk_item = r.required(t, "nk", what, at.clone());
+    let nk: Option<Vec<usize>> = nk_item.and_then(|i| r.numbers(i, "nk")).and_then(|v| {
+        let ok = v.iter().all(|x| *x >= 1.0 && x.fract() == 0.0);
+        if !ok {
+            r.error(
+                nk_item.and_then(Item::span),
+                "every `nk` must be an integer >= 1 (an input given at t acts from t + T on)",
+            );
+        }
+        ok.then(|| v.iter().map(|x| *x as usize).collect())
+    });
+    let stats = match t.get("fit") {
+        None => None,
+        Some(item) => match item.as_table_like() {
+            None => {
+                r.error(item.span(), "`fit` must be a table");
+                None
+            }
+            Some(f) => fit_stats(r, f, item.span()),
+        },
+    };
+    let (z, a, b, nk) = (z?, a?, b?, nk?);
+    if a.first() != Some(&1.0) {
+        r.error(
+            t.get("a").and_then(Item::span),
+            "`a` must start with a_0 = 1",
+        );
+        return None;
+    }
+    if b.len() != n_inputs || nk.len() != n_inputs || b.iter().any(Vec::is_empty) {
+        r.error(
+            t.get("b").and_then(Item::span),
+            format!(
+                "`b` and `nk` need one entry per input ({n_inputs}), and every `b` array at least b_0; \
+                 found {} and {}",
+                b.len(),
+                nk.len()
+            ),
+        );
+        return None;
+    }
+    let model = Arx::new(a, b.into_iter().zip(nk).collect()).ok()?;
+    Some(HeightModel {
+        z_mm: z,
+        model,
+        stats,
+    })
+}
+
+fn fit_stats(
+    r: &mut Reader<'_>,
+    f: &dyn TableLike,
+    at: Option<Range<usize>>,
+) -> Option<HeightStats> {
+    let what = "a `[heights.fit]` table";
+    let keys = [
+        "samples",
+        "params",
+        "fpe",
+        "aic",
+        "one_step_rms_mm",
+        "simulation_rms_mm",
+        "spectral_radius",
+        "a_std",
+        "b_std",
+    ];
+    r.check_keys(f, &keys, what);
+    let num = |r: &mut Reader<'_>, k: &str| {
+        r.required(f, k, what, at.clone())
+            .and_then(|i| r.number(i, k))
+    };
+    let fpe = num(r, "fpe");
+    let aic = num(r, "aic");
+    let one = num(r, "one_step_rms_mm");
+    let sim = num(r, "simulation_rms_mm");
+    let rad = num(r, "spectral_radius");
+    let samples = r
+        .required(f, "samples", what, at.clone())
+        .and_then(|i| r.count(i, "samples"));
+    let params = r
+        .required(f, "params", what, at.clone())
+        .and_then(|i| r.count(i, "params"));
+    let a_std = r
+        .required(f, "a_std", what, at.clone())
+        .and_then(|i| r.numbers(i, "a_std"));
+    let b_std = r
+        .required(f, "b_std", what, at.clone())
+        .and_then(|i| r.number_rows(i, "b_std"));
+    Some(HeightStats {
+        samples: samples?,
+        params: params?,
+        fpe: fpe?,
+        aic: aic?,
+        one_step_rms_mm: one?,
+        simulation_rms_mm: sim?,
+        spectral_radius: rad?,
+        a_std: a_std?,
+        b_std: b_std?,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model() -> ThermalModel {
+        let stats = HeightStats {
+            samples: 147,
+            params: 4,
+            fpe: 2.5e-7,
+            aic: -2200.125,
+            one_step_rms_mm: 0.0005,
+            simulation_rms_mm: 1.0 / 3.0,
+            spectral_radius: 0.95,
+            a_std: vec![0.01, 0.02],
+            b_std: vec![vec![1e-5, 2e-5], vec![3e-6]],
+        };
+        let h1 = HeightModel {
+            z_mm: -50.0,
+            model: Arx::new(
+                vec![1.0, -1.6, 0.64],
+                vec![(vec![0.1, -0.05], 1), (vec![0.3], 2)],
+            )
+            .unwrap(),
+            stats: Some(stats),
+        };
+        let h2 = HeightModel {
+            z_mm: -150.0,
+            model: Arx::new(
+                vec![1.0, -0.9],
+                vec![(vec![0.1], 1), (vec![0.2, 0.1, 0.05], 1)],
+            )
+            .unwrap(),
+            stats: None,
+        };
+        let inputs = vec![
+            InputChannel {
+                name: "speed_rpm".into(),
+                scale: 8000.0,
+            },
+            InputChannel {
+                name: "temp \"ambient\"".into(),
+                scale: 0.1 + 0.2,
+            },
+        ];
+        ThermalModel::new(10.0, inputs, vec![h1, h2]).unwrap()
+    }
+
+    #[test]
+    fn round_trip_is_exact() {
+        let m = model();
+        let text = m.to_toml();
+        let back = model_from_toml_str(Path::new("T.toml"), &text).unwrap();
+        assert_eq!(back, m);
+    }
+
+    #[test]
+    fn bad_files_report_lines() {
+        let p = Path::new("T.toml");
+        let good = model().to_toml();
+        // Unknown key, at its own line.
+        let text = good.replacen("period_min = 10.0\n", "period_min = 10.0\ncolour = 3\n", 1);
+        let line = text.lines().position(|l| l.starts_with("colour")).unwrap() + 1;
+        let e = model_from_toml_str(p, &text).unwrap_err();
+        assert!(
+            e.0.iter()
+                .any(|d| d.line == line && d.message.contains("`colour`")),
+            "{e}"
+        );
+        // a_0 ≠ 1 and nk = 0.
+        let text = good
+            .replacen("a = [1.0, -0.9]", "a = [2.0, -0.9]", 1)
+            .replacen("nk = [1, 2]", "nk = [0, 2]", 1);
+        let e = model_from_toml_str(p, &text).unwrap_err();
+        let a_line = text
+            .lines()
+            .position(|l| l.starts_with("a = [2.0"))
+            .unwrap()
+            + 1;
+        let nk_line = text.lines().position(|l| l.starts_with("nk = [0")).unwrap() + 1;
+        assert!(
+            e.0.iter()
+                .any(|d| d.line == a_line && d.message.contains("a_0 = 1")),
+            "{e}"
+        );
+        assert!(
+            e.0.iter()
+                .any(|d| d.line == nk_line && d.message.contains("nk")),
+            "{e}"
+        );
+        // Duplicate height.
+        let text = good.replacen("z_mm = -150.0", "z_mm = -50.0", 1);
+        let e = model_from_toml_str(p, &text).unwrap_err();
+        assert!(
+            e.0.iter()
+                .any(|d| d.message.contains("twice") && d.line > 0),
+            "{e}"
+        );
+        // Syntax error.
+        let e = model_from_toml_str(p, "period_min = 10.0\n[[heights]\n").unwrap_err();
+        assert_eq!(e.0[0].line, 2, "{e}");
+        // Missing key, at the table header.
+        let text = good.replacen("z_mm = -150.0\n", "", 1);
+        let e = model_from_toml_str(p, &text).unwrap_err();
+        assert!(
+            e.0.iter()
+                .any(|d| d.message.contains("`z_mm`") && d.line > 0),
+            "{e}"
+        );
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn parser_never_panics(s in ".{0,200}") {
+            let _ = model_from_toml_str(Path::new("p.toml"), &s);
+        }
+
+        #[test]
+        fn parser_never_panics_on_edits(pos in 0usize..2000, junk in "[\\[\\]=,.0-9a-z\" \n-]{0,8}") {
+            let good = model().to_toml();
+            let mut cut = pos.min(good.len());
+            while !good.is_char_boundary(cut) {
+                cut -= 1;
+            }
+            let text = format!("{}{}{}", &good[..cut], junk, &good[cut..]);
+            let _ = model_from_toml_str(Path::new("p.toml"), &text);
+        }
+    }
+}
