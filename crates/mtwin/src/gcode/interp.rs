@@ -6,8 +6,9 @@
 //! plane, units, cutter compensation off, tool length offset, coordinate
 //! system, path control, distance modes, motion, program end.
 //!
-//! Anything outside the subset (O-words, expressions, parameters, canned
-//! cycles, G10/G28/G92, cutter compensation, ...) is an
+//! Constant expressions (`[1+2]`, `sqrt[2]`) are evaluated. Anything
+//! outside the subset (O-words, parameters, canned cycles, G10/G28/G92,
+//! cutter compensation, ...) is an
 //! [`GcodeError::Unsupported`] error naming the line: never skipped.
 
 use std::collections::BTreeMap;
@@ -16,6 +17,7 @@ use super::arc::{self, ArcError};
 use super::axes::{Axes, Axis, AxisMask};
 use super::dialect::{Dialect, DwellWord};
 use super::error::GcodeError;
+use super::expr::{self, ExprError};
 use super::event::{
     ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, Plane, Programmed, SourcePos,
     SpindleState, Units,
@@ -170,18 +172,18 @@ fn g_group(code: u32) -> Option<Group> {
 /// Why a known G-code is not supported.
 fn g_unsupported(code: u32) -> &'static str {
     match code {
-        100 | 101 | 102 => "G10 (setting offsets)",
-        280 | 281 | 300 | 301 => "G28/G30 (home positions)",
-        920 | 921 | 922 | 923 | 520 => "G92/G52 (axis offsets)",
-        410 | 411 | 420 | 421 => "cutter radius compensation G41/G42",
-        330 | 331 | 760 => "spindle-synchronised motion G33/G76",
-        382..=385 => "probing G38",
+        100 | 101 | 102 => "setting offsets",
+        280 | 281 | 300 | 301 => "return to home position",
+        920 | 921 | 922 | 923 | 520 => "axis offsets",
+        410 | 411 | 420 | 421 => "cutter radius compensation",
+        330 | 331 | 760 => "spindle-synchronised motion",
+        382..=385 => "probing",
         730 | 740 | 810..=890 => "canned cycle",
-        700..=720 => "lathe cycle G70-G72",
+        700..=720 => "lathe cycle",
         50 | 51 | 52 | 53 | 55 | 61 | 62 | 63 => "spline / NURBS motion",
-        431 | 432 => "dynamic tool length offset G43.1/G43.2",
-        960 => "constant surface speed G96",
-        70 | 80 => "lathe diameter/radius mode G7/G8",
+        431 | 432 => "dynamic tool length offset",
+        960 => "constant surface speed",
+        70 | 80 => "lathe diameter/radius mode",
         _ => "G-code",
     }
 }
@@ -525,11 +527,22 @@ impl Interpreter {
                 Some(mode) => self.motion(mode, w, axes, target, g53.map(|(_, c)| c), line, at, out)?,
             }
         }
-        // I J K R without an arc.
+        // I J K without an arc.
         let arc_now = axes_or_motion(&axes, motion_code)
             && matches!(self.state.motion, Some(MotionMode::ArcClockwise | MotionMode::ArcCounterClockwise));
+        if let Some(r) = letter(b'R') {
+            // R is read by G2/G3, G64 (blend tolerance) and M19 (orientation).
+            let g64 = has_g(640);
+            let m19 = w.m.iter().any(|&(c, _)| c == 19);
+            if g64 && m19 {
+                return Err(invalid(r.column, "R word is ambiguous on a line with both G64 and M19 - use separate lines".into()));
+            }
+            if !(arc_now || g64 || m19) {
+                return Err(invalid(r.column, "R word with no g code that uses it".into()));
+            }
+        }
         if !arc_now {
-            for l in [b'I', b'J', b'K', b'R'] {
+            for l in [b'I', b'J', b'K'] {
                 if let Some(x) = letter(l) {
                     return Err(invalid(x.column, format!("{} word with no G2 or G3 to use it", l as char)));
                 }
@@ -761,9 +774,19 @@ fn collect_word(block: &Block, word: &Word, w: &mut BlockWords) -> Result<(), Gc
     let col = word.at + 1;
     let value = match word.value {
         Value::Number(v) => v,
-        Value::Expression => {
-            return Err(GcodeError::unsupported(line, word.span.start + 1, format!("expression {}", block.value_text(word))));
-        }
+        Value::Expression => match expr::eval(block.value_text(word).as_bytes()) {
+            Ok(v) => v,
+            Err(ExprError::Parameter) => {
+                return Err(GcodeError::unsupported(
+                    line,
+                    word.span.start + 1,
+                    format!("expression with parameters {}", block.value_text(word)),
+                ));
+            }
+            Err(ExprError::Invalid(m)) => {
+                return Err(GcodeError::invalid(line, word.span.start + 1, format!("{m} in {}", block.value_text(word))));
+            }
+        },
         Value::Parameter => {
             return Err(GcodeError::unsupported(line, word.span.start + 1, format!("parameter {}", block.value_text(word))));
         }

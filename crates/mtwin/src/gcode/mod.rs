@@ -32,6 +32,7 @@ mod axes;
 mod dialect;
 mod error;
 mod event;
+mod expr;
 mod interp;
 mod lexer;
 mod stats;
