@@ -816,3 +816,218 @@ fn collect_word(block: &Block, word: &Word, w: &mut BlockWords) -> Result<(), Gc
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use std::f64::consts::{FRAC_PI_2, PI};
+
+    use super::*;
+    use crate::gcode::stream::Program;
+
+    fn run_with(src: &str, opts: InterpOptions) -> Result<Vec<Event>, GcodeError> {
+        let program = Program::parse(src.as_bytes())?;
+        let mut it = Interpreter::new(opts);
+        let mut out = Vec::new();
+        for b in &program.blocks {
+            it.execute(b, &mut out)?;
+        }
+        Ok(out)
+    }
+
+    fn run(src: &str) -> Vec<Event> {
+        run_with(src, InterpOptions::default()).unwrap()
+    }
+
+    fn moves(events: &[Event]) -> Vec<EventKind> {
+        events
+            .iter()
+            .filter(|e| matches!(e.kind, EventKind::Traverse(_) | EventKind::Feed(_) | EventKind::Arc(_)))
+            .map(|e| e.kind)
+            .collect()
+    }
+
+    fn arc(kind: &EventKind) -> &ArcMove {
+        match kind {
+            EventKind::Arc(a) => a,
+            other => panic!("not an arc: {other:?}"),
+        }
+    }
+
+    fn lin(kind: &EventKind) -> &Linear {
+        match kind {
+            EventKind::Traverse(m) | EventKind::Feed(m) => m,
+            other => panic!("not a straight move: {other:?}"),
+        }
+    }
+
+    fn close(a: f64, b: f64) -> bool {
+        (a - b).abs() < 1e-9
+    }
+
+    #[test]
+    fn full_circle_in_xy() {
+        let m = moves(&run("G0 X10 Y0\nG2 X10 Y0 I-10 J0 F100\n"));
+        let a = arc(&m[1]);
+        assert_eq!(a.center, [0.0, 0.0, 0.0]);
+        assert_eq!(a.turns, -1);
+        assert!(close(a.sweep(), -2.0 * PI));
+        assert!(close(a.xyz_length(), 2.0 * PI * 10.0));
+        assert_eq!(a.feed, Feed::PerMinute(100.0));
+    }
+
+    #[test]
+    fn zx_plane_uses_k_and_i_and_turns_about_plus_y() {
+        // G18: first axis Z, second X, normal +Y. From (X0, Z10) about the
+        // origin to (X10, Z0): in (z, x) that is (10, 0) to (0, 10), a quarter
+        // turn counter-clockwise about +Y, i.e. G3.
+        let m = moves(&run("G18 G0 X0 Z10\nG3 X10 Z0 K-10 F50\n"));
+        let a = arc(&m[1]);
+        assert_eq!(a.plane, Plane::Zx);
+        assert_eq!(a.center, [0.0, 0.0, 0.0]);
+        assert!(close(a.sweep(), FRAC_PI_2));
+        assert_eq!(a.normal(), [0.0, 1.0, 0.0]);
+        // A J word is out of the ZX plane.
+        assert!(run_with("G18 G0 X0 Z10\nG3 X10 Z0 K-10 J1 F50\n", InterpOptions::default()).is_err());
+    }
+
+    #[test]
+    fn helix_in_yz_with_turns_and_r_format() {
+        // G19 plane: (y, z), normal +X. Two full turns plus nothing, rising 6 in X.
+        let m = moves(&run("G19 G0 Y5 Z0\nG2 Y5 Z0 X6 J-5 P2 F10\n"));
+        let a = arc(&m[1]);
+        assert_eq!(a.turns, -2);
+        assert!(close(a.sweep(), -4.0 * PI));
+        assert!(close(a.xyz_length(), (4.0 * PI * 5.0f64).hypot(6.0)));
+        // R format: half circle of radius 5 from (0,0) to (10,0), G2 goes over +Y.
+        let m = moves(&run("G0 X0 Y0\nG2 X10 Y0 R5 F10\n"));
+        let a = arc(&m[1]);
+        assert!(close(a.center[0], 5.0) && close(a.center[1], 0.0));
+        assert!(close(a.sweep(), -PI));
+    }
+
+    #[test]
+    fn units_distance_and_absolute_arc_centres() {
+        let m = moves(&run("G20 G91 G0 X1 Y2\nX1\nG90 G90.1 G3 X0 Y0 I1 J1 F10\n"));
+        let (l0, l1) = (lin(&m[0]), lin(&m[1]));
+        assert!(close(l0.to[Axis::X], 25.4) && close(l0.to[Axis::Y], 50.8));
+        assert!(close(l1.to[Axis::X], 50.8));
+        let a = arc(&m[2]);
+        assert!(close(a.center[0], 25.4) && close(a.center[1], 25.4));
+        // Feed in inch/min is converted to mm/min.
+        assert_eq!(a.feed, Feed::PerMinute(10.0 * 25.4));
+    }
+
+    #[test]
+    fn work_offsets_g53_and_tool_length() {
+        let mut opts = InterpOptions::default();
+        opts.work_offsets[1][Axis::X] = 100.0; // G55
+        opts.work_offsets[1][Axis::Z] = -50.0;
+        opts.tools.insert(3, 20.0);
+        let src = "G55 G0 X1 Z0\nG53 G0 Z-10\nT3 M6\nG43 H3\nG0 Z0\nG49 G0 Z0\n";
+        let m = moves(&run_with(src, opts).unwrap());
+        let l = lin(&m[0]);
+        assert!(close(l.to[Axis::X] + l.offset[Axis::X], 101.0), "machine X = work + offset");
+        assert!(close(l.to[Axis::Z] + l.offset[Axis::Z], -50.0));
+        let g53 = lin(&m[1]);
+        assert!(g53.words.g53);
+        assert!(close(g53.to[Axis::Z] + g53.offset[Axis::Z], -10.0), "G53 Z is machine Z");
+        assert!(close(g53.to[Axis::Z], 40.0));
+        let tlo = lin(&m[2]);
+        assert!(close(tlo.offset[Axis::Z], -50.0 + 20.0));
+        assert!(close(tlo.from[Axis::Z], 40.0 - 20.0), "G43 keeps the machine position");
+        assert!(close(tlo.to[Axis::Z] + tlo.offset[Axis::Z], -30.0));
+        assert!(close(lin(&m[3]).offset[Axis::Z], -50.0));
+    }
+
+    #[test]
+    fn word_value_recovers_the_written_word() {
+        let mut opts = InterpOptions::default();
+        opts.work_offsets[0][Axis::Z] = -7.0;
+        let src = "G20 G0 Z1.5\nG91 G1 Z-0.25 F10\nG90 G53 G0 Z-2\n";
+        let events = run_with(src, opts).unwrap();
+        let written = [1.5, -0.25, -2.0];
+        for (kind, w) in moves(&events).iter().zip(written) {
+            let l = lin(kind);
+            assert!(close(l.words.word_value(Axis::Z, &l.from, l.to[Axis::Z], &l.offset), w));
+        }
+    }
+
+    #[test]
+    fn rotary_rollover_follows_linuxcnc() {
+        let mut opts = InterpOptions::default();
+        opts.wrapped_rotary.insert(Axis::C);
+        let m = moves(&run_with("G0 C350\nC10\nC-350\nC-0\n", opts).unwrap());
+        let c: Vec<f64> = m.iter().map(|k| lin(k).to[Axis::C]).collect();
+        // 350 → +10 goes forward to 370; -350 goes backwards to the angle 10
+        // (mod 360) below 370, i.e. 10; -0 goes backwards to 0.
+        assert_eq!(c, [350.0, 370.0, 10.0, 0.0]);
+        assert!(run_with("G0 C360\n", InterpOptions { wrapped_rotary: { let mut m = AxisMask::EMPTY; m.insert(Axis::C); m }, ..Default::default() }).is_err());
+    }
+
+    #[test]
+    fn modes_events_and_tcp() {
+        let ev = run("M428\nG93 G1 X1 F2\nG94 F300 S1000 M3\nG4 P1.5\nM429\nG43.4 H0\nG49\nM30\nG0 X99\n");
+        let kinds: Vec<EventKind> = ev.iter().map(|e| e.kind).collect();
+        assert!(kinds.contains(&EventKind::Tcp(true)));
+        assert!(matches!(kinds[3], EventKind::Feed(Linear { feed: Feed::InverseTime(2.0), tcp: true, .. })));
+        assert!(kinds.contains(&EventKind::FeedRate(300.0)));
+        assert!(kinds.contains(&EventKind::SpindleSpeed { rpm: 1000.0 }));
+        assert!(kinds.contains(&EventKind::Spindle(SpindleState::Clockwise)));
+        assert!(kinds.contains(&EventKind::Dwell { seconds: 1.5 }));
+        let tcp: Vec<bool> = kinds.iter().filter_map(|k| if let EventKind::Tcp(on) = k { Some(*on) } else { None }).collect();
+        assert_eq!(tcp, [true, false, true, false]);
+        assert_eq!(kinds.last(), Some(&EventKind::ProgramEnd), "nothing after M30");
+        assert_eq!(ev[0].at, SourcePos { line: 1, block: 0 });
+        assert_eq!(ev.last().unwrap().at, SourcePos { line: 8, block: 7 });
+    }
+
+    #[test]
+    fn rejections_name_the_line() {
+        let cases = [
+            ("G0 X0\nG81 X1 Z-1 R1\n", 2, true),
+            ("G1 X1\n", 1, false),                 // zero feed
+            ("G93\nG1 X1 F1\nX2\n", 3, false),     // inverse time needs F each move
+            ("X1\n", 1, false),                    // no motion mode
+            ("G0 G1 X1\n", 1, false),              // one modal group twice
+            ("G0 X1 X2\n", 1, false),              // two X words
+            ("G0 X#1\n", 1, true),                 // parameter
+            ("o100 sub\n", 1, true),
+            ("G1 X1 I2 F1\n", 1, false),           // I without arc
+            ("G2 X1 F1\n", 1, false),              // no IJKR
+            ("G2 X1 I1 R1 F1\n", 1, false),        // mixed formats
+            ("G2 X30 R10 F1\n", 1, false),         // radius too small
+            ("M123\n", 1, true),
+            ("G53 G91 G0 X1\n", 1, false),
+            ("G43 H7\n", 1, false),                // tool not in the table
+        ];
+        for (src, line, unsupported) in cases {
+            let err = run_with(src, InterpOptions::default()).expect_err(src);
+            assert_eq!(err.location().map(|l| l.line), Some(line), "{src}: {err}");
+            assert_eq!(matches!(err, GcodeError::Unsupported { .. }), unsupported, "{src}: {err}");
+        }
+        let ignore = InterpOptions { unknown_m: UnknownMCode::Ignore, ..Default::default() };
+        assert!(run_with("M123\n", ignore).is_ok());
+    }
+
+    #[test]
+    fn fanuc_dwell_and_integer_words() {
+        let fanuc = InterpOptions { dialect: Dialect::Fanuc { decimal_point_programming: false }, ..Default::default() };
+        let ev = run_with("G4 P1500\nG4 X2.5\nG0 X10 Y10.\n", fanuc.clone()).unwrap();
+        let dwell: Vec<f64> = ev.iter().filter_map(|e| if let EventKind::Dwell { seconds } = e.kind { Some(seconds) } else { None }).collect();
+        assert_eq!(dwell, [1.5, 2.5]);
+        let l = lin(&moves(&ev)[0]).to;
+        assert!(close(l[Axis::X], 0.01) && close(l[Axis::Y], 10.0));
+        assert!(matches!(run_with("G90.1\n", fanuc), Err(GcodeError::Unsupported { .. })));
+        // LinuxCNC: P in seconds.
+        let ev = run("G4 P1.5\n");
+        assert_eq!(ev[0].kind, EventKind::Dwell { seconds: 1.5 });
+    }
+
+    #[test]
+    fn block_delete_and_percent() {
+        let m = moves(&run("%\n/G0 X5\nG0 Y1\n%\n"));
+        assert_eq!(m.len(), 1);
+        let keep = InterpOptions { skip_deleted_blocks: false, ..Default::default() };
+        assert_eq!(moves(&run_with("/G0 X5\n", keep).unwrap()).len(), 1);
+    }
+}

@@ -438,3 +438,127 @@ fn split_eol(text: &[u8]) -> (&[u8], LineEnd) {
         _ => (text, LineEnd::None),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn written(b: &Block) -> Vec<u8> {
+        let mut out = Vec::new();
+        b.write_to(&mut out).unwrap();
+        out
+    }
+
+    #[test]
+    fn keeps_every_byte_and_reads_spaced_numbers() {
+        let src = b"N10 g1 X - 1 2.5 (c) y#1 ; tail\r\n";
+        let b = Block::parse(src, 7).unwrap();
+        assert_eq!(written(&b), src);
+        assert_eq!(b.line_end(), LineEnd::CrLf);
+        let x = b.word('x').unwrap().unwrap();
+        assert_eq!(x.number(), Some(-12.5));
+        assert_eq!(b.value_text(x), "- 1 2.5");
+        assert_eq!(b.word('Y').unwrap().unwrap().value, Value::Parameter);
+        let kinds: Vec<&str> = b
+            .items()
+            .iter()
+            .map(|i| match i {
+                Item::Word(_) => "w",
+                Item::Comment { kind: CommentKind::Paren, .. } => "(",
+                Item::Comment { kind: CommentKind::Semicolon, .. } => ";",
+                _ => "?",
+            })
+            .collect();
+        assert_eq!(kinds, ["w", "w", "w", "(", "w", ";"]);
+    }
+
+    #[test]
+    fn percent_block_delete_oword_and_assignment_lines() {
+        assert!(Block::parse(b"%\n", 1).unwrap().is_percent());
+        assert!(Block::parse(b"/G0 X1", 1).unwrap().is_block_delete());
+        let o = Block::parse(b"o<sub> call [1] (x)", 1).unwrap();
+        assert!(matches!(o.items(), [Item::OWord { span }] if span.end == 19));
+        let a = Block::parse(b"#1 = [2 * 3] #<x>=-sin[30]", 1).unwrap();
+        assert_eq!(a.items().len(), 2);
+        let f = Block::parse(b"G1 X atan[1]/[2]", 1).unwrap();
+        assert_eq!(f.word('X').unwrap().unwrap().value, Value::Expression);
+    }
+
+    #[test]
+    fn errors_name_line_and_column() {
+        let cases: [(&[u8], u32); 6] = [
+            (b"G1 X1 (open", 7),
+            (b"G1 X", 5),
+            (b"G1 @", 4),
+            (b"G1 X1.2.3", 8),
+            (b"(a (b))", 4),
+            (b"G1 X[1+2", 5),
+        ];
+        for (src, column) in cases {
+            match Block::parse(src, 3) {
+                Err(GcodeError::Syntax { at, .. }) => {
+                    assert_eq!((at.line, at.column), (3, column), "{}", String::from_utf8_lossy(src));
+                }
+                other => panic!("{}: {other:?}", String::from_utf8_lossy(src)),
+            }
+        }
+    }
+
+    #[test]
+    fn set_word_replaces_only_the_value() {
+        let mut b = Block::parse(b"G1 X1.000 z-2.5000 F100 (keep)\n", 1).unwrap();
+        b.set_word('Z', 12.345).unwrap();
+        assert_eq!(written(&b), b"G1 X1.000 z12.345 F100 (keep)\n");
+        assert_eq!(b.word('Z').unwrap().unwrap().number(), Some(12.345));
+        // Later spans moved with the edit.
+        b.set_word('F', 250.0).unwrap();
+        assert_eq!(written(&b), b"G1 X1.000 z12.345 F250 (keep)\n");
+        b.set_word('X', -0.00001).unwrap();
+        assert_eq!(b.text(), b"G1 X0 z12.345 F250 (keep)");
+        // The block reads back the same after editing.
+        assert_eq!(Block::parse(&written(&b), 1).unwrap(), b);
+    }
+
+    #[test]
+    fn set_word_inserts_in_axis_order() {
+        let cases: [(&[u8], char, &[u8]); 5] = [
+            (b"G1X1F100", 'Y', b"G1X1Y2F100"),
+            (b"G0 Z5", 'X', b"G0 X2 Z5"),
+            (b"G0 X1 Y1 F3 (c)", 'A', b"G0 X1 Y1 A2 F3 (c)"),
+            (b"(only a comment)", 'X', b"X2 (only a comment)"),
+            (b"/G0 C4", 'B', b"/G0 B2 C4"),
+        ];
+        for (src, letter, expected) in cases {
+            let mut b = Block::parse(src, 1).unwrap();
+            b.set_word(letter, 2.0).unwrap();
+            assert_eq!(b.text(), expected, "{}", String::from_utf8_lossy(src));
+            assert_eq!(Block::parse(b.text(), 1).unwrap().items(), b.items());
+        }
+    }
+
+    #[test]
+    fn remove_word_and_edit_errors() {
+        let mut b = Block::parse(b"G1 X1 Y2 Z3", 1).unwrap();
+        assert!(b.remove_word('Y').unwrap());
+        assert_eq!(b.text(), b"G1 X1 Z3");
+        assert!(!b.remove_word('Y').unwrap());
+        assert!(b.set_word('Z', f64::NAN).is_err());
+        let mut g = Block::parse(b"G1 G90 X1", 1).unwrap();
+        assert!(g.set_word('G', 0.0).is_err(), "two G words: ambiguous");
+    }
+
+    #[test]
+    fn number_formats() {
+        let f = |fmt: NumberFormat, v: f64| {
+            let mut s = String::new();
+            fmt.write(v, &mut s);
+            s
+        };
+        assert_eq!(f(NumberFormat::Fixed(4), 1.0 / 3.0), "0.3333");
+        assert_eq!(f(NumberFormat::Fixed(4), 2.0), "2");
+        assert_eq!(f(NumberFormat::Fixed(4), -2.5), "-2.5");
+        assert_eq!(f(NumberFormat::Fixed(4), -0.00001), "0");
+        assert_eq!(f(NumberFormat::Shortest, 1e-7), "0.0000001");
+        assert_eq!(f(NumberFormat::Shortest, 0.1 + 0.2), "0.30000000000000004");
+    }
+}
