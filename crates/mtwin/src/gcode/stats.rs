@@ -240,3 +240,77 @@ pub fn stats_with<R: BufRead>(
     }
     Ok(st)
 }
+
+#[cfg(test)]
+mod tests {
+    use std::f64::consts::PI;
+
+    use super::*;
+
+    fn st(src: &str) -> ProgramStats {
+        stats(src.as_bytes(), &StatsOptions::default()).unwrap()
+    }
+
+    #[test]
+    fn square_at_feed_plus_rapid_and_dwell() {
+        let s = st("G0 X0 Y0 Z100\nG0 Z0\nG1 X10 F600\nY10\nX0\nY0\nG4 P1.5\nM30\n");
+        assert_eq!(s.blocks, 8);
+        assert_eq!(s.motion_blocks, 6);
+        assert_eq!((s.rapid_moves, s.linear_moves, s.arc_moves), (2, 4, 0));
+        assert!((s.feed_length - 40.0).abs() < 1e-12);
+        assert!((s.feed_time - 4.0).abs() < 1e-12, "40 mm at 600 mm/min");
+        assert!((s.rapid_length - 200.0).abs() < 1e-12);
+        assert!((s.rapid_time - 60.0 * 200.0 / 10_000.0).abs() < 1e-12);
+        assert_eq!(s.dwell_time, 1.5);
+        assert_eq!(s.axis_travel[Axis::X], 20.0);
+        assert_eq!(s.work_range[Axis::Z.index()], Some(AxisRange { min: 0.0, max: 100.0 }));
+        assert!((s.total_time() - (4.0 + 1.2 + 1.5)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn arcs_reach_their_extremes_and_travel_exactly() {
+        // Full circle radius 10 about the origin, from (10, 0).
+        let s = st("G0 X10 Y0\nG3 X10 Y0 I-10 F100\n");
+        let r = |a: Axis| s.work_range[a.index()].unwrap();
+        assert!((r(Axis::X).min + 10.0).abs() < 1e-12 && (r(Axis::Y).max - 10.0).abs() < 1e-12);
+        assert!((r(Axis::Y).min + 10.0).abs() < 1e-12);
+        // Per-axis travel of a full circle is 4 r; X also had the 10 mm rapid.
+        assert!((s.axis_travel[Axis::X] - 50.0).abs() < 1e-9);
+        assert!((s.axis_travel[Axis::Y] - 40.0).abs() < 1e-9);
+        assert!((s.feed_time - 60.0 * 2.0 * PI * 10.0 / 100.0).abs() < 1e-9);
+        // A quarter arc from (10,0) to (0,10) crosses no quadrant boundary
+        // inside: X range stays [0, 10].
+        let q = st("G0 X10 Y0\nG3 X0 Y10 R10 F100\n");
+        assert_eq!(q.work_range[0].unwrap().min, 0.0);
+    }
+
+    #[test]
+    fn inverse_time_per_revolution_and_rotary_only_feeds() {
+        let s = st("G93 G1 X100 F2\nG1 X0 F0.5\n");
+        assert!((s.feed_time - (30.0 + 120.0)).abs() < 1e-12);
+        let r = st("G95 S500 G1 X10 F0.1\n");
+        assert!((r.feed_time - 60.0 * 10.0 / (0.1 * 500.0)).abs() < 1e-12);
+        assert!(stats("G95 G1 X10 F0.1\n".as_bytes(), &StatsOptions::default()).is_err(), "spindle at 0");
+        // Rotary-only G94 move: F in deg/min along the rotary path.
+        let c = st("G1 C90 F180\n");
+        assert!((c.feed_time - 30.0).abs() < 1e-12);
+        // Rapid of a rotary axis at the rotary rapid rate.
+        let g0 = st("G0 A360\n");
+        assert!((g0.rapid_time - 6.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn observer_sees_every_event() {
+        struct Count(usize);
+        impl MotionObserver for Count {
+            fn observe(&mut self, _: &Block, _: &Event) -> Result<(), GcodeError> {
+                self.0 += 1;
+                Ok(())
+            }
+        }
+        let mut c = Count(0);
+        // Events: feed rate, feed, traverse.
+        stats_with("G1 X1 F10\nG0 X0\n".as_bytes(), &StatsOptions::default(), &mut c).unwrap();
+        assert_eq!(c.0, 3);
+    }
+}

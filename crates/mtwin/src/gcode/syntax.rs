@@ -286,6 +286,9 @@ impl Block {
         if matches!(up, b'O') {
             return Err(GcodeError::Edit("O-words cannot be set".into()));
         }
+        if self.is_percent() {
+            return Err(GcodeError::Edit(format!("line {} is a '%' line: it takes no words", self.line)));
+        }
         let mut digits = String::with_capacity(24);
         format.write(value, &mut digits);
         let existing = self.word(letter)?.copied();
