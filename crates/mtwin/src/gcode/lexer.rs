@@ -233,11 +233,13 @@ impl Lexer<'_> {
             return Err(self.err("a number needs at least one digit"));
         }
         let text = &self.b[start..end];
-        let value = if spaced && text.iter().any(|&c| is_space(c)) {
-            let compact: Vec<u8> = text.iter().copied().filter(|&c| !is_space(c)).collect();
-            parse_f64(&compact)
-        } else {
-            parse_f64(text)
+        let value = match fast_decimal(text) {
+            Some(v) => Some(v),
+            None if spaced => {
+                let compact: Vec<u8> = text.iter().copied().filter(|&c| !is_space(c)).collect();
+                parse_f64(&compact)
+            }
+            None => parse_f64(text),
         };
         self.i = end;
         match value {
@@ -291,10 +293,64 @@ impl Lexer<'_> {
     }
 }
 
+/// Exact fast path for short decimals (Clinger): with at most 15
+/// significant digits and at most 22 decimals, `mantissa / 10^k` is one
+/// correctly rounded division of two exactly representable numbers, so it
+/// equals the correctly rounded value of the decimal. `None` otherwise.
+/// `text` holds a sign, digits, at most one point and spaces.
+fn fast_decimal(text: &[u8]) -> Option<f64> {
+    const POW10: [f64; 23] = [
+        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+        1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+    ];
+    let mut mantissa: u64 = 0;
+    let mut digits = 0u32;
+    let mut decimals = 0usize;
+    let mut in_fraction = false;
+    let mut negative = false;
+    for &c in text {
+        match c {
+            b'0'..=b'9' => {
+                if mantissa != 0 || c != b'0' {
+                    digits += 1;
+                }
+                if digits > 15 {
+                    return None;
+                }
+                mantissa = mantissa * 10 + u64::from(c - b'0');
+                decimals += usize::from(in_fraction);
+            }
+            b'.' => in_fraction = true,
+            b'-' => negative = true,
+            _ => {}
+        }
+    }
+    let v = mantissa as f64 / *POW10.get(decimals)?;
+    Some(if negative { -v } else { v })
+}
+
 /// Parses an ASCII decimal number (sign, digits, at most one point).
 fn parse_f64(text: &[u8]) -> Option<f64> {
     // The lexer only passes ASCII, so this cannot fail; stay total anyway.
     let s = std::str::from_utf8(text).ok()?;
     let v: f64 = s.parse().ok()?;
     v.is_finite().then_some(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fast_path_agrees_with_the_standard_parser() {
+        for t in ["0", "-0.5", "123.456", ".001", "7.", "999999999999999", "0.1234567890123456789012", "-12.3456"] {
+            let std: f64 = t.parse().unwrap();
+            match fast_decimal(t.as_bytes()) {
+                Some(v) => assert_eq!(v.to_bits(), std.to_bits(), "{t}"),
+                None => assert!(t.len() > 16, "{t} should take the fast path"),
+            }
+        }
+        assert_eq!(fast_decimal(b"- 1 2.5"), Some(-12.5));
+        assert_eq!(fast_decimal(b"1234567890123456"), None, "16 digits: exactness not guaranteed");
+    }
 }

@@ -12,7 +12,6 @@ use super::syntax::Block;
 #[derive(Debug)]
 pub struct BlockReader<R> {
     input: R,
-    buf: Vec<u8>,
     line: u64,
     bytes: u64,
 }
@@ -20,21 +19,20 @@ pub struct BlockReader<R> {
 impl<R: BufRead> BlockReader<R> {
     /// A reader starting at line 1.
     pub fn new(input: R) -> Self {
-        BlockReader { input, buf: Vec::with_capacity(256), line: 0, bytes: 0 }
+        BlockReader { input, line: 0, bytes: 0 }
     }
 
     /// Reads the next line into `block`; `Ok(false)` at the end of input.
     /// After a syntax error the reader stays usable: the next call reads the
     /// following line.
     pub fn read_block(&mut self, block: &mut Block) -> Result<bool, GcodeError> {
-        self.buf.clear();
-        let n = self.input.read_until(b'\n', &mut self.buf)?;
+        let n = self.input.read_until(b'\n', block.text_buffer())?;
         if n == 0 {
             return Ok(false);
         }
         self.line += 1;
         self.bytes += n as u64;
-        block.reparse_from(&self.buf, self.line)?;
+        block.parse_own_text(self.line)?;
         Ok(true)
     }
 

@@ -143,13 +143,7 @@ impl NumberFormat {
     pub fn write(self, v: f64, out: &mut String) {
         let start = out.len();
         match self {
-            NumberFormat::Fixed(d) => {
-                let _ = write!(out, "{:.*}", usize::from(d), v);
-                if out[start..].contains('.') {
-                    let trimmed = out.trim_end_matches('0').trim_end_matches('.').len();
-                    out.truncate(trimmed);
-                }
-            }
+            NumberFormat::Fixed(d) => write_fixed(v, d, out),
             NumberFormat::Shortest => {
                 // Display of f64 is shortest round-trip and never uses an exponent.
                 let _ = write!(out, "{v}");
@@ -159,6 +153,39 @@ impl NumberFormat {
             out.truncate(start);
             out.push('0');
         }
+    }
+}
+
+/// Appends `v` with at most `decimals` decimals, trailing zeros removed.
+/// Integer arithmetic when `|v|·10^decimals` fits exactly in an `f64`
+/// integer (the common case), else the standard formatter.
+fn write_fixed(v: f64, decimals: u8, out: &mut String) {
+    let d = usize::from(decimals);
+    let scale = 10f64.powi(i32::from(decimals));
+    let scaled = (v.abs() * scale).round();
+    if d > 15 || scaled >= 9.0e15 {
+        let start = out.len();
+        let _ = write!(out, "{v:.d$}");
+        if out[start..].contains('.') {
+            let trimmed = out.trim_end_matches('0').trim_end_matches('.').len();
+            out.truncate(trimmed);
+        }
+        return;
+    }
+    let n = scaled as u64;
+    let p = 10u64.pow(u32::from(decimals));
+    let (int, mut frac) = (n / p, n % p);
+    if n != 0 && v < 0.0 {
+        out.push('-');
+    }
+    let _ = write!(out, "{int}");
+    if frac != 0 {
+        let mut width = d;
+        while frac % 10 == 0 {
+            frac /= 10;
+            width -= 1;
+        }
+        let _ = write!(out, ".{frac:0width$}");
     }
 }
 
@@ -182,13 +209,29 @@ impl Block {
 
     /// Parses a line into this block, reusing its buffers.
     pub(crate) fn reparse_from(&mut self, text: &[u8], line: u64) -> Result<(), GcodeError> {
-        let (body, eol) = split_eol(text);
         self.text.clear();
-        self.text.extend_from_slice(body);
+        self.text.extend_from_slice(text);
+        self.parse_own_text(line)
+    }
+
+    /// The buffer a reader fills with the next line before
+    /// [`Block::parse_own_text`] (saves one copy per line).
+    pub(crate) fn text_buffer(&mut self) -> &mut Vec<u8> {
+        self.text.clear();
+        &mut self.text
+    }
+
+    /// Parses the line held in the text buffer (line end included).
+    pub(crate) fn parse_own_text(&mut self, line: u64) -> Result<(), GcodeError> {
+        let (body_len, eol) = {
+            let (body, eol) = split_eol(&self.text);
+            (body.len(), eol)
+        };
+        self.text.truncate(body_len);
         self.eol = eol;
         self.line = line;
         self.items.clear();
-        if let Some(k) = body.iter().position(|&c| c == b'\n') {
+        if let Some(k) = self.text.iter().position(|&c| c == b'\n') {
             return Err(GcodeError::syntax(line, k + 1, "a block cannot contain a line feed"));
         }
         lexer::lex(&self.text, line, &mut self.items)
@@ -291,6 +334,7 @@ impl Block {
         }
         let mut digits = String::with_capacity(24);
         format.write(value, &mut digits);
+        let digits = digits.as_str();
         let existing = self.word(letter)?.copied();
         let index = self.items.iter().position(|it| matches!(it, Item::Word(w) if w.letter == up));
         match (existing, index) {
