@@ -298,7 +298,7 @@ impl Lexer<'_> {
 /// correctly rounded division of two exactly representable numbers, so it
 /// equals the correctly rounded value of the decimal. `None` otherwise.
 /// `text` holds a sign, digits, at most one point and spaces.
-fn fast_decimal(text: &[u8]) -> Option<f64> {
+pub(crate) fn fast_decimal(text: &[u8]) -> Option<f64> {
     const POW10: [f64; 23] = [
         1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
         1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22,

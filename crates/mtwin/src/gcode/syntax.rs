@@ -431,9 +431,19 @@ impl Block {
     /// Replaces the bytes of `span` by `bytes` and shifts every later span.
     fn splice(&mut self, span: Span, bytes: &[u8]) {
         let delta = bytes.len() as isize - (span.end - span.start) as isize;
-        self.text.splice(span.start..span.end, bytes.iter().copied());
         if delta == 0 {
+            self.text[span.start..span.end].copy_from_slice(bytes);
             return;
+        }
+        let old_len = self.text.len();
+        if delta > 0 {
+            self.text.resize(old_len + delta.unsigned_abs(), 0);
+        }
+        let new_tail = span.start + bytes.len();
+        self.text.copy_within(span.end..old_len, new_tail);
+        self.text[span.start..new_tail].copy_from_slice(bytes);
+        if delta < 0 {
+            self.text.truncate(old_len - delta.unsigned_abs());
         }
         let from = span.end;
         for it in &mut self.items {
@@ -467,7 +477,7 @@ fn item_start(it: &Item) -> usize {
 
 /// The value a formatted number reads back as (what a controller will see).
 fn parse_back(digits: &str, fallback: f64) -> f64 {
-    digits.parse().unwrap_or(fallback)
+    lexer::fast_decimal(digits.as_bytes()).or_else(|| digits.parse().ok()).unwrap_or(fallback)
 }
 
 fn ascii_letter(letter: char) -> Result<u8, GcodeError> {
