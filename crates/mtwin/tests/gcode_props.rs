@@ -54,4 +54,12 @@ proptest! {
             }
         }
     }
+
+    #[test]
+    fn numbers_read_exactly_as_the_standard_parser(text in "-?[0-9]{1,20}(\\.[0-9]{0,24})?") {
+        let b = Block::parse(format!("X{text}").as_bytes(), 1).unwrap();
+        let v = b.word('X').unwrap().unwrap().number().unwrap();
+        let std: f64 = text.parse().unwrap();
+        prop_assert_eq!(v.to_bits(), std.to_bits());
+    }
 }

@@ -194,52 +194,65 @@ impl Lexer<'_> {
     }
 
     /// A number starting at `start` (sign, digits, one '.', spaces allowed
-    /// between the characters).
+    /// between the characters). Short decimals are converted while scanning
+    /// (see [`fast_decimal`]); others by the standard parser.
     fn number(&mut self, start: usize) -> Result<(Value, Span, bool), GcodeError> {
+        let b = self.b;
         let mut j = start;
         let mut end = start; // exclusive end of the last significant byte
         let mut has_point = false;
         let mut has_digit = false;
         let mut spaced = false;
-        if matches!(self.b.get(j), Some(b'+' | b'-')) {
+        let mut negative = false;
+        let mut mantissa: u64 = 0;
+        let mut significant = 0u32;
+        let mut decimals = 0usize;
+        if let Some(&c @ (b'+' | b'-')) = b.get(j) {
+            negative = c == b'-';
             j += 1;
             end = j;
         }
-        while let Some(&c) = self.b.get(j) {
-            match c {
-                b'0'..=b'9' => {
-                    has_digit = true;
-                    j += 1;
-                    end = j;
+        while j < b.len() {
+            let c = b[j];
+            if c.is_ascii_digit() {
+                has_digit = true;
+                if mantissa != 0 || c != b'0' {
+                    significant += 1;
                 }
-                b'.' => {
-                    if has_point {
-                        self.i = j;
-                        return Err(self.err("a number has two decimal points"));
-                    }
-                    has_point = true;
-                    j += 1;
-                    end = j;
+                if significant <= 15 {
+                    mantissa = mantissa * 10 + u64::from(c - b'0');
                 }
-                c if is_space(c) => {
-                    j += 1;
-                    spaced = true;
+                decimals += usize::from(has_point);
+                j += 1;
+                end = j;
+            } else if c == b'.' {
+                if has_point {
+                    self.i = j;
+                    return Err(self.err("a number has two decimal points"));
                 }
-                _ => break,
+                has_point = true;
+                j += 1;
+                end = j;
+            } else if is_space(c) {
+                j += 1;
+                spaced = true;
+            } else {
+                break;
             }
         }
         if !has_digit {
             self.i = start;
             return Err(self.err("a number needs at least one digit"));
         }
-        let text = &self.b[start..end];
-        let value = match fast_decimal(text) {
-            Some(v) => Some(v),
-            None if spaced => {
-                let compact: Vec<u8> = text.iter().copied().filter(|&c| !is_space(c)).collect();
-                parse_f64(&compact)
-            }
-            None => parse_f64(text),
+        let text = &b[start..end];
+        let value = if significant <= 15 && decimals < POW10.len() {
+            let v = mantissa as f64 / POW10[decimals];
+            Some(if negative { -v } else { v })
+        } else if spaced {
+            let compact: Vec<u8> = text.iter().copied().filter(|&c| !is_space(c)).collect();
+            parse_f64(&compact)
+        } else {
+            parse_f64(text)
         };
         self.i = end;
         match value {
@@ -293,16 +306,18 @@ impl Lexer<'_> {
     }
 }
 
+/// Powers of ten exactly representable in an `f64`.
+const POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
 /// Exact fast path for short decimals (Clinger): with at most 15
 /// significant digits and at most 22 decimals, `mantissa / 10^k` is one
 /// correctly rounded division of two exactly representable numbers, so it
 /// equals the correctly rounded value of the decimal. `None` otherwise.
 /// `text` holds a sign, digits, at most one point and spaces.
 pub(crate) fn fast_decimal(text: &[u8]) -> Option<f64> {
-    const POW10: [f64; 23] = [
-        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
-        1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
-    ];
     let mut mantissa: u64 = 0;
     let mut digits = 0u32;
     let mut decimals = 0usize;
