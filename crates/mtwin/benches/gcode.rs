@@ -12,7 +12,9 @@ use mtwin::gcode::{self, Block, BlockReader, StatsOptions};
 /// About `lines` blocks of a TCP five-axis finishing program.
 fn synthetic_program(lines: usize) -> Vec<u8> {
     let mut out = Vec::with_capacity(lines * 64);
-    out.extend_from_slice(b"%\n(synthetic five-axis program)\nM428 ;TCP on\nG21 G90 G17 G40 G54\nG93\nS12000 M3\n");
+    out.extend_from_slice(
+        b"%\n(synthetic five-axis program)\nM428 ;TCP on\nG21 G90 G17 G40 G54\nG93\nS12000 M3\n",
+    );
     let mut state: u64 = 0x2545_f491_4f6c_dd1d;
     let mut rnd = || {
         // xorshift64: reproducible pseudo-random digits without a dependency.
@@ -23,12 +25,21 @@ fn synthetic_program(lines: usize) -> Vec<u8> {
     };
     for i in 0..lines {
         let t = i as f64 * 1e-3;
-        let (x, y, z) = (40.0 * t.cos() + rnd(), 40.0 * t.sin() - rnd(), -5.0 + 2.0 * rnd());
+        let (x, y, z) = (
+            40.0 * t.cos() + rnd(),
+            40.0 * t.sin() - rnd(),
+            -5.0 + 2.0 * rnd(),
+        );
         let (a, c) = (-30.0 * (t * 0.1).sin(), (i as f64 * 0.05) % 360.0);
         if i % 50 == 0 {
             writeln!(out, "N{i} (pass {})", i / 50).unwrap();
         }
-        writeln!(out, "G1 X{x:.3} Y{y:.3} Z{z:.3} A{a:.3} C{c:.3} F{:.1}", 200.0 + 100.0 * rnd()).unwrap();
+        writeln!(
+            out,
+            "G1 X{x:.3} Y{y:.3} Z{z:.3} A{a:.3} C{c:.3} F{:.1}",
+            200.0 + 100.0 * rnd()
+        )
+        .unwrap();
     }
     out.extend_from_slice(b"M429 ;TCP off\nM30\n%\n");
     out

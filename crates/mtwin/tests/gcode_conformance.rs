@@ -30,14 +30,23 @@ const SKIPPED: &[(&str, &str)] = &[
     ("bad/exists-5.ngc", "expression with parameters"),
     ("bad/exists-6.ngc", "expression with parameters"),
     ("bad/exists-7.ngc", "expression with parameters"),
-    ("bad/nested.ngc", "O-word statement (subroutines and control flow)"),
+    (
+        "bad/nested.ngc",
+        "O-word statement (subroutines and control flow)",
+    ),
     ("bad/probe-no-axes.ngc", "probing G38.2"),
     ("cam-nisley", "parameter assignment"),
     ("compile", "no single program file (several or none)"),
-    ("crazy-paths", "O-word statement (subroutines and control flow)"),
+    (
+        "crazy-paths",
+        "O-word statement (subroutines and control flow)",
+    ),
     ("do-while-break", "parameter assignment"),
     ("exists", "parameter assignment"),
-    ("flowsnake", "O-word statement (subroutines and control flow)"),
+    (
+        "flowsnake",
+        "O-word statement (subroutines and control flow)",
+    ),
     ("g10/g10-l1-l10", "setting offsets G10"),
     ("g10/g10-l11", "setting offsets G10"),
     ("g10/g10-l2-while-active", "setting offsets G10"),
@@ -48,9 +57,18 @@ const SKIPPED: &[(&str, &str)] = &[
     ("g71-endless-loop", "axis offsets G92.1"),
     ("g71-endless-loop2", "constant surface speed G96"),
     ("g71-endless-loop_2", "parameter assignment"),
-    ("g71-with-g70", "O-word statement (subroutines and control flow)"),
-    ("g72-facing", "O-word statement (subroutines and control flow)"),
-    ("g72-missing-iteration", "O-word statement (subroutines and control flow)"),
+    (
+        "g71-with-g70",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "g72-facing",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "g72-missing-iteration",
+        "O-word statement (subroutines and control flow)",
+    ),
     ("g76", "spindle-synchronised motion G76"),
     ("g81/g17/g98", "canned cycle G81"),
     ("g81/g17/g99", "canned cycle G81"),
@@ -66,44 +84,101 @@ const SKIPPED: &[(&str, &str)] = &[
     ("g84/g19/g99", "canned cycle G84"),
     ("iniparam", "parameter #<_ini"),
     ("iniparam-failassign", "parameter assignment"),
-    ("inside-corners", "O-word statement (subroutines and control flow)"),
-    ("inverse-time-with-comp", "O-word statement (subroutines and control flow)"),
+    (
+        "inside-corners",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "inverse-time-with-comp",
+        "O-word statement (subroutines and control flow)",
+    ),
     ("m98m99/01-basics", "subprogram call M98"),
     ("m98m99/02-variables", "parameter assignment"),
     ("m98m99/03-error-M98-no-P-word", "subprogram call M98"),
     ("m98m99/04-M98-but-no-sub", "subprogram call M98"),
     ("m98m99/05-M98-loops", "parameter assignment"),
-    ("m98m99/06-error-mixed-sub-styles", "no single program file (several or none)"),
+    (
+        "m98m99/06-error-mixed-sub-styles",
+        "no single program file (several or none)",
+    ),
     ("m98m99/07-nested-subs", "parameter assignment"),
     ("m98m99/08-sub-follows-main", "subprogram call M98"),
-    ("m98m99/09-disable-fanuc-subs", "no single program file (several or none)"),
+    (
+        "m98m99/09-disable-fanuc-subs",
+        "no single program file (several or none)",
+    ),
     ("m98m99/10-M98-P001", "subprogram call M98"),
-    ("m98m99/11-main-program-oword", "no single program file (several or none)"),
+    (
+        "m98m99/11-main-program-oword",
+        "no single program file (several or none)",
+    ),
     ("m98m99/12-M99-endless-main-program", "parameter assignment"),
-    ("m98m99/13-named-program", "no single program file (several or none)"),
+    (
+        "m98m99/13-named-program",
+        "no single program file (several or none)",
+    ),
     ("m98m99/14-o-expression-call", "parameter assignment"),
-    ("machine-coord-params", "O-word statement (subroutines and control flow)"),
-    ("magic_comments/param_format_printing", "parameter assignment"),
+    (
+        "machine-coord-params",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "magic_comments/param_format_printing",
+        "parameter assignment",
+    ),
     ("namedparam-bug424", "parameter assignment"),
-    ("nested-sub-error", "O-word statement (subroutines and control flow)"),
-    ("nested-sub-in-file-error", "O-word statement (subroutines and control flow)"),
-    ("oword-bug315", "O-word statement (subroutines and control flow)"),
-    ("oword-bug315-p2", "O-word statement (subroutines and control flow)"),
-    ("oword-unwind", "O-word statement (subroutines and control flow)"),
+    (
+        "nested-sub-error",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "nested-sub-in-file-error",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "oword-bug315",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "oword-bug315-p2",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "oword-unwind",
+        "O-word statement (subroutines and control flow)",
+    ),
     ("plug/absolute", "no single program file (several or none)"),
     ("plug/filename", "no single program file (several or none)"),
     ("plug/relative", "no single program file (several or none)"),
     ("pymove", "O-word statement (subroutines and control flow)"),
-    ("python-self", "O-word statement (subroutines and control flow)"),
+    (
+        "python-self",
+        "O-word statement (subroutines and control flow)",
+    ),
     ("return-value", "parameter assignment"),
-    ("rotation/abs-pts", "O-word statement (subroutines and control flow)"),
+    (
+        "rotation/abs-pts",
+        "O-word statement (subroutines and control flow)",
+    ),
     ("rotation/g28", "setting offsets G10"),
     ("rotation/g53", "setting offsets G10"),
-    ("sequence-number", "O-word statement (subroutines and control flow)"),
-    ("sub-call-from-sub", "O-word statement (subroutines and control flow)"),
-    ("subs-follow-main", "O-word statement (subroutines and control flow)"),
+    (
+        "sequence-number",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "sub-call-from-sub",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "subs-follow-main",
+        "O-word statement (subroutines and control flow)",
+    ),
     ("unit-conversion", "axis offsets G92.1"),
-    ("value-returned", "O-word statement (subroutines and control flow)"),
+    (
+        "value-returned",
+        "O-word statement (subroutines and control flow)",
+    ),
 ];
 
 fn root() -> Option<PathBuf> {
@@ -140,16 +215,24 @@ fn expected_motion(text: &str) -> Vec<Call> {
             .trim_end()
             .trim_end_matches(')')
             .split(',')
-            .map(|a| a.trim().parse().unwrap_or_else(|_| panic!("bad trace line {line}")))
+            .map(|a| {
+                a.trim()
+                    .parse()
+                    .unwrap_or_else(|_| panic!("bad trace line {line}"))
+            })
             .collect();
         let s = if inch { 25.4 } else { 1.0 };
         // Linear arguments: straight: x y z (0..3) and u v w (6..9);
         // arc: ends and centre (0..4), axis end (5), u v w (9..12).
         let linear = |i: usize| match name {
             "ARC_FEED" => i < 4 || i == 5 || i >= 9,
-            _ => i < 3 || i >= 6,
+            _ => !(3..6).contains(&i),
         };
-        let args = args.iter().enumerate().map(|(i, v)| if linear(i) { v * s } else { *v }).collect();
+        let args = args
+            .iter()
+            .enumerate()
+            .map(|(i, v)| if linear(i) { v * s } else { *v })
+            .collect();
         calls.push((name.to_string(), args));
     }
     calls
@@ -161,19 +244,34 @@ fn our_motion(program: &[u8]) -> Result<Vec<Call>, (Vec<Call>, GcodeError)> {
     // The tool lengths LinuxCNC's test tool table gives (USE_TOOL_LENGTH_OFFSET
     // in the traces of g72-facing, in mm, and g76, 0.7 in).
     let tools = [(2, 2.54), (4, 0.7 * 25.4)].into_iter().collect();
-    let opts = InterpOptions { unknown_m: UnknownMCode::Reject, tools, ..InterpOptions::default() };
+    let opts = InterpOptions {
+        unknown_m: UnknownMCode::Reject,
+        tools,
+        ..InterpOptions::default()
+    };
     let mut calls = Vec::new();
     let result = gcode::interpret(program, opts, |_, events| {
         for e in events {
             let abc = |p: &gcode::Axes| [p.0[3], p.0[4], p.0[5]];
             match &e.kind {
                 EventKind::Traverse(m) | EventKind::Feed(m) => {
-                    let name = if matches!(e.kind, EventKind::Traverse(_)) { "STRAIGHT_TRAVERSE" } else { "STRAIGHT_FEED" };
+                    let name = if matches!(e.kind, EventKind::Traverse(_)) {
+                        "STRAIGHT_TRAVERSE"
+                    } else {
+                        "STRAIGHT_FEED"
+                    };
                     calls.push((name.to_string(), m.to.0[..6].to_vec()));
                 }
                 EventKind::Arc(a) => {
                     let (p, q, n) = a.plane.axes();
-                    let mut v = vec![a.to[p], a.to[q], a.center[p.index()], a.center[q.index()], f64::from(a.turns), a.to[n]];
+                    let mut v = vec![
+                        a.to[p],
+                        a.to[q],
+                        a.center[p.index()],
+                        a.center[q.index()],
+                        f64::from(a.turns),
+                        a.to[n],
+                    ];
                     v.extend(abc(&a.to));
                     calls.push(("ARC_FEED".to_string(), v));
                 }
@@ -190,7 +288,11 @@ fn our_motion(program: &[u8]) -> Result<Vec<Call>, (Vec<Call>, GcodeError)> {
 
 fn same(ours: &[Call], expected: &[Call]) -> Result<(), String> {
     if ours.len() != expected.len() {
-        return Err(format!("{} motion calls, expected {}", ours.len(), expected.len()));
+        return Err(format!(
+            "{} motion calls, expected {}",
+            ours.len(),
+            expected.len()
+        ));
     }
     for (k, ((n1, a1), (n2, a2))) in ours.iter().zip(expected).enumerate() {
         if n1 != n2 {
@@ -199,7 +301,9 @@ fn same(ours: &[Call], expected: &[Call]) -> Result<(), String> {
         // The trace prints 4 decimals in program units (≤ 0.5e-4 in = 1.27e-3 mm).
         for (i, (x, y)) in a1.iter().zip(a2).enumerate() {
             if (x - y).abs() > 1.3e-3 {
-                return Err(format!("call {k} {n1} argument {i}: {x}, expected {y}\n ours {a1:?}\n expected {a2:?}"));
+                return Err(format!(
+                    "call {k} {n1} argument {i}: {x}, expected {y}\n ours {a1:?}\n expected {a2:?}"
+                ));
             }
         }
     }
@@ -221,10 +325,17 @@ fn program_of(dir: &Path) -> Option<PathBuf> {
 }
 
 fn case_dirs(dir: &Path, root: &Path, out: &mut Vec<(String, PathBuf)>) {
-    let mut entries: Vec<PathBuf> = std::fs::read_dir(dir).unwrap().filter_map(|e| e.ok().map(|e| e.path())).collect();
+    let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .collect();
     entries.sort();
     if dir.join("expected").is_file() {
-        let name = dir.strip_prefix(root).unwrap().to_string_lossy().into_owned();
+        let name = dir
+            .strip_prefix(root)
+            .unwrap()
+            .to_string_lossy()
+            .into_owned();
         out.push((name, dir.to_path_buf()));
     }
     for e in entries {
@@ -246,11 +357,15 @@ fn linuxcnc_conformance() {
 
     for (name, dir) in &cases {
         let Some(program) = program_of(dir) else {
-            skipped.insert(name.clone(), "no single program file (several or none)".into());
+            skipped.insert(
+                name.clone(),
+                "no single program file (several or none)".into(),
+            );
             continue;
         };
         let bytes = std::fs::read(&program).unwrap();
-        let expected_text = String::from_utf8_lossy(&std::fs::read(dir.join("expected")).unwrap()).into_owned();
+        let expected_text =
+            String::from_utf8_lossy(&std::fs::read(dir.join("expected")).unwrap()).into_owned();
         match our_motion(&bytes) {
             Ok(ours) => match same(&ours, &expected_motion(&expected_text)) {
                 Ok(()) => passed.push(name.clone()),
@@ -288,7 +403,9 @@ fn linuxcnc_conformance() {
                     skipped.insert(name, e.to_string());
                 }
                 (Err(_), true) | (Ok(_), false) => passed.push(name),
-                (Ok(_), true) => failures.push(format!("{name}: accepted, but LinuxCNC rejects it")),
+                (Ok(_), true) => {
+                    failures.push(format!("{name}: accepted, but LinuxCNC rejects it"))
+                }
                 (Err((_, e)), false) => failures.push(format!("{name}: rejected: {e}")),
             }
         }
@@ -299,13 +416,30 @@ fn linuxcnc_conformance() {
     for (k, v) in &skipped {
         eprintln!("skipped {k}: {v}");
     }
-    assert!(failures.is_empty(), "conformance failures:\n{}", failures.join("\n"));
-    let listed: BTreeMap<String, String> = SKIPPED.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+    assert!(
+        failures.is_empty(),
+        "conformance failures:\n{}",
+        failures.join("\n")
+    );
+    let listed: BTreeMap<String, String> = SKIPPED
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
     let listed_names: Vec<&String> = listed.keys().collect();
     let skipped_names: Vec<&String> = skipped.keys().collect();
-    assert_eq!(skipped_names, listed_names, "the SKIPPED list is out of date");
+    assert_eq!(
+        skipped_names, listed_names,
+        "the SKIPPED list is out of date"
+    );
     for (name, reason) in &listed {
-        assert!(skipped[name].contains(reason.as_str()), "{name}: skipped because {}, listed as {reason}", skipped[name]);
+        assert!(
+            skipped[name].contains(reason.as_str()),
+            "{name}: skipped because {}, listed as {reason}",
+            skipped[name]
+        );
     }
-    assert!(passed.len() >= 5, "too few conformance cases pass: {passed:?}");
+    assert!(
+        passed.len() >= 5,
+        "too few conformance cases pass: {passed:?}"
+    );
 }

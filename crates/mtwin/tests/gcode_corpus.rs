@@ -26,7 +26,11 @@ fn every_corpus_program_round_trips_byte_for_byte() {
         }
         let bytes = std::fs::read(&path).unwrap();
         let program = Program::parse(&bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        assert!(program.to_bytes() == bytes, "{} does not round-trip", path.display());
+        assert!(
+            program.to_bytes() == bytes,
+            "{} does not round-trip",
+            path.display()
+        );
         // Streaming writer gives the same bytes.
         let mut w = gcode::BlockWriter::new(Vec::new());
         for b in &program.blocks {
@@ -95,5 +99,9 @@ fn impeller_inverse_time_total_equals_sum_of_inverse_feeds() {
         }
     }
     let st = gcode::stats(text.as_bytes(), &StatsOptions::default()).unwrap();
-    assert!((st.feed_time - expected).abs() < 1e-6 * expected, "{} vs {expected}", st.feed_time);
+    assert!(
+        (st.feed_time - expected).abs() < 1e-6 * expected,
+        "{} vs {expected}",
+        st.feed_time
+    );
 }

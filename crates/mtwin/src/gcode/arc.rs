@@ -94,7 +94,11 @@ pub(crate) fn center_from_radius(
         half = abs_r;
     }
     let chord = (e[1] - s[1]).atan2(e[0] - s[0]);
-    let theta = if (!ccw && r > 0.0) || (ccw && r < 0.0) { chord - FRAC_PI_2 } else { chord + FRAC_PI_2 };
+    let theta = if (!ccw && r > 0.0) || (ccw && r < 0.0) {
+        chord - FRAC_PI_2
+    } else {
+        chord + FRAC_PI_2
+    };
     let offset = abs_r * (half / abs_r).asin().cos();
     Ok([mid[0] + offset * theta.cos(), mid[1] + offset * theta.sin()])
 }
@@ -206,13 +210,22 @@ mod tests {
     fn r_format_centre_is_equidistant_and_on_the_requested_side() {
         // Quarter circle of radius 10 from (10,0) to (0,10): centre (0,0) for
         // G3 R10, centre (10,10) for G2 R10.
-        let c = center_from_radius([10.0, 0.0], [0.0, 10.0], 10.0, true, Units::Millimetre).unwrap();
+        let c =
+            center_from_radius([10.0, 0.0], [0.0, 10.0], 10.0, true, Units::Millimetre).unwrap();
         assert!((c[0]).abs() < 1e-12 && c[1].abs() < 1e-12, "{c:?}");
-        let c = center_from_radius([10.0, 0.0], [0.0, 10.0], 10.0, false, Units::Millimetre).unwrap();
-        assert!((c[0] - 10.0).abs() < 1e-12 && (c[1] - 10.0).abs() < 1e-12, "{c:?}");
+        let c =
+            center_from_radius([10.0, 0.0], [0.0, 10.0], 10.0, false, Units::Millimetre).unwrap();
+        assert!(
+            (c[0] - 10.0).abs() < 1e-12 && (c[1] - 10.0).abs() < 1e-12,
+            "{c:?}"
+        );
         // Negative R: the long way, so the centre flips side.
-        let c = center_from_radius([10.0, 0.0], [0.0, 10.0], -10.0, true, Units::Millimetre).unwrap();
-        assert!((c[0] - 10.0).abs() < 1e-12 && (c[1] - 10.0).abs() < 1e-12, "{c:?}");
+        let c =
+            center_from_radius([10.0, 0.0], [0.0, 10.0], -10.0, true, Units::Millimetre).unwrap();
+        assert!(
+            (c[0] - 10.0).abs() < 1e-12 && (c[1] - 10.0).abs() < 1e-12,
+            "{c:?}"
+        );
         assert_eq!(
             center_from_radius([0.0, 0.0], [30.0, 0.0], 10.0, true, Units::Millimetre),
             Err(ArcError::RadiusTooSmall)

@@ -31,7 +31,9 @@ impl Dialect {
     /// `rotary` that of a rotary axis (0.001°).
     pub fn dimension(self, written: f64, has_point: bool, inch: bool, rotary: bool) -> f64 {
         match self {
-            Dialect::Fanuc { decimal_point_programming: false } if !has_point => {
+            Dialect::Fanuc {
+                decimal_point_programming: false,
+            } if !has_point => {
                 let increment = if inch && !rotary { 1e-4 } else { 1e-3 };
                 written * increment
             }
@@ -67,12 +69,16 @@ mod tests {
 
     #[test]
     fn fanuc_integer_words_are_least_increments() {
-        let f = Dialect::Fanuc { decimal_point_programming: false };
+        let f = Dialect::Fanuc {
+            decimal_point_programming: false,
+        };
         assert_eq!(f.dimension(10.0, false, false, false), 10.0 * 0.001);
         assert_eq!(f.dimension(10.0, true, false, false), 10.0);
         assert_eq!(f.dimension(10.0, false, true, false), 10.0 * 0.0001);
         assert_eq!(f.dimension(10.0, false, true, true), 10.0 * 0.001);
-        let calc = Dialect::Fanuc { decimal_point_programming: true };
+        let calc = Dialect::Fanuc {
+            decimal_point_programming: true,
+        };
         assert_eq!(calc.dimension(10.0, false, false, false), 10.0);
         assert_eq!(Dialect::LinuxCnc.dimension(10.0, false, false, false), 10.0);
     }

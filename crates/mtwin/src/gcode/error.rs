@@ -59,21 +59,30 @@ impl GcodeError {
 
     pub(crate) fn syntax(line: u64, column: usize, message: impl Into<String>) -> Self {
         GcodeError::Syntax {
-            at: Location { line, column: col32(column) },
+            at: Location {
+                line,
+                column: col32(column),
+            },
             message: message.into(),
         }
     }
 
     pub(crate) fn unsupported(line: u64, column: usize, what: impl Into<String>) -> Self {
         GcodeError::Unsupported {
-            at: Location { line, column: col32(column) },
+            at: Location {
+                line,
+                column: col32(column),
+            },
             what: what.into(),
         }
     }
 
     pub(crate) fn invalid(line: u64, column: usize, message: impl Into<String>) -> Self {
         GcodeError::Invalid {
-            at: Location { line, column: col32(column) },
+            at: Location {
+                line,
+                column: col32(column),
+            },
             message: message.into(),
         }
     }

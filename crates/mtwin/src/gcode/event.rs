@@ -127,7 +127,11 @@ impl Programmed {
     /// (work coordinates, mm/deg) on `axis`, given the move's start and the
     /// offset of its event. Rotary rollover is not undone.
     pub fn word_value(&self, axis: Axis, from: &Axes, end: f64, offset: &Axes) -> f64 {
-        let scale = if axis.is_rotary() { 1.0 } else { self.units.mm_per_unit() };
+        let scale = if axis.is_rotary() {
+            1.0
+        } else {
+            self.units.mm_per_unit()
+        };
         let canonical = if self.g53 {
             end + offset[axis]
         } else {

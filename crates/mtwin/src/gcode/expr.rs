@@ -23,13 +23,22 @@ pub(crate) fn eval(text: &[u8]) -> Result<f64, ExprError> {
     let v = p.operand()?;
     p.skip();
     if p.i != p.b.len() {
-        return Err(ExprError::Invalid(format!("unexpected text after the value at byte {}", p.i + 1)));
+        return Err(ExprError::Invalid(format!(
+            "unexpected text after the value at byte {}",
+            p.i + 1
+        )));
     }
     finite(v)
 }
 
 fn finite(v: f64) -> Result<f64, ExprError> {
-    if v.is_finite() { Ok(v) } else { Err(ExprError::Invalid("the expression has no finite value".into())) }
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(ExprError::Invalid(
+            "the expression has no finite value".into(),
+        ))
+    }
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -67,7 +76,9 @@ impl Op {
         Ok(match self {
             Op::Pow => {
                 if a < 0.0 && b.fract() != 0.0 {
-                    return Err(ExprError::Invalid("Attempt to raise negative to non-integer power".into()));
+                    return Err(ExprError::Invalid(
+                        "Attempt to raise negative to non-integer power".into(),
+                    ));
                 }
                 a.powf(b)
             }
@@ -108,7 +119,11 @@ struct Parser<'a> {
 
 impl Parser<'_> {
     fn skip(&mut self) {
-        while self.b.get(self.i).is_some_and(|c| super::lexer::is_space(*c)) {
+        while self
+            .b
+            .get(self.i)
+            .is_some_and(|c| super::lexer::is_space(*c))
+        {
             self.i += 1;
         }
     }
@@ -123,7 +138,11 @@ impl Parser<'_> {
             self.i += 1;
             Ok(())
         } else {
-            Err(ExprError::Invalid(format!("expected '{}' at byte {}", c as char, self.i + 1)))
+            Err(ExprError::Invalid(format!(
+                "expected '{}' at byte {}",
+                c as char,
+                self.i + 1
+            )))
         }
     }
 
@@ -133,7 +152,10 @@ impl Parser<'_> {
         let mut values = vec![self.operand()?];
         let mut ops: Vec<Op> = Vec::new();
         while let Some(op) = self.operator()? {
-            while ops.last().is_some_and(|top| top.precedence() >= op.precedence()) {
+            while ops
+                .last()
+                .is_some_and(|top| top.precedence() >= op.precedence())
+            {
                 reduce(&mut values, &mut ops)?;
             }
             ops.push(op);
@@ -143,11 +165,15 @@ impl Parser<'_> {
             reduce(&mut values, &mut ops)?;
         }
         self.expect(b']')?;
-        values.pop().ok_or_else(|| ExprError::Invalid("empty expression".into()))
+        values
+            .pop()
+            .ok_or_else(|| ExprError::Invalid("empty expression".into()))
     }
 
     fn operator(&mut self) -> Result<Option<Op>, ExprError> {
-        let Some(c) = self.peek() else { return Ok(None) };
+        let Some(c) = self.peek() else {
+            return Ok(None);
+        };
         let rest = &self.b[self.i..];
         let two = |s: &[u8]| rest.len() >= s.len() && rest[..s.len()].eq_ignore_ascii_case(s);
         let (op, len) = match c {
@@ -172,7 +198,12 @@ impl Parser<'_> {
                 ];
                 match words.iter().find(|(w, _)| two(w)) {
                     Some(&(w, op)) => (op, w.len()),
-                    None => return Err(ExprError::Invalid(format!("unknown operation at byte {}", self.i + 1))),
+                    None => {
+                        return Err(ExprError::Invalid(format!(
+                            "unknown operation at byte {}",
+                            self.i + 1
+                        )));
+                    }
                 }
             }
         };
@@ -194,7 +225,10 @@ impl Parser<'_> {
             Some(b'[') => self.bracketed(),
             Some(b'0'..=b'9' | b'.') => self.number(),
             Some(c) if c.is_ascii_alphabetic() => self.function(),
-            _ => Err(ExprError::Invalid(format!("expected a value at byte {}", self.i + 1))),
+            _ => Err(ExprError::Invalid(format!(
+                "expected a value at byte {}",
+                self.i + 1
+            ))),
         }
     }
 
@@ -208,7 +242,8 @@ impl Parser<'_> {
             }
             self.i += 1;
         }
-        text.parse().map_err(|_| ExprError::Invalid(format!("malformed number {text}")))
+        text.parse()
+            .map_err(|_| ExprError::Invalid(format!("malformed number {text}")))
     }
 
     fn function(&mut self) -> Result<f64, ExprError> {
@@ -222,7 +257,13 @@ impl Parser<'_> {
         }
         let x = self.bracketed()?;
         let deg = |r: f64| r.to_degrees();
-        let domain = |ok: bool, what: &str| if ok { Ok(()) } else { Err(ExprError::Invalid(what.to_string())) };
+        let domain = |ok: bool, what: &str| {
+            if ok {
+                Ok(())
+            } else {
+                Err(ExprError::Invalid(what.to_string()))
+            }
+        };
         Ok(match name.as_slice() {
             b"ABS" => x.abs(),
             b"ACOS" => {
@@ -254,7 +295,10 @@ impl Parser<'_> {
             b"FUP" => x.ceil(),
             b"ROUND" => x.round(),
             _ => {
-                return Err(ExprError::Invalid(format!("unknown function {}", String::from_utf8_lossy(&name))));
+                return Err(ExprError::Invalid(format!(
+                    "unknown function {}",
+                    String::from_utf8_lossy(&name)
+                )));
             }
         })
     }
@@ -293,7 +337,10 @@ mod tests {
     fn functions_use_degrees() {
         assert!((ev("sin[30]") - 0.5).abs() < 1e-15);
         assert!((ev("atan[1]/[1]") - 45.0).abs() < 1e-12);
-        assert!((ev("[3000 + [100 * [0.0101 * sqrt[2]]]]") - (3000.0 + 1.01 * 2f64.sqrt())).abs() < 1e-9);
+        assert!(
+            (ev("[3000 + [100 * [0.0101 * sqrt[2]]]]") - (3000.0 + 1.01 * 2f64.sqrt())).abs()
+                < 1e-9
+        );
         assert_eq!(ev("fup[1.2]"), 2.0);
         assert_eq!(ev("fix[-1.2]"), -2.0);
     }

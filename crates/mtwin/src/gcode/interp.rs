@@ -17,11 +17,11 @@ use super::arc::{self, ArcError};
 use super::axes::{Axes, Axis, AxisMask};
 use super::dialect::{Dialect, DwellWord};
 use super::error::GcodeError;
-use super::expr::{self, ExprError};
 use super::event::{
     ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, Plane, Programmed, SourcePos,
     SpindleState, Units,
 };
+use super::expr::{self, ExprError};
 use super::syntax::{Block, Item, Value, Word};
 
 /// Tool number → tool length offset along Z, mm (the caller's tool table).
@@ -172,7 +172,7 @@ fn g_group(code: u32) -> Option<Group> {
 /// Why a known G-code is not supported.
 fn g_unsupported(code: u32) -> &'static str {
     match code {
-        100 | 101 | 102 => "setting offsets",
+        100..=102 => "setting offsets",
         280 | 281 | 300 | 301 => "return to home position",
         920 | 921 | 922 | 923 | 520 => "axis offsets",
         410 | 411 | 420 | 421 => "cutter radius compensation",
@@ -250,7 +250,14 @@ impl Interpreter {
             position: opts.initial_machine_position.sub(&offset),
             offset,
         };
-        Interpreter { opts, state, tcp_from_g43_4: false, block_index: 0, ended: false, words: BlockWords::default() }
+        Interpreter {
+            opts,
+            state,
+            tcp_from_g43_4: false,
+            block_index: 0,
+            ended: false,
+            words: BlockWords::default(),
+        }
     }
 
     /// The modal state after the blocks executed so far.
@@ -266,7 +273,10 @@ impl Interpreter {
     /// Executes one block, appending its events to `out`. On error the state
     /// is that before the failing step; the error names the line.
     pub fn execute(&mut self, block: &Block, out: &mut Vec<Event>) -> Result<(), GcodeError> {
-        let at = SourcePos { line: block.line(), block: self.block_index };
+        let at = SourcePos {
+            line: block.line(),
+            block: self.block_index,
+        };
         self.block_index += 1;
         if self.ended || (self.opts.skip_deleted_blocks && block.is_block_delete()) {
             return Ok(());
@@ -288,10 +298,18 @@ impl Interpreter {
             match item {
                 Item::Word(word) => collect_word(block, word, w)?,
                 Item::OWord { span } => {
-                    return Err(GcodeError::unsupported(line, span.start + 1, "O-word statement (subroutines and control flow)"));
+                    return Err(GcodeError::unsupported(
+                        line,
+                        span.start + 1,
+                        "O-word statement (subroutines and control flow)",
+                    ));
                 }
                 Item::Assignment { span } => {
-                    return Err(GcodeError::unsupported(line, span.start + 1, "parameter assignment"));
+                    return Err(GcodeError::unsupported(
+                        line,
+                        span.start + 1,
+                        "parameter assignment",
+                    ));
                 }
                 Item::Percent { .. } if block.words().next().is_some() => {
                     return Err(GcodeError::invalid(line, 0, "words on a '%' line"));
@@ -302,7 +320,13 @@ impl Interpreter {
         Ok(())
     }
 
-    fn run(&mut self, block: &Block, w: &mut BlockWords, at: SourcePos, out: &mut Vec<Event>) -> Result<(), GcodeError> {
+    fn run(
+        &mut self,
+        block: &Block,
+        w: &mut BlockWords,
+        at: SourcePos,
+        out: &mut Vec<Event>,
+    ) -> Result<(), GcodeError> {
         let line = block.line();
         let invalid = |column: usize, m: String| GcodeError::invalid(line, column, m);
 
@@ -310,17 +334,37 @@ impl Interpreter {
         let mut groups: Vec<(Group, u32, usize)> = Vec::with_capacity(w.g.len());
         for &(code, col) in &w.g {
             let Some(group) = g_group(code) else {
-                return Err(GcodeError::unsupported(line, col, format!("{} {}", g_unsupported(code), g_name(code))));
+                return Err(GcodeError::unsupported(
+                    line,
+                    col,
+                    format!("{} {}", g_unsupported(code), g_name(code)),
+                ));
             };
             if let Some(&(_, other, _)) = groups.iter().find(|(g, _, _)| *g == group) {
-                return Err(invalid(col, format!("two G-codes of one modal group: {} and {}", g_name(other), g_name(code))));
+                return Err(invalid(
+                    col,
+                    format!(
+                        "two G-codes of one modal group: {} and {}",
+                        g_name(other),
+                        g_name(code)
+                    ),
+                ));
             }
             if !self.opts.dialect.has_arc_distance_modes() && group == Group::ArcDistance {
-                return Err(GcodeError::unsupported(line, col, format!("{} in this dialect", g_name(code))));
+                return Err(GcodeError::unsupported(
+                    line,
+                    col,
+                    format!("{} in this dialect", g_name(code)),
+                ));
             }
             groups.push((group, code, col));
         }
-        let g_of = |group: Group| groups.iter().find(|(g, _, _)| *g == group).map(|&(_, c, col)| (c, col));
+        let g_of = |group: Group| {
+            groups
+                .iter()
+                .find(|(g, _, _)| *g == group)
+                .map(|&(_, c, col)| (c, col))
+        };
         let has_g = |code: u32| groups.iter().any(|&(_, c, _)| c == code);
 
         // M-codes: at most one per modal group.
@@ -338,14 +382,29 @@ impl Interpreter {
                     continue;
                 }
                 c if m_ignored(c) => continue,
-                98 | 99 => return Err(GcodeError::unsupported(line, col, format!("subprogram call M{code}"))),
+                98 | 99 => {
+                    return Err(GcodeError::unsupported(
+                        line,
+                        col,
+                        format!("subprogram call M{code}"),
+                    ));
+                }
                 _ => match self.opts.unknown_m {
                     UnknownMCode::Ignore => continue,
-                    UnknownMCode::Reject => return Err(GcodeError::unsupported(line, col, format!("M-code M{code}"))),
+                    UnknownMCode::Reject => {
+                        return Err(GcodeError::unsupported(
+                            line,
+                            col,
+                            format!("M-code M{code}"),
+                        ));
+                    }
                 },
             };
             if let Some((other, _)) = *slot {
-                return Err(invalid(col, format!("two M-codes of one modal group: M{other} and M{code}")));
+                return Err(invalid(
+                    col,
+                    format!("two M-codes of one modal group: M{other} and M{code}"),
+                ));
             }
             *slot = Some((code, col));
         }
@@ -364,7 +423,10 @@ impl Interpreter {
                 self.state.feed = 0.0;
             }
             self.state.feed_mode = mode;
-            out.push(Event { at, kind: EventKind::FeedMode(mode) });
+            out.push(Event {
+                at,
+                kind: EventKind::FeedMode(mode),
+            });
         }
         if let Some(f) = letter(b'F') {
             if f.value < 0.0 {
@@ -375,7 +437,10 @@ impl Interpreter {
                 _ => self.state.units.mm_per_unit(),
             };
             self.state.feed = f.value * scale;
-            out.push(Event { at, kind: EventKind::FeedRate(self.state.feed) });
+            out.push(Event {
+                at,
+                kind: EventKind::FeedRate(self.state.feed),
+            });
         }
         // 3. Spindle speed.
         if let Some(s) = letter(b'S') {
@@ -383,7 +448,10 @@ impl Interpreter {
                 return Err(invalid(s.column, "negative spindle speed".into()));
             }
             self.state.spindle_rpm = s.value;
-            out.push(Event { at, kind: EventKind::SpindleSpeed { rpm: s.value } });
+            out.push(Event {
+                at,
+                kind: EventKind::SpindleSpeed { rpm: s.value },
+            });
         }
         // 4. Tool select and change.
         if let Some(t) = letter(b'T') {
@@ -400,20 +468,29 @@ impl Interpreter {
                 _ => SpindleState::Stopped,
             };
             self.state.spindle = dir;
-            out.push(Event { at, kind: EventKind::Spindle(dir) });
+            out.push(Event {
+                at,
+                kind: EventKind::Spindle(dir),
+            });
         }
         // 6. TCP by M-code (kinematics switch remaps).
         if let Some((code, _)) = m_tcp {
             let on = Some(code) == self.opts.tcp_on_m;
             self.state.tcp = on;
             self.tcp_from_g43_4 = false;
-            out.push(Event { at, kind: EventKind::Tcp(on) });
+            out.push(Event {
+                at,
+                kind: EventKind::Tcp(on),
+            });
         }
         // 7. Dwell.
         let dwell = has_g(40);
         if dwell {
             let seconds = self.dwell_seconds(w, line)?;
-            out.push(Event { at, kind: EventKind::Dwell { seconds } });
+            out.push(Event {
+                at,
+                kind: EventKind::Dwell { seconds },
+            });
         }
         // 8. Plane.
         if let Some((code, _)) = g_of(Group::Plane) {
@@ -425,8 +502,15 @@ impl Interpreter {
         }
         // 9. Units.
         if let Some((code, _)) = g_of(Group::Units) {
-            self.state.units = if code == 200 { Units::Inch } else { Units::Millimetre };
-            out.push(Event { at, kind: EventKind::Units(self.state.units) });
+            self.state.units = if code == 200 {
+                Units::Inch
+            } else {
+                Units::Millimetre
+            };
+            out.push(Event {
+                at,
+                kind: EventKind::Units(self.state.units),
+            });
         }
         // 10. Tool length offset and TCP by G43.4/G49.
         if let Some((code, col)) = g_of(Group::ToolLength) {
@@ -447,7 +531,10 @@ impl Interpreter {
                 }
             };
             self.set_tool_length(length);
-            out.push(Event { at, kind: EventKind::ToolLengthOffset { length } });
+            out.push(Event {
+                at,
+                kind: EventKind::ToolLengthOffset { length },
+            });
             let tcp = match code {
                 434 => Some(true),
                 490 if self.tcp_from_g43_4 => Some(false),
@@ -456,7 +543,10 @@ impl Interpreter {
             if let Some(on) = tcp {
                 self.state.tcp = on;
                 self.tcp_from_g43_4 = on;
-                out.push(Event { at, kind: EventKind::Tcp(on) });
+                out.push(Event {
+                    at,
+                    kind: EventKind::Tcp(on),
+                });
             }
         }
         // 11. Coordinate system.
@@ -475,14 +565,25 @@ impl Interpreter {
             self.state.work_system = system;
             let offset = self.opts.work_offsets[usize::from(system - 1)];
             self.set_offsets(offset, self.state.tool_length);
-            out.push(Event { at, kind: EventKind::WorkOffset { system, offset } });
+            out.push(Event {
+                at,
+                kind: EventKind::WorkOffset { system, offset },
+            });
         }
         // 12. Distance modes.
         if let Some((code, _)) = g_of(Group::Distance) {
-            self.state.distance = if code == 900 { DistanceMode::Absolute } else { DistanceMode::Incremental };
+            self.state.distance = if code == 900 {
+                DistanceMode::Absolute
+            } else {
+                DistanceMode::Incremental
+            };
         }
         if let Some((code, _)) = g_of(Group::ArcDistance) {
-            self.state.arc_distance = if code == 901 { DistanceMode::Absolute } else { DistanceMode::Incremental };
+            self.state.arc_distance = if code == 901 {
+                DistanceMode::Absolute
+            } else {
+                DistanceMode::Incremental
+            };
         }
         // 13. Motion.
         let motion_code = g_of(Group::Motion);
@@ -504,8 +605,17 @@ impl Interpreter {
                     continue; // Fanuc G4 X: the dwell time.
                 }
                 axes.insert(axis);
-                let v = dialect.dimension(a.value, a.has_point, self.state.units == Units::Inch, axis.is_rotary());
-                target[axis.index()] = if axis.is_rotary() { v } else { v * self.state.units.mm_per_unit() };
+                let v = dialect.dimension(
+                    a.value,
+                    a.has_point,
+                    self.state.units == Units::Inch,
+                    axis.is_rotary(),
+                );
+                target[axis.index()] = if axis.is_rotary() {
+                    v
+                } else {
+                    v * self.state.units.mm_per_unit()
+                };
             }
         }
         let g53 = g_of(Group::NonModal).filter(|(c, _)| *c == 530);
@@ -514,46 +624,68 @@ impl Interpreter {
             if axes.is_empty() {
                 return Err(invalid(col, "G53 without axis words".into()));
             }
-            if !matches!(self.state.motion, Some(MotionMode::Rapid | MotionMode::Linear)) {
+            if !matches!(
+                self.state.motion,
+                Some(MotionMode::Rapid | MotionMode::Linear)
+            ) {
                 return Err(invalid(col, "G53 needs G0 or G1".into()));
             }
         }
         if !axes.is_empty() || explicit_motion {
             match self.state.motion {
                 None if !axes.is_empty() => {
-                    return Err(invalid(0, "axis words without a motion mode (G0, G1, G2 or G3)".into()));
+                    return Err(invalid(
+                        0,
+                        "axis words without a motion mode (G0, G1, G2 or G3)".into(),
+                    ));
                 }
                 None => {}
-                Some(mode) => self.motion(mode, w, axes, target, g53.map(|(_, c)| c), line, at, out)?,
+                Some(mode) => {
+                    self.motion(mode, w, axes, target, g53.map(|(_, c)| c), line, at, out)?
+                }
             }
         }
         // I J K without an arc.
         let arc_now = axes_or_motion(&axes, motion_code)
-            && matches!(self.state.motion, Some(MotionMode::ArcClockwise | MotionMode::ArcCounterClockwise));
+            && matches!(
+                self.state.motion,
+                Some(MotionMode::ArcClockwise | MotionMode::ArcCounterClockwise)
+            );
         if let Some(r) = letter(b'R') {
             // R is read by G2/G3, G64 (blend tolerance) and M19 (orientation).
             let g64 = has_g(640);
             let m19 = w.m.iter().any(|&(c, _)| c == 19);
             if g64 && m19 {
-                return Err(invalid(r.column, "R word is ambiguous on a line with both G64 and M19 - use separate lines".into()));
+                return Err(invalid(
+                    r.column,
+                    "R word is ambiguous on a line with both G64 and M19 - use separate lines"
+                        .into(),
+                ));
             }
             if !(arc_now || g64 || m19) {
-                return Err(invalid(r.column, "R word with no g code that uses it".into()));
+                return Err(invalid(
+                    r.column,
+                    "R word with no g code that uses it".into(),
+                ));
             }
         }
         if !arc_now {
             for l in [b'I', b'J', b'K'] {
                 if let Some(x) = letter(l) {
-                    return Err(invalid(x.column, format!("{} word with no G2 or G3 to use it", l as char)));
+                    return Err(invalid(
+                        x.column,
+                        format!("{} word with no G2 or G3 to use it", l as char),
+                    ));
                 }
             }
         }
         // 14. Program end.
-        if let Some((code, _)) = m_stop {
-            if code == 2 || code == 30 {
-                self.ended = true;
-                out.push(Event { at, kind: EventKind::ProgramEnd });
-            }
+        if let Some((2 | 30, _)) = m_stop {
+            self.ended = true;
+            out.push(Event {
+                at,
+                kind: EventKind::ProgramEnd,
+            });
         }
         Ok(())
     }
@@ -608,7 +740,11 @@ impl Interpreter {
                 return Err(GcodeError::invalid(line, col, "G53 needs G0 or G1"));
             }
             if st.distance == DistanceMode::Incremental {
-                return Err(GcodeError::invalid(line, col, "G53 is not allowed with G91"));
+                return Err(GcodeError::invalid(
+                    line,
+                    col,
+                    "G53 is not allowed with G91",
+                ));
             }
         }
         for axis in axes.iter() {
@@ -625,18 +761,31 @@ impl Interpreter {
                 v
             };
         }
-        let words = Programmed { axes, g53: g53.is_some(), distance: st.distance, units: st.units };
+        let words = Programmed {
+            axes,
+            g53: g53.is_some(),
+            distance: st.distance,
+            units: st.units,
+        };
         let feed = || -> Result<Feed, GcodeError> {
             match st.feed_mode {
                 FeedMode::UnitsPerMinute => {
                     if st.feed <= 0.0 {
-                        return Err(GcodeError::invalid(line, 0, "Cannot do G1, G2 or G3 with zero feed rate"));
+                        return Err(GcodeError::invalid(
+                            line,
+                            0,
+                            "Cannot do G1, G2 or G3 with zero feed rate",
+                        ));
                     }
                     Ok(Feed::PerMinute(st.feed))
                 }
                 FeedMode::InverseTime => {
                     if w.get(b'F').is_none() {
-                        return Err(GcodeError::invalid(line, 0, "F word missing with inverse time G1, G2 or G3 move"));
+                        return Err(GcodeError::invalid(
+                            line,
+                            0,
+                            "F word missing with inverse time G1, G2 or G3 move",
+                        ));
                     }
                     if st.feed <= 0.0 {
                         return Err(GcodeError::invalid(line, 0, "zero inverse-time feed rate"));
@@ -645,9 +794,16 @@ impl Interpreter {
                 }
                 FeedMode::UnitsPerRevolution => {
                     if st.feed <= 0.0 {
-                        return Err(GcodeError::invalid(line, 0, "Cannot do G1, G2 or G3 with zero feed per revolution"));
+                        return Err(GcodeError::invalid(
+                            line,
+                            0,
+                            "Cannot do G1, G2 or G3 with zero feed per revolution",
+                        ));
                     }
-                    Ok(Feed::PerRevolution { mm_per_rev: st.feed, rpm: st.spindle_rpm })
+                    Ok(Feed::PerRevolution {
+                        mm_per_rev: st.feed,
+                        rpm: st.spindle_rpm,
+                    })
                 }
             }
         };
@@ -656,7 +812,14 @@ impl Interpreter {
                 if axes.is_empty() {
                     return Ok(());
                 }
-                let lin = |feed| Linear { from, to, offset: st.offset, feed, tcp: st.tcp, words };
+                let lin = |feed| Linear {
+                    from,
+                    to,
+                    offset: st.offset,
+                    feed,
+                    tcp: st.tcp,
+                    words,
+                };
                 if mode == MotionMode::Rapid {
                     EventKind::Traverse(lin(Feed::Rapid))
                 } else {
@@ -665,13 +828,27 @@ impl Interpreter {
             }
             MotionMode::ArcClockwise | MotionMode::ArcCounterClockwise => {
                 if axes.is_empty() {
-                    return Err(GcodeError::invalid(line, 0, "All axes missing with motion code"));
+                    return Err(GcodeError::invalid(
+                        line,
+                        0,
+                        "All axes missing with motion code",
+                    ));
                 }
                 let feed = feed()?;
                 let ccw = mode == MotionMode::ArcCounterClockwise;
                 let (center, turns) = self.arc_center(w, &from, &to, ccw, line)?;
                 let st = &self.state;
-                EventKind::Arc(ArcMove { from, to, center, plane: st.plane, turns, offset: st.offset, feed, tcp: st.tcp, words })
+                EventKind::Arc(ArcMove {
+                    from,
+                    to,
+                    center,
+                    plane: st.plane,
+                    turns,
+                    offset: st.offset,
+                    feed,
+                    tcp: st.tcp,
+                    words,
+                })
             }
         };
         self.state.position = to;
@@ -680,7 +857,14 @@ impl Interpreter {
     }
 
     /// Centre (work X Y Z) and signed turns of a G2/G3 block.
-    fn arc_center(&self, w: &BlockWords, from: &Axes, to: &Axes, ccw: bool, line: u64) -> Result<([f64; 3], i32), GcodeError> {
+    fn arc_center(
+        &self,
+        w: &BlockWords,
+        from: &Axes,
+        to: &Axes,
+        ccw: bool,
+        line: u64,
+    ) -> Result<([f64; 3], i32), GcodeError> {
         let st = &self.state;
         let (p, q, n) = st.plane.axes();
         let offset_letter = |a: Axis| match a {
@@ -695,16 +879,28 @@ impl Interpreter {
                 Plane::Zx => "XZ",
                 Plane::Yz => "YZ",
             };
-            return Err(GcodeError::invalid(line, x.column, format!("{} word given for arc in {plane} plane", ln as char)));
+            return Err(GcodeError::invalid(
+                line,
+                x.column,
+                format!("{} word given for arc in {plane} plane", ln as char),
+            ));
         }
         let turns = match w.get(b'P') {
             None => 1,
             Some(pw) => {
                 if pw.value.fract() != 0.0 {
-                    return Err(GcodeError::invalid(line, pw.column, "P value not an integer with G2 or G3"));
+                    return Err(GcodeError::invalid(
+                        line,
+                        pw.column,
+                        "P value not an integer with G2 or G3",
+                    ));
                 }
                 if pw.value < 1.0 || pw.value > f64::from(i32::MAX) {
-                    return Err(GcodeError::invalid(line, pw.column, "P value not positive with G2 or G3"));
+                    return Err(GcodeError::invalid(
+                        line,
+                        pw.column,
+                        "P value not positive with G2 or G3",
+                    ));
                 }
                 pw.value as i32
             }
@@ -712,13 +908,32 @@ impl Interpreter {
         let s = [from[p], from[q]];
         let e = [to[p], to[q]];
         let scale = st.units.mm_per_unit();
-        let dim = |l: &Letter| self.opts.dialect.dimension(l.value, l.has_point, st.units == Units::Inch, false) * scale;
+        let dim = |l: &Letter| {
+            self.opts
+                .dialect
+                .dimension(l.value, l.has_point, st.units == Units::Inch, false)
+                * scale
+        };
         let arc_err = |e: ArcError| GcodeError::invalid(line, 0, e.to_string());
         let (ip, iq, r) = (w.get(lp), w.get(lq), w.get(b'R'));
         let c = match (ip.is_some() || iq.is_some(), r) {
-            (true, Some(rw)) => return Err(GcodeError::invalid(line, rw.column, "Mixed radius-ijk format for arc")),
-            (false, None) => return Err(GcodeError::invalid(line, 0, "R, I, J and K words all missing for arc")),
-            (false, Some(rw)) => arc::center_from_radius(s, e, dim(rw), ccw, st.units).map_err(arc_err)?,
+            (true, Some(rw)) => {
+                return Err(GcodeError::invalid(
+                    line,
+                    rw.column,
+                    "Mixed radius-ijk format for arc",
+                ));
+            }
+            (false, None) => {
+                return Err(GcodeError::invalid(
+                    line,
+                    0,
+                    "R, I, J and K words all missing for arc",
+                ));
+            }
+            (false, Some(rw)) => {
+                arc::center_from_radius(s, e, dim(rw), ccw, st.units).map_err(arc_err)?
+            }
             (true, None) => {
                 let (op, oq) = (ip.map_or(0.0, dim), iq.map_or(0.0, dim));
                 let c = match st.arc_distance {
@@ -744,7 +959,9 @@ fn axes_or_motion(axes: &AxisMask, motion: Option<(u32, usize)>) -> bool {
 /// the sign of the programmed value giving the direction.
 fn unwrap_rotary(commanded: f64, current: f64) -> Result<f64, String> {
     if commanded <= -360.0 || commanded >= 360.0 {
-        return Err(format!("invalid absolute position {commanded} for a wrapped rotary axis"));
+        return Err(format!(
+            "invalid absolute position {commanded} for a wrapped rotary axis"
+        ));
     }
     let d = (current / 360.0).floor();
     let mut result = commanded % 360.0 + d * 360.0;
@@ -760,13 +977,21 @@ fn unwrap_rotary(commanded: f64, current: f64) -> Result<f64, String> {
 
 fn nonneg_int(l: Letter, line: u64, name: &str) -> Result<u32, GcodeError> {
     if l.value < 0.0 || l.value.fract() != 0.0 || l.value > f64::from(u32::MAX) {
-        return Err(GcodeError::invalid(line, l.column, format!("{name} word must be a non-negative integer")));
+        return Err(GcodeError::invalid(
+            line,
+            l.column,
+            format!("{name} word must be a non-negative integer"),
+        ));
     }
     Ok(l.value as u32)
 }
 
 fn g_name(code: u32) -> String {
-    if code % 10 == 0 { format!("G{}", code / 10) } else { format!("G{}.{}", code / 10, code % 10) }
+    if code.is_multiple_of(10) {
+        format!("G{}", code / 10)
+    } else {
+        format!("G{}.{}", code / 10, code % 10)
+    }
 }
 
 fn collect_word(block: &Block, word: &Word, w: &mut BlockWords) -> Result<(), GcodeError> {
@@ -784,24 +1009,40 @@ fn collect_word(block: &Block, word: &Word, w: &mut BlockWords) -> Result<(), Gc
                 ));
             }
             Err(ExprError::Invalid(m)) => {
-                return Err(GcodeError::invalid(line, word.span.start + 1, format!("{m} in {}", block.value_text(word))));
+                return Err(GcodeError::invalid(
+                    line,
+                    word.span.start + 1,
+                    format!("{m} in {}", block.value_text(word)),
+                ));
             }
         },
         Value::Parameter => {
-            return Err(GcodeError::unsupported(line, word.span.start + 1, format!("parameter {}", block.value_text(word))));
+            return Err(GcodeError::unsupported(
+                line,
+                word.span.start + 1,
+                format!("parameter {}", block.value_text(word)),
+            ));
         }
     };
     match word.letter {
         b'G' => {
             let tenths = value * 10.0;
             if (tenths - tenths.round()).abs() > 1e-6 || !(0.0..=9999.0).contains(&tenths) {
-                return Err(GcodeError::unsupported(line, col, format!("G-code G{}", block.value_text(word))));
+                return Err(GcodeError::unsupported(
+                    line,
+                    col,
+                    format!("G-code G{}", block.value_text(word)),
+                ));
             }
             w.g.push((tenths.round() as u32, col));
         }
         b'M' => {
             if value.fract() != 0.0 || !(0.0..=9999.0).contains(&value) {
-                return Err(GcodeError::unsupported(line, col, format!("M-code M{}", block.value_text(word))));
+                return Err(GcodeError::unsupported(
+                    line,
+                    col,
+                    format!("M-code M{}", block.value_text(word)),
+                ));
             }
             w.m.push((value as u32, col));
         }
@@ -809,9 +1050,18 @@ fn collect_word(block: &Block, word: &Word, w: &mut BlockWords) -> Result<(), Gc
         l => {
             let slot = &mut w.letters[usize::from(l - b'A')];
             if slot.present {
-                return Err(GcodeError::invalid(line, col, format!("more than one {} word in the block", l as char)));
+                return Err(GcodeError::invalid(
+                    line,
+                    col,
+                    format!("more than one {} word in the block", l as char),
+                ));
             }
-            *slot = Letter { value, has_point: word.has_point, column: col, present: true };
+            *slot = Letter {
+                value,
+                has_point: word.has_point,
+                column: col,
+                present: true,
+            };
         }
     }
     Ok(())
@@ -841,7 +1091,12 @@ mod tests {
     fn moves(events: &[Event]) -> Vec<EventKind> {
         events
             .iter()
-            .filter(|e| matches!(e.kind, EventKind::Traverse(_) | EventKind::Feed(_) | EventKind::Arc(_)))
+            .filter(|e| {
+                matches!(
+                    e.kind,
+                    EventKind::Traverse(_) | EventKind::Feed(_) | EventKind::Arc(_)
+                )
+            })
             .map(|e| e.kind)
             .collect()
     }
@@ -887,7 +1142,13 @@ mod tests {
         assert!(close(a.sweep(), FRAC_PI_2));
         assert_eq!(a.normal(), [0.0, 1.0, 0.0]);
         // A J word is out of the ZX plane.
-        assert!(run_with("G18 G0 X0 Z10\nG3 X10 Z0 K-10 J1 F50\n", InterpOptions::default()).is_err());
+        assert!(
+            run_with(
+                "G18 G0 X0 Z10\nG3 X10 Z0 K-10 J1 F50\n",
+                InterpOptions::default()
+            )
+            .is_err()
+        );
     }
 
     #[test]
@@ -926,15 +1187,24 @@ mod tests {
         let src = "G55 G0 X1 Z0\nG53 G0 Z-10\nT3 M6\nG43 H3\nG0 Z0\nG49 G0 Z0\n";
         let m = moves(&run_with(src, opts).unwrap());
         let l = lin(&m[0]);
-        assert!(close(l.to[Axis::X] + l.offset[Axis::X], 101.0), "machine X = work + offset");
+        assert!(
+            close(l.to[Axis::X] + l.offset[Axis::X], 101.0),
+            "machine X = work + offset"
+        );
         assert!(close(l.to[Axis::Z] + l.offset[Axis::Z], -50.0));
         let g53 = lin(&m[1]);
         assert!(g53.words.g53);
-        assert!(close(g53.to[Axis::Z] + g53.offset[Axis::Z], -10.0), "G53 Z is machine Z");
+        assert!(
+            close(g53.to[Axis::Z] + g53.offset[Axis::Z], -10.0),
+            "G53 Z is machine Z"
+        );
         assert!(close(g53.to[Axis::Z], 40.0));
         let tlo = lin(&m[2]);
         assert!(close(tlo.offset[Axis::Z], -50.0 + 20.0));
-        assert!(close(tlo.from[Axis::Z], 40.0 - 20.0), "G43 keeps the machine position");
+        assert!(
+            close(tlo.from[Axis::Z], 40.0 - 20.0),
+            "G43 keeps the machine position"
+        );
         assert!(close(tlo.to[Axis::Z] + tlo.offset[Axis::Z], -30.0));
         assert!(close(lin(&m[3]).offset[Axis::Z], -50.0));
     }
@@ -948,7 +1218,11 @@ mod tests {
         let written = [1.5, -0.25, -2.0];
         for (kind, w) in moves(&events).iter().zip(written) {
             let l = lin(kind);
-            assert!(close(l.words.word_value(Axis::Z, &l.from, l.to[Axis::Z], &l.offset), w));
+            assert!(close(
+                l.words
+                    .word_value(Axis::Z, &l.from, l.to[Axis::Z], &l.offset),
+                w
+            ));
         }
     }
 
@@ -961,22 +1235,57 @@ mod tests {
         // 350 → +10 goes forward to 370; -350 goes backwards to the angle 10
         // (mod 360) below 370, i.e. 10; -0 goes backwards to 0.
         assert_eq!(c, [350.0, 370.0, 10.0, 0.0]);
-        assert!(run_with("G0 C360\n", InterpOptions { wrapped_rotary: { let mut m = AxisMask::EMPTY; m.insert(Axis::C); m }, ..Default::default() }).is_err());
+        assert!(
+            run_with(
+                "G0 C360\n",
+                InterpOptions {
+                    wrapped_rotary: {
+                        let mut m = AxisMask::EMPTY;
+                        m.insert(Axis::C);
+                        m
+                    },
+                    ..Default::default()
+                }
+            )
+            .is_err()
+        );
     }
 
     #[test]
     fn modes_events_and_tcp() {
-        let ev = run("M428\nG93 G1 X1 F2\nG94 F300 S1000 M3\nG4 P1.5\nM429\nG43.4 H0\nG49\nM30\nG0 X99\n");
+        let ev = run(
+            "M428\nG93 G1 X1 F2\nG94 F300 S1000 M3\nG4 P1.5\nM429\nG43.4 H0\nG49\nM30\nG0 X99\n",
+        );
         let kinds: Vec<EventKind> = ev.iter().map(|e| e.kind).collect();
         assert!(kinds.contains(&EventKind::Tcp(true)));
-        assert!(matches!(kinds[3], EventKind::Feed(Linear { feed: Feed::InverseTime(2.0), tcp: true, .. })));
+        assert!(matches!(
+            kinds[3],
+            EventKind::Feed(Linear {
+                feed: Feed::InverseTime(2.0),
+                tcp: true,
+                ..
+            })
+        ));
         assert!(kinds.contains(&EventKind::FeedRate(300.0)));
         assert!(kinds.contains(&EventKind::SpindleSpeed { rpm: 1000.0 }));
         assert!(kinds.contains(&EventKind::Spindle(SpindleState::Clockwise)));
         assert!(kinds.contains(&EventKind::Dwell { seconds: 1.5 }));
-        let tcp: Vec<bool> = kinds.iter().filter_map(|k| if let EventKind::Tcp(on) = k { Some(*on) } else { None }).collect();
+        let tcp: Vec<bool> = kinds
+            .iter()
+            .filter_map(|k| {
+                if let EventKind::Tcp(on) = k {
+                    Some(*on)
+                } else {
+                    None
+                }
+            })
+            .collect();
         assert_eq!(tcp, [true, false, true, false]);
-        assert_eq!(kinds.last(), Some(&EventKind::ProgramEnd), "nothing after M30");
+        assert_eq!(
+            kinds.last(),
+            Some(&EventKind::ProgramEnd),
+            "nothing after M30"
+        );
         assert_eq!(ev[0].at, SourcePos { line: 1, block: 0 });
         assert_eq!(ev.last().unwrap().at, SourcePos { line: 8, block: 7 });
     }
@@ -985,39 +1294,63 @@ mod tests {
     fn rejections_name_the_line() {
         let cases = [
             ("G0 X0\nG81 X1 Z-1 R1\n", 2, true),
-            ("G1 X1\n", 1, false),                 // zero feed
-            ("G93\nG1 X1 F1\nX2\n", 3, false),     // inverse time needs F each move
-            ("X1\n", 1, false),                    // no motion mode
-            ("G0 G1 X1\n", 1, false),              // one modal group twice
-            ("G0 X1 X2\n", 1, false),              // two X words
-            ("G0 X#1\n", 1, true),                 // parameter
+            ("G1 X1\n", 1, false),             // zero feed
+            ("G93\nG1 X1 F1\nX2\n", 3, false), // inverse time needs F each move
+            ("X1\n", 1, false),                // no motion mode
+            ("G0 G1 X1\n", 1, false),          // one modal group twice
+            ("G0 X1 X2\n", 1, false),          // two X words
+            ("G0 X#1\n", 1, true),             // parameter
             ("o100 sub\n", 1, true),
-            ("G1 X1 I2 F1\n", 1, false),           // I without arc
-            ("G2 X1 F1\n", 1, false),              // no IJKR
-            ("G2 X1 I1 R1 F1\n", 1, false),        // mixed formats
-            ("G2 X30 R10 F1\n", 1, false),         // radius too small
+            ("G1 X1 I2 F1\n", 1, false),    // I without arc
+            ("G2 X1 F1\n", 1, false),       // no IJKR
+            ("G2 X1 I1 R1 F1\n", 1, false), // mixed formats
+            ("G2 X30 R10 F1\n", 1, false),  // radius too small
             ("M123\n", 1, true),
             ("G53 G91 G0 X1\n", 1, false),
-            ("G43 H7\n", 1, false),                // tool not in the table
+            ("G43 H7\n", 1, false), // tool not in the table
         ];
         for (src, line, unsupported) in cases {
             let err = run_with(src, InterpOptions::default()).expect_err(src);
             assert_eq!(err.location().map(|l| l.line), Some(line), "{src}: {err}");
-            assert_eq!(matches!(err, GcodeError::Unsupported { .. }), unsupported, "{src}: {err}");
+            assert_eq!(
+                matches!(err, GcodeError::Unsupported { .. }),
+                unsupported,
+                "{src}: {err}"
+            );
         }
-        let ignore = InterpOptions { unknown_m: UnknownMCode::Ignore, ..Default::default() };
+        let ignore = InterpOptions {
+            unknown_m: UnknownMCode::Ignore,
+            ..Default::default()
+        };
         assert!(run_with("M123\n", ignore).is_ok());
     }
 
     #[test]
     fn fanuc_dwell_and_integer_words() {
-        let fanuc = InterpOptions { dialect: Dialect::Fanuc { decimal_point_programming: false }, ..Default::default() };
+        let fanuc = InterpOptions {
+            dialect: Dialect::Fanuc {
+                decimal_point_programming: false,
+            },
+            ..Default::default()
+        };
         let ev = run_with("G4 P1500\nG4 X2.5\nG0 X10 Y10.\n", fanuc.clone()).unwrap();
-        let dwell: Vec<f64> = ev.iter().filter_map(|e| if let EventKind::Dwell { seconds } = e.kind { Some(seconds) } else { None }).collect();
+        let dwell: Vec<f64> = ev
+            .iter()
+            .filter_map(|e| {
+                if let EventKind::Dwell { seconds } = e.kind {
+                    Some(seconds)
+                } else {
+                    None
+                }
+            })
+            .collect();
         assert_eq!(dwell, [1.5, 2.5]);
         let l = lin(&moves(&ev)[0]).to;
         assert!(close(l[Axis::X], 0.01) && close(l[Axis::Y], 10.0));
-        assert!(matches!(run_with("G90.1\n", fanuc), Err(GcodeError::Unsupported { .. })));
+        assert!(matches!(
+            run_with("G90.1\n", fanuc),
+            Err(GcodeError::Unsupported { .. })
+        ));
         // LinuxCNC: P in seconds.
         let ev = run("G4 P1.5\n");
         assert_eq!(ev[0].kind, EventKind::Dwell { seconds: 1.5 });
@@ -1027,7 +1360,10 @@ mod tests {
     fn block_delete_and_percent() {
         let m = moves(&run("%\n/G0 X5\nG0 Y1\n%\n"));
         assert_eq!(m.len(), 1);
-        let keep = InterpOptions { skip_deleted_blocks: false, ..Default::default() };
+        let keep = InterpOptions {
+            skip_deleted_blocks: false,
+            ..Default::default()
+        };
         assert_eq!(moves(&run_with("/G0 X5\n", keep).unwrap()).len(), 1);
     }
 }

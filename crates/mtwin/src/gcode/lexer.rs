@@ -29,7 +29,11 @@ pub(crate) fn is_space(b: u8) -> bool {
 /// Splits `text` (one line, without its line end) into items, appended to
 /// `items`. `line` is only used for error locations.
 pub(crate) fn lex(text: &[u8], line: u64, items: &mut Vec<Item>) -> Result<(), GcodeError> {
-    let mut lx = Lexer { b: text, i: 0, line };
+    let mut lx = Lexer {
+        b: text,
+        i: 0,
+        line,
+    };
     let mut first = true;
     loop {
         lx.skip_space();
@@ -38,7 +42,10 @@ pub(crate) fn lex(text: &[u8], line: u64, items: &mut Vec<Item>) -> Result<(), G
         match c {
             b'(' => {
                 let end = lx.paren_comment_end()?;
-                items.push(Item::Comment { kind: CommentKind::Paren, span: Span::new(start, end) });
+                items.push(Item::Comment {
+                    kind: CommentKind::Paren,
+                    span: Span::new(start, end),
+                });
                 lx.i = end;
             }
             b';' => {
@@ -64,19 +71,29 @@ pub(crate) fn lex(text: &[u8], line: u64, items: &mut Vec<Item>) -> Result<(), G
                 }
                 lx.i += 1;
                 lx.real_value()?;
-                items.push(Item::Assignment { span: Span::new(start, lx.i) });
+                items.push(Item::Assignment {
+                    span: Span::new(start, lx.i),
+                });
             }
             c if c.is_ascii_alphabetic() => {
                 let letter = c.to_ascii_uppercase();
                 if letter == b'O' {
                     // An O-word statement (sub, call, if, while, ...) runs to the
                     // end of the line; its comments are part of it.
-                    items.push(Item::OWord { span: Span::new(start, text.len()) });
+                    items.push(Item::OWord {
+                        span: Span::new(start, text.len()),
+                    });
                     lx.i = text.len();
                 } else {
                     lx.i += 1;
                     let (value, span, has_point) = lx.real_value()?;
-                    items.push(Item::Word(Word { letter, at: start, value, span, has_point }));
+                    items.push(Item::Word(Word {
+                        letter,
+                        at: start,
+                        value,
+                        span,
+                        has_point,
+                    }));
                 }
             }
             _ => {
@@ -162,7 +179,10 @@ impl Lexer<'_> {
                 Ok((Value::Parameter, Span::new(start, self.i), false))
             }
             Some(c) if c.is_ascii_alphabetic() => {
-                let name_end = j + self.b[j..].iter().take_while(|c| c.is_ascii_alphabetic()).count();
+                let name_end = j + self.b[j..]
+                    .iter()
+                    .take_while(|c| c.is_ascii_alphabetic())
+                    .count();
                 let name = self.b[j..name_end].to_ascii_uppercase();
                 if !FUNCTIONS.contains(&name.as_slice()) {
                     return Err(self.err("a word letter must be followed by a number"));
@@ -283,7 +303,11 @@ impl Lexer<'_> {
             }
             self.i += 1;
         }
-        Err(GcodeError::syntax(self.line, open + 1, "'[' is not closed on this line"))
+        Err(GcodeError::syntax(
+            self.line,
+            open + 1,
+            "'[' is not closed on this line",
+        ))
     }
 
     /// A parameter reference `#n`, `#<name>`, `#[..]` or `##n` at `self.i`.
@@ -358,7 +382,16 @@ mod tests {
 
     #[test]
     fn fast_path_agrees_with_the_standard_parser() {
-        for t in ["0", "-0.5", "123.456", ".001", "7.", "999999999999999", "0.1234567890123456789012", "-12.3456"] {
+        for t in [
+            "0",
+            "-0.5",
+            "123.456",
+            ".001",
+            "7.",
+            "999999999999999",
+            "0.1234567890123456789012",
+            "-12.3456",
+        ] {
             let std: f64 = t.parse().unwrap();
             match fast_decimal(t.as_bytes()) {
                 Some(v) => assert_eq!(v.to_bits(), std.to_bits(), "{t}"),
@@ -366,6 +399,10 @@ mod tests {
             }
         }
         assert_eq!(fast_decimal(b"- 1 2.5"), Some(-12.5));
-        assert_eq!(fast_decimal(b"1234567890123456"), None, "16 digits: exactness not guaranteed");
+        assert_eq!(
+            fast_decimal(b"1234567890123456"),
+            None,
+            "16 digits: exactness not guaranteed"
+        );
     }
 }

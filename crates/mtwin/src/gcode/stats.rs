@@ -29,7 +29,11 @@ pub struct StatsOptions {
 impl Default for StatsOptions {
     /// Rapids at 10 m/min and 3600 deg/min (10 rev/min).
     fn default() -> Self {
-        StatsOptions { interp: InterpOptions::default(), rapid_rate: 10_000.0, rapid_rate_rotary: 3600.0 }
+        StatsOptions {
+            interp: InterpOptions::default(),
+            rapid_rate: 10_000.0,
+            rapid_rate_rotary: 3600.0,
+        }
     }
 }
 
@@ -99,8 +103,13 @@ impl ProgramStats {
                 let d = m.to.sub(&m.from);
                 let xyz = d.xyz_norm();
                 self.rapid_length += xyz;
-                let rot = [Axis::A, Axis::B, Axis::C].iter().map(|&a| d[a].abs()).fold(0.0, f64::max);
-                let minutes = (xyz / opts.rapid_rate).max(d.uvw_norm() / opts.rapid_rate).max(rot / opts.rapid_rate_rotary);
+                let rot = [Axis::A, Axis::B, Axis::C]
+                    .iter()
+                    .map(|&a| d[a].abs())
+                    .fold(0.0, f64::max);
+                let minutes = (xyz / opts.rapid_rate)
+                    .max(d.uvw_norm() / opts.rapid_rate)
+                    .max(rot / opts.rapid_rate_rotary);
                 self.rapid_time += 60.0 * minutes;
                 self.linear_extent(m);
             }
@@ -232,7 +241,10 @@ pub fn stats_with<R: BufRead>(
         interp.execute(&block, &mut events)?;
         let mut moved = false;
         for e in &events {
-            moved |= matches!(e.kind, EventKind::Traverse(_) | EventKind::Feed(_) | EventKind::Arc(_));
+            moved |= matches!(
+                e.kind,
+                EventKind::Traverse(_) | EventKind::Feed(_) | EventKind::Arc(_)
+            );
             st.add(e, opts)?;
             observer.observe(&block, e)?;
         }
@@ -263,7 +275,13 @@ mod tests {
         assert!((s.rapid_time - 60.0 * 200.0 / 10_000.0).abs() < 1e-12);
         assert_eq!(s.dwell_time, 1.5);
         assert_eq!(s.axis_travel[Axis::X], 20.0);
-        assert_eq!(s.work_range[Axis::Z.index()], Some(AxisRange { min: 0.0, max: 100.0 }));
+        assert_eq!(
+            s.work_range[Axis::Z.index()],
+            Some(AxisRange {
+                min: 0.0,
+                max: 100.0
+            })
+        );
         assert!((s.total_time() - (4.0 + 1.2 + 1.5)).abs() < 1e-12);
     }
 
@@ -290,7 +308,10 @@ mod tests {
         assert!((s.feed_time - (30.0 + 120.0)).abs() < 1e-12);
         let r = st("G95 S500 G1 X10 F0.1\n");
         assert!((r.feed_time - 60.0 * 10.0 / (0.1 * 500.0)).abs() < 1e-12);
-        assert!(stats("G95 G1 X10 F0.1\n".as_bytes(), &StatsOptions::default()).is_err(), "spindle at 0");
+        assert!(
+            stats("G95 G1 X10 F0.1\n".as_bytes(), &StatsOptions::default()).is_err(),
+            "spindle at 0"
+        );
         // Rotary-only G94 move: F in deg/min along the rotary path.
         let c = st("G1 C90 F180\n");
         assert!((c.feed_time - 30.0).abs() < 1e-12);
@@ -310,7 +331,12 @@ mod tests {
         }
         let mut c = Count(0);
         // Events: feed rate, feed, traverse.
-        stats_with("G1 X1 F10\nG0 X0\n".as_bytes(), &StatsOptions::default(), &mut c).unwrap();
+        stats_with(
+            "G1 X1 F10\nG0 X0\n".as_bytes(),
+            &StatsOptions::default(),
+            &mut c,
+        )
+        .unwrap();
         assert_eq!(c.0, 3);
     }
 }

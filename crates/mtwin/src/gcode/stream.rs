@@ -19,7 +19,11 @@ pub struct BlockReader<R> {
 impl<R: BufRead> BlockReader<R> {
     /// A reader starting at line 1.
     pub fn new(input: R) -> Self {
-        BlockReader { input, line: 0, bytes: 0 }
+        BlockReader {
+            input,
+            line: 0,
+            bytes: 0,
+        }
     }
 
     /// Reads the next line into `block`; `Ok(false)` at the end of input.

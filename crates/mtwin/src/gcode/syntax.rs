@@ -27,8 +27,16 @@ impl Span {
     /// starting before it) stays, since it lies before the edit.
     fn shifted(self, from: usize, delta: isize) -> Span {
         let mv = |p: usize| p.saturating_add_signed(delta);
-        let start = if self.start >= from { mv(self.start) } else { self.start };
-        let end = if self.end > from || self.start >= from { mv(self.end) } else { self.end };
+        let start = if self.start >= from {
+            mv(self.start)
+        } else {
+            self.start
+        };
+        let end = if self.end > from || self.start >= from {
+            mv(self.end)
+        } else {
+            self.end
+        };
         Span { start, end }
     }
 }
@@ -232,7 +240,11 @@ impl Block {
         self.line = line;
         self.items.clear();
         if let Some(k) = self.text.iter().position(|&c| c == b'\n') {
-            return Err(GcodeError::syntax(line, k + 1, "a block cannot contain a line feed"));
+            return Err(GcodeError::syntax(
+                line,
+                k + 1,
+                "a block cannot contain a line feed",
+            ));
         }
         lexer::lex(&self.text, line, &mut self.items)
     }
@@ -323,30 +335,38 @@ impl Block {
         format: NumberFormat,
     ) -> Result<(), GcodeError> {
         if !value.is_finite() {
-            return Err(GcodeError::Edit(format!("{letter} value {value} is not finite")));
+            return Err(GcodeError::Edit(format!(
+                "{letter} value {value} is not finite"
+            )));
         }
         let up = ascii_letter(letter)?;
         if matches!(up, b'O') {
             return Err(GcodeError::Edit("O-words cannot be set".into()));
         }
         if self.is_percent() {
-            return Err(GcodeError::Edit(format!("line {} is a '%' line: it takes no words", self.line)));
+            return Err(GcodeError::Edit(format!(
+                "line {} is a '%' line: it takes no words",
+                self.line
+            )));
         }
         let mut digits = String::with_capacity(24);
         format.write(value, &mut digits);
         let digits = digits.as_str();
         let existing = self.word(letter)?.copied();
-        let index = self.items.iter().position(|it| matches!(it, Item::Word(w) if w.letter == up));
+        let index = self
+            .items
+            .iter()
+            .position(|it| matches!(it, Item::Word(w) if w.letter == up));
         match (existing, index) {
             (Some(w), Some(k)) => {
                 self.splice(w.span, digits.as_bytes());
                 if let Item::Word(word) = &mut self.items[k] {
-                    word.value = Value::Number(parse_back(&digits, value));
+                    word.value = Value::Number(parse_back(digits, value));
                     word.has_point = digits.contains('.');
                     word.span.end = word.span.start + digits.len();
                 }
             }
-            _ => self.insert_word(up, letter, &digits, value)?,
+            _ => self.insert_word(up, letter, digits, value)?,
         }
         Ok(())
     }
@@ -355,7 +375,9 @@ impl Block {
     /// there was one.
     pub fn remove_word(&mut self, letter: char) -> Result<bool, GcodeError> {
         let up = ascii_letter(letter)?;
-        let Some(w) = self.word(letter)?.copied() else { return Ok(false) };
+        let Some(w) = self.word(letter)?.copied() else {
+            return Ok(false);
+        };
         let mut start = w.at;
         while start > 0 && lexer::is_space(self.text[start - 1]) {
             start -= 1;
@@ -380,7 +402,13 @@ impl Block {
         Ok(true)
     }
 
-    fn insert_word(&mut self, up: u8, letter: char, digits: &str, value: f64) -> Result<(), GcodeError> {
+    fn insert_word(
+        &mut self,
+        up: u8,
+        letter: char,
+        digits: &str,
+        value: f64,
+    ) -> Result<(), GcodeError> {
         use super::axes::Axis;
         let words: Vec<Word> = self.words().copied().collect();
         let order = |l: u8| Axis::from_letter(l).map(Axis::index);
@@ -389,16 +417,27 @@ impl Block {
         let mut after: Option<Word> = None;
         let mut before: Option<Word> = None;
         if let Some(n) = new_order {
-            after = words.iter().rev().find(|w| order(w.letter).is_some_and(|o| o < n)).copied();
+            after = words
+                .iter()
+                .rev()
+                .find(|w| order(w.letter).is_some_and(|o| o < n))
+                .copied();
             if after.is_none() {
-                before = words.iter().find(|w| order(w.letter).is_some_and(|o| o > n)).copied();
+                before = words
+                    .iter()
+                    .find(|w| order(w.letter).is_some_and(|o| o > n))
+                    .copied();
             }
         }
         if after.is_none() && before.is_none() {
             after = words.last().copied();
         }
-        let spaced = words.windows(2).any(|p| lexer::is_space(self.text[p[1].at - 1]))
-            || words.first().is_some_and(|w| w.at > 0 && lexer::is_space(self.text[w.at - 1]));
+        let spaced = words
+            .windows(2)
+            .any(|p| lexer::is_space(self.text[p[1].at - 1]))
+            || words
+                .first()
+                .is_some_and(|w| w.at > 0 && lexer::is_space(self.text[w.at - 1]));
         let sep = if spaced || words.len() < 2 { " " } else { "" };
         let letter_text = letter.to_string();
         let (pos, bytes) = match (after, before) {
@@ -415,7 +454,11 @@ impl Block {
             }
         };
         self.splice(Span::new(pos, pos), bytes.as_bytes());
-        let at = if before.is_some() || after.is_none() { pos } else { pos + sep.len() };
+        let at = if before.is_some() || after.is_none() {
+            pos
+        } else {
+            pos + sep.len()
+        };
         let word = Word {
             letter: up,
             at,
@@ -423,7 +466,11 @@ impl Block {
             span: Span::new(at + 1, at + 1 + digits.len()),
             has_point: digits.contains('.'),
         };
-        let k = self.items.iter().position(|it| item_start(it) >= at).unwrap_or(self.items.len());
+        let k = self
+            .items
+            .iter()
+            .position(|it| item_start(it) >= at)
+            .unwrap_or(self.items.len());
         self.items.insert(k, Item::Word(word));
         Ok(())
     }
@@ -454,7 +501,9 @@ impl Block {
                     }
                     w.span = w.span.shifted(from, delta);
                 }
-                Item::Comment { span: s, .. } | Item::OWord { span: s } | Item::Assignment { span: s } => {
+                Item::Comment { span: s, .. }
+                | Item::OWord { span: s }
+                | Item::Assignment { span: s } => {
                     *s = s.shifted(from, delta);
                 }
                 Item::BlockDelete { at } | Item::Percent { at } => {
@@ -477,7 +526,9 @@ fn item_start(it: &Item) -> usize {
 
 /// The value a formatted number reads back as (what a controller will see).
 fn parse_back(digits: &str, fallback: f64) -> f64 {
-    lexer::fast_decimal(digits.as_bytes()).or_else(|| digits.parse().ok()).unwrap_or(fallback)
+    lexer::fast_decimal(digits.as_bytes())
+        .or_else(|| digits.parse().ok())
+        .unwrap_or(fallback)
 }
 
 fn ascii_letter(letter: char) -> Result<u8, GcodeError> {
@@ -521,8 +572,14 @@ mod tests {
             .iter()
             .map(|i| match i {
                 Item::Word(_) => "w",
-                Item::Comment { kind: CommentKind::Paren, .. } => "(",
-                Item::Comment { kind: CommentKind::Semicolon, .. } => ";",
+                Item::Comment {
+                    kind: CommentKind::Paren,
+                    ..
+                } => "(",
+                Item::Comment {
+                    kind: CommentKind::Semicolon,
+                    ..
+                } => ";",
                 _ => "?",
             })
             .collect();
@@ -554,7 +611,12 @@ mod tests {
         for (src, column) in cases {
             match Block::parse(src, 3) {
                 Err(GcodeError::Syntax { at, .. }) => {
-                    assert_eq!((at.line, at.column), (3, column), "{}", String::from_utf8_lossy(src));
+                    assert_eq!(
+                        (at.line, at.column),
+                        (3, column),
+                        "{}",
+                        String::from_utf8_lossy(src)
+                    );
                 }
                 other => panic!("{}: {other:?}", String::from_utf8_lossy(src)),
             }
