@@ -5,7 +5,9 @@ use libfuzzer_sys::fuzz_target;
 use mtwin::gcode::{InterpOptions, Interpreter, Program};
 
 fuzz_target!(|data: &[u8]| {
-    let Ok(program) = Program::parse(data) else { return };
+    let Ok(program) = Program::parse(data) else {
+        return;
+    };
     assert_eq!(program.to_bytes(), data, "round trip must be the identity");
     let mut interp = Interpreter::new(InterpOptions::default());
     let mut events = Vec::new();
