@@ -130,6 +130,8 @@ impl Lexer<'_> {
         }
     }
 
+    #[cold]
+    #[inline(never)]
     fn err(&self, message: impl Into<String>) -> GcodeError {
         GcodeError::syntax(self.line, self.i + 1, message)
     }

@@ -186,14 +186,29 @@ fn write_fixed(v: f64, decimals: u8, out: &mut String) {
     if n != 0 && v < 0.0 {
         out.push('-');
     }
-    let _ = write!(out, "{int}");
+    push_digits(out, int, 1);
     if frac != 0 {
         let mut width = d;
         while frac % 10 == 0 {
             frac /= 10;
             width -= 1;
         }
-        let _ = write!(out, ".{frac:0width$}");
+        out.push('.');
+        push_digits(out, frac, width);
+    }
+}
+
+/// Appends the decimal digits of `n`, zero-padded to at least `width`.
+fn push_digits(out: &mut String, mut n: u64, width: usize) {
+    let mut buf = [b'0'; 20];
+    let mut i = buf.len();
+    while n > 0 || buf.len() - i < width {
+        i -= 1;
+        buf[i] = b'0' + (n % 10) as u8;
+        n /= 10;
+    }
+    for &c in &buf[i..] {
+        out.push(char::from(c));
     }
 }
 
@@ -219,6 +234,15 @@ impl Block {
     pub(crate) fn reparse_from(&mut self, text: &[u8], line: u64) -> Result<(), GcodeError> {
         self.text.clear();
         self.text.extend_from_slice(text);
+        if let Some(k) = split_eol(text).0.iter().position(|&c| c == b'\n') {
+            self.items.clear();
+            self.line = line;
+            return Err(GcodeError::syntax(
+                line,
+                k + 1,
+                "a block cannot contain a line feed",
+            ));
+        }
         self.parse_own_text(line)
     }
 
@@ -229,7 +253,8 @@ impl Block {
         &mut self.text
     }
 
-    /// Parses the line held in the text buffer (line end included).
+    /// Parses the line held in the text buffer (line end included; no other
+    /// line feed).
     pub(crate) fn parse_own_text(&mut self, line: u64) -> Result<(), GcodeError> {
         let (body_len, eol) = {
             let (body, eol) = split_eol(&self.text);
@@ -239,13 +264,8 @@ impl Block {
         self.eol = eol;
         self.line = line;
         self.items.clear();
-        if let Some(k) = self.text.iter().position(|&c| c == b'\n') {
-            return Err(GcodeError::syntax(
-                line,
-                k + 1,
-                "a block cannot contain a line feed",
-            ));
-        }
+        // Readers split at line feeds and `reparse_from` checks, so the body
+        // holds none.
         lexer::lex(&self.text, line, &mut self.items)
     }
 
@@ -352,11 +372,22 @@ impl Block {
         let mut digits = String::with_capacity(24);
         format.write(value, &mut digits);
         let digits = digits.as_str();
-        let existing = self.word(letter)?.copied();
-        let index = self
-            .items
-            .iter()
-            .position(|it| matches!(it, Item::Word(w) if w.letter == up));
+        let mut index = None;
+        for (k, it) in self.items.iter().enumerate() {
+            if matches!(it, Item::Word(w) if w.letter == up) {
+                if index.is_some() {
+                    return Err(GcodeError::Edit(format!(
+                        "line {} has more than one {} word",
+                        self.line, up as char
+                    )));
+                }
+                index = Some(k);
+            }
+        }
+        let existing = index.and_then(|k| match self.items[k] {
+            Item::Word(w) => Some(w),
+            _ => None,
+        });
         match (existing, index) {
             (Some(w), Some(k)) => {
                 self.splice(w.span, digits.as_bytes());
@@ -675,6 +706,15 @@ mod tests {
         };
         assert_eq!(f(NumberFormat::Fixed(4), 1.0 / 3.0), "0.3333");
         assert_eq!(f(NumberFormat::Fixed(4), 2.0), "2");
+        assert_eq!(f(NumberFormat::Fixed(4), 0.05), "0.05");
+        assert_eq!(f(NumberFormat::Fixed(4), -1.0005), "-1.0005");
+        assert_eq!(f(NumberFormat::Fixed(3), 1234567.8915), "1234567.892");
+        assert_eq!(
+            f(NumberFormat::Fixed(2), 1e300),
+            format!("{:.2}", 1e300)
+                .trim_end_matches('0')
+                .trim_end_matches('.')
+        );
         assert_eq!(f(NumberFormat::Fixed(4), -2.5), "-2.5");
         assert_eq!(f(NumberFormat::Fixed(4), -0.00001), "0");
         assert_eq!(f(NumberFormat::Shortest, 1e-7), "0.0000001");
