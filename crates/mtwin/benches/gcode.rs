@@ -2,9 +2,14 @@
 //! (generated here: G93 moves with X Y Z A C words, comments, line numbers).
 //!
 //!     cargo bench -p mtwin --bench gcode
+//!
+//! Times are the CPU time of the benchmark thread where Linux reports it
+//! (`/proc/thread-self/schedstat`), so a busy machine does not inflate them;
+//! elsewhere wall time.
 
 use std::hint::black_box;
 use std::io::Write;
+use std::time::{Duration, Instant};
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use mtwin::gcode::{self, Block, BlockReader, StatsOptions};
@@ -45,6 +50,25 @@ fn synthetic_program(lines: usize) -> Vec<u8> {
     out
 }
 
+/// CPU time consumed by this thread so far, if the OS reports it.
+fn thread_cpu_time() -> Option<Duration> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    let ns: u64 = s.split_whitespace().next()?.parse().ok()?;
+    Some(Duration::from_nanos(ns))
+}
+
+/// Runs `f` `iters` times; CPU time of the thread if known, else wall time.
+fn timed<F: FnMut()>(iters: u64, mut f: F) -> Duration {
+    let (cpu0, wall0) = (thread_cpu_time(), Instant::now());
+    for _ in 0..iters {
+        f();
+    }
+    match (cpu0, thread_cpu_time()) {
+        (Some(a), Some(b)) => b - a,
+        _ => wall0.elapsed(),
+    }
+}
+
 fn benches(c: &mut Criterion) {
     let program = synthetic_program(200_000);
     let mut group = c.benchmark_group("gcode");
@@ -52,37 +76,45 @@ fn benches(c: &mut Criterion) {
     group.sample_size(10);
 
     group.bench_function("parse", |b| {
-        b.iter(|| {
-            let mut reader = BlockReader::new(&program[..]);
-            let mut block = Block::default();
-            let mut words = 0usize;
-            while reader.read_block(&mut block).unwrap() {
-                words += block.words().count();
-            }
-            black_box(words)
+        b.iter_custom(|iters| {
+            timed(iters, || {
+                let mut reader = BlockReader::new(&program[..]);
+                let mut block = Block::default();
+                let mut words = 0usize;
+                while reader.read_block(&mut block).unwrap() {
+                    words += block.words().count();
+                }
+                black_box(words);
+            })
         })
     });
 
     group.bench_function("parse+rewrite Z", |b| {
         let mut out = Vec::with_capacity(program.len() + program.len() / 8);
-        b.iter(|| {
-            out.clear();
-            let mut reader = BlockReader::new(&program[..]);
-            let mut block = Block::default();
-            while reader.read_block(&mut block).unwrap() {
-                if let Ok(Some(z)) = block.word('Z') {
-                    let v = z.number().unwrap_or(0.0) + 0.0125;
-                    block.set_word('Z', v).unwrap();
+        b.iter_custom(|iters| {
+            timed(iters, || {
+                out.clear();
+                let mut reader = BlockReader::new(&program[..]);
+                let mut block = Block::default();
+                while reader.read_block(&mut block).unwrap() {
+                    if let Ok(Some(z)) = block.word('Z') {
+                        let v = z.number().unwrap_or(0.0) + 0.0125;
+                        block.set_word('Z', v).unwrap();
+                    }
+                    block.write_to(&mut out).unwrap();
                 }
-                block.write_to(&mut out).unwrap();
-            }
-            black_box(out.len())
+                black_box(out.len());
+            })
         })
     });
 
     group.bench_function("stats", |b| {
         let opts = StatsOptions::default();
-        b.iter(|| black_box(gcode::stats(&program[..], &opts).unwrap().feed_time))
+        b.iter_custom(|iters| {
+            timed(iters, || {
+                black_box(gcode::stats(&program[..], &opts).unwrap().feed_time);
+            })
+        })
     });
     group.finish();
 }

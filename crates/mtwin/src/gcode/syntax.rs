@@ -369,9 +369,6 @@ impl Block {
                 self.line
             )));
         }
-        let mut digits = String::with_capacity(24);
-        format.write(value, &mut digits);
-        let digits = digits.as_str();
         let mut index = None;
         for (k, it) in self.items.iter().enumerate() {
             if matches!(it, Item::Word(w) if w.letter == up) {
@@ -384,22 +381,25 @@ impl Block {
                 index = Some(k);
             }
         }
-        let existing = index.and_then(|k| match self.items[k] {
-            Item::Word(w) => Some(w),
-            _ => None,
-        });
-        match (existing, index) {
-            (Some(w), Some(k)) => {
-                self.splice(w.span, digits.as_bytes());
-                if let Item::Word(word) = &mut self.items[k] {
-                    word.value = Value::Number(parse_back(digits, value));
-                    word.has_point = digits.contains('.');
-                    word.span.end = word.span.start + digits.len();
+        // One formatting buffer per thread: no allocation per edit.
+        thread_local!(static DIGITS: std::cell::RefCell<String> = const { std::cell::RefCell::new(String::new()) });
+        DIGITS.with_borrow_mut(|digits| {
+            digits.clear();
+            format.write(value, digits);
+            let digits = digits.as_str();
+            match index.map(|k| (k, self.items[k])) {
+                Some((k, Item::Word(w))) => {
+                    self.splice(w.span, digits.as_bytes());
+                    if let Item::Word(word) = &mut self.items[k] {
+                        word.value = Value::Number(parse_back(digits, value));
+                        word.has_point = digits.contains('.');
+                        word.span.end = word.span.start + digits.len();
+                    }
+                    Ok(())
                 }
+                _ => self.insert_word(up, letter, digits, value),
             }
-            _ => self.insert_word(up, letter, digits, value)?,
-        }
-        Ok(())
+        })
     }
 
     /// Removes the word `letter` (and the spaces before it); returns whether
