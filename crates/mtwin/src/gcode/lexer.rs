@@ -8,8 +8,8 @@
 //! character is block delete and a line starting with `%` marks the program
 //! start/end. Values that are expressions (`[..]`, functions such as
 //! `sin[..]`) or parameters (`#5`, `#<name>`) and O-word statements are kept
-//! as such, so every such program still round-trips; the interpreter rejects
-//! them as unsupported.
+//! as such, so every such program still round-trips; the interpreter
+//! evaluates constant expressions and rejects the rest as unsupported.
 
 use super::error::GcodeError;
 use super::syntax::{CommentKind, Item, Span, Value, Word};

@@ -10,9 +10,17 @@
 //! * [`Interpreter`]: blocks in, canonical [`Event`]s out (mm, degree,
 //!   mm/min, s), each with its [`SourcePos`] and what the block wrote
 //!   ([`Programmed`]) so that a rewriter can change exactly the word behind a
-//!   coordinate. Everything outside the subset is an
-//!   [`GcodeError::Unsupported`] error naming the line.
+//!   coordinate. Constant expressions (`[1+2]`, `sqrt[2]`) are evaluated;
+//!   everything outside the subset (O-words, parameters, canned cycles,
+//!   G10/G28/G92, cutter compensation, ...) is an
+//!   [`GcodeError::Unsupported`] error naming the line. Dialects:
+//!   [`Dialect`] (LinuxCNC, Fanuc).
 //! * [`stats`]: counts, path lengths, axis travel and ranges, estimated time.
+//! * Not here yet: sampling a program in time (interpolation with feed and
+//!   acceleration limits) and machine-limit checks, which need the machine
+//!   model; they build on the [`Event`] stream (every move has its start, end,
+//!   offsets, feed and TCP state) and plug into statistics through
+//!   [`MotionObserver`].
 //!
 //! ```
 //! use mtwin::gcode::{self, Block, StatsOptions};
