@@ -149,17 +149,14 @@ impl Default for NumberFormat {
 impl NumberFormat {
     /// Appends `v` (finite) to `out`.
     pub fn write(self, v: f64, out: &mut String) {
-        let start = out.len();
         match self {
             NumberFormat::Fixed(d) => write_fixed(v, d, out),
+            // Display of f64 is shortest round-trip and never uses an
+            // exponent; -0 is written as 0.
+            NumberFormat::Shortest if v == 0.0 => out.push('0'),
             NumberFormat::Shortest => {
-                // Display of f64 is shortest round-trip and never uses an exponent.
                 let _ = write!(out, "{v}");
             }
-        }
-        if &out[start..] == "-0" {
-            out.truncate(start);
-            out.push('0');
         }
     }
 }
@@ -168,10 +165,14 @@ impl NumberFormat {
 /// Integer arithmetic when `|v|·10^decimals` fits exactly in an `f64`
 /// integer (the common case), else the standard formatter.
 fn write_fixed(v: f64, decimals: u8, out: &mut String) {
+    const POW10: [f64; 16] = [
+        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+    ];
     let d = usize::from(decimals);
-    let scale = 10f64.powi(i32::from(decimals));
-    let scaled = (v.abs() * scale).round();
-    if d > 15 || scaled >= 9.0e15 {
+    let scaled = POW10
+        .get(d)
+        .map_or(f64::INFINITY, |scale| (v.abs() * scale).round());
+    if scaled >= 9.0e15 {
         let start = out.len();
         let _ = write!(out, "{v:.d$}");
         if out[start..].contains('.') {
