@@ -1,1 +1,79 @@
-//! gcode
+//! The G-code engine: a lossless parser and writer, a modal interpreter for
+//! the motion subset of RS-274/NGC (as LinuxCNC runs it), and program
+//! statistics.
+//!
+//! * [`Block`] / [`BlockReader`] / [`BlockWriter`] / [`Program`]: one line is
+//!   one block holding its exact bytes, so writing an unchanged program
+//!   reproduces it byte for byte; [`Block::set_word`] edits one word and
+//!   keeps every other byte. Reading streams line by line (a 1 GB program is
+//!   never held in memory).
+//! * [`Interpreter`]: blocks in, canonical [`Event`]s out (mm, degree,
+//!   mm/min, s), each with its [`SourcePos`] and what the block wrote
+//!   ([`Programmed`]) so that a rewriter can change exactly the word behind a
+//!   coordinate. Constant expressions (`[1+2]`, `sqrt[2]`) are evaluated;
+//!   everything outside the subset (O-words, parameters, canned cycles,
+//!   G10/G28/G92, cutter compensation, ...) is an
+//!   [`GcodeError::Unsupported`] error naming the line. Dialects:
+//!   [`Dialect`] (LinuxCNC, Fanuc).
+//! * [`stats`]: counts, path lengths, axis travel and ranges, estimated time.
+//! * Not here yet: sampling a program in time (interpolation with feed and
+//!   acceleration limits) and machine-limit checks, which need the machine
+//!   model; they build on the [`Event`] stream (every move has its start, end,
+//!   offsets, feed and TCP state) and plug into statistics through
+//!   [`MotionObserver`].
+//!
+//! ```
+//! use mtwin::gcode::{self, Block, StatsOptions};
+//!
+//! let program = "G21 G90 G94\nG1 X10 Y0 F600 (cut)\nG1 Y10\nM30\n";
+//! let st = gcode::stats(program.as_bytes(), &StatsOptions::default()).unwrap();
+//! assert_eq!(st.feed_length, 20.0);
+//! assert_eq!(st.feed_time, 2.0); // 20 mm at 600 mm/min
+//!
+//! let mut block = Block::parse(b"G1 X10  Y0 F600 (cut)\n", 2).unwrap();
+//! block.set_word('Z', -1.25).unwrap();
+//! assert_eq!(block.text(), b"G1 X10  Y0 Z-1.25 F600 (cut)");
+//! ```
+
+mod arc;
+mod axes;
+mod dialect;
+mod error;
+mod event;
+mod expr;
+mod interp;
+mod lexer;
+mod stats;
+mod stream;
+mod syntax;
+
+pub use axes::{Axes, Axis, AxisMask};
+pub use dialect::Dialect;
+pub use error::{GcodeError, Location};
+pub use event::{
+    ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, Plane, Programmed, SourcePos,
+    SpindleState, Units,
+};
+pub use interp::{InterpOptions, Interpreter, ModalState, MotionMode, ToolTable, UnknownMCode};
+pub use stats::{AxisRange, MotionObserver, ProgramStats, StatsOptions, stats, stats_with};
+pub use stream::{BlockReader, BlockWriter, Program};
+pub use syntax::{Block, CommentKind, Item, LineEnd, NumberFormat, Span, Value, Word};
+
+/// Interprets a whole program from `input`, streaming, calling `sink` with
+/// each block and the events it produced (possibly none).
+pub fn interpret<R, F>(input: R, opts: InterpOptions, mut sink: F) -> Result<(), GcodeError>
+where
+    R: std::io::BufRead,
+    F: FnMut(&Block, &[Event]) -> Result<(), GcodeError>,
+{
+    let mut reader = BlockReader::new(input);
+    let mut interp = Interpreter::new(opts);
+    let mut block = Block::default();
+    let mut events = Vec::new();
+    while reader.read_block(&mut block)? {
+        events.clear();
+        interp.execute(&block, &mut events)?;
+        sink(&block, &events)?;
+    }
+    Ok(())
+}

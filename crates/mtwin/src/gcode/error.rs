@@ -1,0 +1,93 @@
+//! Errors of the G-code engine: every one names the line (1-based) and, where
+//! a byte of the line is at fault, the column (1-based, in bytes).
+
+use std::io;
+
+/// Where in the source a problem is: 1-based line and 1-based byte column
+/// (0 when the whole block is at fault).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Location {
+    /// 1-based line number in the file.
+    pub line: u64,
+    /// 1-based byte column in the line, 0 when the problem is the block as a whole.
+    pub column: u32,
+}
+
+impl std::fmt::Display for Location {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.column == 0 {
+            write!(f, "line {}", self.line)
+        } else {
+            write!(f, "line {}, column {}", self.line, self.column)
+        }
+    }
+}
+
+/// Everything that can go wrong reading, interpreting or measuring a program.
+#[derive(Debug, thiserror::Error)]
+pub enum GcodeError {
+    /// The bytes do not form a block (bad character, unclosed comment, word
+    /// letter without a value, ...).
+    #[error("syntax error at {at}: {message}")]
+    Syntax { at: Location, message: String },
+    /// Valid RS-274/NGC that this interpreter does not implement (O-words,
+    /// expressions, parameters, canned cycles, ...). Never silently skipped.
+    #[error("unsupported {what} at {at}")]
+    Unsupported { at: Location, what: String },
+    /// A block that a controller would reject (arc radius mismatch, G1
+    /// without feed rate, two codes of one modal group, ...).
+    #[error("invalid block at {at}: {message}")]
+    Invalid { at: Location, message: String },
+    /// A word edit that cannot be done (non-finite value, ambiguous word).
+    #[error("cannot edit block: {0}")]
+    Edit(String),
+    /// Reading or writing the program failed.
+    #[error("I/O error: {0}")]
+    Io(#[from] io::Error),
+}
+
+impl GcodeError {
+    /// Location of the problem, if it has one.
+    pub fn location(&self) -> Option<Location> {
+        match self {
+            GcodeError::Syntax { at, .. }
+            | GcodeError::Unsupported { at, .. }
+            | GcodeError::Invalid { at, .. } => Some(*at),
+            GcodeError::Edit(_) | GcodeError::Io(_) => None,
+        }
+    }
+
+    pub(crate) fn syntax(line: u64, column: usize, message: impl Into<String>) -> Self {
+        GcodeError::Syntax {
+            at: Location {
+                line,
+                column: col32(column),
+            },
+            message: message.into(),
+        }
+    }
+
+    pub(crate) fn unsupported(line: u64, column: usize, what: impl Into<String>) -> Self {
+        GcodeError::Unsupported {
+            at: Location {
+                line,
+                column: col32(column),
+            },
+            what: what.into(),
+        }
+    }
+
+    pub(crate) fn invalid(line: u64, column: usize, message: impl Into<String>) -> Self {
+        GcodeError::Invalid {
+            at: Location {
+                line,
+                column: col32(column),
+            },
+            message: message.into(),
+        }
+    }
+}
+
+fn col32(column: usize) -> u32 {
+    u32::try_from(column).unwrap_or(u32::MAX)
+}

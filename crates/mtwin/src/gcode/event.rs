@@ -1,0 +1,250 @@
+//! Canonical events: what a program asks the machine to do, in canonical
+//! units (mm, degree, mm/min, s, rev/min), each tagged with the block it came
+//! from and with what that block wrote, so a rewriter can edit exactly the
+//! word behind a coordinate.
+
+use super::arc;
+use super::axes::{Axes, Axis, AxisMask};
+
+/// Where an event comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SourcePos {
+    /// 1-based line number.
+    pub line: u64,
+    /// 0-based index of the block among the blocks given to the interpreter
+    /// (one block per line, so `line - 1` when every line was given).
+    pub block: u64,
+}
+
+/// Length units of the program text.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Units {
+    /// G21.
+    #[default]
+    Millimetre,
+    /// G20.
+    Inch,
+}
+
+impl Units {
+    /// mm per program length unit.
+    pub fn mm_per_unit(self) -> f64 {
+        match self {
+            Units::Millimetre => 1.0,
+            Units::Inch => 25.4,
+        }
+    }
+}
+
+/// G90/G91.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum DistanceMode {
+    #[default]
+    Absolute,
+    Incremental,
+}
+
+/// Arc plane: G17 (XY, normal +Z), G18 (ZX, normal +Y), G19 (YZ, normal +X).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Plane {
+    #[default]
+    Xy,
+    Zx,
+    Yz,
+}
+
+impl Plane {
+    /// The first and second in-plane axes and the normal axis, ordered so
+    /// that first × second = normal (LinuxCNC's ARC_FEED order).
+    pub fn axes(self) -> (Axis, Axis, Axis) {
+        match self {
+            Plane::Xy => (Axis::X, Axis::Y, Axis::Z),
+            Plane::Zx => (Axis::Z, Axis::X, Axis::Y),
+            Plane::Yz => (Axis::Y, Axis::Z, Axis::X),
+        }
+    }
+
+    /// Unit normal of the plane in the work frame.
+    pub fn normal(self) -> [f64; 3] {
+        match self {
+            Plane::Xy => [0.0, 0.0, 1.0],
+            Plane::Zx => [0.0, 1.0, 0.0],
+            Plane::Yz => [1.0, 0.0, 0.0],
+        }
+    }
+}
+
+/// G93/G94/G95.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FeedMode {
+    /// G93: F is the inverse of the move time, 1/min.
+    InverseTime,
+    /// G94: F is a speed, mm/min (deg/min for rotary-only moves).
+    #[default]
+    UnitsPerMinute,
+    /// G95: F is mm per spindle revolution.
+    UnitsPerRevolution,
+}
+
+/// The feed of one move.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Feed {
+    /// Rapid traverse (G0) at the machine's rapid rate.
+    Rapid,
+    /// mm/min along the XYZ path (UVW if XYZ is still, deg/min along ABC if
+    /// only rotary axes move), as LinuxCNC applies it.
+    PerMinute(f64),
+    /// The move lasts 1/f minutes (G93).
+    InverseTime(f64),
+    /// mm per revolution at the given spindle speed in rev/min (G95).
+    PerRevolution { mm_per_rev: f64, rpm: f64 },
+}
+
+/// Spindle direction (M3/M4/M5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SpindleState {
+    Clockwise,
+    CounterClockwise,
+    #[default]
+    Stopped,
+}
+
+/// What the block wrote for a move: enough to rewrite it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Programmed {
+    /// The axes that had a word in the block.
+    pub axes: AxisMask,
+    /// The block was G53 (machine coordinates).
+    pub g53: bool,
+    /// Distance mode of the block.
+    pub distance: DistanceMode,
+    /// Length units of the block.
+    pub units: Units,
+}
+
+impl Programmed {
+    /// The word value (program units) that makes the move end at `end`
+    /// (work coordinates, mm/deg) on `axis`, given the move's start and the
+    /// offset of its event. Rotary rollover is not undone.
+    pub fn word_value(&self, axis: Axis, from: &Axes, end: f64, offset: &Axes) -> f64 {
+        let scale = if axis.is_rotary() {
+            1.0
+        } else {
+            self.units.mm_per_unit()
+        };
+        let canonical = if self.g53 {
+            end + offset[axis]
+        } else {
+            match self.distance {
+                DistanceMode::Absolute => end,
+                DistanceMode::Incremental => end - from[axis],
+            }
+        };
+        canonical / scale
+    }
+}
+
+/// A straight move (traverse or feed). Positions are in the active work
+/// coordinate system (what LinuxCNC's canon receives), mm and degree.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Linear {
+    /// Start position, work coordinates.
+    pub from: Axes,
+    /// End position, work coordinates.
+    pub to: Axes,
+    /// Work offset plus tool length offset: machine coordinates (identity
+    /// kinematics) are `to + offset`.
+    pub offset: Axes,
+    /// The feed.
+    pub feed: Feed,
+    /// Tool centre point control was on (XYZ is the tool tip in the work frame).
+    pub tcp: bool,
+    /// What the block wrote.
+    pub words: Programmed,
+}
+
+/// A circular or helical move about an axis parallel to the plane normal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ArcMove {
+    /// Start position, work coordinates.
+    pub from: Axes,
+    /// End position, work coordinates.
+    pub to: Axes,
+    /// Centre, work X Y Z; its normal-axis coordinate is that of `from`.
+    pub center: [f64; 3],
+    /// The plane.
+    pub plane: Plane,
+    /// Signed number of turns: positive counter-clockwise about the plane
+    /// normal (G3), negative clockwise (G2); |turns| − 1 full circles are
+    /// added to the shortest sweep in that direction (LinuxCNC's `rotation`).
+    pub turns: i32,
+    /// Work offset plus tool length offset, as in [`Linear::offset`].
+    pub offset: Axes,
+    /// The feed.
+    pub feed: Feed,
+    /// Tool centre point control was on.
+    pub tcp: bool,
+    /// What the block wrote.
+    pub words: Programmed,
+}
+
+impl ArcMove {
+    /// Unit normal of the arc (the rotation axis direction for positive turns).
+    pub fn normal(&self) -> [f64; 3] {
+        self.plane.normal()
+    }
+
+    /// In-plane radius at the start, mm.
+    pub fn radius(&self) -> f64 {
+        arc::geometry(self).radius
+    }
+
+    /// Signed swept angle about the normal, rad.
+    pub fn sweep(&self) -> f64 {
+        arc::geometry(self).sweep
+    }
+
+    /// Length of the helical XYZ path, mm (the in-plane radius may change
+    /// linearly from start to end, as in LinuxCNC).
+    pub fn xyz_length(&self) -> f64 {
+        arc::geometry(self).xyz_length()
+    }
+}
+
+/// Kinds of canonical event.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum EventKind {
+    /// G0, or G53 G0.
+    Traverse(Linear),
+    /// G1, or G53 G1.
+    Feed(Linear),
+    /// G2/G3.
+    Arc(ArcMove),
+    /// G4, s.
+    Dwell { seconds: f64 },
+    /// S, rev/min.
+    SpindleSpeed { rpm: f64 },
+    /// M3/M4/M5.
+    Spindle(SpindleState),
+    /// G93/G94/G95.
+    FeedMode(FeedMode),
+    /// F, canonical: mm/min (G94), 1/min (G93), mm/rev (G95).
+    FeedRate(f64),
+    /// TCP on or off (G43.4/G49, or the configured M-codes).
+    Tcp(bool),
+    /// G20/G21.
+    Units(Units),
+    /// G54..G59.3 selected: system number 1..=9 and its offset, mm/deg.
+    WorkOffset { system: u8, offset: Axes },
+    /// G43/G43.4/G49: tool length offset along Z now in force, mm.
+    ToolLengthOffset { length: f64 },
+    /// M2/M30.
+    ProgramEnd,
+}
+
+/// One canonical event and its source.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Event {
+    pub at: SourcePos,
+    pub kind: EventKind,
+}

@@ -1,0 +1,410 @@
+//! Lexer: one line of bytes to the items of a block, keeping byte spans so
+//! that the line can be written back unchanged.
+//!
+//! The rules are LinuxCNC's RS-274/NGC ones: letters are case-insensitive,
+//! spaces and tabs are allowed anywhere outside comments (even inside a
+//! number, `X1 2.5` is `X12.5`), `( )` comments end on the same line and do
+//! not nest, `;` comments run to the end of the line, `/` as the first
+//! character is block delete and a line starting with `%` marks the program
+//! start/end. Values that are expressions (`[..]`, functions such as
+//! `sin[..]`) or parameters (`#5`, `#<name>`) and O-word statements are kept
+//! as such, so every such program still round-trips; the interpreter
+//! evaluates constant expressions and rejects the rest as unsupported.
+
+use super::error::GcodeError;
+use super::syntax::{CommentKind, Item, Span, Value, Word};
+
+/// Unary functions of RS-274/NGC expressions (upper case).
+const FUNCTIONS: [&[u8]; 14] = [
+    b"ABS", b"ACOS", b"ASIN", b"ATAN", b"COS", b"EXP", b"FIX", b"FUP", b"ROUND", b"LN", b"SIN",
+    b"SQRT", b"TAN", b"EXISTS",
+];
+
+/// Whitespace between words: space, tab, and a carriage return that is not
+/// part of the line end.
+pub(crate) fn is_space(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | b'\r' | 0x0b | 0x0c)
+}
+
+/// Splits `text` (one line, without its line end) into items, appended to
+/// `items`. `line` is only used for error locations.
+pub(crate) fn lex(text: &[u8], line: u64, items: &mut Vec<Item>) -> Result<(), GcodeError> {
+    let mut lx = Lexer {
+        b: text,
+        i: 0,
+        line,
+    };
+    let mut first = true;
+    loop {
+        lx.skip_space();
+        let Some(c) = lx.peek() else { break };
+        let start = lx.i;
+        match c {
+            b'(' => {
+                let end = lx.paren_comment_end()?;
+                items.push(Item::Comment {
+                    kind: CommentKind::Paren,
+                    span: Span::new(start, end),
+                });
+                lx.i = end;
+            }
+            b';' => {
+                items.push(Item::Comment {
+                    kind: CommentKind::Semicolon,
+                    span: Span::new(start, text.len()),
+                });
+                lx.i = text.len();
+            }
+            b'%' if first => {
+                items.push(Item::Percent { at: start });
+                lx.i += 1;
+            }
+            b'/' if first => {
+                items.push(Item::BlockDelete { at: start });
+                lx.i += 1;
+            }
+            b'#' => {
+                lx.parameter()?;
+                lx.skip_space();
+                if lx.peek() != Some(b'=') {
+                    return Err(lx.err("a parameter reference must be followed by '=' here"));
+                }
+                lx.i += 1;
+                lx.real_value()?;
+                items.push(Item::Assignment {
+                    span: Span::new(start, lx.i),
+                });
+            }
+            c if c.is_ascii_alphabetic() => {
+                let letter = c.to_ascii_uppercase();
+                if letter == b'O' {
+                    // An O-word statement (sub, call, if, while, ...) runs to the
+                    // end of the line; its comments are part of it.
+                    items.push(Item::OWord {
+                        span: Span::new(start, text.len()),
+                    });
+                    lx.i = text.len();
+                } else {
+                    lx.i += 1;
+                    let (value, span, has_point) = lx.real_value()?;
+                    items.push(Item::Word(Word {
+                        letter,
+                        at: start,
+                        value,
+                        span,
+                        has_point,
+                    }));
+                }
+            }
+            _ => {
+                return Err(lx.err(format!("unexpected character {}", show_byte(c))));
+            }
+        }
+        first = false;
+    }
+    Ok(())
+}
+
+fn show_byte(c: u8) -> String {
+    if c.is_ascii_graphic() {
+        format!("'{}'", c as char)
+    } else {
+        format!("byte 0x{c:02x}")
+    }
+}
+
+struct Lexer<'a> {
+    b: &'a [u8],
+    i: usize,
+    line: u64,
+}
+
+impl Lexer<'_> {
+    fn peek(&self) -> Option<u8> {
+        self.b.get(self.i).copied()
+    }
+
+    fn skip_space(&mut self) {
+        while self.peek().is_some_and(is_space) {
+            self.i += 1;
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn err(&self, message: impl Into<String>) -> GcodeError {
+        GcodeError::syntax(self.line, self.i + 1, message)
+    }
+
+    /// End (exclusive) of the `( )` comment starting at `self.i`.
+    fn paren_comment_end(&self) -> Result<usize, GcodeError> {
+        for (k, &c) in self.b[self.i + 1..].iter().enumerate() {
+            match c {
+                b')' => return Ok(self.i + 1 + k + 1),
+                b'(' => {
+                    return Err(GcodeError::syntax(
+                        self.line,
+                        self.i + 1 + k + 1,
+                        "nested comment: '(' inside a ( ) comment",
+                    ));
+                }
+                _ => {}
+            }
+        }
+        Err(self.err("comment '(' is not closed on this line"))
+    }
+
+    /// Reads a value after a word letter or '='; returns it with the span of
+    /// its text (from its first to its last non-space byte) and whether a
+    /// number had a decimal point.
+    fn real_value(&mut self) -> Result<(Value, Span, bool), GcodeError> {
+        self.skip_space();
+        let start = self.i;
+        let mut j = self.i;
+        // Optional sign, possibly followed by spaces.
+        if matches!(self.peek(), Some(b'+' | b'-')) {
+            j += 1;
+            while self.b.get(j).copied().is_some_and(is_space) {
+                j += 1;
+            }
+        }
+        match self.b.get(j).copied() {
+            Some(b'0'..=b'9' | b'.') => self.number(start),
+            Some(b'[') => {
+                self.i = j;
+                self.bracket()?;
+                Ok((Value::Expression, Span::new(start, self.i), false))
+            }
+            Some(b'#') => {
+                self.i = j;
+                self.parameter()?;
+                Ok((Value::Parameter, Span::new(start, self.i), false))
+            }
+            Some(c) if c.is_ascii_alphabetic() => {
+                let name_end = j + self.b[j..]
+                    .iter()
+                    .take_while(|c| c.is_ascii_alphabetic())
+                    .count();
+                let name = self.b[j..name_end].to_ascii_uppercase();
+                if !FUNCTIONS.contains(&name.as_slice()) {
+                    return Err(self.err("a word letter must be followed by a number"));
+                }
+                self.i = name_end;
+                self.skip_space();
+                if self.peek() != Some(b'[') {
+                    return Err(self.err("a function name must be followed by '['"));
+                }
+                self.bracket()?;
+                if name == b"ATAN" {
+                    self.skip_space();
+                    if self.peek() == Some(b'/') {
+                        self.i += 1;
+                        self.skip_space();
+                        if self.peek() != Some(b'[') {
+                            return Err(self.err("ATAN[..] must be followed by /[..]"));
+                        }
+                        self.bracket()?;
+                    }
+                }
+                Ok((Value::Expression, Span::new(start, self.i), false))
+            }
+            _ => {
+                self.i = j;
+                Err(self.err("a word letter must be followed by a number"))
+            }
+        }
+    }
+
+    /// A number starting at `start` (sign, digits, one '.', spaces allowed
+    /// between the characters). Short decimals are converted while scanning
+    /// (see [`fast_decimal`]); others by the standard parser.
+    fn number(&mut self, start: usize) -> Result<(Value, Span, bool), GcodeError> {
+        let b = self.b;
+        let mut j = start;
+        let mut end = start; // exclusive end of the last significant byte
+        let mut has_point = false;
+        let mut has_digit = false;
+        let mut spaced = false;
+        let mut negative = false;
+        let mut mantissa: u64 = 0;
+        let mut significant = 0u32;
+        let mut decimals = 0usize;
+        if let Some(&c @ (b'+' | b'-')) = b.get(j) {
+            negative = c == b'-';
+            j += 1;
+            end = j;
+        }
+        while j < b.len() {
+            let c = b[j];
+            if c.is_ascii_digit() {
+                has_digit = true;
+                if mantissa != 0 || c != b'0' {
+                    significant += 1;
+                }
+                if significant <= 15 {
+                    mantissa = mantissa * 10 + u64::from(c - b'0');
+                }
+                decimals += usize::from(has_point);
+                j += 1;
+                end = j;
+            } else if c == b'.' {
+                if has_point {
+                    self.i = j;
+                    return Err(self.err("a number has two decimal points"));
+                }
+                has_point = true;
+                j += 1;
+                end = j;
+            } else if is_space(c) {
+                j += 1;
+                spaced = true;
+            } else {
+                break;
+            }
+        }
+        if !has_digit {
+            self.i = start;
+            return Err(self.err("a number needs at least one digit"));
+        }
+        let text = &b[start..end];
+        let value = if significant <= 15 && decimals < POW10.len() {
+            let v = mantissa as f64 / POW10[decimals];
+            Some(if negative { -v } else { v })
+        } else if spaced {
+            let compact: Vec<u8> = text.iter().copied().filter(|&c| !is_space(c)).collect();
+            parse_f64(&compact)
+        } else {
+            parse_f64(text)
+        };
+        self.i = end;
+        match value {
+            Some(v) => Ok((Value::Number(v), Span::new(start, end), has_point)),
+            None => {
+                self.i = start;
+                Err(self.err("malformed number"))
+            }
+        }
+    }
+
+    /// A balanced `[ ... ]` starting at `self.i`.
+    fn bracket(&mut self) -> Result<(), GcodeError> {
+        let open = self.i;
+        let mut depth = 0usize;
+        while let Some(c) = self.peek() {
+            match c {
+                b'[' => depth += 1,
+                b']' => {
+                    depth -= 1;
+                    if depth == 0 {
+                        self.i += 1;
+                        return Ok(());
+                    }
+                }
+                b'(' | b';' => break,
+                _ => {}
+            }
+            self.i += 1;
+        }
+        Err(GcodeError::syntax(
+            self.line,
+            open + 1,
+            "'[' is not closed on this line",
+        ))
+    }
+
+    /// A parameter reference `#n`, `#<name>`, `#[..]` or `##n` at `self.i`.
+    fn parameter(&mut self) -> Result<(), GcodeError> {
+        self.i += 1; // '#'
+        self.skip_space();
+        match self.peek() {
+            Some(b'<') => match self.b[self.i..].iter().position(|&c| c == b'>') {
+                Some(k) => {
+                    self.i += k + 1;
+                    Ok(())
+                }
+                None => Err(self.err("parameter name '<' is not closed by '>'")),
+            },
+            Some(b'[') => self.bracket(),
+            Some(b'#') => self.parameter(),
+            Some(b'0'..=b'9') => self.number(self.i).map(|_| ()),
+            _ => Err(self.err("'#' must be followed by a parameter number or <name>")),
+        }
+    }
+}
+
+/// Powers of ten exactly representable in an `f64`.
+const POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
+/// Exact fast path for short decimals (Clinger): with at most 15
+/// significant digits and at most 22 decimals, `mantissa / 10^k` is one
+/// correctly rounded division of two exactly representable numbers, so it
+/// equals the correctly rounded value of the decimal. `None` otherwise.
+/// `text` holds a sign, digits, at most one point and spaces.
+pub(crate) fn fast_decimal(text: &[u8]) -> Option<f64> {
+    let mut mantissa: u64 = 0;
+    let mut digits = 0u32;
+    let mut decimals = 0usize;
+    let mut in_fraction = false;
+    let mut negative = false;
+    for &c in text {
+        match c {
+            b'0'..=b'9' => {
+                if mantissa != 0 || c != b'0' {
+                    digits += 1;
+                }
+                if digits > 15 {
+                    return None;
+                }
+                mantissa = mantissa * 10 + u64::from(c - b'0');
+                decimals += usize::from(in_fraction);
+            }
+            b'.' => in_fraction = true,
+            b'-' => negative = true,
+            _ => {}
+        }
+    }
+    let v = mantissa as f64 / *POW10.get(decimals)?;
+    Some(if negative { -v } else { v })
+}
+
+/// Parses an ASCII decimal number (sign, digits, at most one point).
+fn parse_f64(text: &[u8]) -> Option<f64> {
+    // The lexer only passes ASCII, so this cannot fail; stay total anyway.
+    let s = std::str::from_utf8(text).ok()?;
+    let v: f64 = s.parse().ok()?;
+    v.is_finite().then_some(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fast_path_agrees_with_the_standard_parser() {
+        for t in [
+            "0",
+            "-0.5",
+            "123.456",
+            ".001",
+            "7.",
+            "999999999999999",
+            "0.1234567890123456789012",
+            "-12.3456",
+        ] {
+            let std: f64 = t.parse().unwrap();
+            match fast_decimal(t.as_bytes()) {
+                Some(v) => assert_eq!(v.to_bits(), std.to_bits(), "{t}"),
+                None => assert!(t.len() > 16, "{t} should take the fast path"),
+            }
+        }
+        assert_eq!(fast_decimal(b"- 1 2.5"), Some(-12.5));
+        assert_eq!(
+            fast_decimal(b"1234567890123456"),
+            None,
+            "16 digits: exactness not guaranteed"
+        );
+    }
+}

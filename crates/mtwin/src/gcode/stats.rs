@@ -1,0 +1,342 @@
+//! Program statistics from the canonical events: counts, path lengths, per
+//! axis travel and range, and an estimated time (programmed feeds, G93
+//! inverse time, rapids at a configured rate, dwells; no acceleration).
+//!
+//! Further checks (e.g. travel limits of a machine) plug in as a
+//! [`MotionObserver`] passed to [`stats_with`], seeing every event.
+
+use std::io::BufRead;
+
+use super::arc;
+use super::axes::{Axes, Axis};
+use super::error::GcodeError;
+use super::event::{ArcMove, Event, EventKind, Feed, Linear};
+use super::interp::{InterpOptions, Interpreter};
+use super::stream::BlockReader;
+use super::syntax::Block;
+
+/// Settings of [`stats`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct StatsOptions {
+    /// Interpreter settings (offsets, tools, dialect, ...).
+    pub interp: InterpOptions,
+    /// Rapid rate of the linear axes along the path, mm/min.
+    pub rapid_rate: f64,
+    /// Rapid rate of each rotary axis, deg/min.
+    pub rapid_rate_rotary: f64,
+}
+
+impl Default for StatsOptions {
+    /// Rapids at 10 m/min and 3600 deg/min (10 rev/min).
+    fn default() -> Self {
+        StatsOptions {
+            interp: InterpOptions::default(),
+            rapid_rate: 10_000.0,
+            rapid_rate_rotary: 3600.0,
+        }
+    }
+}
+
+/// Smallest and largest value an axis reached, mm or degree.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AxisRange {
+    pub min: f64,
+    pub max: f64,
+}
+
+impl AxisRange {
+    fn include(range: &mut Option<AxisRange>, v: f64) {
+        match range {
+            Some(r) => {
+                r.min = r.min.min(v);
+                r.max = r.max.max(v);
+            }
+            None => *range = Some(AxisRange { min: v, max: v }),
+        }
+    }
+}
+
+/// Statistics of one program.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ProgramStats {
+    /// Blocks (lines) read.
+    pub blocks: u64,
+    /// Blocks that moved an axis.
+    pub motion_blocks: u64,
+    /// Rapid (G0) moves.
+    pub rapid_moves: u64,
+    /// Straight feed (G1) moves.
+    pub linear_moves: u64,
+    /// Arc (G2/G3) moves.
+    pub arc_moves: u64,
+    /// XYZ path length of feed moves (straight and arc), mm.
+    pub feed_length: f64,
+    /// XYZ path length of rapid moves, mm.
+    pub rapid_length: f64,
+    /// Total travel of each axis (sum of |change|, arcs exact), mm or degree.
+    pub axis_travel: Axes,
+    /// Range of each axis over the moves, work coordinates (arcs include
+    /// their extreme points); `None` for an axis that never moved or stood.
+    pub work_range: [Option<AxisRange>; 9],
+    /// The same in machine coordinates before kinematics (work + work offset
+    /// + tool length offset); meaningful for axis limits only without TCP.
+    pub machine_range: [Option<AxisRange>; 9],
+    /// Time of feed moves, s.
+    pub feed_time: f64,
+    /// Time of rapid moves, s.
+    pub rapid_time: f64,
+    /// Dwell time, s.
+    pub dwell_time: f64,
+}
+
+impl ProgramStats {
+    /// Estimated total time, s.
+    pub fn total_time(&self) -> f64 {
+        self.feed_time + self.rapid_time + self.dwell_time
+    }
+
+    /// Adds one event.
+    pub fn add(&mut self, event: &Event, opts: &StatsOptions) -> Result<(), GcodeError> {
+        match &event.kind {
+            EventKind::Traverse(m) => {
+                self.rapid_moves += 1;
+                let d = m.to.sub(&m.from);
+                let xyz = d.xyz_norm();
+                self.rapid_length += xyz;
+                let rot = [Axis::A, Axis::B, Axis::C]
+                    .iter()
+                    .map(|&a| d[a].abs())
+                    .fold(0.0, f64::max);
+                let minutes = (xyz / opts.rapid_rate)
+                    .max(d.uvw_norm() / opts.rapid_rate)
+                    .max(rot / opts.rapid_rate_rotary);
+                self.rapid_time += 60.0 * minutes;
+                self.linear_extent(m);
+            }
+            EventKind::Feed(m) => {
+                self.linear_moves += 1;
+                let d = m.to.sub(&m.from);
+                self.feed_length += d.xyz_norm();
+                self.feed_time += feed_seconds(m.feed, d.xyz_norm(), &d, event)?;
+                self.linear_extent(m);
+            }
+            EventKind::Arc(a) => {
+                self.arc_moves += 1;
+                let len = a.xyz_length();
+                self.feed_length += len;
+                self.feed_time += feed_seconds(a.feed, len, &a.to.sub(&a.from), event)?;
+                self.arc_extent(a);
+            }
+            EventKind::Dwell { seconds } => self.dwell_time += seconds,
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn include(&mut self, work: &Axes, offset: &Axes) {
+        for i in 0..9 {
+            AxisRange::include(&mut self.work_range[i], work.0[i]);
+            AxisRange::include(&mut self.machine_range[i], work.0[i] + offset.0[i]);
+        }
+    }
+
+    fn linear_extent(&mut self, m: &Linear) {
+        for i in 0..9 {
+            self.axis_travel.0[i] += (m.to.0[i] - m.from.0[i]).abs();
+        }
+        self.include(&m.from, &m.offset);
+        self.include(&m.to, &m.offset);
+    }
+
+    fn arc_extent(&mut self, a: &ArcMove) {
+        let (p, q, _) = a.plane.axes();
+        // Out-of-plane axes move linearly.
+        for axis in Axis::ALL {
+            if axis != p && axis != q {
+                self.axis_travel[axis] += (a.to[axis] - a.from[axis]).abs();
+            }
+        }
+        // In-plane axes: monotone between quadrant crossings.
+        let pts = arc::plane_points(a);
+        for w in pts.windows(2) {
+            self.axis_travel[p] += (w[1][0] - w[0][0]).abs();
+            self.axis_travel[q] += (w[1][1] - w[0][1]).abs();
+        }
+        self.include(&a.from, &a.offset);
+        self.include(&a.to, &a.offset);
+        for pt in &pts {
+            let mut x = a.from;
+            x[p] = pt[0];
+            x[q] = pt[1];
+            AxisRange::include(&mut self.work_range[p.index()], x[p]);
+            AxisRange::include(&mut self.work_range[q.index()], x[q]);
+            AxisRange::include(&mut self.machine_range[p.index()], x[p] + a.offset[p]);
+            AxisRange::include(&mut self.machine_range[q.index()], x[q] + a.offset[q]);
+        }
+    }
+}
+
+/// Time of a feed move: LinuxCNC applies a per-minute feed to the XYZ path,
+/// else to UVW, else to the rotary axes (deg/min).
+fn feed_seconds(feed: Feed, xyz: f64, d: &Axes, event: &Event) -> Result<f64, GcodeError> {
+    const STILL: f64 = 1e-9;
+    let path = if xyz > STILL {
+        xyz
+    } else if d.uvw_norm() > STILL {
+        d.uvw_norm()
+    } else {
+        d.abc_norm()
+    };
+    let minutes = match feed {
+        Feed::Rapid => 0.0,
+        Feed::PerMinute(f) => path / f,
+        Feed::InverseTime(f) => 1.0 / f,
+        Feed::PerRevolution { mm_per_rev, rpm } => {
+            if rpm <= 0.0 {
+                return Err(GcodeError::invalid(
+                    event.at.line,
+                    0,
+                    "cannot time a feed-per-revolution move with the spindle speed at 0",
+                ));
+            }
+            path / (mm_per_rev * rpm)
+        }
+    };
+    Ok(60.0 * minutes)
+}
+
+/// Sees every canonical event of a program (with its block) during
+/// [`stats_with`]; the place for checks such as machine travel limits.
+pub trait MotionObserver {
+    /// Called for each event, in order.
+    fn observe(&mut self, block: &Block, event: &Event) -> Result<(), GcodeError>;
+}
+
+/// An observer that does nothing.
+impl MotionObserver for () {
+    fn observe(&mut self, _: &Block, _: &Event) -> Result<(), GcodeError> {
+        Ok(())
+    }
+}
+
+/// Statistics of the program read from `input`, streaming (constant memory).
+pub fn stats<R: BufRead>(input: R, opts: &StatsOptions) -> Result<ProgramStats, GcodeError> {
+    stats_with(input, opts, &mut ())
+}
+
+/// [`stats`] that also shows every event to `observer`.
+pub fn stats_with<R: BufRead>(
+    input: R,
+    opts: &StatsOptions,
+    observer: &mut dyn MotionObserver,
+) -> Result<ProgramStats, GcodeError> {
+    let mut reader = BlockReader::new(input);
+    let mut interp = Interpreter::new(opts.interp.clone());
+    let mut block = Block::default();
+    let mut events = Vec::new();
+    let mut st = ProgramStats::default();
+    while reader.read_block(&mut block)? {
+        st.blocks += 1;
+        events.clear();
+        interp.execute(&block, &mut events)?;
+        let mut moved = false;
+        for e in &events {
+            moved |= matches!(
+                e.kind,
+                EventKind::Traverse(_) | EventKind::Feed(_) | EventKind::Arc(_)
+            );
+            st.add(e, opts)?;
+            observer.observe(&block, e)?;
+        }
+        st.motion_blocks += u64::from(moved);
+    }
+    Ok(st)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::f64::consts::PI;
+
+    use super::*;
+
+    fn st(src: &str) -> ProgramStats {
+        stats(src.as_bytes(), &StatsOptions::default()).unwrap()
+    }
+
+    #[test]
+    fn square_at_feed_plus_rapid_and_dwell() {
+        let s = st("G0 X0 Y0 Z100\nG0 Z0\nG1 X10 F600\nY10\nX0\nY0\nG4 P1.5\nM30\n");
+        assert_eq!(s.blocks, 8);
+        assert_eq!(s.motion_blocks, 6);
+        assert_eq!((s.rapid_moves, s.linear_moves, s.arc_moves), (2, 4, 0));
+        assert!((s.feed_length - 40.0).abs() < 1e-12);
+        assert!((s.feed_time - 4.0).abs() < 1e-12, "40 mm at 600 mm/min");
+        assert!((s.rapid_length - 200.0).abs() < 1e-12);
+        assert!((s.rapid_time - 60.0 * 200.0 / 10_000.0).abs() < 1e-12);
+        assert_eq!(s.dwell_time, 1.5);
+        assert_eq!(s.axis_travel[Axis::X], 20.0);
+        assert_eq!(
+            s.work_range[Axis::Z.index()],
+            Some(AxisRange {
+                min: 0.0,
+                max: 100.0
+            })
+        );
+        assert!((s.total_time() - (4.0 + 1.2 + 1.5)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn arcs_reach_their_extremes_and_travel_exactly() {
+        // Full circle radius 10 about the origin, from (10, 0).
+        let s = st("G0 X10 Y0\nG3 X10 Y0 I-10 F100\n");
+        let r = |a: Axis| s.work_range[a.index()].unwrap();
+        assert!((r(Axis::X).min + 10.0).abs() < 1e-12 && (r(Axis::Y).max - 10.0).abs() < 1e-12);
+        assert!((r(Axis::Y).min + 10.0).abs() < 1e-12);
+        // Per-axis travel of a full circle is 4 r; X also had the 10 mm rapid.
+        assert!((s.axis_travel[Axis::X] - 50.0).abs() < 1e-9);
+        assert!((s.axis_travel[Axis::Y] - 40.0).abs() < 1e-9);
+        assert!((s.feed_time - 60.0 * 2.0 * PI * 10.0 / 100.0).abs() < 1e-9);
+        // A quarter arc from (10,0) to (0,10) crosses no quadrant boundary
+        // inside: X range stays [0, 10].
+        let q = st("G0 X10 Y0\nG3 X0 Y10 R10 F100\n");
+        assert_eq!(q.work_range[0].unwrap().min, 0.0);
+    }
+
+    #[test]
+    fn inverse_time_per_revolution_and_rotary_only_feeds() {
+        let s = st("G93 G1 X100 F2\nG1 X0 F0.5\n");
+        assert!((s.feed_time - (30.0 + 120.0)).abs() < 1e-12);
+        let r = st("G95 S500 G1 X10 F0.1\n");
+        assert!((r.feed_time - 60.0 * 10.0 / (0.1 * 500.0)).abs() < 1e-12);
+        assert!(
+            stats("G95 G1 X10 F0.1\n".as_bytes(), &StatsOptions::default()).is_err(),
+            "spindle at 0"
+        );
+        // Rotary-only G94 move: F in deg/min along the rotary path.
+        let c = st("G1 C90 F180\n");
+        assert!((c.feed_time - 30.0).abs() < 1e-12);
+        // Rapid of a rotary axis at the rotary rapid rate.
+        let g0 = st("G0 A360\n");
+        assert!((g0.rapid_time - 6.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn observer_sees_every_event() {
+        struct Count(usize);
+        impl MotionObserver for Count {
+            fn observe(&mut self, _: &Block, _: &Event) -> Result<(), GcodeError> {
+                self.0 += 1;
+                Ok(())
+            }
+        }
+        let mut c = Count(0);
+        // Events: feed rate, feed, traverse.
+        stats_with(
+            "G1 X1 F10\nG0 X0\n".as_bytes(),
+            &StatsOptions::default(),
+            &mut c,
+        )
+        .unwrap();
+        assert_eq!(c.0, 3);
+    }
+}

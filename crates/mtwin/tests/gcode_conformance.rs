@@ -1,0 +1,445 @@
+//! LinuxCNC interpreter conformance: every case of
+//! `shared/corpus/gcode-conformance/linuxcnc-interp` whose program this
+//! interpreter supports must produce the motion of the case's `expected`
+//! trace (STRAIGHT_TRAVERSE, STRAIGHT_FEED, ARC_FEED, compared in mm after
+//! the trace's own USE_LENGTH_UNITS), every `good/` program must be accepted
+//! and every `bad/` program must be rejected.
+//!
+//! Cases whose programs use what this interpreter does not implement are
+//! rejected by it with an "unsupported" error; they are listed in
+//! [`SKIPPED`] with the reason, and the test checks that this list is
+//! exactly the set of cases the interpreter turns down, so it cannot go
+//! stale silently.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use mtwin::gcode::{self, EventKind, GcodeError, InterpOptions, UnknownMCode};
+
+/// Cases skipped (the interpreter reports "unsupported") and why.
+const SKIPPED: &[(&str, &str)] = &[
+    ("abort-hot-comment", "parameter assignment"),
+    ("bad/a-in-canned-cycle.ngc", "canned cycle G81"),
+    ("bad/a-in-canned-cycle2.ngc", "canned cycle G81"),
+    ("bad/ccomp-arcexit.ngc", "cutter radius compensation G41.1"),
+    ("bad/ccomp-gouging.ngc", "cutter radius compensation G41.1"),
+    ("bad/exists-1.ngc", "expression with parameters"),
+    ("bad/exists-2.ngc", "expression with parameters"),
+    ("bad/exists-3.ngc", "parameter assignment"),
+    ("bad/exists-4.ngc", "expression with parameters"),
+    ("bad/exists-5.ngc", "expression with parameters"),
+    ("bad/exists-6.ngc", "expression with parameters"),
+    ("bad/exists-7.ngc", "expression with parameters"),
+    (
+        "bad/nested.ngc",
+        "O-word statement (subroutines and control flow)",
+    ),
+    ("bad/probe-no-axes.ngc", "probing G38.2"),
+    ("cam-nisley", "parameter assignment"),
+    ("compile", "no single program file (several or none)"),
+    (
+        "crazy-paths",
+        "O-word statement (subroutines and control flow)",
+    ),
+    ("do-while-break", "parameter assignment"),
+    ("exists", "parameter assignment"),
+    (
+        "flowsnake",
+        "O-word statement (subroutines and control flow)",
+    ),
+    ("g10/g10-l1-l10", "setting offsets G10"),
+    ("g10/g10-l11", "setting offsets G10"),
+    ("g10/g10-l2-while-active", "setting offsets G10"),
+    ("g10/g10-l20-while-active", "setting offsets G10"),
+    ("g10/g10-with-g92", "axis offsets G92.1"),
+    ("g33.1", "spindle-synchronised motion G33.1"),
+    ("g52/g52-g92-interaction", "axis offsets G92"),
+    ("g71-endless-loop", "axis offsets G92.1"),
+    ("g71-endless-loop2", "constant surface speed G96"),
+    ("g71-endless-loop_2", "parameter assignment"),
+    (
+        "g71-with-g70",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "g72-facing",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "g72-missing-iteration",
+        "O-word statement (subroutines and control flow)",
+    ),
+    ("g76", "spindle-synchronised motion G76"),
+    ("g81/g17/g98", "canned cycle G81"),
+    ("g81/g17/g99", "canned cycle G81"),
+    ("g81/g18/g98", "canned cycle G81"),
+    ("g81/g18/g99", "canned cycle G81"),
+    ("g81/g19/g98", "canned cycle G81"),
+    ("g81/g19/g99", "canned cycle G81"),
+    ("g84/g17/g98", "canned cycle G84"),
+    ("g84/g17/g99", "canned cycle G84"),
+    ("g84/g18/g98", "canned cycle G84"),
+    ("g84/g18/g99", "canned cycle G81"),
+    ("g84/g19/g98", "canned cycle G84"),
+    ("g84/g19/g99", "canned cycle G84"),
+    ("iniparam", "parameter #<_ini"),
+    ("iniparam-failassign", "parameter assignment"),
+    (
+        "inside-corners",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "inverse-time-with-comp",
+        "O-word statement (subroutines and control flow)",
+    ),
+    ("m98m99/01-basics", "subprogram call M98"),
+    ("m98m99/02-variables", "parameter assignment"),
+    ("m98m99/03-error-M98-no-P-word", "subprogram call M98"),
+    ("m98m99/04-M98-but-no-sub", "subprogram call M98"),
+    ("m98m99/05-M98-loops", "parameter assignment"),
+    (
+        "m98m99/06-error-mixed-sub-styles",
+        "no single program file (several or none)",
+    ),
+    ("m98m99/07-nested-subs", "parameter assignment"),
+    ("m98m99/08-sub-follows-main", "subprogram call M98"),
+    (
+        "m98m99/09-disable-fanuc-subs",
+        "no single program file (several or none)",
+    ),
+    ("m98m99/10-M98-P001", "subprogram call M98"),
+    (
+        "m98m99/11-main-program-oword",
+        "no single program file (several or none)",
+    ),
+    ("m98m99/12-M99-endless-main-program", "parameter assignment"),
+    (
+        "m98m99/13-named-program",
+        "no single program file (several or none)",
+    ),
+    ("m98m99/14-o-expression-call", "parameter assignment"),
+    (
+        "machine-coord-params",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "magic_comments/param_format_printing",
+        "parameter assignment",
+    ),
+    ("namedparam-bug424", "parameter assignment"),
+    (
+        "nested-sub-error",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "nested-sub-in-file-error",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "oword-bug315",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "oword-bug315-p2",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "oword-unwind",
+        "O-word statement (subroutines and control flow)",
+    ),
+    ("plug/absolute", "no single program file (several or none)"),
+    ("plug/filename", "no single program file (several or none)"),
+    ("plug/relative", "no single program file (several or none)"),
+    ("pymove", "O-word statement (subroutines and control flow)"),
+    (
+        "python-self",
+        "O-word statement (subroutines and control flow)",
+    ),
+    ("return-value", "parameter assignment"),
+    (
+        "rotation/abs-pts",
+        "O-word statement (subroutines and control flow)",
+    ),
+    ("rotation/g28", "setting offsets G10"),
+    ("rotation/g53", "setting offsets G10"),
+    (
+        "sequence-number",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "sub-call-from-sub",
+        "O-word statement (subroutines and control flow)",
+    ),
+    (
+        "subs-follow-main",
+        "O-word statement (subroutines and control flow)",
+    ),
+    ("unit-conversion", "axis offsets G92.1"),
+    (
+        "value-returned",
+        "O-word statement (subroutines and control flow)",
+    ),
+];
+
+fn root() -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/corpus/gcode-conformance/linuxcnc-interp");
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!("skipping: conformance folder {} is absent", dir.display());
+        None
+    }
+}
+
+/// One motion call: name and arguments in LinuxCNC's order, mm and degree.
+type Call = (String, Vec<f64>);
+
+/// Motion calls of an `expected` trace, converted to mm.
+fn expected_motion(text: &str) -> Vec<Call> {
+    let mut inch = false;
+    let mut calls = Vec::new();
+    for line in text.lines() {
+        // Lines read `N..... CALL(args)`, some traces prefix a counter.
+        if line.contains("USE_LENGTH_UNITS(") {
+            inch = line.contains("INCHES");
+            continue;
+        }
+        let Some((name, args)) = ["STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "ARC_FEED"]
+            .iter()
+            .find_map(|n| line.split_once(&format!(" {n}(")).map(|(_, a)| (*n, a)))
+        else {
+            continue;
+        };
+        let args: Vec<f64> = args
+            .trim_end()
+            .trim_end_matches(')')
+            .split(',')
+            .map(|a| {
+                a.trim()
+                    .parse()
+                    .unwrap_or_else(|_| panic!("bad trace line {line}"))
+            })
+            .collect();
+        let s = if inch { 25.4 } else { 1.0 };
+        // Linear arguments: straight: x y z (0..3) and u v w (6..9);
+        // arc: ends and centre (0..4), axis end (5), u v w (9..12).
+        let linear = |i: usize| match name {
+            "ARC_FEED" => i < 4 || i == 5 || i >= 9,
+            _ => !(3..6).contains(&i),
+        };
+        let args = args
+            .iter()
+            .enumerate()
+            .map(|(i, v)| if linear(i) { v * s } else { *v })
+            .collect();
+        calls.push((name.to_string(), args));
+    }
+    calls
+}
+
+/// Motion calls of our interpreter, in LinuxCNC's argument order: all of
+/// them, or those before the block that failed and the error.
+fn our_motion(program: &[u8]) -> Result<Vec<Call>, (Vec<Call>, GcodeError)> {
+    // The tool lengths LinuxCNC's test tool table gives (USE_TOOL_LENGTH_OFFSET
+    // in the traces of g72-facing, in mm, and g76, 0.7 in).
+    let tools = [(2, 2.54), (4, 0.7 * 25.4)].into_iter().collect();
+    let opts = InterpOptions {
+        unknown_m: UnknownMCode::Reject,
+        tools,
+        ..InterpOptions::default()
+    };
+    let mut calls = Vec::new();
+    let result = gcode::interpret(program, opts, |_, events| {
+        for e in events {
+            let abc = |p: &gcode::Axes| [p.0[3], p.0[4], p.0[5]];
+            match &e.kind {
+                EventKind::Traverse(m) | EventKind::Feed(m) => {
+                    let name = if matches!(e.kind, EventKind::Traverse(_)) {
+                        "STRAIGHT_TRAVERSE"
+                    } else {
+                        "STRAIGHT_FEED"
+                    };
+                    calls.push((name.to_string(), m.to.0[..6].to_vec()));
+                }
+                EventKind::Arc(a) => {
+                    let (p, q, n) = a.plane.axes();
+                    let mut v = vec![
+                        a.to[p],
+                        a.to[q],
+                        a.center[p.index()],
+                        a.center[q.index()],
+                        f64::from(a.turns),
+                        a.to[n],
+                    ];
+                    v.extend(abc(&a.to));
+                    calls.push(("ARC_FEED".to_string(), v));
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    });
+    match result {
+        Ok(()) => Ok(calls),
+        Err(e) => Err((calls, e)),
+    }
+}
+
+fn same(ours: &[Call], expected: &[Call]) -> Result<(), String> {
+    if ours.len() != expected.len() {
+        return Err(format!(
+            "{} motion calls, expected {}",
+            ours.len(),
+            expected.len()
+        ));
+    }
+    for (k, ((n1, a1), (n2, a2))) in ours.iter().zip(expected).enumerate() {
+        if n1 != n2 {
+            return Err(format!("call {k}: {n1}, expected {n2}"));
+        }
+        // The trace prints 4 decimals in program units (≤ 0.5e-4 in = 1.27e-3 mm).
+        for (i, (x, y)) in a1.iter().zip(a2).enumerate() {
+            if (x - y).abs() > 1.3e-3 {
+                return Err(format!(
+                    "call {k} {n1} argument {i}: {x}, expected {y}\n ours {a1:?}\n expected {a2:?}"
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The program of a case folder: `test.ngc`, else its only `.ngc` file.
+fn program_of(dir: &Path) -> Option<PathBuf> {
+    let test = dir.join("test.ngc");
+    if test.is_file() {
+        return Some(test);
+    }
+    let ngc: Vec<PathBuf> = std::fs::read_dir(dir)
+        .ok()?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "ngc"))
+        .collect();
+    (ngc.len() == 1).then(|| ngc[0].clone())
+}
+
+fn case_dirs(dir: &Path, root: &Path, out: &mut Vec<(String, PathBuf)>) {
+    let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .collect();
+    entries.sort();
+    if dir.join("expected").is_file() {
+        let name = dir
+            .strip_prefix(root)
+            .unwrap()
+            .to_string_lossy()
+            .into_owned();
+        out.push((name, dir.to_path_buf()));
+    }
+    for e in entries {
+        if e.is_dir() {
+            case_dirs(&e, root, out);
+        }
+    }
+}
+
+#[test]
+fn linuxcnc_conformance() {
+    let Some(root) = root() else { return };
+    let mut cases = Vec::new();
+    case_dirs(&root, &root, &mut cases);
+    let mut skipped: BTreeMap<String, String> = BTreeMap::new();
+    let mut failures = Vec::new();
+    let mut passed = Vec::new();
+    let mut prefix_checked = Vec::new();
+
+    for (name, dir) in &cases {
+        let Some(program) = program_of(dir) else {
+            skipped.insert(
+                name.clone(),
+                "no single program file (several or none)".into(),
+            );
+            continue;
+        };
+        let bytes = std::fs::read(&program).unwrap();
+        let expected_text =
+            String::from_utf8_lossy(&std::fs::read(dir.join("expected")).unwrap()).into_owned();
+        match our_motion(&bytes) {
+            Ok(ours) => match same(&ours, &expected_motion(&expected_text)) {
+                Ok(()) => passed.push(name.clone()),
+                Err(e) => failures.push(format!("{name}: {e}")),
+            },
+            // Unsupported: the motion up to the unsupported block must still
+            // be the start of LinuxCNC's.
+            Err((ours, e @ GcodeError::Unsupported { .. })) => {
+                let expected = expected_motion(&expected_text);
+                let n = ours.len().min(expected.len());
+                if let Err(m) = same(&ours, &expected[..n]) {
+                    failures.push(format!("{name}: before the unsupported block: {m}"));
+                }
+                if n > 0 {
+                    prefix_checked.push(format!("{name} ({n})"));
+                }
+                skipped.insert(name.clone(), e.to_string());
+            }
+            Err((_, e)) => failures.push(format!("{name}: rejected: {e}")),
+        }
+    }
+
+    // good/: accepted; bad/: rejected.
+    for (folder, must_fail) in [("good", false), ("bad", true)] {
+        let mut files: Vec<PathBuf> = std::fs::read_dir(root.join(folder))
+            .unwrap()
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == "ngc"))
+            .collect();
+        files.sort();
+        for f in files {
+            let name = format!("{folder}/{}", f.file_name().unwrap().to_string_lossy());
+            match (our_motion(&std::fs::read(&f).unwrap()), must_fail) {
+                (Err((_, e @ GcodeError::Unsupported { .. })), _) => {
+                    skipped.insert(name, e.to_string());
+                }
+                (Err(_), true) | (Ok(_), false) => passed.push(name),
+                (Ok(_), true) => {
+                    failures.push(format!("{name}: accepted, but LinuxCNC rejects it"))
+                }
+                (Err((_, e)), false) => failures.push(format!("{name}: rejected: {e}")),
+            }
+        }
+    }
+
+    eprintln!("passed ({}): {passed:?}", passed.len());
+    eprintln!("motion before the unsupported block matched (motions): {prefix_checked:?}");
+    for (k, v) in &skipped {
+        eprintln!("skipped {k}: {v}");
+    }
+    assert!(
+        failures.is_empty(),
+        "conformance failures:\n{}",
+        failures.join("\n")
+    );
+    let listed: BTreeMap<String, String> = SKIPPED
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    let listed_names: Vec<&String> = listed.keys().collect();
+    let skipped_names: Vec<&String> = skipped.keys().collect();
+    assert_eq!(
+        skipped_names, listed_names,
+        "the SKIPPED list is out of date"
+    );
+    for (name, reason) in &listed {
+        assert!(
+            skipped[name].contains(reason.as_str()),
+            "{name}: skipped because {}, listed as {reason}",
+            skipped[name]
+        );
+    }
+    assert!(
+        passed.len() >= 5,
+        "too few conformance cases pass: {passed:?}"
+    );
+}

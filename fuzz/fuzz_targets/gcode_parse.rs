@@ -1,0 +1,19 @@
+//! Fuzz the lossless G-code parser and the interpreter on arbitrary bytes.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use mtwin::gcode::{InterpOptions, Interpreter, Program};
+
+fuzz_target!(|data: &[u8]| {
+    let Ok(program) = Program::parse(data) else {
+        return;
+    };
+    assert_eq!(program.to_bytes(), data, "round trip must be the identity");
+    let mut interp = Interpreter::new(InterpOptions::default());
+    let mut events = Vec::new();
+    for block in &program.blocks {
+        if interp.execute(block, &mut events).is_err() {
+            break;
+        }
+    }
+});
