@@ -15,7 +15,9 @@ const HEIGHTS: [f64; 4] = [-350.0, -250.0, -150.0, -50.0];
 /// spectrum (steps), and a varying "cutting" programme; 30 samples of 10 min each.
 fn training_runs() -> Vec<(&'static str, Vec<f64>)> {
     let constant = vec![6000.0; 30];
-    let steps: Vec<f64> = (0..30).map(|k| [2000.0, 4000.0, 8000.0, 0.0, 6000.0][k / 6]).collect();
+    let steps: Vec<f64> = (0..30)
+        .map(|k| [2000.0, 4000.0, 8000.0, 0.0, 6000.0][k / 6])
+        .collect();
     let cutting: Vec<f64> = (0..30)
         .map(|k| [3000.0, 7000.0, 1000.0, 5000.0, 8000.0, 0.0, 4000.0][(k * 5 / 3) % 7])
         .collect();
@@ -109,7 +111,8 @@ fn fit_then_predict_matches_the_true_drift_of_a_new_programme() {
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     // JSON is the whole of stdout.
-    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).expect("stdout is one JSON document");
+    let v: serde_json::Value =
+        serde_json::from_str(&stdout(&o)).expect("stdout is one JSON document");
     assert_eq!(v["period_min"], 10.0);
     assert_eq!(v["runs"], 3);
     let hs = v["heights"].as_array().unwrap();
@@ -140,7 +143,10 @@ fn fit_then_predict_matches_the_true_drift_of_a_new_programme() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let text = std::fs::read_to_string(dir.path().join("drift.csv")).unwrap();
     assert_eq!(text.lines().next().unwrap(), "t_min,z_mm,drift_mm");
-    let rows = read_rows(&dir.path().join("drift.csv"), &["t_min", "z_mm", "drift_mm"]);
+    let rows = read_rows(
+        &dir.path().join("drift.csv"),
+        &["t_min", "z_mm", "drift_mm"],
+    );
     let speeds = new_programme();
     assert_eq!(rows.len(), 3 * speeds.len());
     for z in [-350.0, -300.0, -50.0] {
@@ -182,7 +188,10 @@ fn fit_then_predict_matches_the_true_drift_of_a_new_programme() {
     assert_eq!(v["samples"], speeds.len());
     let rows = read_rows(&dir.path().join("drift2.csv"), &["drift_mm"]);
     let max_abs = rows.iter().fold(0.0f64, |m, r| m.max(r[0].abs()));
-    assert_eq!(v["heights"][0]["max_abs_drift_mm"].as_f64().unwrap(), max_abs);
+    assert_eq!(
+        v["heights"][0]["max_abs_drift_mm"].as_f64().unwrap(),
+        max_abs
+    );
 }
 
 #[test]
@@ -193,12 +202,24 @@ fn outside_the_measured_heights_warns_and_holds_the_end_value() {
     let o = mtwin(
         dir.path(),
         &[
-            "thermal", "predict", "--model", "thermal.toml", "--speed", "speed.csv", "--z",
-            "-50,20", "--out", "drift.csv",
+            "thermal",
+            "predict",
+            "--model",
+            "thermal.toml",
+            "--speed",
+            "speed.csv",
+            "--z",
+            "-50,20",
+            "--out",
+            "drift.csv",
         ],
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert!(stderr(&o).contains("warning: z = 20 mm is outside"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("warning: z = 20 mm is outside"),
+        "{}",
+        stderr(&o)
+    );
     let rows = read_rows(&dir.path().join("drift.csv"), &["z_mm", "drift_mm"]);
     for pair in rows.chunks(2) {
         assert_eq!(pair[0][0], -50.0);
@@ -216,8 +237,20 @@ fn simulate_reproduces_predict_and_is_seeded() {
         let o = mtwin(
             dir.path(),
             &[
-                "thermal", "simulate", "--model", "thermal.toml", "--speed", "speed.csv", "--z",
-                "-250,-150", "--noise", noise, "--seed", seed, "--out", out,
+                "thermal",
+                "simulate",
+                "--model",
+                "thermal.toml",
+                "--speed",
+                "speed.csv",
+                "--z",
+                "-250,-150",
+                "--noise",
+                noise,
+                "--seed",
+                seed,
+                "--out",
+                out,
             ],
         );
         assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
@@ -230,12 +263,23 @@ fn simulate_reproduces_predict_and_is_seeded() {
     let o = mtwin(
         dir.path(),
         &[
-            "thermal", "predict", "--model", "thermal.toml", "--speed", "speed.csv", "--z",
-            "-250,-150", "--out", "drift.csv",
+            "thermal",
+            "predict",
+            "--model",
+            "thermal.toml",
+            "--speed",
+            "speed.csv",
+            "--z",
+            "-250,-150",
+            "--out",
+            "drift.csv",
         ],
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let pred = read_rows(&dir.path().join("drift.csv"), &["t_min", "z_mm", "drift_mm"]);
+    let pred = read_rows(
+        &dir.path().join("drift.csv"),
+        &["t_min", "z_mm", "drift_mm"],
+    );
     let sim0 = read_rows(
         &dir.path().join("sim0.csv"),
         &["t_min", "speed_rpm", "z_mm", "drift_mm"],
@@ -269,13 +313,22 @@ fn plots_show_every_measured_sample_per_height() {
     let o = mtwin(
         dir.path(),
         &[
-            "thermal", "fit", "--data", "train.csv", "--max-order", "2", "--out", "thermal.toml",
-            "--plot", "plots",
+            "thermal",
+            "fit",
+            "--data",
+            "train.csv",
+            "--max-order",
+            "2",
+            "--out",
+            "thermal.toml",
+            "--plot",
+            "plots",
         ],
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     for z in HEIGHTS {
-        let svg = std::fs::read_to_string(dir.path().join(format!("plots/drift_z{z}.svg"))).unwrap();
+        let svg =
+            std::fs::read_to_string(dir.path().join(format!("plots/drift_z{z}.svg"))).unwrap();
         assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
         // Three runs of 30 samples: 90 measured points, one model line per run.
         assert_eq!(svg.matches("class=\"measured\"").count(), 90);
@@ -287,7 +340,11 @@ fn plots_show_every_measured_sample_per_height() {
 fn expect_failure(dir: &Path, args: &[&str], message: &str, out: &str) {
     let o = mtwin(dir, args);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert!(stderr(&o).contains(message), "want `{message}` in:\n{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(message),
+        "want `{message}` in:\n{}",
+        stderr(&o)
+    );
     assert!(stdout(&o).is_empty());
     assert!(!dir.join(out).exists(), "{out} must not be written");
 }
@@ -304,7 +361,9 @@ fn bad_training_data_names_file_and_line_and_writes_nothing() {
     .unwrap();
     expect_failure(
         p,
-        &["thermal", "fit", "--data", "back.csv", "--out", "t.toml", "--format", "json"],
+        &[
+            "thermal", "fit", "--data", "back.csv", "--out", "t.toml", "--format", "json",
+        ],
         "back.csv:4",
         "t.toml",
     );
@@ -315,7 +374,10 @@ fn bad_training_data_names_file_and_line_and_writes_nothing() {
         "nodrift.csv:1",
         "t.toml",
     );
-    let o = mtwin(p, &["thermal", "fit", "--data", "nodrift.csv", "--out", "t.toml"]);
+    let o = mtwin(
+        p,
+        &["thermal", "fit", "--data", "nodrift.csv", "--out", "t.toml"],
+    );
     assert!(stderr(&o).contains("drift_mm"), "{}", stderr(&o));
     std::fs::write(
         p.join("cell.csv"),
@@ -340,8 +402,16 @@ fn bad_prediction_input_exits_1_and_writes_nothing() {
         expect_failure(
             p,
             &[
-                "thermal", "predict", "--model", "thermal.toml", "--speed", "speed.csv", "--z", z,
-                "--out", "drift.csv",
+                "thermal",
+                "predict",
+                "--model",
+                "thermal.toml",
+                "--speed",
+                "speed.csv",
+                "--z",
+                z,
+                "--out",
+                "drift.csv",
             ],
             "--z",
             "drift.csv",
@@ -352,8 +422,16 @@ fn bad_prediction_input_exits_1_and_writes_nothing() {
     expect_failure(
         p,
         &[
-            "thermal", "predict", "--model", "thermal.toml", "--speed", "off.csv", "--z", "-100",
-            "--out", "drift.csv",
+            "thermal",
+            "predict",
+            "--model",
+            "thermal.toml",
+            "--speed",
+            "off.csv",
+            "--z",
+            "-100",
+            "--out",
+            "drift.csv",
         ],
         "off.csv:3",
         "drift.csv",
@@ -362,8 +440,16 @@ fn bad_prediction_input_exits_1_and_writes_nothing() {
     expect_failure(
         p,
         &[
-            "thermal", "predict", "--model", "bad.toml", "--speed", "speed.csv", "--z", "-100",
-            "--out", "drift.csv",
+            "thermal",
+            "predict",
+            "--model",
+            "bad.toml",
+            "--speed",
+            "speed.csv",
+            "--z",
+            "-100",
+            "--out",
+            "drift.csv",
         ],
         "bad.toml:1",
         "drift.csv",
@@ -371,8 +457,18 @@ fn bad_prediction_input_exits_1_and_writes_nothing() {
     expect_failure(
         p,
         &[
-            "thermal", "simulate", "--model", "thermal.toml", "--speed", "speed.csv", "--z", "-100",
-            "--noise", "-1", "--out", "sim.csv",
+            "thermal",
+            "simulate",
+            "--model",
+            "thermal.toml",
+            "--speed",
+            "speed.csv",
+            "--z",
+            "-100",
+            "--noise",
+            "-1",
+            "--out",
+            "sim.csv",
         ],
         "noise",
         "sim.csv",

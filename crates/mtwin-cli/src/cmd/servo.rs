@@ -87,8 +87,13 @@ pub struct ExcitationArgs {
     #[arg(long)]
     axis: String,
     /// Allowed travel `MIN,MAX` (mm or deg): every move stays inside it.
-    #[arg(long, value_delimiter = ',', num_args = 2, allow_hyphen_values = true)]
-    travel: Vec<f64>,
+    #[arg(
+        long,
+        required = true,
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
+    travel: Vec<String>,
     /// Feed of the moves, mm/min (deg/min).
     #[arg(long)]
     feed: f64,
@@ -297,9 +302,17 @@ fn excitation_program(
 }
 
 fn excitation(a: ExcitationArgs) -> anyhow::Result<()> {
-    let travel = match a.travel.as_slice() {
-        [lo, hi] => (*lo, *hi),
-        _ => anyhow::bail!("--travel needs two values MIN,MAX"),
+    let values: Vec<f64> = a
+        .travel
+        .iter()
+        .filter_map(|s| s.trim().parse().ok())
+        .collect();
+    let travel = match values.as_slice() {
+        [lo, hi] if a.travel.len() == 2 => (*lo, *hi),
+        _ => anyhow::bail!(
+            "--travel needs two numbers MIN,MAX (mm or deg), not `{}`",
+            a.travel.join(",")
+        ),
     };
     let text = excitation_program(&a.axis, travel, a.feed, a.levels, a.dwell)?;
     write_atomic(&a.out, text.as_bytes())
@@ -334,7 +347,9 @@ mod tests {
         // Centre −20, half travel 80: ±20, ±40, ±60, ±80 around −20.
         assert_eq!(
             targets(&p),
-            vec![-20.0, 0.0, -40.0, 20.0, -60.0, 40.0, -80.0, 60.0, -100.0, -20.0]
+            vec![
+                -20.0, 0.0, -40.0, 20.0, -60.0, 40.0, -80.0, 60.0, -100.0, -20.0
+            ]
         );
         assert!(p.contains("G1 X-20 F3000"));
         assert_eq!(p.matches("G4 P0.25").count(), 10);

@@ -60,7 +60,12 @@ pub struct FitArgs {
 #[command(allow_negative_numbers = true)]
 pub struct Heights {
     /// Heights z (mm), comma separated, e.g. `--z -100,-300`.
-    #[arg(long = "z", required = true, value_delimiter = ',', allow_hyphen_values = true)]
+    #[arg(
+        long = "z",
+        required = true,
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
     z: Vec<String>,
 }
 
@@ -266,7 +271,11 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
 /// One SVG per measured height: the measured drift (dots) and the model
 /// simulated from cold with the run's own speeds (line), every run after the
 /// previous one on the time axis. Returns the files written.
-fn write_plots(dir: &Path, data: &TrainingData, model: &ThermalModel) -> anyhow::Result<Vec<PathBuf>> {
+fn write_plots(
+    dir: &Path,
+    data: &TrainingData,
+    model: &ThermalModel,
+) -> anyhow::Result<Vec<PathBuf>> {
     let period = model.period_min();
     let mut written = Vec::new();
     for (hi, h) in data.heights.iter().enumerate() {
