@@ -474,3 +474,86 @@ fn bad_prediction_input_exits_1_and_writes_nothing() {
         "sim.csv",
     );
 }
+
+/// Run a walkthrough page: write every ```` ```lang file=NAME ```` block to
+/// NAME, run every `$ mtwin …` line of the ```` ```console ```` blocks in
+/// order (each must succeed; with `--format json` stdout must be one JSON
+/// document). Returns the commands run.
+pub fn run_doc(page: &str, dir: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(repo().join("docs").join(page)).unwrap();
+    let mut ran = Vec::new();
+    let mut lines = text.lines();
+    while let Some(line) = lines.next() {
+        let Some(info) = line.strip_prefix("```") else {
+            continue;
+        };
+        let body: Vec<&str> = lines
+            .by_ref()
+            .take_while(|l| !l.starts_with("```"))
+            .collect();
+        if let Some(name) = info
+            .split_whitespace()
+            .find_map(|w| w.strip_prefix("file="))
+        {
+            std::fs::write(dir.join(name), body.join("\n") + "\n").unwrap();
+        } else if info == "console" {
+            for cmd in body.iter().filter_map(|l| l.strip_prefix("$ mtwin ")) {
+                let args: Vec<&str> = cmd.split_whitespace().collect();
+                let o = mtwin(dir, &args);
+                assert_eq!(o.status.code(), Some(0), "{cmd}: {}", stderr(&o));
+                if cmd.contains("--format json") {
+                    let _: serde_json::Value = serde_json::from_str(&stdout(&o))
+                        .unwrap_or_else(|e| panic!("{cmd}: stdout is not JSON: {e}"));
+                }
+                ran.push(cmd.to_string());
+            }
+        }
+    }
+    ran
+}
+
+#[test]
+fn docs_walkthrough_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let ran = run_doc("thermal.md", dir.path());
+    assert_eq!(ran.len(), 5, "{ran:?}");
+    // The truth model at its own heights: the fitted model predicts its drift
+    // closely; compare predict's output with the truth file's difference
+    // equation written out here (speed / 8000 as input, one period of delay).
+    let truth = |z: f64, speeds: &[f64]| -> Vec<f64> {
+        let a = [1.0, -1.605827, 0.627089];
+        let b = if z == -350.0 {
+            [-0.0062836, 0.0057508]
+        } else {
+            [-0.0070963, 0.0062955]
+        };
+        let u: Vec<f64> = speeds.iter().map(|s| s / 8000.0).collect();
+        let mut e = vec![0.0; speeds.len()];
+        for k in 0..speeds.len() {
+            let at = |s: &[f64], i: usize| if k >= i { s[k - i] } else { 0.0 };
+            e[k] = -a[1] * at(&e, 1) - a[2] * at(&e, 2) + b[0] * at(&u, 1) + b[1] * at(&u, 2);
+        }
+        e
+    };
+    let speeds: Vec<f64> = std::fs::read_to_string(dir.path().join("speed.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect();
+    let lo = truth(-350.0, &speeds);
+    let hi = truth(-50.0, &speeds);
+    let rows = read_rows(
+        &dir.path().join("drift.csv"),
+        &["t_min", "z_mm", "drift_mm"],
+    );
+    assert_eq!(rows.len(), 2 * speeds.len());
+    for r in rows {
+        let k = (r[0] / 10.0).round() as usize;
+        // Linear in z between the truth's two heights.
+        let s = (r[1] + 350.0) / 300.0;
+        let want = lo[k] + s * (hi[k] - lo[k]);
+        assert!((r[2] - want).abs() < 0.002, "{r:?} vs {want}");
+    }
+    assert!(dir.path().join("plots/drift_z-350.svg").exists());
+}
