@@ -6,6 +6,8 @@ pub use common::diag as common_diag;
 mod demo;
 mod model;
 mod predict;
+mod servo;
+mod thermal;
 
 use clap::Subcommand;
 
@@ -23,6 +25,12 @@ pub enum Command {
         after_help = "Example:\n  mtwin predict --machine examples/machines/ac-trunnion-with-errors.toml --data poses.csv --out pred.csv"
     )]
     Predict(predict::Args),
+    /// Identify, simulate and excite axis servo transfer functions (spec 05 §3).
+    #[command(subcommand)]
+    Servo(servo::Command),
+    /// Fit and predict spindle-speed-driven thermal drift in Z (spec 04).
+    #[command(subcommand)]
+    Thermal(thermal::Command),
 }
 
 /// Run one subcommand.
@@ -31,5 +39,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Demo(a) => demo::run(a),
         Command::Model(c) => model::run(c),
         Command::Predict(a) => predict::run(a),
+        Command::Servo(c) => servo::run(c),
+        Command::Thermal(c) => thermal::run(c),
     }
 }

@@ -1,0 +1,366 @@
+//! `mtwin servo …` (contract, spec 05 §3): identify an axis' command-to-encoder
+//! transfer function from a log, simulate a servo, and write an excitation
+//! program to record such a log.
+//!
+//! Units: time in s, positions in mm (deg for a rotary axis), feeds in mm/min
+//! (deg/min).
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use anyhow::Context;
+use mtwin::io::{Table, fmt_f64, write_atomic, write_atomic_with, write_csv_row};
+use mtwin::sysid::{self, ServoFitOptions};
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+use serde_json::json;
+
+use super::common::{diag, load_table};
+use crate::output::{Format, note, print_json, warn};
+
+#[derive(Debug, clap::Subcommand)]
+pub enum Command {
+    /// Identify the servo transfer function of one axis from LOG.csv (`t_s,command_mm,feedback_mm`).
+    #[command(
+        after_help = "Example:\n  mtwin servo fit --data log.csv --max-order 3 --feed 2000 --out servo.toml"
+    )]
+    Fit(FitArgs),
+    /// Simulate the encoder positions of a servo for commands (`t_s,command_mm`) into LOG.csv.
+    #[command(
+        after_help = "Example:\n  mtwin servo simulate --servo servo.toml --commands cmd.csv --noise 0.0002 --seed 1 --out log.csv"
+    )]
+    Simulate(SimulateArgs),
+    /// Write a G-code excitation program for one axis: back-and-forth steps of growing amplitude.
+    #[command(
+        after_help = "Example:\n  mtwin servo excitation --axis X --travel -100,100 --feed 3000 --out exc.nc"
+    )]
+    Excitation(ExcitationArgs),
+}
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct FitArgs {
+    /// Servo log: `t_s,command_mm,feedback_mm`, evenly sampled.
+    #[arg(long)]
+    data: PathBuf,
+    /// Largest ARX order tried (na in 1..=N, nb in 0..=N).
+    #[arg(long, default_value_t = 4)]
+    max_order: usize,
+    /// Largest input delay tried, samples.
+    #[arg(long, default_value_t = 3)]
+    max_delay: usize,
+    /// Feed (mm/min, deg/min) at which to report the steady following error.
+    #[arg(long, default_value_t = 1000.0)]
+    feed: f64,
+    /// Output SERVO.toml (top-level `ts`, `b`, `a`, `nk`: the keys of `[axes.servo]`).
+    #[arg(long)]
+    out: PathBuf,
+    /// Output format of the summary.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct SimulateArgs {
+    /// Servo file (SERVO.toml from `mtwin servo fit`, or written by hand).
+    #[arg(long)]
+    servo: PathBuf,
+    /// Commands: `t_s,command_mm`, sampled at the servo's `ts`.
+    #[arg(long)]
+    commands: PathBuf,
+    /// Standard deviation of white encoder noise added to the feedback, mm.
+    #[arg(long, default_value_t = 0.0)]
+    noise: f64,
+    /// Seed of the noise (same seed, same log).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Output LOG.csv: `t_s,command_mm,feedback_mm`.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct ExcitationArgs {
+    /// Axis letter (X, Y, Z, A, B, C, …).
+    #[arg(long)]
+    axis: String,
+    /// Allowed travel `MIN,MAX` (mm or deg): every move stays inside it.
+    #[arg(
+        long,
+        required = true,
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
+    travel: Vec<String>,
+    /// Feed of the moves, mm/min (deg/min).
+    #[arg(long)]
+    feed: f64,
+    /// Number of amplitude levels (amplitude k/levels of the half travel, k = 1..levels).
+    #[arg(long, default_value_t = 5)]
+    levels: usize,
+    /// Dwell after every move, s (lets the axis settle: a step response in the log).
+    #[arg(long, default_value_t = 0.5)]
+    dwell: f64,
+    /// Output G-code program.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+pub fn run(c: Command) -> anyhow::Result<()> {
+    match c {
+        Command::Fit(a) => fit(a),
+        Command::Simulate(a) => simulate(a),
+        Command::Excitation(a) => excitation(a),
+    }
+}
+
+fn fit(a: FitArgs) -> anyhow::Result<()> {
+    if !(a.feed.is_finite() && a.feed > 0.0) {
+        anyhow::bail!("--feed must be a positive feed in mm/min, not {}", a.feed);
+    }
+    let options = ServoFitOptions {
+        max_order: a.max_order,
+        max_delay: a.max_delay,
+        ..ServoFitOptions::default()
+    };
+    let fit = sysid::fit_servo_csv(&a.data, &options)?;
+    write_atomic(&a.out, fit.to_toml().as_bytes())
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    for w in fit.warnings() {
+        warn(w);
+    }
+    let velocity = a.feed / 60.0;
+    let following = fit.servo.following_error(velocity).ok();
+    let orders = &fit.selection.table[fit.selection.best].orders;
+    match a.format {
+        Format::Json => {
+            let mut v = fit.to_json();
+            v["out"] = json!(a.out.display().to_string());
+            v["feed_mm_min"] = json!(a.feed);
+            v["following_error_at_feed"] = json!(following);
+            print_json(&v)
+        }
+        Format::Human => {
+            println!(
+                "{} samples at ts = {} s → {}",
+                fit.selection.fit.stats.samples,
+                fmt_f64(fit.servo.ts()),
+                a.out.display()
+            );
+            println!("orders: {orders}");
+            println!(
+                "simulation RMS (feedback − simulated): {:.3} µm",
+                fit.simulation_rms * 1e3
+            );
+            match fit.bandwidth_hz {
+                Some(bw) => println!("bandwidth (−3 dB): {bw:.2} Hz"),
+                None => println!("bandwidth (−3 dB): above the Nyquist frequency"),
+            }
+            println!("static gain: {:.6}", fit.dc_gain);
+            match following {
+                Some(e) => println!(
+                    "following error at F{} mm/min: {:.2} µm (velocity lag {:.3} ms)",
+                    fmt_f64(a.feed),
+                    e * 1e3,
+                    e / velocity * 1e3
+                ),
+                None => println!("following error: undefined (no static gain)"),
+            }
+            print!("\n{}", fit.selection.table_text());
+            note(format!(
+                "copy the keys of {} under the axis' [axes.servo] table of the machine model",
+                a.out.display()
+            ));
+            Ok(())
+        }
+    }
+}
+
+fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
+    if !(a.noise.is_finite() && a.noise >= 0.0) {
+        anyhow::bail!("--noise must be finite and >= 0 mm, not {}", a.noise);
+    }
+    let servo = sysid::read_servo_toml(&a.servo).map_err(diag)?;
+    let table = load_table(&a.commands)?;
+    let rows = table.number_rows(&["t_s", "command_mm"]).map_err(diag)?;
+    check_grid(&table, &rows, servo.ts())?;
+    let commands: Vec<f64> = rows.iter().map(|r| r[1]).collect();
+    let feedback = servo.simulate(&commands);
+    let noise = Normal::new(0.0, a.noise).context("the noise level")?;
+    let mut rng = rand::rngs::StdRng::seed_from_u64(a.seed);
+    write_atomic_with(&a.out, |w| -> std::io::Result<()> {
+        w.write_all(b"t_s,command_mm,feedback_mm\n")?;
+        for (r, y) in rows.iter().zip(&feedback) {
+            write_csv_row(w, &[r[0], r[1], y + noise.sample(&mut rng)])?;
+        }
+        Ok(())
+    })
+    .with_context(|| format!("cannot write {}", a.out.display()))?;
+    note(format!(
+        "{} samples (noise {} mm, seed {}) → {}",
+        rows.len(),
+        a.noise,
+        a.seed,
+        a.out.display()
+    ));
+    Ok(())
+}
+
+/// Commands must be at least two samples, `t_s` increasing by the servo's `ts` (within 1 %).
+fn check_grid(table: &Table, rows: &[Vec<f64>], ts: f64) -> anyhow::Result<()> {
+    let mut d = mtwin::io::Diagnostics::default();
+    if rows.is_empty() {
+        d.push(mtwin::io::Diagnostic::at_line(
+            table.path(),
+            table.header_line(),
+            "the file has no data rows",
+        ));
+    }
+    for (r, w) in rows.windows(2).enumerate() {
+        let dt = w[1][0] - w[0][0];
+        if (dt - ts).abs() > 0.01 * ts {
+            d.push(table.row_error(
+                r + 1,
+                format!(
+                    "t_s = {} does not follow the previous sample ({}) by the servo's ts = {} s",
+                    fmt_f64(w[1][0]),
+                    fmt_f64(w[0][0]),
+                    fmt_f64(ts)
+                ),
+            ));
+        }
+    }
+    d.into_result(()).map_err(diag)
+}
+
+/// The excitation program (text), checked: positions inside `travel`, a positive feed.
+fn excitation_program(
+    axis: &str,
+    travel: (f64, f64),
+    feed: f64,
+    levels: usize,
+    dwell: f64,
+) -> anyhow::Result<String> {
+    let axis = axis.trim().to_ascii_uppercase();
+    if !(axis.len() == 1 && axis.chars().all(|c| "XYZABCUVW".contains(c))) {
+        anyhow::bail!("--axis must be one axis letter (X, Y, Z, A, B, C, U, V or W), not `{axis}`");
+    }
+    let (lo, hi) = travel;
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        anyhow::bail!("--travel must be MIN,MAX with MIN < MAX, not {lo},{hi}");
+    }
+    if !(feed.is_finite() && feed > 0.0) {
+        anyhow::bail!("--feed must be a positive feed in mm/min, not {feed}");
+    }
+    if levels == 0 {
+        anyhow::bail!("--levels must be at least 1");
+    }
+    if !(dwell.is_finite() && dwell >= 0.0) {
+        anyhow::bail!("--dwell must be finite and >= 0 s, not {dwell}");
+    }
+    let centre = 0.5 * (lo + hi);
+    let half = 0.5 * (hi - lo);
+    let mut p = String::new();
+    let _ = writeln!(p, "%");
+    let _ = writeln!(
+        p,
+        "(mtwin servo excitation: axis {axis}, travel {} .. {}, F{}, {levels} levels)",
+        fmt_f64(lo),
+        fmt_f64(hi),
+        fmt_f64(feed)
+    );
+    let _ = writeln!(
+        p,
+        "(log command and encoder positions of {axis} while this runs, then: mtwin servo fit)"
+    );
+    let _ = writeln!(p, "G21 G90 G94");
+    let _ = writeln!(p, "G1 {axis}{} F{}", fmt_f64(centre), fmt_f64(feed));
+    let dwell_line = |p: &mut String| {
+        if dwell > 0.0 {
+            let _ = writeln!(p, "G4 P{}", fmt_f64(dwell));
+        }
+    };
+    dwell_line(&mut p);
+    for k in 1..=levels {
+        let amp = half * k as f64 / levels as f64;
+        // Round inward to 1 µm so the text never leaves the travel.
+        let up = ((centre + amp) * 1e3).floor() / 1e3;
+        let down = ((centre - amp) * 1e3).ceil() / 1e3;
+        let _ = writeln!(p, "(level {k}: amplitude {})", fmt_f64(amp));
+        for target in [up, down] {
+            let _ = writeln!(p, "G1 {axis}{}", fmt_f64(target));
+            dwell_line(&mut p);
+        }
+    }
+    let _ = writeln!(p, "G1 {axis}{}", fmt_f64(centre));
+    dwell_line(&mut p);
+    let _ = writeln!(p, "M30");
+    let _ = writeln!(p, "%");
+    Ok(p)
+}
+
+fn excitation(a: ExcitationArgs) -> anyhow::Result<()> {
+    let values: Vec<f64> = a
+        .travel
+        .iter()
+        .filter_map(|s| s.trim().parse().ok())
+        .collect();
+    let travel = match values.as_slice() {
+        [lo, hi] if a.travel.len() == 2 => (*lo, *hi),
+        _ => anyhow::bail!(
+            "--travel needs two numbers MIN,MAX (mm or deg), not `{}`",
+            a.travel.join(",")
+        ),
+    };
+    let text = excitation_program(&a.axis, travel, a.feed, a.levels, a.dwell)?;
+    write_atomic(&a.out, text.as_bytes())
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    note(format!(
+        "excitation program for {} ({} levels) → {}",
+        a.axis,
+        a.levels,
+        a.out.display()
+    ));
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::excitation_program;
+
+    /// Every axis word of the program, in order.
+    fn targets(p: &str) -> Vec<f64> {
+        p.lines()
+            .filter(|l| l.starts_with("G1 "))
+            .map(|l| {
+                let w = l.split_whitespace().nth(1).unwrap();
+                w[1..].parse().unwrap()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn amplitudes_grow_evenly_inside_the_travel() {
+        let p = excitation_program("x", (-100.0, 60.0), 3000.0, 4, 0.25).unwrap();
+        // Centre −20, half travel 80: ±20, ±40, ±60, ±80 around −20.
+        assert_eq!(
+            targets(&p),
+            vec![
+                -20.0, 0.0, -40.0, 20.0, -60.0, 40.0, -80.0, 60.0, -100.0, -20.0
+            ]
+        );
+        assert!(p.contains("G1 X-20 F3000"));
+        assert_eq!(p.matches("G4 P0.25").count(), 10);
+        assert!(p.trim_end().ends_with("M30\n%"));
+    }
+
+    #[test]
+    fn bad_arguments_are_refused() {
+        assert!(excitation_program("XY", (-1.0, 1.0), 100.0, 3, 0.0).is_err());
+        assert!(excitation_program("X", (1.0, -1.0), 100.0, 3, 0.0).is_err());
+        assert!(excitation_program("X", (-1.0, 1.0), 0.0, 3, 0.0).is_err());
+        assert!(excitation_program("X", (-1.0, 1.0), 100.0, 0, 0.0).is_err());
+    }
+}

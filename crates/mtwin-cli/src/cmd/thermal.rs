@@ -1,0 +1,498 @@
+//! `mtwin thermal …` (contract, spec 04): fit the spindle-speed-driven drift
+//! model from probing data, predict the drift of a speed programme, and
+//! simulate probing data from a model.
+//!
+//! Units: time in minutes, speed in rev/min, heights and drift in mm (drift =
+//! displacement of the tool relative to the workpiece in +Z).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use mtwin::methods::thermal::{
+    self, Programme, ThermalFitOptions, ThermalModel, TrainingData, read_training,
+};
+use serde_json::json;
+
+use super::common::diag;
+use crate::output::{Format, note, print_json, warn};
+
+#[derive(Debug, clap::Subcommand)]
+pub enum Command {
+    /// Fit one ARX drift model per measured height from TRAIN.csv (orders by FPE).
+    #[command(
+        after_help = "Example:\n  mtwin thermal fit --data train.csv --max-order 3 --out thermal.toml --plot plots"
+    )]
+    Fit(FitArgs),
+    /// Predict the drift of a spindle-speed programme at given heights (from cold).
+    #[command(
+        after_help = "Example:\n  mtwin thermal predict --model thermal.toml --speed speed.csv --z -100,-300 --out drift.csv"
+    )]
+    Predict(PredictArgs),
+    /// Simulate probing data (TRAIN.csv layout) of a model for a speed programme.
+    #[command(
+        after_help = "Example:\n  mtwin thermal simulate --model thermal.toml --speed speed.csv --z -50,-350 --noise 0.001 --seed 7 --out train.csv"
+    )]
+    Simulate(SimulateArgs),
+}
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct FitArgs {
+    /// Training data: `t_min,speed_rpm,z_mm,drift_mm` (optional `run` column), one row per time and height.
+    #[arg(long)]
+    data: PathBuf,
+    /// Largest ARX order tried (na in 1..=N, nb in 0..=N).
+    #[arg(long, default_value_t = 4)]
+    max_order: usize,
+    /// Output model file (TOML).
+    #[arg(long)]
+    out: PathBuf,
+    /// Also write one SVG plot per height (measured and modelled drift over time) into this folder.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    /// Output format of the summary.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+/// The heights argument: `--z -100,-300` (mm, comma separated, negatives allowed).
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct Heights {
+    /// Heights z (mm), comma separated, e.g. `--z -100,-300`.
+    #[arg(
+        long = "z",
+        required = true,
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
+    z: Vec<String>,
+}
+
+impl Heights {
+    /// The heights as numbers; an error names the bad item.
+    fn parse(&self) -> anyhow::Result<Vec<f64>> {
+        parse_heights(&self.z)
+    }
+}
+
+fn parse_heights(items: &[String]) -> anyhow::Result<Vec<f64>> {
+    let mut out = Vec::with_capacity(items.len());
+    for s in items {
+        let s = s.trim();
+        match s.parse::<f64>() {
+            Ok(z) if z.is_finite() => out.push(z),
+            _ => anyhow::bail!(
+                "--z: `{s}` is not a height in mm (give finite numbers separated by commas, e.g. --z -100,-300)"
+            ),
+        }
+    }
+    if out.is_empty() {
+        anyhow::bail!("--z: give at least one height in mm");
+    }
+    Ok(out)
+}
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct PredictArgs {
+    /// Thermal model file (from `mtwin thermal fit`).
+    #[arg(long)]
+    model: PathBuf,
+    /// Speed programme: `t_min,speed_rpm` on the model's sample grid.
+    #[arg(long)]
+    speed: PathBuf,
+    #[command(flatten)]
+    heights: Heights,
+    /// Output CSV: `t_min,z_mm,drift_mm`, one row per time and height.
+    #[arg(long)]
+    out: PathBuf,
+    /// Output format of the summary.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct SimulateArgs {
+    /// Thermal model file.
+    #[arg(long)]
+    model: PathBuf,
+    /// Speed programme: `t_min,speed_rpm` on the model's sample grid.
+    #[arg(long)]
+    speed: PathBuf,
+    #[command(flatten)]
+    heights: Heights,
+    /// Standard deviation of the white probing noise added to the drift, mm.
+    #[arg(long, default_value_t = 0.0)]
+    noise: f64,
+    /// Seed of the noise (same seed, same data).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Output CSV in the TRAIN.csv layout: `t_min,speed_rpm,z_mm,drift_mm`.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+pub fn run(c: Command) -> anyhow::Result<()> {
+    match c {
+        Command::Fit(a) => fit(a),
+        Command::Predict(a) => predict(a),
+        Command::Simulate(a) => simulate(a),
+    }
+}
+
+fn fit(a: FitArgs) -> anyhow::Result<()> {
+    let options = ThermalFitOptions {
+        max_order: a.max_order,
+        ..ThermalFitOptions::default()
+    };
+    let data = read_training(&a.data, &options.extra_inputs).map_err(diag)?;
+    let fit = thermal::fit(&data, &options)?;
+    if let Some(dir) = &a.plot {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create the plot folder {}", dir.display()))?;
+    }
+    fit.model
+        .write(&a.out)
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    let mut plots = Vec::new();
+    if let Some(dir) = &a.plot {
+        plots = write_plots(dir, &data, &fit.model)?;
+    }
+    for w in &fit.warnings {
+        warn(w);
+    }
+    match a.format {
+        Format::Json => {
+            let mut v = fit.to_json();
+            v["out"] = json!(a.out.display().to_string());
+            v["plots"] = json!(
+                plots
+                    .iter()
+                    .map(|p| p.display().to_string())
+                    .collect::<Vec<_>>()
+            );
+            print_json(&v)
+        }
+        Format::Human => {
+            println!(
+                "{} height(s), {} run(s), sample period {} min → {}",
+                fit.model.heights().len(),
+                fit.runs,
+                fit.model.period_min(),
+                a.out.display()
+            );
+            for (h, r) in fit.model.heights().iter().zip(&fit.heights) {
+                let s = &r.selection.fit.stats;
+                println!(
+                    "\nz = {} mm: orders {}, one-step RMS {:.2} µm, simulation RMS {:.2} µm, spectral radius {:.4}",
+                    h.z_mm,
+                    h.model.orders(),
+                    s.one_step_rms * 1e3,
+                    s.simulation_rms * 1e3,
+                    s.spectral_radius
+                );
+                print!("{}", r.selection.table_text());
+            }
+            for p in &plots {
+                note(format!("plot written: {}", p.display()));
+            }
+            Ok(())
+        }
+    }
+}
+
+fn predict(a: PredictArgs) -> anyhow::Result<()> {
+    let heights = a.heights.parse()?;
+    let model = thermal::read_model(&a.model).map_err(diag)?;
+    let programme = thermal::read_programme(&a.speed, &model).map_err(diag)?;
+    let p = thermal::predict(&model, &programme, &heights);
+    p.write_csv(&a.out)
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    let warnings = p.warnings(&model);
+    for w in &warnings {
+        warn(w);
+    }
+    let per_height: Vec<(f64, f64, f64)> = heights
+        .iter()
+        .map(|&z| {
+            let series = p.rows.iter().filter(|r| r[1] == z).map(|r| r[2]);
+            let (max_abs, last) = series.fold((0.0f64, 0.0), |(m, _), d| (m.max(d.abs()), d));
+            (z, max_abs, last)
+        })
+        .collect();
+    let times = p.rows.len() / heights.len();
+    match a.format {
+        Format::Json => print_json(&json!({
+            "samples": times,
+            "out": a.out.display().to_string(),
+            "heights": per_height.iter().map(|(z, m, l)| json!({
+                "z_mm": z, "max_abs_drift_mm": m, "final_drift_mm": l,
+            })).collect::<Vec<_>>(),
+            "warnings": warnings,
+        })),
+        Format::Human => {
+            println!(
+                "{times} sample time(s) × {} height(s) → {}",
+                heights.len(),
+                a.out.display()
+            );
+            for (z, m, l) in per_height {
+                println!(
+                    "z = {z} mm: largest |drift| {:.2} µm, final drift {:.2} µm",
+                    m * 1e3,
+                    l * 1e3
+                );
+            }
+            Ok(())
+        }
+    }
+}
+
+fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
+    let heights = a.heights.parse()?;
+    let model = thermal::read_model(&a.model).map_err(diag)?;
+    let programme = thermal::read_programme(&a.speed, &model).map_err(diag)?;
+    let data = thermal::simulate(&model, &programme, &heights, a.noise, a.seed)?;
+    data.write_csv(&a.out)
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    note(format!(
+        "{} rows ({} height(s), noise {} mm, seed {}) → {}",
+        data.rows.len(),
+        heights.len(),
+        a.noise,
+        a.seed,
+        a.out.display()
+    ));
+    Ok(())
+}
+
+/// One SVG per measured height: the measured drift (dots) and the model
+/// simulated from cold with the run's own speeds (line), every run after the
+/// previous one on the time axis. Returns the files written.
+fn write_plots(
+    dir: &Path,
+    data: &TrainingData,
+    model: &ThermalModel,
+) -> anyhow::Result<Vec<PathBuf>> {
+    let period = model.period_min();
+    let mut written = Vec::new();
+    for (hi, h) in data.heights.iter().enumerate() {
+        let mut measured = Vec::new();
+        let mut modelled = Vec::new();
+        let mut t0 = 0.0;
+        for s in &h.series {
+            let n = s.drift.len();
+            let samples: Vec<Vec<f64>> = (0..n)
+                .map(|k| s.inputs.iter().map(|u| u[k]).collect())
+                .collect();
+            let history = model.drift_history(&Programme::new(samples));
+            let mut line = Vec::with_capacity(n);
+            for (k, (&d, e)) in s.drift.iter().zip(&history).enumerate() {
+                let t = t0 + k as f64 * period;
+                measured.push((t, d * 1e3));
+                line.push((t, e[hi] * 1e3));
+            }
+            modelled.push(line);
+            t0 += n as f64 * period;
+        }
+        let title = format!("Thermal drift at z = {} mm", h.z_mm);
+        let svg = svg::plot(&title, "t (min)", "drift (µm)", &measured, &modelled);
+        let path = dir.join(format!("drift_z{}.svg", h.z_mm));
+        mtwin::io::write_atomic(&path, svg.as_bytes())
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        written.push(path);
+    }
+    Ok(written)
+}
+
+/// A tiny hand-written SVG line/scatter plot (no dependencies).
+mod svg {
+    use std::fmt::Write as _;
+
+    const W: f64 = 720.0;
+    const H: f64 = 420.0;
+    const LEFT: f64 = 70.0;
+    const RIGHT: f64 = 20.0;
+    const TOP: f64 = 40.0;
+    const BOTTOM: f64 = 50.0;
+
+    /// About five round tick values covering `[lo, hi]`.
+    pub fn ticks(lo: f64, hi: f64) -> Vec<f64> {
+        let span = hi - lo;
+        if !(span.is_finite() && span > 0.0) {
+            return vec![lo];
+        }
+        let raw = span / 5.0;
+        let mag = 10f64.powf(raw.log10().floor());
+        let step = [1.0, 2.0, 5.0, 10.0]
+            .iter()
+            .map(|m| m * mag)
+            .find(|s| *s >= raw)
+            .unwrap_or(10.0 * mag);
+        let first = (lo / step).ceil() as i64;
+        let last = (hi / step).floor() as i64;
+        (first..=last).map(|i| i as f64 * step).collect()
+    }
+
+    fn escape(s: &str) -> String {
+        s.replace('&', "&amp;")
+            .replace('<', "&lt;")
+            .replace('>', "&gt;")
+    }
+
+    /// `points` as circles (measured), every series of `lines` as a polyline (modelled).
+    pub fn plot(
+        title: &str,
+        xlabel: &str,
+        ylabel: &str,
+        points: &[(f64, f64)],
+        lines: &[Vec<(f64, f64)>],
+    ) -> String {
+        let all = points.iter().chain(lines.iter().flatten());
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, 0.0f64, 0.0f64);
+        for &(x, y) in all {
+            x0 = x0.min(x);
+            x1 = x1.max(x);
+            y0 = y0.min(y);
+            y1 = y1.max(y);
+        }
+        if !(x0.is_finite() && x1 > x0) {
+            x0 = 0.0;
+            x1 = 1.0;
+        }
+        if y1 <= y0 {
+            y1 = y0 + 1.0;
+        }
+        let pad = 0.05 * (y1 - y0);
+        let (y0, y1) = (y0 - pad, y1 + pad);
+        let px = |x: f64| LEFT + (x - x0) / (x1 - x0) * (W - LEFT - RIGHT);
+        let py = |y: f64| H - BOTTOM - (y - y0) / (y1 - y0) * (H - TOP - BOTTOM);
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" viewBox="0 0 {W} {H}" font-family="sans-serif" font-size="12">"#
+        );
+        let _ = writeln!(s, r#"<rect width="{W}" height="{H}" fill="white"/>"#);
+        let _ = writeln!(
+            s,
+            r#"<text x="{}" y="24" text-anchor="middle" font-size="15">{}</text>"#,
+            W / 2.0,
+            escape(title)
+        );
+        for t in ticks(x0, x1) {
+            let x = px(t);
+            let _ = writeln!(
+                s,
+                r##"<line x1="{x:.1}" y1="{TOP}" x2="{x:.1}" y2="{:.1}" stroke="#ddd"/><text x="{x:.1}" y="{:.1}" text-anchor="middle">{}</text>"##,
+                H - BOTTOM,
+                H - BOTTOM + 16.0,
+                mtwin::io::fmt_f64(t)
+            );
+        }
+        for t in ticks(y0, y1) {
+            let y = py(t);
+            let _ = writeln!(
+                s,
+                r##"<line x1="{LEFT}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#ddd"/><text x="{:.1}" y="{:.1}" text-anchor="end">{}</text>"##,
+                W - RIGHT,
+                LEFT - 6.0,
+                y + 4.0,
+                mtwin::io::fmt_f64((t * 1e9).round() / 1e9)
+            );
+        }
+        let _ = writeln!(
+            s,
+            r#"<rect x="{LEFT}" y="{TOP}" width="{:.1}" height="{:.1}" fill="none" stroke="black"/>"#,
+            W - LEFT - RIGHT,
+            H - TOP - BOTTOM
+        );
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
+            LEFT + (W - LEFT - RIGHT) / 2.0,
+            H - 12.0,
+            escape(xlabel)
+        );
+        let _ = writeln!(
+            s,
+            r#"<text x="16" y="{:.1}" text-anchor="middle" transform="rotate(-90 16 {:.1})">{}</text>"#,
+            TOP + (H - TOP - BOTTOM) / 2.0,
+            TOP + (H - TOP - BOTTOM) / 2.0,
+            escape(ylabel)
+        );
+        for line in lines {
+            let pts: Vec<String> = line
+                .iter()
+                .map(|&(x, y)| format!("{:.2},{:.2}", px(x), py(y)))
+                .collect();
+            let _ = writeln!(
+                s,
+                r##"<polyline class="model" fill="none" stroke="#d62728" stroke-width="1.5" points="{}"/>"##,
+                pts.join(" ")
+            );
+        }
+        for &(x, y) in points {
+            let _ = writeln!(
+                s,
+                r##"<circle class="measured" cx="{:.2}" cy="{:.2}" r="2.5" fill="#1f77b4"/>"##,
+                px(x),
+                py(y)
+            );
+        }
+        let _ = writeln!(
+            s,
+            r##"<circle cx="{:.1}" cy="{:.1}" r="3" fill="#1f77b4"/><text x="{:.1}" y="{:.1}">measured</text><line x1="{:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="#d62728" stroke-width="1.5"/><text x="{:.1}" y="{:.1}">model (from cold)</text>"##,
+            LEFT + 12.0,
+            TOP + 14.0,
+            LEFT + 20.0,
+            TOP + 18.0,
+            LEFT + 90.0,
+            TOP + 14.0,
+            LEFT + 110.0,
+            TOP + 14.0,
+            LEFT + 118.0,
+            TOP + 18.0
+        );
+        s.push_str("</svg>\n");
+        s
+    }
+
+    #[cfg(test)]
+    mod tests {
+        use super::*;
+
+        #[test]
+        fn ticks_are_round_and_inside() {
+            let t = ticks(-0.3, 41.7);
+            assert_eq!(t, vec![0.0, 10.0, 20.0, 30.0, 40.0]);
+            let t = ticks(-47.0, 3.0);
+            assert_eq!(t, vec![-40.0, -30.0, -20.0, -10.0, 0.0]);
+        }
+
+        #[test]
+        fn plot_maps_extremes_to_the_frame() {
+            // x from 0 to 10 spans the frame [LEFT, W − RIGHT]; one point at each end.
+            let svg = plot("t", "x", "y", &[(0.0, 0.0), (10.0, 1.0)], &[]);
+            assert!(svg.contains(&format!(r#"cx="{LEFT:.2}""#)), "{svg}");
+            assert!(svg.contains(&format!(r#"cx="{:.2}""#, W - RIGHT)), "{svg}");
+            assert_eq!(svg.matches("class=\"measured\"").count(), 2);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_heights;
+
+    #[test]
+    fn heights_parse_negatives_and_reject_garbage() {
+        let v: Vec<String> = ["-100", " -300.5", "2e1"].map(String::from).to_vec();
+        assert_eq!(parse_heights(&v).unwrap(), vec![-100.0, -300.5, 20.0]);
+        for bad in ["abc", "nan", "inf", ""] {
+            let e = parse_heights(&[bad.to_string()]).unwrap_err().to_string();
+            assert!(e.starts_with("--z:"), "{e}");
+        }
+    }
+}

@@ -1,0 +1,559 @@
+//! `mtwin thermal …` (contract, spec 04) end to end through the binary: probing
+//! data of a known synthetic machine → fit → predict a new speed programme →
+//! compare with the machine's exact drift; simulate; bad input.
+
+mod common;
+use common::*;
+
+use std::path::Path;
+
+use mtwin::methods::thermal::TruthMachine;
+
+const HEIGHTS: [f64; 4] = [-350.0, -250.0, -150.0, -50.0];
+
+/// Three identification runs like the seed's: a constant speed, a speed
+/// spectrum (steps), and a varying "cutting" programme; 30 samples of 10 min each.
+fn training_runs() -> Vec<(&'static str, Vec<f64>)> {
+    let constant = vec![6000.0; 30];
+    let steps: Vec<f64> = (0..30)
+        .map(|k| [2000.0, 4000.0, 8000.0, 0.0, 6000.0][k / 6])
+        .collect();
+    let cutting: Vec<f64> = (0..30)
+        .map(|k| [3000.0, 7000.0, 1000.0, 5000.0, 8000.0, 0.0, 4000.0][(k * 5 / 3) % 7])
+        .collect();
+    vec![("const", constant), ("steps", steps), ("cut", cutting)]
+}
+
+/// A held-out programme: 36 samples (6 h) none of the runs above contains.
+fn new_programme() -> Vec<f64> {
+    (0..36)
+        .map(|k| match k {
+            0..=8 => 7500.0,
+            9..=14 => 2500.0,
+            15..=20 => 0.0,
+            _ => 5000.0 + 250.0 * (k % 4) as f64,
+        })
+        .collect()
+}
+
+fn speed_csv(speeds: &[f64], period: f64) -> String {
+    let mut s = String::from("t_min,speed_rpm\n");
+    for (k, n) in speeds.iter().enumerate() {
+        s.push_str(&format!("{},{n}\n", k as f64 * period));
+    }
+    s
+}
+
+fn setup(dir: &Path) -> TruthMachine {
+    let m = TruthMachine::demo();
+    let train = m.training_csv(&training_runs(), &HEIGHTS, 0.0003, 11);
+    std::fs::write(dir.join("train.csv"), train).unwrap();
+    std::fs::write(
+        dir.join("speed.csv"),
+        speed_csv(&new_programme(), m.period_min),
+    )
+    .unwrap();
+    m
+}
+
+/// `(t_min, z_mm, drift_mm)` rows of a DRIFT.csv / TRAIN.csv-like file, by column name.
+fn read_rows(path: &Path, cols: &[&str]) -> Vec<Vec<f64>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let idx: Vec<usize> = cols
+        .iter()
+        .map(|c| header.iter().position(|h| h == c).unwrap())
+        .collect();
+    lines
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            idx.iter().map(|&i| f[i].parse().unwrap()).collect()
+        })
+        .collect()
+}
+
+fn fit(dir: &Path) {
+    let o = mtwin(
+        dir,
+        &[
+            "thermal",
+            "fit",
+            "--data",
+            "train.csv",
+            "--max-order",
+            "3",
+            "--out",
+            "thermal.toml",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+#[test]
+fn fit_then_predict_matches_the_true_drift_of_a_new_programme() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = setup(dir.path());
+    let o = mtwin(
+        dir.path(),
+        &[
+            "thermal",
+            "fit",
+            "--data",
+            "train.csv",
+            "--max-order",
+            "3",
+            "--out",
+            "thermal.toml",
+            "--format",
+            "json",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // JSON is the whole of stdout.
+    let v: serde_json::Value =
+        serde_json::from_str(&stdout(&o)).expect("stdout is one JSON document");
+    assert_eq!(v["period_min"], 10.0);
+    assert_eq!(v["runs"], 3);
+    let hs = v["heights"].as_array().unwrap();
+    let zs: Vec<f64> = hs.iter().map(|h| h["z_mm"].as_f64().unwrap()).collect();
+    assert_eq!(zs, HEIGHTS);
+    for h in hs {
+        // The truth is a sum of two first-order lags: its sampled form is ARX
+        // with na = 2, so the simulation RMS is near the 0.3 µm probing noise.
+        assert!(h["simulation_rms_mm"].as_f64().unwrap() < 0.0015, "{h}");
+        assert_eq!(h["stable"], true);
+    }
+
+    let o = mtwin(
+        dir.path(),
+        &[
+            "thermal",
+            "predict",
+            "--model",
+            "thermal.toml",
+            "--speed",
+            "speed.csv",
+            "--z",
+            "-350,-300,-50",
+            "--out",
+            "drift.csv",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = std::fs::read_to_string(dir.path().join("drift.csv")).unwrap();
+    assert_eq!(text.lines().next().unwrap(), "t_min,z_mm,drift_mm");
+    let rows = read_rows(
+        &dir.path().join("drift.csv"),
+        &["t_min", "z_mm", "drift_mm"],
+    );
+    let speeds = new_programme();
+    assert_eq!(rows.len(), 3 * speeds.len());
+    for z in [-350.0, -300.0, -50.0] {
+        let want = truth.drift(&speeds, z);
+        let got: Vec<&Vec<f64>> = rows.iter().filter(|r| r[1] == z).collect();
+        assert_eq!(got.len(), want.len());
+        let mut sq = 0.0;
+        for (k, (r, w)) in got.iter().zip(&want).enumerate() {
+            assert_eq!(r[0], k as f64 * 10.0);
+            sq += (r[2] - w).powi(2);
+        }
+        let rms = (sq / want.len() as f64).sqrt();
+        let peak = want.iter().fold(0.0f64, |m, w| m.max(w.abs()));
+        // Drift of tens of µm predicted to within 2 µm RMS (the seed's
+        // compensated residual); z = −300 also carries the interpolation.
+        assert!(peak > 0.015, "the programme heats the machine: {peak}");
+        assert!(rms < 0.002, "z = {z}: rms {rms} mm");
+    }
+
+    // --format json of predict is one document with the summary.
+    let o = mtwin(
+        dir.path(),
+        &[
+            "thermal",
+            "predict",
+            "--model",
+            "thermal.toml",
+            "--speed",
+            "speed.csv",
+            "--z=-100",
+            "--out",
+            "drift2.csv",
+            "--format",
+            "json",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(v["samples"], speeds.len());
+    let rows = read_rows(&dir.path().join("drift2.csv"), &["drift_mm"]);
+    let max_abs = rows.iter().fold(0.0f64, |m, r| m.max(r[0].abs()));
+    assert_eq!(
+        v["heights"][0]["max_abs_drift_mm"].as_f64().unwrap(),
+        max_abs
+    );
+}
+
+#[test]
+fn outside_the_measured_heights_warns_and_holds_the_end_value() {
+    let dir = tempfile::tempdir().unwrap();
+    setup(dir.path());
+    fit(dir.path());
+    let o = mtwin(
+        dir.path(),
+        &[
+            "thermal",
+            "predict",
+            "--model",
+            "thermal.toml",
+            "--speed",
+            "speed.csv",
+            "--z",
+            "-50,20",
+            "--out",
+            "drift.csv",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("warning: z = 20 mm is outside"),
+        "{}",
+        stderr(&o)
+    );
+    let rows = read_rows(&dir.path().join("drift.csv"), &["z_mm", "drift_mm"]);
+    for pair in rows.chunks(2) {
+        assert_eq!(pair[0][0], -50.0);
+        assert_eq!(pair[1][0], 20.0);
+        assert_eq!(pair[0][1], pair[1][1]);
+    }
+}
+
+#[test]
+fn simulate_reproduces_predict_and_is_seeded() {
+    let dir = tempfile::tempdir().unwrap();
+    setup(dir.path());
+    fit(dir.path());
+    let run = |noise: &str, seed: &str, out: &str| {
+        let o = mtwin(
+            dir.path(),
+            &[
+                "thermal",
+                "simulate",
+                "--model",
+                "thermal.toml",
+                "--speed",
+                "speed.csv",
+                "--z",
+                "-250,-150",
+                "--noise",
+                noise,
+                "--seed",
+                seed,
+                "--out",
+                out,
+            ],
+        );
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        assert!(stdout(&o).is_empty());
+    };
+    run("0", "1", "sim0.csv");
+    run("0.001", "5", "simA.csv");
+    run("0.001", "5", "simB.csv");
+    run("0.001", "6", "simC.csv");
+    let o = mtwin(
+        dir.path(),
+        &[
+            "thermal",
+            "predict",
+            "--model",
+            "thermal.toml",
+            "--speed",
+            "speed.csv",
+            "--z",
+            "-250,-150",
+            "--out",
+            "drift.csv",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let pred = read_rows(
+        &dir.path().join("drift.csv"),
+        &["t_min", "z_mm", "drift_mm"],
+    );
+    let sim0 = read_rows(
+        &dir.path().join("sim0.csv"),
+        &["t_min", "speed_rpm", "z_mm", "drift_mm"],
+    );
+    assert_eq!(pred.len(), sim0.len());
+    let speeds = new_programme();
+    for (p, s) in pred.iter().zip(&sim0) {
+        assert_eq!([p[0], p[1], p[2]], [s[0], s[2], s[3]]);
+        assert_eq!(s[1], speeds[(s[0] / 10.0).round() as usize]);
+    }
+    let a = std::fs::read_to_string(dir.path().join("simA.csv")).unwrap();
+    let b = std::fs::read_to_string(dir.path().join("simB.csv")).unwrap();
+    let c = std::fs::read_to_string(dir.path().join("simC.csv")).unwrap();
+    assert_eq!(a, b);
+    assert_ne!(a, c);
+    // The noise has the asked standard deviation (72 samples: within ±40 %).
+    let noisy = read_rows(&dir.path().join("simA.csv"), &["drift_mm"]);
+    let var = noisy
+        .iter()
+        .zip(&sim0)
+        .map(|(n, s)| (n[0] - s[3]).powi(2))
+        .sum::<f64>()
+        / noisy.len() as f64;
+    assert!((0.0006..0.0014).contains(&var.sqrt()), "{}", var.sqrt());
+}
+
+#[test]
+fn plots_show_every_measured_sample_per_height() {
+    let dir = tempfile::tempdir().unwrap();
+    setup(dir.path());
+    let o = mtwin(
+        dir.path(),
+        &[
+            "thermal",
+            "fit",
+            "--data",
+            "train.csv",
+            "--max-order",
+            "2",
+            "--out",
+            "thermal.toml",
+            "--plot",
+            "plots",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    for z in HEIGHTS {
+        let svg =
+            std::fs::read_to_string(dir.path().join(format!("plots/drift_z{z}.svg"))).unwrap();
+        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+        // Three runs of 30 samples: 90 measured points, one model line per run.
+        assert_eq!(svg.matches("class=\"measured\"").count(), 90);
+        assert_eq!(svg.matches("class=\"model\"").count(), 3);
+        assert!(svg.contains(&format!("z = {z} mm")));
+    }
+}
+
+fn expect_failure(dir: &Path, args: &[&str], message: &str, out: &str) {
+    let o = mtwin(dir, args);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(message),
+        "want `{message}` in:\n{}",
+        stderr(&o)
+    );
+    assert!(stdout(&o).is_empty());
+    assert!(!dir.join(out).exists(), "{out} must not be written");
+}
+
+#[test]
+fn bad_training_data_names_file_and_line_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    // Line 4 goes back in time for z = -50 in the same run.
+    std::fs::write(
+        p.join("back.csv"),
+        "t_min,speed_rpm,z_mm,drift_mm\n0,1000,-50,0\n10,1000,-50,-0.001\n5,1000,-50,-0.002\n20,1000,-50,-0.002\n",
+    )
+    .unwrap();
+    expect_failure(
+        p,
+        &[
+            "thermal", "fit", "--data", "back.csv", "--out", "t.toml", "--format", "json",
+        ],
+        "back.csv:4",
+        "t.toml",
+    );
+    std::fs::write(p.join("nodrift.csv"), "t_min,speed_rpm,z_mm\n0,1000,-50\n").unwrap();
+    expect_failure(
+        p,
+        &["thermal", "fit", "--data", "nodrift.csv", "--out", "t.toml"],
+        "nodrift.csv:1",
+        "t.toml",
+    );
+    let o = mtwin(
+        p,
+        &["thermal", "fit", "--data", "nodrift.csv", "--out", "t.toml"],
+    );
+    assert!(stderr(&o).contains("drift_mm"), "{}", stderr(&o));
+    std::fs::write(
+        p.join("cell.csv"),
+        "t_min,speed_rpm,z_mm,drift_mm\n0,1000,-50,0\n10,fast,-50,0\n",
+    )
+    .unwrap();
+    expect_failure(
+        p,
+        &["thermal", "fit", "--data", "cell.csv", "--out", "t.toml"],
+        "cell.csv:3",
+        "t.toml",
+    );
+}
+
+#[test]
+fn bad_prediction_input_exits_1_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    setup(p);
+    fit(p);
+    for z in ["-100,abc", "nan", ","] {
+        expect_failure(
+            p,
+            &[
+                "thermal",
+                "predict",
+                "--model",
+                "thermal.toml",
+                "--speed",
+                "speed.csv",
+                "--z",
+                z,
+                "--out",
+                "drift.csv",
+            ],
+            "--z",
+            "drift.csv",
+        );
+    }
+    // Off the 10-min grid at line 3.
+    std::fs::write(p.join("off.csv"), "t_min,speed_rpm\n0,1000\n15,1000\n").unwrap();
+    expect_failure(
+        p,
+        &[
+            "thermal",
+            "predict",
+            "--model",
+            "thermal.toml",
+            "--speed",
+            "off.csv",
+            "--z",
+            "-100",
+            "--out",
+            "drift.csv",
+        ],
+        "off.csv:3",
+        "drift.csv",
+    );
+    std::fs::write(p.join("bad.toml"), "period_min = \"ten\"\n").unwrap();
+    expect_failure(
+        p,
+        &[
+            "thermal",
+            "predict",
+            "--model",
+            "bad.toml",
+            "--speed",
+            "speed.csv",
+            "--z",
+            "-100",
+            "--out",
+            "drift.csv",
+        ],
+        "bad.toml:1",
+        "drift.csv",
+    );
+    expect_failure(
+        p,
+        &[
+            "thermal",
+            "simulate",
+            "--model",
+            "thermal.toml",
+            "--speed",
+            "speed.csv",
+            "--z",
+            "-100",
+            "--noise",
+            "-1",
+            "--out",
+            "sim.csv",
+        ],
+        "noise",
+        "sim.csv",
+    );
+}
+
+/// Run a walkthrough page: write every ```` ```lang file=NAME ```` block to
+/// NAME, run every `$ mtwin …` line of the ```` ```console ```` blocks in
+/// order (each must succeed; with `--format json` stdout must be one JSON
+/// document). Returns the commands run.
+pub fn run_doc(page: &str, dir: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(repo().join("docs").join(page)).unwrap();
+    let mut ran = Vec::new();
+    let mut lines = text.lines();
+    while let Some(line) = lines.next() {
+        let Some(info) = line.strip_prefix("```") else {
+            continue;
+        };
+        let body: Vec<&str> = lines
+            .by_ref()
+            .take_while(|l| !l.starts_with("```"))
+            .collect();
+        if let Some(name) = info
+            .split_whitespace()
+            .find_map(|w| w.strip_prefix("file="))
+        {
+            std::fs::write(dir.join(name), body.join("\n") + "\n").unwrap();
+        } else if info == "console" {
+            for cmd in body.iter().filter_map(|l| l.strip_prefix("$ mtwin ")) {
+                let args: Vec<&str> = cmd.split_whitespace().collect();
+                let o = mtwin(dir, &args);
+                assert_eq!(o.status.code(), Some(0), "{cmd}: {}", stderr(&o));
+                if cmd.contains("--format json") {
+                    let _: serde_json::Value = serde_json::from_str(&stdout(&o))
+                        .unwrap_or_else(|e| panic!("{cmd}: stdout is not JSON: {e}"));
+                }
+                ran.push(cmd.to_string());
+            }
+        }
+    }
+    ran
+}
+
+#[test]
+fn docs_walkthrough_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let ran = run_doc("thermal.md", dir.path());
+    assert_eq!(ran.len(), 5, "{ran:?}");
+    // The truth model at its own heights: the fitted model predicts its drift
+    // closely; compare predict's output with the truth file's difference
+    // equation written out here (speed / 8000 as input, one period of delay).
+    let truth = |z: f64, speeds: &[f64]| -> Vec<f64> {
+        let a = [1.0, -1.605827, 0.627089];
+        let b = if z == -350.0 {
+            [-0.0062836, 0.0057508]
+        } else {
+            [-0.0070963, 0.0062955]
+        };
+        let u: Vec<f64> = speeds.iter().map(|s| s / 8000.0).collect();
+        let mut e = vec![0.0; speeds.len()];
+        for k in 0..speeds.len() {
+            let at = |s: &[f64], i: usize| if k >= i { s[k - i] } else { 0.0 };
+            e[k] = -a[1] * at(&e, 1) - a[2] * at(&e, 2) + b[0] * at(&u, 1) + b[1] * at(&u, 2);
+        }
+        e
+    };
+    let speeds: Vec<f64> = std::fs::read_to_string(dir.path().join("speed.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect();
+    let lo = truth(-350.0, &speeds);
+    let hi = truth(-50.0, &speeds);
+    let rows = read_rows(
+        &dir.path().join("drift.csv"),
+        &["t_min", "z_mm", "drift_mm"],
+    );
+    assert_eq!(rows.len(), 2 * speeds.len());
+    for r in rows {
+        let k = (r[0] / 10.0).round() as usize;
+        // Linear in z between the truth's two heights.
+        let s = (r[1] + 350.0) / 300.0;
+        let want = lo[k] + s * (hi[k] - lo[k]);
+        assert!((r[2] - want).abs() < 0.002, "{r:?} vs {want}");
+    }
+    assert!(dir.path().join("plots/drift_z-350.svg").exists());
+}
