@@ -67,7 +67,9 @@ impl Covariance {
     /// diagonal; 0 where a variance is 0).
     pub fn correlation(&self) -> Mat<f64> {
         let k = self.estimated.len();
-        let s: Vec<f64> = (0..k).map(|i| self.matrix[(i, i)].max(0.0).sqrt()).collect();
+        let s: Vec<f64> = (0..k)
+            .map(|i| self.matrix[(i, i)].max(0.0).sqrt())
+            .collect();
         Mat::from_fn(k, k, |a, b| {
             if a == b {
                 1.0

@@ -145,9 +145,11 @@ impl Pass<'_> {
             });
         }
         if g.iter().any(|x| !x.is_finite())
-            || normal
-                .as_ref()
-                .is_some_and(|nm| !nm.as_ref().col_iter().all(|c| c.iter().all(|x| x.is_finite())))
+            || normal.as_ref().is_some_and(|nm| {
+                !nm.as_ref()
+                    .col_iter()
+                    .all(|c| c.iter().all(|x| x.is_finite()))
+            })
         {
             return Err(FitError::NonFinite {
                 what: "Jacobian",
@@ -166,13 +168,7 @@ impl Pass<'_> {
     /// Fills residuals and Jacobian rows of `tasks` (consecutive; `r` and
     /// `j` start at the first task's first row) in parallel, and zeroes the
     /// rows of excluded blocks.
-    fn fill(
-        &self,
-        theta: &[f64],
-        tasks: &[Range<usize>],
-        r: &mut [f64],
-        j: MatMut<'_, f64>,
-    ) {
+    fn fill(&self, theta: &[f64], tasks: &[Range<usize>], r: &mut [f64], j: MatMut<'_, f64>) {
         let mut parts = Vec::with_capacity(tasks.len());
         let mut rest_r = r;
         let mut rest_j = j;
@@ -204,10 +200,16 @@ impl Pass<'_> {
 
     /// Zeroes excluded residual rows (the residual-only pass does not go
     /// through `fill`) and reports the first non-finite entry.
-    fn mask_and_check(&self, r: &mut [f64], j: Option<faer::MatRef<'_, f64>>) -> Result<(), FitError> {
+    fn mask_and_check(
+        &self,
+        r: &mut [f64],
+        j: Option<faer::MatRef<'_, f64>>,
+    ) -> Result<(), FitError> {
         for b in 0..self.layout.blocks() {
             if !self.included[b] {
-                r[self.layout.block_rows(b)].iter_mut().for_each(|x| *x = 0.0);
+                r[self.layout.block_rows(b)]
+                    .iter_mut()
+                    .for_each(|x| *x = 0.0);
             }
         }
         if let Some(row) = r.iter().position(|x| !x.is_finite()) {

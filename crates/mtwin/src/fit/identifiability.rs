@@ -143,7 +143,10 @@ pub(crate) fn zero_columns(norms: &[f64], params: &[Parameter], tau: f64) -> Vec
         .map(|(&c, p)| c * p.scale.unwrap_or(1.0).abs())
         .collect();
     let max = effect.iter().copied().fold(0.0, f64::max);
-    effect.iter().map(|&e| !(e > tau * max) || e == 0.0).collect()
+    effect
+        .iter()
+        .map(|&e| !(e > tau * max) || e == 0.0)
+        .collect()
 }
 
 /// The relative threshold for a decomposition source and rule.
@@ -264,14 +267,27 @@ mod tests {
         let z = zero_columns(&[1.0, 1e-20, 1e-12], &p, 1e-13);
         assert_eq!(z, vec![false, true, false]);
         // Without the scale, c would be at 1e-12 > 1e-13: still kept.
-        let z = zero_columns(&[1.0, 0.0, 1e-12], &p[..2].iter().cloned().chain([Parameter::new("c")]).collect::<Vec<_>>(), 1e-13);
+        let z = zero_columns(
+            &[1.0, 0.0, 1e-12],
+            &p[..2]
+                .iter()
+                .cloned()
+                .chain([Parameter::new("c")])
+                .collect::<Vec<_>>(),
+            1e-13,
+        );
         assert_eq!(z, vec![false, true, false]);
     }
 
     #[test]
     fn describe_names_terms() {
         let p = vec![Parameter::new("EXX.c0"), Parameter::new("EX0Y")];
-        let c = combination(vec![-0.5f64.sqrt(), 0.5f64.sqrt()], vec![-1.0, 1.0], 0.0, &p);
+        let c = combination(
+            vec![-0.5f64.sqrt(), 0.5f64.sqrt()],
+            vec![-1.0, 1.0],
+            0.0,
+            &p,
+        );
         assert_eq!(c.terms.len(), 2);
         assert_eq!(c.terms[0].coefficient, 1.0);
         assert_eq!(c.terms[1].coefficient, -1.0);

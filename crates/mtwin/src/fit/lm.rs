@@ -13,7 +13,8 @@
 //!   rejected one `μ ← μ·ν`, `ν ← 2ν`.
 //! * Stopping (MINPACK's tests, in scaled variables): gradient
 //!   `max_j |J_jᵀr| / (D_j‖r‖) ≤ gtol` (or `r = 0`); step
-//!   `‖D·δθ‖ ≤ xtol·(‖D·θ‖ + xtol)`; cost change: actual and predicted
+//!   `‖D·δθ‖ ≤ xtol·(‖D·θ‖ + xtol)` (tested after the step is evaluated, and
+//!   taken if it lowers the cost); cost change: actual and predicted
 //!   relative reductions both `≤ ftol`; iteration limit; or no progress
 //!   (the damping overflowed without an acceptable step).
 //! * Normal-equation path: `JᵀJ` costs `m·n²` flops against `m·n` for the
@@ -97,9 +98,11 @@ pub(crate) fn column_norms(eval: &Evaluation) -> Option<Vec<f64>> {
                 .collect(),
         )
     } else {
-        eval.normal
-            .as_ref()
-            .map(|nm| (0..nm.ncols()).map(|c| nm[(c, c)].max(0.0).sqrt()).collect())
+        eval.normal.as_ref().map(|nm| {
+            (0..nm.ncols())
+                .map(|c| nm[(c, c)].max(0.0).sqrt())
+                .collect()
+        })
     }
 }
 
@@ -186,7 +189,13 @@ pub(crate) fn minimise(
         }
         st.iterations += 1;
         let c = st.scaled.project(&st.scaled.g);
-        let lmax = st.scaled.lambda.first().copied().unwrap_or(0.0).max(max_diag);
+        let lmax = st
+            .scaled
+            .lambda
+            .first()
+            .copied()
+            .unwrap_or(0.0)
+            .max(max_diag);
         loop {
             let mu = st.mu;
             let a: Vec<f64> = c
@@ -208,7 +217,8 @@ pub(crate) fn minimise(
                 .map(|(&j, dj)| (dj * st.theta[j]).powi(2))
                 .sum::<f64>()
                 .sqrt();
-            if ynorm <= opts.step_tolerance * (xnorm + opts.step_tolerance) {
+            let tiny_step = ynorm <= opts.step_tolerance * (xnorm + opts.step_tolerance);
+            if ynorm == 0.0 {
                 return Ok(st.finish(StopReason::Step));
             }
             let mut trial = st.theta.clone();
@@ -250,10 +260,16 @@ pub(crate) fn minimise(
                 if small && rho <= 2.0 {
                     return Ok(st.finish(StopReason::CostChange));
                 }
+                if tiny_step {
+                    return Ok(st.finish(StopReason::Step));
+                }
                 break;
             }
             if small {
                 return Ok(st.finish(StopReason::CostChange));
+            }
+            if tiny_step {
+                return Ok(st.finish(StopReason::Step));
             }
             st.mu *= nu;
             nu *= 2.0;

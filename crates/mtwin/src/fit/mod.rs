@@ -193,13 +193,17 @@ pub fn fit_with_progress(
     };
     let dense = strategy == Strategy::Dense;
     let mut included = vec![true; layout.blocks()];
-    let mut stage = Stage::run(model, &layout, &params, theta0, &included, options, dense, progress)?;
+    let mut stage = Stage::run(
+        model, &layout, &params, theta0, &included, options, dense, progress,
+    )?;
     let mut scan = outliers::scan(&stage.outcome.eval.r, &layout, &included, options.outliers);
     if options.outliers.exclude && !scan.flagged.is_empty() {
         for o in &scan.flagged {
             included[o.block] = false;
         }
-        stage = Stage::run(model, &layout, &params, theta0, &included, options, dense, progress)?;
+        stage = Stage::run(
+            model, &layout, &params, theta0, &included, options, dense, progress,
+        )?;
         // Residuals of every block, excluded ones included, at the solution.
         let all = vec![true; layout.blocks()];
         let pass = Pass {
@@ -336,13 +340,7 @@ impl Stage {
             });
         }
         let why: Vec<Option<Unidentifiable>> = (0..params.len())
-            .map(|j| {
-                ident
-                    .unidentifiable
-                    .iter()
-                    .find(|u| u.0 == j)
-                    .map(|u| u.1)
-            })
+            .map(|j| ident.unidentifiable.iter().find(|u| u.0 == j).map(|u| u.1))
             .collect();
         let estimates = params
             .iter()
@@ -374,7 +372,12 @@ impl Stage {
     }
 }
 
-fn group_stats(layout: &BlockLayout, included: &[bool], before: &[f64], after: &[f64]) -> Vec<GroupStats> {
+fn group_stats(
+    layout: &BlockLayout,
+    included: &[bool],
+    before: &[f64],
+    after: &[f64],
+) -> Vec<GroupStats> {
     let mut groups: Vec<GroupStats> = layout
         .labels()
         .iter()
@@ -410,3 +413,6 @@ fn group_stats(layout: &BlockLayout, included: &[bool], before: &[f64], after: &
     }
     groups
 }
+
+#[cfg(test)]
+mod tests;

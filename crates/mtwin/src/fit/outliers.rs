@@ -63,7 +63,13 @@ pub struct OutlierScan {
 /// `‖r_b‖` of every block.
 pub fn block_norms(r: &[f64], layout: &BlockLayout) -> Vec<f64> {
     (0..layout.blocks())
-        .map(|b| r[layout.block_rows(b)].iter().map(|x| x * x).sum::<f64>().sqrt())
+        .map(|b| {
+            r[layout.block_rows(b)]
+                .iter()
+                .map(|x| x * x)
+                .sum::<f64>()
+                .sqrt()
+        })
         .collect()
 }
 
@@ -85,7 +91,12 @@ fn median(v: &mut [f64]) -> f64 {
 /// Applies the rule to the residuals `r` of every block (evaluated at the
 /// solution, excluded blocks included); `included` marks the blocks that
 /// took part in the fit (the scale comes from them).
-pub(crate) fn scan(r: &[f64], layout: &BlockLayout, included: &[bool], rule: OutlierRule) -> OutlierScan {
+pub(crate) fn scan(
+    r: &[f64],
+    layout: &BlockLayout,
+    included: &[bool],
+    rule: OutlierRule,
+) -> OutlierScan {
     let mut abs: Vec<f64> = (0..layout.blocks())
         .filter(|&b| included[b])
         .flat_map(|b| r[layout.block_rows(b)].iter().map(|x| x.abs()))
@@ -132,7 +143,9 @@ mod tests {
         // Rows ±1 (σ̂ = 1.4826), one 1-row block at 10 (score 6.7 > 5) and a
         // 3-row block whose RMS is 7 (score 4.7, kept).
         let layout = BlockLayout::uniform("a", 20, 1).push_group("b", 1, 3);
-        let mut r: Vec<f64> = (0..20).map(|i| if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
+        let mut r: Vec<f64> = (0..20)
+            .map(|i| if i % 2 == 0 { 1.0 } else { -1.0 })
+            .collect();
         r[7] = 10.0;
         r.extend([7.0, -7.0, 7.0]);
         let s = scan(&r, &layout, &[true; 21], OutlierRule::default());

@@ -244,7 +244,11 @@ impl<'a> Stack<'a> {
 
     /// Calls `f(part, local rows, offset into the caller's rows)` for every
     /// part that overlaps `rows`.
-    fn for_parts(&self, rows: Range<usize>, mut f: impl FnMut(&dyn Model, Range<usize>, Range<usize>)) {
+    fn for_parts(
+        &self,
+        rows: Range<usize>,
+        mut f: impl FnMut(&dyn Model, Range<usize>, Range<usize>),
+    ) {
         for (k, part) in self.parts.iter().enumerate() {
             let (lo, hi) = (self.offsets[k], self.offsets[k + 1]);
             let a = rows.start.max(lo);
@@ -266,13 +270,19 @@ impl Model for Stack<'_> {
     }
 
     fn residuals(&self, theta: &[f64], rows: Range<usize>, out: &mut [f64]) {
-        self.for_parts(rows, |part, local, dst| part.residuals(theta, local, &mut out[dst]));
+        self.for_parts(rows, |part, local, dst| {
+            part.residuals(theta, local, &mut out[dst])
+        });
     }
 
     fn jacobian(&self, theta: &[f64], rows: Range<usize>, mut out: MatMut<'_, f64>) {
         let n = out.ncols();
         self.for_parts(rows, |part, local, dst| {
-            part.jacobian(theta, local, out.rb_mut().submatrix_mut(dst.start, 0, dst.len(), n))
+            part.jacobian(
+                theta,
+                local,
+                out.rb_mut().submatrix_mut(dst.start, 0, dst.len(), n),
+            )
         });
     }
 
