@@ -19,32 +19,17 @@ pub struct Diagnostic {
 impl Diagnostic {
     /// A problem at `line` (1-based) of `file`.
     pub fn at_line(file: &Path, line: usize, message: impl Into<String>) -> Self {
-        Self {
-            file: file.to_path_buf(),
-            line,
-            column: None,
-            message: message.into(),
-        }
+        Self { file: file.to_path_buf(), line, column: None, message: message.into() }
     }
 
     /// A problem at `line`, `column` (both 1-based) of `file`.
     pub fn at(file: &Path, line: usize, column: usize, message: impl Into<String>) -> Self {
-        Self {
-            file: file.to_path_buf(),
-            line,
-            column: Some(column),
-            message: message.into(),
-        }
+        Self { file: file.to_path_buf(), line, column: Some(column), message: message.into() }
     }
 
     /// A problem with the file as a whole.
     pub fn whole(file: &Path, message: impl Into<String>) -> Self {
-        Self {
-            file: file.to_path_buf(),
-            line: 0,
-            column: None,
-            message: message.into(),
-        }
+        Self { file: file.to_path_buf(), line: 0, column: None, message: message.into() }
     }
 }
 
@@ -78,11 +63,7 @@ impl Diagnostics {
 
     /// `Ok(value)` when nothing was recorded, otherwise `Err(self)`.
     pub fn into_result<T>(self, value: T) -> Result<T, Diagnostics> {
-        if self.0.is_empty() {
-            Ok(value)
-        } else {
-            Err(self)
-        }
+        if self.0.is_empty() { Ok(value) } else { Err(self) }
     }
 }
 

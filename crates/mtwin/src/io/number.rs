@@ -42,16 +42,7 @@ mod tests {
 
     #[test]
     fn shortest_round_trip() {
-        for &x in &[
-            0.1,
-            -0.0403,
-            1e-7,
-            123456.789,
-            1.0 / 3.0,
-            2.0,
-            -5e-310,
-            1e300,
-        ] {
+        for &x in &[0.1, -0.0403, 1e-7, 123456.789, 1.0 / 3.0, 2.0, -5e-310, 1e300] {
             let s = fmt_f64(x);
             assert_eq!(s.parse::<f64>().unwrap(), x, "{s}");
         }

@@ -60,12 +60,7 @@ impl Table {
             let fields = match split_fields(raw) {
                 Ok(f) => f,
                 Err(col) => {
-                    diags.push(Diagnostic::at(
-                        path,
-                        line,
-                        col,
-                        "a quoted field is not closed",
-                    ));
+                    diags.push(Diagnostic::at(path, line, col, "a quoted field is not closed"));
                     continue;
                 }
             };
@@ -73,12 +68,7 @@ impl Table {
                 None => {
                     for (k, name) in fields.iter().enumerate() {
                         if name.is_empty() {
-                            diags.push(Diagnostic::at(
-                                path,
-                                line,
-                                k + 1,
-                                "the header has an empty column name",
-                            ));
+                            diags.push(Diagnostic::at(path, line, k + 1, "the header has an empty column name"));
                         } else if fields[..k].contains(name) {
                             diags.push(Diagnostic::at(
                                 path,
@@ -95,11 +85,7 @@ impl Table {
                         diags.push(Diagnostic::at_line(
                             path,
                             line,
-                            format!(
-                                "the row has {} fields but the header has {}",
-                                fields.len(),
-                                h.len()
-                            ),
+                            format!("the row has {} fields but the header has {}", fields.len(), h.len()),
                         ));
                         continue;
                     }
@@ -109,19 +95,10 @@ impl Table {
             }
         }
         let Some((headers, header_line)) = headers else {
-            diags.push(Diagnostic::whole(
-                path,
-                "the file is empty: a header row is needed",
-            ));
+            diags.push(Diagnostic::whole(path, "the file is empty: a header row is needed"));
             return Err(diags);
         };
-        diags.into_result(Table {
-            path: path.to_path_buf(),
-            headers,
-            header_line,
-            rows,
-            lines,
-        })
+        diags.into_result(Table { path: path.to_path_buf(), headers, header_line, rows, lines })
     }
 
     /// The file this table was read from.
@@ -151,24 +128,14 @@ impl Table {
 
     /// The column named `name`, if present.
     pub fn column(&self, name: &str) -> Option<Column> {
-        self.headers
-            .iter()
-            .position(|h| h == name)
-            .map(|index| Column { index })
+        self.headers.iter().position(|h| h == name).map(|index| Column { index })
     }
 
     /// The columns named `names`; one diagnostic listing every missing column otherwise.
     pub fn require(&self, names: &[&str]) -> Result<Vec<Column>, Diagnostic> {
-        let missing: Vec<&str> = names
-            .iter()
-            .copied()
-            .filter(|n| self.column(n).is_none())
-            .collect();
+        let missing: Vec<&str> = names.iter().copied().filter(|n| self.column(n).is_none()).collect();
         if missing.is_empty() {
-            Ok(names
-                .iter()
-                .map(|n| self.column(n).expect("checked"))
-                .collect())
+            Ok(names.iter().map(|n| self.column(n).expect("checked")).collect())
         } else {
             Err(Diagnostic::at_line(
                 &self.path,
@@ -176,11 +143,7 @@ impl Table {
                 format!(
                     "missing column{} {} (the header has: {})",
                     if missing.len() > 1 { "s" } else { "" },
-                    missing
-                        .iter()
-                        .map(|m| format!("`{m}`"))
-                        .collect::<Vec<_>>()
-                        .join(", "),
+                    missing.iter().map(|m| format!("`{m}`")).collect::<Vec<_>>().join(", "),
                     self.headers.join(", ")
                 ),
             ))
@@ -339,10 +302,7 @@ mod tests {
     fn missing_column_lists_them() {
         let t = parse("x,y\n1,2\n").unwrap();
         let e = t.require(&["x", "z", "w"]).unwrap_err();
-        assert!(
-            e.message.contains("`z`") && e.message.contains("`w`"),
-            "{e}"
-        );
+        assert!(e.message.contains("`z`") && e.message.contains("`w`"), "{e}");
     }
 
     #[test]
