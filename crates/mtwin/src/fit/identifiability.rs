@@ -22,10 +22,19 @@
 //!    QR): the first `rank` pivots are estimated, the others are fixed at
 //!    their start value. Ties go to the parameter listed first.
 //!
-//! The confounded combinations are the right singular vectors of the
-//! neglected singular values (the null space), reported in parameter names
-//! with their significant coefficients.
+//! The confounded combinations are reported twice, in parameter names with
+//! their significant coefficients:
+//! * [`Identifiability::null_space`]: the right singular vectors of the
+//!   neglected singular values, an orthonormal basis of the null space
+//!   (when the null space has several dimensions the basis mixes them
+//!   arbitrarily);
+//! * [`Identifiability::relations`]: one per fixed parameter f, its scaled
+//!   column regressed on the estimated ones, `J_f ≈ Σ c_k J_k`, i.e. the
+//!   null direction `e_f − Σ c_k e_k`: sparse and readable ("EX0Y moves like
+//!   EXX.c0").
 
+use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
 use serde::Serialize;
 
 use super::problem::Parameter;
@@ -71,8 +80,8 @@ pub struct Term {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Combination {
     /// Singular value of the scaled Jacobian along it, relative to the
-    /// largest.
-    pub relative_singular_value: f64,
+    /// largest (`None` for a relation from pivoting).
+    pub relative_singular_value: Option<f64>,
     /// Unit null vector in scaled variables, over all `n` parameters (zero
     /// for zero columns).
     pub scaled: Vec<f64>,
@@ -126,6 +135,9 @@ pub struct Identifiability {
     pub unidentifiable: Vec<(usize, Unidentifiable)>,
     /// The confounded combinations (null space of the non-zero columns).
     pub null_space: Vec<Combination>,
+    /// For every parameter fixed because confounded, in the order of
+    /// `unidentifiable`, the combination that makes it redundant.
+    pub relations: Vec<Combination>,
 }
 
 impl Identifiability {
@@ -177,8 +189,10 @@ pub(crate) fn analyse(
         .map(|j| (j, Unidentifiable::ZeroColumn))
         .collect();
     let mut estimated: Vec<usize> = scaled.cols.clone();
+    let mut relations = Vec::new();
     if rank < k {
         let order = pivot_order(&scaled.normal, rank);
+        relations = redundancy(scaled, &order[..rank], &order[rank..], params);
         estimated = order[..rank].iter().map(|&c| scaled.cols[c]).collect();
         unidentifiable.extend(
             order[rank..]
@@ -196,7 +210,7 @@ pub(crate) fn analyse(
                 v[scaled.cols[i]] = scaled.v[(i, c)];
                 dir[scaled.cols[i]] = scaled.v[(i, c)] / scaled.d[i];
             }
-            combination(v, dir, s[c] / s[0].max(f64::MIN_POSITIVE), params)
+            combination(v, dir, Some(s[c] / s[0].max(f64::MIN_POSITIVE)), params)
         })
         .collect();
     Identifiability {
@@ -209,13 +223,61 @@ pub(crate) fn analyse(
         estimated,
         unidentifiable,
         null_space,
+        relations,
     }
+}
+
+/// For every fixed scaled column f, `e_f − Σ c_k e_k` with `c` the least-
+/// squares coefficients of column f on the kept columns, sorted by the
+/// fixed parameter's index.
+fn redundancy(
+    scaled: &Scaled,
+    kept: &[usize],
+    fixed: &[usize],
+    params: &[Parameter],
+) -> Vec<Combination> {
+    let n = params.len();
+    let a = Mat::<f64>::from_fn(kept.len(), kept.len(), |i, j| {
+        scaled.normal[(kept[i], kept[j])]
+    });
+    let b = Mat::<f64>::from_fn(kept.len(), fixed.len(), |i, j| {
+        scaled.normal[(kept[i], fixed[j])]
+    });
+    let coef = match a.llt(Side::Lower) {
+        Ok(llt) => llt.solve(&b),
+        // The kept columns are full rank by construction; should rounding
+        // still defeat Cholesky, only the null-space basis is reported.
+        Err(_) => return Vec::new(),
+    };
+    let mut fixed_sorted: Vec<(usize, usize)> = fixed
+        .iter()
+        .enumerate()
+        .map(|(f, &c)| (scaled.cols[c], f))
+        .collect();
+    fixed_sorted.sort_unstable();
+    fixed_sorted
+        .into_iter()
+        .map(|(_, f)| {
+            let mut v = vec![0.0; n];
+            v[scaled.cols[fixed[f]]] = 1.0;
+            for (i, &kc) in kept.iter().enumerate() {
+                v[scaled.cols[kc]] = -coef[(i, f)];
+            }
+            let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            v.iter_mut().for_each(|x| *x /= norm);
+            let mut dir = vec![0.0; n];
+            for (i, &c) in scaled.cols.iter().enumerate() {
+                dir[c] = v[c] / scaled.d[i];
+            }
+            combination(v, dir, None, params)
+        })
+        .collect()
 }
 
 fn combination(
     mut scaled: Vec<f64>,
     mut direction: Vec<f64>,
-    relative_singular_value: f64,
+    relative_singular_value: Option<f64>,
     params: &[Parameter],
 ) -> Combination {
     // The first of the largest coefficients leads.
@@ -285,7 +347,7 @@ mod tests {
         let c = combination(
             vec![-0.5f64.sqrt(), 0.5f64.sqrt()],
             vec![-1.0, 1.0],
-            0.0,
+            None,
             &p,
         );
         assert_eq!(c.terms.len(), 2);

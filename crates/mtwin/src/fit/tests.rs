@@ -269,6 +269,13 @@ fn confounded_pair_is_reported_and_one_is_fixed() {
     );
     assert!(v[0].abs() < 1e-10 && v[3].abs() < 1e-10);
     assert_eq!(id.null_space[0].describe(), "EXX.c0 − 1.0000·EX0Y ≈ 0");
+    // The relation of the fixed parameter: column 2 equals column 1.
+    assert_eq!(id.relations.len(), 1);
+    let rel = &id.relations[0].scaled;
+    assert!(
+        (rel[2].abs() - h).abs() < 1e-10 && (rel[1] + rel[2]).abs() < 1e-10,
+        "{rel:?}"
+    );
     // Ties go to the first listed: EX0Y is fixed at its start value and
     // EXX.c0 carries the sum.
     assert_eq!(id.unidentifiable, vec![(2, Unidentifiable::Confounded)]);
@@ -286,6 +293,41 @@ fn confounded_pair_is_reported_and_one_is_fixed() {
     // residuals vanish like the truth's, and its minimum-norm counterpart
     // (θ1 = θ2 = (θ1 + θ2)/2) differs only along the null vector.
     assert!(rep.convergence.final_cost < 1e-24);
+}
+
+#[test]
+fn relations_are_sparse_null_directions() {
+    // Two independent confoundings: p3 = p0 + 2·p1 and p4 = p2 (columns).
+    let mut rng = StdRng::seed_from_u64(33);
+    let mut a = random_matrix(&mut rng, 50, 6);
+    for i in 0..50 {
+        a[(i, 3)] = a[(i, 0)] + 2.0 * a[(i, 1)];
+        a[(i, 4)] = a[(i, 2)];
+    }
+    let y = apply(&a, &[1.0; 6]);
+    let model = Linear::new(a.clone(), y, 1);
+    for strategy in [Strategy::Dense, Strategy::NormalEquations] {
+        let opts = Options {
+            strategy,
+            ..Options::default()
+        };
+        let rep = fit(&model, &[0.0; 6], &opts).unwrap();
+        let id = &rep.identifiability;
+        assert_eq!(id.rank, 4, "{strategy:?}");
+        assert_eq!(id.null_space.len(), 2);
+        assert_eq!(id.relations.len(), 2);
+        for rel in &id.relations {
+            // J·δθ = 0 along the relation, checked on the raw matrix.
+            let jd = apply(&a, &rel.direction);
+            let dn = rel.direction.iter().map(|x| x * x).sum::<f64>().sqrt();
+            assert!(jd.iter().all(|x| x.abs() < 1e-9 * dn), "{jd:?}");
+            // Sparse: at most the three columns of one confounding.
+            let support = rel.scaled.iter().filter(|x| x.abs() > 1e-9).count();
+            assert!(support == 2 || support == 3, "{:?}", rel.scaled);
+        }
+        // Fixing two parameters still reproduces the data exactly.
+        assert!(rep.convergence.final_cost < 1e-20);
+    }
 }
 
 #[test]
