@@ -151,16 +151,16 @@ impl Tracker {
                     d[i] = el[i] + 0.5 * (a1[i] + a2[i]);
                 }
             }
-            for a in 0..AXES {
+            for (a, ta) in t.iter().enumerate() {
                 for c in 0..6 {
-                    for k in 0..COEFFS {
+                    for (k, &tk) in ta.iter().enumerate() {
                         let j = (a * 6 + c) * COEFFS + k;
                         jac[j] = if c < 3 {
                             let mut v = [0.0; 3];
-                            v[c] = t[a][k];
+                            v[c] = tk;
                             v
                         } else {
-                            drot[c - 3].map(|x| x * t[a][k])
+                            drot[c - 3].map(|x| x * tk)
                         };
                     }
                 }
@@ -240,9 +240,9 @@ impl Smooth {
     fn row(&self, row: usize, cheb: &mut [Vec<f64>; 3], out: &mut [f64]) {
         let (p, c) = (row / 3, row % 3);
         let deg = self.n.div_ceil(3);
-        for a in 0..3 {
-            cheb[a].resize(deg, 0.0);
-            chebyshev(self.u[p][a], &mut cheb[a]);
+        for (ch, &u) in cheb.iter_mut().zip(&self.u[p]) {
+            ch.resize(deg, 0.0);
+            chebyshev(u, ch);
         }
         for (j, o) in out.iter_mut().enumerate() {
             *o = self.w[c][j] * cheb[j % 3][j / 3];
