@@ -147,18 +147,30 @@ impl State {
     }
 }
 
+/// How the first linearisation is handed over.
+pub(crate) enum Start {
+    /// Already decomposed over exactly the estimated columns.
+    Decomposed(Scaled),
+    /// The column scales of the estimated columns; decompose here.
+    Scales(Vec<f64>),
+}
+
 /// Minimises over the columns `kept`, from `theta0` whose evaluation
-/// `eval0` (dense or normal) is given; `d0` are the scales of `kept`.
+/// `eval0` (dense or normal) is given.
 pub(crate) fn minimise(
     pass: &Pass<'_>,
     theta0: Vec<f64>,
     eval0: Evaluation,
     kept: &[usize],
-    d0: Vec<f64>,
+    start: Start,
     opts: &Options,
     dense: bool,
 ) -> Result<Outcome, FitError> {
-    let scaled = Scaled::new(&eval0, kept, &d0)?;
+    let scaled = match start {
+        Start::Decomposed(s) => s,
+        Start::Scales(d) => Scaled::new(&eval0, kept, &d)?,
+    };
+    let d0 = scaled.d.clone();
     let max_diag = (0..scaled.len())
         .map(|i| scaled.normal[(i, i)])
         .fold(0.0, f64::max);
