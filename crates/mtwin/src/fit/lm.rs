@@ -91,10 +91,10 @@ pub(crate) struct Outcome {
 /// Column norms of the evaluated Jacobian (`None` if the pass kept neither
 /// the Jacobian nor `JᵀJ`).
 pub(crate) fn column_norms(eval: &Evaluation) -> Option<Vec<f64>> {
-    if let Some(j) = &eval.jacobian {
+    if let Some(jt) = &eval.jt {
         Some(
-            (0..j.ncols())
-                .map(|c| j.col(c).iter().map(|x| x * x).sum::<f64>().sqrt())
+            (0..jt.nrows())
+                .map(|c| jt.row(c).iter().map(|x| x * x).sum::<f64>().sqrt())
                 .collect(),
         )
     } else {
