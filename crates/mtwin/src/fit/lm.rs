@@ -10,7 +10,9 @@
 //! * Scaling (Moré 1978): `D_j = max(D_j, ‖J_j‖)` over the iterations.
 //! * Damping (Nielsen 1999): start `μ = τ₀·max diag(Nₛ)`; on an accepted step
 //!   with gain ratio ρ, `μ ← μ·max(1/3, 1 − (2ρ − 1)³)`, `ν ← 2`; on a
-//!   rejected one `μ ← μ·ν`, `ν ← 2ν`.
+//!   rejected one `μ ← μ·ν`, `ν ← 2ν`; when the gain ratio is within
+//!   [`super::Options::reuse_gain`] of 1 (the model is linear along the
+//!   step) `μ ← μ/10`.
 //! * Stopping (MINPACK's tests, in scaled variables): gradient
 //!   `max_j |J_jᵀr| / (D_j‖r‖) ≤ gtol` (or `r = 0`); step
 //!   `‖D·δθ‖ ≤ xtol·(‖D·θ‖ + xtol)` (tested after the step is evaluated, and
@@ -245,9 +247,16 @@ pub(crate) fn minimise(
                 && pred <= opts.cost_tolerance * st.eval.cost;
             if actual > 0.0 && pred > 0.0 {
                 st.theta = trial;
-                st.mu *= (1.0 / 3.0f64).max(1.0 - (2.0 * rho - 1.0).powi(3));
-                nu = 2.0;
                 let linear = (rho - 1.0).abs() <= opts.reuse_gain;
+                // Along a step where the model behaved linearly the
+                // quadratic model is trusted: damping drops ten-fold
+                // (Nielsen's rule alone never goes below a third).
+                st.mu *= if linear {
+                    0.1
+                } else {
+                    (1.0 / 3.0f64).max(1.0 - (2.0 * rho - 1.0).powi(3))
+                };
+                nu = 2.0;
                 if dense {
                     st.eval = te;
                     st.update_scales(kept);
