@@ -17,6 +17,7 @@ use std::time::{Duration, Instant};
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use faer::MatMut;
+use faer::reborrow::ReborrowMut;
 use mtwin::fit::{BlockLayout, Model, Options, Parameter, Strategy, check_jacobian, fit};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -275,8 +276,13 @@ impl Smooth {
                 let i = 3 * b + c;
                 r[i] = row.iter().zip(theta).map(|(a, b)| a * b).sum::<f64>() - self.y[3 * p + c];
                 if let Some(j) = jac.as_mut() {
-                    for (col, v) in row.iter().enumerate() {
-                        j[(i, col)] = *v;
+                    match j.rb_mut().row_mut(i).try_as_row_major_mut() {
+                        Some(dst) => dst.as_slice_mut().copy_from_slice(row),
+                        None => {
+                            for (col, v) in row.iter().enumerate() {
+                                j[(i, col)] = *v;
+                            }
+                        }
                     }
                 }
             }
