@@ -46,8 +46,7 @@ pub(crate) struct Evaluation {
     /// `Jᵀr` (`n`), empty for [`Need::Residuals`].
     pub g: Vec<f64>,
     /// The transposed Jacobian `Jᵀ` (`n × m`, column-major, so that each
-    /// row of J is contiguous) for [`Need::Dense`]; see
-    /// [`Evaluation::jacobian`].
+    /// row of J is contiguous) for [`Need::Dense`].
     pub jt: Option<Mat<f64>>,
     /// `JᵀJ` (`n × n`, both halves filled) for [`Need::Normal`].
     pub normal: Option<Mat<f64>>,
@@ -279,11 +278,4 @@ fn gemv(jt: MatRef<'_, f64>, r: &[f64], g: &mut [f64], accum: Accum) {
         1.0,
         Par::rayon(0),
     );
-}
-
-impl Evaluation {
-    /// The Jacobian (`m × n` view), if the pass kept it.
-    pub fn jacobian(&self) -> Option<MatRef<'_, f64>> {
-        self.jt.as_ref().map(|jt| jt.transpose())
-    }
 }
