@@ -330,7 +330,13 @@ fn tracker(c: &mut Criterion) {
         strategy: Strategy::Dense,
         ..Options::default()
     };
+    let (t, cpu) = (Instant::now(), cpu_seconds());
     let rep = fit(&model, &theta0, &opts).unwrap();
+    eprintln!(
+        "tracker: one fit {:.1} ms wall, {:.0} ms CPU",
+        t.elapsed().as_secs_f64() * 1e3,
+        (cpu_seconds() - cpu) * 1e3
+    );
     eprintln!(
         "tracker: rank {} of {}, condition {:.3e}, {} iterations, reason {:?}, rms {:.3e} → {:.3e} mm",
         rep.identifiability.rank,
