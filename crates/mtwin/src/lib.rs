@@ -15,6 +15,7 @@ pub mod gcode;
 pub mod io;
 pub mod kinematics;
 pub mod methods;
+pub mod report;
 pub mod sysid;
 
 /// Re-export of the linear-algebra crate used in the public API (vectors, matrices).

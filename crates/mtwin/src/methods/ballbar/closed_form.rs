@@ -27,10 +27,7 @@ pub fn coefficients(mode: Mode, piges: &Piges, rig: &Rig) -> (f64, f64) {
             g(Pige::EY0A) - ey + rig.zb1c * g(Pige::EC0A),
             rig.zb1c * g(Pige::EB0A) - g(Pige::EZ0A),
         ),
-        Mode::Three => (
-            ex - g(Pige::EX0C),
-            g(Pige::EY0A) + g(Pige::EY0C) - ey,
-        ),
+        Mode::Three => (ex - g(Pige::EX0C), g(Pige::EY0A) + g(Pige::EY0C) - ey),
         Mode::Four => (
             ex - g(Pige::EX0C) - rig.zb1a * (g(Pige::EB0A) + g(Pige::EB0C)),
             g(Pige::EY0A) + g(Pige::EY0C) - ey - rig.zb1a * g(Pige::EA0C),
@@ -58,7 +55,9 @@ pub fn fit_coefficients(data: &ModeData) -> Option<(f64, f64, f64)> {
         rhs += row * l;
     }
     let x = n.cholesky()?.solve(&rhs);
-    x.iter().all(|v| v.is_finite()).then_some((x[0], x[1], x[2]))
+    x.iter()
+        .all(|v| v.is_finite())
+        .then_some((x[0], x[1], x[2]))
 }
 
 /// Start values from the modes present (`data[mode.index()]`), solving the
@@ -81,10 +80,7 @@ pub fn start_values(data: &[Option<&ModeData>; 4], rig: &Rig) -> (Piges, [f64; 4
         p.set(Pige::EZ0A, -b);
     }
     if let Some((a, b)) = coef[1] {
-        p.set(
-            Pige::EC0A,
-            (a - p.get(Pige::EY0A) + ey) / rig.zb1c,
-        );
+        p.set(Pige::EC0A, (a - p.get(Pige::EY0A) + ey) / rig.zb1c);
         p.set(Pige::EB0A, (b + p.get(Pige::EZ0A)) / rig.zb1c);
     }
     if let Some((a, b)) = coef[2] {
@@ -124,15 +120,23 @@ mod tests {
     /// order: halving every error (and the set-up error) quarters the gap.
     #[test]
     fn exact_model_agrees_with_the_first_order_forms_to_second_order() {
-        let truth = Piges([0.02, -0.015, 8.7e-5, -6.1e-5, 0.014, -0.026, 4.4e-5, -9.3e-5]);
-        let setup = SetupError { ex: -0.0403, ey: -0.0765 };
+        let truth = Piges([
+            0.02, -0.015, 8.7e-5, -6.1e-5, 0.014, -0.026, 4.4e-5, -9.3e-5,
+        ]);
+        let setup = SetupError {
+            ex: -0.0403,
+            ey: -0.0765,
+        };
         let gap = |k: f64| {
             let mut m = machine();
             let t = Trunnion::of(&m).unwrap();
             let p = Piges(truth.0.map(|v| v * k));
             p.write_to(&mut m, &t);
             let rig = Rig {
-                setup: SetupError { ex: setup.ex * k, ey: setup.ey * k },
+                setup: SetupError {
+                    ex: setup.ex * k,
+                    ey: setup.ey * k,
+                },
                 ..Rig::seed()
             };
             let mut worst = 0.0f64;
@@ -159,8 +163,16 @@ mod tests {
 
     #[test]
     fn coefficients_are_recovered_from_noise_free_first_order_readings() {
-        let rig = Rig { setup: SetupError { ex: 0.01, ey: -0.02 }, ..Rig::seed() };
-        let truth = Piges([0.02, -0.015, 8.7e-5, -6.1e-5, 0.014, -0.026, 4.4e-5, -9.3e-5]);
+        let rig = Rig {
+            setup: SetupError {
+                ex: 0.01,
+                ey: -0.02,
+            },
+            ..Rig::seed()
+        };
+        let truth = Piges([
+            0.02, -0.015, 8.7e-5, -6.1e-5, 0.014, -0.026, 4.4e-5, -9.3e-5,
+        ]);
         let sets: Vec<ModeData> = Mode::ALL
             .iter()
             .map(|&m| {
@@ -169,12 +181,29 @@ mod tests {
                     .iter()
                     .map(|&a| 100.003 + first_order_delta_l(m, a, &truth, &rig))
                     .collect();
-                ModeData { source: None, angles_deg: angles, lengths }
+                ModeData {
+                    source: None,
+                    angles_deg: angles,
+                    lengths,
+                }
             })
             .collect();
-        let (p, l) = start_values(&[Some(&sets[0]), Some(&sets[1]), Some(&sets[2]), Some(&sets[3])], &rig);
+        let (p, l) = start_values(
+            &[
+                Some(&sets[0]),
+                Some(&sets[1]),
+                Some(&sets[2]),
+                Some(&sets[3]),
+            ],
+            &rig,
+        );
         for q in Pige::ALL {
-            assert!((p.get(q) - truth.get(q)).abs() < 1e-11, "{q}: {} {}", p.get(q), truth.get(q));
+            assert!(
+                (p.get(q) - truth.get(q)).abs() < 1e-11,
+                "{q}: {} {}",
+                p.get(q),
+                truth.get(q)
+            );
         }
         assert!(l.iter().all(|&x| (x - 100.003).abs() < 1e-11));
     }

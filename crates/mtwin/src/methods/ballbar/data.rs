@@ -113,6 +113,15 @@ impl ModeData {
     }
 }
 
+/// Writes readings as a mode file (`angle_deg,length_mm`, full precision).
+pub fn write_mode_file(w: &mut dyn std::io::Write, data: &ModeData) -> std::io::Result<()> {
+    writeln!(w, "angle_deg,length_mm")?;
+    for (a, l) in data.angles_deg.iter().zip(&data.lengths) {
+        crate::io::write_csv_row(w, &[*a, *l])?;
+    }
+    Ok(())
+}
+
 /// Reads a mode file: CSV with columns `angle_deg` and `length_mm` (00 §6).
 /// Every problem is reported with file and line: non-numeric cells, a
 /// missing 0° reading, duplicate angles, fewer than [`MIN_READINGS`] rows.
@@ -148,6 +157,20 @@ mod tests {
     }
 
     #[test]
+    fn write_then_read_round_trips() {
+        let d = ModeData::new(
+            vec![0.0, 5.0, 10.0, 15.0, 20.0],
+            vec![100.1, 100.0 + 1e-7, 99.9, 100.0, 1.0 / 3.0],
+        )
+        .unwrap();
+        let mut buf = Vec::new();
+        write_mode_file(&mut buf, &d).unwrap();
+        let back = parse(std::str::from_utf8(&buf).unwrap()).unwrap();
+        assert_eq!(back.angles_deg, d.angles_deg);
+        assert_eq!(back.lengths, d.lengths);
+    }
+
+    #[test]
     fn reads_columns_by_name_with_comments() {
         let d = parse(
             "# mode 1\nlength_mm,angle_deg\n100.001,0\n100.002,5\n\n100.003,10\n100,15\n99.9,20\n",
@@ -161,13 +184,25 @@ mod tests {
     #[test]
     fn each_bad_input_is_named_with_file_and_line() {
         let e = parse("angle_deg,length_mm\n5,100\n10,100\n15,100\n20,100\n25,100\n").unwrap_err();
-        assert!(e.contains("m1.csv:1") && e.contains("no reading at angle 0"), "{e}");
+        assert!(
+            e.contains("m1.csv:1") && e.contains("no reading at angle 0"),
+            "{e}"
+        );
         let e = parse("angle_deg,length_mm\n0,100\n5,100\n5,100\n15,100\n20,100\n").unwrap_err();
-        assert!(e.contains("m1.csv:4") && e.contains("appears twice (also on line 3)"), "{e}");
+        assert!(
+            e.contains("m1.csv:4") && e.contains("appears twice (also on line 3)"),
+            "{e}"
+        );
         let e = parse("angle_deg,length_mm\n0,100\n5,100\n").unwrap_err();
-        assert!(e.contains("m1.csv:1") && e.contains("only 2 readings"), "{e}");
+        assert!(
+            e.contains("m1.csv:1") && e.contains("only 2 readings"),
+            "{e}"
+        );
         let e = parse("angle_deg,length_mm\n0,100\n5,abc\n10,100\n15,100\n20,100\n").unwrap_err();
-        assert!(e.contains("m1.csv:3:2") && e.contains("not a number"), "{e}");
+        assert!(
+            e.contains("m1.csv:3:2") && e.contains("not a number"),
+            "{e}"
+        );
         let e = parse("angle,length_mm\n0,100\n").unwrap_err();
         assert!(e.contains("missing column `angle_deg`"), "{e}");
     }

@@ -117,8 +117,14 @@ impl Identification {
     pub fn fitted_delta_l(&self, mode: Mode, alpha_deg: f64) -> Option<f64> {
         let ell = self.lengths[mode.index()]?;
         Some(
-            predicted_reading(&self.machine, &self.trunnion, mode, &self.rig, ell, alpha_deg)
-                - ell,
+            predicted_reading(
+                &self.machine,
+                &self.trunnion,
+                mode,
+                &self.rig,
+                ell,
+                alpha_deg,
+            ) - ell,
         )
     }
 }
@@ -133,7 +139,11 @@ pub fn identify(
     data: &[Option<&ModeData>; 4],
     options: &Options,
 ) -> Result<Identification, IdentifyError> {
-    for (what, value) in [("the bar length", rig.length), ("ZB1C", rig.zb1c), ("ZB1A", rig.zb1a)] {
+    for (what, value) in [
+        ("the bar length", rig.length),
+        ("ZB1C", rig.zb1c),
+        ("ZB1A", rig.zb1a),
+    ] {
         if !(value.is_finite() && value > 0.0) {
             return Err(IdentifyError::BadRig { what, value });
         }
@@ -156,7 +166,11 @@ pub fn identify(
         let d = data[m.index()].expect("present");
         let ax = &machine.axes[trunnion.axis_of(if m.moves_a() { Pige::EY0A } else { Pige::EX0C })];
         let lo = d.angles_deg.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = d.angles_deg.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let hi = d
+            .angles_deg
+            .iter()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max);
         if lo < ax.travel[0] || hi > ax.travel[1] {
             return Err(IdentifyError::OutOfTravel {
                 mode: m.label(),
@@ -198,7 +212,16 @@ pub fn identify(
     // 3. Joint fit.
     let models: Vec<ModeModel> = modes
         .iter()
-        .map(|&m| ModeModel::new(&base, &trunnion, m, *rig, data[m.index()].expect("present"), &unknowns))
+        .map(|&m| {
+            ModeModel::new(
+                &base,
+                &trunnion,
+                m,
+                *rig,
+                data[m.index()].expect("present"),
+                &unknowns,
+            )
+        })
         .collect();
     let parts: Vec<&dyn Model> = models.iter().map(|m| m as &dyn Model).collect();
     let stack = Stack::new(parts)?;
@@ -261,7 +284,14 @@ fn structural(
     let models: Vec<ModeModel> = modes
         .iter()
         .map(|&m| {
-            ModeModel::new(&ideal, trunnion, m, ideal_rig, data[m.index()].expect("present"), &unknowns)
+            ModeModel::new(
+                &ideal,
+                trunnion,
+                m,
+                ideal_rig,
+                data[m.index()].expect("present"),
+                &unknowns,
+            )
         })
         .collect();
     let parts: Vec<&dyn Model> = models.iter().map(|m| m as &dyn Model).collect();
@@ -291,12 +321,14 @@ fn structural(
             Unidentifiable::Confounded => {
                 let rel = ident
                     .relations
-                    .get(ident
-                        .unidentifiable
-                        .iter()
-                        .take(k)
-                        .filter(|u| u.1 == Unidentifiable::Confounded)
-                        .count())
+                    .get(
+                        ident
+                            .unidentifiable
+                            .iter()
+                            .take(k)
+                            .filter(|u| u.1 == Unidentifiable::Confounded)
+                            .count(),
+                    )
                     .map(|c| c.describe())
                     .unwrap_or_default();
                 format!(
@@ -334,7 +366,11 @@ fn imbalance(rms: &[Option<f64>; 4]) -> Vec<String> {
     }
     let mut out = Vec::new();
     for &(i, r) in &present {
-        let mut others: Vec<f64> = present.iter().filter(|(j, _)| *j != i).map(|p| p.1).collect();
+        let mut others: Vec<f64> = present
+            .iter()
+            .filter(|(j, _)| *j != i)
+            .map(|p| p.1)
+            .collect();
         others.sort_by(f64::total_cmp);
         let med = if others.len() % 2 == 1 {
             others[others.len() / 2]
@@ -380,7 +416,9 @@ mod tests {
     }
 
     /// The test case: offsets ±30 µm, tilts ±2e-4 rad.
-    const TRUTH: Piges = Piges([0.030, -0.021, 2.0e-4, -1.4e-4, -0.027, 0.018, 1.1e-4, -2.0e-4]);
+    const TRUTH: Piges = Piges([
+        0.030, -0.021, 2.0e-4, -1.4e-4, -0.027, 0.018, 1.1e-4, -2.0e-4,
+    ]);
 
     fn angles(mode: Mode) -> Vec<f64> {
         if mode.moves_a() {
@@ -437,9 +475,17 @@ mod tests {
         // Spec 01: with 0.3 µm noise and 5° steps, σ ≈ 2.2 µrad (EC0A), 1.2 µrad (EB0C),
         // 0.15 µm (EY0A) when the bar length is a nuisance parameter.
         let s = |p: Pige| id.uncertainty[p.index()].unwrap();
-        for (p, expect) in [(Pige::EC0A, 2.2e-6), (Pige::EB0C, 1.2e-6), (Pige::EY0A, 1.5e-4)] {
+        for (p, expect) in [
+            (Pige::EC0A, 2.2e-6),
+            (Pige::EB0C, 1.2e-6),
+            (Pige::EY0A, 1.5e-4),
+        ] {
             let ratio = s(p) / expect;
-            assert!((0.7..1.4).contains(&ratio), "{p}: σ = {:e}, spec {expect:e}", s(p));
+            assert!(
+                (0.7..1.4).contains(&ratio),
+                "{p}: σ = {:e}, spec {expect:e}",
+                s(p)
+            );
         }
         for m in Mode::ALL {
             let r = id.residual_rms[m.index()].unwrap();
@@ -486,7 +532,10 @@ mod tests {
             .iter()
             .map(|&p| second.piges.get(p).abs())
             .fold(0.0_f64, f64::max);
-        eprintln!("largest remaining offset after compensation: {:.3} µm", worst * 1e3);
+        eprintln!(
+            "largest remaining offset after compensation: {:.3} µm",
+            worst * 1e3
+        );
         assert!(worst < 1e-3, "remaining offset {worst} mm (seed: 5.1 µm)");
         // The tilts are still found after compensation.
         for p in [Pige::EB0A, Pige::EC0A, Pige::EA0C, Pige::EB0C] {
@@ -498,20 +547,37 @@ mod tests {
     fn subsets_identify_what_they_can_and_say_what_they_cannot() {
         let rig = rig(0.05, -0.03);
         let d = simulate(&TRUTH, &rig, 3e-4, 3);
-        let only1 = identify(&nominal(), &rig, &[Some(&d[0]), None, None, None], &Options::default())
-            .unwrap();
+        let only1 = identify(
+            &nominal(),
+            &rig,
+            &[Some(&d[0]), None, None, None],
+            &Options::default(),
+        )
+        .unwrap();
         let unresolved: Vec<Pige> = only1.unresolved.iter().map(|u| u.pige).collect();
         assert_eq!(
             unresolved,
-            vec![Pige::EB0A, Pige::EC0A, Pige::EX0C, Pige::EY0C, Pige::EA0C, Pige::EB0C]
+            vec![
+                Pige::EB0A,
+                Pige::EC0A,
+                Pige::EX0C,
+                Pige::EY0C,
+                Pige::EA0C,
+                Pige::EB0C
+            ]
         );
         assert!((only1.piges.get(Pige::EY0A) - TRUTH.get(Pige::EY0A)).abs() < 1e-3);
         assert!((only1.piges.get(Pige::EZ0A) - TRUTH.get(Pige::EZ0A)).abs() < 1e-3);
         assert!(only1.residual_rms[1].is_none());
 
         // Mode 3 alone sees EY0A and EY0C only as their sum.
-        let only3 = identify(&nominal(), &rig, &[None, None, Some(&d[2]), None], &Options::default())
-            .unwrap();
+        let only3 = identify(
+            &nominal(),
+            &rig,
+            &[None, None, Some(&d[2]), None],
+            &Options::default(),
+        )
+        .unwrap();
         let conf: Vec<&Unresolved> = only3
             .unresolved
             .iter()
@@ -540,7 +606,11 @@ mod tests {
         let d: Vec<ModeData> = Mode::ALL
             .iter()
             .map(|&mode| {
-                let spec = SimulationSpec { rig, noise: 3e-4, angles_deg: arcs[mode.index()].clone() };
+                let spec = SimulationSpec {
+                    rig,
+                    noise: 3e-4,
+                    angles_deg: arcs[mode.index()].clone(),
+                };
                 simulate_mode(&m, &t, mode, &spec, &mut rng)
             })
             .collect();
@@ -564,7 +634,11 @@ mod tests {
         let id = identify(&nominal(), &rig, &all(&d), &Options::default()).unwrap();
         // The engine also flags the worst readings of mode 2 as outliers; the balance
         // warning names mode 2 and no other mode.
-        let modes: Vec<&String> = id.warnings.iter().filter(|w| w.starts_with("mode")).collect();
+        let modes: Vec<&String> = id
+            .warnings
+            .iter()
+            .filter(|w| w.starts_with("mode"))
+            .collect();
         assert_eq!(modes.len(), 1, "{:?}", id.warnings);
         assert!(modes[0].starts_with("mode2:"), "{:?}", id.warnings);
     }

@@ -19,6 +19,7 @@ pub mod closed_form;
 pub mod data;
 pub mod identify;
 pub mod mode;
+pub mod plot;
 pub mod program;
 pub mod sensitivity;
 pub mod setup;
@@ -31,13 +32,13 @@ use nalgebra::Vector3;
 use crate::model::{AxisKind, Component, Machine};
 
 pub use closed_form::{first_order_delta_l, start_values};
-pub use data::{ModeData, read_mode_file};
-pub use identify::{Identification, IdentifyError, Unresolved, identify};
-pub use mode::{Mode, ModeModel, Rig, Trunnion, TrunnionError, Unknowns};
-pub use program::{ProgramSpec, program};
-pub use sensitivity::{SensitivityRow, sensitivity_table};
+pub use data::{ModeData, read_mode_file, write_mode_file};
+pub use identify::{Compensation, Identification, IdentifyError, Unresolved, identify};
+pub use mode::{Mode, ModeModel, Rig, Trunnion, TrunnionError, Unknowns, predicted_reading};
+pub use program::{ProgramError, ProgramSpec, program};
+pub use sensitivity::{SensitivityRow, delta_l_curve, sensitivity_table};
 pub use setup::{SetupError, SetupErrorInput, SetupErrorProblem, setup_error};
-pub use simulate::{SimulationSpec, simulate_mode};
+pub use simulate::{SimulationSpec, angle_range, simulate_mode, simulate_modes};
 
 /// One of the eight location errors of the rotary axes (ISO names, 00 §4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]

@@ -304,8 +304,7 @@ pub fn predicted_reading(
     alpha_deg: f64,
 ) -> f64 {
     let kin = Kinematics::new(machine);
-    Geometry::new(&kin, t, mode, rig)
-        .reading(ell, alpha_deg)
+    Geometry::new(&kin, t, mode, rig).reading(ell, alpha_deg)
 }
 
 /// The unknowns of a joint fit: which PIGEs are estimated (the others are
@@ -431,7 +430,10 @@ impl<'a> ModeModel<'a> {
 
     fn ell(&self, theta: &[f64]) -> f64 {
         // `new` checked that the mode has a bar length.
-        theta[self.unknowns.length_index(self.mode).expect("checked in new")]
+        theta[self
+            .unknowns
+            .length_index(self.mode)
+            .expect("checked in new")]
     }
 
     fn evaluate(
@@ -444,7 +446,10 @@ impl<'a> ModeModel<'a> {
         let kin = Kinematics::new(&self.machine_at(theta));
         let g = Geometry::new(&kin, self.trunnion, self.mode, &self.rig);
         let ell = self.ell(theta);
-        let li = self.unknowns.length_index(self.mode).expect("checked in new");
+        let li = self
+            .unknowns
+            .length_index(self.mode)
+            .expect("checked in new");
         let mut grad = vec![0.0; self.slots.len()];
         for (k, i) in rows.enumerate() {
             let alpha = self.data.angles_deg[i];
@@ -544,7 +549,10 @@ mod tests {
         let p = Piges([0.011, 0.0, 0.0, 0.0, -0.023, 0.007, 0.0, 0.0]);
         p.write_to(&mut m, &t);
         let rig = Rig {
-            setup: SetupError { ex: 0.03, ey: -0.02 },
+            setup: SetupError {
+                ex: 0.03,
+                ey: -0.02,
+            },
             ..Rig::seed()
         };
         let ctr = nalgebra::Vector2::new(-0.023, 0.011 + 0.007);
@@ -575,7 +583,10 @@ mod tests {
             modes: Mode::ALL.to_vec(),
         };
         let rig = Rig {
-            setup: SetupError { ex: -0.04, ey: 0.07 },
+            setup: SetupError {
+                ex: -0.04,
+                ey: 0.07,
+            },
             ..Rig::seed()
         };
         let angles: Vec<f64> = (-18..=18).map(|k| k as f64 * 10.0).collect();

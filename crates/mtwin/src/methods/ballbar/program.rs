@@ -78,7 +78,11 @@ pub fn program(machine: &Machine, mode: Mode, spec: &ProgramSpec) -> Result<Stri
     for &a in &spec.angles_deg {
         check(mode.axis_name(), a, moving.travel)?;
     }
-    let (w, other) = if mode.moves_a() { ("A", "C") } else { ("C", "A") };
+    let (w, other) = if mode.moves_a() {
+        ("A", "C")
+    } else {
+        ("C", "A")
+    };
     let bar = if mode.moves_a() { "-Y" } else { "+X" };
     let mut s = String::new();
     let f = |x: f64| fmt_f64(if x == 0.0 { 0.0 } else { x });

@@ -66,7 +66,11 @@ pub fn sensitivity_table(
                     .into_iter()
                     .fold(0.0_f64, |a, v| a.max(v.abs()));
             }
-            SensitivityRow { pige: p, size, peak }
+            SensitivityRow {
+                pige: p,
+                size,
+                peak,
+            }
         })
         .collect())
 }
@@ -105,7 +109,12 @@ mod tests {
                     assert!(peak > 5e-3, "{} must move {}: {peak}", r.pige, mode.label());
                 } else {
                     // Blank in table 2: nothing beyond rounding and L·tilt² ~ 1e-6 mm.
-                    assert!(peak < 1e-6, "{} must not move {}: {peak}", r.pige, mode.label());
+                    assert!(
+                        peak < 1e-6,
+                        "{} must not move {}: {peak}",
+                        r.pige,
+                        mode.label()
+                    );
                 }
             }
         }

@@ -153,7 +153,10 @@ mod tests {
             theta2_deg: 233.13,
         };
         let e = setup_error(&input).unwrap();
-        assert!((e.ex + 0.06).abs() < 1e-12 && (e.ey + 0.08).abs() < 1e-12, "{e:?}");
+        assert!(
+            (e.ex + 0.06).abs() < 1e-12 && (e.ey + 0.08).abs() < 1e-12,
+            "{e:?}"
+        );
     }
 
     #[test]
@@ -166,17 +169,31 @@ mod tests {
         };
         // R = 0.5, |OB2| = 100: cos φ = 0.25/100 → fine; make Lmin absurd instead.
         assert!(setup_error(&bad).is_ok());
-        let bad = SetupErrorInput { lmin: 90.0, lmax: 90.2, ..bad };
+        let bad = SetupErrorInput {
+            lmin: 90.0,
+            lmax: 90.2,
+            ..bad
+        };
         assert!(matches!(
             setup_error(&bad),
             Err(SetupErrorProblem::NoTriangle { .. })
         ));
-        let swapped = SetupErrorInput { lmax: 99.0, lmin: 100.0, ..bad };
+        let swapped = SetupErrorInput {
+            lmax: 99.0,
+            lmin: 100.0,
+            ..bad
+        };
         assert!(matches!(
             setup_error(&swapped),
             Err(SetupErrorProblem::MaxBelowMin { .. })
         ));
-        let neg = SetupErrorInput { length: -1.0, ..bad };
-        assert!(matches!(setup_error(&neg), Err(SetupErrorProblem::NotALength { .. })));
+        let neg = SetupErrorInput {
+            length: -1.0,
+            ..bad
+        };
+        assert!(matches!(
+            setup_error(&neg),
+            Err(SetupErrorProblem::NotALength { .. })
+        ));
     }
 }

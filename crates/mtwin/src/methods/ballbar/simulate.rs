@@ -1,10 +1,10 @@
 //! Synthetic readings of the four modes, for planning and for tests.
 
-use rand::Rng;
+use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
 
 use super::data::ModeData;
-use super::mode::{Geometry, Mode, Rig, Trunnion};
+use super::mode::{Geometry, Mode, Rig, Trunnion, TrunnionError};
 use crate::kinematics::Kinematics;
 use crate::model::Machine;
 
@@ -54,6 +54,21 @@ pub fn simulate_mode<R: Rng + ?Sized>(
         angles_deg: spec.angles_deg.clone(),
         lengths,
     }
+}
+
+/// Readings of several modes on `machine` with one seeded random stream
+/// (reproducible: same seed, same readings).
+pub fn simulate_modes(
+    machine: &Machine,
+    specs: &[(Mode, SimulationSpec)],
+    seed: u64,
+) -> Result<Vec<ModeData>, TrunnionError> {
+    let t = Trunnion::of(machine)?;
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    Ok(specs
+        .iter()
+        .map(|(m, s)| simulate_mode(machine, &t, *m, s, &mut rng))
+        .collect())
 }
 
 #[cfg(test)]
