@@ -133,10 +133,10 @@ pub struct IdentifyArgs {
 #[command(allow_negative_numbers = true)]
 pub struct RangeArgs {
     /// A-axis angles for modes 1 and 2: start,end,step (degrees).
-    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [-90.0, 90.0, 5.0])]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_values_t = [-90.0, 90.0, 5.0])]
     a_range: Vec<f64>,
     /// C-axis angles for modes 3 and 4: start,end,step (degrees).
-    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [0.0, 360.0, 5.0])]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_values_t = [0.0, 360.0, 5.0])]
     c_range: Vec<f64>,
 }
 
@@ -147,7 +147,13 @@ impl RangeArgs {
         } else {
             (&self.c_range, "--c-range")
         };
-        let v = angle_range(r[0], r[1], r[2]);
+        let [start, end, step] = r[..] else {
+            bail!(
+                "{name} takes three numbers start,end,step (degrees), got {}",
+                r.len()
+            );
+        };
+        let v = angle_range(start, end, step);
         if v.is_empty() {
             bail!(
                 "{name} {},{},{} gives no angles: it needs start ≤ end and a positive step",
