@@ -233,7 +233,7 @@ pub fn xy(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Strin
 
 /// The smallest of 1, 2, 5 × 10^k not below `x` (1 for `x ≤ 0`).
 fn nice(x: f64) -> f64 {
-    if !(x > 0.0) || !x.is_finite() {
+    if x.is_nan() || x <= 0.0 || !x.is_finite() {
         return 1.0;
     }
     let e = 10f64.powf(x.log10().floor());

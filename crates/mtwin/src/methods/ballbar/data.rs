@@ -97,7 +97,7 @@ impl ModeData {
                 ));
             }
         }
-        if self.len() >= 1 && self.reading_at_zero().is_none() {
+        if !self.is_empty() && self.reading_at_zero().is_none() {
             diags.push(Diagnostic::at_line(
                 path,
                 header_line,

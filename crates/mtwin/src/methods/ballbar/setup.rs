@@ -78,7 +78,7 @@ pub fn setup_error(input: &SetupErrorInput) -> Result<SetupError, SetupErrorProb
         return Ok(SetupError::default());
     }
     let cos_phi = (r * r + length * length - (lmin + r).powi(2)) / (2.0 * r * length);
-    if !(cos_phi.abs() <= 1.0 + 1e-12) {
+    if cos_phi.is_nan() || cos_phi.abs() > 1.0 + 1e-12 {
         return Err(SetupErrorProblem::NoTriangle {
             cos_phi,
             length,

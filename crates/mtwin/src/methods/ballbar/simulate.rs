@@ -21,7 +21,8 @@ pub struct SimulationSpec {
 /// Angles `start, start + step, …` up to `end` (included when reached to
 /// 1e-9°), degrees. Empty when `step` is not positive or `end < start`.
 pub fn angle_range(start: f64, end: f64, step: f64) -> Vec<f64> {
-    if !(step > 0.0) || !(end >= start) || !(start.is_finite() && end.is_finite()) {
+    let valid = step > 0.0 && end >= start && start.is_finite() && end.is_finite();
+    if !valid {
         return Vec::new();
     }
     let n = ((end - start) / step + 1e-9).floor() as usize;
