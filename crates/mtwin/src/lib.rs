@@ -19,6 +19,7 @@ pub mod io;
 pub mod kinematics;
 pub mod methods;
 pub mod model;
+pub mod report;
 pub mod sysid;
 
 /// Re-export of the linear-algebra crate used in the public API (vectors, matrices).

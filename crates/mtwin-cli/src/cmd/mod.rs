@@ -3,6 +3,7 @@
 pub mod common;
 
 pub use common::diag as common_diag;
+mod ballbar;
 mod demo;
 mod model;
 mod predict;
@@ -14,6 +15,9 @@ use clap::Subcommand;
 /// Every subcommand of `mtwin`.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Double-ballbar identification of the rotary-axis location errors (spec 01).
+    #[command(subcommand)]
+    Ballbar(ballbar::Command),
     /// Run every method end to end on the bundled examples and print a summary.
     #[command(after_help = "Example:\n  mtwin demo")]
     Demo(demo::Args),
@@ -36,6 +40,7 @@ pub enum Command {
 /// Run one subcommand.
 pub fn run(command: Command) -> anyhow::Result<()> {
     match command {
+        Command::Ballbar(c) => ballbar::run(c),
         Command::Demo(a) => demo::run(a),
         Command::Model(c) => model::run(c),
         Command::Predict(a) => predict::run(a),

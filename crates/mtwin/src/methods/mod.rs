@@ -1,1 +1,6 @@
+//! The measurement methods, each a measurement model on the shared kinematics and
+//! identification engines: ballbar (spec 01), tracker (02), skiving (03), thermal (04),
+//! and the program rewriters built on them.
+
+pub mod ballbar;
 pub mod thermal;

@@ -1,0 +1,202 @@
+//! The four test programs (G-code) for a static-mode ballbar: the linear
+//! axes place the tool ball B1, then the moving rotary axis steps through
+//! the angles with a dwell at each step while the instrument takes its
+//! reading. Dialect: `G4 P` dwell in seconds (LinuxCNC, 04/05 specs),
+//! rotary feed in deg/min under G94, positions in the model's frame M
+//! (set the work offset G54 to M's origin, with the tool-ball length as the
+//! tool length).
+
+use std::fmt::Write as _;
+
+use super::mode::{Mode, Rig, Trunnion, TrunnionError};
+use crate::io::fmt_f64;
+use crate::model::Machine;
+
+/// What a program is for.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProgramSpec {
+    pub rig: Rig,
+    /// Angles of the moving axis, degrees, in the order visited; must contain 0.
+    pub angles_deg: Vec<f64>,
+    /// Dwell at each step, s.
+    pub dwell_s: f64,
+    /// Rotary feed, deg/min.
+    pub feed: f64,
+}
+
+/// Why a program cannot be written.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ProgramError {
+    #[error(transparent)]
+    Machine(#[from] TrunnionError),
+    #[error("the machine has no linear axis named {0}")]
+    MissingLinear(&'static str),
+    #[error("{axis} = {value} is outside its travel [{lo}, {hi}]")]
+    OutOfTravel {
+        axis: String,
+        value: f64,
+        lo: f64,
+        hi: f64,
+    },
+    #[error("the angle list must contain 0° (the bar is set there)")]
+    NoZero,
+    #[error("the dwell ({dwell} s) and feed ({feed} deg/min) must be positive")]
+    BadTiming { dwell: f64, feed: f64 },
+}
+
+/// The G-code program of `mode` for `machine`.
+pub fn program(machine: &Machine, mode: Mode, spec: &ProgramSpec) -> Result<String, ProgramError> {
+    let t = Trunnion::of(machine)?;
+    if !spec.angles_deg.contains(&0.0) {
+        return Err(ProgramError::NoZero);
+    }
+    if !(spec.dwell_s > 0.0 && spec.feed > 0.0) {
+        return Err(ProgramError::BadTiming {
+            dwell: spec.dwell_s,
+            feed: spec.feed,
+        });
+    }
+    // Nominal B1 (no set-up error: the program commands the spindle axis).
+    let nominal = Rig {
+        setup: Default::default(),
+        ..spec.rig
+    };
+    let b1 = t.pivot + mode.tool_ball(&nominal);
+    let d = b1 - machine.tool_tip;
+    let mut lin = Vec::new();
+    for name in ["X", "Y", "Z"] {
+        let i = machine
+            .axis_index(name)
+            .filter(|&i| machine.axes[i].kind == crate::model::AxisKind::Linear)
+            .ok_or(ProgramError::MissingLinear(name))?;
+        let ax = &machine.axes[i];
+        let v = d.dot(&ax.direction);
+        check(name, v, ax.travel)?;
+        lin.push((name, v));
+    }
+    let moving = &machine.axes[if mode.moves_a() { t.a } else { t.c }];
+    for &a in &spec.angles_deg {
+        check(mode.axis_name(), a, moving.travel)?;
+    }
+    let (w, other) = if mode.moves_a() {
+        ("A", "C")
+    } else {
+        ("C", "A")
+    };
+    let bar = if mode.moves_a() { "-Y" } else { "+X" };
+    let mut s = String::new();
+    let f = |x: f64| fmt_f64(if x == 0.0 { 0.0 } else { x });
+    // Writing to a String cannot fail.
+    let _ = writeln!(s, "%");
+    let _ = writeln!(
+        s,
+        "(mtwin ballbar test, mode {}: {w} turns, {other} = 0, other axes still)",
+        mode.number()
+    );
+    let _ = writeln!(
+        s,
+        "(bar {} mm along {bar} at {w} = 0; tool ball B1 at X{} Y{} Z{} of M)",
+        f(spec.rig.length),
+        f(b1.x),
+        f(b1.y),
+        f(b1.z)
+    );
+    let _ = writeln!(
+        s,
+        "(static ballbar: take one reading during each dwell of {} s; {} steps)",
+        f(spec.dwell_s),
+        spec.angles_deg.len()
+    );
+    let _ = writeln!(s, "G21 G90 G94 G17 G54");
+    let _ = writeln!(s, "G0 A0 C0");
+    let _ = writeln!(
+        s,
+        "G0 {}",
+        lin.iter()
+            .map(|(n, v)| format!("{n}{}", f(*v)))
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    let _ = writeln!(
+        s,
+        "M0 (mount the bar: B2 on the table, {bar} of B1, then start the instrument)"
+    );
+    for &a in &spec.angles_deg {
+        let _ = writeln!(s, "G1 {w}{} F{}", f(a), f(spec.feed));
+        let _ = writeln!(s, "G4 P{}", f(spec.dwell_s));
+    }
+    let _ = writeln!(s, "G1 {w}0 F{}", f(spec.feed));
+    let _ = writeln!(s, "M0 (remove the bar)");
+    let _ = writeln!(s, "M30");
+    let _ = writeln!(s, "%");
+    Ok(s)
+}
+
+fn check(axis: &str, value: f64, travel: [f64; 2]) -> Result<(), ProgramError> {
+    if value < travel[0] || value > travel[1] {
+        return Err(ProgramError::OutOfTravel {
+            axis: axis.to_owned(),
+            value,
+            lo: travel[0],
+            hi: travel[1],
+        });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::methods::ballbar::simulate::angle_range;
+    use crate::model::parse_machine;
+    use std::path::Path;
+
+    fn machine() -> Machine {
+        parse_machine(
+            Path::new("ac-trunnion.toml"),
+            include_str!("../../../../../examples/machines/ac-trunnion.toml"),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn mode_two_places_the_ball_and_dwells_at_every_step() {
+        let spec = ProgramSpec {
+            rig: Rig::seed(),
+            angles_deg: angle_range(-90.0, 90.0, 5.0),
+            dwell_s: 2.0,
+            feed: 720.0,
+        };
+        let p = program(&machine(), Mode::Two, &spec).unwrap();
+        // B1 at ZB1C = 100 along x from the C line: X100 Y0 Z0.
+        assert!(p.contains("G0 X100 Y0 Z0"), "{p}");
+        assert_eq!(p.matches("G4 P2").count(), 37);
+        let angles: Vec<f64> = p
+            .lines()
+            .filter_map(|l| l.strip_prefix("G1 A"))
+            .map(|l| l.split(' ').next().unwrap().parse().unwrap())
+            .collect();
+        let mut expect = angle_range(-90.0, 90.0, 5.0);
+        expect.push(0.0);
+        assert_eq!(angles, expect);
+        assert!(p.trim_end().ends_with("M30\n%") || p.trim_end().ends_with('%'));
+    }
+
+    #[test]
+    fn mode_four_raises_the_ball_and_rejects_out_of_travel() {
+        let mut spec = ProgramSpec {
+            rig: Rig::seed(),
+            angles_deg: angle_range(0.0, 360.0, 5.0),
+            dwell_s: 1.0,
+            feed: 720.0,
+        };
+        let p = program(&machine(), Mode::Four, &spec).unwrap();
+        assert!(p.contains("G0 X0 Y0 Z100"), "{p}");
+        assert_eq!(p.matches("G1 C").count(), 74);
+        spec.angles_deg = angle_range(0.0, 400.0, 5.0);
+        assert!(matches!(
+            program(&machine(), Mode::Four, &spec),
+            Err(ProgramError::OutOfTravel { .. })
+        ));
+    }
+}

@@ -1,0 +1,147 @@
+//! Which PIGE moves which mode, and by how much (the seed's table 2),
+//! computed on the exact model: one PIGE at a time set to a given size on
+//! the nominal machine with an ideal set-up, `ΔL(α) = L(α) − L(0)` over each
+//! mode's angles.
+
+use super::mode::{Geometry, Mode, Rig, Trunnion, TrunnionError};
+use super::{Pige, Piges};
+use crate::kinematics::Kinematics;
+use crate::model::Machine;
+
+/// One row of the table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SensitivityRow {
+    pub pige: Pige,
+    /// The error size applied (mm or rad).
+    pub size: f64,
+    /// Largest `|ΔL|` over the angles of each mode (mm).
+    pub peak: [f64; 4],
+}
+
+/// `ΔL(α)` (mm) of `mode` at `angles_deg` with `piges` on `machine`'s
+/// nominal geometry and the set-up of `rig`.
+pub fn delta_l_curve(
+    machine: &Machine,
+    t: &Trunnion,
+    mode: Mode,
+    rig: &Rig,
+    piges: &Piges,
+    angles_deg: &[f64],
+) -> Vec<f64> {
+    let mut m = machine.nominal();
+    piges.write_to(&mut m, t);
+    let kin = Kinematics::new(&m);
+    let g = Geometry::new(&kin, t, mode, rig);
+    let l0 = g.reading(rig.length, 0.0);
+    angles_deg
+        .iter()
+        .map(|&a| g.reading(rig.length, a) - l0)
+        .collect()
+}
+
+/// The table: for every PIGE, its size (`offset` mm for offsets, `tilt` rad
+/// for tilts) and the peak `|ΔL|` it causes in each mode over `angles[mode]`
+/// (`rig.setup` is ignored: the table is for an ideal set-up).
+pub fn sensitivity_table(
+    machine: &Machine,
+    rig: &Rig,
+    offset: f64,
+    tilt: f64,
+    angles: &[Vec<f64>; 4],
+) -> Result<Vec<SensitivityRow>, TrunnionError> {
+    let t = Trunnion::of(machine)?;
+    let ideal = Rig {
+        setup: Default::default(),
+        ..*rig
+    };
+    Ok(Pige::ALL
+        .iter()
+        .map(|&p| {
+            let size = if p.is_tilt() { tilt } else { offset };
+            let mut piges = Piges::default();
+            piges.set(p, size);
+            let mut peak = [0.0; 4];
+            for m in Mode::ALL {
+                peak[m.index()] = delta_l_curve(machine, &t, m, &ideal, &piges, &angles[m.index()])
+                    .into_iter()
+                    .fold(0.0_f64, |a, v| a.max(v.abs()));
+            }
+            SensitivityRow {
+                pige: p,
+                size,
+                peak,
+            }
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::methods::ballbar::identify::sees;
+    use crate::methods::ballbar::simulate::angle_range;
+    use crate::model::parse_machine;
+    use std::path::Path;
+
+    fn setup() -> (Machine, [Vec<f64>; 4]) {
+        let m = parse_machine(
+            Path::new("ac-trunnion.toml"),
+            include_str!("../../../../../examples/machines/ac-trunnion.toml"),
+        )
+        .unwrap();
+        let a = angle_range(-90.0, 90.0, 5.0);
+        let c = angle_range(0.0, 360.0, 5.0);
+        (m, [a.clone(), a, c.clone(), c])
+    }
+
+    #[test]
+    fn reproduces_the_seed_table_2() {
+        // Seed table 1: offsets 10 µm, tilts 0.005°.
+        let (m, angles) = setup();
+        let tilt = 0.005_f64.to_radians();
+        let rows = sensitivity_table(&m, &Rig::seed(), 0.010, tilt, &angles).unwrap();
+        for r in &rows {
+            for mode in Mode::ALL {
+                let peak = r.peak[mode.index()];
+                if sees(mode, r.pige) {
+                    // First order: an offset moves ΔL by up to ~its size (a full sine or
+                    // 1 − cos swing), a tilt by ~Z·tilt ≈ 8.7 µm.
+                    assert!(peak > 5e-3, "{} must move {}: {peak}", r.pige, mode.label());
+                } else {
+                    // Blank in table 2: nothing beyond rounding and L·tilt² ~ 1e-6 mm.
+                    assert!(
+                        peak < 1e-6,
+                        "{} must not move {}: {peak}",
+                        r.pige,
+                        mode.label()
+                    );
+                }
+            }
+        }
+        // Tilts do not move modes 1 and 3 at all (B1 on both axis lines): exactly zero
+        // but for rounding.
+        for r in rows.iter().filter(|r| r.pige.is_tilt()) {
+            assert!(r.peak[0] < 1e-12 && r.peak[2] < 1e-12, "{r:?}");
+        }
+    }
+
+    #[test]
+    fn ey0a_and_ey0c_act_identically_in_mode_three() {
+        let (m, angles) = setup();
+        let t = Trunnion::of(&m).unwrap();
+        let mut a = Piges::default();
+        a.set(Pige::EY0A, 0.01);
+        let mut c = Piges::default();
+        c.set(Pige::EY0C, 0.01);
+        let ca = delta_l_curve(&m, &t, Mode::Three, &Rig::seed(), &a, &angles[2]);
+        let cc = delta_l_curve(&m, &t, Mode::Three, &Rig::seed(), &c, &angles[2]);
+        for (x, y) in ca.iter().zip(&cc) {
+            assert!((x - y).abs() < 1e-12);
+        }
+        // And it is the sine of the first-order form, ΔL3 = 0.01·sin α, up to the
+        // second-order 0.01²/(2·100) ≈ 5e-7 mm.
+        for (al, x) in angles[2].iter().zip(&ca) {
+            assert!((x - 0.01 * al.to_radians().sin()).abs() < 2e-6);
+        }
+    }
+}

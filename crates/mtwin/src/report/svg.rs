@@ -1,0 +1,292 @@
+//! Minimal hand-written SVG plots (no dependencies): a polar plot of a
+//! deviation against an angle (the ballbar's picture) and an x–y line plot.
+//! Both take named series, draw axes, labels and a legend.
+
+use std::fmt::Write as _;
+
+/// One named series of points; `(x, y)` or `(angle_deg, value)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
+    /// CSS colour.
+    pub color: String,
+    /// Draw markers only (measured data) instead of a line.
+    pub markers: bool,
+}
+
+const SIZE: f64 = 480.0;
+
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+fn header(s: &mut String, w: f64, h: f64, title: &str) {
+    let _ = writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif" font-size="12">"#
+    );
+    let _ = writeln!(s, r#"<rect width="{w}" height="{h}" fill="white"/>"#);
+    let _ = writeln!(
+        s,
+        r#"<text x="{}" y="20" text-anchor="middle" font-size="14">{}</text>"#,
+        w / 2.0,
+        escape(title)
+    );
+}
+
+fn legend(s: &mut String, series: &[Series], x: f64, y: f64) {
+    for (k, se) in series.iter().enumerate() {
+        let yy = y + 16.0 * k as f64;
+        if se.markers {
+            let _ = writeln!(
+                s,
+                r#"<circle cx="{}" cy="{}" r="2.5" fill="{}"/>"#,
+                x + 10.0,
+                yy - 4.0,
+                se.color
+            );
+        } else {
+            let _ = writeln!(
+                s,
+                r#"<line x1="{x}" y1="{}" x2="{}" y2="{}" stroke="{}" stroke-width="2"/>"#,
+                yy - 4.0,
+                x + 20.0,
+                yy - 4.0,
+                se.color
+            );
+        }
+        let _ = writeln!(
+            s,
+            r#"<text x="{}" y="{yy}">{}</text>"#,
+            x + 26.0,
+            escape(&se.name)
+        );
+    }
+}
+
+fn path(s: &mut String, pts: &[(f64, f64)], se: &Series) {
+    if se.markers {
+        for (x, y) in pts {
+            let _ = writeln!(
+                s,
+                r#"<circle cx="{x:.2}" cy="{y:.2}" r="2.5" fill="{}"/>"#,
+                se.color
+            );
+        }
+    } else if !pts.is_empty() {
+        let d: Vec<String> = pts.iter().map(|(x, y)| format!("{x:.2},{y:.2}")).collect();
+        let _ = writeln!(
+            s,
+            r#"<polyline points="{}" fill="none" stroke="{}" stroke-width="1.5"/>"#,
+            d.join(" "),
+            se.color
+        );
+    }
+}
+
+/// A polar plot: each point `(angle_deg, value)` is drawn at the angle (0°
+/// to the right, counter-clockwise) and at radius `R·(0.5 + 0.45·value/v)`,
+/// `v` the largest `|value|` rounded up, so the middle ring is value 0 and
+/// the inner and outer rings are `−v` and `+v`, labelled in `unit`
+/// after multiplying by `unit_scale` (e.g. 1000 for mm → µm).
+pub fn polar(title: &str, series: &[Series], unit: &str, unit_scale: f64) -> String {
+    let vmax = series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.1.abs()))
+        .filter(|v| v.is_finite())
+        .fold(0.0_f64, f64::max);
+    let v = nice(vmax * unit_scale) / unit_scale;
+    let (cx, cy, r) = (SIZE / 2.0, SIZE / 2.0 + 10.0, SIZE / 2.0 - 50.0);
+    let rad = |val: f64| r * (0.5 + 0.45 * val / v);
+    let mut s = String::new();
+    header(
+        &mut s,
+        SIZE,
+        SIZE + 20.0 + 16.0 * series.len() as f64,
+        title,
+    );
+    for (k, val) in [-v, 0.0, v].into_iter().enumerate() {
+        let _ = writeln!(
+            s,
+            r##"<circle cx="{cx}" cy="{cy}" r="{:.2}" fill="none" stroke="{}" stroke-dasharray="{}"/>"##,
+            rad(val),
+            if k == 1 { "#888" } else { "#ccc" },
+            if k == 1 { "none" } else { "4 3" }
+        );
+        let _ = writeln!(
+            s,
+            r##"<text x="{:.2}" y="{:.2}" fill="#555">{} {unit}</text>"##,
+            cx + 3.0,
+            cy - rad(val) - 2.0,
+            fmt_tick(val * unit_scale)
+        );
+    }
+    for deg in (0..360).step_by(30) {
+        let a = (deg as f64).to_radians();
+        let (x2, y2) = (cx + (r + 8.0) * a.cos(), cy - (r + 8.0) * a.sin());
+        let _ = writeln!(
+            s,
+            r##"<line x1="{cx}" y1="{cy}" x2="{x2:.2}" y2="{y2:.2}" stroke="#eee"/>"##
+        );
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.2}" y="{:.2}" text-anchor="middle">{deg}°</text>"#,
+            cx + (r + 22.0) * a.cos(),
+            cy - (r + 22.0) * a.sin() + 4.0
+        );
+    }
+    for se in series {
+        let pts: Vec<(f64, f64)> = se
+            .points
+            .iter()
+            .filter(|p| p.0.is_finite() && p.1.is_finite())
+            .map(|&(deg, val)| {
+                let a = deg.to_radians();
+                (cx + rad(val) * a.cos(), cy - rad(val) * a.sin())
+            })
+            .collect();
+        path(&mut s, &pts, se);
+    }
+    legend(&mut s, series, 20.0, SIZE + 20.0);
+    s.push_str("</svg>\n");
+    s
+}
+
+/// An x–y line plot with axis labels.
+pub fn xy(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> String {
+    let pts = || {
+        series
+            .iter()
+            .flat_map(|s| s.points.iter())
+            .filter(|p| p.0.is_finite() && p.1.is_finite())
+    };
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for &(x, y) in pts() {
+        (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
+    }
+    if x0 > x1 {
+        (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
+    }
+    if x1 == x0 {
+        x1 = x0 + 1.0;
+    }
+    if y1 == y0 {
+        y1 = y0 + 1.0;
+    }
+    let (l, t, w, h) = (70.0, 40.0, SIZE - 100.0, SIZE - 120.0);
+    let px = |x: f64| l + (x - x0) / (x1 - x0) * w;
+    let py = |y: f64| t + h - (y - y0) / (y1 - y0) * h;
+    let mut s = String::new();
+    header(&mut s, SIZE, SIZE + 16.0 * series.len() as f64, title);
+    let _ = writeln!(
+        s,
+        r#"<rect x="{l}" y="{t}" width="{w}" height="{h}" fill="none" stroke="black"/>"#
+    );
+    for k in 0..=4 {
+        let fx = x0 + (x1 - x0) * k as f64 / 4.0;
+        let fy = y0 + (y1 - y0) * k as f64 / 4.0;
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.2}" y="{}" text-anchor="middle">{}</text>"#,
+            px(fx),
+            t + h + 16.0,
+            fmt_tick(fx)
+        );
+        let _ = writeln!(
+            s,
+            r#"<text x="{}" y="{:.2}" text-anchor="end">{}</text>"#,
+            l - 4.0,
+            py(fy) + 4.0,
+            fmt_tick(fy)
+        );
+    }
+    let _ = writeln!(
+        s,
+        r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
+        l + w / 2.0,
+        t + h + 34.0,
+        escape(x_label)
+    );
+    let _ = writeln!(
+        s,
+        r#"<text x="16" y="{}" text-anchor="middle" transform="rotate(-90 16 {})">{}</text>"#,
+        t + h / 2.0,
+        t + h / 2.0,
+        escape(y_label)
+    );
+    for se in series {
+        let p: Vec<(f64, f64)> = se
+            .points
+            .iter()
+            .filter(|p| p.0.is_finite() && p.1.is_finite())
+            .map(|&(x, y)| (px(x), py(y)))
+            .collect();
+        path(&mut s, &p, se);
+    }
+    legend(&mut s, series, 20.0, SIZE);
+    s.push_str("</svg>\n");
+    s
+}
+
+/// The smallest of 1, 2, 5 × 10^k not below `x` (1 for `x ≤ 0`).
+fn nice(x: f64) -> f64 {
+    if x.is_nan() || x <= 0.0 || !x.is_finite() {
+        return 1.0;
+    }
+    let e = 10f64.powf(x.log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * e)
+        .find(|&v| v >= x * (1.0 - 1e-12))
+        .unwrap_or(10.0 * e)
+}
+
+fn fmt_tick(v: f64) -> String {
+    let s = format!("{v:.3}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".into() } else { s.into() }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nice_rounds_up_to_1_2_5() {
+        assert_eq!(nice(3.2), 5.0);
+        assert_eq!(nice(0.15), 0.2);
+        assert_eq!(nice(10.0), 10.0);
+        assert_eq!(nice(0.0), 1.0);
+    }
+
+    #[test]
+    fn polar_places_zero_on_the_middle_ring() {
+        let se = Series {
+            name: "a<b".into(),
+            points: vec![(0.0, 0.0), (90.0, 0.002)],
+            color: "red".into(),
+            markers: true,
+        };
+        let svg = polar("t", &[se], "µm", 1000.0);
+        // v = 2 µm: value 0 at r = 0.5 R = 95 px right of the centre (240 + 95 = 335).
+        assert!(svg.contains(r#"cx="335.00" cy="250.00""#), "{svg}");
+        // value +v at 90°: r = 0.95 R = 180.5 px above the centre.
+        assert!(svg.contains(r#"cx="240.00" cy="69.50""#), "{svg}");
+        assert!(svg.contains("a&lt;b") && svg.ends_with("</svg>\n"));
+    }
+
+    #[test]
+    fn xy_maps_the_data_range_to_the_frame() {
+        let se = Series {
+            name: "l".into(),
+            points: vec![(0.0, 0.0), (1.0, 2.0)],
+            color: "blue".into(),
+            markers: false,
+        };
+        let svg = xy("t", "x", "y", &[se]);
+        assert!(svg.contains("70.00,400.00 450.00,40.00"), "{svg}");
+    }
+}
