@@ -1,0 +1,3 @@
+//! Measurement methods built on the model, the kinematics and the fit engine.
+
+pub mod tracker;
