@@ -3,8 +3,11 @@
 //! identifiability analysis, validation at held-out poses, measurement
 //! planning, simulation and compensation.
 
+pub mod compensate;
 pub mod identify;
 pub mod model;
+pub mod plan;
+pub mod plot;
 pub mod simulate;
 pub mod validate;
 
