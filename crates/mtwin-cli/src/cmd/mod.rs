@@ -6,6 +6,7 @@ pub use common::diag as common_diag;
 mod demo;
 mod model;
 mod predict;
+mod tracker;
 
 use clap::Subcommand;
 
@@ -23,6 +24,27 @@ pub enum Command {
         after_help = "Example:\n  mtwin predict --machine examples/machines/ac-trunnion-with-errors.toml --data poses.csv --out pred.csv"
     )]
     Predict(predict::Args),
+    /// Identify geometric errors from measured tool-tip positions (laser tracker).
+    #[command(
+        after_help = "Example:\n  mtwin identify --machine examples/machines/afp-gantry.toml --data fit.csv --fit pdge:cheb3,location --out identified.toml"
+    )]
+    Identify(tracker::IdentifyArgs),
+    /// Compare measured tool tips at check poses with the nominal and the identified model.
+    #[command(
+        after_help = "Example:\n  mtwin validate --machine identified.toml --data check.csv --plot check.svg"
+    )]
+    Validate(tracker::ValidateArgs),
+    /// Plan a measurement.
+    #[command(subcommand)]
+    Plan(tracker::PlanCommand),
+    /// Simulate a measurement of a known machine.
+    #[command(subcommand)]
+    Simulate(tracker::SimulateCommand),
+    /// Corrected axis commands from an identified model (inverse kinematics).
+    #[command(
+        after_help = "Example:\n  mtwin compensate-points --machine identified.toml --data targets.csv --out corrected.csv"
+    )]
+    CompensatePoints(tracker::CompensateArgs),
 }
 
 /// Run one subcommand.
@@ -31,5 +53,10 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Demo(a) => demo::run(a),
         Command::Model(c) => model::run(c),
         Command::Predict(a) => predict::run(a),
+        Command::Identify(a) => tracker::run_identify(a),
+        Command::Validate(a) => tracker::run_validate(a),
+        Command::Plan(c) => tracker::run_plan(c),
+        Command::Simulate(c) => tracker::run_simulate(c),
+        Command::CompensatePoints(a) => tracker::run_compensate(a),
     }
 }

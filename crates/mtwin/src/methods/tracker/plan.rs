@@ -11,7 +11,7 @@
 
 use nalgebra::{DMatrix, Matrix3, Vector3};
 
-use rand::Rng;
+use rand::{Rng, SeedableRng};
 
 use super::identify::{IdentifyError, IdentifyOptions, identify};
 use super::model::{TrackerModel, TrackerPoint};
@@ -149,6 +149,34 @@ pub fn expected<R: Rng>(
     Ok(report)
 }
 
+/// A measurement plan: chosen poses and what they would identify.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The chosen poses, in the order picked (mm, degree).
+    pub poses: Vec<Vec<f64>>,
+    /// Expected identification (see [`expected`]).
+    pub expected: FitReport,
+}
+
+/// Draws `candidates` poses uniformly in the travel (seeded), keeps the
+/// `select` D-optimal ones and evaluates them with [`expected`].
+pub fn plan(
+    machine: &Machine,
+    params: &ParameterSet,
+    candidates: usize,
+    select: usize,
+    noise: f64,
+    seed: u64,
+) -> Result<Plan, IdentifyError> {
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let cands = super::simulate::random_poses(machine, candidates, &mut rng);
+    let blocks = scaled_blocks(machine, params, &cands);
+    let chosen = select_d_optimal(&blocks, select);
+    let poses: Vec<Vec<f64>> = chosen.iter().map(|&c| cands[c].clone()).collect();
+    let expected = expected(machine, params, &poses, noise, &mut rng)?;
+    Ok(Plan { poses, expected })
+}
+
 /// The pose program: rapid-free linear moves to every pose with a dwell for
 /// the tracker reading, axis words by axis name (mm, degree).
 pub fn gcode(machine: &Machine, poses: &[Vec<f64>], feed: f64, dwell_s: f64) -> String {
@@ -169,7 +197,6 @@ mod tests {
     use super::*;
     use crate::methods::tracker::simulate::random_poses;
     use crate::model::read_machine;
-    use rand::SeedableRng;
 
     fn afp() -> Machine {
         let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))

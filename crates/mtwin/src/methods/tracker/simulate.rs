@@ -3,7 +3,7 @@
 //! noise.
 
 use nalgebra::Vector3;
-use rand::Rng;
+use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
 
 use super::model::TrackerPoint;
@@ -94,11 +94,15 @@ pub fn simulate<R: Rng>(
         .collect()
 }
 
+/// [`simulate`] with a generator seeded by `seed` (reproducible).
+pub fn simulate_seeded(truth: &Machine, poses: &[Vec<f64>], noise: f64, seed: u64) -> Vec<TrackerPoint> {
+    simulate(truth, poses, noise, &mut rand::rngs::StdRng::seed_from_u64(seed))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::model::read_machine;
-    use rand::SeedableRng;
 
     fn afp() -> Machine {
         let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
