@@ -239,7 +239,10 @@ pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
                 r.identifiability.rank,
                 r.condition_number
             );
-            println!("{:<10} {:>14} {:>14}  unit", "parameter", "value", "uncertainty");
+            println!(
+                "{:<10} {:>14} {:>14}  unit",
+                "parameter", "value", "uncertainty"
+            );
             for (j, e) in r.estimates.iter().enumerate() {
                 if e.unidentifiable.is_some() {
                     continue;
@@ -335,7 +338,10 @@ pub fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
         })),
         Format::Human => {
             print_table(
-                &format!("{} check points: |error| before (nominal) and after (identified model)", v.points),
+                &format!(
+                    "{} check points: |error| before (nominal) and after (identified model)",
+                    v.points
+                ),
                 &v.before,
                 &v.after,
             );
@@ -384,7 +390,10 @@ pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
                 r.estimates.len(),
                 r.condition_number
             );
-            println!("expected standard uncertainty at {} µm noise:", a.noise * 1e3);
+            println!(
+                "expected standard uncertainty at {} µm noise:",
+                a.noise * 1e3
+            );
             for (j, e) in r.estimates.iter().enumerate() {
                 if let Some(u) = e.uncertainty {
                     let (s, unit) = if rot[j] { (1e6, "µrad") } else { (1e3, "µm") };
@@ -403,7 +412,10 @@ pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
 pub fn run_simulate(c: SimulateCommand) -> anyhow::Result<()> {
     let SimulateCommand::Tracker(a) = c;
     if !(a.noise.is_finite() && a.noise >= 0.0) {
-        bail!("--noise must be a non-negative number of mm, got {}", a.noise);
+        bail!(
+            "--noise must be a non-negative number of mm, got {}",
+            a.noise
+        );
     }
     let m = load_machine(&a.machine)?;
     let t = load_table(&a.poses)?;
@@ -418,7 +430,11 @@ pub fn run_simulate(c: SimulateCommand) -> anyhow::Result<()> {
         })
         .collect();
     write_points(&a.out, &m, &rows, &["x", "y", "z"])?;
-    note(format!("{} simulated points written to {}", rows.len(), a.out.display()));
+    note(format!(
+        "{} simulated points written to {}",
+        rows.len(),
+        a.out.display()
+    ));
     Ok(())
 }
 
@@ -430,16 +446,24 @@ pub fn run_compensate(a: CompensateArgs) -> anyhow::Result<()> {
     let mut rows = Vec::with_capacity(poses.len());
     let (mut before, mut after) = (0.0f64, 0.0f64);
     for (k, q) in poses.iter().enumerate() {
-        let r = c
-            .correct(q)
-            .map_err(|e| diag(t.row_error(k, format!("cannot compensate this pose: {e}")).into()))?;
+        let r = c.correct(q).map_err(|e| {
+            diag(
+                t.row_error(k, format!("cannot compensate this pose: {e}"))
+                    .into(),
+            )
+        })?;
         before = before.max(r.error_before);
         after = after.max(r.error_after);
         let mut row = r.q.clone();
         row.extend([r.error_before, r.error_after, r.axis_error_after]);
         rows.push(row);
     }
-    write_points(&a.out, &m, &rows, &["error_before", "error_after", "axis_error_after"])?;
+    write_points(
+        &a.out,
+        &m,
+        &rows,
+        &["error_before", "error_after", "axis_error_after"],
+    )?;
     match a.format {
         Format::Json => print_json(&json!({
             "poses": rows.len(), "mode": c.mode(),

@@ -100,7 +100,11 @@ impl Compensator {
         Ok(Corrected {
             error_before,
             error_after: (got.tip - want.tip).norm(),
-            axis_error_after: got.axis.cross(&want.axis).norm().atan2(got.axis.dot(&want.axis)),
+            axis_error_after: got
+                .axis
+                .cross(&want.axis)
+                .norm()
+                .atan2(got.axis.dot(&want.axis)),
             q: qc,
         })
     }
@@ -132,7 +136,10 @@ mod tests {
         let e = Kinematics::new(&m).pose(&q).tip - Kinematics::nominal(&m).pose(&q).tip;
         assert!((e.norm() - r.error_before).abs() < 1e-12);
         for k in 0..3 {
-            assert!((r.q[k] - q[k] + e[k]).abs() < 1e-3 * e.norm().max(1e-3), "{k}");
+            assert!(
+                (r.q[k] - q[k] + e[k]).abs() < 1e-3 * e.norm().max(1e-3),
+                "{k}"
+            );
         }
     }
 

@@ -139,7 +139,13 @@ pub fn expected<R: Rng>(
 ) -> Result<FitReport, IdentifyError> {
     let nominal = machine.nominal();
     let points = simulate(&nominal, poses, noise, rng);
-    let id = identify(&nominal, params, &points, &IdentifyOptions::default(), &|_| {})?;
+    let id = identify(
+        &nominal,
+        params,
+        &points,
+        &IdentifyOptions::default(),
+        &|_| {},
+    )?;
     let mut report = id.report;
     if let Some(s) = report.sigma.filter(|&s| s > 0.0) {
         for e in &mut report.estimates {

@@ -95,8 +95,18 @@ pub fn simulate<R: Rng>(
 }
 
 /// [`simulate`] with a generator seeded by `seed` (reproducible).
-pub fn simulate_seeded(truth: &Machine, poses: &[Vec<f64>], noise: f64, seed: u64) -> Vec<TrackerPoint> {
-    simulate(truth, poses, noise, &mut rand::rngs::StdRng::seed_from_u64(seed))
+pub fn simulate_seeded(
+    truth: &Machine,
+    poses: &[Vec<f64>],
+    noise: f64,
+    seed: u64,
+) -> Vec<TrackerPoint> {
+    simulate(
+        truth,
+        poses,
+        noise,
+        &mut rand::rngs::StdRng::seed_from_u64(seed),
+    )
 }
 
 #[cfg(test)]
