@@ -11,12 +11,25 @@ use crate::kinematics::Kinematics;
 use crate::model::{Machine, ParameterSet};
 
 /// Settings of an identification.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct IdentifyOptions {
     /// Fit the tracker-to-W registration (6 parameters) with the errors.
     pub registration: bool,
-    /// Settings of the least-squares engine.
+    /// Settings of the least-squares engine. The default excludes outlier
+    /// points (a blocked beam) from a second fit; they are reported in
+    /// `report.outliers`.
     pub fit: fit::Options,
+}
+
+impl Default for IdentifyOptions {
+    fn default() -> Self {
+        let mut fit = fit::Options::default();
+        fit.outliers.exclude = true;
+        Self {
+            registration: false,
+            fit,
+        }
+    }
 }
 
 /// Why an identification could not be made.

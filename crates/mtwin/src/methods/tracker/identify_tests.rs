@@ -276,3 +276,28 @@ fn bad_points_are_rejected() {
         "{e:?}"
     );
 }
+
+#[test]
+fn a_blocked_beam_is_reported_and_left_out() {
+    let m = afp();
+    let mut rng = StdRng::seed_from_u64(21);
+    let truth = truth(&m, &mut rng);
+    let params = ParameterSet::from_spec(&m, "pdge:cheb2,location").unwrap();
+    let poses = random_poses(&m, 120, &mut rng);
+    let clean = simulate(&truth, &poses, 0.005, &mut rng);
+    let mut dirty = clean.clone();
+    dirty[17].measured.y += 0.5;
+    let opts = IdentifyOptions::default();
+    let a = identify(&m, &params, &clean, &opts, &|_| {}).unwrap();
+    let b = identify(&m, &params, &dirty, &opts, &|_| {}).unwrap();
+    let flagged: Vec<usize> = b.report.outliers.flagged.iter().map(|o| o.block).collect();
+    assert_eq!(flagged, vec![17]);
+    assert!(b.report.outliers.flagged[0].excluded);
+    // Without point 17 the fit is the clean one minus one point: its
+    // predictions agree with the clean fit to well within the noise.
+    let check = random_poses(&m, 50, &mut rng);
+    let pa = tips(&a.machine, &ParameterSet::from_list(vec![]), &[], &check);
+    let pb = tips(&b.machine, &ParameterSet::from_list(vec![]), &[], &check);
+    let diff: Vec<f64> = pa.iter().zip(&pb).map(|(x, y)| x - y).collect();
+    assert!(rms(&diff) < 0.005, "{}", rms(&diff));
+}
