@@ -9,6 +9,7 @@ mod model;
 mod predict;
 mod servo;
 mod thermal;
+mod tracker;
 
 use clap::Subcommand;
 
@@ -35,6 +36,27 @@ pub enum Command {
     /// Fit and predict spindle-speed-driven thermal drift in Z (spec 04).
     #[command(subcommand)]
     Thermal(thermal::Command),
+    /// Identify geometric errors from measured tool-tip positions (laser tracker).
+    #[command(
+        after_help = "Example:\n  mtwin identify --machine examples/machines/afp-gantry.toml --data fit.csv --fit pdge:cheb3,location --out identified.toml"
+    )]
+    Identify(tracker::IdentifyArgs),
+    /// Compare measured tool tips at check poses with the nominal and the identified model.
+    #[command(
+        after_help = "Example:\n  mtwin validate --machine identified.toml --data check.csv --plot check.svg"
+    )]
+    Validate(tracker::ValidateArgs),
+    /// Plan a measurement.
+    #[command(subcommand)]
+    Plan(tracker::PlanCommand),
+    /// Simulate a measurement of a known machine.
+    #[command(subcommand)]
+    Simulate(tracker::SimulateCommand),
+    /// Corrected axis commands from an identified model (inverse kinematics).
+    #[command(
+        after_help = "Example:\n  mtwin compensate-points --machine identified.toml --data targets.csv --out corrected.csv"
+    )]
+    CompensatePoints(tracker::CompensateArgs),
 }
 
 /// Run one subcommand.
@@ -46,5 +68,10 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Predict(a) => predict::run(a),
         Command::Servo(c) => servo::run(c),
         Command::Thermal(c) => thermal::run(c),
+        Command::Identify(a) => tracker::run_identify(a),
+        Command::Validate(a) => tracker::run_validate(a),
+        Command::Plan(c) => tracker::run_plan(c),
+        Command::Simulate(c) => tracker::run_simulate(c),
+        Command::CompensatePoints(a) => tracker::run_compensate(a),
     }
 }

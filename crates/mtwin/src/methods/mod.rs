@@ -4,3 +4,4 @@
 
 pub mod ballbar;
 pub mod thermal;
+pub mod tracker;

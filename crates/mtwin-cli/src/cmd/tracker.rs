@@ -1,0 +1,485 @@
+//! Tool-tip (laser-tracker) identification commands (spec 02): `identify`
+//! (contract), `validate`, `plan tracker`, `simulate tracker`,
+//! `compensate-points`.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use mtwin::fit::Progress;
+use mtwin::io::{Table, write_atomic_with, write_csv_row};
+use mtwin::methods::tracker::compensate::Compensator;
+use mtwin::methods::tracker::plan::{gcode, plan};
+use mtwin::methods::tracker::plot::error_chart;
+use mtwin::methods::tracker::simulate::simulate_seeded;
+use mtwin::methods::tracker::{
+    ErrorStats, IdentifyOptions, Stats, TrackerPoint, identify, validate,
+};
+use mtwin::model::{Machine, ParameterSet, machine_to_toml, read_poses};
+use mtwin::nalgebra::Vector3;
+use serde_json::json;
+
+use super::common::{diag, load_machine, load_table};
+use crate::output::{Format, note, print_json, progress, warn};
+
+/// Points at which the identification shows a progress bar.
+const PROGRESS_POINTS: usize = 2000;
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct IdentifyArgs {
+    /// Machine model file (TOML): nominal geometry (and errors not being fitted).
+    #[arg(long)]
+    machine: PathBuf,
+    /// CSV: one column per axis (mm, deg) and the measured tool tip x,y,z (mm, W).
+    #[arg(long)]
+    data: PathBuf,
+    /// What to fit, e.g. `pdge:cheb3,location` or `EXX:cheb3,EY0A`.
+    #[arg(long)]
+    fit: String,
+    /// Output machine model with the identified values written in.
+    #[arg(long)]
+    out: PathBuf,
+    /// Fit a 6-parameter rigid registration tracker frame → W with the errors
+    /// (x,y,z are then in the tracker frame).
+    #[arg(long)]
+    registration: bool,
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct ValidateArgs {
+    /// Identified machine model (TOML).
+    #[arg(long)]
+    machine: PathBuf,
+    /// CSV: axis columns and measured x,y,z (mm, W) at check poses.
+    #[arg(long)]
+    data: PathBuf,
+    /// Write an SVG chart of |Δp| per point before and after.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+#[derive(Debug, clap::Subcommand)]
+pub enum PlanCommand {
+    /// Choose laser-tracker measurement poses (greedy D-optimal).
+    #[command(
+        allow_negative_numbers = true,
+        after_help = "Example:\n  mtwin plan tracker --machine examples/machines/afp-gantry.toml --fit pdge:cheb3,location --candidates 1000 --select 180 --out-csv poses.csv --out-gcode poses.nc"
+    )]
+    Tracker(PlanArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct PlanArgs {
+    #[arg(long)]
+    machine: PathBuf,
+    /// What the measurement should identify (fit specification).
+    #[arg(long)]
+    fit: String,
+    /// Number of random candidate poses drawn in the travel.
+    #[arg(long)]
+    candidates: usize,
+    /// Number of poses to keep.
+    #[arg(long)]
+    select: usize,
+    /// Tracker noise, mm (standard deviation per coordinate).
+    #[arg(long, default_value_t = 0.010)]
+    noise: f64,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output CSV of the chosen poses (axis columns).
+    #[arg(long)]
+    out_csv: PathBuf,
+    /// Output G-code program visiting the poses with a dwell at each.
+    #[arg(long)]
+    out_gcode: PathBuf,
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+#[derive(Debug, clap::Subcommand)]
+pub enum SimulateCommand {
+    /// Simulate a laser-tracker measurement of a known machine.
+    #[command(
+        allow_negative_numbers = true,
+        after_help = "Example:\n  mtwin simulate tracker --machine examples/machines/afp-gantry-with-errors.toml --poses poses.csv --noise 0.010 --seed 1 --out fit.csv"
+    )]
+    Tracker(SimulateArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct SimulateArgs {
+    /// The "true" machine (TOML) whose tips are measured.
+    #[arg(long)]
+    machine: PathBuf,
+    /// CSV with axis columns.
+    #[arg(long)]
+    poses: PathBuf,
+    /// Noise, mm (standard deviation per coordinate).
+    #[arg(long, default_value_t = 0.010)]
+    noise: f64,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output CSV: axis columns and x,y,z (mm, W).
+    #[arg(long)]
+    out: PathBuf,
+}
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct CompensateArgs {
+    /// Identified machine model (TOML).
+    #[arg(long)]
+    machine: PathBuf,
+    /// CSV with the commanded (nominal) axis positions.
+    #[arg(long)]
+    data: PathBuf,
+    /// Output CSV: corrected axis columns, then the predicted tip error before
+    /// and after correction (mm) and the tool-axis error after (rad).
+    #[arg(long)]
+    out: PathBuf,
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+/// Axis positions and measured x,y,z of every row.
+fn read_points(t: &Table, m: &Machine) -> anyhow::Result<Vec<TrackerPoint>> {
+    let poses = read_poses(t, m, true).map_err(diag)?;
+    let xyz = t.number_rows(&["x", "y", "z"]).map_err(diag)?;
+    Ok(poses
+        .into_iter()
+        .zip(xyz)
+        .map(|(q, p)| TrackerPoint {
+            q,
+            measured: Vector3::new(p[0], p[1], p[2]),
+        })
+        .collect())
+}
+
+fn header(m: &Machine, extra: &[&str]) -> String {
+    let mut h: Vec<&str> = m.axis_names();
+    h.extend_from_slice(extra);
+    h.join(",")
+}
+
+fn write_points(path: &Path, m: &Machine, rows: &[Vec<f64>], extra: &[&str]) -> anyhow::Result<()> {
+    write_atomic_with(path, |w| -> std::io::Result<()> {
+        writeln!(w, "{}", header(m, extra))?;
+        for r in rows {
+            write_csv_row(w, r)?;
+        }
+        Ok(())
+    })
+    .with_context(|| format!("cannot write {}", path.display()))
+}
+
+pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
+    let m = load_machine(&a.machine)?;
+    let params = ParameterSet::from_spec(&m, &a.fit).map_err(|e| anyhow::anyhow!("--fit: {e}"))?;
+    let t = load_table(&a.data)?;
+    let points = read_points(&t, &m)?;
+    let options = IdentifyOptions {
+        registration: a.registration,
+        ..Default::default()
+    };
+    let bar = if points.len() >= PROGRESS_POINTS {
+        progress(options.fit.max_iterations as u64, "identify")
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let id = identify(&m, &params, &points, &options, &|p| {
+        if let Progress::Iteration { iteration, .. } = p {
+            bar.set_position(iteration as u64);
+        }
+    })
+    .with_context(|| format!("cannot identify from {}", a.data.display()))?;
+    bar.finish_and_clear();
+    let r = &id.report;
+    for w in &r.warnings {
+        warn(w.to_string());
+    }
+    let text = machine_to_toml(
+        &id.machine,
+        &[
+            &format!("Identified by mtwin identify --fit {}", a.fit),
+            &format!("from {} ({} points)", a.data.display(), points.len()),
+        ],
+    );
+    write_atomic_with(&a.out, |w| w.write_all(text.as_bytes()))
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    let (rms_before, rms_after) = r.rms();
+    let unident = r.unidentifiable_names();
+    let rot = params.is_rotation();
+    match a.format {
+        Format::Json => print_json(&json!({
+            "rank": r.identifiability.rank,
+            "parameters": r.estimates.len(),
+            "unidentifiable": unident,
+            "rms_before": rms_before,
+            "rms_after": rms_after,
+            "condition_number": r.condition_number,
+            "sigma": r.sigma,
+            "estimates": r.estimates,
+            "registration": id.registration,
+            "relations": r.identifiability.relations.iter().map(|c| c.describe()).collect::<Vec<_>>(),
+            "outliers": r.outliers.flagged,
+            "convergence": r.convergence,
+            "warnings": r.warnings,
+            "out": a.out.display().to_string(),
+        })),
+        Format::Human => {
+            println!(
+                "{} points, {} parameters: rank {}, condition number {:.3e}",
+                points.len(),
+                r.estimates.len(),
+                r.identifiability.rank,
+                r.condition_number
+            );
+            println!(
+                "{:<10} {:>14} {:>14}  unit",
+                "parameter", "value", "uncertainty"
+            );
+            for (j, e) in r.estimates.iter().enumerate() {
+                if e.unidentifiable.is_some() {
+                    continue;
+                }
+                let is_rot = rot.get(j).copied().unwrap_or(j >= params.len() + 3);
+                let reg_mm = j >= params.len() && !is_rot;
+                let (scale, unit) = if reg_mm {
+                    (1.0, "mm")
+                } else if is_rot {
+                    (1e6, "µrad")
+                } else {
+                    (1e3, "µm")
+                };
+                let u = e
+                    .uncertainty
+                    .map_or("-".to_string(), |u| format!("{:.3}", u * scale));
+                println!("{:<10} {:>14.3} {:>14}  {unit}", e.name, e.value * scale, u);
+            }
+            if !unident.is_empty() {
+                println!("not identifiable (kept at 0): {}", unident.join(", "));
+                for c in &r.identifiability.relations {
+                    println!("  {}", c.describe());
+                }
+            }
+            println!(
+                "residual RMS per coordinate: before {:.2} µm, after {:.2} µm",
+                rms_before * 1e3,
+                rms_after * 1e3
+            );
+            for o in &r.outliers.flagged {
+                println!("outlier: point {} (RMS {:.2} µm)", o.block + 1, o.rms * 1e3);
+            }
+            note(format!("identified machine written to {}", a.out.display()));
+            Ok(())
+        }
+    }
+}
+
+fn stats_json(s: &ErrorStats) -> serde_json::Value {
+    serde_json::to_value(s).unwrap_or_default()
+}
+
+fn print_table(title: &str, before: &ErrorStats, after: &ErrorStats) {
+    let ch = ErrorStats::change(before, after);
+    println!("{title}");
+    println!(
+        "{:<5} {:>26} {:>26} {:>21}",
+        "", "before max/mean/std µm", "after max/mean/std µm", "change max/mean/std %"
+    );
+    let row = |n: &str, b: &Stats, a: &Stats, c: &Stats| {
+        println!(
+            "{n:<5} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>6.0} {:>6.0} {:>6.0}",
+            b.max * 1e3,
+            b.mean * 1e3,
+            b.std * 1e3,
+            a.max * 1e3,
+            a.mean * 1e3,
+            a.std * 1e3,
+            c.max,
+            c.mean,
+            c.std
+        )
+    };
+    row("x", &before.x, &after.x, &ch.x);
+    row("y", &before.y, &after.y, &ch.y);
+    row("z", &before.z, &after.z, &ch.z);
+    row("|Δp|", &before.distance, &after.distance, &ch.distance);
+}
+
+pub fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
+    let m = load_machine(&a.machine)?;
+    let t = load_table(&a.data)?;
+    let points = read_points(&t, &m)?;
+    if points.is_empty() {
+        bail!("{}: no data rows", a.data.display());
+    }
+    let v = validate(&m, &points);
+    if let Some(p) = &a.plot {
+        let b: Vec<f64> = v.errors_before.iter().map(|e| e.norm()).collect();
+        let af: Vec<f64> = v.errors_after.iter().map(|e| e.norm()).collect();
+        let svg = error_chart(&format!("|Δp| per point, {}", a.data.display()), &b, &af);
+        write_atomic_with(p, |w| w.write_all(svg.as_bytes()))
+            .with_context(|| format!("cannot write {}", p.display()))?;
+    }
+    match a.format {
+        Format::Json => print_json(&json!({
+            "points": v.points,
+            "before": stats_json(&v.before),
+            "after": stats_json(&v.after),
+            "change_percent": stats_json(&v.change),
+            "rms_before": v.before.rms(),
+            "rms_after": v.after.rms(),
+        })),
+        Format::Human => {
+            print_table(
+                &format!(
+                    "{} check points: |error| before (nominal) and after (identified model)",
+                    v.points
+                ),
+                &v.before,
+                &v.after,
+            );
+            Ok(())
+        }
+    }
+}
+
+pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
+    let PlanCommand::Tracker(a) = c;
+    if !(a.noise.is_finite() && a.noise > 0.0) {
+        bail!("--noise must be a positive number of mm, got {}", a.noise);
+    }
+    if a.select == 0 || a.select > a.candidates {
+        bail!(
+            "--select must be between 1 and --candidates ({}), got {}",
+            a.candidates,
+            a.select
+        );
+    }
+    let m = load_machine(&a.machine)?;
+    let params = ParameterSet::from_spec(&m, &a.fit).map_err(|e| anyhow::anyhow!("--fit: {e}"))?;
+    let p = plan(&m, &params, a.candidates, a.select, a.noise, a.seed)
+        .context("cannot evaluate the chosen poses")?;
+    write_points(&a.out_csv, &m, &p.poses, &[])?;
+    let g = gcode(&m, &p.poses, 2000.0, 2.0);
+    write_atomic_with(&a.out_gcode, |w| w.write_all(g.as_bytes()))
+        .with_context(|| format!("cannot write {}", a.out_gcode.display()))?;
+    let r = &p.expected;
+    let rot = params.is_rotation();
+    match a.format {
+        Format::Json => print_json(&json!({
+            "poses": p.poses.len(),
+            "rank": r.identifiability.rank,
+            "parameters": r.estimates.len(),
+            "unidentifiable": r.unidentifiable_names(),
+            "condition_number": r.condition_number,
+            "expected_uncertainties": r.estimates.iter().map(|e| json!({"name": e.name, "uncertainty": e.uncertainty})).collect::<Vec<_>>(),
+        })),
+        Format::Human => {
+            println!(
+                "{} of {} candidate poses chosen: rank {} of {} parameters, condition number {:.3e}",
+                p.poses.len(),
+                a.candidates,
+                r.identifiability.rank,
+                r.estimates.len(),
+                r.condition_number
+            );
+            println!(
+                "expected standard uncertainty at {} µm noise:",
+                a.noise * 1e3
+            );
+            for (j, e) in r.estimates.iter().enumerate() {
+                if let Some(u) = e.uncertainty {
+                    let (s, unit) = if rot[j] { (1e6, "µrad") } else { (1e3, "µm") };
+                    println!("  {:<10} {:>10.3} {unit}", e.name, u * s);
+                }
+            }
+            let un = r.unidentifiable_names();
+            if !un.is_empty() {
+                println!("not identifiable from these poses: {}", un.join(", "));
+            }
+            Ok(())
+        }
+    }
+}
+
+pub fn run_simulate(c: SimulateCommand) -> anyhow::Result<()> {
+    let SimulateCommand::Tracker(a) = c;
+    if !(a.noise.is_finite() && a.noise >= 0.0) {
+        bail!(
+            "--noise must be a non-negative number of mm, got {}",
+            a.noise
+        );
+    }
+    let m = load_machine(&a.machine)?;
+    let t = load_table(&a.poses)?;
+    let poses = read_poses(&t, &m, true).map_err(diag)?;
+    let pts = simulate_seeded(&m, &poses, a.noise, a.seed);
+    let rows: Vec<Vec<f64>> = pts
+        .iter()
+        .map(|p| {
+            let mut r = p.q.clone();
+            r.extend_from_slice(p.measured.as_slice());
+            r
+        })
+        .collect();
+    write_points(&a.out, &m, &rows, &["x", "y", "z"])?;
+    note(format!(
+        "{} simulated points written to {}",
+        rows.len(),
+        a.out.display()
+    ));
+    Ok(())
+}
+
+pub fn run_compensate(a: CompensateArgs) -> anyhow::Result<()> {
+    let m = load_machine(&a.machine)?;
+    let t = load_table(&a.data)?;
+    let poses = read_poses(&t, &m, true).map_err(diag)?;
+    let c = Compensator::new(&m);
+    let mut rows = Vec::with_capacity(poses.len());
+    let (mut before, mut after) = (0.0f64, 0.0f64);
+    for (k, q) in poses.iter().enumerate() {
+        let r = c.correct(q).map_err(|e| {
+            diag(
+                t.row_error(k, format!("cannot compensate this pose: {e}"))
+                    .into(),
+            )
+        })?;
+        before = before.max(r.error_before);
+        after = after.max(r.error_after);
+        let mut row = r.q.clone();
+        row.extend([r.error_before, r.error_after, r.axis_error_after]);
+        rows.push(row);
+    }
+    write_points(
+        &a.out,
+        &m,
+        &rows,
+        &["error_before", "error_after", "axis_error_after"],
+    )?;
+    match a.format {
+        Format::Json => print_json(&json!({
+            "poses": rows.len(), "mode": c.mode(),
+            "max_error_before": before, "max_error_after": after,
+            "out": a.out.display().to_string(),
+        })),
+        Format::Human => {
+            println!(
+                "{} poses corrected ({:?}): predicted tip error max {:.2} µm before, {:.2e} µm after → {}",
+                rows.len(),
+                c.mode(),
+                before * 1e3,
+                after * 1e3,
+                a.out.display()
+            );
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,282 @@
+//! `mtwin identify` (contract), `validate`, `plan tracker`, `simulate tracker`,
+//! `compensate-points`: an end-to-end run on the AFP gantry and bad input.
+
+mod common;
+use common::*;
+
+use std::path::Path;
+
+fn write(dir: &Path, name: &str, text: &str) {
+    std::fs::write(dir.join(name), text).unwrap();
+}
+
+fn json(o: &std::process::Output) -> serde_json::Value {
+    serde_json::from_str(&stdout(o)).unwrap_or_else(|e| panic!("{e}: {}", stdout(o)))
+}
+
+fn ok(o: &std::process::Output) {
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(o));
+}
+
+#[test]
+fn plan_simulate_identify_validate_compensate() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let nominal = example("afp-gantry.toml");
+    let truth = example("afp-gantry-with-errors.toml");
+    let spec = "pdge:cheb2,location";
+    let o = mtwin(
+        d,
+        &[
+            "plan",
+            "tracker",
+            "--machine",
+            &nominal,
+            "--fit",
+            spec,
+            "--candidates",
+            "200",
+            "--select",
+            "90",
+            "--seed",
+            "4",
+            "--out-csv",
+            "poses.csv",
+            "--out-gcode",
+            "poses.nc",
+            "--format",
+            "json",
+        ],
+    );
+    ok(&o);
+    let p = json(&o);
+    assert_eq!(p["poses"], 90);
+    let csv = std::fs::read_to_string(d.join("poses.csv")).unwrap();
+    assert_eq!(csv.lines().next().unwrap(), "X,Y,Z,B,A,C");
+    assert_eq!(csv.lines().count(), 91);
+    let nc = std::fs::read_to_string(d.join("poses.nc")).unwrap();
+    assert_eq!(nc.matches("G04").count(), 90);
+
+    for (poses, out, seed) in [
+        ("poses.csv", "fit.csv", "1"),
+        ("poses.csv", "check.csv", "2"),
+    ] {
+        let o = mtwin(
+            d,
+            &[
+                "simulate",
+                "tracker",
+                "--machine",
+                &truth,
+                "--poses",
+                poses,
+                "--noise",
+                "0.005",
+                "--seed",
+                seed,
+                "--out",
+                out,
+            ],
+        );
+        ok(&o);
+    }
+    let o = mtwin(
+        d,
+        &[
+            "identify",
+            "--machine",
+            &nominal,
+            "--data",
+            "fit.csv",
+            "--fit",
+            spec,
+            "--out",
+            "id.toml",
+            "--format",
+            "json",
+        ],
+    );
+    ok(&o);
+    let j = json(&o);
+    // 6 axes × 6 PDGEs × 3 coefficients + 36 location errors.
+    assert_eq!(j["parameters"], 144);
+    let rank = j["rank"].as_u64().unwrap() as usize;
+    let unident = j["unidentifiable"].as_array().unwrap();
+    assert_eq!(rank + unident.len(), 144);
+    // The roll of C does not move a tip on the C axis (by hand).
+    assert!(unident.iter().any(|u| u == "ECC.c0") && unident.iter().any(|u| u == "EC0C"));
+    let (before, after) = (
+        j["rms_before"].as_f64().unwrap(),
+        j["rms_after"].as_f64().unwrap(),
+    );
+    assert!(after < 0.2 * before, "{before} → {after}");
+    assert!(d.join("id.toml").exists());
+
+    let o = mtwin(
+        d,
+        &[
+            "validate",
+            "--machine",
+            "id.toml",
+            "--data",
+            "check.csv",
+            "--plot",
+            "v.svg",
+            "--format",
+            "json",
+        ],
+    );
+    ok(&o);
+    let v = json(&o);
+    assert_eq!(v["points"], 90);
+    assert!(v["rms_after"].as_f64().unwrap() < 0.3 * v["rms_before"].as_f64().unwrap());
+    assert!(
+        std::fs::read_to_string(d.join("v.svg"))
+            .unwrap()
+            .contains("<polyline")
+    );
+    let o = mtwin(
+        d,
+        &["validate", "--machine", "id.toml", "--data", "check.csv"],
+    );
+    ok(&o);
+    assert!(stdout(&o).contains("|Δp|"));
+
+    let o = mtwin(
+        d,
+        &[
+            "compensate-points",
+            "--machine",
+            "id.toml",
+            "--data",
+            "poses.csv",
+            "--out",
+            "corr.csv",
+            "--format",
+            "json",
+        ],
+    );
+    ok(&o);
+    let c = json(&o);
+    assert!(c["max_error_after"].as_f64().unwrap() < 1e-8);
+    let corr = std::fs::read_to_string(d.join("corr.csv")).unwrap();
+    assert_eq!(
+        corr.lines().next().unwrap(),
+        "X,Y,Z,B,A,C,error_before,error_after,axis_error_after"
+    );
+}
+
+fn fit_csv(d: &Path, rows: &str) {
+    write(d, "fit.csv", &format!("X,Y,Z,B,A,C,x,y,z\n{rows}"));
+}
+
+fn identify(d: &Path, spec: &str) -> std::process::Output {
+    mtwin(
+        d,
+        &[
+            "identify",
+            "--machine",
+            &example("afp-gantry.toml"),
+            "--data",
+            "fit.csv",
+            "--fit",
+            spec,
+            "--out",
+            "id.toml",
+        ],
+    )
+}
+
+fn fails_with(o: &std::process::Output, d: &Path, needles: &[&str]) {
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(o));
+    let e = stderr(o);
+    for n in needles {
+        assert!(e.contains(n), "`{n}` not in: {e}");
+    }
+    assert!(!d.join("id.toml").exists(), "output written on failure");
+}
+
+#[test]
+fn identify_rejects_bad_input_without_writing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A missing column.
+    write(d, "fit.csv", "X,Y,Z,B,A,C,x,y\n1,1,-1,0,0,0,1,1\n");
+    fails_with(&identify(d, "location"), d, &["fit.csv", "z"]);
+    // NaN, on line 3.
+    fit_csv(d, "1,1,-1,0,0,0,1,1,-501\n2,NaN,-1,0,0,0,2,1,-501\n");
+    fails_with(
+        &identify(d, "location"),
+        d,
+        &["fit.csv:3", "not a finite number"],
+    );
+    // A pose outside the travel (X ≤ 8000), line 2.
+    fit_csv(d, "9000,1,-1,0,0,0,1,1,-501\n");
+    fails_with(
+        &identify(d, "location"),
+        d,
+        &["fit.csv:2", "outside its travel"],
+    );
+    // A spec naming an axis the machine does not have.
+    fit_csv(d, "1,1,-1,0,0,0,1,1,-501\n");
+    fails_with(&identify(d, "EY0Q"), d, &["--fit", "axis `Q`"]);
+    // Fewer points than identifiable parameters: 2 points, 9 constants of X, Y, Z
+    // translations and tilts.
+    fit_csv(
+        d,
+        "1,1,-1,0,0,0,1,1,-501\n3000,2000,-700,10,20,30,3000,2000,-1201\n",
+    );
+    fails_with(
+        &identify(d, "EXX:cheb2,EYY:cheb2,EZZ:cheb2,EAX:const,EBY:const"),
+        d,
+        &["cannot determine"],
+    );
+}
+
+#[test]
+fn plan_and_simulate_reject_bad_arguments() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let m = example("afp-gantry.toml");
+    let o = mtwin(
+        d,
+        &[
+            "plan",
+            "tracker",
+            "--machine",
+            &m,
+            "--fit",
+            "location",
+            "--candidates",
+            "10",
+            "--select",
+            "20",
+            "--out-csv",
+            "p.csv",
+            "--out-gcode",
+            "p.nc",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("--select"));
+    assert!(!d.join("p.csv").exists() && !d.join("p.nc").exists());
+    write(d, "poses.csv", "X,Y,Z,B,A,C\n1,1,-1,0,0,0\n");
+    let o = mtwin(
+        d,
+        &[
+            "simulate",
+            "tracker",
+            "--machine",
+            &m,
+            "--poses",
+            "poses.csv",
+            "--noise",
+            "-1",
+            "--out",
+            "f.csv",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("--noise"));
+    assert!(!d.join("f.csv").exists());
+}

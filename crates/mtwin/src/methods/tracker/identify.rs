@@ -1,0 +1,181 @@
+//! Identification of the geometric errors from tool-tip measurements: checks
+//! the input, runs the least-squares engine on [`TrackerModel`] and writes the
+//! identified values into a copy of the machine (unidentifiable parameters
+//! stay 0).
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::model::{TrackerModel, TrackerPoint};
+use crate::fit::{self, FitError, FitReport, Progress};
+use crate::kinematics::Kinematics;
+use crate::model::{Machine, ParameterSet};
+
+/// Settings of an identification.
+#[derive(Debug, Clone)]
+pub struct IdentifyOptions {
+    /// Fit the tracker-to-W registration (6 parameters) with the errors.
+    pub registration: bool,
+    /// Settings of the least-squares engine. The default excludes outlier
+    /// points (a blocked beam) from a second fit; they are reported in
+    /// `report.outliers`.
+    pub fit: fit::Options,
+}
+
+impl Default for IdentifyOptions {
+    fn default() -> Self {
+        let mut fit = fit::Options::default();
+        fit.outliers.exclude = true;
+        Self {
+            registration: false,
+            fit,
+        }
+    }
+}
+
+/// Why an identification could not be made.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum IdentifyError {
+    #[error("there are no measured points")]
+    NoPoints,
+    #[error("point {point} has {got} axis positions but the machine has {expected} axes")]
+    AxisCount {
+        point: usize,
+        got: usize,
+        expected: usize,
+    },
+    #[error("point {point} holds a value that is not a finite number")]
+    NonFinite { point: usize },
+    #[error("point {point}: axis {axis} at {value} is outside its travel [{lo}, {hi}]")]
+    OutOfTravel {
+        point: usize,
+        axis: String,
+        value: f64,
+        lo: f64,
+        hi: f64,
+    },
+    #[error(
+        "{points} measured points cannot determine the {rank} identifiable parameters (need more points than that)"
+    )]
+    TooFewPoints { points: usize, rank: usize },
+    #[error(transparent)]
+    Fit(#[from] FitError),
+}
+
+/// The result of [`identify`].
+#[derive(Debug, Clone)]
+pub struct Identification {
+    /// The input machine with the identified values written in.
+    pub machine: Machine,
+    /// What was fitted (the error part of θ).
+    pub params: ParameterSet,
+    /// The fit: estimates (errors, then registration), identifiability,
+    /// uncertainties, residuals.
+    pub report: FitReport,
+    /// Registration `[tx, ty, tz (mm), a, b, c (rad)]`, tracker → W, if fitted.
+    pub registration: Option<[f64; 6]>,
+}
+
+/// Checks the points against the machine: axis count, finite values, travel.
+pub fn check_points(machine: &Machine, points: &[TrackerPoint]) -> Result<(), IdentifyError> {
+    if points.is_empty() {
+        return Err(IdentifyError::NoPoints);
+    }
+    for (k, p) in points.iter().enumerate() {
+        if p.q.len() != machine.n_axes() {
+            return Err(IdentifyError::AxisCount {
+                point: k,
+                got: p.q.len(),
+                expected: machine.n_axes(),
+            });
+        }
+        if p.q.iter().any(|v| !v.is_finite()) || p.measured.iter().any(|v| !v.is_finite()) {
+            return Err(IdentifyError::NonFinite { point: k });
+        }
+        if let Some((i, v)) = machine.out_of_travel(&p.q) {
+            let a = &machine.axes[i];
+            return Err(IdentifyError::OutOfTravel {
+                point: k,
+                axis: a.name.clone(),
+                value: v,
+                lo: a.travel[0],
+                hi: a.travel[1],
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The rigid transform (as `[tx, ty, tz, a, b, c]` of `Rx(a)·Ry(b)·Rz(c)`)
+/// that best maps `from` onto `to` (Kabsch / Horn, least squares).
+pub fn best_rigid(from: &[Vector3<f64>], to: &[Vector3<f64>]) -> [f64; 6] {
+    let n = from.len().max(1) as f64;
+    let cf = from.iter().sum::<Vector3<f64>>() / n;
+    let ct = to.iter().sum::<Vector3<f64>>() / n;
+    let mut h = Matrix3::zeros();
+    for (f, t) in from.iter().zip(to) {
+        h += (f - cf) * (t - ct).transpose();
+    }
+    let svd = h.svd(true, true);
+    let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
+        return [ct.x - cf.x, ct.y - cf.y, ct.z - cf.z, 0.0, 0.0, 0.0];
+    };
+    let mut d = Matrix3::identity();
+    if (vt.transpose() * u.transpose()).determinant() < 0.0 {
+        d[(2, 2)] = -1.0;
+    }
+    let r = vt.transpose() * d * u.transpose();
+    let t = ct - r * cf;
+    // R = Rx(a)·Ry(b)·Rz(c): R02 = sin b, R12 = −sin a cos b, R22 = cos a cos b,
+    // R01 = −cos b sin c, R00 = cos b cos c.
+    let b = r[(0, 2)].clamp(-1.0, 1.0).asin();
+    let a = (-r[(1, 2)]).atan2(r[(2, 2)]);
+    let c = (-r[(0, 1)]).atan2(r[(0, 0)]);
+    [t.x, t.y, t.z, a, b, c]
+}
+
+/// Identifies `params` of `machine` from `points` (see the module
+/// documentation). The errors of `params` start from 0; the machine's other
+/// errors are kept. With a registration, its start is the best rigid fit of
+/// the measured points onto the nominal tips.
+pub fn identify(
+    machine: &Machine,
+    params: &ParameterSet,
+    points: &[TrackerPoint],
+    options: &IdentifyOptions,
+    progress: &dyn Fn(Progress),
+) -> Result<Identification, IdentifyError> {
+    check_points(machine, points)?;
+    let model = TrackerModel::new(machine, params, points, options.registration);
+    let mut theta0 = vec![0.0; model.len()];
+    if options.registration {
+        let kin = Kinematics::new(&model.machine_at(&theta0));
+        let to: Vec<Vector3<f64>> = points.iter().map(|p| kin.pose(&p.q).tip).collect();
+        let from: Vec<Vector3<f64>> = points.iter().map(|p| p.measured).collect();
+        let g = best_rigid(&from, &to);
+        theta0[params.len()..].copy_from_slice(&g);
+    }
+    let report = fit::fit_with_progress(&model, &theta0, &options.fit, progress)?;
+    let rank = report.identifiability.rank;
+    if points.len() < rank || report.degrees_of_freedom == 0 {
+        return Err(IdentifyError::TooFewPoints {
+            points: points.len(),
+            rank,
+        });
+    }
+    let machine = model.machine_at(&report.theta);
+    let registration = options.registration.then(|| {
+        let mut g = [0.0; 6];
+        g.copy_from_slice(&report.theta[params.len()..]);
+        g
+    });
+    Ok(Identification {
+        machine,
+        params: params.clone(),
+        report,
+        registration,
+    })
+}
+
+#[cfg(test)]
+#[path = "identify_tests.rs"]
+mod tests;

@@ -1,0 +1,16 @@
+//! Volumetric error identification from tool-tip (laser-tracker)
+//! measurements (spec 02): the measurement model, identification with
+//! identifiability analysis, validation at held-out poses, measurement
+//! planning, simulation and compensation.
+
+pub mod compensate;
+pub mod identify;
+pub mod model;
+pub mod plan;
+pub mod plot;
+pub mod simulate;
+pub mod validate;
+
+pub use identify::{Identification, IdentifyError, IdentifyOptions, identify};
+pub use model::{TrackerModel, TrackerPoint};
+pub use validate::{ErrorStats, Stats, Validation, validate};
