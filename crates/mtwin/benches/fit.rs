@@ -1,0 +1,359 @@
+//! Benchmarks of the least-squares engine.
+//!
+//! * `fit/tracker_162x540`: a synthetic laser-tracker identification of the
+//!   size of spec 02 (162 parameters: 6 axes × 6 PDGEs × Chebyshev c0..c3 plus
+//!   18 constants; 180 points × 3 coordinates), with the second-order
+//!   rotation term making it nonlinear and the Chebyshev constant terms of
+//!   parallel translations confounded, as in the real problem. Dense path.
+//! * `fit/dense_1000x300000`: 1 000 parameters, 100 000 points (300 000
+//!   residual rows), a dense Jacobian of smooth random columns (Chebyshev
+//!   polynomials of random coordinates); normal-equation path.
+//!
+//! Run: `cargo bench -p mtwin --bench fit`.
+
+use std::ops::Range;
+use std::time::Duration;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use faer::MatMut;
+use mtwin::fit::{BlockLayout, Model, Options, Parameter, Strategy, check_jacobian, fit};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use rand_distr::{Distribution, Normal};
+
+/// Chebyshev values `T_0..T_{deg}` at `u` into `out`.
+fn chebyshev(u: f64, out: &mut [f64]) {
+    if out.is_empty() {
+        return;
+    }
+    out[0] = 1.0;
+    if out.len() > 1 {
+        out[1] = u;
+    }
+    for k in 2..out.len() {
+        out[k] = 2.0 * u * out[k - 1] - out[k - 2];
+    }
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// Synthetic tracker problem: tool-tip error
+/// `Σ translations + ω × l + ½ ω × (ω × l)` with
+/// `ω = Σ rotation PDGEs`, every PDGE a Chebyshev series in its axis'
+/// normalised position, plus 18 constants acting like squareness errors.
+struct Tracker {
+    /// Per point: normalised axis positions (6) and the lever `l` (mm).
+    poses: Vec<([f64; 6], [f64; 3])>,
+    measured: Vec<f64>,
+    params: Vec<Parameter>,
+}
+
+const AXES: usize = 6;
+const COEFFS: usize = 4;
+const PDGE: usize = AXES * 6 * COEFFS;
+
+impl Tracker {
+    fn new(points: usize, seed: u64) -> Self {
+        let mut rng = StdRng::seed_from_u64(seed);
+        let poses: Vec<([f64; 6], [f64; 3])> = (0..points)
+            .map(|_| {
+                let u = std::array::from_fn(|_| rng.gen_range(-1.0..1.0));
+                let l = [
+                    rng.gen_range(-200.0..200.0),
+                    rng.gen_range(-200.0..200.0),
+                    -500.0 + rng.gen_range(-50.0..50.0),
+                ];
+                (u, l)
+            })
+            .collect();
+        let comps = ["EX", "EY", "EZ", "EA", "EB", "EC"];
+        let axes = ["X", "Y", "Z", "B", "A", "C"];
+        let mut params = Vec::new();
+        for ax in axes {
+            for (c, comp) in comps.iter().enumerate() {
+                for k in 0..COEFFS {
+                    let scale = if c < 3 { 1e-3 } else { 1e-5 };
+                    params.push(Parameter::with_scale(format!("{comp}{ax}.c{k}"), scale));
+                }
+            }
+        }
+        for ax in axes {
+            for comp in ["EX0", "EY0", "EZ0"] {
+                params.push(Parameter::with_scale(format!("{comp}{ax}"), 1e-5));
+            }
+        }
+        let mut t = Self {
+            poses,
+            measured: vec![0.0; 3 * points],
+            params,
+        };
+        let truth: Vec<f64> = (0..t.params.len())
+            .map(|j| t.params[j].scale.unwrap_or(1.0) * rng.gen_range(-3.0..3.0))
+            .collect();
+        let mut clean = vec![0.0; 3 * points];
+        t.residuals(&truth, 0..3 * points, &mut clean);
+        let noise = Normal::new(0.0, 0.002).unwrap();
+        t.measured = clean.iter().map(|v| v + noise.sample(&mut rng)).collect();
+        t
+    }
+
+    /// Basis of point `p`: per parameter, its translation (for PDGE
+    /// translations and constants) or rotation (rotation PDGEs) direction.
+    fn point(&self, theta: &[f64], p: usize, r: &mut [f64; 3], jac: Option<&mut [[f64; 3]]>) {
+        let (u, l) = self.poses[p];
+        let mut t = [[0.0; COEFFS]; AXES];
+        for a in 0..AXES {
+            chebyshev(u[a], &mut t[a]);
+        }
+        let mut trans = [0.0; 3];
+        let mut omega = [0.0; 3];
+        for a in 0..AXES {
+            for c in 0..6 {
+                for k in 0..COEFFS {
+                    let v = theta[(a * 6 + c) * COEFFS + k] * t[a][k];
+                    if c < 3 {
+                        trans[c] += v;
+                    } else {
+                        omega[c - 3] += v;
+                    }
+                }
+            }
+        }
+        // Constants: a squareness-like error moving the tip in direction
+        // `c` proportional to the position of another axis (× 1000 mm).
+        for a in 0..AXES {
+            for c in 0..3 {
+                trans[c] += theta[PDGE + a * 3 + c] * 1000.0 * u[(a + c + 1) % AXES];
+            }
+        }
+        let wl = cross(omega, l);
+        let wwl = cross(omega, wl);
+        for i in 0..3 {
+            r[i] = trans[i] + wl[i] + 0.5 * wwl[i];
+        }
+        if let Some(jac) = jac {
+            // d/dω of ω×l + ½ ω×(ω×l) applied to e_c:
+            // e_c×l + ½ (e_c×(ω×l) + ω×(e_c×l)).
+            let mut drot = [[0.0; 3]; 3];
+            for (c, d) in drot.iter_mut().enumerate() {
+                let mut e = [0.0; 3];
+                e[c] = 1.0;
+                let el = cross(e, l);
+                let a1 = cross(e, wl);
+                let a2 = cross(omega, el);
+                for i in 0..3 {
+                    d[i] = el[i] + 0.5 * (a1[i] + a2[i]);
+                }
+            }
+            for a in 0..AXES {
+                for c in 0..6 {
+                    for k in 0..COEFFS {
+                        let j = (a * 6 + c) * COEFFS + k;
+                        jac[j] = if c < 3 {
+                            let mut v = [0.0; 3];
+                            v[c] = t[a][k];
+                            v
+                        } else {
+                            drot[c - 3].map(|x| x * t[a][k])
+                        };
+                    }
+                }
+            }
+            for a in 0..AXES {
+                for c in 0..3 {
+                    let mut v = [0.0; 3];
+                    v[c] = 1000.0 * u[(a + c + 1) % AXES];
+                    jac[PDGE + a * 3 + c] = v;
+                }
+            }
+        }
+    }
+}
+
+impl Model for Tracker {
+    fn parameters(&self) -> Vec<Parameter> {
+        self.params.clone()
+    }
+    fn layout(&self) -> BlockLayout {
+        BlockLayout::uniform("tracker", self.poses.len(), 3)
+    }
+    fn residuals(&self, theta: &[f64], rows: Range<usize>, out: &mut [f64]) {
+        for (b, p) in (rows.start / 3..rows.end / 3).enumerate() {
+            let mut r = [0.0; 3];
+            self.point(theta, p, &mut r, None);
+            for i in 0..3 {
+                out[3 * b + i] = r[i] - self.measured[3 * p + i];
+            }
+        }
+    }
+    fn jacobian(&self, theta: &[f64], rows: Range<usize>, mut out: MatMut<'_, f64>) {
+        let mut jac = vec![[0.0; 3]; self.params.len()];
+        for (b, p) in (rows.start / 3..rows.end / 3).enumerate() {
+            let mut r = [0.0; 3];
+            self.point(theta, p, &mut r, Some(&mut jac));
+            for (j, v) in jac.iter().enumerate() {
+                for i in 0..3 {
+                    out[(3 * b + i, j)] = v[i];
+                }
+            }
+        }
+    }
+}
+
+/// Dense linear problem `r = J·θ − y` with `J[(p, c), j] =
+/// W[c][j]·T_{k_j}(u_{p, a_j})`, `k_j = j / 3`, `a_j = j mod 3`.
+struct Smooth {
+    u: Vec<[f64; 3]>,
+    w: [Vec<f64>; 3],
+    y: Vec<f64>,
+    n: usize,
+}
+
+impl Smooth {
+    fn new(points: usize, n: usize, seed: u64) -> Self {
+        let mut rng = StdRng::seed_from_u64(seed);
+        let u = (0..points)
+            .map(|_| std::array::from_fn(|_| rng.gen_range(-1.0..1.0)))
+            .collect();
+        let w = std::array::from_fn(|_| (0..n).map(|_| rng.gen_range(0.5..1.5)).collect());
+        let mut s = Self {
+            u,
+            w,
+            y: vec![0.0; 3 * points],
+            n,
+        };
+        let truth: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let mut clean = vec![0.0; 3 * points];
+        s.residuals(&truth, 0..3 * points, &mut clean);
+        let noise = Normal::new(0.0, 0.01).unwrap();
+        s.y = clean.iter().map(|v| v + noise.sample(&mut rng)).collect();
+        s
+    }
+
+    /// Row `row` of J into `out` (length n).
+    fn row(&self, row: usize, cheb: &mut [Vec<f64>; 3], out: &mut [f64]) {
+        let (p, c) = (row / 3, row % 3);
+        let deg = self.n.div_ceil(3);
+        for a in 0..3 {
+            cheb[a].resize(deg, 0.0);
+            chebyshev(self.u[p][a], &mut cheb[a]);
+        }
+        for (j, o) in out.iter_mut().enumerate() {
+            *o = self.w[c][j] * cheb[j % 3][j / 3];
+        }
+    }
+}
+
+impl Model for Smooth {
+    fn parameters(&self) -> Vec<Parameter> {
+        (0..self.n)
+            .map(|j| Parameter::new(format!("p{j}")))
+            .collect()
+    }
+    fn layout(&self) -> BlockLayout {
+        BlockLayout::uniform("points", self.u.len(), 3)
+    }
+    fn residuals(&self, theta: &[f64], rows: Range<usize>, out: &mut [f64]) {
+        let mut cheb = [Vec::new(), Vec::new(), Vec::new()];
+        let mut buf = vec![0.0; self.n];
+        for (o, row) in out.iter_mut().zip(rows) {
+            self.row(row, &mut cheb, &mut buf);
+            *o = buf.iter().zip(theta).map(|(a, b)| a * b).sum::<f64>() - self.y[row];
+        }
+    }
+    fn jacobian(&self, _theta: &[f64], rows: Range<usize>, mut out: MatMut<'_, f64>) {
+        let mut cheb = [Vec::new(), Vec::new(), Vec::new()];
+        let mut buf = vec![0.0; self.n];
+        for (i, row) in rows.enumerate() {
+            self.row(row, &mut cheb, &mut buf);
+            for (j, v) in buf.iter().enumerate() {
+                out[(i, j)] = *v;
+            }
+        }
+    }
+    fn residuals_and_jacobian(
+        &self,
+        theta: &[f64],
+        rows: Range<usize>,
+        r: &mut [f64],
+        mut out: MatMut<'_, f64>,
+    ) {
+        let mut cheb = [Vec::new(), Vec::new(), Vec::new()];
+        let mut buf = vec![0.0; self.n];
+        for (i, row) in rows.enumerate() {
+            self.row(row, &mut cheb, &mut buf);
+            r[i] = buf.iter().zip(theta).map(|(a, b)| a * b).sum::<f64>() - self.y[row];
+            for (j, v) in buf.iter().enumerate() {
+                out[(i, j)] = *v;
+            }
+        }
+    }
+}
+
+fn tracker(c: &mut Criterion) {
+    let model = Tracker::new(180, 11);
+    let theta0 = vec![0.0; model.params.len()];
+    let probe: Vec<f64> = model
+        .params
+        .iter()
+        .map(|p| p.scale.unwrap_or(1.0) * 2.0)
+        .collect();
+    assert!(check_jacobian(&model, &probe).unwrap().passes(1e-6));
+    let opts = Options {
+        strategy: Strategy::Dense,
+        ..Options::default()
+    };
+    let rep = fit(&model, &theta0, &opts).unwrap();
+    eprintln!(
+        "tracker: rank {} of {}, condition {:.3e}, {} iterations, reason {:?}, rms {:.3e} → {:.3e} mm",
+        rep.identifiability.rank,
+        rep.estimates.len(),
+        rep.condition_number,
+        rep.convergence.iterations,
+        rep.convergence.reason,
+        rep.rms().0,
+        rep.rms().1
+    );
+    c.bench_function("fit/tracker_162x540", |b| {
+        b.iter(|| fit(&model, &theta0, &opts).unwrap())
+    });
+}
+
+fn big(c: &mut Criterion) {
+    let model = Smooth::new(100_000, 1000, 12);
+    let theta0 = vec![0.0; 1000];
+    let opts = Options {
+        strategy: Strategy::NormalEquations,
+        ..Options::default()
+    };
+    let t = std::time::Instant::now();
+    let rep = fit(&model, &theta0, &opts).unwrap();
+    eprintln!(
+        "dense 1000x300000: {:.2} s, rank {}, condition {:.3e}, {} iterations, {} passes, {} factorizations, reason {:?}, σ {:.4e}",
+        t.elapsed().as_secs_f64(),
+        rep.identifiability.rank,
+        rep.condition_number,
+        rep.convergence.iterations,
+        rep.convergence.evaluations,
+        rep.convergence.factorizations,
+        rep.convergence.reason,
+        rep.sigma.unwrap_or(f64::NAN)
+    );
+    let mut g = c.benchmark_group("fit");
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(1))
+        .measurement_time(Duration::from_secs(30));
+    g.bench_function("dense_1000x300000", |b| {
+        b.iter(|| fit(&model, &theta0, &opts).unwrap())
+    });
+    g.finish();
+}
+
+criterion_group!(benches, tracker, big);
+criterion_main!(benches);

@@ -1,0 +1,83 @@
+//! Standard uncertainties and correlations of the estimated parameters.
+//!
+//! With the residual variance `σ² = 2·cost / (m − rank)` (`m` rows taking
+//! part in the fit), the covariance of the estimated parameters is
+//! `C = σ²·(J_KᵀJ_K)⁻¹ = σ²·D⁻¹·V·diag(1/λᵢ)·Vᵀ·D⁻¹`, from the last
+//! decomposition of the scaled Jacobian of the estimated columns `K`.
+//! Directions whose `λᵢ` fell below the rank threshold at the solution
+//! (possible when the rank changed along the way) are left out (a
+//! pseudo-inverse) and reported as a warning by the caller. Unidentifiable
+//! parameters have no uncertainty: they are not estimated.
+
+use faer::Mat;
+
+use super::scaling::Scaled;
+
+/// Covariance of the estimated parameters, in their own units squared.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Covariance {
+    /// Parameter index of every row/column of `matrix`, ascending.
+    pub estimated: Vec<usize>,
+    /// `k × k` covariance matrix.
+    pub matrix: Mat<f64>,
+}
+
+impl Covariance {
+    /// Builds `σ²·(J_KᵀJ_K)⁺` from the scaled decomposition, ignoring
+    /// `λᵢ ≤ τ²·λ_max`. Returns the covariance and the number of ignored
+    /// directions. `scaled.cols` must be ascending.
+    pub(crate) fn from_scaled(scaled: &Scaled, sigma2: f64, tau: f64) -> (Self, usize) {
+        let k = scaled.len();
+        let rank = scaled.rank(tau);
+        let mut matrix = Mat::<f64>::zeros(k, k);
+        for a in 0..k {
+            for b in 0..=a {
+                let s: f64 = (0..rank)
+                    .map(|i| scaled.v[(a, i)] * scaled.v[(b, i)] / scaled.lambda[i])
+                    .sum();
+                let c = sigma2 * s / (scaled.d[a] * scaled.d[b]);
+                matrix[(a, b)] = c;
+                matrix[(b, a)] = c;
+            }
+        }
+        (
+            Self {
+                estimated: scaled.cols.clone(),
+                matrix,
+            },
+            k - rank,
+        )
+    }
+
+    /// Standard uncertainty of parameter `j` (`None` if not estimated).
+    pub fn std(&self, j: usize) -> Option<f64> {
+        let i = self.estimated.binary_search(&j).ok()?;
+        Some(self.matrix[(i, i)].max(0.0).sqrt())
+    }
+
+    /// Covariance between parameters `i` and `j` (`None` if either is not
+    /// estimated).
+    pub fn get(&self, i: usize, j: usize) -> Option<f64> {
+        let a = self.estimated.binary_search(&i).ok()?;
+        let b = self.estimated.binary_search(&j).ok()?;
+        Some(self.matrix[(a, b)])
+    }
+
+    /// Correlation matrix over [`Covariance::estimated`] (1 on the
+    /// diagonal; 0 where a variance is 0).
+    pub fn correlation(&self) -> Mat<f64> {
+        let k = self.estimated.len();
+        let s: Vec<f64> = (0..k)
+            .map(|i| self.matrix[(i, i)].max(0.0).sqrt())
+            .collect();
+        Mat::from_fn(k, k, |a, b| {
+            if a == b {
+                1.0
+            } else if s[a] > 0.0 && s[b] > 0.0 {
+                self.matrix[(a, b)] / (s[a] * s[b])
+            } else {
+                0.0
+            }
+        })
+    }
+}

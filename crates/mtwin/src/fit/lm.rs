@@ -1,0 +1,281 @@
+//! Levenberg–Marquardt on the exact model, over the estimated parameters.
+//!
+//! Each linearisation is decomposed once ([`Scaled`]: `λᵢ`, `V` of the
+//! column-scaled problem); every trial damping `μ` then costs only
+//! `O(k²)`: the step in scaled variables is
+//! `y = −V·diag(1/(λᵢ + μ))·Vᵀ·gₛ`, `δθ_j = y_j / D_j`, and the reduction
+//! predicted by the quadratic model is `Σ cᵢ²/(λᵢ+μ) − ½ Σ λᵢ cᵢ²/(λᵢ+μ)²`
+//! with `c = Vᵀgₛ`.
+//!
+//! * Scaling (Moré 1978): `D_j = max(D_j, ‖J_j‖)` over the iterations.
+//! * Damping (Nielsen 1999): start `μ = τ₀·max diag(Nₛ)`; on an accepted step
+//!   with gain ratio ρ, `μ ← μ·max(1/3, 1 − (2ρ − 1)³)`, `ν ← 2`; on a
+//!   rejected one `μ ← μ·ν`, `ν ← 2ν`.
+//! * Stopping (MINPACK's tests, in scaled variables): gradient
+//!   `max_j |J_jᵀr| / (D_j‖r‖) ≤ gtol` (or `r = 0`); step
+//!   `‖D·δθ‖ ≤ xtol·(‖D·θ‖ + xtol)` (tested after the step is evaluated, and
+//!   taken if it lowers the cost); cost change: actual and predicted
+//!   relative reductions both `≤ ftol`; iteration limit; or no progress
+//!   (the damping overflowed without an acceptable step).
+//! * Normal-equation path: `JᵀJ` costs `m·n²` flops against `m·n` for the
+//!   residuals and gradient, so after an accepted step whose gain ratio is
+//!   within [`super::Options::reuse_gain`] of 1 (the model is linear along
+//!   the step) the previous `JᵀJ` and its decomposition are kept and only
+//!   the gradient is refreshed (a chord/simplified Gauss–Newton step: the
+//!   fixed point is still `Jᵀr = 0`, only the rate changes). Otherwise
+//!   `JᵀJ` is formed anew at the accepted point.
+
+use serde::Serialize;
+
+use super::evaluate::{Evaluation, Need, Pass};
+use super::scaling::Scaled;
+use super::{FitError, Options, Progress};
+
+/// Why the iteration stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// The scaled gradient is below `gradient_tolerance` (or `r = 0`).
+    Gradient,
+    /// The step is below `step_tolerance`.
+    Step,
+    /// Actual and predicted cost reductions are below `cost_tolerance`.
+    CostChange,
+    /// `max_iterations` reached.
+    MaxIterations,
+    /// No acceptable step could be found (damping overflow).
+    NoProgress,
+    /// Nothing to estimate (rank 0).
+    NothingToEstimate,
+}
+
+impl StopReason {
+    /// Whether the reason means convergence.
+    pub fn converged(self) -> bool {
+        matches!(
+            self,
+            StopReason::Gradient
+                | StopReason::Step
+                | StopReason::CostChange
+                | StopReason::NothingToEstimate
+        )
+    }
+}
+
+/// Convergence summary.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Convergence {
+    pub iterations: usize,
+    /// `½‖r‖²` at the start (residual unit squared).
+    pub initial_cost: f64,
+    /// `½‖r‖²` at the solution.
+    pub final_cost: f64,
+    pub reason: StopReason,
+    /// Passes over the residuals (each computes residuals and Jacobian rows).
+    pub evaluations: usize,
+    /// How many times `JᵀJ` or the dense Jacobian was decomposed.
+    pub factorizations: usize,
+    /// Final damping `μ` (scaled units).
+    pub damping: f64,
+}
+
+pub(crate) struct Outcome {
+    pub theta: Vec<f64>,
+    /// Last accepted evaluation (holds the final residuals).
+    pub eval: Evaluation,
+    /// Last decomposition of the estimated columns.
+    pub scaled: Scaled,
+    pub convergence: Convergence,
+}
+
+/// Column norms of the evaluated Jacobian (`None` if the pass kept neither
+/// the Jacobian nor `JᵀJ`).
+pub(crate) fn column_norms(eval: &Evaluation) -> Option<Vec<f64>> {
+    if let Some(j) = &eval.jacobian {
+        Some(
+            (0..j.ncols())
+                .map(|c| j.col(c).iter().map(|x| x * x).sum::<f64>().sqrt())
+                .collect(),
+        )
+    } else {
+        eval.normal.as_ref().map(|nm| {
+            (0..nm.ncols())
+                .map(|c| nm[(c, c)].max(0.0).sqrt())
+                .collect()
+        })
+    }
+}
+
+/// The iterate and its bookkeeping.
+struct State {
+    theta: Vec<f64>,
+    eval: Evaluation,
+    scaled: Scaled,
+    d: Vec<f64>,
+    mu: f64,
+    iterations: usize,
+    evaluations: usize,
+    factorizations: usize,
+    initial_cost: f64,
+}
+
+impl State {
+    fn finish(self, reason: StopReason) -> Outcome {
+        Outcome {
+            theta: self.theta,
+            convergence: Convergence {
+                iterations: self.iterations,
+                initial_cost: self.initial_cost,
+                final_cost: self.eval.cost,
+                reason,
+                evaluations: self.evaluations,
+                factorizations: self.factorizations,
+                damping: self.mu,
+            },
+            eval: self.eval,
+            scaled: self.scaled,
+        }
+    }
+
+    /// Moré's scale update from the column norms of a new linearisation.
+    fn update_scales(&mut self, kept: &[usize]) {
+        if let Some(norms) = column_norms(&self.eval) {
+            for (dj, &j) in self.d.iter_mut().zip(kept) {
+                *dj = dj.max(norms[j]);
+            }
+        }
+    }
+}
+
+/// Minimises over the columns `kept`, from `theta0` whose evaluation
+/// `eval0` (dense or normal) is given; `d0` are the scales of `kept`.
+pub(crate) fn minimise(
+    pass: &Pass<'_>,
+    theta0: Vec<f64>,
+    eval0: Evaluation,
+    kept: &[usize],
+    d0: Vec<f64>,
+    opts: &Options,
+    dense: bool,
+) -> Result<Outcome, FitError> {
+    let scaled = Scaled::new(&eval0, kept, &d0)?;
+    let max_diag = (0..scaled.len())
+        .map(|i| scaled.normal[(i, i)])
+        .fold(0.0, f64::max);
+    let mut st = State {
+        theta: theta0,
+        initial_cost: eval0.cost,
+        eval: eval0,
+        scaled,
+        d: d0,
+        mu: opts.initial_damping * max_diag.max(f64::MIN_POSITIVE),
+        iterations: 0,
+        evaluations: 1,
+        factorizations: 1,
+    };
+    if kept.is_empty() {
+        return Ok(st.finish(StopReason::NothingToEstimate));
+    }
+    let trial_need = if dense { Need::Dense } else { Need::Gradient };
+    let mut nu = 2.0;
+    loop {
+        let rnorm = (2.0 * st.eval.cost).sqrt();
+        let gmax = st.scaled.g.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        if st.eval.cost == 0.0 || gmax <= opts.gradient_tolerance * rnorm {
+            return Ok(st.finish(StopReason::Gradient));
+        }
+        if st.iterations >= opts.max_iterations {
+            return Ok(st.finish(StopReason::MaxIterations));
+        }
+        st.iterations += 1;
+        let c = st.scaled.project(&st.scaled.g);
+        let lmax = st
+            .scaled
+            .lambda
+            .first()
+            .copied()
+            .unwrap_or(0.0)
+            .max(max_diag);
+        loop {
+            let mu = st.mu;
+            let a: Vec<f64> = c
+                .iter()
+                .zip(&st.scaled.lambda)
+                .map(|(ci, li)| -ci / (li + mu))
+                .collect();
+            let pred: f64 = c
+                .iter()
+                .zip(&a)
+                .zip(&st.scaled.lambda)
+                .map(|((ci, ai), li)| -ci * ai - 0.5 * li * ai * ai)
+                .sum();
+            let y = st.scaled.expand(&a);
+            let ynorm = y.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let xnorm = kept
+                .iter()
+                .zip(&st.d)
+                .map(|(&j, dj)| (dj * st.theta[j]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            let tiny_step = ynorm <= opts.step_tolerance * (xnorm + opts.step_tolerance);
+            if ynorm == 0.0 {
+                return Ok(st.finish(StopReason::Step));
+            }
+            let mut trial = st.theta.clone();
+            for ((&j, yj), dj) in kept.iter().zip(&y).zip(&st.d) {
+                trial[j] += yj / dj;
+            }
+            let te = pass.run(&trial, trial_need)?;
+            st.evaluations += 1;
+            let actual = st.eval.cost - te.cost;
+            let rho = actual / pred;
+            let small = actual.abs() <= opts.cost_tolerance * st.eval.cost
+                && pred <= opts.cost_tolerance * st.eval.cost;
+            if actual > 0.0 && pred > 0.0 {
+                st.theta = trial;
+                st.mu *= (1.0 / 3.0f64).max(1.0 - (2.0 * rho - 1.0).powi(3));
+                nu = 2.0;
+                let linear = (rho - 1.0).abs() <= opts.reuse_gain;
+                if dense {
+                    st.eval = te;
+                    st.update_scales(kept);
+                    st.scaled = Scaled::new(&st.eval, kept, &st.d)?;
+                    st.factorizations += 1;
+                } else if linear && opts.reuse_normal_matrix {
+                    st.eval = te;
+                    let g = &st.eval.g;
+                    st.scaled.g = kept.iter().zip(&st.d).map(|(&j, dj)| g[j] / dj).collect();
+                } else {
+                    st.eval = pass.run(&st.theta, Need::Normal)?;
+                    st.evaluations += 1;
+                    st.update_scales(kept);
+                    st.scaled = Scaled::new(&st.eval, kept, &st.d)?;
+                    st.factorizations += 1;
+                }
+                (pass.progress)(Progress::Iteration {
+                    iteration: st.iterations,
+                    cost: st.eval.cost,
+                    damping: st.mu,
+                });
+                if small && rho <= 2.0 {
+                    return Ok(st.finish(StopReason::CostChange));
+                }
+                if tiny_step {
+                    return Ok(st.finish(StopReason::Step));
+                }
+                break;
+            }
+            if small {
+                return Ok(st.finish(StopReason::CostChange));
+            }
+            if tiny_step {
+                return Ok(st.finish(StopReason::Step));
+            }
+            st.mu *= nu;
+            nu *= 2.0;
+            if st.mu > 1e30 * lmax.max(1.0) {
+                return Ok(st.finish(StopReason::NoProgress));
+            }
+        }
+    }
+}

@@ -1,0 +1,618 @@
+//! End-to-end tests of the engine on problems with a known truth.
+
+use std::ops::Range;
+
+use faer::{Mat, MatMut};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use rand_distr::{Distribution, Normal};
+
+use super::*;
+
+/// `r = A·θ − y`, blocks of `block` rows, all in group `label`.
+struct Linear {
+    a: Mat<f64>,
+    y: Vec<f64>,
+    block: usize,
+    label: String,
+    params: Vec<Parameter>,
+}
+
+impl Linear {
+    fn new(a: Mat<f64>, y: Vec<f64>, block: usize) -> Self {
+        let params = (0..a.ncols())
+            .map(|j| Parameter::new(format!("p{j}")))
+            .collect();
+        Self {
+            a,
+            y,
+            block,
+            label: "data".into(),
+            params,
+        }
+    }
+}
+
+impl Model for Linear {
+    fn parameters(&self) -> Vec<Parameter> {
+        self.params.clone()
+    }
+    fn layout(&self) -> BlockLayout {
+        BlockLayout::uniform(self.label.clone(), self.a.nrows() / self.block, self.block)
+    }
+    fn residuals(&self, theta: &[f64], rows: Range<usize>, out: &mut [f64]) {
+        for (o, i) in out.iter_mut().zip(rows) {
+            *o = (0..self.a.ncols())
+                .map(|j| self.a[(i, j)] * theta[j])
+                .sum::<f64>()
+                - self.y[i];
+        }
+    }
+    fn jacobian(&self, _theta: &[f64], rows: Range<usize>, mut out: MatMut<'_, f64>) {
+        for (k, i) in rows.enumerate() {
+            for j in 0..self.a.ncols() {
+                out[(k, j)] = self.a[(i, j)];
+            }
+        }
+    }
+}
+
+/// Random matrix with entries uniform in [−1, 1].
+fn random_matrix(rng: &mut StdRng, m: usize, n: usize) -> Mat<f64> {
+    Mat::from_fn(m, n, |_, _| rng.gen_range(-1.0..1.0))
+}
+
+fn apply(a: &Mat<f64>, theta: &[f64]) -> Vec<f64> {
+    (0..a.nrows())
+        .map(|i| (0..a.ncols()).map(|j| a[(i, j)] * theta[j]).sum())
+        .collect()
+}
+
+/// Distance of points from a circle: θ = (cx, cy, R), `r_i = ‖p_i − c‖ − R`.
+struct Circle {
+    points: Vec<[f64; 2]>,
+    /// Deliberately wrong Jacobian (sign of ∂r/∂cy flipped), for the checker.
+    wrong: bool,
+}
+
+impl Model for Circle {
+    fn parameters(&self) -> Vec<Parameter> {
+        vec![
+            Parameter::new("cx"),
+            Parameter::new("cy"),
+            Parameter::new("R"),
+        ]
+    }
+    fn layout(&self) -> BlockLayout {
+        BlockLayout::uniform("circle", self.points.len(), 1)
+    }
+    fn residuals(&self, t: &[f64], rows: Range<usize>, out: &mut [f64]) {
+        for (o, i) in out.iter_mut().zip(rows) {
+            let [x, y] = self.points[i];
+            *o = (x - t[0]).hypot(y - t[1]) - t[2];
+        }
+    }
+    fn jacobian(&self, t: &[f64], rows: Range<usize>, mut out: MatMut<'_, f64>) {
+        for (k, i) in rows.enumerate() {
+            let [x, y] = self.points[i];
+            let d = (x - t[0]).hypot(y - t[1]);
+            out[(k, 0)] = -(x - t[0]) / d;
+            out[(k, 1)] = if self.wrong { 1.0 } else { -1.0 } * (y - t[1]) / d;
+            out[(k, 2)] = -1.0;
+        }
+    }
+}
+
+/// `y = A·exp(−k·t) + c`, θ = (A, k, c).
+struct Decay {
+    t: Vec<f64>,
+    y: Vec<f64>,
+}
+
+impl Model for Decay {
+    fn parameters(&self) -> Vec<Parameter> {
+        vec![
+            Parameter::new("A"),
+            Parameter::new("k"),
+            Parameter::new("c"),
+        ]
+    }
+    fn layout(&self) -> BlockLayout {
+        BlockLayout::uniform("decay", self.t.len(), 1)
+    }
+    fn residuals(&self, th: &[f64], rows: Range<usize>, out: &mut [f64]) {
+        for (o, i) in out.iter_mut().zip(rows) {
+            *o = th[0] * (-th[1] * self.t[i]).exp() + th[2] - self.y[i];
+        }
+    }
+    fn jacobian(&self, th: &[f64], rows: Range<usize>, mut out: MatMut<'_, f64>) {
+        for (k, i) in rows.enumerate() {
+            let e = (-th[1] * self.t[i]).exp();
+            out[(k, 0)] = e;
+            out[(k, 1)] = -th[0] * self.t[i] * e;
+            out[(k, 2)] = 1.0;
+        }
+    }
+}
+
+/// Linear part plus a mild quadratic term: `r = A·θ + ½·β·(b·θ)²·w − y`.
+struct Mild {
+    lin: Linear,
+    b: Vec<f64>,
+    w: Vec<f64>,
+    beta: f64,
+}
+
+impl Model for Mild {
+    fn parameters(&self) -> Vec<Parameter> {
+        self.lin.parameters()
+    }
+    fn layout(&self) -> BlockLayout {
+        self.lin.layout()
+    }
+    fn residuals(&self, th: &[f64], rows: Range<usize>, out: &mut [f64]) {
+        self.lin.residuals(th, rows.clone(), out);
+        let s: f64 = self.b.iter().zip(th).map(|(a, b)| a * b).sum();
+        for (o, i) in out.iter_mut().zip(rows) {
+            *o += 0.5 * self.beta * s * s * self.w[i];
+        }
+    }
+    fn jacobian(&self, th: &[f64], rows: Range<usize>, mut out: MatMut<'_, f64>) {
+        self.lin.jacobian(th, rows.clone(), out.as_mut());
+        let s: f64 = self.b.iter().zip(th).map(|(a, b)| a * b).sum();
+        for (k, i) in rows.enumerate() {
+            for j in 0..self.b.len() {
+                out[(k, j)] += self.beta * s * self.b[j] * self.w[i];
+            }
+        }
+    }
+}
+
+fn dense() -> Options {
+    Options {
+        strategy: Strategy::Dense,
+        ..Options::default()
+    }
+}
+
+#[test]
+fn linear_problem_recovers_the_exact_solution() {
+    let mut rng = StdRng::seed_from_u64(1);
+    let a = random_matrix(&mut rng, 60, 5);
+    let truth = [0.3, -1.2, 2.5, 1e-3, -7.0];
+    let y = apply(&a, &truth);
+    let model = Linear::new(a, y, 3);
+    let rep = fit(&model, &[0.0; 5], &dense()).unwrap();
+    for (e, t) in rep.theta.iter().zip(&truth) {
+        assert!((e - t).abs() < 1e-12, "{e} vs {t}");
+    }
+    assert!(rep.convergence.reason.converged());
+    assert_eq!(rep.identifiability.rank, 5);
+    assert!(rep.warnings.is_empty(), "{:?}", rep.warnings);
+    assert!(rep.groups[0].rms_after < 1e-12);
+    // RMS before: the data themselves, since θ0 = 0 gives r = −y.
+    let ry = (apply(&model.a, &truth).iter().map(|x| x * x).sum::<f64>() / 60.0).sqrt();
+    assert!((rep.groups[0].rms_before - ry).abs() < 1e-12 * ry);
+}
+
+#[test]
+fn circle_converges_from_a_poor_start() {
+    let truth = [1.5, -2.0, 3.0];
+    let points = (0..24)
+        .map(|i| {
+            // Only a 200° arc: a harder, less symmetric problem.
+            let a = (i as f64) * 200f64.to_radians() / 23.0;
+            [truth[0] + truth[2] * a.cos(), truth[1] + truth[2] * a.sin()]
+        })
+        .collect();
+    let model = Circle {
+        points,
+        wrong: false,
+    };
+    // Centre 3 away from the truth, radius a third of it.
+    let rep = fit(&model, &[0.0, 0.5, 1.0], &dense()).unwrap();
+    assert!(rep.convergence.reason.converged(), "{:?}", rep.convergence);
+    for (e, t) in rep.theta.iter().zip(&truth) {
+        assert!((e - t).abs() < 1e-9, "{e} vs {t}");
+    }
+    assert!(rep.convergence.final_cost < 1e-20);
+    assert!(rep.convergence.initial_cost > 1.0);
+}
+
+#[test]
+fn exponential_decay_converges_from_a_poor_start() {
+    let truth = [5.0, 0.7, -1.0];
+    let t: Vec<f64> = (0..40).map(|i| i as f64 * 0.25).collect();
+    let y = t
+        .iter()
+        .map(|&t| truth[0] * (-truth[1] * t).exp() + truth[2])
+        .collect();
+    let model = Decay { t, y };
+    // Amplitude a fifth, rate four times too fast, offset wrong in sign.
+    // (With a negative amplitude the problem slides off towards k → 0, a
+    // genuine valley of this cost, not a failure of the engine.)
+    for strategy in [Strategy::Dense, Strategy::NormalEquations] {
+        let opts = Options {
+            strategy,
+            ..Options::default()
+        };
+        let rep = fit(&model, &[1.0, 2.8, 1.0], &opts).unwrap();
+        assert!(rep.convergence.reason.converged(), "{:?}", rep.convergence);
+        for (e, tr) in rep.theta.iter().zip(&truth) {
+            assert!((e - tr).abs() < 1e-7, "{strategy:?}: {e} vs {tr}");
+        }
+    }
+}
+
+#[test]
+fn confounded_pair_is_reported_and_one_is_fixed() {
+    let mut rng = StdRng::seed_from_u64(3);
+    let mut a = random_matrix(&mut rng, 45, 4);
+    for i in 0..45 {
+        a[(i, 2)] = a[(i, 1)];
+    }
+    let truth = [0.5, 1.0, 2.0, -0.25];
+    let y = apply(&a, &truth);
+    let mut model = Linear::new(a, y, 3);
+    model.params[1] = Parameter::new("EXX.c0");
+    model.params[2] = Parameter::new("EX0Y");
+    let start = [0.0, 0.0, 0.0, 0.0];
+    let rep = fit(&model, &start, &dense()).unwrap();
+    let id = &rep.identifiability;
+    assert_eq!(id.rank, 3);
+    assert_eq!(id.null_space.len(), 1);
+    let v = &id.null_space[0].scaled;
+    let h = 0.5f64.sqrt();
+    assert!(
+        (v[1] - h).abs() < 1e-10 && (v[2] + h).abs() < 1e-10,
+        "{v:?}"
+    );
+    assert!(v[0].abs() < 1e-10 && v[3].abs() < 1e-10);
+    assert_eq!(id.null_space[0].describe(), "EXX.c0 − 1.0000·EX0Y ≈ 0");
+    // The relation of the fixed parameter: column 2 equals column 1.
+    assert_eq!(id.relations.len(), 1);
+    let rel = &id.relations[0].scaled;
+    assert!(
+        (rel[2].abs() - h).abs() < 1e-10 && (rel[1] + rel[2]).abs() < 1e-10,
+        "{rel:?}"
+    );
+    // Ties go to the first listed: EX0Y is fixed at its start value and
+    // EXX.c0 carries the sum.
+    assert_eq!(id.unidentifiable, vec![(2, Unidentifiable::Confounded)]);
+    assert_eq!(rep.theta[2], start[2]);
+    assert!((rep.theta[1] - (truth[1] + truth[2])).abs() < 1e-12);
+    assert!((rep.theta[0] - truth[0]).abs() < 1e-12);
+    assert!((rep.theta[3] - truth[3]).abs() < 1e-12);
+    assert_eq!(rep.unidentifiable_names(), vec!["EX0Y"]);
+    assert!(rep.warnings.contains(&Warning::RankDeficient {
+        rank: 3,
+        parameters: 4
+    }));
+    assert!(rep.estimates[2].uncertainty.is_none());
+    // The fixed-parameter solution is a least-squares solution: its
+    // residuals vanish like the truth's, and its minimum-norm counterpart
+    // (θ1 = θ2 = (θ1 + θ2)/2) differs only along the null vector.
+    assert!(rep.convergence.final_cost < 1e-24);
+}
+
+#[test]
+fn relations_are_sparse_null_directions() {
+    // Two independent confoundings: p3 = p0 + 2·p1 and p4 = p2 (columns).
+    let mut rng = StdRng::seed_from_u64(33);
+    let mut a = random_matrix(&mut rng, 50, 6);
+    for i in 0..50 {
+        a[(i, 3)] = a[(i, 0)] + 2.0 * a[(i, 1)];
+        a[(i, 4)] = a[(i, 2)];
+    }
+    let y = apply(&a, &[1.0; 6]);
+    let model = Linear::new(a.clone(), y, 1);
+    for strategy in [Strategy::Dense, Strategy::NormalEquations] {
+        let opts = Options {
+            strategy,
+            ..Options::default()
+        };
+        let rep = fit(&model, &[0.0; 6], &opts).unwrap();
+        let id = &rep.identifiability;
+        assert_eq!(id.rank, 4, "{strategy:?}");
+        assert_eq!(id.null_space.len(), 2);
+        assert_eq!(id.relations.len(), 2);
+        for rel in &id.relations {
+            // J·δθ = 0 along the relation, checked on the raw matrix.
+            let jd = apply(&a, &rel.direction);
+            let dn = rel.direction.iter().map(|x| x * x).sum::<f64>().sqrt();
+            assert!(jd.iter().all(|x| x.abs() < 1e-9 * dn), "{jd:?}");
+            // Sparse: at most the three columns of one confounding.
+            let support = rel.scaled.iter().filter(|x| x.abs() > 1e-9).count();
+            assert!(support == 2 || support == 3, "{:?}", rel.scaled);
+        }
+        // Fixing two parameters still reproduces the data exactly.
+        assert!(rep.convergence.final_cost < 1e-20);
+    }
+}
+
+#[test]
+fn zero_column_is_unidentifiable_but_a_small_informative_one_is_not() {
+    let mut rng = StdRng::seed_from_u64(4);
+    let m = 90;
+    let mut a = random_matrix(&mut rng, m, 4);
+    for i in 0..m {
+        // Column 0 is large (a lever of 1000 mm per rad).
+        a[(i, 0)] *= 1e3;
+        // Column 2: a parameter in a huge unit, column norm ~1e-9 but it
+        // moves the data by ~1e-3 at its true value 1e6.
+        a[(i, 2)] *= 1e-9;
+        // Column 3: zero to rounding (a lever that should be exactly 0).
+        a[(i, 3)] *= 1e-19;
+    }
+    let truth = [1e-3, 0.2, 1e6, 0.0];
+    let mut noise = StdRng::seed_from_u64(40);
+    let nd = Normal::new(0.0, 1e-9).unwrap();
+    let y: Vec<f64> = apply(&a, &truth)
+        .into_iter()
+        .map(|v| v + nd.sample(&mut noise))
+        .collect();
+    let model = Linear::new(a, y, 1);
+    for strategy in [Strategy::Dense, Strategy::NormalEquations] {
+        let opts = Options {
+            strategy,
+            ..Options::default()
+        };
+        let rep = fit(&model, &[0.0; 4], &opts).unwrap();
+        assert_eq!(
+            rep.identifiability.unidentifiable,
+            vec![(3, Unidentifiable::ZeroColumn)],
+            "{strategy:?}"
+        );
+        assert_eq!(rep.identifiability.rank, 3);
+        // Column 2 is estimated, to its uncertainty.
+        let u = rep.estimates[2].uncertainty.unwrap();
+        assert!(u < 1e-2 * truth[2]);
+        assert!((rep.theta[2] - truth[2]).abs() < 5.0 * u);
+        assert_eq!(rep.theta[3], 0.0);
+    }
+}
+
+#[test]
+fn two_sigma_coverage_is_about_95_percent() {
+    let (m, n, sigma) = (30, 3, 0.1);
+    let mut rng = StdRng::seed_from_u64(5);
+    let a = random_matrix(&mut rng, m, n);
+    let truth = [1.0, -2.0, 0.5];
+    let clean = apply(&a, &truth);
+    let nd = Normal::new(0.0, sigma).unwrap();
+    let (mut inside, mut total, mut sigma_sum) = (0, 0, 0.0);
+    let runs = 400;
+    for seed in 0..runs {
+        let mut r = StdRng::seed_from_u64(1000 + seed);
+        let y = clean.iter().map(|v| v + nd.sample(&mut r)).collect();
+        let model = Linear::new(a.clone(), y, 1);
+        let rep = fit(&model, &[0.0; 3], &dense()).unwrap();
+        sigma_sum += rep.sigma.unwrap();
+        for j in 0..n {
+            let u = rep.estimates[j].uncertainty.unwrap();
+            total += 1;
+            if (rep.theta[j] - truth[j]).abs() <= 2.0 * u {
+                inside += 1;
+            }
+        }
+    }
+    let frac = inside as f64 / total as f64;
+    // With σ estimated on 27 degrees of freedom the 2σ̂ coverage is the
+    // Student-t value 94.5 %; binomial spread over 1200 trials is 0.7 %.
+    assert!((0.925..=0.965).contains(&frac), "coverage {frac}");
+    let mean_sigma = sigma_sum / runs as f64;
+    assert!(
+        (mean_sigma - sigma).abs() < 0.03 * sigma,
+        "mean σ̂ {mean_sigma}"
+    );
+}
+
+#[test]
+fn outlier_block_is_flagged_and_excluded_on_request() {
+    let mut rng = StdRng::seed_from_u64(6);
+    let (points, n) = (60, 6);
+    let a = random_matrix(&mut rng, 3 * points, n);
+    let truth = [0.1, 0.2, -0.3, 0.4, -0.5, 0.6];
+    let nd = Normal::new(0.0, 0.001).unwrap();
+    let mut y: Vec<f64> = apply(&a, &truth)
+        .into_iter()
+        .map(|v| v + nd.sample(&mut rng))
+        .collect();
+    // A blocked beam on point 17: 0.05 mm off in every coordinate.
+    for row in 51..54 {
+        y[row] += 0.05;
+    }
+    let model = Linear::new(a, y, 3);
+    let report_only = fit(&model, &vec![0.0; n], &dense()).unwrap();
+    assert_eq!(report_only.outliers.flagged.len(), 1);
+    assert_eq!(report_only.outliers.flagged[0].block, 17);
+    assert!(!report_only.outliers.flagged[0].excluded);
+    assert!(report_only.warnings.contains(&Warning::Outliers {
+        flagged: 1,
+        excluded: 0
+    }));
+    let opts = Options {
+        outliers: OutlierRule {
+            exclude: true,
+            ..OutlierRule::default()
+        },
+        ..dense()
+    };
+    let rep = fit(&model, &vec![0.0; n], &opts).unwrap();
+    assert_eq!(rep.outliers.flagged.len(), 1);
+    assert_eq!(rep.outliers.flagged[0].block, 17);
+    assert!(rep.outliers.flagged[0].excluded);
+    assert_eq!(rep.groups[0].excluded_blocks, 1);
+    assert_eq!(rep.groups[0].blocks, points - 1);
+    assert_eq!(rep.degrees_of_freedom, 3 * (points - 1) - n);
+    // Without the blocked beam σ̂ is the noise level and every estimate is
+    // within 4 standard uncertainties of the truth.
+    assert!((rep.sigma.unwrap() - 0.001).abs() < 0.0003);
+    for j in 0..n {
+        let u = rep.estimates[j].uncertainty.unwrap();
+        assert!((rep.theta[j] - truth[j]).abs() < 4.0 * u);
+    }
+    // The excluded block's residual at the solution still shows the 0.05.
+    let r = &rep.residuals[51..54];
+    assert!(r.iter().all(|x| (x + 0.05).abs() < 0.01), "{r:?}");
+}
+
+#[test]
+fn normal_equation_path_agrees_with_the_dense_path() {
+    let mut rng = StdRng::seed_from_u64(7);
+    let (m, n) = (3000, 40);
+    let mut a = random_matrix(&mut rng, m, n);
+    for i in 0..m {
+        a[(i, 31)] = a[(i, 30)];
+    }
+    let truth: Vec<f64> = (0..n).map(|j| (j as f64 * 0.37).sin()).collect();
+    let nd = Normal::new(0.0, 0.01).unwrap();
+    let b: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+    let w: Vec<f64> = (0..m).map(|_| rng.gen_range(-1.0..1.0)).collect();
+    let mut model = Mild {
+        lin: Linear::new(a, vec![0.0; m], 3),
+        b,
+        w,
+        beta: 0.05,
+    };
+    let mut clean = vec![0.0; m];
+    model.lin.y = vec![0.0; m];
+    model.residuals(&truth, 0..m, &mut clean);
+    model.lin.y = clean.iter().map(|v| v + nd.sample(&mut rng)).collect();
+    let d = fit(&model, &vec![0.0; n], &dense()).unwrap();
+    let opts = Options {
+        strategy: Strategy::NormalEquations,
+        chunk_rows: 700,
+        ..Options::default()
+    };
+    let ne = fit(&model, &vec![0.0; n], &opts).unwrap();
+    assert_eq!(ne.strategy, Strategy::NormalEquations);
+    assert_eq!(d.identifiability.rank, n - 1);
+    assert_eq!(ne.identifiability.rank, n - 1);
+    assert_eq!(
+        d.identifiability.unidentifiable,
+        ne.identifiability.unidentifiable
+    );
+    for j in 0..n {
+        let (ud, un) = (d.estimates[j].uncertainty, ne.estimates[j].uncertainty);
+        match (ud, un) {
+            (Some(ud), Some(un)) => {
+                assert!((d.theta[j] - ne.theta[j]).abs() < 1e-3 * ud, "θ{j}");
+                assert!((ud - un).abs() < 1e-3 * ud, "u{j}: {ud} vs {un}");
+            }
+            (None, None) => assert_eq!(d.theta[j], ne.theta[j]),
+            _ => panic!("parameter {j} estimated on one path only"),
+        }
+    }
+    let rel =
+        (d.convergence.final_cost - ne.convergence.final_cost).abs() / d.convergence.final_cost;
+    assert!(rel < 1e-9, "{rel}");
+}
+
+#[test]
+fn jacobian_checker_accepts_exact_and_catches_wrong() {
+    let points = (0..10)
+        .map(|i| [(i as f64).cos() * 2.0 + 0.3, (i as f64).sin() * 2.0 - 0.1])
+        .collect::<Vec<_>>();
+    let theta = [0.1, 0.2, 1.9];
+    let good = Circle {
+        points: points.clone(),
+        wrong: false,
+    };
+    let c = check_jacobian(&good, &theta).unwrap();
+    assert!(c.passes(1e-7), "{c:?}");
+    let bad = Circle {
+        points,
+        wrong: true,
+    };
+    let c = check_jacobian(&bad, &theta).unwrap();
+    assert!(!c.passes(1e-3));
+    assert_eq!(c.worst.1, 1);
+    // The error of a flipped sign is twice the entry.
+    assert!(c.max_rel_error > 1.0);
+}
+
+#[test]
+fn stacked_models_share_parameters_and_report_per_group() {
+    let mut rng = StdRng::seed_from_u64(8);
+    let truth = [1.0, 2.0, 3.0];
+    let nd = Normal::new(0.0, 0.01).unwrap();
+    let mut make = |label: &str, rows: usize, sd: f64| {
+        let a = random_matrix(&mut rng, rows, 3);
+        let y = apply(&a, &truth)
+            .into_iter()
+            .map(|v| v + sd / 0.01 * nd.sample(&mut rng))
+            .collect();
+        let mut l = Linear::new(a, y, 1);
+        l.label = label.into();
+        l
+    };
+    let m1 = make("mode1", 40, 0.01);
+    let m2 = make("mode2", 30, 0.0);
+    let stack = Stack::new(vec![&m1, &m2]).unwrap();
+    let rep = fit(&stack, &[0.0; 3], &dense()).unwrap();
+    assert_eq!(rep.groups.len(), 2);
+    assert_eq!(rep.groups[0].label, "mode1");
+    assert_eq!(rep.groups[0].rows, 40);
+    assert_eq!(rep.groups[1].rows, 30);
+    // Mode 1 carries the noise, mode 2 (noise-free) fits to the small
+    // parameter error only.
+    assert!(rep.groups[0].rms_after > 3.0 * rep.groups[1].rms_after);
+    for (e, t) in rep.theta.iter().zip(&truth) {
+        assert!((e - t).abs() < 0.02);
+    }
+    // The stack's Jacobian is the two parts one above the other.
+    let c = check_jacobian(&stack, &[0.5, 0.5, 0.5]).unwrap();
+    assert!(c.passes(1e-8));
+    // Parts with other parameters are refused.
+    let mut m3 = make("mode3", 5, 0.0);
+    m3.params[0] = Parameter::new("other");
+    assert!(matches!(
+        Stack::new(vec![&m1, &m3]),
+        Err(FitError::StackParameters { part: 1 })
+    ));
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    let model = Linear::new(Mat::zeros(3, 2), vec![0.0; 3], 1);
+    assert_eq!(
+        fit(&model, &[0.0], &dense()).unwrap_err(),
+        FitError::ParameterCount {
+            expected: 2,
+            got: 1
+        }
+    );
+    assert!(matches!(
+        fit(&model, &[f64::NAN, 0.0], &dense()),
+        Err(FitError::NonFiniteStart { .. })
+    ));
+    // All columns zero: nothing to estimate, reported as such.
+    let rep = fit(&model, &[0.0, 0.0], &dense()).unwrap();
+    assert_eq!(rep.identifiability.rank, 0);
+    assert_eq!(rep.convergence.reason, StopReason::NothingToEstimate);
+}
+
+#[test]
+fn progress_reports_passes_and_iterations() {
+    use std::cell::RefCell;
+    let t: Vec<f64> = (0..20).map(|i| i as f64 * 0.5).collect();
+    let y = t.iter().map(|&t| 2.0 * (-0.3 * t).exp()).collect();
+    let model = Decay { t, y };
+    let seen = RefCell::new(Vec::new());
+    let rep = fit_with_progress(&model, &[1.0, 0.1, 0.0], &dense(), &|p| {
+        seen.borrow_mut().push(p)
+    })
+    .unwrap();
+    let seen = seen.into_inner();
+    let iters = seen
+        .iter()
+        .filter(|p| matches!(p, Progress::Iteration { .. }))
+        .count();
+    assert!(iters >= 1 && iters <= rep.convergence.iterations);
+    assert!(seen.contains(&Progress::Analysing));
+    assert!(seen.contains(&Progress::Evaluating {
+        rows_done: 20,
+        rows_total: 20
+    }));
+}
