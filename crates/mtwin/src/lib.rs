@@ -14,6 +14,7 @@ pub mod fit;
 pub mod gcode;
 pub mod io;
 pub mod kinematics;
+pub mod methods;
 pub mod sysid;
 
 /// Re-export of the linear-algebra crate used in the public API (vectors, matrices).
