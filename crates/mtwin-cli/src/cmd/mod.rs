@@ -6,6 +6,7 @@ pub use common::diag as common_diag;
 mod demo;
 mod model;
 mod predict;
+mod skiving;
 
 use clap::Subcommand;
 
@@ -23,6 +24,9 @@ pub enum Command {
         after_help = "Example:\n  mtwin predict --machine examples/machines/ac-trunnion-with-errors.toml --data poses.csv --out pred.csv"
     )]
     Predict(predict::Args),
+    /// Workpiece set-up error of a power-skiving machine from touch-offs (spec 03).
+    #[command(subcommand)]
+    Skiving(skiving::Command),
 }
 
 /// Run one subcommand.
@@ -31,5 +35,6 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Demo(a) => demo::run(a),
         Command::Model(c) => model::run(c),
         Command::Predict(a) => predict::run(a),
+        Command::Skiving(c) => skiving::run(c),
     }
 }
