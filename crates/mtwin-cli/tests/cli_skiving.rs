@@ -78,10 +78,29 @@ fn residuals_follow_file_order_and_a_bad_touch_is_flagged() {
     args.extend(["--noise", "0.001", "--format", "json"]);
     let o = run(dir.path(), &args);
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    let flags: Vec<&str> = v["flags"].as_array().unwrap().iter().map(|x| x.as_str().unwrap()).collect();
-    assert_eq!(flags, ["unchecked", "inconsistent", "inconsistent", "unchecked", "ok", "ok"]);
+    let flags: Vec<&str> = v["flags"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_str().unwrap())
+        .collect();
+    assert_eq!(
+        flags,
+        [
+            "unchecked",
+            "inconsistent",
+            "inconsistent",
+            "unchecked",
+            "ok",
+            "ok"
+        ]
+    );
     // Row 3 of the data is on line 5 (header, comment, two rows before it).
-    assert!(stderr(&o).contains("bad.csv:5: touch 3 is inconsistent"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("bad.csv:5: touch 3 is inconsistent"),
+        "{}",
+        stderr(&o)
+    );
     let r = v["residuals"].as_array().unwrap();
     assert!((r[2].as_f64().unwrap() - 0.015).abs() < 4e-3, "{r:?}");
 }
@@ -118,7 +137,10 @@ fn human_output_has_the_table_in_micrometres() {
     args.extend(GEOM);
     let o = run(dir.path(), &args);
     let s = stdout(&o);
-    let dgx = s.lines().find(|l| l.trim_start().starts_with("dgx")).unwrap();
+    let dgx = s
+        .lines()
+        .find(|l| l.trim_start().starts_with("dgx"))
+        .unwrap();
     let n: f64 = dgx.split_whitespace().nth(1).unwrap().parse().unwrap();
     assert!((n - 30.0).abs() < 1e-3, "{dgx}");
     assert!(dgx.contains("y6 - rt - rg"), "{dgx}");
@@ -156,11 +178,23 @@ fn bad_input_is_reported_with_file_and_line() {
         "far.csv",
         "x,y,z,a,b,c,point,contact\n0,30,-80,0,0,0,face,top\n0,30,-75,0,0,0,face,top\n",
     );
-    fails(d, "far.csv", "far.csv:3: the tool face is 5.000 mm from the workpiece top face");
-    write(d, "nan.csv", "x,y,z,a,b,c,point,contact\n0,abc,-80,0,0,0,face,top\n");
+    fails(
+        d,
+        "far.csv",
+        "far.csv:3: the tool face is 5.000 mm from the workpiece top face",
+    );
+    write(
+        d,
+        "nan.csv",
+        "x,y,z,a,b,c,point,contact\n0,abc,-80,0,0,0,face,top\n",
+    );
     fails(d, "nan.csv", "nan.csv:2:2: column `y` holds `abc`");
     // Too few touches for four unknowns.
-    write(d, "few.csv", "x,y,z,a,b,c,point,contact\n0,30,-80,0,0,0,face,top\n");
+    write(
+        d,
+        "few.csv",
+        "x,y,z,a,b,c,point,contact\n0,30,-80,0,0,0,face,top\n",
+    );
     fails(d, "few.csv", "at least 4");
 }
 
@@ -169,7 +203,16 @@ fn programs_in_both_dialects_and_no_output_on_failure() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     for (dialect, probe, out) in [("linuxcnc", "G38.2", "a.ngc"), ("fanuc", "G31", "b.nc")] {
-        let mut args = vec!["skiving", "program", "--x", "-2.5", "--dialect", dialect, "--out", out];
+        let mut args = vec![
+            "skiving",
+            "program",
+            "--x",
+            "-2.5",
+            "--dialect",
+            dialect,
+            "--out",
+            out,
+        ];
         args.extend(GEOM);
         run(d, &args);
         let text = std::fs::read_to_string(d.join(out)).unwrap();
@@ -180,11 +223,24 @@ fn programs_in_both_dialects_and_no_output_on_failure() {
         assert!(probes[2].contains(&format!("Y{y:.4}")), "{}", probes[2]);
         assert!(probes[0].contains("Z-81.0000"), "{}", probes[0]);
     }
-    let mut args = vec!["skiving", "program", "--x", "70", "--dialect", "fanuc", "--out", "c.nc"];
+    let mut args = vec![
+        "skiving",
+        "program",
+        "--x",
+        "70",
+        "--dialect",
+        "fanuc",
+        "--out",
+        "c.nc",
+    ];
     args.extend(GEOM);
     let o = mtwin(d, &args);
     assert_eq!(o.status.code(), Some(1));
-    assert!(stderr(&o).contains("beside the workpiece"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("beside the workpiece"),
+        "{}",
+        stderr(&o)
+    );
     assert!(!d.join("c.nc").exists());
 }
 
@@ -221,7 +277,10 @@ fn every_command_of_the_walkthrough_runs() {
             // The documented truth, recovered within 3 uncertainties.
             for (name, t) in [("dgx", 0.03), ("dgy", -0.02), ("exz", 2e-4), ("ezy", -1e-4)] {
                 let u = v["uncertainty"][name].as_f64().unwrap();
-                assert!((v[name].as_f64().unwrap() - t).abs() < 3.0 * 4.3 * u, "{name}");
+                assert!(
+                    (v[name].as_f64().unwrap() - t).abs() < 3.0 * 4.3 * u,
+                    "{name}"
+                );
             }
         }
     }

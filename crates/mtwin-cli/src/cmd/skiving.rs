@@ -10,9 +10,7 @@ use mtwin::methods::skiving::closed_form::{self, STANDARD_FORMULAS};
 use mtwin::methods::skiving::program::{self, Dialect, Motion, Plan};
 use mtwin::methods::skiving::simulate::{Noise, simulate};
 use mtwin::methods::skiving::touch::{DEFAULT_PLAUSIBILITY_MM, read_touches};
-use mtwin::methods::skiving::{
-    Geometry, Options, SetupError, Touch, UncertaintyBasis, identify,
-};
+use mtwin::methods::skiving::{Geometry, Options, SetupError, Touch, UncertaintyBasis, identify};
 use serde_json::json;
 
 use super::common::{diag, load_table};
@@ -215,23 +213,30 @@ fn setup_error(a: SetupErrorArgs) -> anyhow::Result<()> {
             s.standardized[i].unwrap_or(f64::NAN).abs()
         ));
     }
-    if s.flags.iter().any(|f| *f == mtwin::methods::skiving::TouchFlag::Unchecked) {
-        note("touches marked `unchecked` are not checked by any other touch: an error in them goes straight into the result (repeat them to check)");
+    if s.flags
+        .iter()
+        .any(|f| *f == mtwin::methods::skiving::TouchFlag::Unchecked)
+    {
+        note(
+            "touches marked `unchecked` are not checked by any other touch: an error in them goes straight into the result (repeat them to check)",
+        );
     }
     match a.format {
         Format::Json => {
             let basis = s.uncertainty.map(|u| match u.basis {
-                UncertaintyBasis::KnownNoise { sigma } => json!({"kind": "known_noise", "sigma": sigma}),
+                UncertaintyBasis::KnownNoise { sigma } => {
+                    json!({"kind": "known_noise", "sigma": sigma})
+                }
                 UncertaintyBasis::Residuals { sigma, dof } => {
                     json!({"kind": "residuals", "sigma": sigma, "dof": dof})
                 }
             });
-            let uncertainty = unc.map(|u| {
-                json!({"dgx": u[0], "dgy": u[1], "exz": u[2], "ezy": u[3]})
-            });
-            let closed = first.as_ref().ok().map(|f| {
-                json!({"dgx": f.dgx, "dgy": f.dgy, "exz": f.exz, "ezy": f.ezy})
-            });
+            let uncertainty =
+                unc.map(|u| json!({"dgx": u[0], "dgy": u[1], "exz": u[2], "ezy": u[3]}));
+            let closed = first
+                .as_ref()
+                .ok()
+                .map(|f| json!({"dgx": f.dgx, "dgy": f.dgy, "exz": f.exz, "ezy": f.ezy}));
             print_json(&json!({
                 "dgx": e.dgx, "dgy": e.dgy, "exz": e.exz, "ezy": e.ezy,
                 "residuals": s.residuals,
@@ -254,9 +259,10 @@ fn setup_error(a: SetupErrorArgs) -> anyhow::Result<()> {
             );
             let val = [e.dgx * 1e3, e.dgy * 1e3, e.exz * 1e6, e.ezy * 1e6];
             let unit = ["µm", "µm", "µrad", "µrad"];
-            let fo = first.as_ref().ok().map(|f| {
-                [f.dgx * 1e3, f.dgy * 1e3, f.exz * 1e6, f.ezy * 1e6]
-            });
+            let fo = first
+                .as_ref()
+                .ok()
+                .map(|f| [f.dgx * 1e3, f.dgy * 1e3, f.exz * 1e6, f.ezy * 1e6]);
             print!("  {:<4} {:>12} {:>14}", "", "value", "std. uncert.");
             if a.explain {
                 print!(" {:>13}  {}", "first order", "formula (x = 0, six touches)");
@@ -340,7 +346,10 @@ fn write_program(a: ProgramArgs) -> anyhow::Result<()> {
         .context("cannot write the touch-off program")?;
     write_atomic_with(&a.out, |w| w.write_all(text.as_bytes()))
         .with_context(|| format!("cannot write {}", a.out.display()))?;
-    note(format!("touch-off program (6 probing moves) → {}", a.out.display()));
+    note(format!(
+        "touch-off program (6 probing moves) → {}",
+        a.out.display()
+    ));
     Ok(())
 }
 
@@ -379,7 +388,9 @@ fn simulate_touches(a: SimulateArgs) -> anyhow::Result<()> {
     })
     .with_context(|| format!("cannot write {}", a.out.display()))?;
     match a.format {
-        Format::Json => print_json(&json!({"touches": touches.len(), "out": a.out.display().to_string()})),
+        Format::Json => {
+            print_json(&json!({"touches": touches.len(), "out": a.out.display().to_string()}))
+        }
         Format::Human => {
             println!("{} touches → {}", touches.len(), a.out.display());
             Ok(())

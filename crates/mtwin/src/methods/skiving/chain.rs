@@ -180,7 +180,12 @@ pub fn point_with_derivatives(
 /// The derivative of `gP` with respect to the machine coordinate `y` (`axis
 /// = 1`) or `z` (`axis = 2`) at fixed set-up errors: the machine direction
 /// seen in the workpiece frame.
-pub fn probe_direction(q: &AxisPositions, g: &Geometry, e: &SetupError, axis: usize) -> Vector3<f64> {
+pub fn probe_direction(
+    q: &AxisPositions,
+    g: &Geometry,
+    e: &SetupError,
+    axis: usize,
+) -> Vector3<f64> {
     let mut d = Vector3::zeros();
     d[axis] = 1.0;
     workpiece_frame(q.x, q.c, g.h, e).inv_vector(&d)
@@ -215,7 +220,11 @@ mod tests {
 
     /// The chain as a product of homogeneous 4×4 matrices, built directly
     /// from the spec's factors (independent of `Rigid::compose`).
-    fn chain_by_matrices(q: &AxisPositions, g: &Geometry, e: &SetupError) -> nalgebra::Matrix4<f64> {
+    fn chain_by_matrices(
+        q: &AxisPositions,
+        g: &Geometry,
+        e: &SetupError,
+    ) -> nalgebra::Matrix4<f64> {
         use nalgebra::Matrix4;
         let t = |x: f64, y: f64, z: f64| Matrix4::new_translation(&Vector3::new(x, y, z));
         let r = |axis: Vector3<f64>, ang: f64| {
@@ -280,7 +289,11 @@ mod tests {
             let (gp, _) = point_with_derivatives(&q, &g, &SetupError::from_array(p), &tp);
             let (gm, _) = point_with_derivatives(&q, &g, &SetupError::from_array(m), &tp);
             let fd = (gp - gm) / (2.0 * step);
-            assert!((fd - d[k]).norm() < 1e-6 * d[k].norm().max(1.0), "{k}: {fd} vs {}", d[k]);
+            assert!(
+                (fd - d[k]).norm() < 1e-6 * d[k].norm().max(1.0),
+                "{k}: {fd} vs {}",
+                d[k]
+            );
         }
     }
 

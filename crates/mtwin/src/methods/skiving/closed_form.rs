@@ -2,9 +2,10 @@
 //! [`super::chain`] (a cross-check of the exact solution, never a
 //! substitute).
 //!
-//! With `a = b = 0` the tool point is `p = (0, y − tPy… , z)` in the machine
-//! frame; let `(qx, qy) = RZ(−c)·(pₓ − x, p_y)` be its nominal position
-//! over the table, and `ζ = z + h` its height over the nominal top face.
+//! With `a = b = 0` the tool point `tP = (0, t, 0)` (`t = 0` face centre,
+//! `t = −rt` tip) is at `(0, y + t, z)` in the machine frame; let
+//! `(qx, qy) = RZ(−c)·(−x, y + t)` be its nominal position over the table
+//! centre, and `ζ = z + h` its height over the nominal top face.
 //! Expanding `gP = RX(−εzy)·RY(−εxz)·(q − (δgx, δgy, 0))` to first order in
 //! the four unknowns (dropping products such as `εxz·δgx`):
 //!
@@ -50,9 +51,13 @@ pub const STANDARD_FORMULAS: [(&str, &str); 4] = [
 pub enum ClosedFormError {
     #[error("touch {0} has a or b different from 0; the closed forms assume a = b = 0")]
     Swivelled(usize),
-    #[error("the top touches do not determine both tilts (they need two table angles or two y positions each)")]
+    #[error(
+        "the top touches do not determine both tilts (they need two table angles or two y positions each)"
+    )]
     Tilts,
-    #[error("the side touches do not determine both offsets (they need two table angles, e.g. c = 0° and 90°)")]
+    #[error(
+        "the side touches do not determine both offsets (they need two table angles, e.g. c = 0° and 90°)"
+    )]
     Offsets,
 }
 
@@ -103,7 +108,7 @@ pub fn first_order(touches: &[Touch], g: &Geometry) -> Result<SetupError, Closed
 /// (relative to their size).
 fn solve2(n: Matrix2<f64>, b: Vector2<f64>) -> Option<Vector2<f64>> {
     let scale = n.m11.abs().max(n.m22.abs());
-    if !(scale > 0.0) || n.determinant().abs() <= 1e-12 * scale * scale {
+    if scale.is_nan() || scale <= 0.0 || n.determinant().abs() <= 1e-12 * scale * scale {
         return None;
     }
     n.try_inverse().map(|inv| inv * b)
@@ -166,7 +171,11 @@ mod tests {
         let plan = Plan::standard(0.0, &g).touches(&g).unwrap();
         let t = simulate(&plan, &g, &TRUTH, None).unwrap();
         assert_eq!(first_order(&t[..3], &g), Err(ClosedFormError::Tilts));
-        let no_side: Vec<Touch> = t.iter().copied().filter(|x| x.at.c == 0.0 || x.contact == Contact::Top).collect();
+        let no_side: Vec<Touch> = t
+            .iter()
+            .copied()
+            .filter(|x| x.at.c == 0.0 || x.contact == Contact::Top)
+            .collect();
         assert_eq!(first_order(&no_side, &g), Err(ClosedFormError::Offsets));
         let mut sw = t.clone();
         sw[2].at.a = 1.0;

@@ -119,7 +119,9 @@ pub struct Solution {
 /// Why the set-up error cannot be identified.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum IdentifyError {
-    #[error("{0} touches cannot determine 4 unknowns; at least 4 (the standard plan has 6) are needed")]
+    #[error(
+        "{0} touches cannot determine 4 unknowns; at least 4 (the standard plan has 6) are needed"
+    )]
     TooFewTouches(usize),
     #[error("the touches do not determine {}; add touches at another table angle or y position", .0.join(", "))]
     NotIdentifiable(Vec<String>),
@@ -187,9 +189,9 @@ pub fn identify(
     model.jacobian(&theta, 0..m, jf.as_mut());
     let j = DMatrix::from_fn(m, 4, |i, k| jf[(i, k)]);
     let jtj: Matrix4<f64> = (j.transpose() * &j).fixed_view::<4, 4>(0, 0).into_owned();
-    let inv = jtj
-        .try_inverse()
-        .ok_or_else(|| IdentifyError::NotIdentifiable(SetupError::NAMES.map(String::from).to_vec()))?;
+    let inv = jtj.try_inverse().ok_or_else(|| {
+        IdentifyError::NotIdentifiable(SetupError::NAMES.map(String::from).to_vec())
+    })?;
     let leverage: Vec<f64> = (0..m)
         .map(|i| {
             let row = j.row(i).transpose();

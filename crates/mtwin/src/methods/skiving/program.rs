@@ -63,7 +63,9 @@ pub struct Plan {
 pub enum PlanError {
     #[error("x = {x} mm puts the tool beside the workpiece (|x| must be below rg = {rg} mm)")]
     XOutside { x: f64, rg: f64 },
-    #[error("the face offset {0} mm must be positive and leave the tool over the top face (below rg + rt = {1} mm)")]
+    #[error(
+        "the face offset {0} mm must be positive and leave the tool over the top face (below rg + rt = {1} mm)"
+    )]
     FaceOffset(f64, f64),
     #[error("the side depth {0} mm must be positive")]
     SideDepth(f64),

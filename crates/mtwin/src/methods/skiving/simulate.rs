@@ -110,7 +110,7 @@ fn solve_contact(
                 (p.x * d.x + p.y * d.y) / p.x.hypot(p.y)
             }
         };
-        if !(slope.abs() > 1e-6) {
+        if slope.is_nan() || slope.abs() <= 1e-6 {
             return Err(Failure::Grazing);
         }
         // Step limited to 5 mm so Newton cannot jump to the far side.
@@ -192,6 +192,17 @@ mod tests {
             assert!(moved > 0.0 && moved < 6e-3);
             assert!(x.at.y == c.at.y || x.at.z == c.at.z);
         }
-        assert!(simulate(&plan, &g, &TRUTH, Some(Noise { sigma: -1.0, seed: 0 })).is_err());
+        assert!(
+            simulate(
+                &plan,
+                &g,
+                &TRUTH,
+                Some(Noise {
+                    sigma: -1.0,
+                    seed: 0
+                })
+            )
+            .is_err()
+        );
     }
 }

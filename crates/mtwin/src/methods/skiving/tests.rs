@@ -121,7 +121,10 @@ fn one_micrometre_noise_stays_within_the_spec_tolerance_typically() {
     assert!((u[3] - 2f64.sqrt() * 1e-3 / 60.0).abs() < 1e-8, "{u:?}");
     // Offsets: one side touch (1 µm) plus the tilt times the 10 mm depth.
     let expect = (1e-6 + (10.0 * u[2]).powi(2)).sqrt();
-    assert!((u[0] - expect).abs() < 1e-8 && (u[1] - expect).abs() < 1e-8, "{u:?}");
+    assert!(
+        (u[0] - expect).abs() < 1e-8 && (u[1] - expect).abs() < 1e-8,
+        "{u:?}"
+    );
 }
 
 #[test]
@@ -133,7 +136,16 @@ fn a_bad_face_touch_is_flagged_and_side_touches_are_unchecked() {
         exz: 1e-4,
         ezy: -2e-4,
     };
-    let mut t = simulate(&six(&g), &g, &truth, Some(Noise { sigma: 1e-3, seed: 5 })).unwrap();
+    let mut t = simulate(
+        &six(&g),
+        &g,
+        &truth,
+        Some(Noise {
+            sigma: 1e-3,
+            seed: 5,
+        }),
+    )
+    .unwrap();
     t[0].at.z += 0.03;
     let s = identify(&t, &g, &Options { noise: Some(1e-3) }).unwrap();
     assert_eq!(s.flags[0], TouchFlag::Inconsistent);
@@ -147,7 +159,11 @@ fn a_bad_face_touch_is_flagged_and_side_touches_are_unchecked() {
     // into a slope (absorbed by εzy) and a common shift of 15 µm left in both
     // residuals, with the same sign (second-order couplings ε·δ ≈ 1e-8 mm).
     assert!((s.residuals[0] - 0.015).abs() < 3e-3, "{:?}", s.residuals);
-    assert!((s.residuals[0] - s.residuals[1]).abs() < 1e-4, "{:?}", s.residuals);
+    assert!(
+        (s.residuals[0] - s.residuals[1]).abs() < 1e-4,
+        "{:?}",
+        s.residuals
+    );
 }
 
 #[test]
@@ -179,7 +195,11 @@ fn repeats_and_extra_angles_are_used() {
     for k in 0..4 {
         assert!(u[k] < u6[k], "{u:?} {u6:?}");
     }
-    assert!(s.flags.iter().all(|f| *f == TouchFlag::Consistent), "{:?}", s.flags);
+    assert!(
+        s.flags.iter().all(|f| *f == TouchFlag::Consistent),
+        "{:?}",
+        s.flags
+    );
 }
 
 #[test]

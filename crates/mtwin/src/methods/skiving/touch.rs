@@ -112,7 +112,7 @@ impl Touch {
             Contact::Top => "top face",
             Contact::Side => "side cylinder",
         };
-        if !(r.abs() <= tolerance) {
+        if r.is_nan() || r.abs() > tolerance {
             return Err(format!(
                 "the tool {} is {:.3} mm from the workpiece {surface} at these axis positions \
                  (more than {tolerance} mm): this contact is impossible",
@@ -334,8 +334,14 @@ mod tests {
             "{HEADER}0,30,-80,0,0,0,face,bottom\n0,30,-70,0,0,0,face,top\n0,30,-80,0,0,0,edge,top\n"
         ));
         let d = read_touches(&bad, &g, 1.0).unwrap_err().to_string();
-        assert!(d.contains("T.csv:2:8: unknown contact type `bottom`"), "{d}");
-        assert!(d.contains("T.csv:3: the tool face is 10.000 mm from the workpiece top face"), "{d}");
+        assert!(
+            d.contains("T.csv:2:8: unknown contact type `bottom`"),
+            "{d}"
+        );
+        assert!(
+            d.contains("T.csv:3: the tool face is 10.000 mm from the workpiece top face"),
+            "{d}"
+        );
         assert!(d.contains("T.csv:4:7: unknown tool point `edge`"), "{d}");
 
         let missing = table("x,y,z,a,b,c,point\n0,30,-80,0,0,0,face\n");
