@@ -69,7 +69,7 @@ pub fn check_jacobian(model: &dyn Model, theta: &[f64]) -> Result<JacobianCheck,
         for i in 0..m {
             let numeric = (plus[i] - minus[i]) / step;
             let e = (j[(i, c)] - numeric).abs();
-            if !(e <= col_err) {
+            if e > col_err || e.is_nan() {
                 col_err = e;
                 row_err = i;
             }
@@ -83,7 +83,7 @@ pub fn check_jacobian(model: &dyn Model, theta: &[f64]) -> Result<JacobianCheck,
         } else {
             0.0
         };
-        if !(rel <= out.max_rel_error) {
+        if rel > out.max_rel_error || rel.is_nan() {
             out.max_rel_error = rel;
             out.worst = (row_err, c);
         }

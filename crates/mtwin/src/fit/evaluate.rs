@@ -11,9 +11,10 @@
 
 use std::ops::Range;
 
+use faer::linalg::matmul::matmul;
 use faer::linalg::matmul::triangular::{BlockStructure, matmul as tri_matmul};
 use faer::reborrow::ReborrowMut;
-use faer::{Accum, Mat, MatMut, Par};
+use faer::{Accum, ColMut, ColRef, Mat, MatMut, MatRef, Par};
 use rayon::prelude::*;
 
 use super::problem::{BlockLayout, Model};
@@ -44,8 +45,10 @@ pub(crate) struct Evaluation {
     pub cost: f64,
     /// `Jᵀr` (`n`), empty for [`Need::Residuals`].
     pub g: Vec<f64>,
-    /// The Jacobian (`m × n`) for [`Need::Dense`].
-    pub jacobian: Option<Mat<f64>>,
+    /// The transposed Jacobian `Jᵀ` (`n × m`, column-major, so that each
+    /// row of J is contiguous) for [`Need::Dense`]; see
+    /// [`Evaluation::jacobian`].
+    pub jt: Option<Mat<f64>>,
     /// `JᵀJ` (`n × n`, both halves filled) for [`Need::Normal`].
     pub normal: Option<Mat<f64>>,
 }
@@ -87,35 +90,39 @@ impl Pass<'_> {
                 });
             }
             Need::Dense => {
-                let mut j = Mat::<f64>::zeros(m, n);
-                self.fill(theta, &tasks, &mut r, j.as_mut());
+                let mut jt = Mat::<f64>::zeros(n, m);
+                self.fill(theta, &tasks, &mut r, jt.as_mut().transpose_mut());
                 (self.progress)(Progress::Evaluating {
                     rows_done: m,
                     rows_total: m,
                 });
-                gemv_t(j.as_ref(), &r, &mut g);
-                jacobian = Some(j);
+                gemv(jt.as_ref(), &r, &mut g, Accum::Replace);
+                jacobian = Some(jt);
             }
             Need::Gradient | Need::Normal => {
                 let mut nm = (need == Need::Normal).then(|| Mat::<f64>::zeros(n, n));
-                let mut jc = Mat::<f64>::zeros(0, n);
+                // Jᵀ of the chunk, n × rows: rows of J contiguous.
+                let mut jt = Mat::<f64>::zeros(n, 0);
                 for chunk in group_tasks(&tasks, self.chunk_rows) {
                     let (lo, hi) = (tasks[chunk.start].start, tasks[chunk.end - 1].end);
-                    if jc.nrows() != hi - lo {
-                        jc = Mat::<f64>::zeros(hi - lo, n);
+                    if jt.ncols() != hi - lo {
+                        jt = Mat::<f64>::zeros(n, hi - lo);
                     }
-                    self.fill(theta, &tasks[chunk], &mut r[lo..hi], jc.as_mut());
-                    let mut gc = vec![0.0; n];
-                    gemv_t(jc.as_ref(), &r[lo..hi], &mut gc);
-                    g.iter_mut().zip(&gc).for_each(|(a, b)| *a += b);
+                    self.fill(
+                        theta,
+                        &tasks[chunk],
+                        &mut r[lo..hi],
+                        jt.as_mut().transpose_mut(),
+                    );
+                    gemv(jt.as_ref(), &r[lo..hi], &mut g, Accum::Add);
                     if let Some(nm) = nm.as_mut() {
                         tri_matmul(
                             nm.as_mut(),
                             BlockStructure::TriangularLower,
                             Accum::Add,
-                            jc.transpose(),
+                            jt.as_ref(),
                             BlockStructure::Rectangular,
-                            jc.as_ref(),
+                            jt.transpose(),
                             BlockStructure::Rectangular,
                             1.0,
                             Par::rayon(0),
@@ -136,7 +143,7 @@ impl Pass<'_> {
                 }
             }
         }
-        self.mask_and_check(&mut r, jacobian.as_ref().map(|j| j.as_ref()))?;
+        self.mask_and_check(&mut r, jacobian.as_ref().map(|jt| jt.transpose()))?;
         let cost = 0.5 * r.iter().map(|x| x * x).sum::<f64>();
         if !cost.is_finite() {
             return Err(FitError::NonFinite {
@@ -160,7 +167,7 @@ impl Pass<'_> {
             r,
             cost,
             g,
-            jacobian,
+            jt: jacobian,
             normal,
         })
     }
@@ -261,9 +268,22 @@ fn group_tasks(tasks: &[Range<usize>], chunk_rows: usize) -> Vec<Range<usize>> {
     out
 }
 
-/// `g = Jᵀ r` (overwrites `g`).
-pub(crate) fn gemv_t(j: faer::MatRef<'_, f64>, r: &[f64], g: &mut [f64]) {
-    g.par_iter_mut().enumerate().for_each(|(c, gc)| {
-        *gc = j.col(c).iter().zip(r).map(|(a, b)| a * b).sum();
-    });
+/// `g = Jᵀ·r` (`Accum::Replace`) or `g += Jᵀ·r` (`Accum::Add`), with the
+/// transposed Jacobian `jt` given.
+fn gemv(jt: MatRef<'_, f64>, r: &[f64], g: &mut [f64], accum: Accum) {
+    matmul(
+        ColMut::from_slice_mut(g).as_mat_mut(),
+        accum,
+        jt,
+        ColRef::from_slice(r).as_mat(),
+        1.0,
+        Par::rayon(0),
+    );
+}
+
+impl Evaluation {
+    /// The Jacobian (`m × n` view), if the pass kept it.
+    pub fn jacobian(&self) -> Option<MatRef<'_, f64>> {
+        self.jt.as_ref().map(|jt| jt.transpose())
+    }
 }

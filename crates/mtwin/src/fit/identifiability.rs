@@ -157,7 +157,7 @@ pub(crate) fn zero_columns(norms: &[f64], params: &[Parameter], tau: f64) -> Vec
     let max = effect.iter().copied().fold(0.0, f64::max);
     effect
         .iter()
-        .map(|&e| !(e > tau * max) || e == 0.0)
+        .map(|&e| e.is_nan() || e <= tau * max)
         .collect()
 }
 

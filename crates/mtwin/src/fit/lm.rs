@@ -10,7 +10,9 @@
 //! * Scaling (Moré 1978): `D_j = max(D_j, ‖J_j‖)` over the iterations.
 //! * Damping (Nielsen 1999): start `μ = τ₀·max diag(Nₛ)`; on an accepted step
 //!   with gain ratio ρ, `μ ← μ·max(1/3, 1 − (2ρ − 1)³)`, `ν ← 2`; on a
-//!   rejected one `μ ← μ·ν`, `ν ← 2ν`.
+//!   rejected one `μ ← μ·ν`, `ν ← 2ν`; when the gain ratio is within
+//!   [`super::Options::reuse_gain`] of 1 (the model is linear along the
+//!   step) `μ ← μ/10`.
 //! * Stopping (MINPACK's tests, in scaled variables): gradient
 //!   `max_j |J_jᵀr| / (D_j‖r‖) ≤ gtol` (or `r = 0`); step
 //!   `‖D·δθ‖ ≤ xtol·(‖D·θ‖ + xtol)` (tested after the step is evaluated, and
@@ -91,10 +93,10 @@ pub(crate) struct Outcome {
 /// Column norms of the evaluated Jacobian (`None` if the pass kept neither
 /// the Jacobian nor `JᵀJ`).
 pub(crate) fn column_norms(eval: &Evaluation) -> Option<Vec<f64>> {
-    if let Some(j) = &eval.jacobian {
+    if let Some(jt) = &eval.jt {
         Some(
-            (0..j.ncols())
-                .map(|c| j.col(c).iter().map(|x| x * x).sum::<f64>().sqrt())
+            (0..jt.nrows())
+                .map(|c| jt.row(c).iter().map(|x| x * x).sum::<f64>().sqrt())
                 .collect(),
         )
     } else {
@@ -147,18 +149,30 @@ impl State {
     }
 }
 
+/// How the first linearisation is handed over.
+pub(crate) enum Start {
+    /// Already decomposed over exactly the estimated columns.
+    Decomposed(Scaled),
+    /// The column scales of the estimated columns; decompose here.
+    Scales(Vec<f64>),
+}
+
 /// Minimises over the columns `kept`, from `theta0` whose evaluation
-/// `eval0` (dense or normal) is given; `d0` are the scales of `kept`.
+/// `eval0` (dense or normal) is given.
 pub(crate) fn minimise(
     pass: &Pass<'_>,
     theta0: Vec<f64>,
     eval0: Evaluation,
     kept: &[usize],
-    d0: Vec<f64>,
+    start: Start,
     opts: &Options,
     dense: bool,
 ) -> Result<Outcome, FitError> {
-    let scaled = Scaled::new(&eval0, kept, &d0)?;
+    let scaled = match start {
+        Start::Decomposed(s) => s,
+        Start::Scales(d) => Scaled::new(&eval0, kept, &d)?,
+    };
+    let d0 = scaled.d.clone();
     let max_diag = (0..scaled.len())
         .map(|i| scaled.normal[(i, i)])
         .fold(0.0, f64::max);
@@ -233,9 +247,16 @@ pub(crate) fn minimise(
                 && pred <= opts.cost_tolerance * st.eval.cost;
             if actual > 0.0 && pred > 0.0 {
                 st.theta = trial;
-                st.mu *= (1.0 / 3.0f64).max(1.0 - (2.0 * rho - 1.0).powi(3));
-                nu = 2.0;
                 let linear = (rho - 1.0).abs() <= opts.reuse_gain;
+                // Along a step where the model behaved linearly the
+                // quadratic model is trusted: damping drops ten-fold
+                // (Nielsen's rule alone never goes below a third).
+                st.mu *= if linear {
+                    0.1
+                } else {
+                    (1.0 / 3.0f64).max(1.0 - (2.0 * rho - 1.0).powi(3))
+                };
+                nu = 2.0;
                 if dense {
                     st.eval = te;
                     st.update_scales(kept);

@@ -265,11 +265,15 @@ impl Stage {
         let d: Vec<f64> = nonzero.iter().map(|&j| norms[j]).collect();
         let scaled = Scaled::new(&eval0, &nonzero, &d)?;
         let ident = identifiability::analyse(&scaled, &zero, params, tau);
-        drop(scaled);
         let kept = ident.estimated.clone();
-        let dk: Vec<f64> = kept.iter().map(|&j| norms[j]).collect();
+        // Full rank over the non-zero columns: the decomposition is reused.
+        let start = if kept == nonzero {
+            lm::Start::Decomposed(scaled)
+        } else {
+            lm::Start::Scales(kept.iter().map(|&j| norms[j]).collect())
+        };
         let initial_r = eval0.r.clone();
-        let outcome = lm::minimise(&pass, theta0.to_vec(), eval0, &kept, dk, options, dense)?;
+        let outcome = lm::minimise(&pass, theta0.to_vec(), eval0, &kept, start, options, dense)?;
         Ok(Self {
             ident,
             outcome,

@@ -19,8 +19,11 @@
 //!   read as rank deficiency. Use the dense path when finer distinctions
 //!   matter.
 
+use faer::diag::Diag;
+use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::matmul::matmul;
-use faer::{Accum, Mat, Par, Side};
+use faer::linalg::svd::{ComputeSvdVectors, svd};
+use faer::{Accum, Mat, MatRef, Par, Side};
 
 use super::FitError;
 use super::evaluate::Evaluation;
@@ -80,27 +83,19 @@ impl Scaled {
                 v: Mat::zeros(0, 0),
                 normal: Mat::zeros(0, 0),
                 g,
-                source: if eval.jacobian.is_some() {
+                source: if eval.jt.is_some() {
                     Source::DenseSvd
                 } else {
                     Source::NormalEigen
                 },
             });
         }
-        if let Some(j) = &eval.jacobian {
-            let js = Mat::<f64>::from_fn(j.nrows(), k, |i, c| j[(i, cols[c])] / d[c]);
-            let svd = js.thin_svd().map_err(|_| FitError::Decomposition)?;
-            let s = svd.S().column_vector();
-            let lambda: Vec<f64> = s.iter().map(|x| x * x).collect();
-            // A thin SVD of a matrix with fewer rows than columns has only m
-            // singular values; pad with zeros and complete V.
-            let v = if lambda.len() == k {
-                svd.V().to_owned()
-            } else {
-                let full = js.svd().map_err(|_| FitError::Decomposition)?;
-                full.V().to_owned()
-            };
-            let mut lambda = lambda;
+        if let Some(jt) = &eval.jt {
+            let js = Mat::<f64>::from_fn(jt.ncols(), k, |i, c| jt[(cols[c], i)] / d[c]);
+            let (s, v) = singular_values_and_v(js.as_ref())?;
+            // With fewer rows than columns there are only m singular values:
+            // the others are zero (V is complete).
+            let mut lambda: Vec<f64> = s.iter().map(|x| x * x).collect();
             lambda.resize(k, 0.0);
             let mut normal = Mat::<f64>::zeros(k, k);
             matmul(
@@ -173,6 +168,42 @@ impl Scaled {
             .map(|i| (0..k).map(|a| self.v[(i, a)] * c[a]).sum())
             .collect()
     }
+}
+
+/// Below this many entries the SVD runs on the calling thread: thread
+/// hand-offs cost more than they save on a 540 × 162 matrix.
+const PARALLEL_SVD_ENTRIES: usize = 1 << 20;
+
+/// Singular values (descending, `min(m, k)` of them) and the complete
+/// `k × k` matrix V of right singular vectors of `a`.
+fn singular_values_and_v(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), FitError> {
+    let (m, k) = a.shape();
+    let par = if m * k < PARALLEL_SVD_ENTRIES {
+        Par::Seq
+    } else {
+        Par::rayon(0)
+    };
+    let mut s = Diag::<f64>::zeros(m.min(k));
+    let mut v = Mat::<f64>::zeros(k, k);
+    let scratch = faer::linalg::svd::svd_scratch::<f64>(
+        m,
+        k,
+        ComputeSvdVectors::No,
+        ComputeSvdVectors::Full,
+        par,
+        Default::default(),
+    );
+    svd(
+        a,
+        s.as_mut(),
+        None,
+        Some(v.as_mut()),
+        par,
+        MemStack::new(&mut MemBuffer::new(scratch)),
+        Default::default(),
+    )
+    .map_err(|_| FitError::Decomposition)?;
+    Ok((s.column_vector().iter().copied().collect(), v))
 }
 
 /// Greedy diagonal pivoting of the positive semi-definite `a` (`k × k`):
