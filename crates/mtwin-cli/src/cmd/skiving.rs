@@ -203,6 +203,12 @@ fn setup_error(a: SetupErrorArgs) -> anyhow::Result<()> {
         .filter(|(_, f)| **f == mtwin::methods::skiving::TouchFlag::Inconsistent)
         .map(|(i, _)| i)
         .collect();
+    // The engine's own outlier scan is replaced by the leverage-aware flags below.
+    for w in &s.fit.warnings {
+        if !matches!(w, mtwin::fit::Warning::Outliers { .. }) {
+            warn(w.to_string());
+        }
+    }
     for &i in &inconsistent {
         warn(format!(
             "{}:{}: touch {} is inconsistent with the others (residual {:.2} µm, {:.1} times its expected size)",
