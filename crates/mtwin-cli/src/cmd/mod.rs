@@ -8,6 +8,7 @@ mod demo;
 mod model;
 mod predict;
 mod servo;
+mod skiving;
 mod thermal;
 mod tracker;
 
@@ -57,6 +58,9 @@ pub enum Command {
         after_help = "Example:\n  mtwin compensate-points --machine identified.toml --data targets.csv --out corrected.csv"
     )]
     CompensatePoints(tracker::CompensateArgs),
+    /// Workpiece set-up error of a power-skiving machine from touch-offs (spec 03).
+    #[command(subcommand)]
+    Skiving(skiving::Command),
 }
 
 /// Run one subcommand.
@@ -73,5 +77,6 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Plan(c) => tracker::run_plan(c),
         Command::Simulate(c) => tracker::run_simulate(c),
         Command::CompensatePoints(a) => tracker::run_compensate(a),
+        Command::Skiving(c) => skiving::run(c),
     }
 }

@@ -3,5 +3,6 @@
 //! and the program rewriters built on them.
 
 pub mod ballbar;
+pub mod skiving;
 pub mod thermal;
 pub mod tracker;

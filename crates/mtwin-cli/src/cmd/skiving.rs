@@ -1,0 +1,405 @@
+//! `mtwin skiving`: workpiece set-up error of a power-skiving machine from
+//! touch-offs (spec 03): identify it, write the touch-off program, simulate
+//! touches.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use mtwin::io::{fmt_f64, write_atomic_with};
+use mtwin::methods::skiving::closed_form::{self, STANDARD_FORMULAS};
+use mtwin::methods::skiving::program::{self, Dialect, Motion, Plan};
+use mtwin::methods::skiving::simulate::{Noise, simulate};
+use mtwin::methods::skiving::touch::{DEFAULT_PLAUSIBILITY_MM, read_touches};
+use mtwin::methods::skiving::{Geometry, Options, SetupError, Touch, UncertaintyBasis, identify};
+use serde_json::json;
+
+use super::common::{diag, load_table};
+use crate::output::{Format, note, print_json, warn};
+
+#[derive(Debug, clap::Subcommand)]
+pub enum Command {
+    /// Identify the four set-up errors (δgx, δgy, εxz, εzy) from touch-offs.
+    #[command(
+        after_help = "Example:\n  mtwin skiving setup-error --data touches.csv --h 80 --L 150 --rt 40 --rg 60 --noise 0.001 --explain"
+    )]
+    SetupError(SetupErrorArgs),
+    /// Write the touch-off program (G-code with probing moves).
+    #[command(
+        after_help = "Example:\n  mtwin skiving program --x 0 --h 80 --L 150 --rt 40 --rg 60 --dialect linuxcnc --out touchoff.ngc"
+    )]
+    Program(ProgramArgs),
+    /// Simulate the touches of the plan for known set-up errors (exact contacts).
+    #[command(
+        after_help = "Example:\n  mtwin skiving simulate --x 0 --h 80 --L 150 --rt 40 --rg 60 --dgx 0.03 --dgy -0.02 --exz 2e-4 --ezy -1e-4 --out touches.csv"
+    )]
+    Simulate(SimulateArgs),
+}
+
+/// The machine dimensions every subcommand needs.
+#[derive(Debug, clap::Args)]
+pub struct GeometryArgs {
+    /// Clamping height h: the workpiece top face lies at machine z = −h (mm).
+    #[arg(long = "h")]
+    h: f64,
+    /// Swing length L of the tool head (mm).
+    #[arg(long = "L")]
+    l: f64,
+    /// Tool tip radius rt (mm).
+    #[arg(long)]
+    rt: f64,
+    /// Workpiece radius rg (mm).
+    #[arg(long)]
+    rg: f64,
+}
+
+impl GeometryArgs {
+    fn geometry(&self) -> anyhow::Result<Geometry> {
+        Geometry::new(self.h, self.l, self.rt, self.rg).context("invalid machine dimensions")
+    }
+}
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct SetupErrorArgs {
+    /// Touches: CSV with columns x,y,z,a,b,c,point,contact (mm, degrees;
+    /// point face|tip, contact top|side), one touch per row.
+    #[arg(long)]
+    data: PathBuf,
+    #[command(flatten)]
+    geometry: GeometryArgs,
+    /// Known standard deviation of one touch (mm). Without it σ is estimated
+    /// from the residuals (2 degrees of freedom for six touches) and touches
+    /// are flagged against an assumed 0.002 mm.
+    #[arg(long)]
+    noise: Option<f64>,
+    /// Reject a touch farther than this from its surface at zero set-up error (mm).
+    #[arg(long, default_value_t = DEFAULT_PLAUSIBILITY_MM)]
+    tolerance: f64,
+    /// Also print the first-order closed forms beside the exact solution.
+    #[arg(long)]
+    explain: bool,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct PlanArgs {
+    /// X position held during the touches (mm).
+    #[arg(long, allow_hyphen_values = true)]
+    x: f64,
+    /// |y| of the face touches (mm); default rg/2.
+    #[arg(long)]
+    face_offset: Option<f64>,
+    /// Depth of the side touches below the top face (mm).
+    #[arg(long, default_value_t = 10.0)]
+    side_depth: f64,
+}
+
+impl PlanArgs {
+    fn plan(&self, g: &Geometry) -> Plan {
+        let mut p = Plan::standard(self.x, g);
+        if let Some(f) = self.face_offset {
+            p.face_offset = f;
+        }
+        p.side_depth = self.side_depth;
+        p
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum DialectArg {
+    /// LinuxCNC, G38.2, results logged to skiving-touches.csv.
+    Linuxcnc,
+    /// Fanuc Macro B, G31, results in #501… and DPRNT.
+    Fanuc,
+}
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct ProgramArgs {
+    #[command(flatten)]
+    plan: PlanArgs,
+    #[command(flatten)]
+    geometry: GeometryArgs,
+    /// Start of each probing move before the nominal contact (mm).
+    #[arg(long, default_value_t = 2.0)]
+    approach: f64,
+    /// End of each probing move beyond the nominal contact (mm).
+    #[arg(long, default_value_t = 1.0)]
+    overtravel: f64,
+    /// Safe height above the top face between touches (mm).
+    #[arg(long, default_value_t = 20.0)]
+    clearance: f64,
+    /// Probing feed (mm/min).
+    #[arg(long, default_value_t = 20.0)]
+    feed: f64,
+    /// Controller dialect.
+    #[arg(long, value_enum)]
+    dialect: DialectArg,
+    /// Output G-code file.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct SimulateArgs {
+    #[command(flatten)]
+    plan: PlanArgs,
+    #[command(flatten)]
+    geometry: GeometryArgs,
+    /// True offset δgx (mm).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    dgx: f64,
+    /// True offset δgy (mm).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    dgy: f64,
+    /// True tilt εxz about Y (rad).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    exz: f64,
+    /// True tilt εzy about X (rad).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    ezy: f64,
+    /// Standard deviation of Gaussian noise on each probed coordinate (mm).
+    #[arg(long, default_value_t = 0.0)]
+    noise: f64,
+    /// Seed of the noise.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Repeat the six touches this many times (noise drawn anew each time).
+    #[arg(long, default_value_t = 1)]
+    repeat: u32,
+    /// Output TOUCHES.csv.
+    #[arg(long)]
+    out: PathBuf,
+    /// Output format of the summary.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+pub fn run(c: Command) -> anyhow::Result<()> {
+    match c {
+        Command::SetupError(a) => setup_error(a),
+        Command::Program(a) => write_program(a),
+        Command::Simulate(a) => simulate_touches(a),
+    }
+}
+
+fn setup_error(a: SetupErrorArgs) -> anyhow::Result<()> {
+    let g = a.geometry.geometry()?;
+    let t = load_table(&a.data)?;
+    let touches = read_touches(&t, &g, a.tolerance).map_err(diag)?;
+    let s = identify(&touches, &g, &Options { noise: a.noise })
+        .with_context(|| format!("{}: cannot identify the set-up error", a.data.display()))?;
+    let first = closed_form::first_order(&touches, &g);
+    let e = s.estimate;
+    let names = SetupError::NAMES;
+    let unc = s.uncertainty.map(|u| u.std);
+    let inconsistent: Vec<usize> = s
+        .flags
+        .iter()
+        .enumerate()
+        .filter(|(_, f)| **f == mtwin::methods::skiving::TouchFlag::Inconsistent)
+        .map(|(i, _)| i)
+        .collect();
+    // The engine's own outlier scan is replaced by the leverage-aware flags below.
+    for w in &s.fit.warnings {
+        if !matches!(w, mtwin::fit::Warning::Outliers { .. }) {
+            warn(w.to_string());
+        }
+    }
+    for &i in &inconsistent {
+        warn(format!(
+            "{}:{}: touch {} is inconsistent with the others (residual {:.2} µm, {:.1} times its expected size)",
+            a.data.display(),
+            t.line(i),
+            i + 1,
+            s.residuals[i] * 1e3,
+            s.standardized[i].unwrap_or(f64::NAN).abs()
+        ));
+    }
+    if s.flags
+        .iter()
+        .any(|f| *f == mtwin::methods::skiving::TouchFlag::Unchecked)
+    {
+        note(
+            "touches marked `unchecked` are not checked by any other touch: an error in them goes straight into the result (repeat them to check)",
+        );
+    }
+    match a.format {
+        Format::Json => {
+            let basis = s.uncertainty.map(|u| match u.basis {
+                UncertaintyBasis::KnownNoise { sigma } => {
+                    json!({"kind": "known_noise", "sigma": sigma})
+                }
+                UncertaintyBasis::Residuals { sigma, dof } => {
+                    json!({"kind": "residuals", "sigma": sigma, "dof": dof})
+                }
+            });
+            let uncertainty =
+                unc.map(|u| json!({"dgx": u[0], "dgy": u[1], "exz": u[2], "ezy": u[3]}));
+            let closed = first
+                .as_ref()
+                .ok()
+                .map(|f| json!({"dgx": f.dgx, "dgy": f.dgy, "exz": f.exz, "ezy": f.ezy}));
+            print_json(&json!({
+                "dgx": e.dgx, "dgy": e.dgy, "exz": e.exz, "ezy": e.ezy,
+                "residuals": s.residuals,
+                "uncertainty": uncertainty,
+                "uncertainty_basis": basis,
+                "coverage_factor_95": s.uncertainty.map(|u| u.coverage_factor_95()),
+                "flags": s.flags.iter().map(|f| f.name()).collect::<Vec<_>>(),
+                "standardized_residuals": s.standardized,
+                "leverage": s.leverage,
+                "flag_noise": s.flag_noise,
+                "first_order": closed,
+                "touches": touches.len(),
+            }))
+        }
+        Format::Human => {
+            println!(
+                "Workpiece set-up error from {} touches ({}), exact chain, least squares",
+                touches.len(),
+                a.data.display()
+            );
+            let val = [e.dgx * 1e3, e.dgy * 1e3, e.exz * 1e6, e.ezy * 1e6];
+            let unit = ["µm", "µm", "µrad", "µrad"];
+            let fo = first
+                .as_ref()
+                .ok()
+                .map(|f| [f.dgx * 1e3, f.dgy * 1e3, f.exz * 1e6, f.ezy * 1e6]);
+            print!("  {:<4} {:>12} {:>14}", "", "value", "std. uncert.");
+            if a.explain {
+                print!(" {:>13}  {}", "first order", "formula (x = 0, six touches)");
+            }
+            println!();
+            for k in 0..4 {
+                let u = unc
+                    .map(|u| format!("±{:.3}", u[k] * if k < 2 { 1e3 } else { 1e6 }))
+                    .unwrap_or_else(|| "—".into());
+                print!("  {:<4} {:>12.3} {:>9} {:<4}", names[k], val[k], u, unit[k]);
+                if a.explain {
+                    match fo {
+                        Some(f) => print!(" {:>13.3}  {}", f[k], STANDARD_FORMULAS[k].1),
+                        None => print!(" {:>13}", "—"),
+                    }
+                }
+                println!();
+            }
+            match s.uncertainty {
+                Some(u) => match u.basis {
+                    UncertaintyBasis::KnownNoise { sigma } => println!(
+                        "uncertainties from the given touch noise σ = {:.3} µm; 95 % interval: ±{:.2}·u",
+                        sigma * 1e3,
+                        u.coverage_factor_95()
+                    ),
+                    UncertaintyBasis::Residuals { sigma, dof } => println!(
+                        "uncertainties from the residuals, σ = {:.3} µm with only {dof} degree(s) of freedom; \
+                         95 % interval: ±{:.2}·u (give --noise if the touch repeatability is known)",
+                        sigma * 1e3,
+                        u.coverage_factor_95()
+                    ),
+                },
+                None => println!("no uncertainties: as many touches as unknowns and no --noise"),
+            }
+            if a.explain {
+                match &first {
+                    Ok(_) => println!(
+                        "first order: products of the unknowns dropped (sub-µm, sub-µrad for a few 0.01 mm and 1e-4 rad)"
+                    ),
+                    Err(err) => println!("first order: not applicable: {err}"),
+                }
+            }
+            println!(
+                "  {:>5} {:>5} {:>8} {:<5} {:<5} {:>12} {:>8}  flag",
+                "touch", "line", "c [deg]", "point", "cont.", "residual µm", "r/σ"
+            );
+            for (i, tch) in touches.iter().enumerate() {
+                let st = s.standardized[i]
+                    .map(|v| format!("{v:.2}"))
+                    .unwrap_or_else(|| "—".into());
+                println!(
+                    "  {:>5} {:>5} {:>8.3} {:<5} {:<5} {:>12.4} {:>8}  {}",
+                    i + 1,
+                    t.line(i),
+                    tch.at.c,
+                    tch.point.name(),
+                    tch.contact.name(),
+                    s.residuals[i] * 1e3,
+                    st,
+                    s.flags[i].name()
+                );
+            }
+            Ok(())
+        }
+    }
+}
+
+fn write_program(a: ProgramArgs) -> anyhow::Result<()> {
+    let g = a.geometry.geometry()?;
+    let motion = Motion {
+        approach: a.approach,
+        overtravel: a.overtravel,
+        clearance: a.clearance,
+        feed: a.feed,
+    };
+    let dialect = match a.dialect {
+        DialectArg::Linuxcnc => Dialect::LinuxCnc,
+        DialectArg::Fanuc => Dialect::Fanuc,
+    };
+    let text = program::program(&a.plan.plan(&g), &g, &motion, dialect)
+        .context("cannot write the touch-off program")?;
+    write_atomic_with(&a.out, |w| w.write_all(text.as_bytes()))
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    note(format!(
+        "touch-off program (6 probing moves) → {}",
+        a.out.display()
+    ));
+    Ok(())
+}
+
+fn simulate_touches(a: SimulateArgs) -> anyhow::Result<()> {
+    let g = a.geometry.geometry()?;
+    let plan = a
+        .plan
+        .plan(&g)
+        .touches(&g)
+        .context("cannot plan the touches")?;
+    let truth = SetupError {
+        dgx: a.dgx,
+        dgy: a.dgy,
+        exz: a.exz,
+        ezy: a.ezy,
+    };
+    if a.repeat == 0 {
+        anyhow::bail!("--repeat must be at least 1");
+    }
+    let mut touches: Vec<Touch> = Vec::new();
+    for r in 0..a.repeat {
+        let noise = Some(Noise {
+            sigma: a.noise,
+            seed: a.seed.wrapping_add(u64::from(r)),
+        });
+        touches.extend(simulate(&plan, &g, &truth, noise).context("cannot simulate the touches")?);
+    }
+    write_atomic_with(&a.out, |w| -> std::io::Result<()> {
+        writeln!(w, "x,y,z,a,b,c,point,contact")?;
+        for t in &touches {
+            let q = t.at;
+            let nums = [q.x, q.y, q.z, q.a, q.b, q.c].map(fmt_f64).join(",");
+            writeln!(w, "{nums},{},{}", t.point.name(), t.contact.name())?;
+        }
+        Ok(())
+    })
+    .with_context(|| format!("cannot write {}", a.out.display()))?;
+    match a.format {
+        Format::Json => {
+            print_json(&json!({"touches": touches.len(), "out": a.out.display().to_string()}))
+        }
+        Format::Human => {
+            println!("{} touches → {}", touches.len(), a.out.display());
+            Ok(())
+        }
+    }
+}
