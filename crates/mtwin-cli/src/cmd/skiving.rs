@@ -220,8 +220,7 @@ fn setup_error(a: SetupErrorArgs) -> anyhow::Result<()> {
         ));
     }
     if s.flags
-        .iter()
-        .any(|f| *f == mtwin::methods::skiving::TouchFlag::Unchecked)
+        .contains(&mtwin::methods::skiving::TouchFlag::Unchecked)
     {
         note(
             "touches marked `unchecked` are not checked by any other touch: an error in them goes straight into the result (repeat them to check)",
@@ -271,7 +270,7 @@ fn setup_error(a: SetupErrorArgs) -> anyhow::Result<()> {
                 .map(|f| [f.dgx * 1e3, f.dgy * 1e3, f.exz * 1e6, f.ezy * 1e6]);
             print!("  {:<4} {:>12} {:>14}", "", "value", "std. uncert.");
             if a.explain {
-                print!(" {:>13}  {}", "first order", "formula (x = 0, six touches)");
+                print!(" {:>13}  formula (x = 0, six touches)", "first order");
             }
             println!();
             for k in 0..4 {
