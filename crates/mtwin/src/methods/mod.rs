@@ -1,1 +1,2 @@
 pub mod thermal;
+pub mod compensate;
