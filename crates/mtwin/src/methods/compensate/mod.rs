@@ -31,6 +31,10 @@ use crate::kinematics::{IkError, IkOptions, IkTarget, Kinematics};
 use crate::model::{AxisKind, Machine};
 use path::{NominalPath, lerp};
 
+/// Largest rotary correction accepted from a tip-and-axis solution, degree;
+/// above it the pose is taken as singular (see [`Summary::axis_not_corrected`]).
+const MAX_ROTARY: f64 = 0.5;
+
 /// Largest number of halvings of one move.
 const MAX_DEPTH: u32 = 24;
 
@@ -79,6 +83,9 @@ pub struct Summary {
     pub largest_correction_line: u64,
     /// Largest rotary axis correction, degree.
     pub largest_rotary_correction: f64,
+    /// Targets near a singular pose (tool axis along a rotary axis) where
+    /// only the tip was corrected, with the linear axes.
+    pub axis_not_corrected: u64,
     /// Largest remaining deviation at a checked midpoint, mm.
     pub largest_midpoint_deviation: f64,
     /// Plain sentences about what was rewritten beyond end words.
@@ -325,10 +332,21 @@ impl Compensator {
                 axis: self.full_pose.then_some(pose.axis),
             })
         };
-        let q_act = self
-            .actual
-            .inverse(&target, &q_nom, free, &self.ik)
-            .map_err(ik_err)?;
+        let full = self.actual.inverse(&target, &q_nom, free, &self.ik);
+        let q_act = match full {
+            Ok(q) if target.axis.is_none() || self.rotary_change(&q, &q_nom) <= MAX_ROTARY => q,
+            _ if target.axis.is_some() => {
+                // Near a singular pose (tool axis along a rotary axis) the
+                // tool axis cannot be corrected by a small rotary move:
+                // correct the tip with the linear axes only.
+                summary.axis_not_corrected += 1;
+                let tip_only = IkTarget { axis: None, ..target };
+                self.actual
+                    .inverse(&tip_only, &q_nom, &self.linear, &self.ik)
+                    .map_err(ik_err)?
+            }
+            other => other.map_err(ik_err)?,
+        };
         let mut lin2 = 0.0;
         let mut rot: f64 = 0.0;
         for i in 0..q_nom.len() {
@@ -437,7 +455,12 @@ impl Compensator {
         let p0 = mv.path.at(0.0);
         let start = match run.last.take() {
             Some(pt) if close(&pt.p, &p0) => pt,
-            _ => self.point(&p0, mv.tcp, &run.q_nom, mv.line, &mut run.summary)?,
+            Some(_) => self.point(&p0, mv.tcp, &run.q_nom, mv.line, &mut run.summary)?,
+            // The start of the program is where the machine is, not a target.
+            None => {
+                let q_nom = if mv.tcp { run.q_nom.clone() } else { self.axes_of(&p0) };
+                Point { p: p0, q_nom, new_p: p0 }
+            }
         };
         let end = self.point(&mv.path.at(1.0), mv.tcp, &start.q_nom, mv.line, &mut run.summary)?;
         Ok((start, end))
@@ -533,6 +556,16 @@ impl Compensator {
         Ok(true)
     }
 
+    /// Largest rotary axis change between two axis vectors, degree.
+    fn rotary_change(&self, a: &[f64], b: &[f64]) -> f64 {
+        a.iter()
+            .zip(b)
+            .zip(&self.linear)
+            .filter(|(_, lin)| !**lin)
+            .map(|((x, y), _)| (x - y).abs())
+            .fold(0.0, f64::max)
+    }
+
     fn format(&self) -> NumberFormat {
         NumberFormat::Fixed(self.opts.decimals)
     }
@@ -607,6 +640,7 @@ impl Compensator {
         run: &mut RunState,
     ) -> Result<bool, CompensateError> {
         let mut changed = false;
+        let nominal_end = mv.path.at(1.0);
         let from_work = run.new_pos.sub(&mv.offset);
         let mut reached = run.new_pos;
         for &g in &self.letters {
@@ -618,7 +652,8 @@ impl Compensator {
             let thr = self.threshold(scale);
             let want = pt.new_p[g];
             let modal = if mv.words.axes.contains(g) {
-                pt.p[g]
+                // The word as written: the nominal end of the whole move.
+                nominal_end[g]
             } else {
                 run.new_pos[g]
             };
