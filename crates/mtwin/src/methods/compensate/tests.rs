@@ -28,11 +28,11 @@ G0 X10 Y20 Z-50 A0 C0 (1)\r\n\
 G1 X150. Y-80 Z-60 F1000 (2)\r\n\
 G1 X-150 (3 long)\r\n\
 G1 A30 C45 (4 rotaries)\r\n\
-G1 X100 Y100 Z-100 A-20 C200 (5)\r\n\
+G1 X100 Y100 Z-100 A20 C200 (5)\r\n\
 G91 G1 X-20 Y5 (6 incremental)\r\n\
 G90 G2 X120 Y105 I20 J0 (7 half circle)\r\n\
 X160 Y105 I20 J0 (8 modal arc)\r\n\
-G1 X0 Y0 Z-20 A0 C0 (9)\r\n\
+G1 X0 Y0 Z-20 (9)\r\n\
 M30 (end)\r\n";
 
 /// TCP program: X Y Z is the tip in W.
