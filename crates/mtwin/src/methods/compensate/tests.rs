@@ -24,7 +24,7 @@ fn run(machine: &Machine, program: &[u8], opts: &CompensateOptions) -> (Vec<u8>,
 /// incremental moves and a half circle. Every block of the source carries a
 /// comment; inserted blocks do not.
 const PLAIN: &str = "G21 G90 G94 (setup)\r\n\
-G0 X10 Y20 Z-50 A0 C0 (1)\r\n\
+G0 X10 Y20 Z-50 A10 C0 (1)\r\n\
 G1 X150. Y-80 Z-60 F1000 (2)\r\n\
 G1 X-150 (3 long)\r\n\
 G1 A30 C45 (4 rotaries)\r\n\
