@@ -3,6 +3,7 @@
 pub mod common;
 
 pub use common::diag as common_diag;
+mod compensate;
 mod demo;
 mod model;
 mod predict;
@@ -23,6 +24,11 @@ pub enum Command {
         after_help = "Example:\n  mtwin predict --machine examples/machines/ac-trunnion-with-errors.toml --data poses.csv --out pred.csv"
     )]
     Predict(predict::Args),
+    /// Rewrite a part program so that the actual machine reaches the nominal targets.
+    #[command(
+        after_help = "Example:\n  mtwin compensate --machine examples/machines/ac-trunnion-with-errors.toml --program part.ngc --out part-comp.ngc --tol 0.001"
+    )]
+    Compensate(compensate::Args),
 }
 
 /// Run one subcommand.
@@ -31,5 +37,6 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Demo(a) => demo::run(a),
         Command::Model(c) => model::run(c),
         Command::Predict(a) => predict::run(a),
+        Command::Compensate(a) => compensate::run(a),
     }
 }
