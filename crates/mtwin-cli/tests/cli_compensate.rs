@@ -76,7 +76,8 @@ fn to_segment(x: &Vector3<f64>, a: &Axes, b: &Axes) -> f64 {
 /// every new feed move)
 /// from the nominal path (the straight tip segments of the old program).
 fn worst_deviation(old: &[u8], new: &[u8]) -> f64 {
-    let m = mtwin::model::read_machine(Path::new(&example("ac-trunnion-with-errors.toml"))).unwrap();
+    let m =
+        mtwin::model::read_machine(Path::new(&example("ac-trunnion-with-errors.toml"))).unwrap();
     let (kn, ka) = (Kinematics::nominal(&m), Kinematics::new(&m));
     let nominal = tcp_segments(old);
     let mut worst: f64 = 0.0;
@@ -178,7 +179,11 @@ fn refusals_name_the_line_and_write_nothing() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("part.ngc: line 4:"), "{}", stderr(&o));
     assert!(!dir.path().join("comp.ngc").exists());
-    std::fs::write(dir.path().join("far.ngc"), "G21 G90\nG1 X10 F100\nG1 X350\n").unwrap();
+    std::fs::write(
+        dir.path().join("far.ngc"),
+        "G21 G90\nG1 X10 F100\nG1 X350\n",
+    )
+    .unwrap();
     let o = mtwin(
         dir.path(),
         &[

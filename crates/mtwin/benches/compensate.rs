@@ -15,10 +15,16 @@ use mtwin::model::read_machine;
 /// `lines` feed moves along a tilted helix-like finishing path.
 fn synthetic_program(lines: usize) -> Vec<u8> {
     let mut out = Vec::with_capacity(lines * 48);
-    out.extend_from_slice(b"%\n(synthetic five-axis program)\nG21 G90 G17 G94\nG0 X40 Y0 Z-50 A20 C0\nG1 F1500\n");
+    out.extend_from_slice(
+        b"%\n(synthetic five-axis program)\nG21 G90 G17 G94\nG0 X40 Y0 Z-50 A20 C0\nG1 F1500\n",
+    );
     for i in 0..lines {
         let t = i as f64 * 2e-3;
-        let (x, y, z) = (40.0 * t.cos(), 40.0 * t.sin(), -50.0 - 0.01 * i as f64 % 20.0);
+        let (x, y, z) = (
+            40.0 * t.cos(),
+            40.0 * t.sin(),
+            -50.0 - 0.01 * i as f64 % 20.0,
+        );
         let (a, c) = (20.0 + 10.0 * (t * 0.1).sin(), (i as f64 * 0.05) % 300.0);
         if i % 50 == 0 {
             writeln!(out, "(pass {})", i / 50).unwrap();
@@ -30,7 +36,8 @@ fn synthetic_program(lines: usize) -> Vec<u8> {
 }
 
 fn bench(c: &mut Criterion) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/machines/ac-trunnion-with-errors.toml");
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/machines/ac-trunnion-with-errors.toml");
     let machine = read_machine(&path).expect("example machine");
     let comp = Compensator::new(&machine, CompensateOptions::default()).expect("axis names");
     let program = synthetic_program(20_000);
@@ -41,7 +48,9 @@ fn bench(c: &mut Criterion) {
     g.bench_function("ac-trunnion five-axis program", |b| {
         b.iter(|| {
             out.clear();
-            let s = comp.run(black_box(&program[..]), &mut out).expect("compensates");
+            let s = comp
+                .run(black_box(&program[..]), &mut out)
+                .expect("compensates");
             black_box(s.blocks_changed)
         })
     });

@@ -56,7 +56,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         ..CompensateOptions::default()
     };
     opts.interp.tcp_at_start = a.tcp;
-    let comp = Compensator::new(&m, opts).map_err(|e| anyhow::anyhow!("{}: {e}", a.machine.display()))?;
+    let comp =
+        Compensator::new(&m, opts).map_err(|e| anyhow::anyhow!("{}: {e}", a.machine.display()))?;
     let input = std::fs::File::open(&a.program)
         .with_context(|| format!("cannot read {}", a.program.display()))?;
     let mut summary = Summary::default();

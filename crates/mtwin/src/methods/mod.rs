@@ -1,2 +1,2 @@
-pub mod thermal;
 pub mod compensate;
+pub mod thermal;

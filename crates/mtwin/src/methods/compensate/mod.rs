@@ -275,7 +275,12 @@ impl Compensator {
                     _ => {}
                 }
             }
-            if motion_word(&block).is_some() && !matches!(events.iter().find(|e| matches!(e.kind, EventKind::Arc(_))), Some(_)) {
+            if motion_word(&block).is_some()
+                && !matches!(
+                    events.iter().find(|e| matches!(e.kind, EventKind::Arc(_))),
+                    Some(_)
+                )
+            {
                 run.lost_arc = None;
             }
             if changed || block.text().len() != before {
@@ -305,7 +310,11 @@ impl Compensator {
         summary: &mut Summary,
     ) -> Result<Point, CompensateError> {
         let ik_err = |source| CompensateError::Ik { line, source };
-        let free = if self.full_pose { &self.all } else { &self.linear };
+        let free = if self.full_pose {
+            &self.all
+        } else {
+            &self.linear
+        };
         let (q_nom, target) = if tcp {
             let q0: Vec<f64> = self
                 .letters
@@ -320,17 +329,23 @@ impl Compensator {
                 .inverse(&IkTarget { tip, axis: None }, &q0, &self.linear, &self.ik)
                 .map_err(ik_err)?;
             let axis = self.nominal.pose(&q_nom).axis;
-            (q_nom, IkTarget {
-                tip,
-                axis: self.full_pose.then_some(axis),
-            })
+            (
+                q_nom,
+                IkTarget {
+                    tip,
+                    axis: self.full_pose.then_some(axis),
+                },
+            )
         } else {
             let q_nom = self.axes_of(p);
             let pose = self.nominal.pose(&q_nom);
-            (q_nom, IkTarget {
-                tip: pose.tip,
-                axis: self.full_pose.then_some(pose.axis),
-            })
+            (
+                q_nom,
+                IkTarget {
+                    tip: pose.tip,
+                    axis: self.full_pose.then_some(pose.axis),
+                },
+            )
         };
         let full = self.actual.inverse(&target, &q_nom, free, &self.ik);
         let q_act = match full {
@@ -340,7 +355,10 @@ impl Compensator {
                 // tool axis cannot be corrected by a small rotary move:
                 // correct the tip with the linear axes only.
                 summary.axis_not_corrected += 1;
-                let tip_only = IkTarget { axis: None, ..target };
+                let tip_only = IkTarget {
+                    axis: None,
+                    ..target
+                };
                 self.actual
                     .inverse(&tip_only, &q_nom, &self.linear, &self.ik)
                     .map_err(ik_err)?
@@ -382,7 +400,11 @@ impl Compensator {
             new_p[Axis::Y] = tip.y;
             new_p[Axis::Z] = tip.z;
         }
-        Ok(Point { p: *p, q_nom, new_p })
+        Ok(Point {
+            p: *p,
+            q_nom,
+            new_p,
+        })
     }
 
     /// Deviation, mm, between the nominal tip at program point `nominal` and
@@ -458,11 +480,25 @@ impl Compensator {
             Some(_) => self.point(&p0, mv.tcp, &run.q_nom, mv.line, &mut run.summary)?,
             // The start of the program is where the machine is, not a target.
             None => {
-                let q_nom = if mv.tcp { run.q_nom.clone() } else { self.axes_of(&p0) };
-                Point { p: p0, q_nom, new_p: p0 }
+                let q_nom = if mv.tcp {
+                    run.q_nom.clone()
+                } else {
+                    self.axes_of(&p0)
+                };
+                Point {
+                    p: p0,
+                    q_nom,
+                    new_p: p0,
+                }
             }
         };
-        let end = self.point(&mv.path.at(1.0), mv.tcp, &start.q_nom, mv.line, &mut run.summary)?;
+        let end = self.point(
+            &mv.path.at(1.0),
+            mv.tcp,
+            &start.q_nom,
+            mv.line,
+            &mut run.summary,
+        )?;
         Ok((start, end))
     }
 
@@ -478,7 +514,14 @@ impl Compensator {
         let (start, end) = self.ends(mv, run)?;
         let mut pieces = Vec::new();
         if split {
-            self.refine(mv, (0.0, &start), (1.0, &end), 0, &mut pieces, &mut run.summary)?;
+            self.refine(
+                mv,
+                (0.0, &start),
+                (1.0, &end),
+                0,
+                &mut pieces,
+                &mut run.summary,
+            )?;
         }
         let changed = self.emit(mv, block, inserted, &pieces, &end, run)?;
         run.q_nom = end.q_nom.clone();
@@ -501,7 +544,9 @@ impl Compensator {
         let d0 = start.new_p.sub(&start.p);
         let d1 = end.new_p.sub(&end.p);
         let n = match mv.path {
-            NominalPath::Arc { sweep, .. } => (sweep.abs() / (std::f64::consts::PI / 8.0)).ceil().max(4.0) as usize,
+            NominalPath::Arc { sweep, .. } => {
+                (sweep.abs() / (std::f64::consts::PI / 8.0)).ceil().max(4.0) as usize
+            }
             NominalPath::Line { .. } => 4,
         };
         let mut keep = true;
@@ -518,7 +563,8 @@ impl Compensator {
             }
         }
         if keep {
-            run.summary.largest_midpoint_deviation = run.summary.largest_midpoint_deviation.max(worst);
+            run.summary.largest_midpoint_deviation =
+                run.summary.largest_midpoint_deviation.max(worst);
             let mut changed = false;
             if arc_distance == DistanceMode::Absolute {
                 // Absolute centres move with the start.
@@ -538,7 +584,14 @@ impl Compensator {
             return Ok(changed);
         }
         let mut pieces = Vec::new();
-        self.refine(mv, (0.0, &start), (1.0, &end), 0, &mut pieces, &mut run.summary)?;
+        self.refine(
+            mv,
+            (0.0, &start),
+            (1.0, &end),
+            0,
+            &mut pieces,
+            &mut run.summary,
+        )?;
         to_line(block, code)?;
         for letter in ['I', 'J', 'K', 'R', 'P'] {
             block.remove_word(letter)?;
@@ -714,15 +767,10 @@ fn motion_word(block: &Block) -> Option<f64> {
 
 /// Rewrites the block's G2/G3 word as G1 (keeping every other byte).
 fn to_line(block: &mut Block, code: u8) -> Result<(), CompensateError> {
-    let w = block
-        .items()
-        .iter()
-        .find_map(|it| match it {
-            Item::Word(w) if w.letter == b'G' && w.value == Value::Number(f64::from(code)) => {
-                Some(*w)
-            }
-            _ => None,
-        });
+    let w = block.items().iter().find_map(|it| match it {
+        Item::Word(w) if w.letter == b'G' && w.value == Value::Number(f64::from(code)) => Some(*w),
+        _ => None,
+    });
     let Some(w) = w else {
         // A modal arc: make the block a line explicitly.
         return prepend(block, "G1 ");

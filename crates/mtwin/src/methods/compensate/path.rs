@@ -83,7 +83,6 @@ impl NominalPath {
             }
         }
     }
-
 }
 
 /// `a + s (b − a)`, per axis.

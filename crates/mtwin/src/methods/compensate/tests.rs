@@ -340,17 +340,28 @@ fn refuses_corrections_above_the_limit_naming_the_line() {
     };
     let err = compensate(&m, PLAIN.as_bytes(), Vec::new(), &opts).unwrap_err();
     let msg = err.to_string();
-    assert!(msg.starts_with("line 2:") && msg.contains("exceeds the limit"), "{msg}");
+    assert!(
+        msg.starts_with("line 2:") && msg.contains("exceeds the limit"),
+        "{msg}"
+    );
 }
 
 #[test]
 fn refuses_targets_outside_travel_naming_the_line() {
     let m = example("ac-trunnion.toml");
     let prog = "G21 G90\nG1 X10 F100\nG1 X350\n";
-    let err = compensate(&m, prog.as_bytes(), Vec::new(), &CompensateOptions::default())
-        .unwrap_err();
+    let err = compensate(
+        &m,
+        prog.as_bytes(),
+        Vec::new(),
+        &CompensateOptions::default(),
+    )
+    .unwrap_err();
     let msg = err.to_string();
-    assert!(msg.starts_with("line 3:") && msg.contains("outside its travel"), "{msg}");
+    assert!(
+        msg.starts_with("line 3:") && msg.contains("outside its travel"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -366,4 +377,3 @@ fn arc_path_runs_from_start_to_end_on_the_circle() {
     assert!(m[Axis::X].abs() < 1e-12 && (m[Axis::Y] - 10.0).abs() < 1e-12);
     assert!((m[Axis::Z] - 2.0).abs() < 1e-12);
 }
-
