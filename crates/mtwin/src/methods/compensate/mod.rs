@@ -276,10 +276,7 @@ impl Compensator {
                 }
             }
             if motion_word(&block).is_some()
-                && !matches!(
-                    events.iter().find(|e| matches!(e.kind, EventKind::Arc(_))),
-                    Some(_)
-                )
+                && !events.iter().any(|e| matches!(e.kind, EventKind::Arc(_)))
             {
                 run.lost_arc = None;
             }
@@ -570,11 +567,11 @@ impl Compensator {
                 // Absolute centres move with the start.
                 let scale = mv.words.units.mm_per_unit();
                 for (letter, axis) in [('I', Axis::X), ('J', Axis::Y), ('K', Axis::Z)] {
-                    if d0[axis].abs() > self.threshold(scale) {
-                        if let Some(v) = block.word(letter)?.and_then(|w| w.number()) {
-                            block.set_word_with(letter, v + d0[axis] / scale, self.format())?;
-                            changed = true;
-                        }
+                    if d0[axis].abs() > self.threshold(scale)
+                        && let Some(v) = block.word(letter)?.and_then(|w| w.number())
+                    {
+                        block.set_word_with(letter, v + d0[axis] / scale, self.format())?;
+                        changed = true;
                     }
                 }
             }

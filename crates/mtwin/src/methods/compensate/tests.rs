@@ -150,9 +150,9 @@ fn check(m: &Machine, old: &[u8], new: &[u8], opts: &InterpOptions) -> (f64, f64
     let new_tagged: Vec<&Mv> = new_moves
         .iter()
         .enumerate()
-        .filter(|(k, m)| {
+        .filter(|(k, _)| {
             // The end of a source block is the end of its last piece.
-            new_moves.get(k + 1).is_none_or(|n| n.tagged) && (m.tagged || true)
+            new_moves.get(k + 1).is_none_or(|n| n.tagged)
         })
         .map(|(_, m)| m)
         .collect();
