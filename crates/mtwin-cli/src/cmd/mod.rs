@@ -4,6 +4,7 @@ pub mod common;
 
 pub use common::diag as common_diag;
 mod ballbar;
+mod compensate;
 mod demo;
 mod model;
 mod predict;
@@ -61,6 +62,11 @@ pub enum Command {
     /// Workpiece set-up error of a power-skiving machine from touch-offs (spec 03).
     #[command(subcommand)]
     Skiving(skiving::Command),
+    /// Rewrite a part program so that the actual machine reaches the nominal targets.
+    #[command(
+        after_help = "Example:\n  mtwin compensate --machine examples/machines/ac-trunnion-with-errors.toml --program part.ngc --out part-comp.ngc --tol 0.001"
+    )]
+    Compensate(compensate::Args),
 }
 
 /// Run one subcommand.
@@ -78,5 +84,6 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Simulate(c) => tracker::run_simulate(c),
         Command::CompensatePoints(a) => tracker::run_compensate(a),
         Command::Skiving(c) => skiving::run(c),
+        Command::Compensate(a) => compensate::run(a),
     }
 }

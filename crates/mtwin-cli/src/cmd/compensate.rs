@@ -1,0 +1,113 @@
+//! `mtwin compensate`: rewrite a part program so that the identified (actual)
+//! machine reaches the nominal targets.
+
+use std::io::BufReader;
+use std::path::PathBuf;
+
+use anyhow::Context;
+use mtwin::methods::compensate::{CompensateError, CompensateOptions, Compensator, Summary};
+use serde_json::json;
+
+use super::common::load_machine;
+use crate::output::{Format, note, print_json};
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct Args {
+    /// Identified machine model (TOML): its errors are the actual machine.
+    #[arg(long)]
+    machine: PathBuf,
+    /// Part program to compensate (G-code, LinuxCNC dialect).
+    #[arg(long)]
+    program: PathBuf,
+    /// Compensated program to write (not written on any error).
+    #[arg(long)]
+    out: PathBuf,
+    /// Largest deviation of the compensated path from the nominal path, mm.
+    #[arg(long, default_value_t = 0.001)]
+    tol: f64,
+    /// Largest accepted correction of one target, mm.
+    #[arg(long, default_value_t = 0.5)]
+    max_correction: f64,
+    /// The program is written for tool centre point control from its start
+    /// (X Y Z = tool tip in the work frame); M428/M429 switch it anywhere.
+    #[arg(long)]
+    tcp: bool,
+    /// Output format of the summary.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        a.tol > 0.0 && a.tol.is_finite(),
+        "--tol must be a positive number of mm, not {}",
+        a.tol
+    );
+    anyhow::ensure!(
+        a.max_correction > 0.0 && a.max_correction.is_finite(),
+        "--max-correction must be a positive number of mm, not {}",
+        a.max_correction
+    );
+    let m = load_machine(&a.machine)?;
+    let mut opts = CompensateOptions {
+        tol: a.tol,
+        max_correction: a.max_correction,
+        ..CompensateOptions::default()
+    };
+    opts.interp.tcp_at_start = a.tcp;
+    let comp =
+        Compensator::new(&m, opts).map_err(|e| anyhow::anyhow!("{}: {e}", a.machine.display()))?;
+    let input = std::fs::File::open(&a.program)
+        .with_context(|| format!("cannot read {}", a.program.display()))?;
+    let mut summary = Summary::default();
+    mtwin::io::write_atomic_with(&a.out, |w| -> Result<(), CompensateError> {
+        summary = comp.run(BufReader::new(input), w)?;
+        Ok(())
+    })
+    .map_err(|e| match e {
+        CompensateError::Io(e) => anyhow::anyhow!("cannot write {}: {e}", a.out.display()),
+        e => anyhow::anyhow!("{}: {e}", a.program.display()),
+    })?;
+    for n in &summary.notes {
+        note(n);
+    }
+    let s = &summary;
+    match a.format {
+        Format::Json => print_json(&json!({
+            "out": a.out.display().to_string(),
+            "blocks": s.blocks,
+            "blocks_changed": s.blocks_changed,
+            "blocks_subdivided": s.blocks_subdivided,
+            "blocks_inserted": s.blocks_inserted,
+            "arcs_converted": s.arcs_converted,
+            "largest_correction_um": s.largest_correction * 1e3,
+            "largest_correction_line": s.largest_correction_line,
+            "largest_rotary_correction_deg": s.largest_rotary_correction,
+            "axis_not_corrected": s.axis_not_corrected,
+            "largest_midpoint_deviation_um": s.largest_midpoint_deviation * 1e3,
+            "notes": s.notes,
+        })),
+        Format::Human => {
+            println!(
+                "{} blocks → {}\nblocks changed {}, subdivided {} (+{} blocks), arcs converted {}\nlargest correction {:.2} µm (line {}), rotary {:.5}°",
+                s.blocks,
+                a.out.display(),
+                s.blocks_changed,
+                s.blocks_subdivided,
+                s.blocks_inserted,
+                s.arcs_converted,
+                s.largest_correction * 1e3,
+                s.largest_correction_line,
+                s.largest_rotary_correction
+            );
+            if s.axis_not_corrected > 0 {
+                println!(
+                    "{} targets near the singular pose: tip corrected, tool axis not",
+                    s.axis_not_corrected
+                );
+            }
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,379 @@
+use std::path::{Path, PathBuf};
+
+use nalgebra::Vector3;
+
+use super::path::NominalPath;
+use super::*;
+use crate::gcode::{self, EventKind};
+use crate::model::{parse_machine, read_machine};
+
+fn example(name: &str) -> Machine {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/machines")
+        .join(name);
+    read_machine(&p).expect("example machine reads")
+}
+
+fn run(machine: &Machine, program: &[u8], opts: &CompensateOptions) -> (Vec<u8>, Summary) {
+    let mut out = Vec::new();
+    let s = compensate(machine, program, &mut out, opts).expect("compensation succeeds");
+    (out, s)
+}
+
+/// Five-axis program without TCP: lines, a long line, rotary moves,
+/// incremental moves and a half circle. Every block of the source carries a
+/// comment; inserted blocks do not.
+const PLAIN: &str = "G21 G90 G94 (setup)\r\n\
+G0 X10 Y20 Z-50 A10 C0 (1)\r\n\
+G1 X150. Y-80 Z-60 F1000 (2)\r\n\
+G1 X-150 (3 long)\r\n\
+G1 A30 C45 (4 rotaries)\r\n\
+G1 X100 Y100 Z-100 A20 C200 (5)\r\n\
+G91 G1 X-20 Y5 (6 incremental)\r\n\
+G90 G2 X120 Y105 I20 J0 (7 half circle)\r\n\
+X160 Y105 I20 J0 (8 modal arc)\r\n\
+G1 X0 Y0 Z-20 (9)\r\n\
+M30 (end)\r\n";
+
+/// TCP program: X Y Z is the tip in W.
+const TCP: &str = "G21 G90 G94 (setup)\n\
+M428 (tcp on)\n\
+G0 X0 Y0 Z50 A0 C0 (1)\n\
+G1 X40 Y-30 Z10 F800 (2)\n\
+G1 X-60 Y30 Z5 A25 C-40 (3)\n\
+G1 X-20 Y60 Z0 A-35 C120 (4)\n\
+M429 (tcp off)\n\
+M30 (end)\n";
+
+/// One move of a program, with whether its block was tagged by a comment.
+struct Mv {
+    path: NominalPath,
+    tcp: bool,
+    feed: bool,
+    tagged: bool,
+}
+
+fn moves(program: &[u8], opts: &InterpOptions) -> Vec<Mv> {
+    let mut out = Vec::new();
+    gcode::interpret(program, opts.clone(), |block, events| {
+        let tagged = block.text().contains(&b'(');
+        for e in events {
+            let (path, tcp, feed) = match e.kind {
+                EventKind::Traverse(m) => (NominalPath::line(&m), m.tcp, false),
+                EventKind::Feed(m) => (NominalPath::line(&m), m.tcp, true),
+                EventKind::Arc(a) => (NominalPath::arc(&a), a.tcp, true),
+                _ => continue,
+            };
+            out.push(Mv {
+                path,
+                tcp,
+                feed,
+                tagged,
+            });
+        }
+        Ok(())
+    })
+    .expect("program interprets");
+    out
+}
+
+/// Independent simulation: what a controller does with a program point.
+struct Sim {
+    nominal: Kinematics,
+    actual: Kinematics,
+    letters: Vec<Axis>,
+    linear: Vec<bool>,
+}
+
+impl Sim {
+    fn new(m: &Machine) -> Sim {
+        Sim {
+            nominal: Kinematics::nominal(m),
+            actual: Kinematics::new(m),
+            letters: m
+                .axes
+                .iter()
+                .map(|a| Axis::from_letter(a.name.as_bytes()[0]).unwrap())
+                .collect(),
+            linear: m.axes.iter().map(|a| a.kind == AxisKind::Linear).collect(),
+        }
+    }
+
+    /// Machine axes that the nominal controller commands for a program point.
+    fn axes(&self, p: &Axes, tcp: bool) -> Vec<f64> {
+        let q: Vec<f64> = self.letters.iter().map(|&g| p[g]).collect();
+        if !tcp {
+            return q;
+        }
+        let t = IkTarget {
+            tip: Vector3::from(p.xyz()),
+            axis: None,
+        };
+        self.nominal
+            .inverse(&t, &q, &self.linear, &IkOptions::default())
+            .unwrap()
+    }
+
+    /// Tip and axis the programmer meant at a program point.
+    fn wanted(&self, p: &Axes, tcp: bool) -> (Vector3<f64>, Vector3<f64>) {
+        let pose = self.nominal.pose(&self.axes(p, tcp));
+        (pose.tip, pose.axis)
+    }
+
+    /// Tip and axis the actual machine reaches.
+    fn reached(&self, p: &Axes, tcp: bool) -> (Vector3<f64>, Vector3<f64>) {
+        let pose = self.actual.pose(&self.axes(p, tcp));
+        (pose.tip, pose.axis)
+    }
+}
+
+/// Distance from `x` to the segment `[a, b]`.
+fn to_segment(x: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+    let d = b - a;
+    let t = if d.norm_squared() > 0.0 {
+        ((x - a).dot(&d) / d.norm_squared()).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (a + d * t - x).norm()
+}
+
+/// Checks the compensated program `new` against the nominal program `old` on
+/// the actual machine; returns the largest end and midpoint deviations, mm,
+/// and the largest tool-axis angle at ends away from A = 0, rad.
+fn check(m: &Machine, old: &[u8], new: &[u8], opts: &InterpOptions) -> (f64, f64, f64) {
+    let sim = Sim::new(m);
+    let old_moves = moves(old, opts);
+    let new_moves = moves(new, opts);
+    // Ends of source blocks, matched in order.
+    let old_tagged: Vec<&Mv> = old_moves.iter().filter(|m| m.tagged).collect();
+    let new_tagged: Vec<&Mv> = new_moves
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| {
+            // The end of a source block is the end of its last piece.
+            new_moves.get(k + 1).is_none_or(|n| n.tagged)
+        })
+        .map(|(_, m)| m)
+        .collect();
+    assert_eq!(old_tagged.len(), new_tagged.len());
+    let mut worst_end: f64 = 0.0;
+    let mut worst_axis: f64 = 0.0;
+    for (o, n) in old_tagged.iter().zip(&new_tagged) {
+        let (tip, axis) = sim.wanted(&o.path.at(1.0), o.tcp);
+        let (t2, a2) = sim.reached(&n.path.at(1.0), n.tcp);
+        worst_end = worst_end.max((t2 - tip).norm());
+        // At A = 0 the tool axis lies along C: its tilt is not corrected.
+        if o.path.at(1.0)[Axis::A].abs() > 1.0 {
+            worst_axis = worst_axis.max(a2.angle(&axis));
+        }
+    }
+    // Midpoints of every new feed move against the nominal path polylines.
+    const N: usize = 4096;
+    let polylines: Vec<Vec<Vector3<f64>>> = old_moves
+        .iter()
+        .filter(|m| m.feed)
+        .map(|m| {
+            (0..=N)
+                .map(|k| sim.wanted(&m.path.at(k as f64 / N as f64), m.tcp).0)
+                .collect()
+        })
+        .collect();
+    let mut worst_mid: f64 = 0.0;
+    for n in new_moves.iter().filter(|m| m.feed) {
+        let (x, _) = sim.reached(&n.path.at(0.5), n.tcp);
+        let d = polylines
+            .iter()
+            .flat_map(|pl| pl.windows(2).map(|w| to_segment(&x, &w[0], &w[1])))
+            .fold(f64::INFINITY, f64::min);
+        worst_mid = worst_mid.max(d);
+    }
+    (worst_end, worst_mid, worst_axis)
+}
+
+/// Rounding of written numbers: half of 1e-4 mm on three axes.
+const ROUNDING: f64 = 0.5e-4 * 1.74;
+
+#[test]
+fn zero_error_model_leaves_programs_byte_identical() {
+    let m = example("ac-trunnion.toml");
+    let opts = CompensateOptions::default();
+    for prog in [PLAIN, TCP] {
+        let (out, s) = run(&m, prog.as_bytes(), &opts);
+        assert_eq!(String::from_utf8(out).unwrap(), prog);
+        assert_eq!(s.blocks_changed, 0);
+        assert_eq!(s.blocks_inserted, 0);
+        assert_eq!(s.largest_correction, 0.0);
+    }
+}
+
+#[test]
+fn zero_error_model_leaves_the_corpus_boat_identical() {
+    let p: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/corpus/gcode/linuxcnc/boat-xyzac.ngc");
+    let Ok(text) = std::fs::read(&p) else {
+        eprintln!("skipped: {} is absent", p.display());
+        return;
+    };
+    let m = example("ac-trunnion.toml");
+    let (out, s) = run(&m, &text, &CompensateOptions::default());
+    assert!(out == text, "boat-xyzac.ngc changed");
+    assert_eq!(s.blocks_changed, 0);
+}
+
+#[test]
+fn known_errors_plain_program_reaches_nominal_on_the_actual_machine() {
+    let m = example("ac-trunnion-with-errors.toml");
+    // Correcting the tool axis far from the rotary axes moves the linear axes
+    // by up to 0.7 mm here.
+    let opts = CompensateOptions {
+        max_correction: 2.0,
+        ..CompensateOptions::default()
+    };
+    // Without compensation the actual machine misses by far more than tol.
+    let (end0, _, axis0) = check(&m, PLAIN.as_bytes(), PLAIN.as_bytes(), &opts.interp);
+    assert!(end0 > 10.0 * opts.tol, "uncompensated error {end0}");
+    assert!(axis0 > 1e-5, "uncompensated axis error {axis0}");
+    let (out, s) = run(&m, PLAIN.as_bytes(), &opts);
+    assert!(s.blocks_changed >= 8);
+    let (end, mid, axis) = check(&m, PLAIN.as_bytes(), &out, &opts.interp);
+    assert!(end <= opts.tol + ROUNDING, "end deviation {end}");
+    assert!(mid <= opts.tol + ROUNDING, "midpoint deviation {mid}");
+    // Rotary words are rounded to 1e-4 degree (1.7e-6 rad).
+    assert!(axis < 2e-6, "tool axis deviation {axis}");
+}
+
+#[test]
+fn known_errors_tcp_program_keeps_tcp_semantics() {
+    let m = example("ac-trunnion-with-errors.toml");
+    let opts = CompensateOptions::default();
+    let (end0, _, axis0) = check(&m, TCP.as_bytes(), TCP.as_bytes(), &opts.interp);
+    assert!(end0 > 10.0 * opts.tol, "uncompensated error {end0}");
+    assert!(axis0 > 1e-5, "uncompensated axis error {axis0}");
+    let (out, _) = run(&m, TCP.as_bytes(), &opts);
+    let (end, mid, axis) = check(&m, TCP.as_bytes(), &out, &opts.interp);
+    assert!(end <= opts.tol + ROUNDING, "end deviation {end}");
+    assert!(mid <= opts.tol + ROUNDING, "midpoint deviation {mid}");
+    // Rotary words are rounded to 1e-4 degree (1.7e-6 rad).
+    assert!(axis < 2e-6, "tool axis deviation {axis}");
+}
+
+/// Three linear axes, straightness of X in Y: δy = c·x² (c in 1/mm).
+fn parabola_machine(c: f64) -> Machine {
+    let text = format!(
+        r#"name = "parabola"
+tool_chain = ["X", "Y", "Z"]
+workpiece_chain = []
+[tool]
+tip = [0.0, 0.0, 0.0]
+direction = [0.0, 0.0, 1.0]
+[workpiece]
+origin = [0.0, 0.0, 0.0]
+[[axes]]
+name = "X"
+kind = "linear"
+direction = [1.0, 0.0, 0.0]
+travel = [-400.0, 400.0]
+  [axes.errors]
+  EYX = {{ poly = [0.0, 0.0, {c}] }}
+[[axes]]
+name = "Y"
+kind = "linear"
+direction = [0.0, 1.0, 0.0]
+travel = [-400.0, 400.0]
+[[axes]]
+name = "Z"
+kind = "linear"
+direction = [0.0, 0.0, 1.0]
+travel = [-400.0, 400.0]
+"#
+    );
+    parse_machine(Path::new("parabola.toml"), &text).expect("machine parses")
+}
+
+#[test]
+fn subdivision_matches_the_chord_error_of_a_parabola() {
+    // Chord of length h under δy = c x²: midpoint error c h²/4. With c = 2e-6
+    // and tol = 1 µm, 600 mm needs h ≤ 44.7 mm: 16 equal halvings (37.5 mm).
+    let m = parabola_machine(2e-6);
+    let opts = CompensateOptions::default();
+    let prog = "G0 X-300 Y0 Z0\nG1 X300 F500\n";
+    let (out, s) = run(&m, prog.as_bytes(), &opts);
+    assert_eq!(s.blocks_subdivided, 1);
+    assert_eq!(s.blocks_inserted, 15);
+    let text = String::from_utf8(out).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 2 + 15);
+    // Every piece end: Y = −c x² (the correction cancels the straightness).
+    for l in &lines[1..] {
+        let b = Block::parse(l.as_bytes(), 1).unwrap();
+        let x = b.word('X').unwrap().and_then(|w| w.number()).unwrap();
+        let y = b.word('Y').unwrap().and_then(|w| w.number()).unwrap();
+        assert!((y + 2e-6 * x * x).abs() <= 0.5e-4, "x {x} y {y}");
+        assert!(((x + 300.0) / 37.5).fract().abs() < 1e-9);
+    }
+    // A shorter tolerance-free move (50 mm: c h²/4 = 1.25 µm) splits once.
+    let (_, s) = run(&m, b"G0 X0 Y0 Z0\nG1 X50 F500\n", &opts);
+    assert_eq!(s.blocks_inserted, 1);
+    let (_, s) = run(&m, b"G0 X0 Y0 Z0\nG1 X40 F500\n", &opts);
+    assert_eq!(s.blocks_inserted, 0);
+}
+
+#[test]
+fn inverse_time_feed_is_split_with_the_pieces() {
+    let m = parabola_machine(2e-6);
+    let opts = CompensateOptions::default();
+    let (out, _) = run(&m, b"G0 X0 Y0 Z0\nG93 G1 X50 F2\n", &opts);
+    let text = String::from_utf8(out).unwrap();
+    // Two halves of a 1/2-minute move: 1/4 minute each, F = 4.
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 3);
+    assert!(lines[1].contains("F4") && lines[2].contains("F4"), "{text}");
+}
+
+#[test]
+fn refuses_corrections_above_the_limit_naming_the_line() {
+    let m = example("ac-trunnion-with-errors.toml");
+    let opts = CompensateOptions {
+        max_correction: 1e-4,
+        ..CompensateOptions::default()
+    };
+    let err = compensate(&m, PLAIN.as_bytes(), Vec::new(), &opts).unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        msg.starts_with("line 2:") && msg.contains("exceeds the limit"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn refuses_targets_outside_travel_naming_the_line() {
+    let m = example("ac-trunnion.toml");
+    let prog = "G21 G90\nG1 X10 F100\nG1 X350\n";
+    let err = compensate(
+        &m,
+        prog.as_bytes(),
+        Vec::new(),
+        &CompensateOptions::default(),
+    )
+    .unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        msg.starts_with("line 3:") && msg.contains("outside its travel"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn arc_path_runs_from_start_to_end_on_the_circle() {
+    let opts = InterpOptions::default();
+    let ms = moves(b"G0 X10 Y0 Z0\nG3 X-10 Y0 I-10 J0 Z4 F100\n", &opts);
+    let p = ms[1].path;
+    let at = |s: f64| p.at(s);
+    assert!((at(0.0)[Axis::X] - 10.0).abs() < 1e-12);
+    assert!((at(1.0)[Axis::X] + 10.0).abs() < 1e-12 && at(1.0)[Axis::Y].abs() < 1e-12);
+    // Counter-clockwise half circle: the midpoint is (0, 10), Z halfway.
+    let m = at(0.5);
+    assert!(m[Axis::X].abs() < 1e-12 && (m[Axis::Y] - 10.0).abs() < 1e-12);
+    assert!((m[Axis::Z] - 2.0).abs() < 1e-12);
+}
