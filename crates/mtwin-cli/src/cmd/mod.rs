@@ -6,6 +6,7 @@ pub use common::diag as common_diag;
 mod demo;
 mod model;
 mod predict;
+mod thermal_compensate;
 
 use clap::Subcommand;
 
@@ -23,6 +24,12 @@ pub enum Command {
         after_help = "Example:\n  mtwin predict --machine examples/machines/ac-trunnion-with-errors.toml --data poses.csv --out pred.csv"
     )]
     Predict(predict::Args),
+    /// TEMPORARY top-level name of `mtwin thermal compensate`: rewrite an NC
+    /// program's Z targets against the predicted thermal drift.
+    #[command(
+        after_help = "Example:\n  mtwin thermal-compensate --model THERMAL.toml --program IN.nc --out OUT.nc --period-min 10"
+    )]
+    ThermalCompensate(thermal_compensate::Args),
 }
 
 /// Run one subcommand.
@@ -31,5 +38,6 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Demo(a) => demo::run(a),
         Command::Model(c) => model::run(c),
         Command::Predict(a) => predict::run(a),
+        Command::ThermalCompensate(a) => thermal_compensate::run(a),
     }
 }

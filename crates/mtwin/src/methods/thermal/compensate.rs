@@ -542,7 +542,9 @@ mod tests {
         // from 0; dwell to t = 20 min exactly, then move Z (rapid 0 length in
         // time: a Z move of 0.001 mm takes 6e-6 s at 10 m/min).
         let m = model(0.01, 0.01);
-        let src = "G21 G90\nS2000 M3\nG4 P1200\nG0 Z-10\nM5\nM30\n";
+        // The spindle keeps running after the move (no M5), so the input of
+        // [20, 30) is still 2000 rpm.
+        let src = "G21 G90\nS2000 M3\nG4 P1200\nG0 Z-10\nM30\n";
         let c = compensate(&m, src.as_bytes(), &opts(CorrectionUpdate::Continuous)).unwrap();
         let zb = c.z_blocks[0];
         assert_eq!(zb.line, 4);
