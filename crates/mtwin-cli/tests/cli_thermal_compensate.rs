@@ -9,7 +9,9 @@ use std::path::Path;
 use std::process::Output;
 
 use common::{mtwin, repo, stderr, stdout};
-use mtwin::gcode::{Axis, EventKind, InterpOptions, Interpreter, Program, ProgramStats, SpindleState, StatsOptions};
+use mtwin::gcode::{
+    Axis, EventKind, InterpOptions, Interpreter, Program, ProgramStats, SpindleState, StatsOptions,
+};
 use mtwin::methods::thermal::{SpeedHistory, ThermalFitOptions, TruthMachine, fit_csv};
 
 /// The one place that names the subcommand (the lead moves it under `thermal`).
@@ -60,7 +62,13 @@ fn face(n: u32, out: &mut String) {
 fn seed_program() -> String {
     let mut s = String::from("%\nG21 G90 G94 G17\nG0 Z5\nS6000 M3\n");
     face(1, &mut s);
-    for (rpm, seconds) in [(3000, 600), (8000, 900), (5000, 600), (7000, 900), (2000, 600)] {
+    for (rpm, seconds) in [
+        (3000, 600),
+        (8000, 900),
+        (5000, 600),
+        (7000, 900),
+        (2000, 600),
+    ] {
         s.push_str(&format!("S{rpm}\nG4 P{seconds}\n"));
     }
     s.push_str("S6000\n");
@@ -138,14 +146,23 @@ fn seed_check_faces_cold_and_after_an_hour() {
     fit_model(&machine, dir.path());
     std::fs::write(dir.path().join("IN.nc"), &program).unwrap();
     for extra in [&[][..], &["--continuous"][..]] {
-        let mut args = vec!["--model", "THERMAL.toml", "--program", "IN.nc", "--out", "OUT.nc"];
+        let mut args = vec![
+            "--model",
+            "THERMAL.toml",
+            "--program",
+            "IN.nc",
+            "--out",
+            "OUT.nc",
+        ];
         args.extend_from_slice(extra);
         let o = compensate(dir.path(), &args);
         assert!(o.status.success(), "{}", stderr(&o));
         let out = std::fs::read_to_string(dir.path().join("OUT.nc")).unwrap();
         let [c1, c2] = face_heights(&out, &machine);
         let compensated = (c2 - c1) * 1e3;
-        eprintln!("{extra:?}: uncompensated {uncompensated:.2} µm, compensated {compensated:.2} µm");
+        eprintln!(
+            "{extra:?}: uncompensated {uncompensated:.2} µm, compensated {compensated:.2} µm"
+        );
         assert!(compensated.abs() <= 2.0, "{extra:?}: {compensated} µm");
         // Only Z words changed: same line count, and lines without Z identical.
         assert_eq!(out.lines().count(), program.lines().count());
@@ -165,17 +182,37 @@ fn incremental_g53_and_summary() {
     std::fs::write(dir.path().join("IN.nc"), src).unwrap();
     let o = compensate(
         dir.path(),
-        &["--model", "THERMAL.toml", "--program", "IN.nc", "--out", "OUT.nc", "--continuous", "--format", "json"],
+        &[
+            "--model",
+            "THERMAL.toml",
+            "--program",
+            "IN.nc",
+            "--out",
+            "OUT.nc",
+            "--continuous",
+            "--format",
+            "json",
+        ],
     );
     assert!(o.status.success(), "{}", stderr(&o));
     let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
     assert_eq!(j["blocks_changed"], 2);
     assert_eq!(j["z_blocks"], 3);
-    assert!(stderr(&o).contains("G53") && stderr(&o).contains("line(s) 4"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("G53") && stderr(&o).contains("line(s) 4"),
+        "{}",
+        stderr(&o)
+    );
     let out = std::fs::read_to_string(dir.path().join("OUT.nc")).unwrap();
     let lines: Vec<&str> = out.lines().collect();
     assert_eq!(lines[3], "G53 G0 Z-10");
-    let z = |l: &str| -> f64 { l.split_whitespace().find_map(|w| w.strip_prefix('Z')).unwrap().parse().unwrap() };
+    let z = |l: &str| -> f64 {
+        l.split_whitespace()
+            .find_map(|w| w.strip_prefix('Z'))
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
     // Drift is negative (the tool moves down): targets move up; the G91 step
     // moves up by the growth of the drift over 20 min, so it is smaller in size.
     let (z_abs, z_inc) = (z(lines[4]), z(lines[7]));
@@ -193,10 +230,27 @@ fn no_spindle_program_is_unchanged_byte_for_byte() {
     fit_model(&truth(1.0), dir.path());
     let src = "%\r\nG21 G90 (mm)\r\nG0 Z10.000\r\nG1  Z-1.50 F100\r\nG4 P3600\r\nG1 Z-2.5\nM30";
     std::fs::write(dir.path().join("IN.nc"), src).unwrap();
-    let o = compensate(dir.path(), &["--model", "THERMAL.toml", "--program", "IN.nc", "--out", "OUT.nc"]);
+    let o = compensate(
+        dir.path(),
+        &[
+            "--model",
+            "THERMAL.toml",
+            "--program",
+            "IN.nc",
+            "--out",
+            "OUT.nc",
+        ],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
-    assert_eq!(std::fs::read(dir.path().join("OUT.nc")).unwrap(), src.as_bytes());
-    assert!(stderr(&o).contains("never turns the spindle on"), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(dir.path().join("OUT.nc")).unwrap(),
+        src.as_bytes()
+    );
+    assert!(
+        stderr(&o).contains("never turns the spindle on"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]
@@ -204,14 +258,28 @@ fn errors_name_file_and_line_and_write_nothing() {
     let dir = tempfile::tempdir().unwrap();
     fit_model(&truth(1.0), dir.path());
     for (src, line) in [
-        ("S1000 M3\nG0 Z5\nG1 Z-1\n", 3),                 // no feed before a feed move
-        ("S1000 M3\nG0 Z5\nG81 X1 Z-1 R1 F100\n", 3),     // canned cycle
+        ("S1000 M3\nG0 Z5\nG1 Z-1\n", 3), // no feed before a feed move
+        ("S1000 M3\nG0 Z5\nG81 X1 Z-1 R1 F100\n", 3), // canned cycle
         ("S1000 M3\nG18\nG0 X0 Z0\nG2 X10 Z0 I5 F100\n", 4), // Z of a ZX-plane arc
     ] {
         std::fs::write(dir.path().join("BAD.nc"), src).unwrap();
-        let o = compensate(dir.path(), &["--model", "THERMAL.toml", "--program", "BAD.nc", "--out", "OUT.nc"]);
+        let o = compensate(
+            dir.path(),
+            &[
+                "--model",
+                "THERMAL.toml",
+                "--program",
+                "BAD.nc",
+                "--out",
+                "OUT.nc",
+            ],
+        );
         assert_eq!(o.status.code(), Some(1), "{src}");
-        assert!(stderr(&o).contains(&format!("BAD.nc:{line}:")), "{src}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains(&format!("BAD.nc:{line}:")),
+            "{src}: {}",
+            stderr(&o)
+        );
         assert!(!dir.path().join("OUT.nc").exists());
     }
 }

@@ -103,7 +103,19 @@ pub enum CompensateError {
     /// Invalid settings.
     #[error("{0}")]
     Options(String),
+    /// The estimated duration is beyond what a drift prediction can cover.
+    #[error(
+        "the program's estimated duration ({duration_min} min) exceeds {MAX_DURATION_MIN} min: check its feeds and dwells"
+    )]
+    TooLong {
+        /// Estimated duration, min.
+        duration_min: f64,
+    },
 }
+
+/// Longest program duration compensated (a year), min: the sample grid of the
+/// prediction is held in memory.
+pub const MAX_DURATION_MIN: f64 = 525_600.0;
 
 /// What happened to one block that targets a Z position.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -291,6 +303,9 @@ pub fn compensate(
         }
     }
     let duration_min = stats.total_time() / 60.0;
+    if !(duration_min <= MAX_DURATION_MIN) {
+        return Err(CompensateError::TooLong { duration_min });
+    }
     let period = model.period_min();
     let horizon = match options.update {
         CorrectionUpdate::Periodic { period_min } => {
@@ -311,9 +326,9 @@ pub fn compensate(
     };
     if !spindle_used {
         result.output = program.to_vec();
-        result
-            .notes
-            .push("the program never turns the spindle on (S with M3/M4): no drift, no change".into());
+        result.notes.push(
+            "the program never turns the spindle on (S with M3/M4): no drift, no change".into(),
+        );
         result.z_blocks = moves
             .iter()
             .map(|m| ZBlock {
@@ -564,7 +579,11 @@ mod tests {
             .unwrap();
         assert!((z_new - (-10.0 - want)).abs() <= 0.5e-4, "{z_new}");
         // Every other line byte for byte.
-        for (a, b) in text(&c).lines().zip(src.lines()).filter(|(_, b)| !b.contains('Z')) {
+        for (a, b) in text(&c)
+            .lines()
+            .zip(src.lines())
+            .filter(|(_, b)| !b.contains('Z'))
+        {
             assert_eq!(a, b);
         }
     }
@@ -574,7 +593,12 @@ mod tests {
         let m = model(0.01, 0.01);
         // Z moves at t = 10 and 15 min (dwells), period 10: both get e(15).
         let src = "S3000 M3\nG4 P600\nG0 Z-1\nG4 P300\nG0 Z-2\n";
-        let c = compensate(&m, src.as_bytes(), &opts(CorrectionUpdate::Periodic { period_min: 10.0 })).unwrap();
+        let c = compensate(
+            &m,
+            src.as_bytes(),
+            &opts(CorrectionUpdate::Periodic { period_min: 10.0 }),
+        )
+        .unwrap();
         let e1 = first_order(0.01, 3000.0, 1);
         let e2 = first_order(0.01, 3000.0, 2);
         let mid = 0.5 * (e1 + e2);
@@ -663,7 +687,10 @@ mod tests {
             Some(3)
         );
         let e = run("S1000 M3\nG1 Z-1\n").unwrap_err();
-        assert!(matches!(&e, CompensateError::Gcode(g) if g.location().map(|l| l.line) == Some(2)), "{e}");
+        assert!(
+            matches!(&e, CompensateError::Gcode(g) if g.location().map(|l| l.line) == Some(2)),
+            "{e}"
+        );
     }
 
     #[test]
@@ -687,14 +714,89 @@ mod tests {
     }
 
     #[test]
+    fn absurd_durations_are_refused() {
+        let m = model(0.01, 0.01);
+        let e = compensate(
+            &m,
+            b"S1 M3\nG1 X1000000 F0.000001\n",
+            &CompensateOptions::default(),
+        );
+        assert!(matches!(e, Err(CompensateError::TooLong { .. })), "{e:?}");
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn never_panics(bytes in proptest::collection::vec(proptest::prop_oneof![
+            proptest::sample::select(b"GXYZSMPF0123456789.- \n".to_vec()),
+            proptest::num::u8::ANY,
+        ], 0..200)) {
+            let m = model(0.01, 0.01);
+            for update in [CorrectionUpdate::Continuous, CorrectionUpdate::Periodic { period_min: 10.0 }] {
+                let _ = compensate(&m, &bytes, &opts(update));
+            }
+        }
+
+        #[test]
+        fn output_reparses_and_only_z_words_change(
+            steps in proptest::collection::vec((0u32..3, -100.0f64..0.0, 1u32..900), 1..12),
+            incremental in proptest::bool::ANY,
+        ) {
+            let m = model(0.01, 0.02);
+            let mut src = String::from(if incremental { "S5000 M3\nG91\n" } else { "S5000 M3\n" });
+            for (kind, z, dwell) in &steps {
+                match kind {
+                    0 => src.push_str(&format!("G4 P{dwell}\n")),
+                    1 => src.push_str(&format!("G0 Z{z:.3}\n")),
+                    _ => src.push_str(&format!("G1 X{dwell} Z{z:.3} F1000 (c)\n")),
+                }
+            }
+            let c = compensate(&m, src.as_bytes(), &opts(CorrectionUpdate::Continuous)).unwrap();
+            let out = String::from_utf8(c.output.clone()).unwrap();
+            proptest::prop_assert!(crate::gcode::Program::parse(out.as_bytes()).is_ok());
+            proptest::prop_assert_eq!(out.lines().count(), src.lines().count());
+            for (a, b) in out.lines().zip(src.lines()) {
+                let strip = |l: &str| l.split_whitespace().filter(|w| !w.starts_with('Z')).collect::<Vec<_>>().join(" ");
+                proptest::prop_assert_eq!(strip(a), strip(b));
+            }
+        }
+    }
+
+    #[test]
     fn models_with_other_inputs_and_bad_options_are_refused() {
+        let two = ThermalModel::new(
+            10.0,
+            ["speed_rpm", "ambient_c"]
+                .map(|n| InputChannel {
+                    name: n.into(),
+                    scale: 1.0,
+                })
+                .to_vec(),
+            vec![HeightModel {
+                z_mm: 0.0,
+                model: Arx::new(vec![1.0, -0.5], vec![(vec![1e-6], 1), (vec![1e-3], 1)]).unwrap(),
+                stats: None,
+            }],
+        )
+        .unwrap();
+        match compensate(&two, b"S1000 M3\nG0 Z1\n", &CompensateOptions::default()) {
+            Err(CompensateError::ModelInputs(names)) => {
+                assert_eq!(names, ["speed_rpm", "ambient_c"])
+            }
+            other => panic!("{other:?}"),
+        }
         let m = model(0.01, 0.01);
         let bad = CompensateOptions {
             rapid_mm_min: 0.0,
             ..CompensateOptions::default()
         };
-        assert!(matches!(compensate(&m, b"", &bad), Err(CompensateError::Options(_))));
+        assert!(matches!(
+            compensate(&m, b"", &bad),
+            Err(CompensateError::Options(_))
+        ));
         let bad = opts(CorrectionUpdate::Periodic { period_min: -1.0 });
-        assert!(matches!(compensate(&m, b"", &bad), Err(CompensateError::Options(_))));
+        assert!(matches!(
+            compensate(&m, b"", &bad),
+            Err(CompensateError::Options(_))
+        ));
     }
 }
