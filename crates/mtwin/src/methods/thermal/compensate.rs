@@ -171,9 +171,8 @@ impl Compensation {
 
     /// Time of the first and the last changed block, min.
     pub fn changed_span_min(&self) -> Option<(f64, f64)> {
-        let mut it = self.z_blocks.iter().filter(|b| b.changed);
-        let first = it.next()?.end_min;
-        let last = it.last().map_or(first, |b| b.end_min);
+        let first = self.z_blocks.iter().find(|b| b.changed)?.end_min;
+        let last = self.z_blocks.iter().rev().find(|b| b.changed)?.end_min;
         Some((first, last))
     }
 }
@@ -303,7 +302,8 @@ pub fn compensate(
         }
     }
     let duration_min = stats.total_time() / 60.0;
-    if !(duration_min <= MAX_DURATION_MIN) {
+    // NaN is refused too.
+    if duration_min.is_nan() || duration_min > MAX_DURATION_MIN {
         return Err(CompensateError::TooLong { duration_min });
     }
     let period = model.period_min();
@@ -628,6 +628,10 @@ mod tests {
         assert!((z1 - (-1.0 - zb[0].correction_mm)).abs() <= 0.5e-4);
         assert!((z2 - (-2.0 - zb[1].correction_mm)).abs() <= 1e-4);
         assert!(zb[1].correction_mm > zb[0].correction_mm && zb[0].correction_mm > 0.0);
+        assert_eq!(c.blocks_changed(), 3);
+        assert_eq!(c.changed_span_min(), Some((zb[0].end_min, zb[2].end_min)));
+        let largest = zb.iter().map(|b| b.correction_mm.abs()).fold(0.0, f64::max);
+        assert_eq!(c.max_correction_mm(), largest);
         assert_eq!(lines[6], "X5");
         let z3: f64 = lines[7].trim_start_matches("G90 G0 Z").parse().unwrap();
         assert!((z3 - (0.0 - zb[2].correction_mm)).abs() <= 0.5e-4);
