@@ -554,8 +554,8 @@ mod tests {
     #[test]
     fn absolute_z_at_whole_samples_matches_closed_form() {
         // Same drift at both heights: 10 µm per 1000 rpm. Spindle 2000 rpm
-        // from 0; dwell to t = 20 min exactly, then move Z (rapid 0 length in
-        // time: a Z move of 0.001 mm takes 6e-6 s at 10 m/min).
+        // from 0; dwell to t = 20 min exactly, then a rapid of 10 mm in Z at
+        // 10 m/min (0.001 min): the block ends at t = 20.001 min.
         let m = model(0.01, 0.01);
         // The spindle keeps running after the move (no M5), so the input of
         // [20, 30) is still 2000 rpm.
