@@ -11,6 +11,7 @@ mod predict;
 mod servo;
 mod skiving;
 mod thermal;
+mod thermal_compensate;
 mod tracker;
 
 use clap::Subcommand;

@@ -33,6 +33,11 @@ pub enum Command {
         after_help = "Example:\n  mtwin thermal simulate --model thermal.toml --speed speed.csv --z -50,-350 --noise 0.001 --seed 7 --out train.csv"
     )]
     Simulate(SimulateArgs),
+    /// Pre-compensate an NC program: Z targets replaced by Z − e(t, Z) (spec 04).
+    #[command(
+        after_help = "Example:\n  mtwin thermal compensate --model thermal.toml --program part.nc --out part-comp.nc --period-min 10"
+    )]
+    Compensate(super::thermal_compensate::Args),
 }
 
 #[derive(Debug, clap::Args)]
@@ -139,6 +144,7 @@ pub fn run(c: Command) -> anyhow::Result<()> {
         Command::Fit(a) => fit(a),
         Command::Predict(a) => predict(a),
         Command::Simulate(a) => simulate(a),
+        Command::Compensate(a) => super::thermal_compensate::run(a),
     }
 }
 

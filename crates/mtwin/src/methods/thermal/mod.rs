@@ -19,12 +19,17 @@
 //! * inputs are divided by a per-input scale (the largest training value) so
 //!   the coefficients are of comparable size; the scale is stored with the model.
 
+mod compensate;
 mod data;
 mod file;
 mod model;
 mod predict;
 mod synthetic;
 
+pub use compensate::{
+    CompensateError, CompensateOptions, Compensation, CorrectionUpdate, SpeedHistory, ZBlock,
+    compensate,
+};
 pub use data::{TrainingData, read_training, training_from_table};
 pub use file::{model_from_toml_str, read_model};
 pub use model::{

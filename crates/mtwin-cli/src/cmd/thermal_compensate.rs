@@ -1,0 +1,123 @@
+//! `mtwin thermal compensate` (contract, spec 04 "Pre-compensation"): rewrite
+//! the Z targets of an NC program so that the predicted thermal drift is
+//! cancelled; every other byte stays the same.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use mtwin::gcode::Dialect;
+use mtwin::methods::thermal::{
+    CompensateError, CompensateOptions, CorrectionUpdate, compensate, read_model,
+};
+use serde_json::json;
+
+use super::common::diag;
+use crate::output::{Format, note, print_json};
+
+/// The controller whose reading of the program is reproduced.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum DialectArg {
+    /// LinuxCNC: `G4 P` in seconds.
+    #[default]
+    Linuxcnc,
+    /// Fanuc: `G4 P` in milliseconds, `G4 X` in seconds, numbers without a
+    /// decimal point in least increments (0.001 mm).
+    Fanuc,
+}
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct Args {
+    /// Thermal model (TOML, from `mtwin thermal fit`), speed_rpm its only input.
+    #[arg(long)]
+    model: PathBuf,
+    /// The NC program to compensate.
+    #[arg(long)]
+    program: PathBuf,
+    /// The compensated program (not written when anything fails).
+    #[arg(long)]
+    out: PathBuf,
+    /// The correction is held over intervals of this length, min.
+    #[arg(long, default_value_t = 10.0, conflicts_with = "continuous")]
+    period_min: f64,
+    /// Update the correction at every block instead of once per period.
+    #[arg(long)]
+    continuous: bool,
+    /// Rapid (G0) rate along the path, mm/min.
+    #[arg(long, default_value_t = 10_000.0)]
+    rapid: f64,
+    /// How the program reads.
+    #[arg(long, value_enum, default_value_t)]
+    dialect: DialectArg,
+    /// Output format of the summary.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let model = read_model(&a.model).map_err(diag)?;
+    let bytes = std::fs::read(&a.program)
+        .with_context(|| format!("cannot read {}", a.program.display()))?;
+    let options = CompensateOptions {
+        dialect: match a.dialect {
+            DialectArg::Linuxcnc => Dialect::LinuxCnc,
+            DialectArg::Fanuc => Dialect::Fanuc {
+                decimal_point_programming: false,
+            },
+        },
+        rapid_mm_min: a.rapid,
+        update: if a.continuous {
+            CorrectionUpdate::Continuous
+        } else {
+            CorrectionUpdate::Periodic {
+                period_min: a.period_min,
+            }
+        },
+    };
+    let c = compensate(&model, &bytes, &options).map_err(|e| {
+        let file = a.program.display();
+        match &e {
+            CompensateError::Gcode(g) => match g.location() {
+                Some(at) => anyhow::anyhow!("{file}:{}: {e}", at.line),
+                None => anyhow::anyhow!("{file}: {e}"),
+            },
+            CompensateError::Unsafe { line, .. } => anyhow::anyhow!("{file}:{line}: {e}"),
+            _ => anyhow::anyhow!("{e}"),
+        }
+    })?;
+    mtwin::io::write_atomic_with(&a.out, |w| w.write_all(&c.output))
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    for n in &c.notes {
+        note(n);
+    }
+    let span = c.changed_span_min();
+    match a.format {
+        Format::Json => print_json(&json!({
+            "out": a.out.display().to_string(),
+            "blocks": c.blocks,
+            "blocks_changed": c.blocks_changed(),
+            "z_blocks": c.z_blocks.len(),
+            "max_correction_um": c.max_correction_mm() * 1e3,
+            "duration_min": c.duration_min,
+            "changed_from_min": span.map(|s| s.0),
+            "changed_to_min": span.map(|s| s.1),
+            "spindle_used": c.spindle_used,
+            "notes": c.notes,
+        })),
+        Format::Human => {
+            println!(
+                "{} blocks, estimated {:.1} min → {}\n{} of {} Z blocks changed, largest correction {:.2} µm{}",
+                c.blocks,
+                c.duration_min,
+                a.out.display(),
+                c.blocks_changed(),
+                c.z_blocks.len(),
+                c.max_correction_mm() * 1e3,
+                span.map_or(String::new(), |(f, t)| format!(
+                    ", changes from {f:.1} to {t:.1} min"
+                )),
+            );
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,806 @@
+//! Pre-compensation of an NC program for thermal drift (04, "Pre-compensation
+//! of an NC program").
+//!
+//! 1. Every block is timed with the G-code engine's estimate
+//!    ([`ProgramStats::add`]: feed moves at the programmed feed, rapids at
+//!    [`CompensateOptions::rapid_mm_min`], `G4` dwells in the dialect's unit).
+//! 2. The spindle speed (S with M3/M4, 0 after M5 or before the first M3/M4)
+//!    is a step function of time; its mean over each sample period `[kT,
+//!    (k+1)T)` of the model is the model input of that sample.
+//! 3. The drift `e(t, z)` is predicted at every measured height on the sample
+//!    grid, linear in time between samples and interpolated across heights
+//!    ([`ThermalModel::interpolate`]); `z` is the machine Z of the block's
+//!    target (work Z + work offset + tool length offset), mm.
+//! 4. Z targets are moved to `Z − c`, `c = e(t_c, Z)` the correction:
+//!    * continuous update: `t_c` is the time the block ends;
+//!    * periodic update (period `P`, the seed: 10 min): the correction is
+//!      held over `[kP, (k+1)P)` and `t_c = (k + ½)·P`, the middle of the
+//!      interval (the whole program is known ahead, so the held value is the
+//!      one closest to the drift over the interval).
+//!
+//! Rewriting rules:
+//!
+//! * G90 (absolute) Z words are replaced by the corrected target;
+//! * G91 (incremental) Z words change by the change of the correction since
+//!   the last corrected Z word;
+//! * G53 (machine coordinate) moves are left alone and reported;
+//! * a block without a Z word keeps the correction in force at the last Z
+//!   word: when the drift changes during a long XY pass the correction
+//!   follows at the next Z word (the program's own Z words are the only
+//!   places edited, so every other byte stays the same);
+//! * a Z change smaller than half the written resolution (0.05 µm) leaves the
+//!   word untouched, so a program whose drift is zero is unchanged;
+//! * a block the rewriter cannot change safely is an error naming the line:
+//!   Z words of arcs in the ZX or YZ plane (the arc geometry would change),
+//!   several moves in one block; canned cycles and everything else outside
+//!   the interpreter's subset are already errors of the interpreter.
+//!
+//! A program that never turns the spindle on is returned unchanged, with a
+//! note.
+
+use crate::gcode::{
+    Axis, Block, Dialect, DistanceMode, Event, EventKind, GcodeError, InterpOptions, Interpreter,
+    NumberFormat, Plane, ProgramStats, Programmed, SpindleState, StatsOptions,
+};
+
+use super::model::ThermalModel;
+use super::predict::Programme;
+
+/// Half the resolution of a written coordinate (4 decimals of mm): smaller
+/// Z changes are not written, mm.
+const WRITE_TOLERANCE_MM: f64 = 0.5e-4;
+
+/// How often the correction changes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CorrectionUpdate {
+    /// Held constant over intervals of this length (min, > 0), starting at `t = 0`.
+    Periodic { period_min: f64 },
+    /// The drift at the end time of each block.
+    Continuous,
+}
+
+/// Settings of [`compensate`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct CompensateOptions {
+    /// How the program reads (dwell units, Fanuc least increments).
+    pub dialect: Dialect,
+    /// Rapid rate along the path, mm/min (> 0).
+    pub rapid_mm_min: f64,
+    /// Correction update policy.
+    pub update: CorrectionUpdate,
+}
+
+impl Default for CompensateOptions {
+    /// LinuxCNC, rapids at 10 m/min, correction updated every 10 min (the seed).
+    fn default() -> Self {
+        CompensateOptions {
+            dialect: Dialect::LinuxCnc,
+            rapid_mm_min: 10_000.0,
+            update: CorrectionUpdate::Periodic { period_min: 10.0 },
+        }
+    }
+}
+
+/// Why a program could not be compensated.
+#[derive(Debug, thiserror::Error)]
+pub enum CompensateError {
+    /// The program could not be read, interpreted or timed.
+    #[error(transparent)]
+    Gcode(#[from] GcodeError),
+    /// A block whose Z cannot be changed without changing something else.
+    #[error("line {line}: cannot compensate this block safely: {reason}")]
+    Unsafe {
+        /// 1-based line.
+        line: u64,
+        /// Why.
+        reason: String,
+    },
+    /// The model needs inputs a program does not define.
+    #[error(
+        "the thermal model takes the inputs {0:?}; a program only defines the spindle speed (a model fitted with speed_rpm alone is needed)"
+    )]
+    ModelInputs(Vec<String>),
+    /// Invalid settings.
+    #[error("{0}")]
+    Options(String),
+    /// The estimated duration is beyond what a drift prediction can cover.
+    #[error(
+        "the program's estimated duration ({duration_min} min) exceeds {MAX_DURATION_MIN} min: check its feeds and dwells"
+    )]
+    TooLong {
+        /// Estimated duration, min.
+        duration_min: f64,
+    },
+}
+
+/// Longest program duration compensated (a year), min: the sample grid of the
+/// prediction is held in memory.
+pub const MAX_DURATION_MIN: f64 = 525_600.0;
+
+/// What happened to one block that targets a Z position.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ZBlock {
+    /// 1-based line.
+    pub line: u64,
+    /// Estimated time at the end of the block, min from program start.
+    pub end_min: f64,
+    /// Machine Z the original block ends at, mm.
+    pub machine_z_mm: f64,
+    /// Correction in force after the block (subtracted from the target), mm;
+    /// 0 for G53 moves.
+    pub correction_mm: f64,
+    /// The block was G53 (left alone).
+    pub g53: bool,
+    /// The block's text changed.
+    pub changed: bool,
+}
+
+/// Result of [`compensate`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Compensation {
+    /// The compensated program text.
+    pub output: Vec<u8>,
+    /// Every block with a Z word, in order.
+    pub z_blocks: Vec<ZBlock>,
+    /// The spindle speed programme on the model's sample grid (rev/min), from
+    /// `t = 0` to past the program's end.
+    pub programme: Programme,
+    /// Estimated duration of the program, min.
+    pub duration_min: f64,
+    /// Blocks read.
+    pub blocks: u64,
+    /// Whether the spindle ever ran.
+    pub spindle_used: bool,
+    /// Remarks for the user (G53 moves left alone, no spindle, ...).
+    pub notes: Vec<String>,
+}
+
+impl Compensation {
+    /// Number of blocks whose text changed.
+    pub fn blocks_changed(&self) -> usize {
+        self.z_blocks.iter().filter(|b| b.changed).count()
+    }
+
+    /// Largest |correction| applied, mm.
+    pub fn max_correction_mm(&self) -> f64 {
+        self.z_blocks
+            .iter()
+            .map(|b| b.correction_mm.abs())
+            .fold(0.0, f64::max)
+    }
+
+    /// Time of the first and the last changed block, min.
+    pub fn changed_span_min(&self) -> Option<(f64, f64)> {
+        let first = self.z_blocks.iter().find(|b| b.changed)?.end_min;
+        let last = self.z_blocks.iter().rev().find(|b| b.changed)?.end_min;
+        Some((first, last))
+    }
+}
+
+/// Spindle speed as a step function of time: `(start_min, rpm)`, starts
+/// ascending, the first at 0.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpeedHistory {
+    steps: Vec<(f64, f64)>,
+}
+
+impl Default for SpeedHistory {
+    fn default() -> Self {
+        SpeedHistory {
+            steps: vec![(0.0, 0.0)],
+        }
+    }
+}
+
+impl SpeedHistory {
+    /// Sets the speed from `t_min` on (`t_min` not before the last change).
+    pub fn set(&mut self, t_min: f64, rpm: f64) {
+        let last = self.steps.len() - 1;
+        if self.steps[last].1 == rpm {
+            return;
+        }
+        if self.steps[last].0 >= t_min {
+            self.steps[last].1 = rpm;
+        } else {
+            self.steps.push((t_min, rpm));
+        }
+    }
+
+    /// Mean speed over `[a, b)` (`a < b`), rev/min; the last speed holds forever.
+    pub fn mean(&self, a: f64, b: f64) -> f64 {
+        let mut sum = 0.0;
+        for (i, &(start, rpm)) in self.steps.iter().enumerate() {
+            let end = self.steps.get(i + 1).map_or(f64::INFINITY, |s| s.0);
+            let overlap = end.min(b) - start.max(a);
+            if overlap > 0.0 {
+                sum += rpm * overlap;
+            }
+        }
+        sum / (b - a)
+    }
+
+    /// The mean speed of each period `[kT, (k+1)T)`, `k = 0..samples`.
+    pub fn programme(&self, period_min: f64, samples: usize) -> Programme {
+        let speeds: Vec<f64> = (0..samples)
+            .map(|k| self.mean(k as f64 * period_min, (k + 1) as f64 * period_min))
+            .collect();
+        Programme::speeds(&speeds)
+    }
+}
+
+/// A move with a Z word found in the first pass.
+#[derive(Debug, Clone, Copy)]
+struct ZMove {
+    block: usize,
+    end_min: f64,
+    from_z: f64,
+    to_z: f64,
+    offset_z: f64,
+    words: Programmed,
+}
+
+/// Compensates `program` (the bytes of an NC file) for the drift predicted
+/// by `model`. See the module documentation for the rules.
+pub fn compensate(
+    model: &ThermalModel,
+    program: &[u8],
+    options: &CompensateOptions,
+) -> Result<Compensation, CompensateError> {
+    if model.inputs().len() != 1 {
+        return Err(CompensateError::ModelInputs(
+            model.inputs().iter().map(|c| c.name.clone()).collect(),
+        ));
+    }
+    if !(options.rapid_mm_min.is_finite() && options.rapid_mm_min > 0.0) {
+        return Err(CompensateError::Options(format!(
+            "the rapid rate must be > 0 mm/min, not {}",
+            options.rapid_mm_min
+        )));
+    }
+    if let CorrectionUpdate::Periodic { period_min } = options.update
+        && !(period_min.is_finite() && period_min > 0.0)
+    {
+        return Err(CompensateError::Options(format!(
+            "the correction period must be > 0 min, not {period_min}"
+        )));
+    }
+    let mut prog = crate::gcode::Program::parse(program)?;
+    let stats_opts = StatsOptions {
+        interp: InterpOptions {
+            dialect: options.dialect,
+            ..InterpOptions::default()
+        },
+        rapid_rate: options.rapid_mm_min,
+        ..StatsOptions::default()
+    };
+
+    // Pass 1: times, speeds, Z moves.
+    let mut interp = Interpreter::new(stats_opts.interp.clone());
+    let mut stats = ProgramStats::default();
+    let mut speed = SpeedHistory::default();
+    let (mut rpm, mut on) = (0.0_f64, false);
+    let mut spindle_used = false;
+    let mut moves = Vec::new();
+    let mut events: Vec<Event> = Vec::new();
+    for (index, block) in prog.blocks.iter().enumerate() {
+        events.clear();
+        interp.execute(block, &mut events)?;
+        for e in &events {
+            match e.kind {
+                EventKind::SpindleSpeed { rpm: s } => rpm = s.abs(),
+                EventKind::Spindle(state) => on = state != SpindleState::Stopped,
+                _ => {}
+            }
+            let now = stats.total_time() / 60.0;
+            let n = if on { rpm } else { 0.0 };
+            spindle_used |= n > 0.0;
+            speed.set(now, n);
+            stats.add(e, &stats_opts)?;
+        }
+        if has_z_word(block)? {
+            moves.push(z_move(block, index, &events, stats.total_time() / 60.0)?);
+        }
+    }
+    let duration_min = stats.total_time() / 60.0;
+    // NaN is refused too.
+    if duration_min.is_nan() || duration_min > MAX_DURATION_MIN {
+        return Err(CompensateError::TooLong { duration_min });
+    }
+    let period = model.period_min();
+    let horizon = match options.update {
+        CorrectionUpdate::Periodic { period_min } => {
+            ((duration_min / period_min).floor() + 1.0) * period_min
+        }
+        CorrectionUpdate::Continuous => duration_min,
+    };
+    let samples = (horizon / period).ceil() as usize + 2;
+    let programme = speed.programme(period, samples);
+    let mut result = Compensation {
+        output: Vec::new(),
+        z_blocks: Vec::with_capacity(moves.len()),
+        programme,
+        duration_min,
+        blocks: prog.blocks.len() as u64,
+        spindle_used,
+        notes: Vec::new(),
+    };
+    if !spindle_used {
+        result.output = program.to_vec();
+        result.notes.push(
+            "the program never turns the spindle on (S with M3/M4): no drift, no change".into(),
+        );
+        result.z_blocks = moves
+            .iter()
+            .map(|m| ZBlock {
+                line: prog.blocks[m.block].line(),
+                end_min: m.end_min,
+                machine_z_mm: m.to_z + m.offset_z,
+                correction_mm: 0.0,
+                g53: m.words.g53,
+                changed: false,
+            })
+            .collect();
+        return Ok(result);
+    }
+
+    // Pass 2: corrections and edits.
+    let history = model.drift_history(&result.programme);
+    let drift = |t_min: f64, z: f64| -> f64 {
+        let pos = (t_min / period).max(0.0);
+        let k = (pos.floor() as usize).min(history.len() - 2);
+        let frac = (pos - k as f64).min(1.0);
+        let values: Vec<f64> = history[k]
+            .iter()
+            .zip(&history[k + 1])
+            .map(|(a, b)| a + frac * (b - a))
+            .collect();
+        model.interpolate(&values, z).mm
+    };
+    let mut applied = 0.0;
+    let mut g53_lines = Vec::new();
+    for m in &moves {
+        let block = &mut prog.blocks[m.block];
+        let machine_z = m.to_z + m.offset_z;
+        let mut record = ZBlock {
+            line: block.line(),
+            end_min: m.end_min,
+            machine_z_mm: machine_z,
+            correction_mm: 0.0,
+            g53: m.words.g53,
+            changed: false,
+        };
+        if m.words.g53 {
+            g53_lines.push(block.line());
+            record.correction_mm = applied;
+            result.z_blocks.push(record);
+            continue;
+        }
+        let t_c = match options.update {
+            CorrectionUpdate::Continuous => m.end_min,
+            CorrectionUpdate::Periodic { period_min } => {
+                ((m.end_min / period_min).floor() + 0.5) * period_min
+            }
+        };
+        let c = drift(t_c, machine_z);
+        let new_end = match m.words.distance {
+            DistanceMode::Absolute if c.abs() >= WRITE_TOLERANCE_MM => {
+                applied = c;
+                Some(m.to_z - c)
+            }
+            DistanceMode::Absolute => {
+                applied = 0.0;
+                None
+            }
+            DistanceMode::Incremental if (c - applied).abs() >= WRITE_TOLERANCE_MM => {
+                let end = m.to_z - (c - applied);
+                applied = c;
+                Some(end)
+            }
+            DistanceMode::Incremental => None,
+        };
+        if let Some(end) = new_end {
+            let mut from = crate::gcode::Axes::default();
+            from[Axis::Z] = m.from_z;
+            let mut offset = crate::gcode::Axes::default();
+            offset[Axis::Z] = m.offset_z;
+            let value = m.words.word_value(Axis::Z, &from, end, &offset);
+            write_z(block, value, options.dialect, m.words)?;
+            record.changed = true;
+        }
+        record.correction_mm = applied;
+        result.z_blocks.push(record);
+    }
+    if !g53_lines.is_empty() {
+        let shown: Vec<String> = g53_lines.iter().take(10).map(u64::to_string).collect();
+        result.notes.push(format!(
+            "{} G53 (machine coordinate) move(s) left alone, line(s) {}{}",
+            g53_lines.len(),
+            shown.join(", "),
+            if g53_lines.len() > 10 { ", ..." } else { "" }
+        ));
+    }
+    result.output = prog.to_bytes();
+    Ok(result)
+}
+
+fn has_z_word(block: &Block) -> Result<bool, GcodeError> {
+    Ok(block.word('Z')?.is_some())
+}
+
+/// The Z move of a block that has a Z word.
+fn z_move(
+    block: &Block,
+    index: usize,
+    events: &[Event],
+    end_min: f64,
+) -> Result<ZMove, CompensateError> {
+    let unsafe_block = |reason: &str| CompensateError::Unsafe {
+        line: block.line(),
+        reason: reason.into(),
+    };
+    let mut found = None;
+    for e in events {
+        let m = match &e.kind {
+            EventKind::Traverse(l) | EventKind::Feed(l) => {
+                (l.from[Axis::Z], l.to[Axis::Z], l.offset[Axis::Z], l.words)
+            }
+            EventKind::Arc(a) => {
+                if a.plane != Plane::Xy {
+                    return Err(unsafe_block(
+                        "a Z word of an arc in the ZX or YZ plane (changing it changes the arc)",
+                    ));
+                }
+                (a.from[Axis::Z], a.to[Axis::Z], a.offset[Axis::Z], a.words)
+            }
+            _ => continue,
+        };
+        if found.is_some() {
+            return Err(unsafe_block("the block holds more than one move"));
+        }
+        found = Some(m);
+    }
+    let Some((from_z, to_z, offset_z, words)) = found else {
+        return Err(unsafe_block("a Z word that is not a move target"));
+    };
+    if !words.axes.contains(Axis::Z) {
+        return Err(unsafe_block("a Z word that is not a move target"));
+    }
+    Ok(ZMove {
+        block: index,
+        end_min,
+        from_z,
+        to_z,
+        offset_z,
+        words,
+    })
+}
+
+/// Writes the Z word value (program units); a Fanuc program without decimal
+/// point programming gets a decimal point, or least increments when the value
+/// is whole.
+fn write_z(
+    block: &mut Block,
+    value: f64,
+    dialect: Dialect,
+    words: Programmed,
+) -> Result<(), GcodeError> {
+    block.set_word('Z', value)?;
+    let needs_point = matches!(
+        dialect,
+        Dialect::Fanuc {
+            decimal_point_programming: false
+        }
+    );
+    let has_point = block.word('Z')?.is_some_and(|w| w.has_point);
+    if needs_point && !has_point {
+        let increment = match words.units {
+            crate::gcode::Units::Millimetre => 1e-3,
+            crate::gcode::Units::Inch => 1e-4,
+        };
+        block.set_word_with('Z', (value / increment).round(), NumberFormat::Fixed(0))?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::methods::thermal::{HeightModel, InputChannel};
+    use crate::sysid::Arx;
+
+    /// First-order model at two heights: `e(k) = 0.8 e(k−1) + 0.2·g·n(k−1)/1000`.
+    fn model(g_low: f64, g_high: f64) -> ThermalModel {
+        let h = |z: f64, g: f64| HeightModel {
+            z_mm: z,
+            model: Arx::new(vec![1.0, -0.8], vec![(vec![0.2 * g], 1)]).unwrap(),
+            stats: None,
+        };
+        let inputs = vec![InputChannel {
+            name: "speed_rpm".into(),
+            scale: 1000.0,
+        }];
+        ThermalModel::new(10.0, inputs, vec![h(-100.0, g_low), h(0.0, g_high)]).unwrap()
+    }
+
+    /// Closed-form drift of [`model`] with a constant `n` from 0, at whole samples.
+    fn first_order(g: f64, n: f64, k: i32) -> f64 {
+        g * n / 1000.0 * (1.0 - 0.8_f64.powi(k))
+    }
+
+    fn opts(update: CorrectionUpdate) -> CompensateOptions {
+        CompensateOptions {
+            update,
+            ..CompensateOptions::default()
+        }
+    }
+
+    fn text(c: &Compensation) -> String {
+        String::from_utf8(c.output.clone()).unwrap()
+    }
+
+    #[test]
+    fn speed_history_means() {
+        let mut h = SpeedHistory::default();
+        h.set(0.0, 1000.0);
+        h.set(5.0, 3000.0);
+        h.set(15.0, 0.0);
+        assert_eq!(h.mean(0.0, 10.0), 2000.0);
+        assert_eq!(h.mean(10.0, 20.0), 1500.0);
+        assert_eq!(h.mean(20.0, 30.0), 0.0);
+        let p = h.programme(10.0, 3);
+        assert_eq!((p.sample(0), p.sample(1)), (&[2000.0][..], &[1500.0][..]));
+    }
+
+    #[test]
+    fn absolute_z_at_whole_samples_matches_closed_form() {
+        // Same drift at both heights: 10 µm per 1000 rpm. Spindle 2000 rpm
+        // from 0; dwell to t = 20 min exactly, then a rapid of 10 mm in Z at
+        // 10 m/min (0.001 min): the block ends at t = 20.001 min.
+        let m = model(0.01, 0.01);
+        // The spindle keeps running after the move (no M5), so the input of
+        // [20, 30) is still 2000 rpm.
+        let src = "G21 G90\nS2000 M3\nG4 P1200\nG0 Z-10\nM30\n";
+        let c = compensate(&m, src.as_bytes(), &opts(CorrectionUpdate::Continuous)).unwrap();
+        let zb = c.z_blocks[0];
+        assert_eq!(zb.line, 4);
+        let t = 20.0 + 10.0 / 10_000.0;
+        assert!((zb.end_min - t).abs() < 1e-12);
+        // Linear between samples 2 and 3.
+        let e2 = first_order(0.01, 2000.0, 2);
+        let e3 = first_order(0.01, 2000.0, 3);
+        let want = e2 + (t - 20.0) / 10.0 * (e3 - e2);
+        assert!((zb.correction_mm - want).abs() < 1e-12);
+        let z_new: f64 = text(&c)
+            .lines()
+            .nth(3)
+            .unwrap()
+            .trim_start_matches("G0 Z")
+            .parse()
+            .unwrap();
+        assert!((z_new - (-10.0 - want)).abs() <= 0.5e-4, "{z_new}");
+        // Every other line byte for byte.
+        for (a, b) in text(&c)
+            .lines()
+            .zip(src.lines())
+            .filter(|(_, b)| !b.contains('Z'))
+        {
+            assert_eq!(a, b);
+        }
+    }
+
+    #[test]
+    fn periodic_correction_is_the_drift_mid_interval() {
+        let m = model(0.01, 0.01);
+        // Z moves at t = 10 and 15 min (dwells), period 10: both get e(15).
+        let src = "S3000 M3\nG4 P600\nG0 Z-1\nG4 P300\nG0 Z-2\n";
+        let c = compensate(
+            &m,
+            src.as_bytes(),
+            &opts(CorrectionUpdate::Periodic { period_min: 10.0 }),
+        )
+        .unwrap();
+        let e1 = first_order(0.01, 3000.0, 1);
+        let e2 = first_order(0.01, 3000.0, 2);
+        let mid = 0.5 * (e1 + e2);
+        for zb in &c.z_blocks {
+            assert!((zb.correction_mm - mid).abs() < 1e-12, "{zb:?}");
+        }
+    }
+
+    #[test]
+    fn incremental_words_change_by_the_change_of_the_correction() {
+        let m = model(0.01, 0.01);
+        // Absolute move at t≈0+ (drift tiny), then G91 steps after dwells.
+        let src = "S1000 M3\nG91\nG4 P600\nG1 Z-1 F1000\nG4 P600\nG1 Z-1\nX5\nG90 G0 Z0\n";
+        let c = compensate(&m, src.as_bytes(), &opts(CorrectionUpdate::Continuous)).unwrap();
+        let zb = &c.z_blocks;
+        assert_eq!(zb.len(), 3);
+        // Actual Z after each block = sum of the rewritten increments; it must
+        // equal original target − correction of that block (± write resolution).
+        let out = text(&c);
+        let lines: Vec<&str> = out.lines().collect();
+        let inc = |l: &str| -> f64 {
+            let z = l.split_whitespace().find(|w| w.starts_with('Z')).unwrap();
+            z[1..].parse().unwrap()
+        };
+        let z1 = inc(lines[3]);
+        let z2 = z1 + inc(lines[5]);
+        assert!((z1 - (-1.0 - zb[0].correction_mm)).abs() <= 0.5e-4);
+        assert!((z2 - (-2.0 - zb[1].correction_mm)).abs() <= 1e-4);
+        assert!(zb[1].correction_mm > zb[0].correction_mm && zb[0].correction_mm > 0.0);
+        assert_eq!(c.blocks_changed(), 3);
+        assert_eq!(c.changed_span_min(), Some((zb[0].end_min, zb[2].end_min)));
+        let largest = zb.iter().map(|b| b.correction_mm.abs()).fold(0.0, f64::max);
+        assert_eq!(c.max_correction_mm(), largest);
+        assert_eq!(lines[6], "X5");
+        let z3: f64 = lines[7].trim_start_matches("G90 G0 Z").parse().unwrap();
+        assert!((z3 - (0.0 - zb[2].correction_mm)).abs() <= 0.5e-4);
+    }
+
+    #[test]
+    fn correction_interpolates_across_heights() {
+        // 10 µm/1000 rpm at z = −100, 30 µm at z = 0: at z = −50 the mean.
+        let m = model(0.01, 0.03);
+        let src = "S1000 M3\nG4 P600\nG0 Z-50\n";
+        let c = compensate(&m, src.as_bytes(), &opts(CorrectionUpdate::Continuous)).unwrap();
+        let t = c.z_blocks[0].end_min;
+        let e = |g: f64| {
+            let (a, b) = (first_order(g, 1000.0, 1), first_order(g, 1000.0, 2));
+            a + (t - 10.0) / 10.0 * (b - a)
+        };
+        let want = 0.5 * (e(0.01) + e(0.03));
+        assert!((c.z_blocks[0].correction_mm - want).abs() < 1e-12);
+    }
+
+    #[test]
+    fn g53_left_alone_and_noted() {
+        let m = model(0.01, 0.01);
+        let src = "S4000 M3\nG4 P1200\nG53 G0 Z-5\nG0 Z-5\n";
+        let c = compensate(&m, src.as_bytes(), &opts(CorrectionUpdate::Continuous)).unwrap();
+        let out = text(&c);
+        assert_eq!(out.lines().nth(2), Some("G53 G0 Z-5"));
+        assert_ne!(out.lines().nth(3), Some("G0 Z-5"));
+        assert!(c.z_blocks[0].g53 && !c.z_blocks[0].changed);
+        assert!(c.notes.iter().any(|n| n.contains("G53") && n.contains('3')));
+    }
+
+    #[test]
+    fn no_spindle_means_no_change() {
+        let m = model(0.01, 0.01);
+        let src = "G21 G90\r\nG0 Z10.000\nG1 Z-1.50 F100 (cut)\nM30";
+        let c = compensate(&m, src.as_bytes(), &CompensateOptions::default()).unwrap();
+        assert_eq!(c.output, src.as_bytes());
+        assert!(!c.spindle_used && c.notes.len() == 1);
+        assert_eq!(c.blocks_changed(), 0);
+    }
+
+    #[test]
+    fn unsafe_blocks_and_interpreter_errors_name_the_line() {
+        let m = model(0.01, 0.01);
+        let run = |s: &str| compensate(&m, s.as_bytes(), &CompensateOptions::default());
+        match run("S1000 M3\nG18 G0 X0 Z0\nG2 X10 Z0 I5 F100\n") {
+            Err(CompensateError::Unsafe { line: 3, .. }) => {}
+            other => panic!("{other:?}"),
+        }
+        let e = run("S1000 M3\nG0 X0 Z5\nG81 X1 Z-1 R1\n").unwrap_err();
+        assert_eq!(
+            match e {
+                CompensateError::Gcode(g) => g.location().map(|l| l.line),
+                _ => None,
+            },
+            Some(3)
+        );
+        let e = run("S1000 M3\nG1 Z-1\n").unwrap_err();
+        assert!(
+            matches!(&e, CompensateError::Gcode(g) if g.location().map(|l| l.line) == Some(2)),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn fanuc_dwell_in_milliseconds_and_points_kept() {
+        let m = model(0.01, 0.01);
+        let o = CompensateOptions {
+            dialect: Dialect::Fanuc {
+                decimal_point_programming: false,
+            },
+            update: CorrectionUpdate::Continuous,
+            ..CompensateOptions::default()
+        };
+        // P600000 ms = 10 min; Z-10. is −10 mm.
+        let c = compensate(&m, b"S1000 M3\nG4 P600000\nG0 Z-10.\n", &o).unwrap();
+        assert!((c.z_blocks[0].end_min - (10.0 + 10.0 / 10_000.0)).abs() < 1e-9);
+        let out = text(&c);
+        let z = out.lines().nth(2).unwrap();
+        assert!(z.contains('.'), "{z}");
+        let v: f64 = z.trim_start_matches("G0 Z").parse().unwrap();
+        assert!((v - (-10.0 - c.z_blocks[0].correction_mm)).abs() <= 0.5e-4);
+    }
+
+    #[test]
+    fn absurd_durations_are_refused() {
+        let m = model(0.01, 0.01);
+        let e = compensate(
+            &m,
+            b"S1 M3\nG1 X1000000 F0.000001\n",
+            &CompensateOptions::default(),
+        );
+        assert!(matches!(e, Err(CompensateError::TooLong { .. })), "{e:?}");
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn never_panics(bytes in proptest::collection::vec(proptest::prop_oneof![
+            proptest::sample::select(b"GXYZSMPF0123456789.- \n".to_vec()),
+            proptest::num::u8::ANY,
+        ], 0..200)) {
+            let m = model(0.01, 0.01);
+            for update in [CorrectionUpdate::Continuous, CorrectionUpdate::Periodic { period_min: 10.0 }] {
+                let _ = compensate(&m, &bytes, &opts(update));
+            }
+        }
+
+        #[test]
+        fn output_reparses_and_only_z_words_change(
+            steps in proptest::collection::vec((0u32..3, -100.0f64..0.0, 1u32..900), 1..12),
+            incremental in proptest::bool::ANY,
+        ) {
+            let m = model(0.01, 0.02);
+            let mut src = String::from(if incremental { "S5000 M3\nG91\n" } else { "S5000 M3\n" });
+            for (kind, z, dwell) in &steps {
+                match kind {
+                    0 => src.push_str(&format!("G4 P{dwell}\n")),
+                    1 => src.push_str(&format!("G0 Z{z:.3}\n")),
+                    _ => src.push_str(&format!("G1 X{dwell} Z{z:.3} F1000 (c)\n")),
+                }
+            }
+            let c = compensate(&m, src.as_bytes(), &opts(CorrectionUpdate::Continuous)).unwrap();
+            let out = String::from_utf8(c.output.clone()).unwrap();
+            proptest::prop_assert!(crate::gcode::Program::parse(out.as_bytes()).is_ok());
+            proptest::prop_assert_eq!(out.lines().count(), src.lines().count());
+            for (a, b) in out.lines().zip(src.lines()) {
+                let strip = |l: &str| l.split_whitespace().filter(|w| !w.starts_with('Z')).collect::<Vec<_>>().join(" ");
+                proptest::prop_assert_eq!(strip(a), strip(b));
+            }
+        }
+    }
+
+    #[test]
+    fn models_with_other_inputs_and_bad_options_are_refused() {
+        let two = ThermalModel::new(
+            10.0,
+            ["speed_rpm", "ambient_c"]
+                .map(|n| InputChannel {
+                    name: n.into(),
+                    scale: 1.0,
+                })
+                .to_vec(),
+            vec![HeightModel {
+                z_mm: 0.0,
+                model: Arx::new(vec![1.0, -0.5], vec![(vec![1e-6], 1), (vec![1e-3], 1)]).unwrap(),
+                stats: None,
+            }],
+        )
+        .unwrap();
+        match compensate(&two, b"S1000 M3\nG0 Z1\n", &CompensateOptions::default()) {
+            Err(CompensateError::ModelInputs(names)) => {
+                assert_eq!(names, ["speed_rpm", "ambient_c"])
+            }
+            other => panic!("{other:?}"),
+        }
+        let m = model(0.01, 0.01);
+        let bad = CompensateOptions {
+            rapid_mm_min: 0.0,
+            ..CompensateOptions::default()
+        };
+        assert!(matches!(
+            compensate(&m, b"", &bad),
+            Err(CompensateError::Options(_))
+        ));
+        let bad = opts(CorrectionUpdate::Periodic { period_min: -1.0 });
+        assert!(matches!(
+            compensate(&m, b"", &bad),
+            Err(CompensateError::Options(_))
+        ));
+    }
+}
