@@ -49,6 +49,7 @@ mod profile;
 mod stats;
 mod stream;
 mod syntax;
+mod travel;
 
 pub use axes::{Axes, Axis, AxisMask};
 pub use dialect::Dialect;
@@ -64,6 +65,7 @@ pub use interpolate::{
 pub use profile::Trapezoid;
 pub use stats::{AxisRange, MotionObserver, ProgramStats, StatsOptions, stats, stats_with};
 pub use stream::{BlockReader, BlockWriter, Program};
+pub use travel::{TravelCheck, TravelViolation};
 pub use syntax::{Block, CommentKind, Item, LineEnd, NumberFormat, Span, Value, Word};
 
 /// Interprets a whole program from `input`, streaming, calling `sink` with
