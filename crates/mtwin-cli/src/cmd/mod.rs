@@ -4,6 +4,7 @@ pub mod common;
 
 pub use common::diag as common_diag;
 mod demo;
+mod gcode;
 mod model;
 mod predict;
 
@@ -15,6 +16,9 @@ pub enum Command {
     /// Run every method end to end on the bundled examples and print a summary.
     #[command(after_help = "Example:\n  mtwin demo")]
     Demo(demo::Args),
+    /// Read G-code: interpolate it into axis commands, program statistics.
+    #[command(subcommand)]
+    Gcode(gcode::Command),
     /// Inspect and check machine model files.
     #[command(subcommand)]
     Model(model::Command),
@@ -29,6 +33,7 @@ pub enum Command {
 pub fn run(command: Command) -> anyhow::Result<()> {
     match command {
         Command::Demo(a) => demo::run(a),
+        Command::Gcode(c) => gcode::run(c),
         Command::Model(c) => model::run(c),
         Command::Predict(a) => predict::run(a),
     }

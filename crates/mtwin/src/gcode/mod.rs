@@ -65,8 +65,8 @@ pub use interpolate::{
 pub use profile::Trapezoid;
 pub use stats::{AxisRange, MotionObserver, ProgramStats, StatsOptions, stats, stats_with};
 pub use stream::{BlockReader, BlockWriter, Program};
-pub use travel::{TravelCheck, TravelViolation};
 pub use syntax::{Block, CommentKind, Item, LineEnd, NumberFormat, Span, Value, Word};
+pub use travel::{TravelCheck, TravelViolation};
 
 /// Interprets a whole program from `input`, streaming, calling `sink` with
 /// each block and the events it produced (possibly none).

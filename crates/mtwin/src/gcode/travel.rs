@@ -158,8 +158,20 @@ mod tests {
 
     #[test]
     fn arc_extremes_out_of_travel_are_found() {
-        let x = MAxis::new("X", AxisKind::Linear, [1.0, 0.0, 0.0], [0.0; 3], [-5.0, 100.0]);
-        let y = MAxis::new("Y", AxisKind::Linear, [0.0, 1.0, 0.0], [0.0; 3], [-100.0, 100.0]);
+        let x = MAxis::new(
+            "X",
+            AxisKind::Linear,
+            [1.0, 0.0, 0.0],
+            [0.0; 3],
+            [-5.0, 100.0],
+        );
+        let y = MAxis::new(
+            "Y",
+            AxisKind::Linear,
+            [0.0, 1.0, 0.0],
+            [0.0; 3],
+            [-100.0, 100.0],
+        );
         let m = Machine {
             name: "xy".into(),
             axes: vec![x, y],
