@@ -210,7 +210,11 @@ enum Path {
     /// Straight in axis space.
     Joint { q0: Vec<f64>, q1: Vec<f64> },
     /// A programmed move.
-    Work { geom: Geom, offset: Axes, tcp: bool },
+    Work {
+        geom: Box<Geom>,
+        offset: Axes,
+        tcp: bool,
+    },
 }
 
 /// Fraction of a sub-step margin on finite-difference derivative bounds.
@@ -398,7 +402,11 @@ impl<'m> Interpolator<'m> {
                 });
             }
         }
-        let path = Path::Work { geom, offset, tcp };
+        let path = Path::Work {
+            geom: Box::new(geom),
+            offset,
+            tcp,
+        };
         // Join the current position to the move's start if they differ.
         let mut start = self.q.clone();
         self.eval(&path, 0.0, &mut start)?;
@@ -538,14 +546,14 @@ impl<'m> Interpolator<'m> {
             Path::Work {
                 geom, tcp: false, ..
             } => {
-                let (from, to) = match geom {
+                let (from, to) = match geom.as_ref() {
                     Geom::Line { from, to } => (from, to),
                     Geom::Arc { arc, .. } => (&arc.from, &arc.to),
                 };
                 for (i, &l) in self.letters.iter().enumerate() {
                     d1[i] = (to[l] - from[l]).abs();
                 }
-                if let Geom::Arc { arc, g } = geom {
+                if let Geom::Arc { arc, g } = geom.as_ref() {
                     // q = c + r(s)·cos(a0 + φ s): |q'| ≤ |Δr| + r·|φ|,
                     // |q''| ≤ 2|Δr·φ| + r·φ².
                     let (p, q, _) = arc.plane.axes();
@@ -753,11 +761,13 @@ mod tests {
         }
     }
 
+    type Samples = Vec<(f64, Vec<f64>, u64)>;
+
     fn run(
         program: &str,
         machine: &Machine,
         opts: &InterpolateOptions,
-    ) -> Result<(Vec<(f64, Vec<f64>, u64)>, InterpolationSummary), InterpolateError> {
+    ) -> Result<(Samples, InterpolationSummary), InterpolateError> {
         let mut out = Vec::new();
         let summary = interpolate(program.as_bytes(), machine, opts, |s| {
             out.push((s.t, s.q.to_vec(), s.line));
@@ -939,7 +949,7 @@ mod tests {
         let mut worst = 0.0f64;
         let sum = interpolate(&text[..], m, &opts, |s| {
             n += 1;
-            if n % 97 == 0 {
+            if n.is_multiple_of(97) {
                 let tip = kin.pose(s.q).tip;
                 for (i, r) in st.work_range[..3].iter().enumerate() {
                     let r = r.unwrap();
