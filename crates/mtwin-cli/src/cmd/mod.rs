@@ -6,6 +6,7 @@ pub use common::diag as common_diag;
 mod ballbar;
 mod compensate;
 mod demo;
+mod gcode;
 mod model;
 mod predict;
 mod servo;
@@ -25,6 +26,9 @@ pub enum Command {
     /// Run every method end to end on the bundled examples and print a summary.
     #[command(after_help = "Example:\n  mtwin demo")]
     Demo(demo::Args),
+    /// Read G-code: interpolate it into axis commands, program statistics.
+    #[command(subcommand)]
+    Gcode(gcode::Command),
     /// Inspect and check machine model files.
     #[command(subcommand)]
     Model(model::Command),
@@ -75,6 +79,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
     match command {
         Command::Ballbar(c) => ballbar::run(c),
         Command::Demo(a) => demo::run(a),
+        Command::Gcode(c) => gcode::run(c),
         Command::Model(c) => model::run(c),
         Command::Predict(a) => predict::run(a),
         Command::Servo(c) => servo::run(c),

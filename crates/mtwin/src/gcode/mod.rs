@@ -16,10 +16,11 @@
 //!   [`GcodeError::Unsupported`] error naming the line. Dialects:
 //!   [`Dialect`] (LinuxCNC, Fanuc).
 //! * [`stats`]: counts, path lengths, axis travel and ranges, estimated time.
-//! * Not here yet: sampling a program in time (interpolation with feed and
-//!   acceleration limits) and machine-limit checks, which need the machine
-//!   model; they build on the [`Event`] stream (every move has its start, end,
-//!   offsets, feed and TCP state) and plug into statistics through
+//! * [`interpolate`] / [`Interpolator`]: axis command samples at a fixed
+//!   period along a program on a machine model (feeds, G93, rapids, dwells,
+//!   trapezoidal profiles within the axis velocity and acceleration limits,
+//!   TCP through the nominal inverse kinematics), streamed to a callback.
+//! * Machine travel checks during statistics plug in through
 //!   [`MotionObserver`].
 //!
 //! ```
@@ -42,10 +43,13 @@ mod error;
 mod event;
 mod expr;
 mod interp;
+mod interpolate;
 mod lexer;
+mod profile;
 mod stats;
 mod stream;
 mod syntax;
+mod travel;
 
 pub use axes::{Axes, Axis, AxisMask};
 pub use dialect::Dialect;
@@ -55,9 +59,14 @@ pub use event::{
     SpindleState, Units,
 };
 pub use interp::{InterpOptions, Interpreter, ModalState, MotionMode, ToolTable, UnknownMCode};
+pub use interpolate::{
+    InterpolateError, InterpolateOptions, InterpolationSummary, Interpolator, Sample, interpolate,
+};
+pub use profile::Trapezoid;
 pub use stats::{AxisRange, MotionObserver, ProgramStats, StatsOptions, stats, stats_with};
 pub use stream::{BlockReader, BlockWriter, Program};
 pub use syntax::{Block, CommentKind, Item, LineEnd, NumberFormat, Span, Value, Word};
+pub use travel::{TravelCheck, TravelViolation};
 
 /// Interprets a whole program from `input`, streaming, calling `sink` with
 /// each block and the events it produced (possibly none).

@@ -1,0 +1,313 @@
+//! `mtwin gcode`: interpolate a program into axis commands, program statistics.
+
+use std::fs::File;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use mtwin::gcode::{
+    self, Axes, Axis, InterpOptions, InterpolateError, InterpolateOptions, StatsOptions,
+    TravelCheck,
+};
+use mtwin::io::write_csv_row;
+use serde_json::json;
+
+use super::common::load_machine;
+use crate::output::{Format, print_json, warn};
+
+#[derive(Debug, clap::Subcommand)]
+pub enum Command {
+    /// Sample a program in time: axis commands at a fixed period (CMD.csv).
+    #[command(
+        after_help = "Example:\n  mtwin gcode interpolate --machine examples/machines/ac-trunnion.toml part.nc --ts 0.001 --out cmd.csv --tcp"
+    )]
+    Interpolate(InterpolateArgs),
+    /// Program statistics: blocks, path length, estimated time, axis ranges, travel checks.
+    #[command(
+        after_help = "Example:\n  mtwin gcode stats part.nc --machine examples/machines/ac-trunnion.toml"
+    )]
+    Stats(StatsArgs),
+}
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct InterpolateArgs {
+    /// Machine model file (TOML): axes, travels, velocity/acceleration limits, rapid feed.
+    #[arg(long)]
+    machine: PathBuf,
+    /// The G-code program.
+    program: PathBuf,
+    /// Sample period, s.
+    #[arg(long, default_value_t = 0.001)]
+    ts: f64,
+    /// Output CSV: `t_s` and one column per machine axis (mm, deg).
+    #[arg(long)]
+    out: PathBuf,
+    /// Treat every move as a TCP move (XYZ = tool tip in W) from the start.
+    #[arg(long)]
+    tcp: bool,
+    /// G54 work offset of one axis, `AXIS=VALUE` (mm, deg); repeatable.
+    #[arg(long = "offset", value_name = "AXIS=VALUE")]
+    offsets: Vec<String>,
+    /// Write samples outside the axis travels instead of stopping.
+    #[arg(long)]
+    no_travel_check: bool,
+    /// Output format of the summary.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct StatsArgs {
+    /// The G-code program.
+    program: PathBuf,
+    /// Machine model file (TOML): check the moves against its travels.
+    #[arg(long)]
+    machine: Option<PathBuf>,
+    /// Treat every move as a TCP move for the travel check.
+    #[arg(long)]
+    tcp: bool,
+    /// G54 work offset of one axis, `AXIS=VALUE` (mm, deg); repeatable.
+    #[arg(long = "offset", value_name = "AXIS=VALUE")]
+    offsets: Vec<String>,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+pub fn run(c: Command) -> anyhow::Result<()> {
+    match c {
+        Command::Interpolate(a) => interpolate(a),
+        Command::Stats(a) => stats(a),
+    }
+}
+
+/// Parses `AXIS=VALUE` offsets into a G54 offset.
+fn parse_offsets(items: &[String]) -> anyhow::Result<Axes> {
+    let mut off = Axes::ZERO;
+    for item in items {
+        let Some((name, value)) = item.split_once('=') else {
+            bail!("--offset `{item}` is not AXIS=VALUE");
+        };
+        let axis = match name.trim().as_bytes() {
+            [b] => Axis::from_letter(*b),
+            _ => None,
+        };
+        let Some(axis) = axis else {
+            bail!("--offset `{item}`: `{name}` is not an axis letter (X Y Z A B C U V W)");
+        };
+        off[axis] = value
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .with_context(|| format!("--offset `{item}`: `{value}` is not a number"))?;
+    }
+    Ok(off)
+}
+
+fn open(path: &Path) -> anyhow::Result<BufReader<File>> {
+    let f = File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    Ok(BufReader::new(f))
+}
+
+/// `file:line:col: message` for an error with a source position.
+fn located(
+    path: &Path,
+    line: Option<u64>,
+    column: u32,
+    msg: impl std::fmt::Display,
+) -> anyhow::Error {
+    match line {
+        Some(l) => anyhow::anyhow!("{}:{}:{}: {}", path.display(), l, column.max(1), msg),
+        None => anyhow::anyhow!("{}: {}", path.display(), msg),
+    }
+}
+
+fn interp_options(offsets: &[String]) -> anyhow::Result<InterpOptions> {
+    let mut o = InterpOptions::default();
+    o.work_offsets[0] = parse_offsets(offsets)?;
+    Ok(o)
+}
+
+fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
+    let m = load_machine(&a.machine)?;
+    let mut opts = InterpolateOptions::new(a.ts);
+    opts.interp = interp_options(&a.offsets)?;
+    opts.force_tcp = a.tcp;
+    opts.check_travel = !a.no_travel_check;
+    let input = open(&a.program)?;
+    let mut failure: Option<InterpolateError> = None;
+    let mut summary = None;
+    let written = mtwin::io::write_atomic_with(&a.out, |w| -> std::io::Result<()> {
+        let mut header = vec!["t_s".to_string()];
+        header.extend(m.axis_names().iter().map(|s| s.to_string()));
+        writeln!(w, "{}", header.join(","))?;
+        let mut row = Vec::with_capacity(m.n_axes() + 1);
+        let r = gcode::interpolate(input, &m, &opts, |s| {
+            row.clear();
+            row.push(s.t);
+            row.extend_from_slice(s.q);
+            write_csv_row(w, &row)
+        });
+        match r {
+            Ok(s) => {
+                summary = Some(s);
+                Ok(())
+            }
+            Err(InterpolateError::Sink(e)) => Err(e),
+            Err(e) => {
+                failure = Some(e);
+                Err(std::io::Error::other("interpolation failed"))
+            }
+        }
+    });
+    if let Some(e) = failure {
+        return Err(located(&a.program, e.line(), e.column(), &e));
+    }
+    written.with_context(|| format!("cannot write {}", a.out.display()))?;
+    let s = summary.context("interpolation produced no summary")?;
+    if s.transitions > 0 {
+        warn(format!(
+            "{} axis-space transition(s) inserted where a move starts away from the current axis positions (TCP switched on)",
+            s.transitions
+        ));
+    }
+    match a.format {
+        Format::Json => print_json(&json!({
+            "out": a.out.display().to_string(), "samples": s.samples, "ts": a.ts,
+            "duration_s": s.duration, "moves": s.moves, "transitions": s.transitions,
+            "dwell_s": s.dwell_time,
+        })),
+        Format::Human => {
+            println!(
+                "{} samples at {} s ({} moves, {:.3} s) → {}",
+                s.samples,
+                a.ts,
+                s.moves,
+                s.duration,
+                a.out.display()
+            );
+            Ok(())
+        }
+    }
+}
+
+fn stats(a: StatsArgs) -> anyhow::Result<()> {
+    let machine = a.machine.as_deref().map(load_machine).transpose()?;
+    let mut opts = StatsOptions {
+        interp: interp_options(&a.offsets)?,
+        ..StatsOptions::default()
+    };
+    if let Some(m) = &machine {
+        opts.rapid_rate = m.rapid_feed;
+    }
+    opts.interp.tcp_at_start = a.tcp;
+    let input = open(&a.program)?;
+    let mut check = machine.as_ref().map(|m| {
+        let mut c = TravelCheck::new(m);
+        c.force_tcp = a.tcp;
+        c
+    });
+    let st = match check.as_mut() {
+        Some(c) => gcode::stats_with(input, &opts, c),
+        None => gcode::stats(input, &opts),
+    }
+    .map_err(|e| {
+        let loc = e.location();
+        located(
+            &a.program,
+            loc.map(|l| l.line),
+            loc.map_or(0, |l| l.column),
+            &e,
+        )
+    })?;
+    let ranges: Vec<_> = Axis::ALL
+        .iter()
+        .filter(|&&ax| match &machine {
+            Some(m) => m.axis_index(&char::from(ax.letter()).to_string()).is_some(),
+            None => ax.index() < 3 || st.work_range[ax.index()].is_some_and(|r| r.max > r.min),
+        })
+        .filter_map(|&ax| {
+            st.work_range[ax.index()].map(|r| {
+                let mr = st.machine_range[ax.index()].unwrap_or(r);
+                (char::from(ax.letter()).to_string(), r, mr)
+            })
+        })
+        .collect();
+    match a.format {
+        Format::Json => {
+            let axes: serde_json::Map<_, _> = ranges
+                .iter()
+                .map(|(n, r, mr)| {
+                    (
+                        n.clone(),
+                        json!({"work": [r.min, r.max], "machine": [mr.min, mr.max]}),
+                    )
+                })
+                .collect();
+            let mut v = json!({
+                "blocks": st.blocks, "motion_blocks": st.motion_blocks,
+                "rapid_moves": st.rapid_moves, "linear_moves": st.linear_moves, "arc_moves": st.arc_moves,
+                "feed_length_mm": st.feed_length, "rapid_length_mm": st.rapid_length,
+                "feed_time_s": st.feed_time, "rapid_time_s": st.rapid_time, "dwell_time_s": st.dwell_time,
+                "total_time_s": st.total_time(), "axes": axes,
+            });
+            if let Some(c) = &check {
+                v["travel_violations"] = json!(c.count);
+                v["violations"] = c
+                    .violations
+                    .iter()
+                    .map(|x| json!({"line": x.line, "axis": x.axis, "value": x.value, "travel": x.travel}))
+                    .collect();
+                v["unreachable_lines"] = json!(c.unreachable);
+            }
+            print_json(&v)
+        }
+        Format::Human => {
+            println!("{}", a.program.display());
+            println!(
+                "blocks {} ({} with motion): {} rapid, {} linear, {} arc moves",
+                st.blocks, st.motion_blocks, st.rapid_moves, st.linear_moves, st.arc_moves
+            );
+            println!(
+                "path: feed {:.3} mm, rapid {:.3} mm; estimated time {:.3} s (feed {:.3}, rapid {:.3}, dwell {:.3}; no acceleration)",
+                st.feed_length,
+                st.rapid_length,
+                st.total_time(),
+                st.feed_time,
+                st.rapid_time,
+                st.dwell_time
+            );
+            for (n, r, mr) in &ranges {
+                println!(
+                    "  {n}: work [{}, {}], machine [{}, {}]",
+                    r.min, r.max, mr.min, mr.max
+                );
+            }
+            if let Some(c) = &check {
+                if c.count == 0 && c.unreachable.is_empty() {
+                    println!("travel: every move end is within the machine travels");
+                } else {
+                    for v in c.violations.iter().take(10) {
+                        println!(
+                            "{}:{}: axis {} at {} outside its travel [{}, {}]",
+                            a.program.display(),
+                            v.line,
+                            v.axis,
+                            v.value,
+                            v.travel[0],
+                            v.travel[1]
+                        );
+                    }
+                    println!("travel: {} violation(s)", c.count);
+                    for l in c.unreachable.iter().take(10) {
+                        println!("{}:{}: tool tip not reachable", a.program.display(), l);
+                    }
+                }
+            }
+            Ok(())
+        }
+    }
+}

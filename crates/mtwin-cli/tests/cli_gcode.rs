@@ -1,0 +1,152 @@
+//! `mtwin gcode interpolate` / `stats`: output format, values against closed
+//! forms, errors with file:line:col and no partial output, and the commands
+//! of docs/gcode.md.
+
+mod common;
+use common::*;
+
+fn write(dir: &std::path::Path, name: &str, text: &str) {
+    std::fs::write(dir.join(name), text).unwrap();
+}
+
+fn csv(path: &std::path::Path) -> (String, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().to_string();
+    let rows = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    (header, rows)
+}
+
+#[test]
+fn interpolate_writes_equally_spaced_samples_on_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "line.nc", "G1 X30 Y40 F600\n");
+    let o = mtwin(
+        dir.path(),
+        &[
+            "gcode",
+            "interpolate",
+            "--machine",
+            &example("ac-trunnion.toml"),
+            "line.nc",
+            "--ts",
+            "0.01",
+            "--out",
+            "cmd.csv",
+            "--format",
+            "json",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (header, rows) = csv(&dir.path().join("cmd.csv"));
+    assert_eq!(header, "t_s,Y,X,Z,A,C");
+    for (k, r) in rows.iter().enumerate() {
+        assert!((r[0] - k as f64 * 0.01).abs() < 1e-9);
+        // On the line from 0 to (30, 40): y = 4/3 x.
+        assert!((r[1] - 4.0 / 3.0 * r[2]).abs() < 1e-9);
+    }
+    assert_eq!(&rows.last().unwrap()[1..], &[40.0, 30.0, 0.0, 0.0, 0.0]);
+    // 50 mm at 10 mm/s = 5 s, plus the ramp: Y (4/5 of the path) limits the
+    // path acceleration to 5000·5/4 mm/s², adding 10/(5000·5/4) s.
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let d = v["duration_s"].as_f64().unwrap();
+    assert!((d - (5.0 + 10.0 / (5000.0 * 1.25))).abs() < 1e-9, "{d}");
+}
+
+#[test]
+fn errors_name_the_line_and_leave_no_output() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "bad.nc", "G1 X1 F600\nG1 X1Q\n");
+    write(dir.path(), "far.nc", "G1 X10 F6000\nG1 X1000\n");
+    let m = example("ac-trunnion.toml");
+    let o = mtwin(
+        dir.path(),
+        &[
+            "gcode",
+            "interpolate",
+            "--machine",
+            &m,
+            "bad.nc",
+            "--out",
+            "c.csv",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("bad.nc:2:7"), "{}", stderr(&o));
+    let o = mtwin(
+        dir.path(),
+        &[
+            "gcode",
+            "interpolate",
+            "--machine",
+            &m,
+            "far.nc",
+            "--out",
+            "c.csv",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(
+        e.contains("far.nc:2:") && e.contains("axis X") && e.contains("[-300, 300]"),
+        "{e}"
+    );
+    assert!(!dir.path().join("c.csv").exists());
+    let o = mtwin(dir.path(), &["gcode", "stats", "bad.nc"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("bad.nc:2:7"), "{}", stderr(&o));
+}
+
+#[test]
+fn stats_reports_travel_violations() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "far.nc", "G1 X10 F600\nG1 X400 Y30\nG1 X0 Y0\n");
+    let o = mtwin(
+        dir.path(),
+        &[
+            "gcode",
+            "stats",
+            "far.nc",
+            "--machine",
+            &example("ac-trunnion.toml"),
+            "--format",
+            "json",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(v["travel_violations"], 1);
+    assert_eq!(v["violations"][0]["line"], 2);
+    assert_eq!(v["violations"][0]["axis"], "X");
+    // 10 + hypot(390, 30) + hypot(400, 30) mm.
+    let len = 10.0 + 390f64.hypot(30.0) + 400f64.hypot(30.0);
+    assert!((v["feed_length_mm"].as_f64().unwrap() - len).abs() < 1e-9);
+}
+
+#[test]
+fn documented_commands_run() {
+    let doc = std::fs::read_to_string(repo().join("docs/gcode.md")).unwrap();
+    let program = doc
+        .split("```gcode\n")
+        .nth(1)
+        .and_then(|s| s.split("```").next())
+        .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "square.nc", program);
+    let examples = repo().join("examples").display().to_string() + "/";
+    let mut ran = 0;
+    for line in doc.lines().filter_map(|l| l.strip_prefix("$ mtwin ")) {
+        let line = line.replace("examples/", &examples);
+        let args: Vec<&str> = line.split_whitespace().collect();
+        let o = mtwin(dir.path(), &args);
+        assert_eq!(o.status.code(), Some(0), "{line}: {}", stderr(&o));
+        ran += 1;
+    }
+    assert_eq!(ran, 4);
+    // The square: 5 + 40 + π·20 + 40 + 40 mm of feed.
+    let (_, rows) = csv(&dir.path().join("cmd.csv"));
+    let last = rows.last().unwrap();
+    assert_eq!(&last[1..4], &[0.0, 0.0, 0.0]);
+}
