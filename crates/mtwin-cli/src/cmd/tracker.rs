@@ -9,13 +9,13 @@ use mtwin::fit::Progress;
 use mtwin::io::{Table, write_atomic_with, write_csv_row};
 use mtwin::methods::tracker::compensate::Compensator;
 use mtwin::methods::tracker::plan::{gcode, plan};
-use mtwin::methods::tracker::plot::error_chart;
 use mtwin::methods::tracker::simulate::simulate_seeded;
 use mtwin::methods::tracker::{
     ErrorStats, IdentifyOptions, Stats, TrackerPoint, identify, validate,
 };
 use mtwin::model::{Machine, ParameterSet, machine_to_toml, read_poses};
 use mtwin::nalgebra::Vector3;
+use mtwin::report::svg::{Series, xy};
 use serde_json::json;
 
 use super::common::{diag, load_machine, load_table};
@@ -321,9 +321,25 @@ pub fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
     }
     let v = validate(&m, &points);
     if let Some(p) = &a.plot {
-        let b: Vec<f64> = v.errors_before.iter().map(|e| e.norm()).collect();
-        let af: Vec<f64> = v.errors_after.iter().map(|e| e.norm()).collect();
-        let svg = error_chart(&format!("|Δp| per point, {}", a.data.display()), &b, &af);
+        let series = |name: &str, errs: &[mtwin::nalgebra::Vector3<f64>], color: &str| Series {
+            name: name.to_string(),
+            points: errs
+                .iter()
+                .enumerate()
+                .map(|(k, e)| (k as f64, e.norm() * 1e3))
+                .collect(),
+            color: color.to_string(),
+            markers: false,
+        };
+        let svg = xy(
+            &format!("|Δp| per point, {}", a.data.display()),
+            "point",
+            "|Δp| (µm)",
+            &[
+                series("before (nominal)", &v.errors_before, "#c0392b"),
+                series("after (identified)", &v.errors_after, "#2471a3"),
+            ],
+        );
         write_atomic_with(p, |w| w.write_all(svg.as_bytes()))
             .with_context(|| format!("cannot write {}", p.display()))?;
     }

@@ -7,7 +7,6 @@ pub mod compensate;
 pub mod identify;
 pub mod model;
 pub mod plan;
-pub mod plot;
 pub mod simulate;
 pub mod validate;
 
