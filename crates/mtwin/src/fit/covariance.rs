@@ -9,9 +9,13 @@
 //! pseudo-inverse) and reported as a warning by the caller. Unidentifiable
 //! parameters have no uncertainty: they are not estimated.
 
-use faer::Mat;
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, Par};
 
 use super::scaling::Scaled;
+
+/// Below this many multiply-adds the product runs on the calling thread.
+const PARALLEL_FLOPS: usize = 1 << 24;
 
 /// Covariance of the estimated parameters, in their own units squared.
 #[derive(Debug, Clone, PartialEq)]
@@ -29,15 +33,28 @@ impl Covariance {
     pub(crate) fn from_scaled(scaled: &Scaled, sigma2: f64, tau: f64) -> (Self, usize) {
         let k = scaled.len();
         let rank = scaled.rank(tau);
+        // C = σ²·A·Aᵀ with A = D⁻¹·V_r·diag(1/√λ) (k × rank).
+        let a = Mat::<f64>::from_fn(k, rank, |a, i| {
+            scaled.v[(a, i)] / (scaled.lambda[i].sqrt() * scaled.d[a])
+        });
         let mut matrix = Mat::<f64>::zeros(k, k);
-        for a in 0..k {
-            for b in 0..=a {
-                let s: f64 = (0..rank)
-                    .map(|i| scaled.v[(a, i)] * scaled.v[(b, i)] / scaled.lambda[i])
-                    .sum();
-                let c = sigma2 * s / (scaled.d[a] * scaled.d[b]);
-                matrix[(a, b)] = c;
-                matrix[(b, a)] = c;
+        let par = if k * k * rank < PARALLEL_FLOPS {
+            Par::Seq
+        } else {
+            Par::rayon(0)
+        };
+        matmul(
+            matrix.as_mut(),
+            Accum::Replace,
+            a.as_ref(),
+            a.transpose(),
+            sigma2,
+            par,
+        );
+        // Exactly symmetric, whatever the product's summation order.
+        for c in 0..k {
+            for r in 0..c {
+                matrix[(r, c)] = matrix[(c, r)];
             }
         }
         (

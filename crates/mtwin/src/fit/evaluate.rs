@@ -17,7 +17,8 @@ use faer::reborrow::ReborrowMut;
 use faer::{Accum, ColMut, ColRef, Mat, MatMut, MatRef, Par};
 use rayon::prelude::*;
 
-use super::problem::{BlockLayout, Model};
+use super::factored::{self, Plan};
+use super::problem::{BlockLayout, Factored, Model};
 use super::{FitError, Progress};
 
 /// Rows per parallel task.
@@ -61,6 +62,10 @@ pub(crate) struct Pass<'a> {
     pub included: &'a [bool],
     pub chunk_rows: usize,
     pub progress: &'a dyn Fn(Progress),
+    /// The factored Jacobian and its plan, when the model has one and the
+    /// options allow it: gradient and normal passes then use
+    /// [`factored`] instead of Jacobian rows.
+    pub factored: Option<(&'a dyn Factored, &'a Plan)>,
 }
 
 impl Pass<'_> {
@@ -77,8 +82,8 @@ impl Pass<'_> {
         };
         let mut jacobian = None;
         let mut normal = None;
-        match need {
-            Need::Residuals => {
+        match (need, self.factored) {
+            (Need::Residuals, _) => {
                 let mut slices = split_rows(&mut r, &tasks);
                 slices.par_iter_mut().for_each(|(rows, out)| {
                     self.model.residuals(theta, rows.clone(), out);
@@ -88,7 +93,7 @@ impl Pass<'_> {
                     rows_total: m,
                 });
             }
-            Need::Dense => {
+            (Need::Dense, _) => {
                 let mut jt = Mat::<f64>::zeros(n, m);
                 self.fill(theta, &tasks, &mut r, jt.as_mut().transpose_mut());
                 (self.progress)(Progress::Evaluating {
@@ -98,7 +103,35 @@ impl Pass<'_> {
                 gemv(jt.as_ref(), &r, &mut g, Accum::Replace);
                 jacobian = Some(jt);
             }
-            Need::Gradient | Need::Normal => {
+            (Need::Gradient | Need::Normal, Some((fm, plan))) => {
+                let slots = factored::Slots::new(plan, n, need == Need::Normal);
+                // No Jacobian rows are held: chunks only pace the progress
+                // reports (about 16 per pass).
+                for chunk in group_tasks(&tasks, self.chunk_rows.max(m / 16)) {
+                    let (lo, hi) = (tasks[chunk.start].start, tasks[chunk.end - 1].end);
+                    factored::accumulate(
+                        fm,
+                        plan,
+                        self.layout,
+                        self.included,
+                        theta,
+                        lo..hi,
+                        &mut r[lo..hi],
+                        &slots,
+                    );
+                    (self.progress)(Progress::Evaluating {
+                        rows_done: hi,
+                        rows_total: m,
+                    });
+                }
+                if let Some(sums) = slots.total() {
+                    if need == Need::Normal {
+                        normal = Some(sums.normal(plan, n));
+                    }
+                    g = sums.g;
+                }
+            }
+            (Need::Gradient | Need::Normal, None) => {
                 let mut nm = (need == Need::Normal).then(|| Mat::<f64>::zeros(n, n));
                 // Jᵀ of the chunk, n × rows: rows of J contiguous.
                 let mut jt = Mat::<f64>::zeros(n, 0);

@@ -8,11 +8,14 @@
 //! with `c = Vᵀgₛ`.
 //!
 //! * Scaling (Moré 1978): `D_j = max(D_j, ‖J_j‖)` over the iterations.
-//! * Damping (Nielsen 1999): start `μ = τ₀·max diag(Nₛ)`; on an accepted step
+//! * Damping (Nielsen 1999): start `μ = τ₀·max diag(Nₛ)`, or, with
+//!   [`super::Options::gauss_newton_first`], `μ = 0` (the Gauss–Newton step
+//!   in the identifiable subspace, full rank by construction: an almost
+//!   linear identification converges in two or three passes) until a step
+//!   is rejected or the spectrum degenerates; on an accepted step
 //!   with gain ratio ρ, `μ ← μ·max(1/3, 1 − (2ρ − 1)³)`, `ν ← 2`; on a
 //!   rejected one `μ ← μ·ν`, `ν ← 2ν`; when the gain ratio is within
-//!   [`super::Options::reuse_gain`] of 1 (the model is linear along the
-//!   step) `μ ← μ/10`.
+//!   0.1 of 1 (the model is linear along the step) `μ ← μ/10`.
 //! * Stopping (MINPACK's tests, in scaled variables): gradient
 //!   `max_j |J_jᵀr| / (D_j‖r‖) ≤ gtol` (or `r = 0`); step
 //!   `‖D·δθ‖ ≤ xtol·(‖D·θ‖ + xtol)` (tested after the step is evaluated, and
@@ -21,10 +24,11 @@
 //!   (the damping overflowed without an acceptable step).
 //! * Normal-equation path: `JᵀJ` costs `m·n²` flops against `m·n` for the
 //!   residuals and gradient, so after an accepted step whose gain ratio is
-//!   within [`super::Options::reuse_gain`] of 1 (the model is linear along
-//!   the step) the previous `JᵀJ` and its decomposition are kept and only
-//!   the gradient is refreshed (a chord/simplified Gauss–Newton step: the
-//!   fixed point is still `Jᵀr = 0`, only the rate changes). Otherwise
+//!   within [`super::Options::reuse_gain`] of 1 (the quadratic model still
+//!   predicts the decrease well) the previous `JᵀJ` and its decomposition
+//!   are kept and only the gradient is refreshed (a chord/simplified
+//!   Gauss–Newton step: the fixed point is still `Jᵀr = 0`, only the rate
+//!   changes; a refresh costs as much as a dozen chord steps). Otherwise
 //!   `JᵀJ` is formed anew at the accepted point.
 
 use serde::Serialize;
@@ -32,6 +36,10 @@ use serde::Serialize;
 use super::evaluate::{Evaluation, Need, Pass};
 use super::scaling::Scaled;
 use super::{FitError, Options, Progress};
+
+/// A step whose gain ratio is within this of 1 was taken where the model is
+/// linear: the damping drops ten-fold.
+const LINEAR_GAIN: f64 = 0.1;
 
 /// Why the iteration stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -176,13 +184,14 @@ pub(crate) fn minimise(
     let max_diag = (0..scaled.len())
         .map(|i| scaled.normal[(i, i)])
         .fold(0.0, f64::max);
+    let mu0 = opts.initial_damping * max_diag.max(f64::MIN_POSITIVE);
     let mut st = State {
         theta: theta0,
         initial_cost: eval0.cost,
         eval: eval0,
         scaled,
         d: d0,
-        mu: opts.initial_damping * max_diag.max(f64::MIN_POSITIVE),
+        mu: if opts.gauss_newton_first { 0.0 } else { mu0 },
         iterations: 0,
         evaluations: 1,
         factorizations: 1,
@@ -211,6 +220,13 @@ pub(crate) fn minimise(
             .unwrap_or(0.0)
             .max(max_diag);
         loop {
+            // The undamped step needs every λ clearly positive (the
+            // estimated columns are full rank at the start, but the rank
+            // can drop along the way).
+            let lmin = st.scaled.lambda.last().copied().unwrap_or(0.0);
+            if st.mu == 0.0 && lmin <= 1e3 * f64::EPSILON * lmax {
+                st.mu = mu0;
+            }
             let mu = st.mu;
             let a: Vec<f64> = c
                 .iter()
@@ -247,7 +263,8 @@ pub(crate) fn minimise(
                 && pred <= opts.cost_tolerance * st.eval.cost;
             if actual > 0.0 && pred > 0.0 {
                 st.theta = trial;
-                let linear = (rho - 1.0).abs() <= opts.reuse_gain;
+                let linear = (rho - 1.0).abs() <= LINEAR_GAIN;
+                let reuse = (rho - 1.0).abs() <= opts.reuse_gain;
                 // Along a step where the model behaved linearly the
                 // quadratic model is trusted: damping drops ten-fold
                 // (Nielsen's rule alone never goes below a third).
@@ -257,12 +274,21 @@ pub(crate) fn minimise(
                     (1.0 / 3.0f64).max(1.0 - (2.0 * rho - 1.0).powi(3))
                 };
                 nu = 2.0;
+                let stop = if small && rho <= 2.0 {
+                    Some(StopReason::CostChange)
+                } else if tiny_step {
+                    Some(StopReason::Step)
+                } else {
+                    None
+                };
                 if dense {
                     st.eval = te;
                     st.update_scales(kept);
                     st.scaled = Scaled::new(&st.eval, kept, &st.d)?;
                     st.factorizations += 1;
-                } else if linear && opts.reuse_normal_matrix {
+                } else if (reuse || stop.is_some()) && opts.reuse_normal_matrix {
+                    // Also when stopping here: a refresh would serve no
+                    // further step.
                     st.eval = te;
                     let g = &st.eval.g;
                     st.scaled.g = kept.iter().zip(&st.d).map(|(&j, dj)| g[j] / dj).collect();
@@ -278,11 +304,8 @@ pub(crate) fn minimise(
                     cost: st.eval.cost,
                     damping: st.mu,
                 });
-                if small && rho <= 2.0 {
-                    return Ok(st.finish(StopReason::CostChange));
-                }
-                if tiny_step {
-                    return Ok(st.finish(StopReason::Step));
+                if let Some(reason) = stop {
+                    return Ok(st.finish(reason));
                 }
                 break;
             }
@@ -292,7 +315,8 @@ pub(crate) fn minimise(
             if tiny_step {
                 return Ok(st.finish(StopReason::Step));
             }
-            st.mu *= nu;
+            // A rejected undamped step: damping from now on.
+            st.mu = if st.mu == 0.0 { mu0 } else { st.mu * nu };
             nu *= 2.0;
             if st.mu > 1e30 * lmax.max(1.0) {
                 return Ok(st.finish(StopReason::NoProgress));

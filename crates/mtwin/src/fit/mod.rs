@@ -33,6 +33,7 @@
 pub mod check;
 pub mod covariance;
 mod evaluate;
+mod factored;
 pub mod identifiability;
 pub mod lm;
 pub mod outliers;
@@ -47,7 +48,7 @@ pub use covariance::Covariance;
 pub use identifiability::{Combination, Identifiability, RankRule, Term, Unidentifiable};
 pub use lm::{Convergence, StopReason};
 pub use outliers::{Outlier, OutlierRule, OutlierScan, block_norms};
-pub use problem::{BlockLayout, Model, Parameter, Stack};
+pub use problem::{BlockLayout, FactorGroup, Factored, Model, Parameter, Stack};
 pub use report::{Estimate, FitReport, GroupStats, Warning};
 
 use evaluate::{Need, Pass};
@@ -119,14 +120,24 @@ pub struct Options {
     pub cost_tolerance: f64,
     /// `τ₀` of the initial damping `μ = τ₀·max diag(Nₛ)`, default 1e-3.
     pub initial_damping: f64,
+    /// Begin with undamped Gauss–Newton steps (`μ = 0`) and damp with
+    /// `τ₀·max diag(Nₛ)` from the first rejected step on (default true):
+    /// the estimated columns are full rank, and identifications are almost
+    /// linear, so this saves the passes a damped start spends creeping up
+    /// to the solution.
+    pub gauss_newton_first: bool,
     /// Normal-equation path: keep `JᵀJ` after a step whose gain ratio is
-    /// within `reuse_gain` of 1 (default 0.1).
+    /// within `reuse_gain` of 1 (default 0.5).
     pub reuse_gain: f64,
     /// Normal-equation path: allow the reuse at all (default true).
     pub reuse_normal_matrix: bool,
     /// Rows per chunk on the normal-equation path (default 8192: 64 MB of
     /// Jacobian for 1000 parameters).
     pub chunk_rows: usize,
+    /// Normal-equation path: use the model's factored Jacobian
+    /// ([`Model::factored`]) when it has one (default true); false forms
+    /// Jacobian rows as for any model.
+    pub factored: bool,
     pub outliers: OutlierRule,
     /// Warn above this condition number of the scaled Jacobian of the
     /// estimated parameters (default 1e6: uncertainties amplified a million
@@ -145,9 +156,11 @@ impl Default for Options {
             step_tolerance: 1e-10,
             cost_tolerance: 1e-12,
             initial_damping: 1e-3,
-            reuse_gain: 0.1,
+            gauss_newton_first: true,
+            reuse_gain: 0.5,
             reuse_normal_matrix: true,
             chunk_rows: 8192,
+            factored: true,
             outliers: OutlierRule::default(),
             ill_conditioned_above: 1e6,
         }
@@ -192,9 +205,14 @@ pub fn fit_with_progress(
         s => s,
     };
     let dense = strategy == Strategy::Dense;
+    let plan = match model.factored() {
+        Some(f) if !dense && options.factored => factored::plan_for(f, n).map(|p| (f, p)),
+        _ => None,
+    };
+    let factors = plan.as_ref().map(|(f, p)| (*f, p));
     let mut included = vec![true; layout.blocks()];
     let mut stage = Stage::run(
-        model, &layout, &params, theta0, &included, options, dense, progress,
+        model, &layout, &params, theta0, &included, options, dense, factors, progress,
     )?;
     let mut scan = outliers::scan(&stage.outcome.eval.r, &layout, &included, options.outliers);
     if options.outliers.exclude && !scan.flagged.is_empty() {
@@ -202,7 +220,7 @@ pub fn fit_with_progress(
             included[o.block] = false;
         }
         stage = Stage::run(
-            model, &layout, &params, theta0, &included, options, dense, progress,
+            model, &layout, &params, theta0, &included, options, dense, factors, progress,
         )?;
         // Residuals of every block, excluded ones included, at the solution.
         let all = vec![true; layout.blocks()];
@@ -213,6 +231,7 @@ pub fn fit_with_progress(
             included: &all,
             chunk_rows: options.chunk_rows,
             progress,
+            factored: factors,
         };
         let r = pass.run(&stage.outcome.theta, Need::Residuals)?.r;
         scan = outliers::scan(&r, &layout, &included, options.outliers);
@@ -239,6 +258,7 @@ impl Stage {
         included: &[bool],
         options: &Options,
         dense: bool,
+        factors: Option<(&dyn Factored, &factored::Plan)>,
         progress: &dyn Fn(Progress),
     ) -> Result<Self, FitError> {
         let (m, n) = (layout.rows(), params.len());
@@ -249,6 +269,7 @@ impl Stage {
             included,
             chunk_rows: options.chunk_rows,
             progress,
+            factored: factors,
         };
         let eval0 = pass.run(theta0, if dense { Need::Dense } else { Need::Normal })?;
         progress(Progress::Analysing);

@@ -12,10 +12,10 @@ use std::ops::Range;
 use faer::MatMut;
 use nalgebra::Vector3;
 
-use crate::fit::{BlockLayout, Model, Parameter};
+use crate::fit::{BlockLayout, FactorGroup, Factored, Model, Parameter};
 use crate::kinematics::Kinematics;
 use crate::kinematics::transform::{rxyz, rxyz_derivatives};
-use crate::model::{Machine, ParameterSet};
+use crate::model::{Form, Machine, ParameterSet};
 
 /// Names of the registration parameters, in θ order.
 pub const REGISTRATION_NAMES: [&str; 6] = ["REG.tx", "REG.ty", "REG.tz", "REG.a", "REG.b", "REG.c"];
@@ -30,11 +30,30 @@ pub struct TrackerPoint {
 }
 
 /// The least-squares model of a laser-tracker identification.
+///
+/// Its Jacobian factors ([`Factored`]): the column of coefficient `k` of a
+/// fitted error `e` on axis `a` is `(∂tip/∂e)·β_k(q_a)`, the component
+/// derivative of the kinematics Jacobian times the basis value of the
+/// error's form. Errors of one axis with the same form share the basis
+/// vector (one group per axis and form); constants (location errors,
+/// constant PDGEs, the registration) form one group with the basis `[1]`.
 pub struct TrackerModel<'a> {
     machine: &'a Machine,
     params: &'a ParameterSet,
     points: &'a [TrackerPoint],
     registration: bool,
+    /// The factor groups and, per group, the axis and form of its basis
+    /// (`None`: the constant basis `[1]`) and its functions in order.
+    groups: Vec<(FactorGroup, Option<(usize, Form)>, Vec<Function>)>,
+}
+
+/// A function of the factored Jacobian.
+#[derive(Debug, Clone, Copy)]
+enum Function {
+    /// Fitted error number `i` of the parameter set.
+    Error(usize),
+    /// Registration parameter `c` (0..6).
+    Registration(usize),
 }
 
 impl<'a> TrackerModel<'a> {
@@ -47,11 +66,43 @@ impl<'a> TrackerModel<'a> {
         points: &'a [TrackerPoint],
         registration: bool,
     ) -> Self {
+        let mut groups: Vec<(FactorGroup, Option<(usize, Form)>, Vec<Function>)> = Vec::new();
+        let mut put =
+            |key: Option<(usize, Form)>, len: usize, offset: usize, f: Function| match groups
+                .iter_mut()
+                .find(|g| g.1 == key)
+            {
+                Some(g) => {
+                    g.0.offsets.push(offset);
+                    g.2.push(f);
+                }
+                None => groups.push((
+                    FactorGroup {
+                        basis_len: len,
+                        offsets: vec![offset],
+                    },
+                    key,
+                    vec![f],
+                )),
+            };
+        for (i, e) in params.errors().iter().enumerate() {
+            let key = match e.form {
+                Form::Constant => None,
+                ref f => Some((e.axis, f.clone())),
+            };
+            put(key, e.form.n_coeffs(), e.offset, Function::Error(i));
+        }
+        if registration {
+            for c in 0..6 {
+                put(None, 1, params.len() + c, Function::Registration(c));
+            }
+        }
         Self {
             machine,
             params,
             points,
             registration,
+            groups,
         }
     }
 
@@ -110,6 +161,10 @@ impl Model for TrackerModel<'_> {
         BlockLayout::uniform("tracker", self.points.len(), 3)
     }
 
+    fn factored(&self) -> Option<&dyn Factored> {
+        Some(self)
+    }
+
     fn residuals(&self, theta: &[f64], rows: Range<usize>, out: &mut [f64]) {
         let kin = Kinematics::new(&self.machine_at(theta));
         for (k, b) in Self::blocks(&rows).enumerate() {
@@ -157,6 +212,69 @@ impl Model for TrackerModel<'_> {
                         j[(3 * k + x, n_err + 3 + c)] = -dr[c][x];
                     }
                 }
+            }
+        }
+    }
+}
+
+impl Factored for TrackerModel<'_> {
+    fn groups(&self) -> Vec<FactorGroup> {
+        self.groups.iter().map(|g| g.0.clone()).collect()
+    }
+
+    fn residuals_and_factors(
+        &self,
+        theta: &[f64],
+        rows: Range<usize>,
+        r: &mut [f64],
+        mut g: MatMut<'_, f64>,
+        mut basis: MatMut<'_, f64>,
+    ) {
+        let kin = Kinematics::new(&self.machine_at(theta));
+        let reg = &theta[self.params.len()..];
+        let errors = self.params.errors();
+        for (k, b) in Self::blocks(&rows).enumerate() {
+            let point = &self.points[b];
+            let jac = kin.jacobian(&point.q);
+            let d = jac.pose.tip - self.measured_in_w(theta, b);
+            r[3 * k..3 * k + 3].copy_from_slice(d.as_slice());
+            let dr = self
+                .registration
+                .then(|| rxyz_derivatives(reg[3], reg[4], reg[5], &point.measured));
+            let (mut f, mut col) = (0, 0);
+            for (group, key, functions) in &self.groups {
+                for func in functions {
+                    for x in 0..3 {
+                        g[(3 * k + x, f)] = match (*func, &dr) {
+                            (Function::Error(i), _) => {
+                                let e = &errors[i];
+                                jac.components[e.axis][e.slot()][x]
+                            }
+                            (Function::Registration(c), _) if c < 3 => {
+                                if x == c {
+                                    -1.0
+                                } else {
+                                    0.0
+                                }
+                            }
+                            (Function::Registration(c), Some(dr)) => -dr[c - 3][x],
+                            (Function::Registration(_), None) => 0.0,
+                        };
+                    }
+                    f += 1;
+                }
+                let len = group.basis_len;
+                let mut out = vec![0.0; len];
+                match key {
+                    Some((axis, form)) => {
+                        form.basis(point.q[*axis], self.machine.axes[*axis].travel, &mut out)
+                    }
+                    None => out[0] = 1.0,
+                }
+                for (c, v) in out.into_iter().enumerate() {
+                    basis[(k, col + c)] = v;
+                }
+                col += len;
             }
         }
     }
