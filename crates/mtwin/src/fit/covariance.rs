@@ -6,7 +6,10 @@
 //! decomposition of the scaled Jacobian of the estimated columns `K`.
 //! Directions whose `λᵢ` fell below the rank threshold at the solution
 //! (possible when the rank changed along the way) are left out (a
-//! pseudo-inverse) and reported as a warning by the caller. Unidentifiable
+//! pseudo-inverse) and reported as a warning by the caller. On the
+//! normal-equation path the last decomposition is that of the last `JᵀJ`
+//! formed, which may be from an earlier iterate when the model was linear
+//! enough for it to be reused (see [`super::lm`]). Unidentifiable
 //! parameters have no uncertainty: they are not estimated.
 
 use faer::linalg::matmul::matmul;

@@ -28,7 +28,7 @@
 //!   predicts the decrease well) the previous `JᵀJ` and its decomposition
 //!   are kept and only the gradient is refreshed (a chord/simplified
 //!   Gauss–Newton step: the fixed point is still `Jᵀr = 0`, only the rate
-//!   changes; a refresh costs as much as a dozen chord steps). Otherwise
+//!   changes). Otherwise
 //!   `JᵀJ` is formed anew at the accepted point.
 
 use serde::Serialize;

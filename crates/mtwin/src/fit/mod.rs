@@ -127,7 +127,7 @@ pub struct Options {
     /// to the solution.
     pub gauss_newton_first: bool,
     /// Normal-equation path: keep `JᵀJ` after a step whose gain ratio is
-    /// within `reuse_gain` of 1 (default 0.5).
+    /// within `reuse_gain` of 1 (default 0.1).
     pub reuse_gain: f64,
     /// Normal-equation path: allow the reuse at all (default true).
     pub reuse_normal_matrix: bool,
@@ -157,7 +157,7 @@ impl Default for Options {
             cost_tolerance: 1e-12,
             initial_damping: 1e-3,
             gauss_newton_first: true,
-            reuse_gain: 0.5,
+            reuse_gain: 0.1,
             reuse_normal_matrix: true,
             chunk_rows: 8192,
             factored: true,

@@ -206,6 +206,9 @@ fn singular_values_and_v(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), Fit
     Ok((s.column_vector().iter().copied().collect(), v))
 }
 
+/// Relative difference below which two pivot candidates are tied.
+const PIVOT_TIE: f64 = 1e-8;
+
 /// Greedy diagonal pivoting of the positive semi-definite `a` (`k × k`):
 /// the order in which columns of the scaled Jacobian would be chosen by
 /// Businger–Golub column-pivoted QR (in exact arithmetic the largest
@@ -217,11 +220,14 @@ pub(crate) fn pivot_order(a: &Mat<f64>, steps: usize) -> Vec<usize> {
     let mut w = a.clone();
     let mut perm: Vec<usize> = (0..k).collect();
     for j in 0..steps.min(k) {
-        // Ties go to the earlier parameter.
+        // Ties go to the earlier parameter. Diagonals within 1e-8 of each
+        // other are ties: after many elimination steps the Schur complement
+        // carries rounding far above ε, and the choice among equivalent
+        // columns must not depend on how JᵀJ was summed.
         let mut p = j;
         for i in j + 1..k {
-            let better = w[(i, i)] > w[(p, p)] * (1.0 + 1e-12)
-                || (w[(i, i)] >= w[(p, p)] * (1.0 - 1e-12) && perm[i] < perm[p]);
+            let better = w[(i, i)] > w[(p, p)] * (1.0 + PIVOT_TIE)
+                || (w[(i, i)] >= w[(p, p)] * (1.0 - PIVOT_TIE) && perm[i] < perm[p]);
             if better {
                 p = i;
             }

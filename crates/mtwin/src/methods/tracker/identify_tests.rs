@@ -301,3 +301,86 @@ fn a_blocked_beam_is_reported_and_left_out() {
     let diff: Vec<f64> = pa.iter().zip(&pb).map(|(x, y)| x - y).collect();
     assert!(rms(&diff) < 0.005, "{}", rms(&diff));
 }
+
+/// The factored normal equations (JᵀJ from the component derivatives and
+/// the per-axis basis outer products, never forming Jacobian rows) must give
+/// what forming the rows gives, to rounding, and the same solution as the
+/// dense SVD path. Five-axis trunnion, Chebyshev degree 6 with a second basis
+/// group on Z, location errors; with a registration in a rotated tracker frame
+/// (the constant group's registration columns) against the row path, and
+/// without (condition ≈ 1e4, where normal equations lose ≈ 1e-8) against the
+/// dense path.
+#[test]
+fn factored_normal_equations_agree_with_jacobian_rows_and_the_dense_path() {
+    use crate::fit::{FitReport, Options, Strategy};
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/machines");
+    let truth = read_machine(&dir.join("ac-trunnion-with-errors.toml")).unwrap();
+    let m = read_machine(&dir.join("ac-trunnion.toml")).unwrap();
+    let mut rng = StdRng::seed_from_u64(314);
+    let params = ParameterSet::from_spec(&m, "pdge:cheb6,location,EXZ:cheb2").unwrap();
+    let poses = random_poses(&m, 1000, &mut rng);
+    let in_w = simulate(&truth, &poses, 0.002, &mut rng);
+    let g = [30.0, -20.0, 5.0, 0.01, -0.02, 0.3];
+    let r = crate::kinematics::transform::rxyz(g[3], g[4], g[5]);
+    let t = nalgebra::Vector3::new(g[0], g[1], g[2]);
+    let mut in_t = in_w.clone();
+    for p in &mut in_t {
+        p.measured = r.transpose() * (p.measured - t);
+    }
+    let run = |pts: &[TrackerPoint], registration: bool, strategy: Strategy, factored: bool| {
+        let opts = IdentifyOptions {
+            registration,
+            fit: Options {
+                strategy,
+                factored,
+                ..Options::default()
+            },
+        };
+        identify(&m, &params, pts, &opts, &|_| {}).unwrap().report
+    };
+    let same = |a: &FitReport, b: &FitReport, tol: f64| {
+        assert_eq!(a.identifiability.rank, b.identifiability.rank);
+        assert_eq!(
+            a.identifiability.unidentifiable,
+            b.identifiability.unidentifiable
+        );
+        assert!(a.identifiability.rank < a.estimates.len());
+        for (j, e) in a.estimates.iter().enumerate() {
+            match e.uncertainty {
+                Some(u) => {
+                    let d = (a.theta[j] - b.theta[j]).abs();
+                    assert!(d < tol * u, "θ{j}: {d} > {tol}·{u}");
+                }
+                // Not estimated: both keep the start value.
+                None => assert_eq!(a.theta[j], b.theta[j]),
+            }
+        }
+        let rel = (a.convergence.final_cost - b.convergence.final_cost).abs()
+            / b.convergence.final_cost;
+        assert!(rel < 1e-9, "{rel}");
+    };
+    // With the registration: factored against Jacobian rows.
+    let rows = run(&in_t, true, Strategy::NormalEquations, false);
+    let fact = run(&in_t, true, Strategy::NormalEquations, true);
+    // EXZ is overridden to degree 2: a second basis group on axis Z.
+    assert_eq!(fact.estimates.len(), 5 * 6 * 7 - 7 + 3 + 30 + 6);
+    // The same spectrum of the scaled JᵀJ at the start, compared as
+    // eigenvalues λ = s², which both hold to ≈ n·ε·λ_max.
+    let (sf, sr) = (
+        &fact.identifiability.singular_values,
+        &rows.identifiability.singular_values,
+    );
+    assert_eq!(sf.len(), sr.len());
+    for (a, b) in sf.iter().zip(sr) {
+        assert!((a * a - b * b).abs() <= 1e-11 * sr[0] * sr[0], "{a} vs {b}");
+    }
+    // Both stop at the cost tolerance (1e-12 relative), which leaves θ
+    // uncertain by ≪ 1e-3 of its standard uncertainty.
+    same(&fact, &rows, 1e-3);
+    // Without: factored against the dense SVD path.
+    let dense = run(&in_w, false, Strategy::Dense, false);
+    let fact = run(&in_w, false, Strategy::NormalEquations, true);
+    // Condition ≈ 1e4: normal equations lose ≈ κ²·ε ≈ 1e-8 relative.
+    assert!(fact.condition_number < 1e5, "{}", fact.condition_number);
+    same(&fact, &dense, 1e-6);
+}
