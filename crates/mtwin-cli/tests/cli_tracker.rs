@@ -200,15 +200,39 @@ fn fails_with(o: &std::process::Output, d: &Path, needles: &[&str]) {
 fn identify_rejects_bad_input_without_writing() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    // A missing column.
+    // A missing column: the header line.
     write(d, "fit.csv", "X,Y,Z,B,A,C,x,y\n1,1,-1,0,0,0,1,1\n");
-    fails_with(&identify(d, "location"), d, &["fit.csv", "z"]);
-    // NaN, on line 3.
+    fails_with(
+        &identify(d, "location"),
+        d,
+        &["fit.csv:1", "missing column `z`"],
+    );
+    // A missing axis column.
+    write(d, "fit.csv", "X,Y,Z,B,C,x,y,z\n1,1,-1,0,0,1,1,-501\n");
+    fails_with(
+        &identify(d, "location"),
+        d,
+        &["fit.csv:1", "missing column `A`"],
+    );
+    // NaN, on line 3, column 2 (an axis) and column 8 (a measured coordinate).
     fit_csv(d, "1,1,-1,0,0,0,1,1,-501\n2,NaN,-1,0,0,0,2,1,-501\n");
     fails_with(
         &identify(d, "location"),
         d,
-        &["fit.csv:3", "not a finite number"],
+        &["fit.csv:3:2", "`Y`", "not a finite number"],
+    );
+    fit_csv(d, "1,1,-1,0,0,0,1,1,-501\n2,1,-1,0,0,0,2,nan,-501\n");
+    fails_with(
+        &identify(d, "location"),
+        d,
+        &["fit.csv:3:8", "`y`", "not a finite number"],
+    );
+    // An empty cell: line 2, column 9.
+    fit_csv(d, "1,1,-1,0,0,0,1,1,\n");
+    fails_with(
+        &identify(d, "location"),
+        d,
+        &["fit.csv:2:9", "`z` is empty"],
     );
     // A pose outside the travel (X ≤ 8000), line 2.
     fit_csv(d, "9000,1,-1,0,0,0,1,1,-501\n");
@@ -231,6 +255,62 @@ fn identify_rejects_bad_input_without_writing() {
         d,
         &["cannot determine"],
     );
+}
+
+/// A quadratic in X fitted from poses that span 4 mm of X's 8000 mm travel:
+/// the Chebyshev columns T0 and T2 are nearly parallel there. The fit runs
+/// (every parameter is still identifiable), writes its output and warns
+/// with the condition number, on stderr and in the JSON summary.
+#[test]
+fn ill_conditioned_fit_warns_with_the_condition_number() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut rows = String::new();
+    for k in 0..12 {
+        let x = 4000.0 + 4.0 * k as f64 / 11.0;
+        let (y, z) = (100.0 + 250.0 * k as f64, -50.0 - 70.0 * k as f64);
+        // Nominal tip (tool tip 500 mm below C) plus a 1 µm·k straightness.
+        let dx = 1e-3 * (k as f64 / 11.0).powi(2);
+        rows += &format!("{x},{y},{z},0,0,0,{},{y},{}\n", x + dx, z - 500.0);
+    }
+    fit_csv(d, &rows);
+    let o = mtwin(
+        d,
+        &[
+            "identify",
+            "--machine",
+            &example("afp-gantry.toml"),
+            "--data",
+            "fit.csv",
+            "--fit",
+            "EXX:cheb2",
+            "--out",
+            "id.toml",
+            "--format",
+            "json",
+        ],
+    );
+    ok(&o);
+    let e = stderr(&o);
+    assert!(
+        e.contains("ill-conditioned") && e.contains("condition number"),
+        "{e}"
+    );
+    let j = json(&o);
+    assert_eq!(j["rank"], 3);
+    let cond = j["condition_number"].as_f64().unwrap();
+    assert!(cond > 1e6, "{cond}");
+    assert!(e.contains(&format!("{cond:.3e}")), "{e}");
+    assert!(
+        j["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w.to_string().contains("ill_conditioned")),
+        "{}",
+        j["warnings"]
+    );
+    assert!(d.join("id.toml").exists());
 }
 
 #[test]

@@ -21,8 +21,8 @@ use serde_json::json;
 use super::common::{diag, load_machine, load_table};
 use crate::output::{Format, note, print_json, progress, warn};
 
-/// Points at which the identification shows a progress bar.
-const PROGRESS_POINTS: usize = 2000;
+/// How long the identification runs before it shows a progress bar.
+const PROGRESS_AFTER: std::time::Duration = std::time::Duration::from_secs(1);
 
 #[derive(Debug, clap::Args)]
 #[command(allow_negative_numbers = true)]
@@ -186,18 +186,42 @@ pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
         registration: a.registration,
         ..Default::default()
     };
-    let bar = if points.len() >= PROGRESS_POINTS {
-        progress(options.fit.max_iterations as u64, "identify")
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
+    // A progress bar once the identification has run for a second: the
+    // rows of the current pass, and the stage.
+    let start = std::time::Instant::now();
+    let bar: std::cell::OnceCell<indicatif::ProgressBar> = std::cell::OnceCell::new();
+    let stage = std::cell::RefCell::new(String::from("pass 1"));
+    let passes = std::cell::Cell::new(0usize);
     let id = identify(&m, &params, &points, &options, &|p| {
-        if let Progress::Iteration { iteration, .. } = p {
-            bar.set_position(iteration as u64);
+        match p {
+            Progress::Evaluating {
+                rows_done,
+                rows_total,
+            } => {
+                if rows_done >= rows_total {
+                    passes.set(passes.get() + 1);
+                }
+                if let Some(b) = bar.get() {
+                    b.set_length(rows_total as u64);
+                    b.set_position(rows_done as u64);
+                }
+            }
+            Progress::Analysing => *stage.borrow_mut() = "analysing".into(),
+            Progress::Iteration { iteration, .. } => {
+                *stage.borrow_mut() = format!("iteration {}", iteration + 1)
+            }
+        }
+        if bar.get().is_none() && start.elapsed() >= PROGRESS_AFTER {
+            let _ = bar.set(progress(3 * points.len() as u64, "identify"));
+        }
+        if let Some(b) = bar.get() {
+            b.set_message(format!("{} (pass {})", stage.borrow(), passes.get() + 1));
         }
     })
     .with_context(|| format!("cannot identify from {}", a.data.display()))?;
-    bar.finish_and_clear();
+    if let Some(b) = bar.get() {
+        b.finish_and_clear();
+    }
     let r = &id.report;
     for w in &r.warnings {
         warn(w.to_string());
