@@ -7,9 +7,18 @@
 //!   parallel translations confounded, as in the real problem. Dense path.
 //! * `fit/dense_1000x300000`: 1 000 parameters, 100 000 points (300 000
 //!   residual rows), a dense Jacobian of smooth random columns (Chebyshev
-//!   polynomials of random coordinates); normal-equation path.
+//!   polynomials of random coordinates); normal-equation path with Jacobian
+//!   rows (a model without a factored Jacobian).
+//! * `fit/trunnion_cheb32_1020x300000`: the scale target of issue 3 on the
+//!   real measurement model: `pdge:cheb32,location` (1 020 parameters) of the
+//!   AC trunnion from 100 000 simulated tracker points (1 µm noise) by
+//!   [`identify`]: normal-equation path, factored Jacobian.
+//! * `tracker/afp_simulate_identify_180`: the tracker workflow end to end on
+//!   the AFP gantry of spec 02: simulate 180 random poses of
+//!   `afp-gantry-with-errors.toml` (10 µm noise) and identify
+//!   `pdge:cheb3,location` (162 parameters, dense path).
 //!
-//! Run: `cargo bench -p mtwin --bench fit`.
+//! Run: `cargo bench -p mtwin --bench fit` (or name one benchmark).
 
 use std::ops::Range;
 use std::sync::OnceLock;
@@ -19,6 +28,9 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use faer::MatMut;
 use faer::reborrow::ReborrowMut;
 use mtwin::fit::{BlockLayout, Model, Options, Parameter, Strategy, check_jacobian, fit};
+use mtwin::methods::tracker::simulate::{random_poses, simulate};
+use mtwin::methods::tracker::{IdentifyOptions, TrackerPoint, identify};
+use mtwin::model::{Machine, ParameterSet, read_machine};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
@@ -409,5 +421,96 @@ fn big(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, tracker, big);
+fn machine(name: &str) -> Machine {
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/machines")
+        .join(name);
+    read_machine(&p).expect("example machine")
+}
+
+/// 100 000 simulated tracker points of the AC trunnion with its spec-05
+/// errors, and the nominal machine.
+fn trunnion_points() -> (Machine, Vec<TrackerPoint>) {
+    let truth = machine("ac-trunnion-with-errors.toml");
+    let nominal = truth.nominal();
+    let mut rng = StdRng::seed_from_u64(5);
+    let poses = random_poses(&nominal, 100_000, &mut rng);
+    let points = simulate(&truth, &poses, 0.001, &mut rng);
+    (nominal, points)
+}
+
+fn scale(c: &mut Criterion) {
+    let data: OnceLock<(Machine, Vec<TrackerPoint>, ParameterSet)> = OnceLock::new();
+    let mut g = c.benchmark_group("fit");
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(1))
+        .measurement_time(Duration::from_secs(30));
+    g.bench_function("trunnion_cheb32_1020x300000", |b| {
+        let (m, points, params) = data.get_or_init(|| {
+            let (m, points) = trunnion_points();
+            let params = ParameterSet::from_spec(&m, "pdge:cheb32,location").unwrap();
+            (m, points, params)
+        });
+        let opts = IdentifyOptions::default();
+        b.iter_custom(|iters| {
+            let mut total = Duration::ZERO;
+            for _ in 0..iters {
+                let (t, cpu) = (Instant::now(), cpu_seconds());
+                let id = identify(m, params, points, &opts, &|_| {}).unwrap();
+                let dt = t.elapsed();
+                total += dt;
+                let r = &id.report;
+                eprintln!(
+                    "trunnion cheb32: {:.2} s wall, {:.2} s CPU (both threads), {} parameters, rank {}, condition {:.3e}, {} iterations, {} passes, {} factorizations, {:?}, rms {:.3e} → {:.3e} mm",
+                    dt.as_secs_f64(),
+                    cpu_seconds() - cpu,
+                    r.estimates.len(),
+                    r.identifiability.rank,
+                    r.condition_number,
+                    r.convergence.iterations,
+                    r.convergence.evaluations,
+                    r.convergence.factorizations,
+                    r.convergence.reason,
+                    r.rms().0,
+                    r.rms().1
+                );
+            }
+            total
+        })
+    });
+    g.finish();
+}
+
+fn tracker_end_to_end(c: &mut Criterion) {
+    let truth = machine("afp-gantry-with-errors.toml");
+    let nominal = machine("afp-gantry.toml");
+    let params = ParameterSet::from_spec(&nominal, "pdge:cheb3,location").unwrap();
+    let opts = IdentifyOptions::default();
+    let run = |seed: u64| {
+        let mut rng = StdRng::seed_from_u64(seed);
+        let poses = random_poses(&nominal, 180, &mut rng);
+        let points = simulate(&truth, &poses, 0.010, &mut rng);
+        identify(&nominal, &params, &points, &opts, &|_| {}).unwrap()
+    };
+    let (t, cpu) = (Instant::now(), cpu_seconds());
+    let id = run(1);
+    eprintln!(
+        "tracker end to end: {:.1} ms wall, {:.0} ms CPU; {} parameters, rank {}, rms {:.1} → {:.1} µm",
+        t.elapsed().as_secs_f64() * 1e3,
+        (cpu_seconds() - cpu) * 1e3,
+        id.report.estimates.len(),
+        id.report.identifiability.rank,
+        id.report.rms().0 * 1e3,
+        id.report.rms().1 * 1e3
+    );
+    let mut seed = 0;
+    c.bench_function("tracker/afp_simulate_identify_180", |b| {
+        b.iter(|| {
+            seed += 1;
+            run(seed)
+        })
+    });
+}
+
+criterion_group!(benches, tracker, tracker_end_to_end, scale, big);
 criterion_main!(benches);
