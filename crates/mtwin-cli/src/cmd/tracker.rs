@@ -187,35 +187,34 @@ pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
         ..Default::default()
     };
     // A progress bar once the identification has run for a second: the
-    // rows of the current pass, and the stage.
+    // rows of the current pass over the data, or the analysis stage.
     let start = std::time::Instant::now();
     let bar: std::cell::OnceCell<indicatif::ProgressBar> = std::cell::OnceCell::new();
-    let stage = std::cell::RefCell::new(String::from("pass 1"));
     let passes = std::cell::Cell::new(0usize);
     let id = identify(&m, &params, &points, &options, &|p| {
+        if bar.get().is_none() && start.elapsed() >= PROGRESS_AFTER {
+            let _ = bar.set(progress(3 * points.len() as u64, "identify"));
+        }
         match p {
             Progress::Evaluating {
                 rows_done,
                 rows_total,
             } => {
-                if rows_done >= rows_total {
-                    passes.set(passes.get() + 1);
-                }
                 if let Some(b) = bar.get() {
+                    b.set_message(format!("pass {}", passes.get() + 1));
                     b.set_length(rows_total as u64);
                     b.set_position(rows_done as u64);
                 }
+                if rows_done >= rows_total {
+                    passes.set(passes.get() + 1);
+                }
             }
-            Progress::Analysing => *stage.borrow_mut() = "analysing".into(),
-            Progress::Iteration { iteration, .. } => {
-                *stage.borrow_mut() = format!("iteration {}", iteration + 1)
+            Progress::Analysing => {
+                if let Some(b) = bar.get() {
+                    b.set_message("analysing");
+                }
             }
-        }
-        if bar.get().is_none() && start.elapsed() >= PROGRESS_AFTER {
-            let _ = bar.set(progress(3 * points.len() as u64, "identify"));
-        }
-        if let Some(b) = bar.get() {
-            b.set_message(format!("{} (pass {})", stage.borrow(), passes.get() + 1));
+            Progress::Iteration { .. } => {}
         }
     })
     .with_context(|| format!("cannot identify from {}", a.data.display()))?;
