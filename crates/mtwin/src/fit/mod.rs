@@ -28,7 +28,13 @@
 //!   triangular matmul costs `m·n²` flops once (half of a QR's `2·m·n²`),
 //!   runs at matmul speed on both cores, and the reuse makes the remaining
 //!   iterations `O(m·n)`; the price is the squared spectrum (rank decisions
-//!   are adapted, see [`scaling`]).
+//!   are adapted, see [`scaling`]). A model whose Jacobian factors into
+//!   per-function derivatives times shared basis vectors ([`Factored`], e.g.
+//!   the tracker model: component derivative × Chebyshev values of the
+//!   axis position) never forms Jacobian rows: `JᵀJ` comes from products of
+//!   basis outer products with function-pair weights (`factored`), about a
+//!   third of the work for three-row points, and `Jᵀr` costs `O(n)` per
+//!   block.
 
 pub mod check;
 pub mod covariance;
