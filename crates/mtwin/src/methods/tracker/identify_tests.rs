@@ -355,8 +355,8 @@ fn factored_normal_equations_agree_with_jacobian_rows_and_the_dense_path() {
                 None => assert_eq!(a.theta[j], b.theta[j]),
             }
         }
-        let rel = (a.convergence.final_cost - b.convergence.final_cost).abs()
-            / b.convergence.final_cost;
+        let rel =
+            (a.convergence.final_cost - b.convergence.final_cost).abs() / b.convergence.final_cost;
         assert!(rel < 1e-9, "{rel}");
     };
     // With the registration: factored against Jacobian rows.

@@ -42,9 +42,17 @@ pub struct TrackerModel<'a> {
     params: &'a ParameterSet,
     points: &'a [TrackerPoint],
     registration: bool,
-    /// The factor groups and, per group, the axis and form of its basis
-    /// (`None`: the constant basis `[1]`) and its functions in order.
-    groups: Vec<(FactorGroup, Option<(usize, Form)>, Vec<Function>)>,
+    /// The groups of the factored Jacobian.
+    groups: Vec<BasisGroup>,
+}
+
+/// A group of the factored Jacobian.
+struct BasisGroup {
+    group: FactorGroup,
+    /// The axis and form of the group's basis (`None`: the constant `[1]`).
+    basis: Option<(usize, Form)>,
+    /// Its functions, in order.
+    functions: Vec<Function>,
 }
 
 /// A function of the factored Jacobian.
@@ -66,24 +74,24 @@ impl<'a> TrackerModel<'a> {
         points: &'a [TrackerPoint],
         registration: bool,
     ) -> Self {
-        let mut groups: Vec<(FactorGroup, Option<(usize, Form)>, Vec<Function>)> = Vec::new();
+        let mut groups: Vec<BasisGroup> = Vec::new();
         let mut put =
             |key: Option<(usize, Form)>, len: usize, offset: usize, f: Function| match groups
                 .iter_mut()
-                .find(|g| g.1 == key)
+                .find(|g| g.basis == key)
             {
                 Some(g) => {
-                    g.0.offsets.push(offset);
-                    g.2.push(f);
+                    g.group.offsets.push(offset);
+                    g.functions.push(f);
                 }
-                None => groups.push((
-                    FactorGroup {
+                None => groups.push(BasisGroup {
+                    group: FactorGroup {
                         basis_len: len,
                         offsets: vec![offset],
                     },
-                    key,
-                    vec![f],
-                )),
+                    basis: key,
+                    functions: vec![f],
+                }),
             };
         for (i, e) in params.errors().iter().enumerate() {
             let key = match e.form {
@@ -219,7 +227,7 @@ impl Model for TrackerModel<'_> {
 
 impl Factored for TrackerModel<'_> {
     fn groups(&self) -> Vec<FactorGroup> {
-        self.groups.iter().map(|g| g.0.clone()).collect()
+        self.groups.iter().map(|g| g.group.clone()).collect()
     }
 
     fn residuals_and_factors(
@@ -242,7 +250,12 @@ impl Factored for TrackerModel<'_> {
                 .registration
                 .then(|| rxyz_derivatives(reg[3], reg[4], reg[5], &point.measured));
             let (mut f, mut col) = (0, 0);
-            for (group, key, functions) in &self.groups {
+            for BasisGroup {
+                group,
+                basis: key,
+                functions,
+            } in &self.groups
+            {
                 for func in functions {
                     for x in 0..3 {
                         g[(3 * k + x, f)] = match (*func, &dr) {
