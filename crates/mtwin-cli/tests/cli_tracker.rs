@@ -80,22 +80,7 @@ fn plan_simulate_identify_validate_compensate() {
         );
         ok(&o);
     }
-    let o = mtwin(
-        d,
-        &[
-            "identify",
-            "--machine",
-            &nominal,
-            "--data",
-            "fit.csv",
-            "--fit",
-            spec,
-            "--out",
-            "id.toml",
-            "--format",
-            "json",
-        ],
-    );
+    let o = identify_with(d, spec, &["--format", "json"]);
     ok(&o);
     let j = json(&o);
     // 6 axes × 6 PDGEs × 3 coefficients + 36 location errors.
@@ -171,20 +156,25 @@ fn fit_csv(d: &Path, rows: &str) {
 }
 
 fn identify(d: &Path, spec: &str) -> std::process::Output {
-    mtwin(
-        d,
-        &[
-            "identify",
-            "--machine",
-            &example("afp-gantry.toml"),
-            "--data",
-            "fit.csv",
-            "--fit",
-            spec,
-            "--out",
-            "id.toml",
-        ],
-    )
+    identify_with(d, spec, &[])
+}
+
+/// `mtwin identify` on the AFP gantry from fit.csv into id.toml.
+fn identify_with(d: &Path, spec: &str, extra: &[&str]) -> std::process::Output {
+    let machine = example("afp-gantry.toml");
+    let mut args = vec![
+        "identify",
+        "--machine",
+        &machine,
+        "--data",
+        "fit.csv",
+        "--fit",
+        spec,
+        "--out",
+        "id.toml",
+    ];
+    args.extend_from_slice(extra);
+    mtwin(d, &args)
 }
 
 fn fails_with(o: &std::process::Output, d: &Path, needles: &[&str]) {
@@ -274,22 +264,7 @@ fn ill_conditioned_fit_warns_with_the_condition_number() {
         rows += &format!("{x},{y},{z},0,0,0,{},{y},{}\n", x + dx, z - 500.0);
     }
     fit_csv(d, &rows);
-    let o = mtwin(
-        d,
-        &[
-            "identify",
-            "--machine",
-            &example("afp-gantry.toml"),
-            "--data",
-            "fit.csv",
-            "--fit",
-            "EXX:cheb2",
-            "--out",
-            "id.toml",
-            "--format",
-            "json",
-        ],
-    );
+    let o = identify_with(d, "EXX:cheb2", &["--format", "json"]);
     ok(&o);
     let e = stderr(&o);
     assert!(

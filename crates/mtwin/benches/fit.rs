@@ -459,20 +459,11 @@ fn scale(c: &mut Criterion) {
                 let id = identify(m, params, points, &opts, &|_| {}).unwrap();
                 let dt = t.elapsed();
                 total += dt;
-                let r = &id.report;
                 eprintln!(
-                    "trunnion cheb32: {:.2} s wall, {:.2} s CPU (both threads), {} parameters, rank {}, condition {:.3e}, {} iterations, {} passes, {} factorizations, {:?}, rms {:.3e} → {:.3e} mm",
+                    "trunnion cheb32: {:.2} s wall, {:.2} s CPU (both threads), {} mm",
                     dt.as_secs_f64(),
                     cpu_seconds() - cpu,
-                    r.estimates.len(),
-                    r.identifiability.rank,
-                    r.condition_number,
-                    r.convergence.iterations,
-                    r.convergence.evaluations,
-                    r.convergence.factorizations,
-                    r.convergence.reason,
-                    r.rms().0,
-                    r.rms().1
+                    id.report.summary()
                 );
             }
             total

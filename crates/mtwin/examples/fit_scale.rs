@@ -30,47 +30,20 @@ fn main() {
     let points = simulate(&truth, &poses, 0.001, &mut rng);
     let params = ParameterSet::from_spec(&nominal, &format!("pdge:cheb{deg},location"))
         .expect("specification");
-    let (t, cpu0) = (Instant::now(), cpu_seconds());
-    eprintln!("set-up: {cpu0:.3} s CPU");
+    let t = Instant::now();
     let verbose = std::env::var_os("FIT_SCALE_VERBOSE").is_some();
     let mut options = IdentifyOptions::default();
     // FIT_SCALE_ROWS=1: form Jacobian rows instead of using the factored Jacobian.
     options.fit.factored = std::env::var_os("FIT_SCALE_ROWS").is_none();
     let id = identify(&nominal, &params, &points, &options, &|p| {
         if verbose || !matches!(p, mtwin::fit::Progress::Evaluating { .. }) {
-            eprintln!(
-                "{:8.3} s wall {:8.3} s CPU  {p:?}",
-                t.elapsed().as_secs_f64(),
-                cpu_seconds()
-            )
+            eprintln!("{:8.3} s  {p:?}", t.elapsed().as_secs_f64())
         }
     })
     .expect("identification");
-    let r = &id.report;
-    let (before, after) = r.rms();
     println!(
-        "{n} points, {} parameters: {:.2} s wall; rank {}, condition {:.3e}, {} iterations, {} passes, {} factorizations, {:?}; rms {:.3e} -> {:.3e} mm",
-        r.estimates.len(),
+        "{n} points: {:.2} s wall; {} mm",
         t.elapsed().as_secs_f64(),
-        r.identifiability.rank,
-        r.condition_number,
-        r.convergence.iterations,
-        r.convergence.evaluations,
-        r.convergence.factorizations,
-        r.convergence.reason,
-        before,
-        after
+        id.report.summary()
     );
-}
-
-/// CPU time of this process so far (user + system, s), from `/proc/self/stat` (0 where
-/// unavailable).
-fn cpu_seconds() -> f64 {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
-        return 0.0;
-    };
-    let rest = stat.rsplit(')').next().unwrap_or("");
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let tick = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok()).unwrap_or(0.0);
-    (tick(11) + tick(12)) / 100.0
 }

@@ -139,6 +139,25 @@ impl FitReport {
             .collect()
     }
 
+    /// One line for logs and benchmarks: size, rank, conditioning, work
+    /// done and the RMS per row before → after (residual unit).
+    pub fn summary(&self) -> String {
+        let c = &self.convergence;
+        let (before, after) = self.rms();
+        format!(
+            "{} parameters, rank {}, condition {:.3e}, {} iterations, {} passes, {} factorizations, {:?}, rms {:.3e} → {:.3e}",
+            self.estimates.len(),
+            self.identifiability.rank,
+            self.condition_number,
+            c.iterations,
+            c.evaluations,
+            c.factorizations,
+            c.reason,
+            before,
+            after
+        )
+    }
+
     /// RMS per row over all groups at the start and at the solution.
     pub fn rms(&self) -> (f64, f64) {
         let rows: usize = self.groups.iter().map(|g| g.rows).sum();
