@@ -29,7 +29,8 @@
 //!   are kept and only the gradient is refreshed (a chord/simplified
 //!   Gauss–Newton step: the fixed point is still `Jᵀr = 0`, only the rate
 //!   changes). Otherwise
-//!   `JᵀJ` is formed anew at the accepted point.
+//!   `JᵀJ` is formed anew at the accepted point, except at the step that
+//!   ends the iteration (no further step would use it).
 
 use serde::Serialize;
 
