@@ -204,7 +204,7 @@ impl OrderSelection {
     }
 }
 
-fn best_index(table: &[GridRow], criterion: Criterion) -> Option<usize> {
+pub(super) fn best_index(table: &[GridRow], criterion: Criterion) -> Option<usize> {
     let pick = |stable_only: bool| {
         table
             .iter()
