@@ -373,41 +373,11 @@ fn excitation_program_stays_inside_the_travel() {
     assert!(text.contains("F3000"));
 }
 
-/// The commanded positions of `exc.nc` every `TS`: each `G1 X… [F…]` at
-/// constant velocity F/60, each `G4 P…` (s) held, from rest at the first target.
-fn interpolate_excitation(program: &str) -> Vec<f64> {
-    let mut u: Vec<f64> = Vec::new();
-    let mut feed = 0.0;
-    for line in program.lines().filter(|l| !l.starts_with('(')) {
-        let words: Vec<&str> = line.split_whitespace().collect();
-        let value = |c: char| {
-            words
-                .iter()
-                .find_map(|w| w.strip_prefix(c))
-                .map(|v| v.parse::<f64>().unwrap())
-        };
-        if words.first() == Some(&"G1") {
-            feed = value('F').unwrap_or(feed);
-            let target = value('X').unwrap();
-            let Some(&from) = u.last() else {
-                u.extend(std::iter::repeat_n(target, 100));
-                continue;
-            };
-            let n = ((target - from).abs() / (feed / 60.0 * TS)).ceil() as usize;
-            u.extend((1..=n).map(|i| from + (target - from) * i as f64 / n as f64));
-        } else if words.first() == Some(&"G4") {
-            let hold = *u.last().unwrap();
-            let n = (value('P').unwrap() / TS).round() as usize;
-            u.extend(std::iter::repeat_n(hold, n));
-        }
-    }
-    u
-}
-
 #[test]
 fn docs_walkthrough_runs() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path();
+    std::os::unix::fs::symlink(repo().join("examples"), p.join("examples")).unwrap();
     let text = std::fs::read_to_string(repo().join("docs/servo.md")).unwrap();
     let mut ran = Vec::new();
     let mut lines = text.lines();
@@ -426,14 +396,6 @@ fn docs_walkthrough_runs() {
             std::fs::write(p.join(name), body.join("\n") + "\n").unwrap();
         } else if info == "console" {
             for cmd in body.iter().filter_map(|l| l.strip_prefix("$ mtwin ")) {
-                if cmd.contains("--commands exc.csv") && !p.join("exc.csv").exists() {
-                    let nc = std::fs::read_to_string(p.join("exc.nc")).unwrap();
-                    std::fs::write(
-                        p.join("exc.csv"),
-                        commands_csv(&interpolate_excitation(&nc)),
-                    )
-                    .unwrap();
-                }
                 let args: Vec<&str> = cmd.split_whitespace().collect();
                 let o = mtwin(p, &args);
                 assert_eq!(o.status.code(), Some(0), "{cmd}: {}", stderr(&o));
@@ -445,8 +407,8 @@ fn docs_walkthrough_runs() {
             }
         }
     }
-    assert_eq!(ran.len(), 5, "{ran:?}");
-    // The excitation visits ±100 mm at 50 mm/s.
+    assert_eq!(ran.len(), 6, "{ran:?}");
+    // The interpolated excitation visits ±100 mm.
     let cmd = read_log(&p.join("predicted.csv"));
     let max = cmd.iter().fold(0.0f64, |m, r| m.max(r[1].abs()));
     assert_eq!(max, 100.0);

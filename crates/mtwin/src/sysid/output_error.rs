@@ -140,7 +140,11 @@ impl<'a> OutputErrorModel<'a> {
             yhat[self.first - i] = theta[dm + i - 1];
         }
         yhat.reserve(n - self.first);
-        let mut psi: Vec<f64> = if with_psi { vec![0.0; n * d] } else { Vec::new() };
+        let mut psi: Vec<f64> = if with_psi {
+            vec![0.0; n * d]
+        } else {
+            Vec::new()
+        };
         if with_psi {
             for i in 1..=na {
                 psi[(self.first - i) * d + dm + i - 1] = 1.0;
@@ -187,7 +191,10 @@ impl<'a> OutputErrorModel<'a> {
                         *p -= al * q;
                     }
                 }
-                if now.iter().any(|p| !(p.is_finite() && p.abs() <= self.bound)) {
+                if now
+                    .iter()
+                    .any(|p| !(p.is_finite() && p.abs() <= self.bound))
+                {
                     diverged = true;
                     now.fill(0.0);
                 }
@@ -549,7 +556,10 @@ mod tests {
         let o = &s.table[s.best].orders;
         // FPE may add a parameter the noise happens to favour (its loss
         // differs from the true structure's by ~0.3 %), never drop one.
-        assert!(o.na >= 2 && o.inputs[0].nk <= 1 && o.inputs[0].nb + o.inputs[0].nk >= 2, "{o}");
+        assert!(
+            o.na >= 2 && o.inputs[0].nk <= 1 && o.inputs[0].nb + o.inputs[0].nk >= 2,
+            "{o}"
+        );
         // The loss sits at the noise variance (1e-6), not at an ARX bias.
         assert!(s.fit.stats.loss < 1.05e-6, "{}", s.fit.stats.loss);
         // Held out: a different input in the excited band (steps held 50
@@ -559,7 +569,13 @@ mod tests {
             .collect();
         let a = s.fit.model.simulate(&[&u]).unwrap();
         let b = arx.simulate(&[&u]).unwrap();
-        let gap = (a.iter().zip(&b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>() / 2000.0).sqrt();
+        let gap = (a
+            .iter()
+            .zip(&b)
+            .map(|(x, y)| (x - y) * (x - y))
+            .sum::<f64>()
+            / 2000.0)
+            .sqrt();
         assert!(gap < 5e-4, "held-out gap {gap}");
     }
 }
