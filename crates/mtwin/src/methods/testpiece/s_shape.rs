@@ -134,7 +134,7 @@ pub enum SShapeError {
     #[error("{0}")]
     Machine(String),
     /// A pose is out of reach or outside the travel.
-    #[error("pose {index} (s = {s:.4}: tip {tip}, axis {axis}): {source}")]
+    #[error("pose {index} (s = {s:.4}: tip {tip} mm, axis {axis}) cannot be reached")]
     Pose {
         /// 0-based pose index.
         index: usize,
@@ -187,7 +187,9 @@ pub fn s_shape_poses(
 ) -> Result<Vec<Vec<f64>>, SShapeError> {
     shape.check()?;
     if segments == 0 {
-        return Err(SShapeError::Options("at least one segment is needed".into()));
+        return Err(SShapeError::Options(
+            "at least one segment is needed".into(),
+        ));
     }
     let rotary = machine
         .axes
@@ -226,8 +228,10 @@ pub fn s_shape_poses(
 }
 
 /// The program text (see [`SShapeProgram`]): a header, `G21 G90` and the
-/// feed mode, a rapid `G0` to the first pose, one `G1` per segment, `M30`.
-/// Words are written in machine axis order with 6 decimals (mm, degrees).
+/// feed mode (`G43.4 H0` for TCP), a rapid `G0` to the first pose, one
+/// `G1` per segment, `G49` after a TCP program, `M30`.
+/// Words are written in machine axis order with 6 decimals (mm, degrees),
+/// `F` with 4.
 /// The approach to and the retract from the part are left to the user.
 pub fn s_shape_program(
     machine: &Machine,
@@ -256,18 +260,26 @@ pub fn s_shape_program(
             }
         })
         .collect::<Result<_, _>>()?;
-    if opts.tcp && ["X", "Y", "Z"].iter().any(|n| !machine.axes.iter().any(|a| a.name == *n)) {
+    if opts.tcp
+        && ["X", "Y", "Z"]
+            .iter()
+            .any(|n| !machine.axes.iter().any(|a| a.name == *n))
+    {
         return Err(SShapeError::Machine(
             "a TCP program needs linear axes named X, Y and Z".into(),
         ));
     }
     let poses = s_shape_poses(machine, shape, opts.segments)?;
     let n = opts.segments;
-    let f6 = |v: f64| format!("{v:.6}");
-    let words = |i: usize| -> String {
+    // 6 decimals (1 nm, 1e-6°), never `-0.000000`.
+    let f6 = |v: f64| {
+        let r = (v * 1e6).round() / 1e6;
+        format!("{:.6}", if r == 0.0 { 0.0 } else { r })
+    };
+    let words = |i: usize, tcp: bool| -> String {
         let q = &poses[i];
         let mut w = Vec::new();
-        if opts.tcp {
+        if tcp {
             let tip = shape.lower(i as f64 / n as f64);
             for (l, v) in ['X', 'Y', 'Z'].iter().zip(tip.iter()) {
                 w.push(format!("{l}{}", f6(*v)));
@@ -316,22 +328,24 @@ pub fn s_shape_program(
         "G21 G90 {}",
         if opts.inverse_time { "G93" } else { "G94" }
     );
+    // TCP on before the rapid: a G-code position written before G43.4 would
+    // be taken as a tool tip afterwards.
     if opts.tcp {
         let _ = writeln!(p, "G43.4 H0");
     }
-    let _ = writeln!(p, "G0 {}", words(0));
+    let _ = writeln!(p, "G0 {}", words(0, opts.tcp));
     for i in 1..=n {
         let feed = if opts.inverse_time {
-            let len = (shape.lower(i as f64 / n as f64) - shape.lower((i - 1) as f64 / n as f64))
-                .norm();
+            let len =
+                (shape.lower(i as f64 / n as f64) - shape.lower((i - 1) as f64 / n as f64)).norm();
             opts.feed / len
         } else {
             opts.feed
         };
         if opts.inverse_time || i == 1 {
-            let _ = writeln!(p, "G1 {} F{}", words(i), fmt_f64(feed));
+            let _ = writeln!(p, "G1 {} F{:.4}", words(i, opts.tcp), feed);
         } else {
-            let _ = writeln!(p, "G1 {}", words(i));
+            let _ = writeln!(p, "G1 {}", words(i, opts.tcp));
         }
     }
     if opts.tcp {
