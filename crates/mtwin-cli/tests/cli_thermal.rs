@@ -557,3 +557,72 @@ fn docs_walkthrough_runs() {
     }
     assert!(dir.path().join("plots/drift_z-350.svg").exists());
 }
+
+#[test]
+fn program_samples_on_the_period_and_refuses_a_pass_longer_than_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    let args = [
+        "thermal",
+        "program",
+        "--z",
+        "-50,-250",
+        "--x0",
+        "0",
+        "--pitch",
+        "40",
+        "--speeds",
+        "3000,0",
+        "--step-min",
+        "30",
+        "--period-min",
+        "10",
+        "--out",
+        "t.ngc",
+        "--format",
+        "json",
+    ];
+    let o = mtwin(p, &args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    // 60 min sampled every 10 min: passes at 0, 10, …, 60.
+    assert_eq!(v["passes"], 7);
+    let pass = v["pass_s"].as_f64().unwrap();
+    // gcode stats: the whole program = positioning + 6 periods + one pass.
+    let o = mtwin(p, &["gcode", "stats", "t.ngc", "--format", "json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let s: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let total = s["total_time_s"].as_f64().unwrap();
+    // Positioning: rapid up from Z0 to the safe height (−50 + 12.7 + 10),
+    // then nothing in X/Y (the first ball is at X0 Y0).
+    let positioning = (50.0f64 - 22.7) / 10_000.0 * 60.0;
+    assert!(
+        (total - positioning - 3600.0 - pass).abs() < 1e-3,
+        "{total}"
+    );
+    let text = std::fs::read_to_string(p.join("t.ngc")).unwrap();
+    assert_eq!(text.matches("G38.2 Z").count(), 14);
+    // A slow probing feed: the pass does not fit in a 1 min period.
+    let o = mtwin(
+        p,
+        &[
+            "thermal",
+            "program",
+            "--z",
+            "-50",
+            "--speeds",
+            "1000",
+            "--step-min",
+            "10",
+            "--period-min",
+            "0.1",
+            "--feed",
+            "5",
+            "--out",
+            "slow.ngc",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("sample period"), "{}", stderr(&o));
+    assert!(!p.join("slow.ngc").exists());
+}

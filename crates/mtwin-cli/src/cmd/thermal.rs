@@ -38,6 +38,72 @@ pub enum Command {
         after_help = "Example:\n  mtwin thermal compensate --model thermal.toml --program part.nc --out part-comp.nc --period-min 10"
     )]
     Compensate(super::thermal_compensate::Args),
+    /// Write the measurement programme as G-code: cold pass, then spindle speeds with a probing pass every period.
+    #[command(
+        after_help = "Example:\n  mtwin thermal program --z -50,-150,-250,-350 --x0 -100 --pitch 50 --speeds 2000,4000,6000 --step-min 60 --period-min 10 --out thermal.ngc"
+    )]
+    Program(ProgramArgs),
+}
+
+/// Controller dialect of the probing moves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum DialectArg {
+    /// LinuxCNC: G38.2, G4 P seconds, touches logged to thermal-probe.csv.
+    Linuxcnc,
+    /// Fanuc: G31 skip, G4 X seconds (read #5063 after each G31 yourself).
+    Fanuc,
+}
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct ProgramArgs {
+    #[command(flatten)]
+    heights: Heights,
+    /// X of the first ball, mm.
+    #[arg(long, default_value_t = 0.0)]
+    x0: f64,
+    /// X spacing of the balls, mm.
+    #[arg(long, default_value_t = 50.0)]
+    pitch: f64,
+    /// Y of the balls, mm.
+    #[arg(long, default_value_t = 0.0)]
+    y: f64,
+    /// Ball diameter, mm.
+    #[arg(long, default_value_t = 25.4)]
+    ball_diameter: f64,
+    /// Spindle speeds (rev/min, 0 = off), each held --step-min: one value is a constant speed.
+    #[arg(long, required = true, value_delimiter = ',')]
+    speeds: Vec<f64>,
+    /// Duration of every speed of --speeds, min.
+    #[arg(long)]
+    step_min: f64,
+    /// Sample period: a probing pass starts every this many minutes, min.
+    #[arg(long, default_value_t = 10.0)]
+    period_min: f64,
+    /// Probing feed, mm/min.
+    #[arg(long, default_value_t = 100.0)]
+    feed: f64,
+    /// Start of each probing move above the ball top, mm.
+    #[arg(long, default_value_t = 2.0)]
+    approach: f64,
+    /// End of each probing move below the ball top, mm.
+    #[arg(long, default_value_t = 1.0)]
+    overtravel: f64,
+    /// Safe height above the highest ball top, mm.
+    #[arg(long, default_value_t = 10.0)]
+    clearance: f64,
+    /// Rapid rate assumed for the timing, mm/min (as `gcode stats --rapid`).
+    #[arg(long, default_value_t = 10000.0)]
+    rapid: f64,
+    /// Controller dialect.
+    #[arg(long, value_enum, default_value_t = DialectArg::Linuxcnc)]
+    dialect: DialectArg,
+    /// Output program.
+    #[arg(long)]
+    out: PathBuf,
+    /// Output format of the summary.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
 }
 
 #[derive(Debug, clap::Args)]
@@ -145,6 +211,62 @@ pub fn run(c: Command) -> anyhow::Result<()> {
         Command::Predict(a) => predict(a),
         Command::Simulate(a) => simulate(a),
         Command::Compensate(a) => super::thermal_compensate::run(a),
+        Command::Program(a) => program(a),
+    }
+}
+
+fn program(a: ProgramArgs) -> anyhow::Result<()> {
+    use mtwin::methods::skiving::program::Dialect;
+    let balls = thermal::BallArray {
+        x0: a.x0,
+        pitch: a.pitch,
+        y: a.y,
+        heights: a.heights.parse()?,
+        diameter: a.ball_diameter,
+    };
+    let motion = thermal::ProbeMotion {
+        approach: a.approach,
+        overtravel: a.overtravel,
+        clearance: a.clearance,
+        feed: a.feed,
+        rapid: a.rapid,
+    };
+    let dialect = match a.dialect {
+        DialectArg::Linuxcnc => Dialect::LinuxCnc,
+        DialectArg::Fanuc => Dialect::Fanuc,
+    };
+    let p = thermal::thermal_program(
+        &balls,
+        &motion,
+        &a.speeds,
+        a.step_min,
+        a.period_min,
+        dialect,
+    )?;
+    mtwin::io::write_atomic(&a.out, p.text.as_bytes())
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    match a.format {
+        Format::Json => print_json(&json!({
+            "out": a.out.display().to_string(),
+            "passes": p.passes,
+            "pass_s": p.pass_s,
+            "period_min": a.period_min,
+            "duration_min": p.duration_min,
+            "time_s": p.time_s,
+            "heights_mm": balls.heights,
+        })),
+        Format::Human => {
+            println!(
+                "{} probing passes (the cold one first) every {} min over {} min; one pass {:.1} s → {}",
+                p.passes,
+                a.period_min,
+                p.duration_min,
+                p.pass_s,
+                a.out.display()
+            );
+            note("the times hold from the end of the initial positioning, at the given rapid rate");
+            Ok(())
+        }
     }
 }
 
