@@ -332,7 +332,13 @@ fn plots_show_every_measured_sample_per_height() {
         assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
         // Three runs of 30 samples: 90 measured points, one model line per run.
         assert_eq!(svg.matches("class=\"measured\"").count(), 90);
-        assert_eq!(svg.matches("class=\"model\"").count(), 3);
+        for run in 1..=3 {
+            assert_eq!(
+                svg.matches(&format!("<polyline class=\"model-run-{run}-from-cold\""))
+                    .count(),
+                1
+            );
+        }
         assert!(svg.contains(&format!("z = {z} mm")));
     }
 }
