@@ -522,7 +522,7 @@ pub fn run_doc(page: &str, dir: &Path) -> Vec<String> {
 fn docs_walkthrough_runs() {
     let dir = tempfile::tempdir().unwrap();
     let ran = run_doc("thermal.md", dir.path());
-    assert_eq!(ran.len(), 5, "{ran:?}");
+    assert_eq!(ran.len(), 7, "{ran:?}");
     // The truth model at its own heights: the fitted model predicts its drift
     // closely; compare predict's output with the truth file's difference
     // equation written out here (speed / 8000 as input, one period of delay).
