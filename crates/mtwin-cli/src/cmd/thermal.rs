@@ -453,7 +453,6 @@ fn write_plots(
     Ok(written)
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::parse_heights;
