@@ -145,7 +145,7 @@ pub enum SShapeError {
         /// Tool axis (formatted).
         axis: String,
         /// What the inverse kinematics said.
-        source: IkError,
+        source: Box<IkError>,
     },
 }
 
@@ -220,7 +220,7 @@ pub fn s_shape_poses(
                 s,
                 tip: format!("{:.4?}", target.tip.as_slice()),
                 axis: format!("{:.6?}", shape.ruling(s).as_slice()),
-                source,
+                source: Box::new(source),
             })?;
         out.push(q.clone());
     }

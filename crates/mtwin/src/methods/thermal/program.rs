@@ -160,8 +160,10 @@ pub fn thermal_program(
     if balls.heights.is_empty() || balls.heights.iter().any(|z| !z.is_finite()) {
         return bad("at least one finite ball height is needed".into());
     }
-    if !(pos(balls.diameter) && balls.x0.is_finite() && balls.y.is_finite())
-        || !balls.pitch.is_finite()
+    if !(pos(balls.diameter)
+        && balls.x0.is_finite()
+        && balls.y.is_finite()
+        && balls.pitch.is_finite())
     {
         return bad("the ball array needs a positive diameter and finite positions".into());
     }
