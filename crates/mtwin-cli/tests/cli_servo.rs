@@ -377,36 +377,7 @@ fn excitation_program_stays_inside_the_travel() {
 fn docs_walkthrough_runs() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path();
-    std::os::unix::fs::symlink(repo().join("examples"), p.join("examples")).unwrap();
-    let text = std::fs::read_to_string(repo().join("docs/servo.md")).unwrap();
-    let mut ran = Vec::new();
-    let mut lines = text.lines();
-    while let Some(line) = lines.next() {
-        let Some(info) = line.strip_prefix("```") else {
-            continue;
-        };
-        let body: Vec<&str> = lines
-            .by_ref()
-            .take_while(|l| !l.starts_with("```"))
-            .collect();
-        if let Some(name) = info
-            .split_whitespace()
-            .find_map(|w| w.strip_prefix("file="))
-        {
-            std::fs::write(p.join(name), body.join("\n") + "\n").unwrap();
-        } else if info == "console" {
-            for cmd in body.iter().filter_map(|l| l.strip_prefix("$ mtwin ")) {
-                let args: Vec<&str> = cmd.split_whitespace().collect();
-                let o = mtwin(p, &args);
-                assert_eq!(o.status.code(), Some(0), "{cmd}: {}", stderr(&o));
-                if cmd.contains("--format json") {
-                    let _: serde_json::Value = serde_json::from_str(&stdout(&o))
-                        .unwrap_or_else(|e| panic!("{cmd}: stdout is not JSON: {e}"));
-                }
-                ran.push(cmd.to_string());
-            }
-        }
-    }
+    let ran = run_doc("servo.md", p);
     assert_eq!(ran.len(), 6, "{ran:?}");
     // The interpolated excitation visits ±100 mm.
     let cmd = read_log(&p.join("predicted.csv"));

@@ -4,48 +4,11 @@
 mod common;
 use common::*;
 
-use std::path::Path;
-
-/// Run every `$ mtwin` line of the page's console blocks in `dir`.
-fn run_docs(dir: &Path, page: &str) -> Vec<(String, String)> {
-    std::os::unix::fs::symlink(repo().join("examples"), dir.join("examples")).unwrap();
-    let text = std::fs::read_to_string(repo().join(page)).unwrap();
-    let mut ran = Vec::new();
-    let mut lines = text.lines();
-    while let Some(line) = lines.next() {
-        let Some(info) = line.strip_prefix("```") else {
-            continue;
-        };
-        let body: Vec<&str> = lines
-            .by_ref()
-            .take_while(|l| !l.starts_with("```"))
-            .collect();
-        if let Some(name) = info
-            .split_whitespace()
-            .find_map(|w| w.strip_prefix("file="))
-        {
-            std::fs::write(dir.join(name), body.join("\n") + "\n").unwrap();
-        } else if info == "console" {
-            for cmd in body.iter().filter_map(|l| l.strip_prefix("$ mtwin ")) {
-                let args: Vec<&str> = cmd.split_whitespace().collect();
-                let o = mtwin(dir, &args);
-                assert_eq!(o.status.code(), Some(0), "{cmd}: {}", stderr(&o));
-                if cmd.contains("--format json") {
-                    let _: serde_json::Value = serde_json::from_str(&stdout(&o))
-                        .unwrap_or_else(|e| panic!("{cmd}: stdout is not JSON: {e}"));
-                }
-                ran.push((cmd.to_string(), stdout(&o)));
-            }
-        }
-    }
-    ran
-}
-
 #[test]
 fn docs_walkthrough_runs_and_the_tip_feed_holds() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path();
-    let ran = run_docs(p, "docs/testpiece.md");
+    let ran = run_doc("testpiece.md", p);
     assert_eq!(ran.len(), 5, "{ran:?}");
     // G93 at 600 mm/min: the program's feed time is the tip path over the feed.
     let summary: serde_json::Value = serde_json::from_str(&ran[1].1).unwrap();

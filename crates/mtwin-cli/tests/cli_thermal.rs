@@ -481,43 +481,6 @@ fn bad_prediction_input_exits_1_and_writes_nothing() {
     );
 }
 
-/// Run a walkthrough page: write every ```` ```lang file=NAME ```` block to
-/// NAME, run every `$ mtwin …` line of the ```` ```console ```` blocks in
-/// order (each must succeed; with `--format json` stdout must be one JSON
-/// document). Returns the commands run.
-pub fn run_doc(page: &str, dir: &Path) -> Vec<String> {
-    let text = std::fs::read_to_string(repo().join("docs").join(page)).unwrap();
-    let mut ran = Vec::new();
-    let mut lines = text.lines();
-    while let Some(line) = lines.next() {
-        let Some(info) = line.strip_prefix("```") else {
-            continue;
-        };
-        let body: Vec<&str> = lines
-            .by_ref()
-            .take_while(|l| !l.starts_with("```"))
-            .collect();
-        if let Some(name) = info
-            .split_whitespace()
-            .find_map(|w| w.strip_prefix("file="))
-        {
-            std::fs::write(dir.join(name), body.join("\n") + "\n").unwrap();
-        } else if info == "console" {
-            for cmd in body.iter().filter_map(|l| l.strip_prefix("$ mtwin ")) {
-                let args: Vec<&str> = cmd.split_whitespace().collect();
-                let o = mtwin(dir, &args);
-                assert_eq!(o.status.code(), Some(0), "{cmd}: {}", stderr(&o));
-                if cmd.contains("--format json") {
-                    let _: serde_json::Value = serde_json::from_str(&stdout(&o))
-                        .unwrap_or_else(|e| panic!("{cmd}: stdout is not JSON: {e}"));
-                }
-                ran.push(cmd.to_string());
-            }
-        }
-    }
-    ran
-}
-
 #[test]
 fn docs_walkthrough_runs() {
     let dir = tempfile::tempdir().unwrap();

@@ -8,7 +8,7 @@ mod common;
 use std::path::Path;
 use std::process::Output;
 
-use common::{mtwin, repo, stderr, stdout};
+use common::{mtwin, run_doc, stderr, stdout};
 use mtwin::gcode::{
     Axis, EventKind, InterpOptions, Interpreter, Program, ProgramStats, SpindleState, StatsOptions,
 };
@@ -288,37 +288,9 @@ fn errors_name_file_and_line_and_write_nothing() {
 /// documentation's example program.
 #[test]
 fn documented_commands_run() {
-    let doc = std::fs::read_to_string(repo().join("docs/thermal-compensation.md")).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path();
-    let mut ran = 0;
-    let mut lines = doc.lines();
-    while let Some(line) = lines.next() {
-        let Some(info) = line.strip_prefix("```") else {
-            continue;
-        };
-        let body: Vec<&str> = lines
-            .by_ref()
-            .take_while(|l| !l.starts_with("```"))
-            .collect();
-        if let Some(name) = info
-            .split_whitespace()
-            .find_map(|w| w.strip_prefix("file="))
-        {
-            std::fs::write(p.join(name), body.join("\n") + "\n").unwrap();
-        } else if info == "console" {
-            for cmd in body.iter().filter_map(|l| l.strip_prefix("$ mtwin ")) {
-                let args: Vec<&str> = cmd.split_whitespace().collect();
-                let o = mtwin(p, &args);
-                assert!(o.status.success(), "{cmd}: {}", stderr(&o));
-                if cmd.contains("--format json") {
-                    let _: serde_json::Value = serde_json::from_str(&stdout(&o))
-                        .unwrap_or_else(|e| panic!("{cmd}: stdout is not JSON: {e}"));
-                }
-                ran += 1;
-            }
-        }
-    }
+    let ran = run_doc("thermal-compensation.md", p).len();
     assert_eq!(ran, 3, "the documentation shows its commands");
     // The plot's y range is the range of the corrections actually written:
     // original Z minus rewritten Z of every Z word (0.1 µm resolution).
