@@ -15,6 +15,7 @@ use mtwin::report::svg::{Series, xy};
 use serde_json::json;
 
 use super::common::diag;
+use super::thermal_compensate::DialectArg;
 use crate::output::{Format, note, print_json, warn};
 
 #[derive(Debug, clap::Subcommand)]
@@ -44,15 +45,6 @@ pub enum Command {
         after_help = "Example:\n  mtwin thermal program --z -50,-150,-250,-350 --x0 -100 --pitch 50 --speeds 2000,4000,6000 --step-min 60 --period-min 10 --out thermal.ngc"
     )]
     Program(ProgramArgs),
-}
-
-/// Controller dialect of the probing moves.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum DialectArg {
-    /// LinuxCNC: G38.2, G4 P seconds, touches logged to thermal-probe.csv.
-    Linuxcnc,
-    /// Fanuc: G31 skip, G4 X seconds (read #5063 after each G31 yourself).
-    Fanuc,
 }
 
 #[derive(Debug, clap::Args)]
@@ -96,8 +88,10 @@ pub struct ProgramArgs {
     /// Rapid rate assumed for the timing, mm/min (as `gcode stats --rapid`).
     #[arg(long, default_value_t = 10000.0)]
     rapid: f64,
-    /// Controller dialect.
-    #[arg(long, value_enum, default_value_t = DialectArg::Linuxcnc)]
+    /// Controller dialect: LinuxCNC (G38.2, G4 P seconds, touches logged to
+    /// thermal-probe.csv) or Fanuc (G31 skip, G4 X seconds; read #5063 after
+    /// each G31 yourself).
+    #[arg(long, value_enum, default_value_t)]
     dialect: DialectArg,
     /// Output program.
     #[arg(long)]

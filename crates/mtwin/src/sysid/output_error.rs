@@ -39,10 +39,10 @@ use std::sync::{Arc, Mutex};
 use faer::MatMut;
 use rayon::prelude::*;
 
-use super::order::best_index;
+use super::order::selection_of;
 use super::{
-    Arx, ArxFit, ArxOrders, Criterion, FitStats, GridRow, OrderGrid, OrderSelection, Run, Start,
-    SysidError, fit_arx,
+    Arx, ArxFit, ArxOrders, Criterion, FitStats, OrderGrid, OrderSelection, Run, Start, SysidError,
+    fit_arx,
 };
 use crate::fit::{self, BlockLayout, Model, Parameter};
 
@@ -365,7 +365,6 @@ pub fn fit_output_error(
     let m = run.len() - model.first_row();
     let d = dm;
     let loss = cost(&theta) / m as f64;
-    let ratio = d as f64 / m as f64;
     let predicted = arx.predict(run.output(), &run.input_slices())?;
     let one_step = predicted[model.first_row()..]
         .iter()
@@ -384,8 +383,8 @@ pub fn fit_output_error(
         samples: m,
         params: d,
         loss,
-        fpe: loss * (1.0 + ratio) / (1.0 - ratio),
-        aic: m as f64 * loss.ln() + 2.0 * d as f64,
+        fpe: FitStats::fpe_of(loss, m, d),
+        aic: FitStats::aic_of(loss, m, d),
         one_step_rms: one_step.sqrt(),
         simulation_rms: sim_ms.sqrt(),
         spectral_radius: arx.stability().spectral_radius(),
@@ -416,40 +415,11 @@ pub fn select_orders_output_error(
         return Err(SysidError::NoOrderFits("the grid is empty".into()));
     }
     let first = grid.max_lag();
-    let fits: Vec<Result<OutputErrorFit, SysidError>> = structures
+    let fits: Vec<Result<ArxFit, SysidError>> = structures
         .par_iter()
-        .map(|o| fit_output_error(run, o, first))
+        .map(|o| fit_output_error(run, o, first).map(|f| f.fit))
         .collect();
-    let table: Vec<GridRow> = structures
-        .iter()
-        .zip(&fits)
-        .map(|(o, f)| GridRow {
-            orders: o.clone(),
-            outcome: f
-                .as_ref()
-                .map(|f| f.fit.stats.clone())
-                .map_err(Clone::clone),
-        })
-        .collect();
-    let Some(best) = best_index(&table, criterion) else {
-        let first_err = fits
-            .iter()
-            .find_map(|f| f.as_ref().err())
-            .map_or_else(String::new, ToString::to_string);
-        return Err(SysidError::NoOrderFits(first_err));
-    };
-    let fit = fits
-        .into_iter()
-        .nth(best)
-        .and_then(Result::ok)
-        .map(|f| f.fit)
-        .ok_or_else(|| SysidError::NoOrderFits("the chosen structure has no fit".into()))?;
-    Ok(OrderSelection {
-        table,
-        criterion,
-        best,
-        fit,
-    })
+    selection_of(structures, fits, criterion)
 }
 
 #[cfg(test)]
