@@ -323,8 +323,13 @@ pub fn fit_output_error(
     )?;
     let dm = orders.n_params();
     let theta0 = model.start_vector(&start.model.params());
+    // The ARX start is close; a relative cost change of 1e-9 is far below
+    // what the noise lets the data decide.
     let options = fit::Options {
         strategy: fit::Strategy::Dense,
+        cost_tolerance: 1e-9,
+        step_tolerance: 1e-8,
+        max_iterations: 50,
         ..fit::Options::default()
     };
     let cost = |theta: &[f64]| {
