@@ -298,6 +298,24 @@ fn bad_input_exits_1_names_the_line_and_writes_nothing() {
         "cmd.csv:4",
         "l.csv",
     );
+    // `--axis` names a column the file does not have.
+    expect_failure(
+        p,
+        &[
+            "servo",
+            "simulate",
+            "--servo",
+            "truth.toml",
+            "--commands",
+            "cmd.csv",
+            "--axis",
+            "Q",
+            "--out",
+            "l.csv",
+        ],
+        "Q",
+        "l.csv",
+    );
     std::fs::write(
         p.join("bad.toml"),
         "ts = 0.001\nb = [1.0]\na = [2.0, 0.5]\n",
