@@ -332,7 +332,13 @@ fn plots_show_every_measured_sample_per_height() {
         assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
         // Three runs of 30 samples: 90 measured points, one model line per run.
         assert_eq!(svg.matches("class=\"measured\"").count(), 90);
-        assert_eq!(svg.matches("class=\"model\"").count(), 3);
+        for run in 1..=3 {
+            assert_eq!(
+                svg.matches(&format!("<polyline class=\"model-run-{run}-from-cold\""))
+                    .count(),
+                1
+            );
+        }
         assert!(svg.contains(&format!("z = {z} mm")));
     }
 }
@@ -475,48 +481,11 @@ fn bad_prediction_input_exits_1_and_writes_nothing() {
     );
 }
 
-/// Run a walkthrough page: write every ```` ```lang file=NAME ```` block to
-/// NAME, run every `$ mtwin …` line of the ```` ```console ```` blocks in
-/// order (each must succeed; with `--format json` stdout must be one JSON
-/// document). Returns the commands run.
-pub fn run_doc(page: &str, dir: &Path) -> Vec<String> {
-    let text = std::fs::read_to_string(repo().join("docs").join(page)).unwrap();
-    let mut ran = Vec::new();
-    let mut lines = text.lines();
-    while let Some(line) = lines.next() {
-        let Some(info) = line.strip_prefix("```") else {
-            continue;
-        };
-        let body: Vec<&str> = lines
-            .by_ref()
-            .take_while(|l| !l.starts_with("```"))
-            .collect();
-        if let Some(name) = info
-            .split_whitespace()
-            .find_map(|w| w.strip_prefix("file="))
-        {
-            std::fs::write(dir.join(name), body.join("\n") + "\n").unwrap();
-        } else if info == "console" {
-            for cmd in body.iter().filter_map(|l| l.strip_prefix("$ mtwin ")) {
-                let args: Vec<&str> = cmd.split_whitespace().collect();
-                let o = mtwin(dir, &args);
-                assert_eq!(o.status.code(), Some(0), "{cmd}: {}", stderr(&o));
-                if cmd.contains("--format json") {
-                    let _: serde_json::Value = serde_json::from_str(&stdout(&o))
-                        .unwrap_or_else(|e| panic!("{cmd}: stdout is not JSON: {e}"));
-                }
-                ran.push(cmd.to_string());
-            }
-        }
-    }
-    ran
-}
-
 #[test]
 fn docs_walkthrough_runs() {
     let dir = tempfile::tempdir().unwrap();
     let ran = run_doc("thermal.md", dir.path());
-    assert_eq!(ran.len(), 5, "{ran:?}");
+    assert_eq!(ran.len(), 7, "{ran:?}");
     // The truth model at its own heights: the fitted model predicts its drift
     // closely; compare predict's output with the truth file's difference
     // equation written out here (speed / 8000 as input, one period of delay).
@@ -556,4 +525,73 @@ fn docs_walkthrough_runs() {
         assert!((r[2] - want).abs() < 0.002, "{r:?} vs {want}");
     }
     assert!(dir.path().join("plots/drift_z-350.svg").exists());
+}
+
+#[test]
+fn program_samples_on_the_period_and_refuses_a_pass_longer_than_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    let args = [
+        "thermal",
+        "program",
+        "--z",
+        "-50,-250",
+        "--x0",
+        "0",
+        "--pitch",
+        "40",
+        "--speeds",
+        "3000,0",
+        "--step-min",
+        "30",
+        "--period-min",
+        "10",
+        "--out",
+        "t.ngc",
+        "--format",
+        "json",
+    ];
+    let o = mtwin(p, &args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    // 60 min sampled every 10 min: passes at 0, 10, …, 60.
+    assert_eq!(v["passes"], 7);
+    let pass = v["pass_s"].as_f64().unwrap();
+    // gcode stats: the whole program = positioning + 6 periods + one pass.
+    let o = mtwin(p, &["gcode", "stats", "t.ngc", "--format", "json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let s: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let total = s["total_time_s"].as_f64().unwrap();
+    // Positioning: rapid up from Z0 to the safe height (−50 + 12.7 + 10),
+    // then nothing in X/Y (the first ball is at X0 Y0).
+    let positioning = (50.0f64 - 22.7) / 10_000.0 * 60.0;
+    assert!(
+        (total - positioning - 3600.0 - pass).abs() < 1e-3,
+        "{total}"
+    );
+    let text = std::fs::read_to_string(p.join("t.ngc")).unwrap();
+    assert_eq!(text.matches("G38.2 Z").count(), 14);
+    // A slow probing feed: the pass does not fit in a 1 min period.
+    let o = mtwin(
+        p,
+        &[
+            "thermal",
+            "program",
+            "--z",
+            "-50",
+            "--speeds",
+            "1000",
+            "--step-min",
+            "10",
+            "--period-min",
+            "0.1",
+            "--feed",
+            "5",
+            "--out",
+            "slow.ngc",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("sample period"), "{}", stderr(&o));
+    assert!(!p.join("slow.ngc").exists());
 }

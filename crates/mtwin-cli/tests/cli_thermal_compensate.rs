@@ -8,7 +8,7 @@ mod common;
 use std::path::Path;
 use std::process::Output;
 
-use common::{mtwin, repo, stderr, stdout};
+use common::{mtwin, run_doc, stderr, stdout};
 use mtwin::gcode::{
     Axis, EventKind, InterpOptions, Interpreter, Program, ProgramStats, SpindleState, StatsOptions,
 };
@@ -288,25 +288,39 @@ fn errors_name_file_and_line_and_write_nothing() {
 /// documentation's example program.
 #[test]
 fn documented_commands_run() {
-    let doc = std::fs::read_to_string(repo().join("docs/thermal-compensation.md")).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    fit_model(&truth(1.0), dir.path());
-    let program: String = doc
-        .split("```gcode\n")
-        .nth(1)
-        .and_then(|s| s.split("```").next())
-        .expect("an example program in a ```gcode block")
-        .to_string();
-    std::fs::write(dir.path().join("IN.nc"), program).unwrap();
-    let mut ran = 0;
-    for line in doc.lines() {
-        let Some(rest) = line.trim().strip_prefix("$ mtwin thermal compensate ") else {
-            continue;
-        };
-        let args: Vec<&str> = rest.split_whitespace().collect();
-        let o = compensate(dir.path(), &args);
-        assert!(o.status.success(), "{line}: {}", stderr(&o));
-        ran += 1;
-    }
-    assert!(ran >= 2, "the documentation shows its commands");
+    let p = dir.path();
+    let ran = run_doc("thermal-compensation.md", p).len();
+    assert_eq!(ran, 3, "the documentation shows its commands");
+    // The plot's y range is the range of the corrections actually written:
+    // original Z minus rewritten Z of every Z word (0.1 µm resolution).
+    let z_words = |f: &str| -> Vec<f64> {
+        std::fs::read_to_string(p.join(f))
+            .unwrap()
+            .split_whitespace()
+            .filter_map(|w| w.strip_prefix('Z').and_then(|v| v.parse().ok()))
+            .collect()
+    };
+    let (orig, comp) = (z_words("faces.nc"), z_words("faces-comp.nc"));
+    assert_eq!(orig.len(), comp.len());
+    let c: Vec<f64> = orig.iter().zip(&comp).map(|(a, b)| (a - b) * 1e3).collect();
+    let lo = c.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = c.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let svg = std::fs::read_to_string(p.join("correction.svg")).unwrap();
+    let labels: Vec<f64> = svg
+        .lines()
+        .filter(|l| l.contains(r#"text-anchor="end""#))
+        .filter_map(|l| l.split('>').nth(1)?.split('<').next()?.parse().ok())
+        .collect();
+    assert_eq!(labels.len(), 5, "{svg}");
+    assert!((labels[0] - lo).abs() < 0.06, "{labels:?} vs {lo}");
+    assert!((labels[4] - hi).abs() < 0.06, "{labels:?} vs {hi}");
+    // One plotted point per Z block.
+    let points = svg
+        .lines()
+        .find(|l| l.contains("<polyline"))
+        .and_then(|l| l.split("points=\"").nth(1))
+        .map(|r| r.split('"').next().unwrap().split_whitespace().count())
+        .unwrap();
+    assert_eq!(points, c.len());
 }

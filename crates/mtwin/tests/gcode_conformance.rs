@@ -34,7 +34,6 @@ const SKIPPED: &[(&str, &str)] = &[
         "bad/nested.ngc",
         "O-word statement (subroutines and control flow)",
     ),
-    ("bad/probe-no-axes.ngc", "probing G38.2"),
     ("cam-nisley", "parameter assignment"),
     ("compile", "no single program file (several or none)"),
     (

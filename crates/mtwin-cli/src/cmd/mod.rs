@@ -11,6 +11,7 @@ mod model;
 mod predict;
 mod servo;
 mod skiving;
+mod testpiece;
 mod thermal;
 mod thermal_compensate;
 mod tracker;
@@ -67,6 +68,9 @@ pub enum Command {
     /// Workpiece set-up error of a power-skiving machine from touch-offs (spec 03).
     #[command(subcommand)]
     Skiving(skiving::Command),
+    /// Machining test pieces as five-axis programs (ISO 10791-7 S-shaped piece).
+    #[command(subcommand)]
+    Testpiece(testpiece::Command),
     /// Rewrite a part program so that the actual machine reaches the nominal targets.
     #[command(
         after_help = "Example:\n  mtwin compensate --machine examples/machines/ac-trunnion-with-errors.toml --program part.ngc --out part-comp.ngc --tol 0.001"
@@ -90,6 +94,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Simulate(c) => tracker::run_simulate(c),
         Command::CompensatePoints(a) => tracker::run_compensate(a),
         Command::Skiving(c) => skiving::run(c),
+        Command::Testpiece(c) => testpiece::run(c),
         Command::Compensate(a) => compensate::run(a),
     }
 }

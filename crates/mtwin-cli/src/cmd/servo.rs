@@ -25,9 +25,9 @@ pub enum Command {
         after_help = "Example:\n  mtwin servo fit --data log.csv --max-order 3 --feed 2000 --out servo.toml"
     )]
     Fit(FitArgs),
-    /// Simulate the encoder positions of a servo for commands (`t_s,command_mm`) into LOG.csv.
+    /// Simulate the encoder positions of a servo for commands (`t_s,command_mm`, or one axis of CMD.csv) into LOG.csv.
     #[command(
-        after_help = "Example:\n  mtwin servo simulate --servo servo.toml --commands cmd.csv --noise 0.0002 --seed 1 --out log.csv"
+        after_help = "Example:\n  mtwin servo simulate --servo servo.toml --commands cmd.csv --noise 0.0002 --seed 1 --out log.csv\n  mtwin servo simulate --servo servo.toml --commands interpolated.csv --axis X --out log.csv"
     )]
     Simulate(SimulateArgs),
     /// Write a G-code excitation program for one axis: back-and-forth steps of growing amplitude.
@@ -66,9 +66,14 @@ pub struct SimulateArgs {
     /// Servo file (SERVO.toml from `mtwin servo fit`, or written by hand).
     #[arg(long)]
     servo: PathBuf,
-    /// Commands: `t_s,command_mm`, sampled at the servo's `ts`.
+    /// Commands: `t_s,command_mm`, sampled at the servo's `ts` (or, with
+    /// `--axis`, a CMD.csv of `mtwin gcode interpolate`).
     #[arg(long)]
     commands: PathBuf,
+    /// Read the commands from this axis' column (e.g. `X` of a CMD.csv)
+    /// instead of `command_mm`.
+    #[arg(long)]
+    axis: Option<String>,
     /// Standard deviation of white encoder noise added to the feedback, mm.
     #[arg(long, default_value_t = 0.0)]
     noise: f64,
@@ -184,7 +189,8 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
     }
     let servo = sysid::read_servo_toml(&a.servo).map_err(diag)?;
     let table = load_table(&a.commands)?;
-    let rows = table.number_rows(&["t_s", "command_mm"]).map_err(diag)?;
+    let column = a.axis.as_deref().unwrap_or("command_mm");
+    let rows = table.number_rows(&["t_s", column]).map_err(diag)?;
     check_grid(&table, &rows, servo.ts())?;
     let commands: Vec<f64> = rows.iter().map(|r| r[1]).collect();
     let feedback = servo.simulate(&commands);

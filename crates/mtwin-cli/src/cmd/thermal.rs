@@ -11,9 +11,11 @@ use anyhow::Context;
 use mtwin::methods::thermal::{
     self, Programme, ThermalFitOptions, ThermalModel, TrainingData, read_training,
 };
+use mtwin::report::svg::{Series, xy};
 use serde_json::json;
 
 use super::common::diag;
+use super::thermal_compensate::DialectArg;
 use crate::output::{Format, note, print_json, warn};
 
 #[derive(Debug, clap::Subcommand)]
@@ -38,6 +40,65 @@ pub enum Command {
         after_help = "Example:\n  mtwin thermal compensate --model thermal.toml --program part.nc --out part-comp.nc --period-min 10"
     )]
     Compensate(super::thermal_compensate::Args),
+    /// Write the measurement programme as G-code: cold pass, then spindle speeds with a probing pass every period.
+    #[command(
+        after_help = "Example:\n  mtwin thermal program --z -50,-150,-250,-350 --x0 -100 --pitch 50 --speeds 2000,4000,6000 --step-min 60 --period-min 10 --out thermal.ngc"
+    )]
+    Program(ProgramArgs),
+}
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct ProgramArgs {
+    #[command(flatten)]
+    heights: Heights,
+    /// X of the first ball, mm.
+    #[arg(long, default_value_t = 0.0)]
+    x0: f64,
+    /// X spacing of the balls, mm.
+    #[arg(long, default_value_t = 50.0)]
+    pitch: f64,
+    /// Y of the balls, mm.
+    #[arg(long, default_value_t = 0.0)]
+    y: f64,
+    /// Ball diameter, mm.
+    #[arg(long, default_value_t = 25.4)]
+    ball_diameter: f64,
+    /// Spindle speeds (rev/min, 0 = off), each held --step-min: one value is a constant speed.
+    #[arg(long, required = true, value_delimiter = ',')]
+    speeds: Vec<f64>,
+    /// Duration of every speed of --speeds, min.
+    #[arg(long)]
+    step_min: f64,
+    /// Sample period: a probing pass starts every this many minutes, min.
+    #[arg(long, default_value_t = 10.0)]
+    period_min: f64,
+    /// Probing feed, mm/min.
+    #[arg(long, default_value_t = 100.0)]
+    feed: f64,
+    /// Start of each probing move above the ball top, mm.
+    #[arg(long, default_value_t = 2.0)]
+    approach: f64,
+    /// End of each probing move below the ball top, mm.
+    #[arg(long, default_value_t = 1.0)]
+    overtravel: f64,
+    /// Safe height above the highest ball top, mm.
+    #[arg(long, default_value_t = 10.0)]
+    clearance: f64,
+    /// Rapid rate assumed for the timing, mm/min (as `gcode stats --rapid`).
+    #[arg(long, default_value_t = 10000.0)]
+    rapid: f64,
+    /// Controller dialect: LinuxCNC (G38.2, G4 P seconds, touches logged to
+    /// thermal-probe.csv) or Fanuc (G31 skip, G4 X seconds; read #5063 after
+    /// each G31 yourself).
+    #[arg(long, value_enum, default_value_t)]
+    dialect: DialectArg,
+    /// Output program.
+    #[arg(long)]
+    out: PathBuf,
+    /// Output format of the summary.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
 }
 
 #[derive(Debug, clap::Args)]
@@ -145,6 +206,62 @@ pub fn run(c: Command) -> anyhow::Result<()> {
         Command::Predict(a) => predict(a),
         Command::Simulate(a) => simulate(a),
         Command::Compensate(a) => super::thermal_compensate::run(a),
+        Command::Program(a) => program(a),
+    }
+}
+
+fn program(a: ProgramArgs) -> anyhow::Result<()> {
+    use mtwin::methods::skiving::program::Dialect;
+    let balls = thermal::BallArray {
+        x0: a.x0,
+        pitch: a.pitch,
+        y: a.y,
+        heights: a.heights.parse()?,
+        diameter: a.ball_diameter,
+    };
+    let motion = thermal::ProbeMotion {
+        approach: a.approach,
+        overtravel: a.overtravel,
+        clearance: a.clearance,
+        feed: a.feed,
+        rapid: a.rapid,
+    };
+    let dialect = match a.dialect {
+        DialectArg::Linuxcnc => Dialect::LinuxCnc,
+        DialectArg::Fanuc => Dialect::Fanuc,
+    };
+    let p = thermal::thermal_program(
+        &balls,
+        &motion,
+        &a.speeds,
+        a.step_min,
+        a.period_min,
+        dialect,
+    )?;
+    mtwin::io::write_atomic(&a.out, p.text.as_bytes())
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    match a.format {
+        Format::Json => print_json(&json!({
+            "out": a.out.display().to_string(),
+            "passes": p.passes,
+            "pass_s": p.pass_s,
+            "period_min": a.period_min,
+            "duration_min": p.duration_min,
+            "time_s": p.time_s,
+            "heights_mm": balls.heights,
+        })),
+        Format::Human => {
+            println!(
+                "{} probing passes (the cold one first) every {} min over {} min; one pass {:.1} s → {}",
+                p.passes,
+                a.period_min,
+                p.duration_min,
+                p.pass_s,
+                a.out.display()
+            );
+            note("the times hold from the end of the initial positioning, at the given rapid rate");
+            Ok(())
+        }
     }
 }
 
@@ -304,188 +421,30 @@ fn write_plots(
             t0 += n as f64 * period;
         }
         let title = format!("Thermal drift at z = {} mm", h.z_mm);
-        let svg = svg::plot(&title, "t (min)", "drift (µm)", &measured, &modelled);
+        let mut series = vec![Series {
+            name: "measured".into(),
+            points: measured,
+            color: "#1f77b4".into(),
+            markers: true,
+        }];
+        let runs = modelled.len();
+        series.extend(modelled.into_iter().enumerate().map(|(r, points)| Series {
+            name: if runs == 1 {
+                "model (from cold)".into()
+            } else {
+                format!("model run {} (from cold)", r + 1)
+            },
+            points,
+            color: "#d62728".into(),
+            markers: false,
+        }));
+        let svg = xy(&title, "t (min)", "drift (µm)", &series);
         let path = dir.join(format!("drift_z{}.svg", h.z_mm));
         mtwin::io::write_atomic(&path, svg.as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;
         written.push(path);
     }
     Ok(written)
-}
-
-/// A tiny hand-written SVG line/scatter plot (no dependencies).
-mod svg {
-    use std::fmt::Write as _;
-
-    const W: f64 = 720.0;
-    const H: f64 = 420.0;
-    const LEFT: f64 = 70.0;
-    const RIGHT: f64 = 20.0;
-    const TOP: f64 = 40.0;
-    const BOTTOM: f64 = 50.0;
-
-    /// About five round tick values covering `[lo, hi]`.
-    pub fn ticks(lo: f64, hi: f64) -> Vec<f64> {
-        let span = hi - lo;
-        if !(span.is_finite() && span > 0.0) {
-            return vec![lo];
-        }
-        let raw = span / 5.0;
-        let mag = 10f64.powf(raw.log10().floor());
-        let step = [1.0, 2.0, 5.0, 10.0]
-            .iter()
-            .map(|m| m * mag)
-            .find(|s| *s >= raw)
-            .unwrap_or(10.0 * mag);
-        let first = (lo / step).ceil() as i64;
-        let last = (hi / step).floor() as i64;
-        (first..=last).map(|i| i as f64 * step).collect()
-    }
-
-    fn escape(s: &str) -> String {
-        s.replace('&', "&amp;")
-            .replace('<', "&lt;")
-            .replace('>', "&gt;")
-    }
-
-    /// `points` as circles (measured), every series of `lines` as a polyline (modelled).
-    pub fn plot(
-        title: &str,
-        xlabel: &str,
-        ylabel: &str,
-        points: &[(f64, f64)],
-        lines: &[Vec<(f64, f64)>],
-    ) -> String {
-        let all = points.iter().chain(lines.iter().flatten());
-        let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, 0.0f64, 0.0f64);
-        for &(x, y) in all {
-            x0 = x0.min(x);
-            x1 = x1.max(x);
-            y0 = y0.min(y);
-            y1 = y1.max(y);
-        }
-        if !(x0.is_finite() && x1 > x0) {
-            x0 = 0.0;
-            x1 = 1.0;
-        }
-        if y1 <= y0 {
-            y1 = y0 + 1.0;
-        }
-        let pad = 0.05 * (y1 - y0);
-        let (y0, y1) = (y0 - pad, y1 + pad);
-        let px = |x: f64| LEFT + (x - x0) / (x1 - x0) * (W - LEFT - RIGHT);
-        let py = |y: f64| H - BOTTOM - (y - y0) / (y1 - y0) * (H - TOP - BOTTOM);
-        let mut s = String::new();
-        let _ = writeln!(
-            s,
-            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" viewBox="0 0 {W} {H}" font-family="sans-serif" font-size="12">"#
-        );
-        let _ = writeln!(s, r#"<rect width="{W}" height="{H}" fill="white"/>"#);
-        let _ = writeln!(
-            s,
-            r#"<text x="{}" y="24" text-anchor="middle" font-size="15">{}</text>"#,
-            W / 2.0,
-            escape(title)
-        );
-        for t in ticks(x0, x1) {
-            let x = px(t);
-            let _ = writeln!(
-                s,
-                r##"<line x1="{x:.1}" y1="{TOP}" x2="{x:.1}" y2="{:.1}" stroke="#ddd"/><text x="{x:.1}" y="{:.1}" text-anchor="middle">{}</text>"##,
-                H - BOTTOM,
-                H - BOTTOM + 16.0,
-                mtwin::io::fmt_f64(t)
-            );
-        }
-        for t in ticks(y0, y1) {
-            let y = py(t);
-            let _ = writeln!(
-                s,
-                r##"<line x1="{LEFT}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#ddd"/><text x="{:.1}" y="{:.1}" text-anchor="end">{}</text>"##,
-                W - RIGHT,
-                LEFT - 6.0,
-                y + 4.0,
-                mtwin::io::fmt_f64((t * 1e9).round() / 1e9)
-            );
-        }
-        let _ = writeln!(
-            s,
-            r#"<rect x="{LEFT}" y="{TOP}" width="{:.1}" height="{:.1}" fill="none" stroke="black"/>"#,
-            W - LEFT - RIGHT,
-            H - TOP - BOTTOM
-        );
-        let _ = writeln!(
-            s,
-            r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text>"#,
-            LEFT + (W - LEFT - RIGHT) / 2.0,
-            H - 12.0,
-            escape(xlabel)
-        );
-        let _ = writeln!(
-            s,
-            r#"<text x="16" y="{:.1}" text-anchor="middle" transform="rotate(-90 16 {:.1})">{}</text>"#,
-            TOP + (H - TOP - BOTTOM) / 2.0,
-            TOP + (H - TOP - BOTTOM) / 2.0,
-            escape(ylabel)
-        );
-        for line in lines {
-            let pts: Vec<String> = line
-                .iter()
-                .map(|&(x, y)| format!("{:.2},{:.2}", px(x), py(y)))
-                .collect();
-            let _ = writeln!(
-                s,
-                r##"<polyline class="model" fill="none" stroke="#d62728" stroke-width="1.5" points="{}"/>"##,
-                pts.join(" ")
-            );
-        }
-        for &(x, y) in points {
-            let _ = writeln!(
-                s,
-                r##"<circle class="measured" cx="{:.2}" cy="{:.2}" r="2.5" fill="#1f77b4"/>"##,
-                px(x),
-                py(y)
-            );
-        }
-        let _ = writeln!(
-            s,
-            r##"<circle cx="{:.1}" cy="{:.1}" r="3" fill="#1f77b4"/><text x="{:.1}" y="{:.1}">measured</text><line x1="{:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="#d62728" stroke-width="1.5"/><text x="{:.1}" y="{:.1}">model (from cold)</text>"##,
-            LEFT + 12.0,
-            TOP + 14.0,
-            LEFT + 20.0,
-            TOP + 18.0,
-            LEFT + 90.0,
-            TOP + 14.0,
-            LEFT + 110.0,
-            TOP + 14.0,
-            LEFT + 118.0,
-            TOP + 18.0
-        );
-        s.push_str("</svg>\n");
-        s
-    }
-
-    #[cfg(test)]
-    mod tests {
-        use super::*;
-
-        #[test]
-        fn ticks_are_round_and_inside() {
-            let t = ticks(-0.3, 41.7);
-            assert_eq!(t, vec![0.0, 10.0, 20.0, 30.0, 40.0]);
-            let t = ticks(-47.0, 3.0);
-            assert_eq!(t, vec![-40.0, -30.0, -20.0, -10.0, 0.0]);
-        }
-
-        #[test]
-        fn plot_maps_extremes_to_the_frame() {
-            // x from 0 to 10 spans the frame [LEFT, W − RIGHT]; one point at each end.
-            let svg = plot("t", "x", "y", &[(0.0, 0.0), (10.0, 1.0)], &[]);
-            assert!(svg.contains(&format!(r#"cx="{LEFT:.2}""#)), "{svg}");
-            assert!(svg.contains(&format!(r#"cx="{:.2}""#, W - RIGHT)), "{svg}");
-            assert_eq!(svg.matches("class=\"measured\"").count(), 2);
-        }
-    }
 }
 
 #[cfg(test)]

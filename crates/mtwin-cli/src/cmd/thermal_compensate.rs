@@ -9,6 +9,7 @@ use mtwin::gcode::Dialect;
 use mtwin::methods::thermal::{
     CompensateError, CompensateOptions, CorrectionUpdate, compensate, read_model,
 };
+use mtwin::report::svg::{Series, xy};
 use serde_json::json;
 
 use super::common::diag;
@@ -52,6 +53,10 @@ pub struct Args {
     /// Output format of the summary.
     #[arg(long, value_enum, default_value_t)]
     format: Format,
+    /// Also write an SVG plot of the correction applied along the program
+    /// (µm, at the end of every Z block, against the estimated time in min).
+    #[arg(long)]
+    plot: Option<PathBuf>,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -87,6 +92,24 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     })?;
     mtwin::io::write_atomic_with(&a.out, |w| w.write_all(&c.output))
         .with_context(|| format!("cannot write {}", a.out.display()))?;
+    if let Some(path) = &a.plot {
+        let points: Vec<(f64, f64)> = c
+            .z_blocks
+            .iter()
+            .filter(|b| !b.g53)
+            .map(|b| (b.end_min, b.correction_mm * 1e3))
+            .collect();
+        let series = [Series {
+            name: "correction subtracted from Z".into(),
+            points,
+            color: "#d62728".into(),
+            markers: false,
+        }];
+        let title = format!("Thermal correction along {}", a.program.display());
+        let svg = xy(&title, "t (min)", "correction (µm)", &series);
+        mtwin::io::write_atomic(path, svg.as_bytes())
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
     for n in &c.notes {
         note(n);
     }

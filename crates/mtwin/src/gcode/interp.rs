@@ -153,7 +153,9 @@ enum Group {
 fn g_group(code: u32) -> Option<Group> {
     Some(match code {
         40 | 530 => Group::NonModal,
-        0 | 10 | 20 | 30 | 800 => Group::Motion,
+        // Probing (LinuxCNC G38.2–G38.5, Fanuc G31 skip) reads as a straight
+        // feed move to its end point: the path and time if nothing is touched.
+        0 | 10 | 20 | 30 | 800 | 310 | 382..=385 => Group::Motion,
         170 | 180 | 190 => Group::Plane,
         900 | 910 => Group::Distance,
         901 | 911 => Group::ArcDistance,
@@ -177,7 +179,6 @@ fn g_unsupported(code: u32) -> &'static str {
         920 | 921 | 922 | 923 | 520 => "axis offsets",
         410 | 411 | 420 | 421 => "cutter radius compensation",
         330 | 331 | 760 => "spindle-synchronised motion",
-        382..=385 => "probing",
         730 | 740 | 810..=890 => "canned cycle",
         700..=720 => "lathe cycle",
         50 | 51 | 52 | 53 | 55 | 61 | 62 | 63 => "spline / NURBS motion",
@@ -592,7 +593,7 @@ impl Interpreter {
         } else if let Some((code, _)) = motion_code {
             self.state.motion = Some(match code {
                 0 => MotionMode::Rapid,
-                10 => MotionMode::Linear,
+                10 | 310 | 382..=385 => MotionMode::Linear,
                 20 => MotionMode::ArcClockwise,
                 _ => MotionMode::ArcCounterClockwise,
             });
@@ -617,6 +618,12 @@ impl Interpreter {
                     v * self.state.units.mm_per_unit()
                 };
             }
+        }
+        if let Some((code @ (310 | 382..=385), col)) = motion_code
+            && axes.is_empty()
+        {
+            let name = if code == 310 { "G31" } else { "G38.x" };
+            return Err(invalid(col, format!("probing {name} without axis words")));
         }
         let g53 = g_of(Group::NonModal).filter(|(c, _)| *c == 530);
         let explicit_motion = motion_code.is_some_and(|(c, _)| c != 800);

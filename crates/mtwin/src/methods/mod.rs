@@ -5,5 +5,6 @@
 pub mod ballbar;
 pub mod compensate;
 pub mod skiving;
+pub mod testpiece;
 pub mod thermal;
 pub mod tracker;

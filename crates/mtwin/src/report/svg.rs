@@ -4,7 +4,10 @@
 
 use std::fmt::Write as _;
 
-/// One named series of points; `(x, y)` or `(angle_deg, value)`.
+/// One named series of points; `(x, y)` or `(angle_deg, value)`. Its
+/// drawn markers or line carry `class="<name as a slug>"` (lower case,
+/// runs of other characters than letters and digits as one `-`), so tests
+/// and style sheets can find them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Series {
     pub name: String,
@@ -67,12 +70,26 @@ fn legend(s: &mut String, series: &[Series], x: f64, y: f64) {
     }
 }
 
+/// `name` as a CSS class: lower case, other runs than letters and digits as one `-`.
+fn slug(name: &str) -> String {
+    let mut out = String::new();
+    for c in name.chars() {
+        if c.is_alphanumeric() {
+            out.extend(c.to_lowercase());
+        } else if !out.is_empty() && !out.ends_with('-') {
+            out.push('-');
+        }
+    }
+    out.trim_end_matches('-').to_string()
+}
+
 fn path(s: &mut String, pts: &[(f64, f64)], se: &Series) {
+    let class = escape(&slug(&se.name));
     if se.markers {
         for (x, y) in pts {
             let _ = writeln!(
                 s,
-                r#"<circle cx="{x:.2}" cy="{y:.2}" r="2.5" fill="{}"/>"#,
+                r#"<circle class="{class}" cx="{x:.2}" cy="{y:.2}" r="2.5" fill="{}"/>"#,
                 se.color
             );
         }
@@ -80,7 +97,7 @@ fn path(s: &mut String, pts: &[(f64, f64)], se: &Series) {
         let d: Vec<String> = pts.iter().map(|(x, y)| format!("{x:.2},{y:.2}")).collect();
         let _ = writeln!(
             s,
-            r#"<polyline points="{}" fill="none" stroke="{}" stroke-width="1.5"/>"#,
+            r#"<polyline class="{class}" points="{}" fill="none" stroke="{}" stroke-width="1.5"/>"#,
             d.join(" "),
             se.color
         );
@@ -276,6 +293,8 @@ mod tests {
         // value +v at 90°: r = 0.95 R = 180.5 px above the centre.
         assert!(svg.contains(r#"cx="240.00" cy="69.50""#), "{svg}");
         assert!(svg.contains("a&lt;b") && svg.ends_with("</svg>\n"));
+        assert_eq!(svg.matches(r#"class="a-b""#).count(), 2);
+        assert_eq!(slug("Model (run 2)"), "model-run-2");
     }
 
     #[test]

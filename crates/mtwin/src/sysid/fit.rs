@@ -111,6 +111,20 @@ pub struct FitStats {
     pub spectral_radius: f64,
 }
 
+impl FitStats {
+    /// Akaike's final prediction error `V·(1 + d/N)/(1 − d/N)` of a loss `V`
+    /// over `N` samples with `d` parameters.
+    pub fn fpe_of(loss: f64, samples: usize, params: usize) -> f64 {
+        let ratio = params as f64 / samples as f64;
+        loss * (1.0 + ratio) / (1.0 - ratio)
+    }
+
+    /// Akaike's information criterion `N·ln V + 2d`.
+    pub fn aic_of(loss: f64, samples: usize, params: usize) -> f64 {
+        samples as f64 * loss.ln() + 2.0 * params as f64
+    }
+}
+
 /// A fitted ARX model with its statistics and parameter covariance.
 #[derive(Debug, Clone)]
 pub struct ArxFit {
@@ -210,7 +224,6 @@ pub fn fit_arx(runs: &[Run], orders: &ArxOrders, start: Start) -> Result<ArxFit,
     let loss = ssr / n as f64;
     let sigma2 = ssr / (n - d) as f64;
     let covariance = cov_unscaled * sigma2;
-    let ratio = d as f64 / n as f64;
     let mut sim_ss = 0.0;
     let mut sim_n = 0usize;
     for r in runs {
@@ -223,11 +236,11 @@ pub fn fit_arx(runs: &[Run], orders: &ArxOrders, start: Start) -> Result<ArxFit,
         sim_n += r.len();
     }
     let stats = FitStats {
+        fpe: FitStats::fpe_of(loss, n, d),
+        aic: FitStats::aic_of(loss, n, d),
         samples: n,
         params: d,
         loss,
-        fpe: loss * (1.0 + ratio) / (1.0 - ratio),
-        aic: n as f64 * loss.ln() + 2.0 * d as f64,
         one_step_rms: loss.sqrt(),
         simulation_rms: if sim_n > 0 {
             (sim_ss / sim_n as f64).sqrt()

@@ -25,6 +25,7 @@ mod arx;
 mod error;
 mod fit;
 mod order;
+mod output_error;
 pub(crate) mod sampling;
 mod servo;
 mod servo_fit;
@@ -34,6 +35,9 @@ pub use arx::{Arx, ArxOrders, ArxStepper, InputOrder, Stability};
 pub use error::SysidError;
 pub use fit::{ArxFit, FitStats, Run, Start, fit_arx};
 pub use order::{Criterion, GridRow, InputGrid, OrderGrid, OrderSelection, select_orders};
+pub use output_error::{
+    OutputErrorFit, OutputErrorModel, fit_output_error, select_orders_output_error,
+};
 pub use servo::{Servo, ServoStepper};
 pub use servo_fit::{
     ServoFit, ServoFitError, ServoFitOptions, ServoLog, fit_servo, fit_servo_csv, read_servo_log,

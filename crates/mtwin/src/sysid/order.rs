@@ -243,11 +243,21 @@ pub fn select_orders(
         .par_iter()
         .map(|o| fit_arx(runs, o, start))
         .collect();
+    selection_of(structures, fits, criterion)
+}
+
+/// The order table of `fits` (one per structure, in order) and the one
+/// minimising `criterion`, preferring stable models.
+pub(super) fn selection_of(
+    structures: Vec<ArxOrders>,
+    fits: Vec<Result<ArxFit, SysidError>>,
+    criterion: Criterion,
+) -> Result<OrderSelection, SysidError> {
     let table: Vec<GridRow> = structures
-        .iter()
+        .into_iter()
         .zip(&fits)
-        .map(|(o, f)| GridRow {
-            orders: o.clone(),
+        .map(|(orders, f)| GridRow {
+            orders,
             outcome: f.as_ref().map(|f| f.stats.clone()).map_err(Clone::clone),
         })
         .collect();
@@ -262,7 +272,7 @@ pub fn select_orders(
         .into_iter()
         .nth(best)
         .and_then(Result::ok)
-        .expect("the best row is a successful fit");
+        .ok_or_else(|| SysidError::NoOrderFits("the chosen structure has no fit".into()))?;
     Ok(OrderSelection {
         table,
         criterion,

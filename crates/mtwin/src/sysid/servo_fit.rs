@@ -8,7 +8,8 @@ use thiserror::Error;
 use super::sampling::{check_sampling, median_interval};
 use super::toml_read::{Reader, fmt_f64_float, parse};
 use super::{
-    Criterion, OrderGrid, OrderSelection, Run, Servo, Stability, Start, SysidError, select_orders,
+    Criterion, OrderGrid, OrderSelection, Run, Servo, Stability, SysidError,
+    select_orders_output_error,
 };
 use crate::io::{Diagnostic, Diagnostics, Table, fmt_f64};
 
@@ -112,8 +113,9 @@ impl Default for ServoFitOptions {
 pub struct ServoFit {
     /// The identified transfer function.
     pub servo: Servo,
-    /// The whole order table and the chosen least-squares fit (on deviations
-    /// from the first command).
+    /// The whole order table and the chosen output-error fit (on deviations
+    /// from the first command); `loss`, `fpe` and `aic` of the table are
+    /// those of the simulation error.
     pub selection: OrderSelection,
     /// RMS of feedback minus the servo simulated from the commands (mm or deg).
     pub simulation_rms: f64,
@@ -157,6 +159,7 @@ impl ServoFit {
             "nk": self.servo.nk(),
             "orders": self.selection.table[self.selection.best].orders.to_json(),
             "criterion": format!("{:?}", self.selection.criterion).to_lowercase(),
+            "estimator": "output_error",
             "samples": self.selection.fit.stats.samples,
             "one_step_rms": self.selection.fit.stats.one_step_rms,
             "simulation_rms": self.simulation_rms,
@@ -208,11 +211,18 @@ pub enum ServoFitError {
     Fit(#[from] SysidError),
 }
 
-/// Identify a servo from a log: ARX least squares on deviations from the
-/// first command (`u − u(0)`, `y − u(0)`), no assumption about the state
-/// before the log (regression rows start after the largest lag of the grid),
-/// orders `na ∈ 1..=max_order`, `nb ∈ 0..=max_order`, `nk ∈ 0..=max_delay`
-/// chosen by `criterion`, preferring stable models.
+/// Identify a servo from a log, on deviations from the first command
+/// (`u − u(0)`, `y − u(0)`), with no assumption about the state before the
+/// log (residual rows start after the largest lag of the grid).
+///
+/// Every structure `na ∈ 1..=max_order`, `nb ∈ 0..=max_order`,
+/// `nk ∈ 0..=max_delay` is fitted by ARX least squares and refined to the
+/// output-error estimate (Levenberg–Marquardt on the simulation error,
+/// [`super::fit_output_error`]): encoder noise biases the ARX estimate of a
+/// servo sampled much faster than its bandwidth (0.2 µm of noise moves its
+/// simulation by several µm), the output-error estimate is consistent. The
+/// orders are chosen by `criterion` evaluated on the simulation error,
+/// preferring stable models.
 pub fn fit_servo(log: &ServoLog, options: &ServoFitOptions) -> Result<ServoFit, SysidError> {
     let Some(&u0) = log.command.first() else {
         return Err(SysidError::TooFewSamples { rows: 0, params: 1 });
@@ -227,7 +237,7 @@ pub fn fit_servo(log: &ServoLog, options: &ServoFitOptions) -> Result<ServoFit, 
             nk: 0..=options.max_delay,
         }],
     };
-    let selection = select_orders(&[run], &grid, options.criterion, Start::From(0))?;
+    let selection = select_orders_output_error(&run, &grid, options.criterion)?;
     let servo = Servo::from_arx(log.ts, &selection.fit.model)?;
     let sim = servo.simulate(&log.command);
     let simulation_rms = rms(sim.iter().zip(&log.feedback).map(|(s, m)| m - s));
@@ -407,12 +417,25 @@ mod tests {
             .collect()
     }
 
+    /// Issue 8: with 0.2 µm encoder noise the fitted and true axes differ by
+    /// under 1 µm RMS on a held-out command, for bandwidths across 20–60 Hz
+    /// and several noise seeds.
     #[test]
     fn recovers_a_second_order_axis() {
         let ts = 0.001;
-        for (fn_hz, zeta) in [(20.0, 0.7), (40.0, 0.6), (60.0, 0.8)] {
+        let cases = [
+            (20.0, 0.7, 1),
+            (20.0, 0.7, 2),
+            (30.0, 0.5, 3),
+            (40.0, 0.6, 4),
+            (40.0, 0.6, 5),
+            (50.0, 0.9, 6),
+            (60.0, 0.8, 7),
+            (60.0, 0.8, 8),
+        ];
+        for (fn_hz, zeta, seed) in cases {
             let axis = Axis::new(fn_hz, zeta, ts);
-            let mut rng = StdRng::seed_from_u64(fn_hz as u64);
+            let mut rng = StdRng::seed_from_u64(seed);
             let u = excitation(4000, &mut rng);
             let y: Vec<f64> = axis
                 .run(&u)
@@ -432,8 +455,14 @@ mod tests {
             let err = rms(truth.iter().zip(&sim).map(|(a, b)| a - b));
             assert!(
                 err < 0.001,
-                "{fn_hz} Hz: held-out RMS {err} mm ({})",
+                "{fn_hz} Hz seed {seed}: held-out RMS {err} mm ({})",
                 fit.selection.fit.model.orders()
+            );
+            // The simulation error of the fit sits at the noise level.
+            assert!(
+                (fit.simulation_rms - 0.0002).abs() < 0.00003,
+                "{}",
+                fit.simulation_rms
             );
             assert!(
                 fit.stability.is_stable() && fit.warnings().is_empty(),
@@ -455,7 +484,6 @@ mod tests {
                 (mag - std::f64::consts::FRAC_1_SQRT_2).abs() < 0.01,
                 "|H({got} Hz)| = {mag}"
             );
-            assert!(fit.simulation_rms < 0.001);
             let j = fit.to_json();
             assert_eq!(j["nk"], fit.servo.nk());
             assert_eq!(j["a"][0], 1.0);

@@ -24,6 +24,7 @@ mod data;
 mod file;
 mod model;
 mod predict;
+mod program;
 mod synthetic;
 
 pub use compensate::{
@@ -38,6 +39,9 @@ pub use model::{
 pub use predict::{
     HeightReport, Prediction, Programme, SimulatedData, ThermalFit, ThermalFitOptions, fit,
     fit_csv, predict, read_programme, simulate,
+};
+pub use program::{
+    BallArray, ProbeMotion, ThermalProgram, ThermalProgramError, pass_seconds, thermal_program,
 };
 pub use synthetic::TruthMachine;
 

@@ -1,0 +1,9 @@
+//! Machining test pieces written as five-axis programs for a given machine.
+//!
+//! * [`s_shape`]: the S-shaped test piece of ISO 10791-7 (the part the
+//!   digital-twin seed machines, spec 05): a ruled surface between two S
+//!   curves at two heights, flank-milled.
+
+pub mod s_shape;
+
+pub use s_shape::{SShape, SShapeError, SShapeProgram, s_shape_poses, s_shape_program};

@@ -1,0 +1,444 @@
+//! The thermal measurement programme as G-code (spec 04 §Measurement, the
+//! seed's procedure): a cold reference pass of the spindle probe over the
+//! ball array, then the spindle speed programme, interrupted every sample
+//! period by a probing pass over the balls.
+//!
+//! **Ball array.** Ball `i` (centre in work coordinates, mm) is at
+//! `(x0 + i·pitch, y, z_i)`, one ball per requested height: a stepped
+//! array whose balls are all reachable from above. Each ball is probed on
+//! its top, in −Z: rapid to `z_i + r + approach`, probing move to
+//! `z_i + r − overtravel` at the probing feed (`G38.2` for LinuxCNC, `G31`
+//! skip for Fanuc), rapid back to the safe height
+//! `max_i(z_i + r) + clearance`. The drift at height `z_i` is the touched
+//! Z minus the cold pass's (LinuxCNC writes `#5063` of every touch to
+//! `thermal-probe.csv` with `(LOG,…)`; on Fanuc read `#5063` after each
+//! `G31` as your control's macro practice prescribes — the program holds
+//! no macro statements).
+//!
+//! **Timing.** Pass `k` starts at exactly `t_k = k·T` after the end of the
+//! initial positioning (the time estimate of the program: rapids at the
+//! given rapid rate, probing moves timed to their end point at the
+//! probing feed, dwells): between passes the spindle runs the programme
+//! for `T − p` (`p` the pass duration, which must be shorter than `T`) as
+//! dwells, split where the speed changes. The spindle is stopped (`M5`,
+//! oriented `M19`) during a pass, as with a probe in the spindle; the speed
+//! history is therefore zero during the passes. The programme's speed `j`
+//! holds over `[j·step, (j+1)·step)` minutes; the last pass is at the last
+//! multiple of `T` within the programme's duration.
+
+use std::fmt::Write as _;
+
+use thiserror::Error;
+
+use crate::io::fmt_f64;
+use crate::methods::skiving::program::Dialect;
+
+/// The ball array (mm, work coordinates).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BallArray {
+    /// X of the first ball.
+    pub x0: f64,
+    /// X spacing between consecutive balls.
+    pub pitch: f64,
+    /// Y of every ball.
+    pub y: f64,
+    /// Z of every ball centre, one ball per height.
+    pub heights: Vec<f64>,
+    /// Ball diameter.
+    pub diameter: f64,
+}
+
+impl BallArray {
+    /// Centre of ball `i`.
+    pub fn centre(&self, i: usize) -> [f64; 3] {
+        [self.x0 + i as f64 * self.pitch, self.y, self.heights[i]]
+    }
+
+    /// Z of the top of ball `i`.
+    pub fn top(&self, i: usize) -> f64 {
+        self.heights[i] + 0.5 * self.diameter
+    }
+}
+
+/// Probing motion (mm, mm/min).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProbeMotion {
+    /// Start of the probing move above the ball top.
+    pub approach: f64,
+    /// End of the probing move below the ball top (if nothing is touched).
+    pub overtravel: f64,
+    /// Safe height above the highest ball top.
+    pub clearance: f64,
+    /// Probing feed, mm/min.
+    pub feed: f64,
+    /// Rapid rate assumed for the timing, mm/min (the `--rapid` of `gcode stats`).
+    pub rapid: f64,
+}
+
+impl Default for ProbeMotion {
+    fn default() -> Self {
+        ProbeMotion {
+            approach: 2.0,
+            overtravel: 1.0,
+            clearance: 10.0,
+            feed: 100.0,
+            rapid: 10_000.0,
+        }
+    }
+}
+
+/// What was written.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ThermalProgram {
+    /// The program text.
+    pub text: String,
+    /// Probing passes (the cold one included).
+    pub passes: usize,
+    /// Duration of one pass, s.
+    pub pass_s: f64,
+    /// Programme duration (speeds × step), min.
+    pub duration_min: f64,
+    /// Time of the program from the start of the cold pass to its end, s.
+    pub time_s: f64,
+}
+
+/// Why the program could not be written.
+#[derive(Debug, Error, PartialEq)]
+pub enum ThermalProgramError {
+    /// A setting out of range.
+    #[error("{0}")]
+    Setting(String),
+    /// A probing pass does not fit in a sample period.
+    #[error(
+        "one probing pass takes {pass_s:.1} s, not shorter than the sample period {period_s:.1} s: \
+         fewer balls, a faster probing feed or a longer period"
+    )]
+    PassTooLong {
+        /// Pass duration, s.
+        pass_s: f64,
+        /// Period, s.
+        period_s: f64,
+    },
+}
+
+/// Duration of one probing pass (s): rapid path at `motion.rapid`, probing
+/// moves at `motion.feed`, from and back to `(x0, y, safe height)`.
+pub fn pass_seconds(balls: &BallArray, motion: &ProbeMotion) -> f64 {
+    let safe = safe_height(balls, motion);
+    let mut rapid = 0.0;
+    let mut at = balls.x0;
+    for i in 0..balls.heights.len() {
+        let [x, _, _] = balls.centre(i);
+        rapid += (x - at).abs() + 2.0 * (safe - (balls.top(i) + motion.approach));
+        rapid += motion.approach + motion.overtravel; // back up from the probing end
+        at = x;
+    }
+    rapid += (at - balls.x0).abs();
+    let probing = balls.heights.len() as f64 * (motion.approach + motion.overtravel);
+    60.0 * (rapid / motion.rapid + probing / motion.feed)
+}
+
+fn safe_height(balls: &BallArray, motion: &ProbeMotion) -> f64 {
+    (0..balls.heights.len())
+        .map(|i| balls.top(i))
+        .fold(f64::NEG_INFINITY, f64::max)
+        + motion.clearance
+}
+
+/// Write the measurement programme: `speeds` (rev/min, 0 = spindle off)
+/// each held `step_min` minutes, sampled every `period_min` minutes.
+pub fn thermal_program(
+    balls: &BallArray,
+    motion: &ProbeMotion,
+    speeds: &[f64],
+    step_min: f64,
+    period_min: f64,
+    dialect: Dialect,
+) -> Result<ThermalProgram, ThermalProgramError> {
+    let bad = |m: String| Err(ThermalProgramError::Setting(m));
+    let pos = |v: f64| v.is_finite() && v > 0.0;
+    if balls.heights.is_empty() || balls.heights.iter().any(|z| !z.is_finite()) {
+        return bad("at least one finite ball height is needed".into());
+    }
+    if !(pos(balls.diameter)
+        && balls.x0.is_finite()
+        && balls.y.is_finite()
+        && balls.pitch.is_finite())
+    {
+        return bad("the ball array needs a positive diameter and finite positions".into());
+    }
+    for (name, v) in [
+        ("approach", motion.approach),
+        ("overtravel", motion.overtravel),
+        ("clearance", motion.clearance),
+        ("probing feed", motion.feed),
+        ("rapid rate", motion.rapid),
+        ("step duration", step_min),
+        ("sample period", period_min),
+    ] {
+        if !pos(v) {
+            return bad(format!("the {name} must be positive, not {v}"));
+        }
+    }
+    if speeds.is_empty() || speeds.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
+        return bad("the speed programme needs speeds >= 0 rev/min".into());
+    }
+    let pass_s = pass_seconds(balls, motion);
+    let period_s = period_min * 60.0;
+    if pass_s >= period_s {
+        return Err(ThermalProgramError::PassTooLong { pass_s, period_s });
+    }
+    let duration_min = step_min * speeds.len() as f64;
+    let passes = (duration_min / period_min + 1e-9).floor() as usize + 1;
+    let safe = safe_height(balls, motion);
+    let n = |v: f64| {
+        let r = (v * 1e4).round() / 1e4;
+        fmt_f64(if r == 0.0 { 0.0 } else { r })
+    };
+    let fanuc = dialect == Dialect::Fanuc;
+    let mut s = String::new();
+    let comment = |s: &mut String, text: &str| {
+        let text = if fanuc {
+            text.to_uppercase().replace(['(', ')'], "")
+        } else {
+            text.to_owned()
+        };
+        let _ = writeln!(s, "({text})");
+    };
+    // No Fanuc program number (O…): give it one when loading the program.
+    s.push_str("%\n");
+    comment(
+        &mut s,
+        "mtwin thermal program: thermal drift measurement, spec 04",
+    );
+    comment(
+        &mut s,
+        &format!(
+            "{} balls at z = {} mm, diameter {} mm; sample every {} min; {} passes",
+            balls.heights.len(),
+            balls
+                .heights
+                .iter()
+                .map(|z| fmt_f64(*z))
+                .collect::<Vec<_>>()
+                .join(" "),
+            fmt_f64(balls.diameter),
+            fmt_f64(period_min),
+            passes
+        ),
+    );
+    comment(
+        &mut s,
+        &format!(
+            "speeds {} rev/min, {} min each; spindle stopped during the passes",
+            speeds
+                .iter()
+                .map(|v| fmt_f64(*v))
+                .collect::<Vec<_>>()
+                .join(" "),
+            fmt_f64(step_min)
+        ),
+    );
+    s.push_str("G21 G90 G94 G17\nM5\n");
+    if !fanuc {
+        s.push_str("(LOGOPEN,thermal-probe.csv)\n(LOG,pass,ball,z_ball_mm,z_touch_mm)\n");
+    }
+    let _ = writeln!(s, "G0 Z{}", n(safe));
+    let _ = writeln!(s, "G0 X{} Y{}", n(balls.x0), n(balls.y));
+    // Dwells are written to 1 ms; `clock` is the program time written so
+    // far, so the rounding never accumulates over the passes.
+    let mut clock = 0.0;
+    let dwell = |s: &mut String, clock: &mut f64, until: f64| {
+        let v = ((until - *clock) * 1e3).round() / 1e3;
+        *clock += v;
+        if v > 0.0 {
+            if fanuc {
+                let _ = writeln!(s, "G4 X{}", fmt_f64(v));
+            } else {
+                let _ = writeln!(s, "G4 P{}", fmt_f64(v));
+            }
+        }
+    };
+    let mut running: Option<f64> = None;
+    for k in 0..passes {
+        comment(
+            &mut s,
+            &format!("pass {k} at t = {} min", fmt_f64(k as f64 * period_min)),
+        );
+        if running.take().is_some_and(|v| v > 0.0) {
+            s.push_str("M5\n");
+        }
+        s.push_str("M19\n");
+        for i in 0..balls.heights.len() {
+            let [x, _, z] = balls.centre(i);
+            let top = balls.top(i);
+            let _ = writeln!(s, "G0 X{}", n(x));
+            let _ = writeln!(s, "G0 Z{}", n(top + motion.approach));
+            let probe = if fanuc { "G31" } else { "G38.2" };
+            let _ = writeln!(
+                s,
+                "{probe} Z{} F{}",
+                n(top - motion.overtravel),
+                fmt_f64(motion.feed)
+            );
+            if !fanuc {
+                let _ = writeln!(s, "(LOG,{k},{i},{},#5063)", n(z));
+            }
+            let _ = writeln!(s, "G0 Z{}", n(safe));
+        }
+        let _ = writeln!(s, "G0 X{}", n(balls.x0));
+        clock += pass_s;
+        if k + 1 == passes {
+            break;
+        }
+        // Spindle programme from the end of this pass to the next one.
+        let (mut a, b) = (k as f64 * period_s + pass_s, (k + 1) as f64 * period_s);
+        while a < b - 1e-9 {
+            let j = ((a / 60.0 / step_min) + 1e-12).floor() as usize;
+            let speed = speeds.get(j).copied().unwrap_or(0.0);
+            let end = (((j + 1) as f64) * step_min * 60.0).min(b);
+            if running != Some(speed) {
+                if speed > 0.0 {
+                    let _ = writeln!(s, "S{} M3", fmt_f64(speed));
+                } else if running.is_some_and(|v| v > 0.0) {
+                    s.push_str("M5\n");
+                }
+                running = Some(speed);
+            }
+            dwell(&mut s, &mut clock, end);
+            a = end;
+        }
+    }
+    if !fanuc {
+        s.push_str("(LOGCLOSE)\n");
+    }
+    s.push_str("M30\n%\n");
+    Ok(ThermalProgram {
+        text: s,
+        passes,
+        pass_s,
+        duration_min,
+        time_s: (passes - 1) as f64 * period_s + pass_s,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gcode::{Dialect as GDialect, InterpOptions, StatsOptions, stats};
+
+    fn balls() -> BallArray {
+        BallArray {
+            x0: -100.0,
+            pitch: 50.0,
+            y: 20.0,
+            heights: vec![-50.0, -150.0, -250.0, -350.0],
+            diameter: 25.4,
+        }
+    }
+
+    fn time_of(text: &str, dialect: Dialect) -> f64 {
+        let mut o = StatsOptions::default();
+        if dialect == Dialect::Fanuc {
+            o.interp = InterpOptions {
+                dialect: GDialect::Fanuc {
+                    decimal_point_programming: true,
+                },
+                ..InterpOptions::default()
+            };
+        }
+        stats(text.as_bytes(), &o).unwrap().total_time()
+    }
+
+    #[test]
+    fn passes_start_every_period_and_the_programme_lasts_its_duration() {
+        let b = balls();
+        let m = ProbeMotion::default();
+        // Steps of 25 min are not a multiple of the 10 min period.
+        let speeds = [2000.0, 0.0, 6000.0, 4000.0];
+        for dialect in [Dialect::LinuxCnc, Dialect::Fanuc] {
+            let p = thermal_program(&b, &m, &speeds, 25.0, 10.0, dialect).unwrap();
+            // 100 min of programme: passes at 0, 10, …, 100 min.
+            assert_eq!(p.passes, 11);
+            // One pass, by hand: rapids between balls (3 × 50 mm there, 150
+            // back), down and up to each ball, probing 3 mm per ball.
+            let safe = -50.0 + 12.7 + 10.0;
+            let mut rapid = 300.0;
+            for z in [-50.0, -150.0, -250.0, -350.0] {
+                let top: f64 = z + 12.7;
+                rapid += (safe - (top + 2.0)) + (safe - (top - 1.0));
+            }
+            let want_pass = 60.0 * (rapid / 10_000.0 + 4.0 * 3.0 / 100.0);
+            assert!(
+                (p.pass_s - want_pass).abs() < 1e-9,
+                "{} vs {want_pass}",
+                p.pass_s
+            );
+            // The engine's time estimate up to the start of every pass.
+            let lines: Vec<&str> = p.text.lines().collect();
+            let starts: Vec<usize> = lines
+                .iter()
+                .enumerate()
+                .filter(|(_, l)| l.to_uppercase().starts_with("(PASS "))
+                .map(|(i, _)| i)
+                .collect();
+            assert_eq!(starts.len(), 11);
+            let t0 = time_of(&lines[..starts[0]].join("\n"), dialect);
+            for (k, &at) in starts.iter().enumerate() {
+                let t = time_of(&lines[..at].join("\n"), dialect) - t0;
+                assert!((t - k as f64 * 600.0).abs() < 6e-4, "pass {k} at {t} s");
+            }
+            let total = time_of(&p.text, dialect) - t0;
+            assert!((total - (1000.0 * 6.0 + want_pass)).abs() < 1e-3, "{total}");
+            assert!((p.time_s - total).abs() < 1e-3);
+            // Probing moves: 4 per pass, to the ball tops minus the overtravel.
+            let probe = if dialect == Dialect::Fanuc {
+                "G31 Z"
+            } else {
+                "G38.2 Z"
+            };
+            let targets: Vec<f64> = lines
+                .iter()
+                .filter_map(|l| l.strip_prefix(probe))
+                .map(|r| r.split_whitespace().next().unwrap().parse().unwrap())
+                .collect();
+            assert_eq!(targets.len(), 44);
+            for (j, t) in targets.iter().enumerate() {
+                let want = b.heights[j % 4] + 12.7 - 1.0;
+                assert!((t - want).abs() < 1e-9);
+            }
+            // Speeds in order: 2000 (0–25), off (25–50), 6000, 4000.
+            // The spindle restarts after every pass (it stops for probing):
+            // 2000 after the passes at 0, 10, 20; off after 30, 40; 6000
+            // after 50, 60, 70; 4000 at 75 (inside the 70–80 interval) and
+            // after 80, 90.
+            let mut s_words: Vec<&str> = lines
+                .iter()
+                .filter(|l| l.starts_with('S'))
+                .copied()
+                .collect();
+            assert_eq!(s_words.len(), 3 + 3 + 3);
+            s_words.dedup();
+            assert_eq!(s_words, vec!["S2000 M3", "S6000 M3", "S4000 M3"]);
+        }
+    }
+
+    #[test]
+    fn bad_settings_are_refused() {
+        let b = balls();
+        let m = ProbeMotion::default();
+        let slow = ProbeMotion { feed: 1.0, ..m };
+        assert!(matches!(
+            thermal_program(&b, &slow, &[1000.0], 60.0, 1.0, Dialect::LinuxCnc),
+            Err(ThermalProgramError::PassTooLong { .. })
+        ));
+        assert!(thermal_program(&b, &m, &[], 60.0, 10.0, Dialect::LinuxCnc).is_err());
+        assert!(thermal_program(&b, &m, &[-1.0], 60.0, 10.0, Dialect::LinuxCnc).is_err());
+        assert!(thermal_program(&b, &m, &[1000.0], 60.0, 0.0, Dialect::LinuxCnc).is_err());
+        let none = BallArray {
+            heights: vec![],
+            ..b
+        };
+        assert!(thermal_program(&none, &m, &[1000.0], 60.0, 10.0, Dialect::LinuxCnc).is_err());
+    }
+}
