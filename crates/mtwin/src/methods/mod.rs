@@ -7,3 +7,4 @@ pub mod compensate;
 pub mod skiving;
 pub mod thermal;
 pub mod tracker;
+pub mod twin;
