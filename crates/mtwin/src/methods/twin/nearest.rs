@@ -13,6 +13,14 @@
 //!    missed (a proven bound, not a search window);
 //! 3. the exact point-to-segment distance of every segment of those runs.
 //!
+//! A shortcut with the same proof skips the tree for most queries: every run
+//! `i` knows its *clearance* `c_i`, the smallest distance from its box to the
+//! box of any run more than [`WINDOW`] runs away in time (capped at
+//! [`CLEARANCE_CAP_MM`]). If `dist(P, box_i) + r < c_i`, a segment within `r`
+//! of `P` lies in a box within `r + dist(P, box_i) < c_i` of box `i` (triangle
+//! inequality), hence in a run of the window `i ± WINDOW`, which is searched
+//! exhaustively instead.
+//!
 //! Ties: every candidate within [`TIE_MM`] of the smallest distance is equally
 //! near; the one closest in time to the actual sample wins (time measured in
 //! samples: the point at parameter `u` of segment `k` is at time `k + u`).
@@ -21,6 +29,7 @@
 //! is taken: `u = clamp(j − k, 0, 1)`.
 
 use nalgebra::Vector3;
+use rayon::prelude::*;
 use rstar::{AABB, RTree, RTreeObject};
 
 /// Distances within this many mm of the smallest one are ties (05 §6).
@@ -29,6 +38,12 @@ pub const TIE_MM: f64 = 1e-12;
 /// Segments per R-tree leaf: consecutive segments are close in space, so one box holds
 /// a short run of them (fewer tree entries, a cheap exhaustive check inside).
 pub const LEAF: usize = 8;
+
+/// Runs on each side of the time-matched run searched by the clearance shortcut.
+pub const WINDOW: usize = 2;
+
+/// Largest clearance looked for, mm (beyond it the tree is used).
+pub const CLEARANCE_CAP_MM: f64 = 2.0;
 
 /// Extra half-width added to the query cube, mm: covers rounding in the computed
 /// distances so that a segment at exactly `d0` is never lost.
@@ -41,6 +56,29 @@ struct Run {
     count: u32,
     lo: [f64; 3],
     hi: [f64; 3],
+}
+
+impl Run {
+    /// Distance from the box to the point `p` (0 inside).
+    #[inline]
+    fn point_distance(&self, p: &Vector3<f64>) -> f64 {
+        let mut s = 0.0;
+        for c in 0..3 {
+            let d = (self.lo[c] - p[c]).max(p[c] - self.hi[c]).max(0.0);
+            s += d * d;
+        }
+        s.sqrt()
+    }
+
+    /// Distance between two boxes (0 when they meet).
+    fn box_distance(&self, o: &Run) -> f64 {
+        let mut s = 0.0;
+        for c in 0..3 {
+            let d = (o.lo[c] - self.hi[c]).max(self.lo[c] - o.hi[c]).max(0.0);
+            s += d * d;
+        }
+        s.sqrt()
+    }
 }
 
 impl RTreeObject for Run {
@@ -75,6 +113,10 @@ pub struct CommandPath {
     tips: Vec<Vector3<f64>>,
     axes: Vec<Vector3<f64>>,
     tree: RTree<Run>,
+    /// The runs in time order.
+    runs: Vec<Run>,
+    /// Clearance of each run (see the module documentation), mm.
+    clearance: Vec<f64>,
 }
 
 /// One candidate point on a segment.
@@ -112,10 +154,28 @@ impl CommandPath {
                 }
             })
             .collect();
+        let tree = RTree::bulk_load(runs.clone());
+        let clearance = runs
+            .par_iter()
+            .enumerate()
+            .map(|(i, run)| {
+                let r = CLEARANCE_CAP_MM;
+                let env = AABB::from_corners(
+                    [run.lo[0] - r, run.lo[1] - r, run.lo[2] - r],
+                    [run.hi[0] + r, run.hi[1] + r, run.hi[2] + r],
+                );
+                tree.locate_in_envelope_intersecting(&env)
+                    .filter(|o| (o.first as usize / LEAF).abs_diff(i) > WINDOW)
+                    .map(|o| run.box_distance(o))
+                    .fold(CLEARANCE_CAP_MM, f64::min)
+            })
+            .collect();
         CommandPath {
             tips,
             axes,
-            tree: RTree::bulk_load(runs),
+            tree,
+            runs,
+            clearance,
         }
     }
 
@@ -195,13 +255,24 @@ impl CommandPath {
         let env = AABB::from_corners([p.x - r, p.y - r, p.z - r], [p.x + r, p.y + r, p.z + r]);
         scratch.clear();
         let mut dmin = f64::INFINITY;
-        for run in self.tree.locate_in_envelope_intersecting(&env) {
+        let mut visit = |run: &Run| {
             for k in run.first as usize..(run.first + run.count) as usize {
                 let c = self.candidate(p, k, jf);
                 if c.d <= r {
                     dmin = dmin.min(c.d);
                     scratch.push((c.d, c.gap, c.k, c.u));
                 }
+            }
+        };
+        let ri = j.min(last) / LEAF;
+        if self.runs[ri].point_distance(p) + r < self.clearance[ri] {
+            let hi = (ri + WINDOW).min(self.runs.len() - 1);
+            for run in &self.runs[ri.saturating_sub(WINDOW)..=hi] {
+                visit(run);
+            }
+        } else {
+            for run in self.tree.locate_in_envelope_intersecting(&env) {
+                visit(run);
             }
         }
         let mut best: Option<Candidate> = None;
