@@ -20,13 +20,14 @@ use super::gcode::{interp_options, located, open};
 use crate::output::{Format, print_json, progress};
 
 /// PRED.csv header (contract).
-const HEADER: &str =
-    "t_s,x_cmd,y_cmd,z_cmd,i_cmd,j_cmd,k_cmd,x,y,z,i,j,k,tip_error,axis_error\n";
+const HEADER: &str = "t_s,x_cmd,y_cmd,z_cmd,i_cmd,j_cmd,k_cmd,x,y,z,i,j,k,tip_error,axis_error\n";
 
 #[derive(Debug, clap::Subcommand)]
 pub enum Command {
     /// Predict the tool-tip and tool-axis trajectory errors of a program or of axis commands.
-    #[command(after_help = "Examples:\n  mtwin twin predict --machine examples/machines/ac-trunnion-with-errors.toml --commands cmd.csv --out pred.csv\n  mtwin twin predict --machine M.toml --gcode part.ngc --tcp --ts 0.001 --out pred.csv --plot plots --format json")]
+    #[command(
+        after_help = "Examples:\n  mtwin twin predict --machine examples/machines/ac-trunnion-with-errors.toml --commands cmd.csv --out pred.csv\n  mtwin twin predict --machine M.toml --gcode part.ngc --tcp --ts 0.001 --out pred.csv --plot plots --format json"
+    )]
     Predict(PredictArgs),
 }
 
@@ -108,7 +109,10 @@ fn run_twin(
     let r = if let Some(path) = &a.commands {
         twin::predict_csv(&twin, path, open(path)?, sink, &mut hook)
     } else {
-        let path = a.gcode.as_deref().context("--commands or --gcode is needed")?;
+        let path = a
+            .gcode
+            .as_deref()
+            .context("--commands or --gcode is needed")?;
         let mut opts = InterpolateOptions::new(a.ts);
         opts.interp = interp_options(&a.offsets)?;
         opts.interp.tcp_at_start = a.tcp;
@@ -180,7 +184,8 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
             ("axis_error.svg", twin::plot::axis_error_svg(&pts)),
         ] {
             let f = dir.join(name);
-            write_atomic(&f, svg.as_bytes()).with_context(|| format!("cannot write {}", f.display()))?;
+            write_atomic(&f, svg.as_bytes())
+                .with_context(|| format!("cannot write {}", f.display()))?;
             plots.push(f);
         }
     }
@@ -193,7 +198,10 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
                 v["breakdown"] = breakdown_json(&s, sv, ge);
             }
             if !plots.is_empty() {
-                v["plots"] = plots.iter().map(|p| json!(p.display().to_string())).collect();
+                v["plots"] = plots
+                    .iter()
+                    .map(|p| json!(p.display().to_string()))
+                    .collect();
             }
             print_json(&v)
         }
@@ -228,7 +236,11 @@ fn summary_json(s: &TwinSummary) -> Value {
 
 /// The source whose tool-tip RMS is larger in a stretch.
 fn dominant(servo: f64, geometry: f64) -> &'static str {
-    if servo >= geometry { "servo" } else { "geometry" }
+    if servo >= geometry {
+        "servo"
+    } else {
+        "geometry"
+    }
 }
 
 fn breakdown_json(all: &TwinSummary, sv: &TwinSummary, ge: &TwinSummary) -> Value {
@@ -301,7 +313,10 @@ fn print_breakdown(all: &TwinSummary, sv: &TwinSummary, ge: &TwinSummary) {
             s.axis_error_max * 1e6
         );
     }
-    println!("  dominant overall: {}", dominant(sv.tip_error_rms, ge.tip_error_rms));
+    println!(
+        "  dominant overall: {}",
+        dominant(sv.tip_error_rms, ge.tip_error_rms)
+    );
     println!(
         "\n  {:>21} {:>12} {:>12} {:>12}  dominant",
         "path, mm", "all RMS", "servo RMS", "geom. RMS"
