@@ -250,7 +250,7 @@ impl Twin {
         qs: &[f64],
     ) -> Result<(Vec<TwinSample>, TwinSummary), TwinError> {
         let n = self.names.len().max(1);
-        if qs.len() % n != 0 {
+        if !qs.len().is_multiple_of(n) {
             return Err(TwinError::AxisCount {
                 expected: n,
                 found: qs.len() % n,

@@ -113,7 +113,7 @@ fn matches_an_independent_computation_of_every_definition() {
             [0, 1].map(|_| {
                 (
                     rng.gen_range(0.2..1.5),
-                    rng.gen_range(0.0..6.28),
+                    rng.gen_range(0.0..std::f64::consts::TAU),
                     amp[i] * rng.gen_range(0.2..0.5),
                 )
             })
