@@ -156,88 +156,67 @@ fn only_modes_separate_the_sources() {
     assert!(["servo", "geometry"].contains(&bd["dominant"].as_str().unwrap()));
 }
 
+/// Runs the twin on a bad command file `name` (text `text`): exit 1, the stderr must hold
+/// `want`, and no output (nor temporary) file is left.
+fn refused(dir: &Path, name: &str, text: &str, want: &str) {
+    std::fs::write(dir.join(name), text).unwrap();
+    let before = std::fs::read_dir(dir).unwrap().count();
+    let m = example("ac-trunnion-twin.toml");
+    let args = [
+        "twin",
+        "predict",
+        "--machine",
+        &m,
+        "--commands",
+        name,
+        "--out",
+        "pred.csv",
+    ];
+    let o = mtwin(dir, &args);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains(want), "{}", stderr(&o));
+    assert!(!dir.join("pred.csv").exists());
+    assert_eq!(
+        std::fs::read_dir(dir).unwrap().count(),
+        before,
+        "no temporary file left"
+    );
+}
+
 #[test]
 fn uneven_sampling_and_missing_columns_are_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let m = example("ac-trunnion-twin.toml");
     let p = write_commands(dir.path(), 100);
     let text = std::fs::read_to_string(&p).unwrap();
     // Data row 41 (t = 0.04 s) is on line 43; move it to 0.0405 s.
     let mut lines: Vec<String> = text.lines().map(String::from).collect();
     lines[42] = lines[42].replacen(",0.04,", ",0.0405,", 1);
-    std::fs::write(dir.path().join("uneven.csv"), lines.join("\n")).unwrap();
-    let o = mtwin(
+    refused(
         dir.path(),
-        &[
-            "twin",
-            "predict",
-            "--machine",
-            &m,
-            "--commands",
-            "uneven.csv",
-            "--out",
-            "pred.csv",
-        ],
+        "uneven.csv",
+        &lines.join("\n"),
+        "uneven.csv:43:2: t_s = 0.0405",
     );
-    assert_eq!(o.status.code(), Some(1));
-    assert!(
-        stderr(&o).contains("uneven.csv:43:2: t_s = 0.0405"),
-        "{}",
-        stderr(&o)
-    );
-    assert!(!dir.path().join("pred.csv").exists());
-    assert_eq!(
-        std::fs::read_dir(dir.path()).unwrap().count(),
-        2,
-        "no temporary file left"
-    );
-
-    std::fs::write(dir.path().join("noc.csv"), "t_s,X,Y,Z,A\n0,0,0,0,0\n").unwrap();
-    let o = mtwin(
+    // Time going back.
+    lines[42] = lines[42].replacen(",0.0405,", ",0.039,", 1);
+    refused(
         dir.path(),
-        &[
-            "twin",
-            "predict",
-            "--machine",
-            &m,
-            "--commands",
-            "noc.csv",
-            "--out",
-            "pred.csv",
-        ],
+        "back.csv",
+        &lines.join("\n"),
+        "back.csv:43:2: t_s = 0.039 does not increase",
     );
-    assert_eq!(o.status.code(), Some(1));
-    assert!(
-        stderr(&o).contains("noc.csv:1: missing column `C`"),
-        "{}",
-        stderr(&o)
+    refused(
+        dir.path(),
+        "noc.csv",
+        "t_s,X,Y,Z,A\n0,0,0,0,0\n",
+        "noc.csv:1: missing column `C`",
     );
-    assert!(!dir.path().join("pred.csv").exists());
-
     // Commands every 2 ms against 1 ms servo models.
-    std::fs::write(
-        dir.path().join("slow.csv"),
-        "t_s,X,Y,Z,A,C\n0,0,0,0,0,0\n0.002,0,0,0,0,0\n",
-    )
-    .unwrap();
-    let o = mtwin(
+    refused(
         dir.path(),
-        &[
-            "twin",
-            "predict",
-            "--machine",
-            &m,
-            "--commands",
-            "slow.csv",
-            "--out",
-            "pred.csv",
-        ],
-    );
-    assert_eq!(o.status.code(), Some(1));
-    assert!(
-        stderr(&o).contains("servo model runs at ts = 0.001 s"),
-        "{}",
-        stderr(&o)
+        "slow.csv",
+        "t_s,X,Y,Z,A,C\n0,0,0,0,0,0\n0.002,0,0,0,0,0\n",
+        "servo model runs at ts = 0.001 s",
     );
 }
 

@@ -318,11 +318,16 @@ pub fn angle_between(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
-    /// Exhaustive reference: every segment, the same tie rule written plainly.
-    fn brute(tips: &[Vector3<f64>], p: &Vector3<f64>, j: usize) -> (usize, f64, f64) {
+    /// Exhaustive reference: every segment, the same tie rule written plainly:
+    /// (segment, u, distance).
+    pub(in crate::methods::twin) fn brute(
+        tips: &[Vector3<f64>],
+        p: &Vector3<f64>,
+        j: usize,
+    ) -> (usize, f64, f64) {
         let mut all = Vec::new();
         for k in 0..tips.len() - 1 {
             let (a, b) = (tips[k], tips[k + 1]);

@@ -71,31 +71,6 @@ fn servo_reference(s: &ServoTable, u: &[f64]) -> Vec<f64> {
     y.iter().map(|v| v + u0).collect()
 }
 
-/// Exhaustive nearest point over every segment with the tie rule written plainly:
-/// (segment, u, distance).
-fn nearest_reference(tips: &[Vector3<f64>], p: &Vector3<f64>, j: usize) -> (usize, f64, f64) {
-    let mut best = (0, 0.0, f64::INFINITY, f64::INFINITY);
-    let mut all = Vec::with_capacity(tips.len());
-    for k in 0..tips.len() - 1 {
-        let (a, b) = (tips[k], tips[k + 1]);
-        let d = b - a;
-        let u = if d.norm() <= 1e-12 {
-            (j as f64 - k as f64).clamp(0.0, 1.0)
-        } else {
-            ((p - a).dot(&d) / d.dot(&d)).clamp(0.0, 1.0)
-        };
-        all.push((k, u, (p - (a + d * u)).norm()));
-    }
-    let dmin = all.iter().map(|c| c.2).fold(f64::INFINITY, f64::min);
-    for &(k, u, d) in &all {
-        let gap = (k as f64 + u - j as f64).abs();
-        if d <= dmin + 1e-12 && gap < best.3 {
-            best = (k, u, d, gap);
-        }
-    }
-    (best.0, best.1, best.2)
-}
-
 #[test]
 fn matches_an_independent_computation_of_every_definition() {
     let mut m = example("ac-trunnion-with-errors.toml");
@@ -171,7 +146,7 @@ fn matches_an_independent_computation_of_every_definition() {
     let worst = checked
         .par_iter()
         .map(|&j| {
-            let (k, u, d) = nearest_reference(&tips, &act[j].0, j);
+            let (k, u, d) = nearest::tests::brute(&tips, &act[j].0, j);
             let o = (cmd[k].1 * (1.0 - u) + cmd[k + 1].1 * u).normalize();
             let eo = angle_between(&act[j].1, &o);
             let r = &rows[j];
