@@ -26,7 +26,7 @@ const HEADER: &str = "t_s,x_cmd,y_cmd,z_cmd,i_cmd,j_cmd,k_cmd,x,y,z,i,j,k,tip_er
 pub enum Command {
     /// Predict the tool-tip and tool-axis trajectory errors of a program or of axis commands.
     #[command(
-        after_help = "Examples:\n  mtwin twin predict --machine examples/machines/ac-trunnion-with-errors.toml --commands cmd.csv --out pred.csv\n  mtwin twin predict --machine M.toml --gcode part.ngc --tcp --ts 0.001 --out pred.csv --plot plots --format json"
+        after_help = "Example:\n  mtwin twin predict --machine examples/machines/ac-trunnion-twin.toml --commands cmd.csv --out pred.csv\n  mtwin twin predict --machine examples/machines/ac-trunnion-twin.toml --gcode part.nc --tcp --ts 0.001 --out pred.csv --plot plots --format json"
     )]
     Predict(PredictArgs),
 }
