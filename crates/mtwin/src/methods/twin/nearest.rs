@@ -52,8 +52,8 @@ const SLACK_MM: f64 = 1e-9;
 /// A run of consecutive segments `first..first+count` with its bounding box.
 #[derive(Debug, Clone)]
 struct Run {
-    first: u32,
-    count: u32,
+    first: usize,
+    count: usize,
     lo: [f64; 3],
     hi: [f64; 3],
 }
@@ -130,7 +130,10 @@ struct Candidate {
 
 impl CommandPath {
     /// The polyline through `tips` (mm, W) with unit tool `axes` (W), one per command
-    /// sample, in time order. `tips` and `axes` must have the same length.
+    /// sample, in time order.
+    ///
+    /// # Panics
+    /// When `tips` and `axes` differ in length.
     pub fn new(tips: Vec<Vector3<f64>>, axes: Vec<Vector3<f64>>) -> Self {
         assert_eq!(tips.len(), axes.len(), "one tool axis per tool tip");
         let n_seg = tips.len().saturating_sub(1);
@@ -147,8 +150,8 @@ impl CommandPath {
                     }
                 }
                 Run {
-                    first: first as u32,
-                    count: count as u32,
+                    first,
+                    count,
                     lo,
                     hi,
                 }
@@ -165,7 +168,7 @@ impl CommandPath {
                     [run.hi[0] + r, run.hi[1] + r, run.hi[2] + r],
                 );
                 tree.locate_in_envelope_intersecting(&env)
-                    .filter(|o| (o.first as usize / LEAF).abs_diff(i) > WINDOW)
+                    .filter(|o| (o.first / LEAF).abs_diff(i) > WINDOW)
                     .map(|o| run.box_distance(o))
                     .fold(CLEARANCE_CAP_MM, f64::min)
             })
@@ -256,7 +259,7 @@ impl CommandPath {
         scratch.clear();
         let mut dmin = f64::INFINITY;
         let mut visit = |run: &Run| {
-            for k in run.first as usize..(run.first + run.count) as usize {
+            for k in run.first..run.first + run.count {
                 let c = self.candidate(p, k, jf);
                 if c.d <= r {
                     dmin = dmin.min(c.d);

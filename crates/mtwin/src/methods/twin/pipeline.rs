@@ -297,11 +297,10 @@ impl Spool {
 }
 
 fn write_f64s(w: &mut impl Write, v: &[f64]) -> io::Result<()> {
-    let mut buf = Vec::with_capacity(v.len() * 8);
     for x in v {
-        buf.extend_from_slice(&x.to_le_bytes());
+        w.write_all(&x.to_le_bytes())?;
     }
-    w.write_all(&buf)
+    Ok(())
 }
 
 /// A run in progress: push the command samples, then [`finish`](Predictor::finish).
