@@ -448,3 +448,39 @@ fn long_runs_spool_to_a_file_with_the_same_result() {
         assert_eq!(row.t, row.index as f64 * 0.001);
     }
 }
+
+#[test]
+fn progress_reaches_the_total_and_rows_come_in_order() {
+    let twin = Twin::new(&lagged_xyz(0.9), Sources::All).unwrap();
+    let mut p = twin.start(0.001).unwrap();
+    let n = 40_000u64;
+    for k in 0..n {
+        p.push(k as f64 * 0.001, &[0.01 * k as f64, 0.0, 0.0])
+            .unwrap();
+    }
+    assert_eq!(p.samples(), n);
+    let mut seen = Vec::new();
+    let mut next = 0u64;
+    p.finish(
+        |r| {
+            assert_eq!(r.index, next);
+            next += 1;
+            Ok(())
+        },
+        &mut |e| seen.push(e),
+    )
+    .unwrap();
+    assert_eq!(next, n);
+    assert_eq!(seen.first(), Some(&Progress::Commands(n)));
+    assert_eq!(seen.last(), Some(&Progress::Errors { done: n, total: n }));
+    // A failing sink stops the run with its error.
+    let mut p = twin.start(0.001).unwrap();
+    p.push(0.0, &[0.0; 3]).unwrap();
+    let e = p
+        .finish(|_| Err(std::io::Error::other("disk full")), &mut |_| {})
+        .unwrap_err();
+    assert!(
+        matches!(e, TwinError::Sink(_)) && e.to_string() == "disk full",
+        "{e}"
+    );
+}
