@@ -107,13 +107,13 @@ fn parse_offsets(items: &[String]) -> anyhow::Result<Axes> {
     Ok(off)
 }
 
-fn open(path: &Path) -> anyhow::Result<BufReader<File>> {
+pub(super) fn open(path: &Path) -> anyhow::Result<BufReader<File>> {
     let f = File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
     Ok(BufReader::new(f))
 }
 
 /// `file:line:col: message` for an error with a source position.
-fn located(
+pub(super) fn located(
     path: &Path,
     line: Option<u64>,
     column: u32,
@@ -125,7 +125,7 @@ fn located(
     }
 }
 
-fn interp_options(offsets: &[String]) -> anyhow::Result<InterpOptions> {
+pub(super) fn interp_options(offsets: &[String]) -> anyhow::Result<InterpOptions> {
     let mut o = InterpOptions::default();
     o.work_offsets[0] = parse_offsets(offsets)?;
     Ok(o)

@@ -15,6 +15,7 @@ mod testpiece;
 mod thermal;
 mod thermal_compensate;
 mod tracker;
+mod twin;
 
 use clap::Subcommand;
 
@@ -76,6 +77,9 @@ pub enum Command {
         after_help = "Example:\n  mtwin compensate --machine examples/machines/ac-trunnion-with-errors.toml --program part.ngc --out part-comp.ngc --tol 0.001"
     )]
     Compensate(compensate::Args),
+    /// Digital twin of five-axis trajectory error: servo + geometry → tool-tip and tool-axis error (spec 05).
+    #[command(subcommand)]
+    Twin(twin::Command),
 }
 
 /// Run one subcommand.
@@ -96,5 +100,6 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Skiving(c) => skiving::run(c),
         Command::Testpiece(c) => testpiece::run(c),
         Command::Compensate(a) => compensate::run(a),
+        Command::Twin(c) => twin::run(c),
     }
 }

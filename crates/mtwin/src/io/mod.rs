@@ -8,9 +8,11 @@
 mod atomic;
 mod diagnostic;
 mod number;
+mod rows;
 mod table;
 
 pub use atomic::{write_atomic, write_atomic_with};
 pub use diagnostic::{Diagnostic, Diagnostics};
 pub use number::{fmt_f64, write_csv_row};
+pub use rows::CsvRows;
 pub use table::{Column, Table};

@@ -159,32 +159,7 @@ impl Table {
 
     /// The columns named `names`; one diagnostic listing every missing column otherwise.
     pub fn require(&self, names: &[&str]) -> Result<Vec<Column>, Diagnostic> {
-        let missing: Vec<&str> = names
-            .iter()
-            .copied()
-            .filter(|n| self.column(n).is_none())
-            .collect();
-        if missing.is_empty() {
-            Ok(names
-                .iter()
-                .map(|n| self.column(n).expect("checked"))
-                .collect())
-        } else {
-            Err(Diagnostic::at_line(
-                &self.path,
-                self.header_line(),
-                format!(
-                    "missing column{} {} (the header has: {})",
-                    if missing.len() > 1 { "s" } else { "" },
-                    missing
-                        .iter()
-                        .map(|m| format!("`{m}`"))
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                    self.headers.join(", ")
-                ),
-            ))
-        }
+        require_columns(&self.path, self.header_line, &self.headers, names)
     }
 
     /// 1-based line of the header row.
@@ -199,29 +174,13 @@ impl Table {
 
     /// A cell as a finite number, or a diagnostic with file, line and column.
     pub fn number(&self, row: usize, col: Column) -> Result<f64, Diagnostic> {
-        let s = self.text(row, col);
-        let name = &self.headers[col.index];
-        match s.parse::<f64>() {
-            Ok(v) if v.is_finite() => Ok(v),
-            Ok(_) => Err(Diagnostic::at(
-                &self.path,
-                self.lines[row],
-                col.index + 1,
-                format!("column `{name}` holds `{s}`, which is not a finite number"),
-            )),
-            Err(_) if s.is_empty() => Err(Diagnostic::at(
-                &self.path,
-                self.lines[row],
-                col.index + 1,
-                format!("column `{name}` is empty; a number is needed"),
-            )),
-            Err(_) => Err(Diagnostic::at(
-                &self.path,
-                self.lines[row],
-                col.index + 1,
-                format!("column `{name}` holds `{s}`, which is not a number"),
-            )),
-        }
+        parse_number(
+            &self.path,
+            self.lines[row],
+            col.index,
+            &self.headers[col.index],
+            self.text(row, col),
+        )
     }
 
     /// A whole column as finite numbers; every bad cell is reported.
@@ -266,9 +225,78 @@ impl Table {
     }
 }
 
+/// The columns of `headers` (the header row at `line` of `path`) named `names`; one
+/// diagnostic listing every missing column otherwise.
+pub(super) fn require_columns(
+    path: &Path,
+    line: usize,
+    headers: &[String],
+    names: &[&str],
+) -> Result<Vec<Column>, Diagnostic> {
+    let find = |n: &str| headers.iter().position(|h| h == n);
+    let missing: Vec<&str> = names
+        .iter()
+        .copied()
+        .filter(|n| find(n).is_none())
+        .collect();
+    if missing.is_empty() {
+        Ok(names
+            .iter()
+            .filter_map(|n| find(n).map(|index| Column { index }))
+            .collect())
+    } else {
+        Err(Diagnostic::at_line(
+            path,
+            line,
+            format!(
+                "missing column{} {} (the header has: {})",
+                if missing.len() > 1 { "s" } else { "" },
+                missing
+                    .iter()
+                    .map(|m| format!("`{m}`"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                headers.join(", ")
+            ),
+        ))
+    }
+}
+
+/// The cell text `s` of column `name` (0-based `index`) at `line` of `path` as a finite
+/// number, or a diagnostic saying why not.
+pub(super) fn parse_number(
+    path: &Path,
+    line: usize,
+    index: usize,
+    name: &str,
+    s: &str,
+) -> Result<f64, Diagnostic> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(_) => Err(Diagnostic::at(
+            path,
+            line,
+            index + 1,
+            format!("column `{name}` holds `{s}`, which is not a finite number"),
+        )),
+        Err(_) if s.is_empty() => Err(Diagnostic::at(
+            path,
+            line,
+            index + 1,
+            format!("column `{name}` is empty; a number is needed"),
+        )),
+        Err(_) => Err(Diagnostic::at(
+            path,
+            line,
+            index + 1,
+            format!("column `{name}` holds `{s}`, which is not a number"),
+        )),
+    }
+}
+
 /// Split one CSV line into trimmed fields; `"` quotes a field (`""` inside is a quote).
 /// Returns the 1-based column of an unclosed quote as the error.
-fn split_fields(line: &str) -> Result<Vec<String>, usize> {
+pub(super) fn split_fields(line: &str) -> Result<Vec<String>, usize> {
     let mut out = Vec::new();
     let mut cur = String::new();
     let mut chars = line.char_indices().peekable();

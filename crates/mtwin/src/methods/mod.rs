@@ -8,3 +8,4 @@ pub mod skiving;
 pub mod testpiece;
 pub mod thermal;
 pub mod tracker;
+pub mod twin;

@@ -1,1 +1,2 @@
+pub mod path3d;
 pub mod svg;

@@ -20,13 +20,13 @@ pub struct Series {
 
 const SIZE: f64 = 480.0;
 
-fn escape(s: &str) -> String {
+pub(crate) fn escape(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
 }
 
-fn header(s: &mut String, w: f64, h: f64, title: &str) {
+pub(crate) fn header(s: &mut String, w: f64, h: f64, title: &str) {
     let _ = writeln!(
         s,
         r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif" font-size="12">"#
@@ -249,7 +249,7 @@ pub fn xy(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Strin
 }
 
 /// The smallest of 1, 2, 5 × 10^k not below `x` (1 for `x ≤ 0`).
-fn nice(x: f64) -> f64 {
+pub(crate) fn nice(x: f64) -> f64 {
     if x.is_nan() || x <= 0.0 || !x.is_finite() {
         return 1.0;
     }
@@ -261,7 +261,7 @@ fn nice(x: f64) -> f64 {
         .unwrap_or(10.0 * e)
 }
 
-fn fmt_tick(v: f64) -> String {
+pub(crate) fn fmt_tick(v: f64) -> String {
     let s = format!("{v:.3}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
     if s == "-0" { "0".into() } else { s.into() }
