@@ -332,46 +332,7 @@ fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
     }
     let comp = id.compensation();
     match a.format {
-        Format::Json => {
-            let mut v = Map::new();
-            let mut unc = Map::new();
-            for p in Pige::ALL {
-                let est = !id.unresolved.iter().any(|u| u.pige == p);
-                v.insert(
-                    p.name().into(),
-                    if est {
-                        json!(id.piges.get(p))
-                    } else {
-                        Value::Null
-                    },
-                );
-                unc.insert(p.name().into(), json!(id.uncertainty[p.index()]));
-            }
-            v.insert("uncertainty".into(), Value::Object(unc));
-            let mut rms = Map::new();
-            let mut len = Map::new();
-            for m in Mode::ALL {
-                rms.insert(m.label().into(), json!(id.residual_rms[m.index()]));
-                len.insert(m.label().into(), json!(id.lengths[m.index()]));
-            }
-            v.insert("residual_rms".into(), Value::Object(rms));
-            v.insert("bar_length".into(), Value::Object(len));
-            v.insert(
-                "compensation".into(),
-                json!({"A_line_y": comp.a_y, "A_line_z": comp.a_z, "C_line_x": comp.c_x, "C_line_y": comp.c_y}),
-            );
-            v.insert(
-                "unidentified".into(),
-                Value::Object(
-                    id.unresolved
-                        .iter()
-                        .map(|u| (u.pige.name().to_string(), json!(u.reason)))
-                        .collect(),
-                ),
-            );
-            v.insert("warnings".into(), json!(id.warnings));
-            print_json(&Value::Object(v))
-        }
+        Format::Json => print_json(&identify_json(&id)),
         Format::Human => {
             println!("Identified PIGEs (absolute, ± standard uncertainty):");
             for p in Pige::ALL {
@@ -416,6 +377,49 @@ fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// The `--format json` document of `ballbar identify` (also read by `mtwin report`).
+pub(crate) fn identify_json(id: &ballbar::Identification) -> Value {
+    let comp = id.compensation();
+    let mut v = Map::new();
+    let mut unc = Map::new();
+    for p in Pige::ALL {
+        let est = !id.unresolved.iter().any(|u| u.pige == p);
+        v.insert(
+            p.name().into(),
+            if est {
+                json!(id.piges.get(p))
+            } else {
+                Value::Null
+            },
+        );
+        unc.insert(p.name().into(), json!(id.uncertainty[p.index()]));
+    }
+    v.insert("uncertainty".into(), Value::Object(unc));
+    let mut rms = Map::new();
+    let mut len = Map::new();
+    for m in Mode::ALL {
+        rms.insert(m.label().into(), json!(id.residual_rms[m.index()]));
+        len.insert(m.label().into(), json!(id.lengths[m.index()]));
+    }
+    v.insert("residual_rms".into(), Value::Object(rms));
+    v.insert("bar_length".into(), Value::Object(len));
+    v.insert(
+        "compensation".into(),
+        json!({"A_line_y": comp.a_y, "A_line_z": comp.a_z, "C_line_x": comp.c_x, "C_line_y": comp.c_y}),
+    );
+    v.insert(
+        "unidentified".into(),
+        Value::Object(
+            id.unresolved
+                .iter()
+                .map(|u| (u.pige.name().to_string(), json!(u.reason)))
+                .collect(),
+        ),
+    );
+    v.insert("warnings".into(), json!(id.warnings));
+    Value::Object(v)
 }
 
 fn run_sensitivity(a: SensitivityArgs) -> anyhow::Result<()> {

@@ -74,20 +74,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let s = &summary;
     match a.format {
-        Format::Json => print_json(&json!({
-            "out": a.out.display().to_string(),
-            "blocks": s.blocks,
-            "blocks_changed": s.blocks_changed,
-            "blocks_subdivided": s.blocks_subdivided,
-            "blocks_inserted": s.blocks_inserted,
-            "arcs_converted": s.arcs_converted,
-            "largest_correction_um": s.largest_correction * 1e3,
-            "largest_correction_line": s.largest_correction_line,
-            "largest_rotary_correction_deg": s.largest_rotary_correction,
-            "axis_not_corrected": s.axis_not_corrected,
-            "largest_midpoint_deviation_um": s.largest_midpoint_deviation * 1e3,
-            "notes": s.notes,
-        })),
+        Format::Json => print_json(&summary_json(s, &a.out)),
         Format::Human => {
             println!(
                 "{} blocks → {}\nblocks changed {}, subdivided {} (+{} blocks), arcs converted {}\nlargest correction {:.2} µm (line {}), rotary {:.5}°",
@@ -110,4 +97,22 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// The `--format json` document of `compensate` (also read by `mtwin report`).
+pub(crate) fn summary_json(s: &Summary, out: &std::path::Path) -> serde_json::Value {
+    json!({
+        "out": out.display().to_string(),
+        "blocks": s.blocks,
+        "blocks_changed": s.blocks_changed,
+        "blocks_subdivided": s.blocks_subdivided,
+        "blocks_inserted": s.blocks_inserted,
+        "arcs_converted": s.arcs_converted,
+        "largest_correction_um": s.largest_correction * 1e3,
+        "largest_correction_line": s.largest_correction_line,
+        "largest_rotary_correction_deg": s.largest_rotary_correction,
+        "axis_not_corrected": s.axis_not_corrected,
+        "largest_midpoint_deviation_um": s.largest_midpoint_deviation * 1e3,
+        "notes": s.notes,
+    })
 }

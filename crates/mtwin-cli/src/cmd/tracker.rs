@@ -215,22 +215,7 @@ pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
     let unident = r.unidentifiable_names();
     let rot = params.is_rotation();
     match a.format {
-        Format::Json => print_json(&json!({
-            "rank": r.identifiability.rank,
-            "parameters": r.estimates.len(),
-            "unidentifiable": unident,
-            "rms_before": rms_before,
-            "rms_after": rms_after,
-            "condition_number": r.condition_number,
-            "sigma": r.sigma,
-            "estimates": r.estimates,
-            "registration": id.registration,
-            "relations": r.identifiability.relations.iter().map(|c| c.describe()).collect::<Vec<_>>(),
-            "outliers": r.outliers.flagged,
-            "convergence": r.convergence,
-            "warnings": r.warnings,
-            "out": a.out.display().to_string(),
-        })),
+        Format::Json => print_json(&identify_json(&id, &a.out)),
         Format::Human => {
             println!(
                 "{} points, {} parameters: rank {}, condition number {:.3e}",
@@ -279,6 +264,43 @@ pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// The `--format json` document of `identify` (contract; also read by `mtwin report`).
+pub(crate) fn identify_json(
+    id: &mtwin::methods::tracker::Identification,
+    out: &Path,
+) -> serde_json::Value {
+    let r = &id.report;
+    let (rms_before, rms_after) = r.rms();
+    json!({
+        "rank": r.identifiability.rank,
+        "parameters": r.estimates.len(),
+        "unidentifiable": r.unidentifiable_names(),
+        "rms_before": rms_before,
+        "rms_after": rms_after,
+        "condition_number": r.condition_number,
+        "sigma": r.sigma,
+        "estimates": r.estimates,
+        "registration": id.registration,
+        "relations": r.identifiability.relations.iter().map(|c| c.describe()).collect::<Vec<_>>(),
+        "outliers": r.outliers.flagged,
+        "convergence": r.convergence,
+        "warnings": r.warnings,
+        "out": out.display().to_string(),
+    })
+}
+
+/// The `--format json` document of `validate` (also read by `mtwin report`).
+pub(crate) fn validate_json(v: &mtwin::methods::tracker::Validation) -> serde_json::Value {
+    json!({
+        "points": v.points,
+        "before": stats_json(&v.before),
+        "after": stats_json(&v.after),
+        "change_percent": stats_json(&v.change),
+        "rms_before": v.before.rms(),
+        "rms_after": v.after.rms(),
+    })
 }
 
 fn stats_json(s: &ErrorStats) -> serde_json::Value {
@@ -344,14 +366,7 @@ pub fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
             .with_context(|| format!("cannot write {}", p.display()))?;
     }
     match a.format {
-        Format::Json => print_json(&json!({
-            "points": v.points,
-            "before": stats_json(&v.before),
-            "after": stats_json(&v.after),
-            "change_percent": stats_json(&v.change),
-            "rms_before": v.before.rms(),
-            "rms_after": v.after.rms(),
-        })),
+        Format::Json => print_json(&validate_json(&v)),
         Format::Human => {
             print_table(
                 &format!(

@@ -88,11 +88,6 @@ impl<'a> Json<'a> {
             })
             .collect()
     }
-
-    /// A value that must be present.
-    pub fn value(&self, path: &str) -> Result<&'a Value, ReportError> {
-        self.get(path).ok_or_else(|| self.err(path, "present"))
-    }
 }
 
 /// `v` with `decimals` decimals, a true minus sign, `—` for none.
