@@ -210,6 +210,8 @@ pub struct ProgramArgs {
     /// Folder for mode1.ngc … mode4.ngc (created if absent).
     #[arg(long)]
     out: PathBuf,
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
 }
 
 #[derive(Debug, clap::Args)]
@@ -476,12 +478,17 @@ fn run_program(a: ProgramArgs) -> anyhow::Result<()> {
         };
         texts.push((m, ballbar::program(&machine, m, &spec)?));
     }
+    let mut files = Vec::new();
     for (m, t) in &texts {
         let p = a.out.join(format!("{}.ngc", m.label()));
         write_atomic(&p, t.as_bytes()).with_context(|| format!("cannot write {}", p.display()))?;
         note(format!("{} → {}", m.label(), p.display()));
+        files.push(p.display().to_string());
     }
-    Ok(())
+    match a.format {
+        Format::Json => print_json(&json!({"files": files})),
+        Format::Human => Ok(()),
+    }
 }
 
 fn run_simulate(a: SimulateArgs) -> anyhow::Result<()> {

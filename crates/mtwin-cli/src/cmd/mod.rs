@@ -5,10 +5,12 @@ pub mod common;
 pub use common::diag as common_diag;
 mod ballbar;
 mod compensate;
+mod completions;
 mod demo;
 mod gcode;
 mod model;
 mod predict;
+mod report;
 mod servo;
 mod skiving;
 mod thermal;
@@ -23,8 +25,8 @@ pub enum Command {
     /// Double-ballbar identification of the rotary-axis location errors (spec 01).
     #[command(subcommand)]
     Ballbar(ballbar::Command),
-    /// Run every method end to end on the bundled examples and print a summary.
-    #[command(after_help = "Example:\n  mtwin demo")]
+    /// Run every method end to end on the bundled examples, print a summary, write an HTML report.
+    #[command(after_help = "Example:\n  mtwin demo --out-dir mtwin-demo")]
     Demo(demo::Args),
     /// Read G-code: interpolate it into axis commands, program statistics.
     #[command(subcommand)]
@@ -72,6 +74,17 @@ pub enum Command {
         after_help = "Example:\n  mtwin compensate --machine examples/machines/ac-trunnion-with-errors.toml --program part.ngc --out part-comp.ngc --tol 0.001"
     )]
     Compensate(compensate::Args),
+    /// One self-contained HTML report from saved results of the other commands.
+    #[command(
+        after_help = "Example:\n  mtwin report --machine identified.toml --identify identify.json --validate validate.json --out report.html"
+    )]
+    Report(report::Args),
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
+    #[command(after_help = "Example:\n  mtwin completions bash > /etc/bash_completion.d/mtwin")]
+    Completions(completions::CompletionsArgs),
+    /// Write man pages for mtwin and every subcommand.
+    #[command(after_help = "Example:\n  mtwin man --out-dir man/man1")]
+    Man(completions::ManArgs),
 }
 
 /// Run one subcommand.
@@ -91,5 +104,8 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::CompensatePoints(a) => tracker::run_compensate(a),
         Command::Skiving(c) => skiving::run(c),
         Command::Compensate(a) => compensate::run(a),
+        Command::Report(a) => report::run(a),
+        Command::Completions(a) => completions::run_completions(a),
+        Command::Man(a) => completions::run_man(a),
     }
 }

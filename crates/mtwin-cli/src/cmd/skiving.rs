@@ -140,6 +140,8 @@ pub struct ProgramArgs {
     /// Output G-code file.
     #[arg(long)]
     out: PathBuf,
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
 }
 
 #[derive(Debug, clap::Args)]
@@ -357,11 +359,16 @@ fn write_program(a: ProgramArgs) -> anyhow::Result<()> {
         .context("cannot write the touch-off program")?;
     write_atomic_with(&a.out, |w| w.write_all(text.as_bytes()))
         .with_context(|| format!("cannot write {}", a.out.display()))?;
-    note(format!(
-        "touch-off program (6 probing moves) → {}",
-        a.out.display()
-    ));
-    Ok(())
+    match a.format {
+        Format::Json => print_json(&json!({"probing_moves": 6, "out": a.out.display().to_string()})),
+        Format::Human => {
+            note(format!(
+                "touch-off program (6 probing moves) → {}",
+                a.out.display()
+            ));
+            Ok(())
+        }
+    }
 }
 
 fn simulate_touches(a: SimulateArgs) -> anyhow::Result<()> {

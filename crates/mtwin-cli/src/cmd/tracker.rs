@@ -127,6 +127,8 @@ pub struct SimulateArgs {
     /// Output CSV: axis columns and x,y,z (mm, W).
     #[arg(long)]
     out: PathBuf,
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
 }
 
 #[derive(Debug, clap::Args)]
@@ -461,12 +463,20 @@ pub fn run_simulate(c: SimulateCommand) -> anyhow::Result<()> {
         })
         .collect();
     write_points(&a.out, &m, &rows, &["x", "y", "z"])?;
-    note(format!(
-        "{} simulated points written to {}",
-        rows.len(),
-        a.out.display()
-    ));
-    Ok(())
+    match a.format {
+        Format::Json => print_json(&json!({
+            "points": rows.len(), "noise": a.noise, "seed": a.seed,
+            "out": a.out.display().to_string(),
+        })),
+        Format::Human => {
+            note(format!(
+                "{} simulated points written to {}",
+                rows.len(),
+                a.out.display()
+            ));
+            Ok(())
+        }
+    }
 }
 
 pub fn run_compensate(a: CompensateArgs) -> anyhow::Result<()> {
