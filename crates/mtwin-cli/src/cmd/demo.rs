@@ -127,6 +127,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         report.sections.extend(step.sections);
     }
     bar.finish_and_clear();
+    // The methods first; the machine model they ran on is reference material.
+    let (machine, mut methods): (Vec<Section>, Vec<Section>) = report
+        .sections
+        .into_iter()
+        .partition(|s| s.id == "machine");
+    methods.extend(machine);
+    report.sections = methods;
     let path = a.out_dir.join("report.html");
     mtwin::io::write_atomic(&path, render(&report).as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))?;
