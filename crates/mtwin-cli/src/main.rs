@@ -87,7 +87,12 @@ mod tests {
                 .find(|l| !l.is_empty())
                 .unwrap_or_default();
             assert!(line.starts_with(&path), "`{path}`: example `{line}`");
-            let argv: Vec<&str> = line.split(" > ").next().unwrap().split_whitespace().collect();
+            let argv: Vec<&str> = line
+                .split(" > ")
+                .next()
+                .unwrap()
+                .split_whitespace()
+                .collect();
             if let Err(e) = Cli::command().try_get_matches_from(&argv) {
                 panic!("`{path}`: the example does not parse: {e}");
             }

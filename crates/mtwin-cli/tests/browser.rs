@@ -73,13 +73,23 @@ fn demo_report_loads_in_chromium_with_every_plot() {
     let log = stderr(&o);
     assert_eq!(o.status.code(), Some(0), "chromium failed: {log}");
     let console: Vec<&str> = log.lines().filter(|l| l.contains(":CONSOLE")).collect();
-    assert!(console.is_empty(), "console messages:\n{}", console.join("\n"));
+    assert!(
+        console.is_empty(),
+        "console messages:\n{}",
+        console.join("\n")
+    );
     let dom = String::from_utf8_lossy(&o.stdout);
     // Every figure rendered as an SVG element with drawn content.
     assert_eq!(dom.matches("<figure>").count(), figures);
     assert!(dom.matches("<svg").count() >= figures);
     assert!(dom.matches("<polyline").count() >= figures);
-    for id in ["ballbar", "tracker-validate", "thermal", "servo", "compensate"] {
+    for id in [
+        "ballbar",
+        "tracker-validate",
+        "thermal",
+        "servo",
+        "compensate",
+    ] {
         assert!(dom.contains(&format!("id=\"{id}\"")), "{id}");
     }
 

@@ -46,9 +46,26 @@ fn report_shows_the_numbers_of_its_inputs() {
     let bb = ok(
         d,
         &[
-            "ballbar", "identify", "--mode1", "data/mode1.csv", "--mode2", "data/mode2.csv",
-            "--mode3", "data/mode3.csv", "--mode4", "data/mode4.csv", "--ex", "-0.0403", "--ey",
-            "-0.0765", "--plot", "plots", "--out", "id.toml", "--format", "json",
+            "ballbar",
+            "identify",
+            "--mode1",
+            "data/mode1.csv",
+            "--mode2",
+            "data/mode2.csv",
+            "--mode3",
+            "data/mode3.csv",
+            "--mode4",
+            "data/mode4.csv",
+            "--ex",
+            "-0.0403",
+            "--ey",
+            "-0.0765",
+            "--plot",
+            "plots",
+            "--out",
+            "id.toml",
+            "--format",
+            "json",
         ],
     );
     std::fs::write(d.join("ballbar.json"), &bb).unwrap();
@@ -73,9 +90,8 @@ fn report_shows_the_numbers_of_its_inputs() {
     );
     std::fs::write(d.join("comp.json"), &comp).unwrap();
     // A twin prediction written here: tip error k µm and axis error 2k µrad at sample k.
-    let mut pred = String::from(
-        "t_s,x_cmd,y_cmd,z_cmd,i_cmd,j_cmd,k_cmd,x,y,z,i,j,k,tip_error,axis_error\n",
-    );
+    let mut pred =
+        String::from("t_s,x_cmd,y_cmd,z_cmd,i_cmd,j_cmd,k_cmd,x,y,z,i,j,k,tip_error,axis_error\n");
     for k in 0..=40 {
         let t = k as f64 * 0.001;
         pred.push_str(&format!(
@@ -116,7 +132,10 @@ fn report_shows_the_numbers_of_its_inputs() {
     }
     // Four polar plots embedded, plus PDGE and twin charts.
     assert!(html.matches("<svg").count() >= 4 + 3);
-    assert_eq!(v["figures"].as_u64().unwrap() as usize, html.matches("<figure>").count());
+    assert_eq!(
+        v["figures"].as_u64().unwrap() as usize,
+        html.matches("<figure>").count()
+    );
     let t = text(&html);
     let bb: serde_json::Value = serde_json::from_str(&bb).unwrap();
     // EY0A in µm with its uncertainty, as the JSON says in mm.
@@ -145,13 +164,19 @@ fn bad_inputs_name_the_file_and_write_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     std::fs::write(d.join("broken.json"), "{\n  \"rank\": 3,\n  oops\n}\n").unwrap();
-    let o = mtwin(d, &["report", "--identify", "broken.json", "--out", "r.html"]);
+    let o = mtwin(
+        d,
+        &["report", "--identify", "broken.json", "--out", "r.html"],
+    );
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("broken.json:3:"), "{}", stderr(&o));
     assert!(!d.join("r.html").exists());
     // A JSON of another command: the missing field is named.
     std::fs::write(d.join("other.json"), "{\"rank\": 3}").unwrap();
-    let o = mtwin(d, &["report", "--identify", "other.json", "--out", "r.html"]);
+    let o = mtwin(
+        d,
+        &["report", "--identify", "other.json", "--out", "r.html"],
+    );
     assert_eq!(o.status.code(), Some(1));
     assert!(
         stderr(&o).contains("other.json") && stderr(&o).contains("parameters"),
@@ -200,7 +225,12 @@ fn demo_recovers_its_truths_and_writes_the_report() {
     // Truth recovered within 1 µm / µrad (noise 0.3 µm on 220 readings).
     assert!(b["largest_error_vs_truth_um_or_urad"].as_f64().unwrap() < 1.5);
     // Tracker: the identified model beats the nominal one on the diagonals.
-    assert!(v["tracker"]["diagonal_change_mean_percent"].as_f64().unwrap() < -50.0);
+    assert!(
+        v["tracker"]["diagonal_change_mean_percent"]
+            .as_f64()
+            .unwrap()
+            < -50.0
+    );
     // Skiving: the set-up error of the simulation, within 5 µm / 50 µrad.
     let s = &v["skiving"];
     for (k, tol) in [("dgx", 5e-3), ("dgy", 5e-3), ("exz", 5e-5), ("ezy", 5e-5)] {
@@ -246,7 +276,12 @@ fn completions_and_man_pages_cover_every_command() {
         .iter()
         .map(|f| f.as_str().unwrap())
         .collect();
-    for page in ["mtwin.1", "mtwin-report.1", "mtwin-ballbar-identify.1", "mtwin-demo.1"] {
+    for page in [
+        "mtwin.1",
+        "mtwin-report.1",
+        "mtwin-ballbar-identify.1",
+        "mtwin-demo.1",
+    ] {
         assert!(files.iter().any(|f| f.ends_with(page)), "{page}");
         let text = std::fs::read_to_string(d.join("man").join(page)).unwrap();
         assert!(text.starts_with(".ie") || text.contains(".TH"), "{page}");

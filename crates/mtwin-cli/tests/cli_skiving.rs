@@ -253,14 +253,29 @@ fn documented_walkthrough_recovers_its_truth() {
     let o = run(
         dir.path(),
         &[
-            "skiving", "setup-error", "--data", "touches3.csv", "--h", "80", "--L", "150", "--rt",
-            "40", "--rg", "60", "--format", "json",
+            "skiving",
+            "setup-error",
+            "--data",
+            "touches3.csv",
+            "--h",
+            "80",
+            "--L",
+            "150",
+            "--rt",
+            "40",
+            "--rg",
+            "60",
+            "--format",
+            "json",
         ],
     );
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     for (name, t) in [("dgx", 0.03), ("dgy", -0.02), ("exz", 2e-4), ("ezy", -1e-4)] {
         let u = v["uncertainty"][name].as_f64().unwrap();
-        assert!((v[name].as_f64().unwrap() - t).abs() < 3.0 * 4.3 * u, "{name}");
+        assert!(
+            (v[name].as_f64().unwrap() - t).abs() < 3.0 * 4.3 * u,
+            "{name}"
+        );
     }
     for f in ["touchoff.ngc", "O9100.nc", "touches.csv", "touches3.csv"] {
         assert!(dir.path().join(f).exists(), "{f}");

@@ -101,8 +101,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let bar = progress(steps.len() as u64, "demo");
     let mut report = Report {
         title: "mtwin demo report".into(),
-        subtitle: "Every method on the bundled example machines, with data simulated from known truths."
-            .into(),
+        subtitle:
+            "Every method on the bundled example machines, with data simulated from known truths."
+                .into(),
         sections: Vec::new(),
     };
     let mut summary = serde_json::Map::new();
@@ -128,10 +129,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     bar.finish_and_clear();
     // The methods first; the machine model they ran on is reference material.
-    let (machine, mut methods): (Vec<Section>, Vec<Section>) = report
-        .sections
-        .into_iter()
-        .partition(|s| s.id == "machine");
+    let (machine, mut methods): (Vec<Section>, Vec<Section>) =
+        report.sections.into_iter().partition(|s| s.id == "machine");
     methods.extend(machine);
     report.sections = methods;
     let path = a.out_dir.join("report.html");
@@ -152,7 +151,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
 }
 
-/// 1. The machine model, its volumetric error and inverse kinematics.
+/// Step 1: The machine model, its volumetric error and inverse kinematics.
 fn machine_step(_: &Args) -> anyhow::Result<Step> {
     let m = bundled::machine("ac-trunnion-with-errors.toml")?;
     let k = Kinematics::new(&m);
@@ -236,7 +235,7 @@ fn machine_step(_: &Args) -> anyhow::Result<Step> {
     })
 }
 
-/// 2. Ballbar: four modes simulated on the machine with errors, the eight
+/// Step 2: Ballbar: four modes simulated on the machine with errors, the eight
 /// PIGEs identified on the nominal model, the offsets compensated.
 fn ballbar_step(_: &Args) -> anyhow::Result<Step> {
     // The truth: the nominal trunnion with the eight PIGEs of the example
@@ -303,9 +302,8 @@ fn ballbar_step(_: &Args) -> anyhow::Result<Step> {
     let (before, after) = (largest(&truth)?, largest(&after_machine)?);
     let mut worst_err = 0.0f64;
     for p in Pige::ALL {
-        worst_err = worst_err.max(
-            (id.piges.get(p) - true_piges.get(p)).abs() * if p.is_tilt() { 1e6 } else { 1e3 },
-        );
+        worst_err = worst_err
+            .max((id.piges.get(p) - true_piges.get(p)).abs() * if p.is_tilt() { 1e6 } else { 1e3 });
     }
     let figures: Vec<(String, String)> = Mode::ALL
         .iter()
@@ -374,7 +372,9 @@ fn body_diagonals(m: &Machine, n: usize) -> Vec<Vec<f64>> {
                     let (lo, hi) = (a.travel[0], a.travel[1]);
                     match lin.iter().position(|&j| j == i) {
                         // Diagonal `corner` flips the direction of axis j when bit j is set.
-                        Some(j) if j > 0 && corner & (1 << (j - 1)) != 0 => lo + (hi - lo) * (1.0 - s),
+                        Some(j) if j > 0 && corner & (1 << (j - 1)) != 0 => {
+                            lo + (hi - lo) * (1.0 - s)
+                        }
                         Some(_) => lo + (hi - lo) * s,
                         None => 0.5 * (lo + hi),
                     }
@@ -386,7 +386,7 @@ fn body_diagonals(m: &Machine, n: usize) -> Vec<Vec<f64>> {
     out
 }
 
-/// 3. Tracker: plan 180 poses, simulate the measurement of the gantry with
+/// Step 3: Tracker: plan 180 poses, simulate the measurement of the gantry with
 /// errors, identify `pdge:cheb3,location`, validate on the body diagonals.
 fn tracker_step(a: &Args) -> anyhow::Result<Step> {
     let truth = bundled::machine("afp-gantry-with-errors.toml")?;
@@ -395,7 +395,13 @@ fn tracker_step(a: &Args) -> anyhow::Result<Step> {
     let params = ParameterSet::from_spec(&model, spec).map_err(|e| anyhow::anyhow!("{e}"))?;
     let plan = tracker::plan::plan(&model, &params, 1000, 180, 0.010, 1)?;
     let points = tracker::simulate::simulate_seeded(&truth, &plan.poses, 0.010, 1);
-    let id = tracker::identify(&model, &params, &points, &IdentifyOptions::default(), &|_| {})?;
+    let id = tracker::identify(
+        &model,
+        &params,
+        &points,
+        &IdentifyOptions::default(),
+        &|_| {},
+    )?;
     let identified = a.out_dir.join("gantry-identified.toml");
     mtwin::io::write_atomic(
         &identified,
@@ -467,7 +473,7 @@ fn tracker_step(a: &Args) -> anyhow::Result<Step> {
     })
 }
 
-/// 4. Skiving: twelve touch-offs simulated with a known set-up error.
+/// Step 4: Skiving: twelve touch-offs simulated with a known set-up error.
 fn skiving_step(_: &Args) -> anyhow::Result<Step> {
     let g = Geometry::new(80.0, 150.0, 40.0, 60.0)?;
     let plan = Plan::standard(0.0, &g).touches(&g)?;
@@ -483,10 +489,7 @@ fn skiving_step(_: &Args) -> anyhow::Result<Step> {
             &plan,
             &g,
             &truth,
-            Some(skiving::simulate::Noise {
-                sigma: 0.001,
-                seed,
-            }),
+            Some(skiving::simulate::Noise { sigma: 0.001, seed }),
         )?);
     }
     let sol = skiving::identify(&touches, &g, &skiving::Options { noise: Some(0.001) })?;
@@ -537,7 +540,7 @@ fn face(n: u32, out: &mut String) {
     out.push_str("G0 Z5\n");
 }
 
-/// 5. Thermal: probing runs of a known two-time-constant machine, ARX fit per
+/// Step 5: Thermal: probing runs of a known two-time-constant machine, ARX fit per
 /// height, and the seed's check: a face milled cold and again after an hour at
 /// varying speed, without and with the program compensated.
 fn thermal_step(a: &Args) -> anyhow::Result<Step> {
@@ -699,7 +702,7 @@ fn excitation(ts: f64) -> Vec<f64> {
         .collect()
 }
 
-/// 6. Servo: command/encoder logs of each axis simulated with known transfer
+/// Step 6: Servo: command/encoder logs of each axis simulated with known transfer
 /// functions and 20 nm encoder noise, fitted by ARX with order selection.
 fn servo_step(a: &Args) -> anyhow::Result<Step> {
     let m = bundled::machine("ac-trunnion-with-errors.toml")?;
@@ -763,7 +766,7 @@ fn servo_step(a: &Args) -> anyhow::Result<Step> {
 /// The bundled five-axis test program (TCP).
 const PROGRAM: &str = include_str!("../../../../examples/programs/s-curve-5axis.ngc");
 
-/// 7. Geometric compensation of the five-axis program on the machine with errors.
+/// Step 7: Geometric compensation of the five-axis program on the machine with errors.
 fn compensate_step(a: &Args) -> anyhow::Result<Step> {
     let m = bundled::machine("ac-trunnion-with-errors.toml")?;
     let opts = CompensateOptions {
@@ -807,7 +810,7 @@ fn twin_predict(_machine: &Machine, _program: &[u8]) -> anyhow::Result<Option<Ve
     Ok(None)
 }
 
-/// 8. The digital twin on the five-axis program, before and after geometric
+/// Step 8: The digital twin on the five-axis program, before and after geometric
 /// compensation.
 fn twin_step(a: &Args) -> anyhow::Result<Step> {
     let machine = super::common::load_machine(&a.out_dir.join("ac-trunnion-twin.toml"))?;

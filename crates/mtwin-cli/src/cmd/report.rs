@@ -101,7 +101,10 @@ fn build(a: &Args) -> anyhow::Result<Vec<Section>> {
             for m in ["mode1", "mode2", "mode3", "mode4"] {
                 let f = dir.join(format!("{m}.svg"));
                 if f.exists() {
-                    figures.push((format!("{m}: measured, fitted and compensated ΔL (µm)."), read_svg(&f)?));
+                    figures.push((
+                        format!("{m}: measured, fitted and compensated ΔL (µm)."),
+                        read_svg(&f)?,
+                    ));
                 }
             }
             if figures.is_empty() {
@@ -126,19 +129,27 @@ fn build(a: &Args) -> anyhow::Result<Vec<Section>> {
         );
     }
     if let Some(p) = &a.skiving {
-        out.push(sections::skiving::section(&read_json(p)?, &name(p)).map_err(|e| section_err(p, e))?);
+        out.push(
+            sections::skiving::section(&read_json(p)?, &name(p)).map_err(|e| section_err(p, e))?,
+        );
     }
     if let Some(p) = &a.thermal_model {
         let model = mtwin::methods::thermal::read_model(p).map_err(diag)?;
         let curves = match &a.thermal_drift {
             Some(d) => {
                 let t = load_table(d)?;
-                let rows = t.number_rows(&["t_min", "z_mm", "drift_mm"]).map_err(diag)?;
+                let rows = t
+                    .number_rows(&["t_min", "z_mm", "drift_mm"])
+                    .map_err(diag)?;
                 curves_from_rows(&rows.iter().map(|r| [r[0], r[1], r[2]]).collect::<Vec<_>>())
             }
             None => Vec::new(),
         };
-        out.push(sections::thermal::section(&model, &curves, "Predicted drift"));
+        out.push(sections::thermal::section(
+            &model,
+            &curves,
+            "Predicted drift",
+        ));
     }
     if !a.servo.is_empty() {
         let mut fits = Vec::new();
@@ -151,7 +162,10 @@ fn build(a: &Args) -> anyhow::Result<Vec<Section>> {
         out.push(sections::servo::section(&fits).map_err(|e| anyhow::anyhow!("--servo: {e}"))?);
     }
     if let Some(p) = &a.compensate {
-        out.push(sections::compensate::section(&read_json(p)?, &name(p)).map_err(|e| section_err(p, e))?);
+        out.push(
+            sections::compensate::section(&read_json(p)?, &name(p))
+                .map_err(|e| section_err(p, e))?,
+        );
     }
     if let Some(p) = &a.twin {
         let rows = mtwin::report::twin::rows_from_table(&load_table(p)?)

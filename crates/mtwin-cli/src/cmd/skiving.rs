@@ -325,8 +325,7 @@ pub(crate) fn setup_json(
             json!({"kind": "residuals", "sigma": sigma, "dof": dof})
         }
     });
-    let uncertainty =
-        unc.map(|u| json!({"dgx": u[0], "dgy": u[1], "exz": u[2], "ezy": u[3]}));
+    let uncertainty = unc.map(|u| json!({"dgx": u[0], "dgy": u[1], "exz": u[2], "ezy": u[3]}));
     let closed = first.map(|f| json!({"dgx": f.dgx, "dgy": f.dgy, "exz": f.exz, "ezy": f.ezy}));
     json!({
         "dgx": e.dgx, "dgy": e.dgy, "exz": e.exz, "ezy": e.ezy,
@@ -360,7 +359,9 @@ fn write_program(a: ProgramArgs) -> anyhow::Result<()> {
     write_atomic_with(&a.out, |w| w.write_all(text.as_bytes()))
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     match a.format {
-        Format::Json => print_json(&json!({"probing_moves": 6, "out": a.out.display().to_string()})),
+        Format::Json => {
+            print_json(&json!({"probing_moves": 6, "out": a.out.display().to_string()}))
+        }
         Format::Human => {
             note(format!(
                 "touch-off program (6 probing moves) → {}",

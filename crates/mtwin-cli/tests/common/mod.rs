@@ -90,9 +90,12 @@ pub fn run_doc(page: &str, dir: &Path) -> Vec<String> {
                     stderr(&o)
                 );
                 if args.windows(2).any(|w| w == ["--format", "json"]) {
-                    let _: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap_or_else(
-                        |e| panic!("docs/{page}: `mtwin {cmd}`: stdout is not one JSON document: {e}"),
-                    );
+                    let _: serde_json::Value =
+                        serde_json::from_str(&stdout(&o)).unwrap_or_else(|e| {
+                            panic!(
+                                "docs/{page}: `mtwin {cmd}`: stdout is not one JSON document: {e}"
+                            )
+                        });
                 }
                 ran.push(cmd.to_string());
             }

@@ -112,7 +112,10 @@ pub enum Block {
     Headlines(Vec<Headline>),
     Table(Table),
     /// An inline SVG document (from [`crate::report::svg`]) with a caption.
-    Figure { caption: String, svg: String },
+    Figure {
+        caption: String,
+        svg: String,
+    },
     /// An identifiability or quality verdict with its explanation lines.
     Verdict {
         verdict: Verdict,
@@ -145,7 +148,13 @@ fn inline_svg(svg: &str) -> String {
     let Some(start) = lower.find("<svg") else {
         return "<p class=\"note\">(not an SVG document)</p>".into();
     };
-    let unsafe_markers = ["<script", " on", "href=\"http", "href='http", "<foreignobject"];
+    let unsafe_markers = [
+        "<script",
+        " on",
+        "href=\"http",
+        "href='http",
+        "<foreignobject",
+    ];
     if unsafe_markers.iter().any(|m| {
         if *m == " on" {
             // an attribute like onload= / onclick=
@@ -342,9 +351,10 @@ mod tests {
                 Section::new("s1", "One")
                     .with(Block::Text("x < y".into()))
                     .with(Block::Figure {
-                        caption: "fig".into(),
-                        svg: "<?xml version=\"1.0\"?><svg xmlns=\"http://www.w3.org/2000/svg\"></svg>".into(),
-                    }),
+                    caption: "fig".into(),
+                    svg: "<?xml version=\"1.0\"?><svg xmlns=\"http://www.w3.org/2000/svg\"></svg>"
+                        .into(),
+                }),
             ],
         };
         let h = render(&r);

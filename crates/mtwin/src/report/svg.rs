@@ -234,8 +234,18 @@ pub fn xy(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Strin
 /// A grouped bar chart: one group per entry of `groups`, one bar per series in
 /// each group; each series is `(name, colour, values)` with one value per group
 /// (non-finite values are left out). Values start from 0.
-pub fn bars(title: &str, y_label: &str, groups: &[String], series: &[(String, String, Vec<f64>)]) -> String {
-    let vals = || series.iter().flat_map(|s| s.2.iter()).filter(|v| v.is_finite());
+pub fn bars(
+    title: &str,
+    y_label: &str,
+    groups: &[String],
+    series: &[(String, String, Vec<f64>)],
+) -> String {
+    let vals = || {
+        series
+            .iter()
+            .flat_map(|s| s.2.iter())
+            .filter(|v| v.is_finite())
+    };
     let hi = vals().fold(0.0_f64, |a, &b| a.max(b));
     let lo = vals().fold(0.0_f64, |a, &b| a.min(b));
     let (y0, y1) = if hi > lo { (lo, hi) } else { (0.0, 1.0) };
@@ -246,7 +256,12 @@ pub fn bars(title: &str, y_label: &str, groups: &[String], series: &[(String, St
     let (l, t, w, h) = (70.0, 40.0, SIZE - 100.0, SIZE - 140.0);
     let py = |y: f64| t + h - (y - y0) / (y1 - y0) * h;
     let mut s = String::new();
-    header(&mut s, SIZE, SIZE - 20.0 + 16.0 * series.len() as f64, title);
+    header(
+        &mut s,
+        SIZE,
+        SIZE - 20.0 + 16.0 * series.len() as f64,
+        title,
+    );
     let _ = writeln!(
         s,
         r#"<rect x="{l}" y="{t}" width="{w}" height="{h}" fill="none" stroke="black"/>"#

@@ -24,12 +24,11 @@ pub fn section(
          the four ballbar modes. Offsets in µm, tilts in µrad, ± one standard uncertainty."
             .into(),
     ));
-    let unidentified = j
-        .v
-        .get("unidentified")
-        .and_then(|u| u.as_object())
-        .cloned()
-        .unwrap_or_default();
+    let unidentified =
+        j.v.get("unidentified")
+            .and_then(|u| u.as_object())
+            .cloned()
+            .unwrap_or_default();
     let mut t = Table::new(
         "Identified PIGEs (absolute)",
         &["PIGE", "meaning", "value", "std. uncertainty", "unit"],

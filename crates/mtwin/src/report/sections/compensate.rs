@@ -17,10 +17,26 @@ pub fn section(v: &serde_json::Value, what: &str) -> Result<Section, ReportError
     let mut t = Table::new("What changed", &["quantity", "value", "unit"]);
     let count = |k: &str| -> Result<String, ReportError> { Ok(format!("{}", j.num(k)?)) };
     t.row(vec!["blocks read".into(), count("blocks")?, "".into()]);
-    t.row(vec!["blocks changed".into(), count("blocks_changed")?, "".into()]);
-    t.row(vec!["moves subdivided".into(), count("blocks_subdivided")?, "".into()]);
-    t.row(vec!["blocks inserted".into(), count("blocks_inserted")?, "".into()]);
-    t.row(vec!["arcs converted to lines".into(), count("arcs_converted")?, "".into()]);
+    t.row(vec![
+        "blocks changed".into(),
+        count("blocks_changed")?,
+        "".into(),
+    ]);
+    t.row(vec![
+        "moves subdivided".into(),
+        count("blocks_subdivided")?,
+        "".into(),
+    ]);
+    t.row(vec![
+        "blocks inserted".into(),
+        count("blocks_inserted")?,
+        "".into(),
+    ]);
+    t.row(vec![
+        "arcs converted to lines".into(),
+        count("arcs_converted")?,
+        "".into(),
+    ]);
     t.row(vec![
         "largest correction".into(),
         fmt(Some(j.num("largest_correction_um")?), 2),
@@ -76,6 +92,8 @@ mod tests {
             panic!()
         };
         assert_eq!(t.rows[5][1], "41.26");
-        assert!(matches!(&s.blocks[2], Block::Verdict { verdict: Verdict::Caution, lines, .. } if lines[0].starts_with("2 targets")));
+        assert!(
+            matches!(&s.blocks[2], Block::Verdict { verdict: Verdict::Caution, lines, .. } if lines[0].starts_with("2 targets"))
+        );
     }
 }

@@ -19,7 +19,10 @@ pub fn section(m: &Machine, id: &str, title: &str) -> Section {
         m.n_axes(),
         m.n_error_terms()
     )));
-    let mut t = Table::new("Location errors (constant)", &["axis", "error", "value", "unit"]);
+    let mut t = Table::new(
+        "Location errors (constant)",
+        &["axis", "error", "value", "unit"],
+    );
     for a in &m.axes {
         for c in Component::ALL {
             let v = a.errors.location[c.index()];
@@ -63,7 +66,8 @@ pub fn section(m: &Machine, id: &str, title: &str) -> Section {
                     points: (0..CURVE_POINTS)
                         .map(|i| {
                             let q = a.travel[0]
-                                + (a.travel[1] - a.travel[0]) * i as f64 / (CURVE_POINTS - 1) as f64;
+                                + (a.travel[1] - a.travel[0]) * i as f64
+                                    / (CURVE_POINTS - 1) as f64;
                             (q, a.pdge_at(c, q) * if rot { 1e6 } else { 1e3 })
                         })
                         .collect(),

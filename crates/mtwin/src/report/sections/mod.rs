@@ -95,7 +95,11 @@ pub fn fmt(v: Option<f64>, decimals: usize) -> String {
     match v {
         Some(v) if v.is_finite() => {
             let s = format!("{v:.decimals$}");
-            let s = if s.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
+            let s = if s
+                .trim_start_matches('-')
+                .chars()
+                .all(|c| c == '0' || c == '.')
+            {
                 s.trim_start_matches('-').to_string()
             } else {
                 s
@@ -134,7 +138,9 @@ pub fn decimate(points: &[(f64, f64)], max: usize) -> Vec<(f64, f64)> {
 }
 
 /// Colours of the series, in order.
-pub const COLORS: [&str; 6] = ["#c0392b", "#2471a3", "#27ae60", "#8e44ad", "#d68910", "#17202a"];
+pub const COLORS: [&str; 6] = [
+    "#c0392b", "#2471a3", "#27ae60", "#8e44ad", "#d68910", "#17202a",
+];
 
 #[cfg(test)]
 mod tests {
@@ -143,7 +149,18 @@ mod tests {
     #[test]
     fn decimation_keeps_the_extremes() {
         let pts: Vec<(f64, f64)> = (0..10_000)
-            .map(|k| (k as f64, if k == 4321 { 9.0 } else if k == 777 { -3.0 } else { (k as f64).sin() }))
+            .map(|k| {
+                (
+                    k as f64,
+                    if k == 4321 {
+                        9.0
+                    } else if k == 777 {
+                        -3.0
+                    } else {
+                        (k as f64).sin()
+                    },
+                )
+            })
             .collect();
         let d = decimate(&pts, 500);
         assert!(d.len() <= 502, "{}", d.len());

@@ -17,7 +17,13 @@ pub fn section(v: &serde_json::Value, what: &str) -> Result<Section, ReportError
     ));
     let mut t = Table::new(
         "Set-up error",
-        &["quantity", "value", "std. uncertainty", "first-order formula", "unit"],
+        &[
+            "quantity",
+            "value",
+            "std. uncertainty",
+            "first-order formula",
+            "unit",
+        ],
     );
     for (k, name) in ["dgx", "dgy", "exz", "ezy"].iter().enumerate() {
         let (f, unit) = if k < 2 { (1e3, "µm") } else { (1e6, "µrad") };
@@ -97,6 +103,12 @@ mod tests {
         assert_eq!(t.rows[0][1], "30.000");
         assert_eq!(t.rows[2][1], "200.000");
         assert_eq!(t.rows[1][3], "−19.900");
-        assert!(matches!(&s.blocks[2], Block::Verdict { verdict: Verdict::Bad, .. }));
+        assert!(matches!(
+            &s.blocks[2],
+            Block::Verdict {
+                verdict: Verdict::Bad,
+                ..
+            }
+        ));
     }
 }

@@ -43,7 +43,10 @@ pub fn identify_section(v: &serde_json::Value, what: &str) -> Result<Section, Re
     )));
     let mut lines = vec![
         format!("rank {rank} of {params} parameters"),
-        format!("condition number (scaled): {}", cond.map_or("—".into(), |c| format!("{c:.3e}"))),
+        format!(
+            "condition number (scaled): {}",
+            cond.map_or("—".into(), |c| format!("{c:.3e}"))
+        ),
     ];
     if !unident.is_empty() {
         lines.push(format!(
@@ -137,7 +140,11 @@ pub fn validate_section(
     for d in dirs {
         let g = |k: &str, stat: &str| j.num(&format!("{k}.{d}.{stat}"));
         let row = vec![
-            if d == "distance" { "|Δp|".into() } else { d.to_string() },
+            if d == "distance" {
+                "|Δp|".into()
+            } else {
+                d.to_string()
+            },
             fmt(Some(g("before", "max")? * 1e3), 2),
             fmt(Some(g("before", "mean")? * 1e3), 2),
             fmt(Some(g("before", "std")? * 1e3), 2),
@@ -149,7 +156,11 @@ pub fn validate_section(
             fmt(Some(g("change_percent", "std")?), 0),
         ];
         t.row(row);
-        groups.push(if d == "distance" { "|Δp|".to_string() } else { d.to_string() });
+        groups.push(if d == "distance" {
+            "|Δp|".to_string()
+        } else {
+            d.to_string()
+        });
         b_max.push(g("before", "max")? * 1e3);
         a_max.push(g("after", "max")? * 1e3);
         b_mean.push(g("before", "mean")? * 1e3);

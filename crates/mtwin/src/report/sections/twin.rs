@@ -10,8 +10,21 @@ use crate::report::svg::{Series, xy};
 
 /// The columns of `PRED.csv`, in order (spec 05, contract).
 pub const COLUMNS: [&str; 15] = [
-    "t_s", "x_cmd", "y_cmd", "z_cmd", "i_cmd", "j_cmd", "k_cmd", "x", "y", "z", "i", "j", "k",
-    "tip_error", "axis_error",
+    "t_s",
+    "x_cmd",
+    "y_cmd",
+    "z_cmd",
+    "i_cmd",
+    "j_cmd",
+    "k_cmd",
+    "x",
+    "y",
+    "z",
+    "i",
+    "j",
+    "k",
+    "tip_error",
+    "axis_error",
 ];
 
 /// One sample of a twin prediction.
@@ -107,9 +120,21 @@ pub fn section_from_rows(id: &str, title: &str, rows: &[TwinRow]) -> Section {
     ]));
     let mut t = Table::new("Trajectory errors", &["quantity", "value", "unit"]);
     t.row(vec!["samples".into(), rows.len().to_string(), "".into()]);
-    t.row(vec!["largest ε_p".into(), fmt(Some(tip_max * 1e3), 2), "µm".into()]);
-    t.row(vec!["RMS ε_p".into(), fmt(Some(tip_rms * 1e3), 2), "µm".into()]);
-    t.row(vec!["largest ε_o".into(), fmt(Some(axis_max * 1e6), 2), "µrad".into()]);
+    t.row(vec![
+        "largest ε_p".into(),
+        fmt(Some(tip_max * 1e3), 2),
+        "µm".into(),
+    ]);
+    t.row(vec![
+        "RMS ε_p".into(),
+        fmt(Some(tip_rms * 1e3), 2),
+        "µm".into(),
+    ]);
+    t.row(vec![
+        "largest ε_o".into(),
+        fmt(Some(axis_max * 1e6), 2),
+        "µrad".into(),
+    ]);
     s.push(Block::Table(t));
     s.push(Block::Figure {
         caption: "Tool-tip error ε_p along the path (µm over s).".into(),
@@ -197,7 +222,10 @@ pub fn comparison_section(
     }
     s.push(Block::Table(t));
     s.push(Block::Figure {
-        caption: format!("ε_p along the path: {} and {} (µm over s).", before.0, after.0),
+        caption: format!(
+            "ε_p along the path: {} and {} (µm over s).",
+            before.0, after.0
+        ),
         svg: xy(
             "Tool-tip error along the path",
             "t (s)",
