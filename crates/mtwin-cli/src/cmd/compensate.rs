@@ -1,10 +1,8 @@
 //! `mtwin compensate`: rewrite a part program so that the identified (actual)
 //! machine reaches the nominal targets.
 
-use std::io::BufReader;
 use std::path::PathBuf;
 
-use anyhow::Context;
 use mtwin::methods::compensate::{CompensateError, CompensateOptions, Compensator, Summary};
 use serde_json::json;
 
@@ -58,14 +56,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     opts.interp.tcp_at_start = a.tcp;
     let comp =
         Compensator::new(&m, opts).map_err(|e| anyhow::anyhow!("{}: {e}", a.machine.display()))?;
-    let input = std::fs::File::open(&a.program)
-        .with_context(|| format!("cannot read {}", a.program.display()))?;
+    let (input, bar) = crate::output::open_with_progress(&a.program, "compensate")?;
     let mut summary = Summary::default();
-    mtwin::io::write_atomic_with(&a.out, |w| -> Result<(), CompensateError> {
-        summary = comp.run(BufReader::new(input), w)?;
+    let written = mtwin::io::write_atomic_with(&a.out, |w| -> Result<(), CompensateError> {
+        summary = comp.run(input, w)?;
         Ok(())
-    })
-    .map_err(|e| match e {
+    });
+    bar.finish_and_clear();
+    written.map_err(|e| match e {
         CompensateError::Io(e) => anyhow::anyhow!("cannot write {}: {e}", a.out.display()),
         e => anyhow::anyhow!("{}: {e}", a.program.display()),
     })?;

@@ -397,8 +397,10 @@ pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
     }
     let m = load_machine(&a.machine)?;
     let params = ParameterSet::from_spec(&m, &a.fit).map_err(|e| anyhow::anyhow!("--fit: {e}"))?;
-    let p = plan(&m, &params, a.candidates, a.select, a.noise, a.seed)
-        .context("cannot evaluate the chosen poses")?;
+    let spin = crate::output::spinner("planning");
+    let p = plan(&m, &params, a.candidates, a.select, a.noise, a.seed);
+    spin.finish_and_clear();
+    let p = p.context("cannot evaluate the chosen poses")?;
     write_points(&a.out_csv, &m, &p.poses, &[])?;
     let g = gcode(&m, &p.poses, 2000.0, 2.0);
     write_atomic_with(&a.out_gcode, |w| w.write_all(g.as_bytes()))
