@@ -36,7 +36,6 @@ pub fn note(msg: impl AsRef<str>) {
     }
 }
 
-#[allow(dead_code)] // used by the identification commands
 /// A warning on stderr (always shown: it may change how a result is read).
 pub fn warn(msg: impl AsRef<str>) {
     eprintln!("warning: {}", msg.as_ref());
@@ -56,7 +55,6 @@ pub fn print_json(v: &serde_json::Value) -> anyhow::Result<()> {
     Ok(())
 }
 
-#[allow(dead_code)] // used by long-running commands
 /// A progress bar on stderr when stderr is a terminal and not `--quiet`; hidden otherwise.
 pub fn progress(len: u64, what: &str) -> indicatif::ProgressBar {
     if quiet() || !std::io::stderr().is_terminal() {
@@ -70,4 +68,56 @@ pub fn progress(len: u64, what: &str) -> indicatif::ProgressBar {
     );
     pb.set_message(what.to_string());
     pb
+}
+
+/// A spinner on stderr for work whose length is not known in advance (a
+/// program being read, a plan being searched); ticks by itself, hidden when
+/// stderr is not a terminal or under `--quiet`. Clear it with
+/// `finish_and_clear` before printing results.
+pub fn spinner(what: &str) -> indicatif::ProgressBar {
+    if quiet() || !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let pb = indicatif::ProgressBar::new_spinner();
+    pb.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} {msg} ({elapsed})")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+    );
+    pb.set_message(what.to_string());
+    pb.enable_steady_tick(std::time::Duration::from_millis(120));
+    pb
+}
+
+/// Files at least this large show a progress bar while they are processed
+/// (about a second of work for the slowest readers, 1 MB/s).
+const PROGRESS_BYTES: u64 = 1 << 20;
+
+/// A buffered reader of `path` that advances a byte progress bar on stderr
+/// (shown for files of 1 MB or more, on a terminal, without `--quiet`).
+/// Clear the bar with `finish_and_clear` when done.
+pub fn open_with_progress(
+    path: &std::path::Path,
+    what: &str,
+) -> anyhow::Result<(
+    std::io::BufReader<indicatif::ProgressBarIter<std::fs::File>>,
+    indicatif::ProgressBar,
+)> {
+    use anyhow::Context;
+    let f = std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let len = f.metadata().map(|m| m.len()).unwrap_or(0);
+    let bar = if len >= PROGRESS_BYTES && !quiet() && std::io::stderr().is_terminal() {
+        let pb = indicatif::ProgressBar::new(len);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{msg:>12} [{bar:40}] {bytes}/{total_bytes} ({eta})",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+        );
+        pb.set_message(what.to_string());
+        pb
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    Ok((std::io::BufReader::new(bar.wrap_read(f)), bar))
 }

@@ -200,34 +200,3 @@ fn refusals_name_the_line_and_write_nothing() {
     assert!(stderr(&o).contains("line 3:") && stderr(&o).contains("outside its travel"));
     assert!(!dir.path().join("comp.ngc").exists());
 }
-
-#[test]
-fn documented_commands_run() {
-    let doc = std::fs::read_to_string(repo().join("docs/compensation.md")).unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("part.ngc"), PART).unwrap();
-    let cmds: Vec<&str> = doc
-        .lines()
-        .filter_map(|l| l.strip_prefix("mtwin "))
-        .collect();
-    assert_eq!(cmds.len(), 2);
-    for c in cmds {
-        let args: Vec<String> = c
-            .split_whitespace()
-            .map(|a| {
-                if a.starts_with("examples/") {
-                    repo().join(a).display().to_string()
-                } else {
-                    a.to_string()
-                }
-            })
-            .collect();
-        let args: Vec<&str> = args.iter().map(String::as_str).collect();
-        let o = mtwin(dir.path(), &args);
-        assert_eq!(o.status.code(), Some(0), "{c}: {}", stderr(&o));
-    }
-    assert!(
-        std::fs::read(dir.path().join("part-same.ngc")).unwrap() == PART.as_bytes(),
-        "error-free output differs"
-    );
-}

@@ -126,26 +126,11 @@ fn stats_reports_travel_violations() {
 }
 
 #[test]
-fn documented_commands_run() {
-    let doc = std::fs::read_to_string(repo().join("docs/gcode.md")).unwrap();
-    let program = doc
-        .split("```gcode\n")
-        .nth(1)
-        .and_then(|s| s.split("```").next())
-        .unwrap();
+fn documented_walkthrough_ends_where_it_started() {
     let dir = tempfile::tempdir().unwrap();
-    write(dir.path(), "square.nc", program);
-    let examples = repo().join("examples").display().to_string() + "/";
-    let mut ran = 0;
-    for line in doc.lines().filter_map(|l| l.strip_prefix("$ mtwin ")) {
-        let line = line.replace("examples/", &examples);
-        let args: Vec<&str> = line.split_whitespace().collect();
-        let o = mtwin(dir.path(), &args);
-        assert_eq!(o.status.code(), Some(0), "{line}: {}", stderr(&o));
-        ran += 1;
-    }
-    assert_eq!(ran, 4);
-    // The square: 5 + 40 + π·20 + 40 + 40 mm of feed.
+    let ran = common::run_doc("gcode.md", dir.path());
+    assert_eq!(ran.len(), 4, "{ran:?}");
+    // The square closes: its last command sample is back at the origin.
     let (_, rows) = csv(&dir.path().join("cmd.csv"));
     let last = rows.last().unwrap();
     assert_eq!(&last[1..4], &[0.0, 0.0, 0.0]);

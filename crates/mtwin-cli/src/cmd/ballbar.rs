@@ -210,6 +210,8 @@ pub struct ProgramArgs {
     /// Folder for mode1.ngc … mode4.ngc (created if absent).
     #[arg(long)]
     out: PathBuf,
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
 }
 
 #[derive(Debug, clap::Args)]
@@ -332,46 +334,7 @@ fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
     }
     let comp = id.compensation();
     match a.format {
-        Format::Json => {
-            let mut v = Map::new();
-            let mut unc = Map::new();
-            for p in Pige::ALL {
-                let est = !id.unresolved.iter().any(|u| u.pige == p);
-                v.insert(
-                    p.name().into(),
-                    if est {
-                        json!(id.piges.get(p))
-                    } else {
-                        Value::Null
-                    },
-                );
-                unc.insert(p.name().into(), json!(id.uncertainty[p.index()]));
-            }
-            v.insert("uncertainty".into(), Value::Object(unc));
-            let mut rms = Map::new();
-            let mut len = Map::new();
-            for m in Mode::ALL {
-                rms.insert(m.label().into(), json!(id.residual_rms[m.index()]));
-                len.insert(m.label().into(), json!(id.lengths[m.index()]));
-            }
-            v.insert("residual_rms".into(), Value::Object(rms));
-            v.insert("bar_length".into(), Value::Object(len));
-            v.insert(
-                "compensation".into(),
-                json!({"A_line_y": comp.a_y, "A_line_z": comp.a_z, "C_line_x": comp.c_x, "C_line_y": comp.c_y}),
-            );
-            v.insert(
-                "unidentified".into(),
-                Value::Object(
-                    id.unresolved
-                        .iter()
-                        .map(|u| (u.pige.name().to_string(), json!(u.reason)))
-                        .collect(),
-                ),
-            );
-            v.insert("warnings".into(), json!(id.warnings));
-            print_json(&Value::Object(v))
-        }
+        Format::Json => print_json(&identify_json(&id)),
         Format::Human => {
             println!("Identified PIGEs (absolute, ± standard uncertainty):");
             for p in Pige::ALL {
@@ -416,6 +379,49 @@ fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// The `--format json` document of `ballbar identify` (also read by `mtwin report`).
+pub(crate) fn identify_json(id: &ballbar::Identification) -> Value {
+    let comp = id.compensation();
+    let mut v = Map::new();
+    let mut unc = Map::new();
+    for p in Pige::ALL {
+        let est = !id.unresolved.iter().any(|u| u.pige == p);
+        v.insert(
+            p.name().into(),
+            if est {
+                json!(id.piges.get(p))
+            } else {
+                Value::Null
+            },
+        );
+        unc.insert(p.name().into(), json!(id.uncertainty[p.index()]));
+    }
+    v.insert("uncertainty".into(), Value::Object(unc));
+    let mut rms = Map::new();
+    let mut len = Map::new();
+    for m in Mode::ALL {
+        rms.insert(m.label().into(), json!(id.residual_rms[m.index()]));
+        len.insert(m.label().into(), json!(id.lengths[m.index()]));
+    }
+    v.insert("residual_rms".into(), Value::Object(rms));
+    v.insert("bar_length".into(), Value::Object(len));
+    v.insert(
+        "compensation".into(),
+        json!({"A_line_y": comp.a_y, "A_line_z": comp.a_z, "C_line_x": comp.c_x, "C_line_y": comp.c_y}),
+    );
+    v.insert(
+        "unidentified".into(),
+        Value::Object(
+            id.unresolved
+                .iter()
+                .map(|u| (u.pige.name().to_string(), json!(u.reason)))
+                .collect(),
+        ),
+    );
+    v.insert("warnings".into(), json!(id.warnings));
+    Value::Object(v)
 }
 
 fn run_sensitivity(a: SensitivityArgs) -> anyhow::Result<()> {
@@ -472,12 +478,17 @@ fn run_program(a: ProgramArgs) -> anyhow::Result<()> {
         };
         texts.push((m, ballbar::program(&machine, m, &spec)?));
     }
+    let mut files = Vec::new();
     for (m, t) in &texts {
         let p = a.out.join(format!("{}.ngc", m.label()));
         write_atomic(&p, t.as_bytes()).with_context(|| format!("cannot write {}", p.display()))?;
         note(format!("{} → {}", m.label(), p.display()));
+        files.push(p.display().to_string());
     }
-    Ok(())
+    match a.format {
+        Format::Json => print_json(&json!({"files": files})),
+        Format::Human => Ok(()),
+    }
 }
 
 fn run_simulate(a: SimulateArgs) -> anyhow::Result<()> {

@@ -1,10 +1,8 @@
 //! `mtwin compensate`: rewrite a part program so that the identified (actual)
 //! machine reaches the nominal targets.
 
-use std::io::BufReader;
 use std::path::PathBuf;
 
-use anyhow::Context;
 use mtwin::methods::compensate::{CompensateError, CompensateOptions, Compensator, Summary};
 use serde_json::json;
 
@@ -58,14 +56,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     opts.interp.tcp_at_start = a.tcp;
     let comp =
         Compensator::new(&m, opts).map_err(|e| anyhow::anyhow!("{}: {e}", a.machine.display()))?;
-    let input = std::fs::File::open(&a.program)
-        .with_context(|| format!("cannot read {}", a.program.display()))?;
+    let (input, bar) = crate::output::open_with_progress(&a.program, "compensate")?;
     let mut summary = Summary::default();
-    mtwin::io::write_atomic_with(&a.out, |w| -> Result<(), CompensateError> {
-        summary = comp.run(BufReader::new(input), w)?;
+    let written = mtwin::io::write_atomic_with(&a.out, |w| -> Result<(), CompensateError> {
+        summary = comp.run(input, w)?;
         Ok(())
-    })
-    .map_err(|e| match e {
+    });
+    bar.finish_and_clear();
+    written.map_err(|e| match e {
         CompensateError::Io(e) => anyhow::anyhow!("cannot write {}: {e}", a.out.display()),
         e => anyhow::anyhow!("{}: {e}", a.program.display()),
     })?;
@@ -74,20 +72,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let s = &summary;
     match a.format {
-        Format::Json => print_json(&json!({
-            "out": a.out.display().to_string(),
-            "blocks": s.blocks,
-            "blocks_changed": s.blocks_changed,
-            "blocks_subdivided": s.blocks_subdivided,
-            "blocks_inserted": s.blocks_inserted,
-            "arcs_converted": s.arcs_converted,
-            "largest_correction_um": s.largest_correction * 1e3,
-            "largest_correction_line": s.largest_correction_line,
-            "largest_rotary_correction_deg": s.largest_rotary_correction,
-            "axis_not_corrected": s.axis_not_corrected,
-            "largest_midpoint_deviation_um": s.largest_midpoint_deviation * 1e3,
-            "notes": s.notes,
-        })),
+        Format::Json => print_json(&summary_json(s, &a.out)),
         Format::Human => {
             println!(
                 "{} blocks → {}\nblocks changed {}, subdivided {} (+{} blocks), arcs converted {}\nlargest correction {:.2} µm (line {}), rotary {:.5}°",
@@ -110,4 +95,22 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// The `--format json` document of `compensate` (also read by `mtwin report`).
+pub(crate) fn summary_json(s: &Summary, out: &std::path::Path) -> serde_json::Value {
+    json!({
+        "out": out.display().to_string(),
+        "blocks": s.blocks,
+        "blocks_changed": s.blocks_changed,
+        "blocks_subdivided": s.blocks_subdivided,
+        "blocks_inserted": s.blocks_inserted,
+        "arcs_converted": s.arcs_converted,
+        "largest_correction_um": s.largest_correction * 1e3,
+        "largest_correction_line": s.largest_correction_line,
+        "largest_rotary_correction_deg": s.largest_rotary_correction,
+        "axis_not_corrected": s.axis_not_corrected,
+        "largest_midpoint_deviation_um": s.largest_midpoint_deviation * 1e3,
+        "notes": s.notes,
+    })
 }

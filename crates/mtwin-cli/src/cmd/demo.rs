@@ -1,17 +1,62 @@
-//! `mtwin demo`: every method end to end on the bundled examples, with a short summary.
+//! `mtwin demo`: every method end to end on the bundled example machines and
+//! on data simulated from known truths, a short summary of each (with the
+//! seed's headline figure beside ours), and the HTML report of everything.
+//!
+//! Each step is one function returning its summary lines, its JSON summary and
+//! its report sections, built by the same library functions `mtwin report`
+//! uses on saved files.
 
+use std::path::PathBuf;
 use std::time::Instant;
 
+use anyhow::Context;
+use mtwin::fit::Options;
 use mtwin::kinematics::{IkOptions, IkTarget, Kinematics};
+use mtwin::methods::ballbar::{
+    self, Mode, ModeData, Pige, Piges, Rig, SimulationSpec, Trunnion, angle_range, simulate_modes,
+};
+use mtwin::methods::compensate::{CompensateOptions, Compensator};
+use mtwin::methods::skiving::{self, Geometry, SetupError, closed_form, program::Plan};
+use mtwin::methods::thermal::{self, ThermalFitOptions, TruthMachine};
+use mtwin::methods::tracker::{self, IdentifyOptions};
+use mtwin::model::{Machine, ParameterSet, ServoTable, machine_to_toml};
+use mtwin::report::html::{Block, Headline, Report, Section, render};
+use mtwin::report::sections;
+use mtwin::report::sections::thermal::DriftCurve;
+use mtwin::report::twin::TwinRow;
+use mtwin::sysid::{Servo, ServoFitOptions, ServoLog, fit_servo};
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+use serde_json::{Value, json};
 
 use crate::bundled;
-use crate::output::note;
+use crate::output::{Format, note, print_json, progress};
 
 #[derive(Debug, clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Folder for the report and the files the demo writes (created if absent).
+    #[arg(long, default_value = "mtwin-demo")]
+    out_dir: PathBuf,
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+/// What one step hands back.
+struct Step {
+    /// Key in the JSON summary.
+    key: &'static str,
+    /// Heading of the printed summary.
+    title: String,
+    /// Lines of the printed summary.
+    lines: Vec<String>,
+    /// JSON summary (headline figures).
+    json: Value,
+    /// Report sections.
+    sections: Vec<Section>,
+}
 
 /// Deterministic poses spread over the travels (a low-discrepancy sequence).
-fn spread_poses(m: &mtwin::model::Machine, n: usize) -> Vec<Vec<f64>> {
+fn spread_poses(m: &Machine, n: usize) -> Vec<Vec<f64>> {
     const PRIMES: [f64; 8] = [2.0, 3.0, 5.0, 7.0, 11.0, 13.0, 17.0, 19.0];
     (1..=n)
         .map(|k| {
@@ -34,18 +79,81 @@ fn spread_poses(m: &mtwin::model::Machine, n: usize) -> Vec<Vec<f64>> {
         .collect()
 }
 
-pub fn run(_: Args) -> anyhow::Result<()> {
+pub fn run(a: Args) -> anyhow::Result<()> {
     let t0 = Instant::now();
-    println!("mtwin demo — exact machine-tool accuracy on the bundled examples\n");
+    std::fs::create_dir_all(&a.out_dir)
+        .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
+    let human = a.format == Format::Human;
+    if human {
+        println!("mtwin demo — every method end to end on the bundled examples and known truths\n");
+    }
+    type StepFn = fn(&Args) -> anyhow::Result<Step>;
+    let steps: [(&str, StepFn); 8] = [
+        ("machine", machine_step),
+        ("ballbar", ballbar_step),
+        ("tracker", tracker_step),
+        ("skiving", skiving_step),
+        ("thermal", thermal_step),
+        ("servo", servo_step),
+        ("compensate", compensate_step),
+        ("twin", twin_step),
+    ];
+    let bar = progress(steps.len() as u64, "demo");
+    let mut report = Report {
+        title: "mtwin demo report".into(),
+        subtitle:
+            "Every method on the bundled example machines, with data simulated from known truths."
+                .into(),
+        sections: Vec::new(),
+    };
+    let mut summary = serde_json::Map::new();
+    for (k, (name, f)) in steps.iter().enumerate() {
+        bar.set_message(name.to_string());
+        let t = Instant::now();
+        let step = f(&a).with_context(|| format!("demo step `{name}`"))?;
+        let dt = t.elapsed().as_secs_f64();
+        bar.inc(1);
+        if human {
+            bar.suspend(|| {
+                println!("{}. {} ({dt:.1} s)", k + 1, step.title);
+                for l in &step.lines {
+                    println!("   {l}");
+                }
+                println!();
+            });
+        }
+        let mut j = step.json;
+        j["seconds"] = json!(dt);
+        summary.insert(step.key.into(), j);
+        report.sections.extend(step.sections);
+    }
+    bar.finish_and_clear();
+    // The methods first; the machine model they ran on is reference material.
+    let (machine, mut methods): (Vec<Section>, Vec<Section>) =
+        report.sections.into_iter().partition(|s| s.id == "machine");
+    methods.extend(machine);
+    report.sections = methods;
+    let path = a.out_dir.join("report.html");
+    mtwin::io::write_atomic(&path, render(&report).as_bytes())
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    let total = t0.elapsed().as_secs_f64();
+    match a.format {
+        Format::Json => {
+            summary.insert("report".into(), json!(path.display().to_string()));
+            summary.insert("seconds".into(), json!(total));
+            print_json(&Value::Object(summary))
+        }
+        Format::Human => {
+            println!("report → {}", path.display());
+            note(format!("demo finished in {total:.1} s"));
+            Ok(())
+        }
+    }
+}
 
-    // 1. The machine model and its volumetric error.
+/// Step 1: The machine model, its volumetric error and inverse kinematics.
+fn machine_step(_: &Args) -> anyhow::Result<Step> {
     let m = bundled::machine("ac-trunnion-with-errors.toml")?;
-    println!(
-        "1. Machine model: {} ({} axes, {} geometric error terms)",
-        m.name,
-        m.n_axes(),
-        m.n_error_terms()
-    );
     let k = Kinematics::new(&m);
     let kn = Kinematics::nominal(&m);
     let poses = spread_poses(&m, 20_000);
@@ -61,21 +169,10 @@ pub fn run(_: Args) -> anyhow::Result<()> {
         sum2 += e * e;
         amax = amax.max(a.axis.cross(&n.axis).norm().atan2(a.axis.dot(&n.axis)));
     }
-    println!(
-        "   volumetric error over {} poses spread through the work volume: max {:.1} µm, rms {:.1} µm; tool-axis error max {:.1} µrad",
-        poses.len(),
-        max * 1e3,
-        (sum2 / poses.len() as f64).sqrt() * 1e3,
-        amax * 1e6
-    );
-    println!(
-        "   (exact forward kinematics with errors: {:.1} million poses/s on this machine)",
-        poses.len() as f64 / dt / 1e6
-    );
-
-    // 2. Compensation by inverse kinematics on the actual machine.
+    let rms = (sum2 / poses.len() as f64).sqrt();
+    // Compensation by inverse kinematics on the actual machine.
     let all = vec![true; m.n_axes()];
-    let (mut worst, mut worst_axis, mut done) = (0.0f64, 0.0f64, 0);
+    let (mut worst, mut done) = (0.0f64, 0);
     for q in poses.iter().take(2000) {
         let target = kn.pose(q);
         let Ok(sol) = k.inverse(
@@ -89,21 +186,684 @@ pub fn run(_: Args) -> anyhow::Result<()> {
         ) else {
             continue;
         };
-        let p = k.pose(&sol);
-        worst = worst.max((p.tip - target.tip).norm());
-        worst_axis = worst_axis.max(p.axis.cross(&target.axis).norm());
+        worst = worst.max((k.pose(&sol).tip - target.tip).norm());
         done += 1;
     }
-    println!(
-        "\n2. Compensation: corrected axis commands by inverse kinematics for {done} poses;\n   remaining error after compensation: tip {:.1e} mm, tool axis {:.1e} rad (before: {:.1} µm)",
-        worst,
-        worst_axis,
-        max * 1e3
+    let mut s = sections::machine::section(
+        &m,
+        "machine",
+        "Machine model: AC double-turntable with errors",
     );
+    s.blocks.insert(
+        1,
+        Block::Text(format!(
+            "Volumetric error over {} poses spread through the work volume: largest {:.1} µm, RMS {:.1} µm; \
+             tool-axis error up to {:.1} µrad. Inverse kinematics on the actual machine brings {done} poses \
+             onto their nominal targets to {:.1e} mm.",
+            poses.len(),
+            max * 1e3,
+            rms * 1e3,
+            amax * 1e6,
+            worst
+        )),
+    );
+    Ok(Step {
+        key: "machine",
+        title: format!(
+            "Machine model: {} ({} axes, {} geometric error terms)",
+            m.name,
+            m.n_axes(),
+            m.n_error_terms()
+        ),
+        lines: vec![
+            format!(
+                "volumetric error over {} poses: max {:.1} µm, RMS {:.1} µm; tool axis max {:.1} µrad",
+                poses.len(),
+                max * 1e3,
+                rms * 1e3,
+                amax * 1e6
+            ),
+            format!(
+                "exact forward kinematics with errors: {:.1} million poses/s; inverse kinematics of {done} poses leaves {:.1e} mm",
+                poses.len() as f64 / dt / 1e6,
+                worst
+            ),
+        ],
+        json: json!({"poses": poses.len(), "max_error_mm": max, "rms_error_mm": rms,
+            "max_axis_error_rad": amax, "ik_poses": done, "ik_max_error_mm": worst}),
+        sections: vec![s],
+    })
+}
 
-    note(format!(
-        "demo finished in {:.1} s",
-        t0.elapsed().as_secs_f64()
-    ));
-    Ok(())
+/// Step 2: Ballbar: four modes simulated on the machine with errors, the eight
+/// PIGEs identified on the nominal model, the offsets compensated.
+fn ballbar_step(_: &Args) -> anyhow::Result<Step> {
+    // The truth: the nominal trunnion with the eight PIGEs of the example
+    // machine with errors (the ballbar sees the rotary axes; the seed takes
+    // the linear axes as calibrated).
+    let nominal = bundled::machine("ac-trunnion.toml")?;
+    let with_errors = bundled::machine("ac-trunnion-with-errors.toml")?;
+    let t = Trunnion::of(&nominal)?;
+    let true_piges = Piges::from_machine(&with_errors, &Trunnion::of(&with_errors)?);
+    let mut truth = nominal.clone();
+    true_piges.write_to(&mut truth, &t);
+    let mut rig = Rig::seed();
+    rig.setup = ballbar::SetupError {
+        ex: -0.0403,
+        ey: -0.0765,
+    };
+    let specs: Vec<(Mode, SimulationSpec)> = Mode::ALL
+        .iter()
+        .map(|&m| {
+            let angles = if m.moves_a() {
+                angle_range(-90.0, 90.0, 5.0)
+            } else {
+                angle_range(0.0, 360.0, 5.0)
+            };
+            (
+                m,
+                SimulationSpec {
+                    rig,
+                    noise: 0.0003,
+                    angles_deg: angles,
+                },
+            )
+        })
+        .collect();
+    let data = simulate_modes(&truth, &specs, 1)?;
+    let refs: [Option<&ModeData>; 4] = [0, 1, 2, 3].map(|i| Some(&data[i]));
+    let id = ballbar::identify(&nominal, &rig, &refs, &Options::default())?;
+    // The seed's headline: largest ΔL before, and after compensating the four
+    // offsets on the true machine (its offsets minus the identified ones).
+    let mut corrected = true_piges;
+    for p in [Pige::EY0A, Pige::EZ0A, Pige::EX0C, Pige::EY0C] {
+        corrected.set(p, true_piges.get(p) - id.piges.get(p));
+    }
+    let mut after_machine = truth.clone();
+    corrected.write_to(&mut after_machine, &t);
+    // Both seen by an ideally set bar (no tool-ball set-up error, no noise),
+    // so that only the machine's errors show.
+    let clean: Vec<(Mode, SimulationSpec)> = specs
+        .iter()
+        .map(|(m, s)| {
+            let mut s = s.clone();
+            s.noise = 0.0;
+            s.rig.setup = ballbar::SetupError::default();
+            (*m, s)
+        })
+        .collect();
+    let largest = |machine: &Machine| -> anyhow::Result<f64> {
+        Ok(simulate_modes(machine, &clean, 1)?
+            .iter()
+            .flat_map(|m| m.lengths.iter())
+            .map(|l| (l - rig.length).abs())
+            .fold(0.0f64, f64::max))
+    };
+    let (before, after) = (largest(&truth)?, largest(&after_machine)?);
+    let mut worst_err = 0.0f64;
+    for p in Pige::ALL {
+        worst_err = worst_err
+            .max((id.piges.get(p) - true_piges.get(p)).abs() * if p.is_tilt() { 1e6 } else { 1e3 });
+    }
+    let figures: Vec<(String, String)> = Mode::ALL
+        .iter()
+        .filter_map(|&m| {
+            ballbar::plot::polar_plot(&id, m, &data[m.index()]).map(|svg| {
+                (
+                    format!(
+                        "{}: measured ΔL, the identified model's fit, and the prediction after compensating the four offsets (µm).",
+                        m.label()
+                    ),
+                    svg,
+                )
+            })
+        })
+        .collect();
+    let mut s = sections::ballbar::section(
+        &super::ballbar::identify_json(&id),
+        "ballbar identify",
+        figures,
+    )?;
+    s.blocks.insert(
+        1,
+        Block::Headlines(vec![Headline {
+            label: "largest ballbar deviation: before → after compensating the four offsets".into(),
+            ours: format!("{:.1} → {:.1} µm", before * 1e3, after * 1e3),
+            seed: "203.5 → 5.1 µm".into(),
+        }]),
+    );
+    Ok(Step {
+        key: "ballbar",
+        title: "Ballbar: the eight location errors (PIGEs) of A and C from four modes".into(),
+        lines: vec![
+            format!(
+                "identified on the nominal model from {} simulated readings (0.3 µm noise); largest difference from the truth {:.2} µm / µrad",
+                data.iter().map(|d| d.lengths.len()).sum::<usize>(),
+                worst_err
+            ),
+            format!(
+                "largest deviation {:.1} µm → {:.1} µm after compensating the four offsets (seed: 203.5 → 5.1 µm)",
+                before * 1e3,
+                after * 1e3
+            ),
+        ],
+        json: json!({"largest_deviation_before_mm": before, "largest_deviation_after_mm": after,
+            "seed_before_mm": 0.2035, "seed_after_mm": 0.0051, "largest_error_vs_truth_um_or_urad": worst_err}),
+        sections: vec![s],
+    })
+}
+
+/// Poses along the four body diagonals of the linear axes' box (80 % of the
+/// travels), other axes at mid travel; `n` per diagonal.
+fn body_diagonals(m: &Machine, n: usize) -> Vec<Vec<f64>> {
+    let lin: Vec<usize> = (0..m.n_axes())
+        .filter(|&i| m.axes[i].kind == mtwin::model::AxisKind::Linear)
+        .take(3)
+        .collect();
+    let mut out = Vec::new();
+    for corner in 0..4u32 {
+        for k in 0..n {
+            let s = 0.1 + 0.8 * k as f64 / (n - 1) as f64;
+            let q = m
+                .axes
+                .iter()
+                .enumerate()
+                .map(|(i, a)| {
+                    let (lo, hi) = (a.travel[0], a.travel[1]);
+                    match lin.iter().position(|&j| j == i) {
+                        // Diagonal `corner` flips the direction of axis j when bit j is set.
+                        Some(j) if j > 0 && corner & (1 << (j - 1)) != 0 => {
+                            lo + (hi - lo) * (1.0 - s)
+                        }
+                        Some(_) => lo + (hi - lo) * s,
+                        None => 0.5 * (lo + hi),
+                    }
+                })
+                .collect();
+            out.push(q);
+        }
+    }
+    out
+}
+
+/// Step 3: Tracker: plan 180 poses, simulate the measurement of the gantry with
+/// errors, identify `pdge:cheb3,location`, validate on the body diagonals.
+fn tracker_step(a: &Args) -> anyhow::Result<Step> {
+    let truth = bundled::machine("afp-gantry-with-errors.toml")?;
+    let model = bundled::machine("afp-gantry.toml")?;
+    let spec = "pdge:cheb3,location";
+    let params = ParameterSet::from_spec(&model, spec).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let plan = tracker::plan::plan(&model, &params, 1000, 180, 0.010, 1)?;
+    let points = tracker::simulate::simulate_seeded(&truth, &plan.poses, 0.010, 1);
+    let id = tracker::identify(
+        &model,
+        &params,
+        &points,
+        &IdentifyOptions::default(),
+        &|_| {},
+    )?;
+    let identified = a.out_dir.join("gantry-identified.toml");
+    mtwin::io::write_atomic(
+        &identified,
+        machine_to_toml(&id.machine, &["Identified by mtwin demo (tracker step)"]).as_bytes(),
+    )
+    .with_context(|| format!("cannot write {}", identified.display()))?;
+    let diag = body_diagonals(&model, 25);
+    let check = tracker::simulate::simulate_seeded(&truth, &diag, 0.010, 2);
+    let v = tracker::validate(&id.machine, &check);
+    let r = &id.report;
+    let id_json = super::tracker::identify_json(&id, &identified);
+    let before: Vec<f64> = v.errors_before.iter().map(|e| e.norm()).collect();
+    let after: Vec<f64> = v.errors_after.iter().map(|e| e.norm()).collect();
+    let mut vs = sections::tracker::validate_section(
+        &super::tracker::validate_json(&v),
+        "validate",
+        Some((&before, &after)),
+    )?;
+    let ch = &v.change.distance;
+    vs.blocks.insert(
+        1,
+        Block::Headlines(vec![
+            Headline {
+                label: "body diagonals, change of the largest |Δp|".into(),
+                ours: format!("{:.0} %", ch.max),
+                seed: "−70 %".into(),
+            },
+            Headline {
+                label: "body diagonals, change of the mean |Δp|".into(),
+                ours: format!("{:.0} %", ch.mean),
+                seed: "−81 %".into(),
+            },
+        ]),
+    );
+    Ok(Step {
+        key: "tracker",
+        title: "Tracker: volumetric error model of the six-axis gantry".into(),
+        lines: vec![
+            format!(
+                "planned {} of 1000 candidate poses (D-optimal), simulated with 10 µm noise; fit `{spec}`: rank {} of {} parameters, condition number {:.2e}",
+                plan.poses.len(),
+                r.identifiability.rank,
+                r.estimates.len(),
+                r.condition_number
+            ),
+            format!(
+                "validation on the four body diagonals ({} points): |Δp| max {:.0} → {:.0} µm ({:.0} %), mean {:.0} → {:.0} µm ({:.0} %) (seed: max −70 %, mean −81 %)",
+                v.points,
+                v.before.distance.max * 1e3,
+                v.after.distance.max * 1e3,
+                ch.max,
+                v.before.distance.mean * 1e3,
+                v.after.distance.mean * 1e3,
+                ch.mean
+            ),
+        ],
+        json: json!({"rank": r.identifiability.rank, "parameters": r.estimates.len(),
+            "diagonal_change_max_percent": ch.max, "diagonal_change_mean_percent": ch.mean,
+            "seed_change_max_percent": -70.0, "seed_change_mean_percent": -81.0}),
+        sections: vec![
+            sections::tracker::identify_section(&id_json, "identify")?,
+            vs,
+            sections::machine::section(
+                &id.machine,
+                "gantry-identified",
+                "Identified gantry: error curves over the travels",
+            ),
+        ],
+    })
+}
+
+/// Step 4: Skiving: twelve touch-offs simulated with a known set-up error.
+fn skiving_step(_: &Args) -> anyhow::Result<Step> {
+    let g = Geometry::new(80.0, 150.0, 40.0, 60.0)?;
+    let plan = Plan::standard(0.0, &g).touches(&g)?;
+    let truth = SetupError {
+        dgx: 0.03,
+        dgy: -0.02,
+        exz: 2e-4,
+        ezy: -1e-4,
+    };
+    let mut touches = Vec::new();
+    for seed in 1..=2 {
+        touches.extend(skiving::simulate::simulate(
+            &plan,
+            &g,
+            &truth,
+            Some(skiving::simulate::Noise { sigma: 0.001, seed }),
+        )?);
+    }
+    let sol = skiving::identify(&touches, &g, &skiving::Options { noise: Some(0.001) })?;
+    let first = closed_form::first_order(&touches[..6], &g).ok();
+    let e = sol.estimate;
+    let s = sections::skiving::section(
+        &super::skiving::setup_json(&sol, first.as_ref(), touches.len()),
+        "skiving setup-error",
+    )?;
+    let err = [
+        (e.dgx - truth.dgx) * 1e3,
+        (e.dgy - truth.dgy) * 1e3,
+        (e.exz - truth.exz) * 1e6,
+        (e.ezy - truth.ezy) * 1e6,
+    ];
+    Ok(Step {
+        key: "skiving",
+        title: "Skiving: workpiece set-up error from touch-offs".into(),
+        lines: vec![
+            format!(
+                "{} touches (1 µm noise): δgx {:.2} µm, δgy {:.2} µm, εxz {:.1} µrad, εzy {:.1} µrad",
+                touches.len(),
+                e.dgx * 1e3,
+                e.dgy * 1e3,
+                e.exz * 1e6,
+                e.ezy * 1e6
+            ),
+            format!(
+                "truth 30, −20 µm, 200, −100 µrad: off by {:.2}, {:.2} µm, {:.2}, {:.2} µrad",
+                err[0], err[1], err[2], err[3]
+            ),
+        ],
+        json: json!({"dgx": e.dgx, "dgy": e.dgy, "exz": e.exz, "ezy": e.ezy,
+            "truth": {"dgx": truth.dgx, "dgy": truth.dgy, "exz": truth.exz, "ezy": truth.ezy}}),
+        sections: vec![s],
+    })
+}
+
+const FACE_Z: f64 = -50.0;
+
+/// A face milled at Z = −50 (20 passes tagged `(face n)`).
+fn face(n: u32, out: &mut String) {
+    out.push_str(&format!("G0 X0 Y0\nG1 Z{FACE_Z} F500\n"));
+    for i in 0..20 {
+        let x = if i % 2 == 0 { 200 } else { 0 };
+        out.push_str(&format!("G1 X{x} F2000 (face {n})\nG1 Y{}\n", (i + 1) * 5));
+    }
+    out.push_str("G0 Z5\n");
+}
+
+/// Step 5: Thermal: probing runs of a known two-time-constant machine, ARX fit per
+/// height, and the seed's check: a face milled cold and again after an hour at
+/// varying speed, without and with the program compensated.
+fn thermal_step(a: &Args) -> anyhow::Result<Step> {
+    let mut truth = TruthMachine::demo();
+    truth.fast_gain_mm *= 0.5;
+    truth.slow_gain_mm *= 0.5;
+    let measured = [-50.0, -150.0, -250.0, -350.0];
+    let steps = [2000.0, 6000.0, 0.0, 8000.0, 4000.0, 1000.0, 7000.0, 3000.0];
+    let runs = vec![
+        ("const4000", vec![4000.0; 48]),
+        ("const8000", vec![8000.0; 48]),
+        ("steps", steps.iter().flat_map(|&s| [s; 6]).collect()),
+    ];
+    let text = truth.training_csv(&runs, &measured, 1e-4, 11);
+    let table = mtwin::io::Table::from_reader(std::path::Path::new("TRAIN.csv"), text.as_bytes())
+        .map_err(super::common::diag)?;
+    let data = thermal::training_from_table(&table, &[]).map_err(super::common::diag)?;
+    let fit = thermal::fit(&data, &ThermalFitOptions::default())?;
+    let model = fit.model;
+    model
+        .write(&a.out_dir.join("thermal.toml"))
+        .context("cannot write thermal.toml")?;
+    // The seed's check as a program.
+    let mut program = String::from("%\nG21 G90 G94 G17\nG0 Z5\nS6000 M3\n");
+    face(1, &mut program);
+    for (rpm, seconds) in [
+        (3000, 600),
+        (8000, 900),
+        (5000, 600),
+        (7000, 900),
+        (2000, 600),
+    ] {
+        program.push_str(&format!("S{rpm}\nG4 P{seconds}\n"));
+    }
+    program.push_str("S6000\n");
+    face(2, &mut program);
+    program.push_str("M5\nM30\n%\n");
+    let comp = thermal::compensate(
+        &model,
+        program.as_bytes(),
+        &thermal::CompensateOptions::default(),
+    )?;
+    mtwin::io::write_atomic(&a.out_dir.join("faces-comp.nc"), &comp.output)
+        .context("cannot write faces-comp.nc")?;
+    // True drift at the face height over the program's speed programme.
+    let speeds: Vec<f64> = (0..comp.programme.len())
+        .map(|k| comp.programme.sample(k)[0])
+        .collect();
+    let drift = truth.drift(&speeds, FACE_Z);
+    let at = |t: f64| {
+        let p = t / truth.period_min;
+        let k = (p.floor() as usize).min(drift.len().saturating_sub(2));
+        drift[k] + (p - k as f64) * (drift[k + 1] - drift[k])
+    };
+    // Each face starts with its plunge to FACE_Z; the correction written
+    // there holds over the face's passes (two minutes, short against the
+    // drift's time constants), so the face sits at FACE_Z − correction + e(t).
+    let plunges: Vec<&thermal::ZBlock> = comp
+        .z_blocks
+        .iter()
+        .filter(|b| (b.machine_z_mm - FACE_Z).abs() < 1e-9)
+        .collect();
+    let [f1, f2] = plunges[..] else {
+        anyhow::bail!("the test program should plunge to Z{FACE_Z} twice");
+    };
+    let d_raw = (at(f2.end_min) - at(f1.end_min)).abs();
+    let d_cor = ((at(f2.end_min) - f2.correction_mm) - (at(f1.end_min) - f1.correction_mm)).abs();
+    let curves = vec![
+        DriftCurve {
+            name: format!("true drift at z = {FACE_Z} mm"),
+            points: (0..drift.len())
+                .map(|k| (k as f64 * truth.period_min, drift[k]))
+                .collect(),
+        },
+        DriftCurve {
+            name: "model prediction".into(),
+            points: (0..drift.len())
+                .map(|k| {
+                    let t = k as f64 * truth.period_min;
+                    (t, model.drift_at(&comp.programme, t, FACE_Z).mm)
+                })
+                .collect(),
+        },
+        DriftCurve {
+            name: "left after compensation".into(),
+            points: comp
+                .z_blocks
+                .iter()
+                .filter(|b| !b.g53)
+                .map(|b| (b.end_min, at(b.end_min) - b.correction_mm))
+                .collect(),
+        },
+    ];
+    let mut s = sections::thermal::section(
+        &model,
+        &curves,
+        "Drift at the face height during the test program",
+    );
+    s.blocks.insert(
+        1,
+        Block::Headlines(vec![Headline {
+            label: "cold face vs face after an hour: height difference without → with compensation"
+                .into(),
+            ours: format!("{:.1} → {:.1} µm", d_raw * 1e3, d_cor * 1e3),
+            seed: "7 → 2 µm".into(),
+        }]),
+    );
+    Ok(Step {
+        key: "thermal",
+        title: "Thermal: spindle-speed-driven Z drift, fit and program compensation".into(),
+        lines: vec![
+            format!(
+                "ARX model per height fitted on 3 probing runs at {} heights; largest simulation RMS {:.2} µm",
+                model.heights().len(),
+                model
+                    .heights()
+                    .iter()
+                    .filter_map(|h| h.stats.as_ref().map(|s| s.simulation_rms_mm))
+                    .fold(0.0f64, f64::max)
+                    * 1e3
+            ),
+            format!(
+                "test program ({:.0} min, {} blocks): faces cold and after an hour differ by {:.1} µm without and {:.1} µm with compensation (seed: 7 → 2 µm)",
+                comp.duration_min,
+                comp.blocks,
+                d_raw * 1e3,
+                d_cor * 1e3
+            ),
+        ],
+        json: json!({"face_difference_mm": d_raw, "face_difference_compensated_mm": d_cor,
+            "seed_face_difference_mm": 0.007, "seed_face_difference_compensated_mm": 0.002}),
+        sections: vec![s],
+    })
+}
+
+/// The servo of each axis of the demo's "real" machine (the truth), and its
+/// excitation: a sine sweep of 20 mm (or degrees) from 0.5 to 8 Hz over 4 s.
+fn true_servo(k: usize) -> anyhow::Result<Servo> {
+    // A double pole at p gives DC gain 1 with b0 = (1 − p)².
+    let p = [0.80, 0.82, 0.78, 0.85, 0.83][k];
+    Ok(Servo::new(
+        0.001,
+        vec![(1.0 - p) * (1.0 - p)],
+        vec![1.0, -2.0 * p, p * p],
+        1,
+    )?)
+}
+
+fn excitation(ts: f64) -> Vec<f64> {
+    let n = 4000;
+    let mut phase = 0.0;
+    (0..n)
+        .map(|k| {
+            let t = k as f64 * ts;
+            let f = 0.5 + 7.5 * t / (n as f64 * ts);
+            phase += 2.0 * std::f64::consts::PI * f * ts;
+            20.0 * phase.sin()
+        })
+        .collect()
+}
+
+/// Step 6: Servo: command/encoder logs of each axis simulated with known transfer
+/// functions and 20 nm encoder noise, fitted by ARX with order selection.
+fn servo_step(a: &Args) -> anyhow::Result<Step> {
+    let m = bundled::machine("ac-trunnion-with-errors.toml")?;
+    let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+    let noise = Normal::new(0.0, 0.00002)?;
+    let mut fits = Vec::new();
+    let mut lines = Vec::new();
+    let mut twin_machine = m.clone();
+    let mut worst_lag = 0.0f64;
+    for (k, axis) in m.axes.iter().enumerate() {
+        let truth = true_servo(k)?;
+        let cmd = excitation(truth.ts());
+        let fb: Vec<f64> = truth
+            .simulate(&cmd)
+            .into_iter()
+            .map(|y| y + noise.sample(&mut rng))
+            .collect();
+        let fit = fit_servo(
+            &ServoLog::new(truth.ts(), cmd, fb)?,
+            &ServoFitOptions::default(),
+        )?;
+        let lag_true = truth.velocity_lag_s()?;
+        let lag = fit.velocity_lag_s.unwrap_or(f64::NAN);
+        worst_lag = worst_lag.max((lag - lag_true).abs());
+        lines.push(format!(
+            "{}: orders {}, velocity lag {:.3} ms (truth {:.3} ms), simulation RMS {:.2} µm",
+            axis.name,
+            fit.selection.table[fit.selection.best].orders,
+            lag * 1e3,
+            lag_true * 1e3,
+            fit.simulation_rms * 1e3
+        ));
+        twin_machine.axes[k].servo = Some(ServoTable {
+            ts: fit.servo.ts(),
+            b: fit.servo.b().to_vec(),
+            a: fit.servo.a().to_vec(),
+            nk: fit.servo.nk(),
+        });
+        fits.push((axis.name.clone(), fit.to_json()));
+    }
+    let path = a.out_dir.join("ac-trunnion-twin.toml");
+    mtwin::io::write_atomic(
+        &path,
+        machine_to_toml(
+            &twin_machine,
+            &["The AC trunnion with errors and the servos identified by mtwin demo"],
+        )
+        .as_bytes(),
+    )
+    .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(Step {
+        key: "servo",
+        title: "Servo: axis transfer functions from command/encoder logs".into(),
+        lines,
+        json: json!({"axes": fits.len(), "largest_velocity_lag_error_s": worst_lag,
+            "machine": path.display().to_string()}),
+        sections: vec![sections::servo::section(&fits)?],
+    })
+}
+
+/// The bundled five-axis test program (TCP).
+const PROGRAM: &str = include_str!("../../../../examples/programs/s-curve-5axis.ngc");
+
+/// Step 7: Geometric compensation of the five-axis program on the machine with errors.
+fn compensate_step(a: &Args) -> anyhow::Result<Step> {
+    let m = bundled::machine("ac-trunnion-with-errors.toml")?;
+    let opts = CompensateOptions {
+        tol: 0.001,
+        max_correction: 2.0,
+        ..CompensateOptions::default()
+    };
+    let comp = Compensator::new(&m, opts)?;
+    let mut out = Vec::new();
+    let summary = comp.run(std::io::BufReader::new(PROGRAM.as_bytes()), &mut out)?;
+    let path = a.out_dir.join("s-curve-5axis-comp.ngc");
+    mtwin::io::write_atomic(&path, &out)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    let j = super::compensate::summary_json(&summary, &path);
+    Ok(Step {
+        key: "compensate",
+        title: "Geometric compensation of a five-axis program".into(),
+        lines: vec![format!(
+            "s-curve-5axis.ngc: {} blocks, {} changed, largest correction {:.1} µm, largest deviation left at a checked midpoint {:.3} µm → {}",
+            summary.blocks,
+            summary.blocks_changed,
+            summary.largest_correction * 1e3,
+            summary.largest_midpoint_deviation * 1e3,
+            path.display()
+        )],
+        sections: vec![sections::compensate::section(&j, "compensate")?],
+        json: j,
+    })
+}
+
+// ─── Digital twin (spec 05) ────────────────────────────────────────────────
+// The twin (`mtwin::methods::twin`) is wired here: `twin_predict` runs it on a
+// machine (servos + geometric errors, `ac-trunnion-twin.toml` written by the
+// servo step) and a program, and returns the rows of PRED.csv. Everything
+// after it — the summary lines, the JSON and the report sections built by
+// `mtwin::report::twin` — is in place.
+
+/// The twin's prediction of `program` on `machine`: one [`TwinRow`] per
+/// servo sample. `None` while the twin is not part of this build.
+fn twin_predict(_machine: &Machine, _program: &[u8]) -> anyhow::Result<Option<Vec<TwinRow>>> {
+    Ok(None)
+}
+
+/// Step 8: The digital twin on the five-axis program, before and after geometric
+/// compensation.
+fn twin_step(a: &Args) -> anyhow::Result<Step> {
+    let machine = super::common::load_machine(&a.out_dir.join("ac-trunnion-twin.toml"))?;
+    let compensated = std::fs::read(a.out_dir.join("s-curve-5axis-comp.ngc"))
+        .context("cannot read the compensated program")?;
+    let (Some(before), Some(after)) = (
+        twin_predict(&machine, PROGRAM.as_bytes())?,
+        twin_predict(&machine, &compensated)?,
+    ) else {
+        return Ok(Step {
+            key: "twin",
+            title: "Digital twin: not part of this build".into(),
+            lines: vec!["(the servo models and the compensated program are ready for it)".into()],
+            json: json!({"available": false}),
+            sections: Vec::new(),
+        });
+    };
+    let (b, af) = (
+        mtwin::report::twin::summary(&before),
+        mtwin::report::twin::summary(&after),
+    );
+    Ok(Step {
+        key: "twin",
+        title: "Digital twin: trajectory errors of the five-axis program".into(),
+        lines: vec![
+            format!(
+                "original program: tool-tip error up to {:.1} µm (RMS {:.1} µm), tool axis up to {:.1} µrad (seed: −1.2…1.5 mm, −4.5e-3…4e-3 rad)",
+                b.0 * 1e3,
+                b.1 * 1e3,
+                b.2 * 1e6
+            ),
+            format!(
+                "compensated program: tool-tip error up to {:.1} µm (RMS {:.1} µm), tool axis up to {:.1} µrad",
+                af.0 * 1e3,
+                af.1 * 1e3,
+                af.2 * 1e6
+            ),
+        ],
+        json: json!({"available": true,
+            "tip_error_max": b.0, "tip_error_rms": b.1, "axis_error_max": b.2,
+            "compensated": {"tip_error_max": af.0, "tip_error_rms": af.1, "axis_error_max": af.2}}),
+        sections: vec![
+            mtwin::report::twin::section_from_rows(
+                "twin",
+                "Digital twin: the five-axis program",
+                &before,
+            ),
+            mtwin::report::twin::comparison_section(
+                "twin-compensated",
+                "Digital twin: original and compensated program",
+                ("original", &before),
+                ("compensated", &after),
+            ),
+        ],
+    })
 }

@@ -1,7 +1,5 @@
 //! `mtwin gcode`: interpolate a program into axis commands, program statistics.
 
-use std::fs::File;
-use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
@@ -137,7 +135,7 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
     opts.interp = interp_options(&a.offsets)?;
     opts.force_tcp = a.tcp;
     opts.check_travel = !a.no_travel_check;
-    let input = open(&a.program)?;
+    let (input, bar) = crate::output::open_with_progress(&a.program, "interpolate")?;
     let mut failure: Option<InterpolateError> = None;
     let mut summary = None;
     let written = mtwin::io::write_atomic_with(&a.out, |w| -> std::io::Result<()> {
@@ -163,6 +161,7 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
             }
         }
     });
+    bar.finish_and_clear();
     if let Some(e) = failure {
         return Err(located(&a.program, e.line(), e.column(), &e));
     }
@@ -204,7 +203,7 @@ fn stats(a: StatsArgs) -> anyhow::Result<()> {
         opts.rapid_rate = m.rapid_feed;
     }
     opts.interp.tcp_at_start = a.tcp;
-    let input = open(&a.program)?;
+    let (input, bar) = crate::output::open_with_progress(&a.program, "read")?;
     let mut check = machine.as_ref().map(|m| {
         let mut c = TravelCheck::new(m);
         c.force_tcp = a.tcp;
@@ -213,8 +212,9 @@ fn stats(a: StatsArgs) -> anyhow::Result<()> {
     let st = match check.as_mut() {
         Some(c) => gcode::stats_with(input, &opts, c),
         None => gcode::stats(input, &opts),
-    }
-    .map_err(|e| {
+    };
+    bar.finish_and_clear();
+    let st = st.map_err(|e| {
         let loc = e.location();
         located(
             &a.program,

@@ -5,10 +5,12 @@ pub mod common;
 pub use common::diag as common_diag;
 mod ballbar;
 mod compensate;
+mod completions;
 mod demo;
 mod gcode;
 mod model;
 mod predict;
+mod report;
 mod servo;
 mod skiving;
 mod testpiece;
@@ -25,8 +27,8 @@ pub enum Command {
     /// Double-ballbar identification of the rotary-axis location errors (spec 01).
     #[command(subcommand)]
     Ballbar(ballbar::Command),
-    /// Run every method end to end on the bundled examples and print a summary.
-    #[command(after_help = "Example:\n  mtwin demo")]
+    /// Run every method end to end on the bundled examples, print a summary, write an HTML report.
+    #[command(after_help = "Example:\n  mtwin demo --out-dir mtwin-demo")]
     Demo(demo::Args),
     /// Read G-code: interpolate it into axis commands, program statistics.
     #[command(subcommand)]
@@ -80,6 +82,17 @@ pub enum Command {
     /// Digital twin of five-axis trajectory error: servo + geometry → tool-tip and tool-axis error (spec 05).
     #[command(subcommand)]
     Twin(twin::Command),
+    /// One self-contained HTML report from saved results of the other commands.
+    #[command(
+        after_help = "Example:\n  mtwin report --machine identified.toml --identify identify.json --validate validate.json --out report.html"
+    )]
+    Report(report::Args),
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
+    #[command(after_help = "Example:\n  mtwin completions bash > /etc/bash_completion.d/mtwin")]
+    Completions(completions::CompletionsArgs),
+    /// Write man pages for mtwin and every subcommand.
+    #[command(after_help = "Example:\n  mtwin man --out-dir man/man1")]
+    Man(completions::ManArgs),
 }
 
 /// Run one subcommand.
@@ -101,5 +114,8 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Testpiece(c) => testpiece::run(c),
         Command::Compensate(a) => compensate::run(a),
         Command::Twin(c) => twin::run(c),
+        Command::Report(a) => report::run(a),
+        Command::Completions(a) => completions::run_completions(a),
+        Command::Man(a) => completions::run_man(a),
     }
 }

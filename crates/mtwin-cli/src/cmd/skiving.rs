@@ -140,6 +140,8 @@ pub struct ProgramArgs {
     /// Output G-code file.
     #[arg(long)]
     out: PathBuf,
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
 }
 
 #[derive(Debug, clap::Args)]
@@ -227,35 +229,7 @@ fn setup_error(a: SetupErrorArgs) -> anyhow::Result<()> {
         );
     }
     match a.format {
-        Format::Json => {
-            let basis = s.uncertainty.map(|u| match u.basis {
-                UncertaintyBasis::KnownNoise { sigma } => {
-                    json!({"kind": "known_noise", "sigma": sigma})
-                }
-                UncertaintyBasis::Residuals { sigma, dof } => {
-                    json!({"kind": "residuals", "sigma": sigma, "dof": dof})
-                }
-            });
-            let uncertainty =
-                unc.map(|u| json!({"dgx": u[0], "dgy": u[1], "exz": u[2], "ezy": u[3]}));
-            let closed = first
-                .as_ref()
-                .ok()
-                .map(|f| json!({"dgx": f.dgx, "dgy": f.dgy, "exz": f.exz, "ezy": f.ezy}));
-            print_json(&json!({
-                "dgx": e.dgx, "dgy": e.dgy, "exz": e.exz, "ezy": e.ezy,
-                "residuals": s.residuals,
-                "uncertainty": uncertainty,
-                "uncertainty_basis": basis,
-                "coverage_factor_95": s.uncertainty.map(|u| u.coverage_factor_95()),
-                "flags": s.flags.iter().map(|f| f.name()).collect::<Vec<_>>(),
-                "standardized_residuals": s.standardized,
-                "leverage": s.leverage,
-                "flag_noise": s.flag_noise,
-                "first_order": closed,
-                "touches": touches.len(),
-            }))
-        }
+        Format::Json => print_json(&setup_json(&s, first.as_ref().ok(), touches.len())),
         Format::Human => {
             println!(
                 "Workpiece set-up error from {} touches ({}), exact chain, least squares",
@@ -335,6 +309,39 @@ fn setup_error(a: SetupErrorArgs) -> anyhow::Result<()> {
     }
 }
 
+/// The `--format json` document of `skiving setup-error` (also read by `mtwin report`).
+pub(crate) fn setup_json(
+    s: &mtwin::methods::skiving::Solution,
+    first: Option<&SetupError>,
+    touches: usize,
+) -> serde_json::Value {
+    let e = s.estimate;
+    let unc = s.uncertainty.map(|u| u.std);
+    let basis = s.uncertainty.map(|u| match u.basis {
+        UncertaintyBasis::KnownNoise { sigma } => {
+            json!({"kind": "known_noise", "sigma": sigma})
+        }
+        UncertaintyBasis::Residuals { sigma, dof } => {
+            json!({"kind": "residuals", "sigma": sigma, "dof": dof})
+        }
+    });
+    let uncertainty = unc.map(|u| json!({"dgx": u[0], "dgy": u[1], "exz": u[2], "ezy": u[3]}));
+    let closed = first.map(|f| json!({"dgx": f.dgx, "dgy": f.dgy, "exz": f.exz, "ezy": f.ezy}));
+    json!({
+        "dgx": e.dgx, "dgy": e.dgy, "exz": e.exz, "ezy": e.ezy,
+        "residuals": s.residuals,
+        "uncertainty": uncertainty,
+        "uncertainty_basis": basis,
+        "coverage_factor_95": s.uncertainty.map(|u| u.coverage_factor_95()),
+        "flags": s.flags.iter().map(|f| f.name()).collect::<Vec<_>>(),
+        "standardized_residuals": s.standardized,
+        "leverage": s.leverage,
+        "flag_noise": s.flag_noise,
+        "first_order": closed,
+        "touches": touches,
+    })
+}
+
 fn write_program(a: ProgramArgs) -> anyhow::Result<()> {
     let g = a.geometry.geometry()?;
     let motion = Motion {
@@ -351,11 +358,18 @@ fn write_program(a: ProgramArgs) -> anyhow::Result<()> {
         .context("cannot write the touch-off program")?;
     write_atomic_with(&a.out, |w| w.write_all(text.as_bytes()))
         .with_context(|| format!("cannot write {}", a.out.display()))?;
-    note(format!(
-        "touch-off program (6 probing moves) → {}",
-        a.out.display()
-    ));
-    Ok(())
+    match a.format {
+        Format::Json => {
+            print_json(&json!({"probing_moves": 6, "out": a.out.display().to_string()}))
+        }
+        Format::Human => {
+            note(format!(
+                "touch-off program (6 probing moves) → {}",
+                a.out.display()
+            ));
+            Ok(())
+        }
+    }
 }
 
 fn simulate_touches(a: SimulateArgs) -> anyhow::Result<()> {

@@ -127,6 +127,8 @@ pub struct SimulateArgs {
     /// Output CSV: axis columns and x,y,z (mm, W).
     #[arg(long)]
     out: PathBuf,
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
 }
 
 #[derive(Debug, clap::Args)]
@@ -238,22 +240,7 @@ pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
     let unident = r.unidentifiable_names();
     let rot = params.is_rotation();
     match a.format {
-        Format::Json => print_json(&json!({
-            "rank": r.identifiability.rank,
-            "parameters": r.estimates.len(),
-            "unidentifiable": unident,
-            "rms_before": rms_before,
-            "rms_after": rms_after,
-            "condition_number": r.condition_number,
-            "sigma": r.sigma,
-            "estimates": r.estimates,
-            "registration": id.registration,
-            "relations": r.identifiability.relations.iter().map(|c| c.describe()).collect::<Vec<_>>(),
-            "outliers": r.outliers.flagged,
-            "convergence": r.convergence,
-            "warnings": r.warnings,
-            "out": a.out.display().to_string(),
-        })),
+        Format::Json => print_json(&identify_json(&id, &a.out)),
         Format::Human => {
             println!(
                 "{} points, {} parameters: rank {}, condition number {:.3e}",
@@ -302,6 +289,43 @@ pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// The `--format json` document of `identify` (contract; also read by `mtwin report`).
+pub(crate) fn identify_json(
+    id: &mtwin::methods::tracker::Identification,
+    out: &Path,
+) -> serde_json::Value {
+    let r = &id.report;
+    let (rms_before, rms_after) = r.rms();
+    json!({
+        "rank": r.identifiability.rank,
+        "parameters": r.estimates.len(),
+        "unidentifiable": r.unidentifiable_names(),
+        "rms_before": rms_before,
+        "rms_after": rms_after,
+        "condition_number": r.condition_number,
+        "sigma": r.sigma,
+        "estimates": r.estimates,
+        "registration": id.registration,
+        "relations": r.identifiability.relations.iter().map(|c| c.describe()).collect::<Vec<_>>(),
+        "outliers": r.outliers.flagged,
+        "convergence": r.convergence,
+        "warnings": r.warnings,
+        "out": out.display().to_string(),
+    })
+}
+
+/// The `--format json` document of `validate` (also read by `mtwin report`).
+pub(crate) fn validate_json(v: &mtwin::methods::tracker::Validation) -> serde_json::Value {
+    json!({
+        "points": v.points,
+        "before": stats_json(&v.before),
+        "after": stats_json(&v.after),
+        "change_percent": stats_json(&v.change),
+        "rms_before": v.before.rms(),
+        "rms_after": v.after.rms(),
+    })
 }
 
 fn stats_json(s: &ErrorStats) -> serde_json::Value {
@@ -367,14 +391,7 @@ pub fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
             .with_context(|| format!("cannot write {}", p.display()))?;
     }
     match a.format {
-        Format::Json => print_json(&json!({
-            "points": v.points,
-            "before": stats_json(&v.before),
-            "after": stats_json(&v.after),
-            "change_percent": stats_json(&v.change),
-            "rms_before": v.before.rms(),
-            "rms_after": v.after.rms(),
-        })),
+        Format::Json => print_json(&validate_json(&v)),
         Format::Human => {
             print_table(
                 &format!(
@@ -403,8 +420,10 @@ pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
     }
     let m = load_machine(&a.machine)?;
     let params = ParameterSet::from_spec(&m, &a.fit).map_err(|e| anyhow::anyhow!("--fit: {e}"))?;
-    let p = plan(&m, &params, a.candidates, a.select, a.noise, a.seed)
-        .context("cannot evaluate the chosen poses")?;
+    let spin = crate::output::spinner("planning");
+    let p = plan(&m, &params, a.candidates, a.select, a.noise, a.seed);
+    spin.finish_and_clear();
+    let p = p.context("cannot evaluate the chosen poses")?;
     write_points(&a.out_csv, &m, &p.poses, &[])?;
     let g = gcode(&m, &p.poses, 2000.0, 2.0);
     write_atomic_with(&a.out_gcode, |w| w.write_all(g.as_bytes()))
@@ -469,12 +488,20 @@ pub fn run_simulate(c: SimulateCommand) -> anyhow::Result<()> {
         })
         .collect();
     write_points(&a.out, &m, &rows, &["x", "y", "z"])?;
-    note(format!(
-        "{} simulated points written to {}",
-        rows.len(),
-        a.out.display()
-    ));
-    Ok(())
+    match a.format {
+        Format::Json => print_json(&json!({
+            "points": rows.len(), "noise": a.noise, "seed": a.seed,
+            "out": a.out.display().to_string(),
+        })),
+        Format::Human => {
+            note(format!(
+                "{} simulated points written to {}",
+                rows.len(),
+                a.out.display()
+            ));
+            Ok(())
+        }
+    }
 }
 
 pub fn run_compensate(a: CompensateArgs) -> anyhow::Result<()> {

@@ -38,45 +38,98 @@ pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
-/// Run a walkthrough page of `docs/` as the docs convention says: in `dir`
-/// (where `examples` is linked to the repository's), write every
-/// ```` ```lang file=NAME ```` block to NAME and run every `$ mtwin …` line
-/// of the ```` ```console ```` blocks in order; each must succeed, and with
-/// `--format json` its stdout must be one JSON document. Returns every
-/// command run with its stdout.
+/// Run one page of `docs/` by the documentation convention, in `dir` (which
+/// gets an `examples` link to the repository's `examples/` folder): every
+/// fenced block whose info string holds `file=NAME` is written to NAME, and
+/// every `$ mtwin …` line of a ```` ```console ```` block is run in order; each
+/// must exit 0, and with `--format json` its stdout must be one JSON
+/// document. A line ending in `> NAME` writes its stdout to NAME, as a shell
+/// would. Returns the commands run.
 pub fn run_doc(page: &str, dir: &Path) -> Vec<(String, String)> {
+    let text = std::fs::read_to_string(repo().join("docs").join(page))
+        .unwrap_or_else(|e| panic!("docs/{page}: {e}"));
     let link = dir.join("examples");
     if !link.exists() {
-        std::os::unix::fs::symlink(repo().join("examples"), link).unwrap();
+        #[cfg(unix)]
+        std::os::unix::fs::symlink(repo().join("examples"), &link).unwrap();
     }
-    let text = std::fs::read_to_string(repo().join("docs").join(page)).unwrap();
     let mut ran = Vec::new();
     let mut lines = text.lines();
     while let Some(line) = lines.next() {
-        let Some(info) = line.strip_prefix("```") else {
+        let Some(info) = line.trim_start().strip_prefix("```") else {
             continue;
         };
         let body: Vec<&str> = lines
             .by_ref()
-            .take_while(|l| !l.starts_with("```"))
+            .take_while(|l| !l.trim_start().starts_with("```"))
             .collect();
         if let Some(name) = info
             .split_whitespace()
             .find_map(|w| w.strip_prefix("file="))
         {
             std::fs::write(dir.join(name), body.join("\n") + "\n").unwrap();
-        } else if info == "console" {
+        } else if info.split_whitespace().next() == Some("console") {
             for cmd in body.iter().filter_map(|l| l.strip_prefix("$ mtwin ")) {
-                let args: Vec<&str> = cmd.split_whitespace().collect();
+                let words = split_words(cmd);
+                let mut args: Vec<&str> = words.iter().map(String::as_str).collect();
+                let redirect = match args[..] {
+                    [.., ">", file] => {
+                        args.truncate(args.len() - 2);
+                        Some(file)
+                    }
+                    _ => None,
+                };
                 let o = mtwin(dir, &args);
-                assert_eq!(o.status.code(), Some(0), "{cmd}: {}", stderr(&o));
-                if cmd.contains("--format json") {
-                    let _: serde_json::Value = serde_json::from_str(&stdout(&o))
-                        .unwrap_or_else(|e| panic!("{cmd}: stdout is not JSON: {e}"));
+                if let Some(file) = redirect {
+                    std::fs::write(dir.join(file), &o.stdout).unwrap();
+                }
+                assert_eq!(
+                    o.status.code(),
+                    Some(0),
+                    "docs/{page}: `mtwin {cmd}` failed: {}",
+                    stderr(&o)
+                );
+                if args.windows(2).any(|w| w == ["--format", "json"]) {
+                    let _: serde_json::Value =
+                        serde_json::from_str(&stdout(&o)).unwrap_or_else(|e| {
+                            panic!(
+                                "docs/{page}: `mtwin {cmd}`: stdout is not one JSON document: {e}"
+                            )
+                        });
                 }
                 ran.push((cmd.to_string(), stdout(&o)));
             }
         }
     }
     ran
+}
+
+/// Words of a command line as a shell splits them: on white space, with
+/// double quotes grouping words (`--title "Machine 7"`).
+pub fn split_words(line: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut word = String::new();
+    let (mut quoted, mut any) = (false, false);
+    for c in line.chars() {
+        match c {
+            '"' => {
+                quoted = !quoted;
+                any = true;
+            }
+            c if c.is_whitespace() && !quoted => {
+                if any {
+                    out.push(std::mem::take(&mut word));
+                    any = false;
+                }
+            }
+            c => {
+                word.push(c);
+                any = true;
+            }
+        }
+    }
+    if any {
+        out.push(word);
+    }
+    out
 }

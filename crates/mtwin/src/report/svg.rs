@@ -248,6 +248,99 @@ pub fn xy(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Strin
     s
 }
 
+/// A grouped bar chart: one group per entry of `groups`, one bar per series in
+/// each group; each series is `(name, colour, values)` with one value per group
+/// (non-finite values are left out). Values start from 0.
+pub fn bars(
+    title: &str,
+    y_label: &str,
+    groups: &[String],
+    series: &[(String, String, Vec<f64>)],
+) -> String {
+    let vals = || {
+        series
+            .iter()
+            .flat_map(|s| s.2.iter())
+            .filter(|v| v.is_finite())
+    };
+    let hi = vals().fold(0.0_f64, |a, &b| a.max(b));
+    let lo = vals().fold(0.0_f64, |a, &b| a.min(b));
+    let (y0, y1) = if hi > lo { (lo, hi) } else { (0.0, 1.0) };
+    let (y0, y1) = (
+        if y0 < 0.0 { -nice(-y0) } else { 0.0 },
+        if y1 > 0.0 { nice(y1) } else { 0.0 },
+    );
+    let (l, t, w, h) = (70.0, 40.0, SIZE - 100.0, SIZE - 140.0);
+    let py = |y: f64| t + h - (y - y0) / (y1 - y0) * h;
+    let mut s = String::new();
+    header(
+        &mut s,
+        SIZE,
+        SIZE - 20.0 + 16.0 * series.len() as f64,
+        title,
+    );
+    let _ = writeln!(
+        s,
+        r#"<rect x="{l}" y="{t}" width="{w}" height="{h}" fill="none" stroke="black"/>"#
+    );
+    for k in 0..=4 {
+        let fy = y0 + (y1 - y0) * k as f64 / 4.0;
+        let _ = writeln!(
+            s,
+            r##"<line x1="{l}" y1="{0:.2}" x2="{1}" y2="{0:.2}" stroke="#eee"/><text x="{2}" y="{3:.2}" text-anchor="end">{4}</text>"##,
+            py(fy),
+            l + w,
+            l - 4.0,
+            py(fy) + 4.0,
+            fmt_tick(fy)
+        );
+    }
+    let _ = writeln!(
+        s,
+        r#"<text x="16" y="{}" text-anchor="middle" transform="rotate(-90 16 {})">{}</text>"#,
+        t + h / 2.0,
+        t + h / 2.0,
+        escape(y_label)
+    );
+    let gw = w / groups.len().max(1) as f64;
+    let bw = gw * 0.8 / series.len().max(1) as f64;
+    for (g, name) in groups.iter().enumerate() {
+        let gx = l + gw * g as f64 + gw * 0.1;
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.2}" y="{}" text-anchor="middle">{}</text>"#,
+            l + gw * (g as f64 + 0.5),
+            t + h + 16.0,
+            escape(name)
+        );
+        for (k, (_, color, v)) in series.iter().enumerate() {
+            let Some(&v) = v.get(g).filter(|v| v.is_finite()) else {
+                continue;
+            };
+            let (ya, yb) = (py(v.max(0.0)), py(v.min(0.0)));
+            let _ = writeln!(
+                s,
+                r#"<rect class="bar" x="{:.2}" y="{ya:.2}" width="{:.2}" height="{:.2}" fill="{color}"/>"#,
+                gx + bw * k as f64,
+                bw * 0.92,
+                (yb - ya).max(0.5)
+            );
+        }
+    }
+    let legend_series: Vec<Series> = series
+        .iter()
+        .map(|(n, c, _)| Series {
+            name: n.clone(),
+            points: Vec::new(),
+            color: c.clone(),
+            markers: false,
+        })
+        .collect();
+    legend(&mut s, &legend_series, 20.0, t + h + 44.0);
+    s.push_str("</svg>\n");
+    s
+}
+
 /// The smallest of 1, 2, 5 × 10^k not below `x` (1 for `x ≤ 0`).
 pub(crate) fn nice(x: f64) -> f64 {
     if x.is_nan() || x <= 0.0 || !x.is_finite() {
@@ -275,6 +368,27 @@ mod tests {
     fn nice_rounds_up_to_1_2_5() {
         assert_eq!(nice(3.2), 5.0);
         assert_eq!(nice(0.15), 0.2);
+    }
+
+    #[test]
+    fn bars_are_proportional_to_their_values() {
+        let svg = bars(
+            "t",
+            "µm",
+            &["a".into(), "b".into()],
+            &[("s".into(), "red".into(), vec![1.0, 4.0])],
+        );
+        // Axis runs 0…5 (nice(4)); bar heights are value/5 of the plot height.
+        let heights: Vec<f64> = svg
+            .lines()
+            .filter(|l| l.contains("class=\"bar\""))
+            .map(|l| {
+                let i = l.find("height=\"").unwrap() + 8;
+                l[i..].split('"').next().unwrap().parse().unwrap()
+            })
+            .collect();
+        assert_eq!(heights.len(), 2);
+        assert!((heights[1] / heights[0] - 4.0).abs() < 1e-2, "{heights:?}");
         assert_eq!(nice(10.0), 10.0);
         assert_eq!(nice(0.0), 1.0);
     }

@@ -1,0 +1,68 @@
+//! `mtwin completions SHELL` and `mtwin man --out-dir DIR`: shell completion
+//! scripts and man pages generated from the same clap definition as the
+//! parser, so they cannot disagree with it.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::CommandFactory;
+use serde_json::json;
+
+use crate::output::{Format, print_json};
+
+#[derive(Debug, clap::Args)]
+pub struct CompletionsArgs {
+    /// The shell to write the completion script for (printed on stdout).
+    #[arg(value_enum)]
+    shell: clap_complete::Shell,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct ManArgs {
+    /// Folder for the man pages (created if absent): mtwin.1 and one page per subcommand.
+    #[arg(long)]
+    out_dir: PathBuf,
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+pub fn run_completions(a: CompletionsArgs) -> anyhow::Result<()> {
+    let mut cmd = crate::Cli::command();
+    clap_complete::generate(a.shell, &mut cmd, "mtwin", &mut std::io::stdout());
+    Ok(())
+}
+
+/// Every command of the tree (display names `mtwin`, `mtwin-ballbar`, … after `build`).
+fn pages(cmd: &clap::Command, out: &mut Vec<clap::Command>) {
+    for sub in cmd.get_subcommands().filter(|s| !s.is_hide_set()) {
+        pages(sub, out);
+    }
+    out.push(cmd.clone());
+}
+
+pub fn run_man(a: ManArgs) -> anyhow::Result<()> {
+    let mut cmd = crate::Cli::command().disable_help_subcommand(true);
+    cmd.build();
+    std::fs::create_dir_all(&a.out_dir)
+        .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
+    let mut list = Vec::new();
+    pages(&cmd, &mut list);
+    let mut written = Vec::new();
+    for c in list {
+        let man = clap_mangen::Man::new(c);
+        let mut buf = Vec::new();
+        man.render(&mut buf)
+            .with_context(|| format!("cannot render {}", man.get_filename()))?;
+        let path = a.out_dir.join(man.get_filename());
+        mtwin::io::write_atomic(&path, &buf)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        written.push(path.display().to_string());
+    }
+    match a.format {
+        Format::Json => print_json(&json!({"pages": written.len(), "files": written})),
+        Format::Human => {
+            println!("{} man pages → {}", written.len(), a.out_dir.display());
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,171 @@
+//! Ballbar section (spec 01) from the JSON of `mtwin ballbar identify --format json`:
+//! the eight PIGEs with standard uncertainties, residual RMS per mode, the
+//! corrected axis-line positions and the polar plots.
+
+use super::{Json, ReportError, fmt};
+use crate::report::html::{Block, Section, Table, Verdict};
+
+const PIGES: [&str; 8] = [
+    "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C",
+];
+const MODES: [&str; 4] = ["mode1", "mode2", "mode3", "mode4"];
+
+/// The ballbar section. `figures` are `(caption, SVG)` pairs, e.g. the polar
+/// plots of `ballbar identify --plot DIR`.
+pub fn section(
+    id: &serde_json::Value,
+    what: &str,
+    figures: Vec<(String, String)>,
+) -> Result<Section, ReportError> {
+    let j = Json::new(id, what);
+    let mut s = Section::new("ballbar", "Ballbar: location errors of the rotary axes");
+    s.push(Block::Text(
+        "Eight position-independent location errors (PIGEs) of the A and C axes, identified from \
+         the four ballbar modes. Offsets in µm, tilts in µrad, ± one standard uncertainty."
+            .into(),
+    ));
+    let unidentified =
+        j.v.get("unidentified")
+            .and_then(|u| u.as_object())
+            .cloned()
+            .unwrap_or_default();
+    let mut t = Table::new(
+        "Identified PIGEs (absolute)",
+        &["PIGE", "meaning", "value", "std. uncertainty", "unit"],
+    );
+    for p in PIGES {
+        let tilt = p.starts_with("EA") || p.starts_with("EB") || p.starts_with("EC");
+        let (f, unit) = if tilt { (1e6, "µrad") } else { (1e3, "µm") };
+        let meaning = match p {
+            "EY0A" | "EZ0A" => "offset of the A line",
+            "EB0A" | "EC0A" => "tilt of the A line",
+            "EX0C" | "EY0C" => "offset of the C line",
+            _ => "tilt of the C line",
+        };
+        let v = j.opt_num(p);
+        let u = j.opt_num(&format!("uncertainty.{p}"));
+        let (val, unc) = if unidentified.contains_key(p) || v.is_none() {
+            ("not identified".to_string(), "—".to_string())
+        } else {
+            (fmt(v.map(|v| v * f), 2), fmt(u.map(|u| u * f), 2))
+        };
+        t.row(vec![p.into(), meaning.into(), val, unc, unit.into()]);
+    }
+    s.push(Block::Table(t));
+    let mut r = Table::new(
+        "Residuals and fitted bar lengths per mode",
+        &["mode", "residual RMS (µm)", "fitted bar length (mm)"],
+    );
+    for m in MODES {
+        let rms = j.opt_num(&format!("residual_rms.{m}"));
+        if rms.is_some() {
+            r.row(vec![
+                m.into(),
+                fmt(rms.map(|v| v * 1e3), 3),
+                fmt(j.opt_num(&format!("bar_length.{m}")), 4),
+            ]);
+        }
+    }
+    if r.rows.is_empty() {
+        return Err(ReportError::Input {
+            what: what.into(),
+            message: "no mode has a residual (`residual_rms`): is this `ballbar identify --format json` output?".into(),
+        });
+    }
+    s.push(Block::Table(r));
+    let mut c = Table::new(
+        "Compensation: where the actual axis lines pass (enter in the control)",
+        &["axis line", "coordinate", "value (mm)"],
+    );
+    for (key, line, coord) in [
+        ("A_line_y", "A (in M)", "Y"),
+        ("A_line_z", "A (in M)", "Z"),
+        ("C_line_x", "C (in the A frame)", "X"),
+        ("C_line_y", "C (in the A frame)", "Y"),
+    ] {
+        c.row(vec![
+            line.into(),
+            coord.into(),
+            fmt(Some(j.num(&format!("compensation.{key}"))?), 4),
+        ]);
+    }
+    s.push(Block::Table(c));
+    let warnings = j.strings("warnings");
+    let mut lines: Vec<String> = unidentified
+        .iter()
+        .map(|(k, v)| format!("{k}: {}", v.as_str().unwrap_or("not identified")))
+        .collect();
+    lines.extend(warnings.iter().cloned());
+    let (verdict, title) = if unidentified.is_empty() && warnings.is_empty() {
+        (
+            Verdict::Good,
+            "All eight PIGEs are identified by the modes given.".to_string(),
+        )
+    } else if unidentified.len() < 8 {
+        (
+            Verdict::Caution,
+            format!(
+                "{} of 8 PIGEs identified; read the notes below.",
+                8 - unidentified.len()
+            ),
+        )
+    } else {
+        (Verdict::Bad, "No PIGE is identified.".to_string())
+    };
+    s.push(Block::Verdict {
+        verdict,
+        title,
+        lines,
+    });
+    for (caption, svg) in figures {
+        s.push(Block::Figure { caption, svg });
+    }
+    Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> serde_json::Value {
+        serde_json::json!({
+            "EY0A": 0.010, "EZ0A": -0.02, "EB0A": 1e-5, "EC0A": 2e-5,
+            "EX0C": 0.003, "EY0C": null, "EA0C": 0.0, "EB0C": 0.0,
+            "uncertainty": {"EY0A": 1e-4, "EZ0A": 2e-4, "EB0A": 1e-6, "EC0A": null, "EX0C": 1e-4, "EY0C": null, "EA0C": 1e-6, "EB0C": 1e-6},
+            "residual_rms": {"mode1": 3e-4, "mode2": null, "mode3": 2e-4, "mode4": null},
+            "bar_length": {"mode1": 100.001, "mode3": 99.999},
+            "compensation": {"A_line_y": 0.01, "A_line_z": -0.02, "C_line_x": 0.003, "C_line_y": 0.0},
+            "unidentified": {"EY0C": "mode 3 and 4 missing"},
+            "warnings": []
+        })
+    }
+
+    #[test]
+    fn values_are_scaled_to_their_units_and_unidentified_are_named() {
+        let s = section(&sample(), "id.json", vec![]).unwrap();
+        let Block::Table(t) = &s.blocks[1] else {
+            panic!()
+        };
+        assert_eq!(t.rows[0][2], "10.00"); // 0.010 mm = 10 µm
+        assert_eq!(t.rows[0][3], "0.10");
+        assert_eq!(t.rows[2][2], "10.00"); // 1e-5 rad = 10 µrad
+        assert_eq!(t.rows[2][4], "µrad");
+        assert_eq!(t.rows[5][2], "not identified");
+        let Block::Table(r) = &s.blocks[2] else {
+            panic!()
+        };
+        assert_eq!(r.rows.len(), 2);
+        assert_eq!(r.rows[0][1], "0.300");
+        assert!(
+            s.blocks
+                .iter()
+                .any(|b| matches!(b, Block::Verdict { verdict: Verdict::Caution, lines, .. } if lines[0].starts_with("EY0C")))
+        );
+    }
+
+    #[test]
+    fn other_json_is_refused_with_the_file_name() {
+        let e = section(&serde_json::json!({"rank": 3}), "x.json", vec![]).unwrap_err();
+        assert!(e.to_string().contains("x.json"), "{e}");
+    }
+}

@@ -1,0 +1,86 @@
+//! Servo section (spec 05 §3) from the JSON of `mtwin servo fit --format json`
+//! (one document per axis): transfer function, orders, bandwidth, velocity lag.
+
+use super::{Json, ReportError, fmt};
+use crate::report::html::{Block, Section, Table, Verdict};
+
+/// The servo section from `(axis name, servo fit JSON)` pairs.
+pub fn section(fits: &[(String, serde_json::Value)]) -> Result<Section, ReportError> {
+    let mut s = Section::new("servo", "Servo: axis transfer functions");
+    s.push(Block::Text(
+        "Discrete transfer function from command to encoder position per axis, \
+         y(k) = −Σ a_i·y(k−i) + Σ b_j·u(k−j−nk), fitted by least squares with orders chosen by an \
+         information criterion."
+            .into(),
+    ));
+    let mut t = Table::new(
+        "Identified servos",
+        &[
+            "axis",
+            "ts (s)",
+            "na, nb, nk",
+            "simulation RMS (µm or mdeg)",
+            "bandwidth (Hz)",
+            "velocity lag (ms)",
+            "static gain",
+            "stable",
+        ],
+    );
+    let mut warnings = Vec::new();
+    for (axis, v) in fits {
+        let j = Json::new(v, axis);
+        let na = j.arr("a")?.len().saturating_sub(1);
+        let nb = j.arr("b")?.len().saturating_sub(1);
+        let stable = v.get("stable").and_then(|b| b.as_bool()).unwrap_or(false);
+        for w in j.strings("warnings") {
+            warnings.push(format!("{axis}: {w}"));
+        }
+        if !stable {
+            warnings.push(format!("{axis}: the model is unstable"));
+        }
+        t.row(vec![
+            axis.clone(),
+            fmt(Some(j.num("ts")?), 4),
+            format!("{na}, {nb}, {}", j.num("nk")?),
+            fmt(Some(j.num("simulation_rms")? * 1e3), 3),
+            fmt(j.opt_num("bandwidth_hz"), 1),
+            fmt(j.opt_num("velocity_lag_s").map(|l| l * 1e3), 3),
+            fmt(Some(j.num("dc_gain")?), 4),
+            if stable { "yes" } else { "no" }.into(),
+        ]);
+    }
+    s.push(Block::Table(t));
+    s.push(Block::Verdict {
+        verdict: if warnings.is_empty() {
+            Verdict::Good
+        } else {
+            Verdict::Caution
+        },
+        title: if warnings.is_empty() {
+            "Every servo model is stable and reaches a held command.".into()
+        } else {
+            "Servo models with reservations:".into()
+        },
+        lines: warnings,
+    });
+    Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn orders_come_from_the_polynomial_lengths() {
+        let v = serde_json::json!({"ts": 0.001, "b": [0.1, 0.05], "a": [1.0, -0.85], "nk": 1,
+            "simulation_rms": 2e-4, "bandwidth_hz": 30.0, "velocity_lag_s": 0.004, "dc_gain": 1.0,
+            "stable": true, "warnings": []});
+        let s = section(&[("X".into(), v)]).unwrap();
+        let Block::Table(t) = &s.blocks[1] else {
+            panic!()
+        };
+        assert_eq!(t.rows[0][2], "1, 1, 1");
+        assert_eq!(t.rows[0][3], "0.200");
+        assert_eq!(t.rows[0][5], "4.000");
+    }
+}

@@ -1,0 +1,252 @@
+//! Tracker sections (spec 02): identification from the JSON of
+//! `mtwin identify --format json` (identifiability verdict and estimates with
+//! uncertainties) and validation from the JSON of `mtwin validate --format
+//! json` (before/after statistics per direction and as a chart).
+
+use super::{COLORS, Json, ReportError, decimate, fmt};
+use crate::report::html::{Block, Section, Table, Verdict};
+use crate::report::svg::{Series, bars, xy};
+
+/// Scale and unit of a parameter by its name: registration translations in
+/// mm, rotations (`EA…`, `EB…`, `EC…`, `REG.a/b/c`) in µrad, the rest in µm.
+fn unit_of(name: &str) -> (f64, &'static str) {
+    if let Some(r) = name.strip_prefix("REG.") {
+        return if r.starts_with('t') {
+            (1.0, "mm")
+        } else {
+            (1e6, "µrad")
+        };
+    }
+    match name.chars().nth(1) {
+        Some('A' | 'B' | 'C') => (1e6, "µrad"),
+        _ => (1e3, "µm"),
+    }
+}
+
+/// The identification section.
+pub fn identify_section(v: &serde_json::Value, what: &str) -> Result<Section, ReportError> {
+    let j = Json::new(v, what);
+    let rank = j.num("rank")?;
+    let params = j.num("parameters")?;
+    let cond = j.opt_num("condition_number");
+    let (before, after) = (j.num("rms_before")?, j.num("rms_after")?);
+    let unident = j.strings("unidentifiable");
+    let relations = j.strings("relations");
+    let outliers = j.opt_arr("outliers");
+    let warnings = j.strings("warnings");
+    let mut s = Section::new("tracker-identify", "Tracker: identification");
+    s.push(Block::Text(format!(
+        "Geometric errors fitted by Levenberg–Marquardt to measured tool-tip positions. Residual RMS \
+         per coordinate: {} µm with the nominal model, {} µm with the identified one.",
+        fmt(Some(before * 1e3), 2),
+        fmt(Some(after * 1e3), 2)
+    )));
+    let mut lines = vec![
+        format!("rank {rank} of {params} parameters"),
+        format!(
+            "condition number (scaled): {}",
+            cond.map_or("—".into(), |c| format!("{c:.3e}"))
+        ),
+    ];
+    if !unident.is_empty() {
+        lines.push(format!(
+            "not identifiable, kept at their start value: {}",
+            unident.join(", ")
+        ));
+        for r in relations.iter().take(20) {
+            lines.push(format!("confounded: {r}"));
+        }
+        if relations.len() > 20 {
+            lines.push(format!("… and {} more relations", relations.len() - 20));
+        }
+    }
+    if !outliers.is_empty() {
+        lines.push(format!("{} outlier point(s) excluded", outliers.len()));
+    }
+    lines.extend(warnings.iter().cloned());
+    let verdict = if rank == params && warnings.is_empty() {
+        Verdict::Good
+    } else if rank > 0.0 {
+        Verdict::Caution
+    } else {
+        Verdict::Bad
+    };
+    s.push(Block::Verdict {
+        verdict,
+        title: if rank == params {
+            "Every parameter is identifiable from these points.".into()
+        } else {
+            format!(
+                "Identifiability: {} of {} parameters determined; the others are confounded or unseen and stay at their start value.",
+                rank, params
+            )
+        },
+        lines,
+    });
+    let mut t = Table::new(
+        "Estimates (coefficients of the error functions; ± standard uncertainty)",
+        &["parameter", "value", "std. uncertainty", "unit"],
+    );
+    for e in j.arr("estimates")? {
+        let ej = Json::new(e, what);
+        let name = e.get("name").and_then(|n| n.as_str()).unwrap_or("?");
+        let (f, unit) = unit_of(name);
+        if e.get("unidentifiable").is_some_and(|u| !u.is_null()) {
+            continue;
+        }
+        t.row(vec![
+            name.into(),
+            fmt(ej.opt_num("value").map(|v| v * f), 3),
+            fmt(ej.opt_num("uncertainty").map(|v| v * f), 3),
+            unit.into(),
+        ]);
+    }
+    s.push(Block::Table(t));
+    Ok(s)
+}
+
+/// The validation section. `per_point` optionally gives `|Δp|` per check
+/// point before and after (mm) for a line chart.
+pub fn validate_section(
+    v: &serde_json::Value,
+    what: &str,
+    per_point: Option<(&[f64], &[f64])>,
+) -> Result<Section, ReportError> {
+    let j = Json::new(v, what);
+    let n = j.num("points")?;
+    let mut s = Section::new("tracker-validate", "Tracker: validation at check poses");
+    s.push(Block::Text(format!(
+        "{n} check points not used in the fit: |error| of the nominal model (before) and of the \
+         identified model (after), per direction of W and as distance |Δp|."
+    )));
+    let mut t = Table::new(
+        "Before → after (µm) and change (%)",
+        &[
+            "direction",
+            "before max",
+            "before mean",
+            "before std",
+            "after max",
+            "after mean",
+            "after std",
+            "change max %",
+            "change mean %",
+            "change std %",
+        ],
+    );
+    let dirs = ["x", "y", "z", "distance"];
+    let mut groups = Vec::new();
+    let (mut b_mean, mut a_mean, mut b_max, mut a_max) = (vec![], vec![], vec![], vec![]);
+    for d in dirs {
+        let g = |k: &str, stat: &str| j.num(&format!("{k}.{d}.{stat}"));
+        let row = vec![
+            if d == "distance" {
+                "|Δp|".into()
+            } else {
+                d.to_string()
+            },
+            fmt(Some(g("before", "max")? * 1e3), 2),
+            fmt(Some(g("before", "mean")? * 1e3), 2),
+            fmt(Some(g("before", "std")? * 1e3), 2),
+            fmt(Some(g("after", "max")? * 1e3), 2),
+            fmt(Some(g("after", "mean")? * 1e3), 2),
+            fmt(Some(g("after", "std")? * 1e3), 2),
+            fmt(Some(g("change_percent", "max")?), 0),
+            fmt(Some(g("change_percent", "mean")?), 0),
+            fmt(Some(g("change_percent", "std")?), 0),
+        ];
+        t.row(row);
+        groups.push(if d == "distance" {
+            "|Δp|".to_string()
+        } else {
+            d.to_string()
+        });
+        b_max.push(g("before", "max")? * 1e3);
+        a_max.push(g("after", "max")? * 1e3);
+        b_mean.push(g("before", "mean")? * 1e3);
+        a_mean.push(g("after", "mean")? * 1e3);
+    }
+    s.push(Block::Table(t));
+    s.push(Block::Figure {
+        caption: "Largest and mean |error| per direction before (nominal model) and after (identified model).".into(),
+        svg: bars(
+            "Validation: |error| before and after",
+            "|error| (µm)",
+            &groups,
+            &[
+                ("max before".into(), "#e6b0aa".into(), b_max),
+                ("mean before".into(), COLORS[0].into(), b_mean),
+                ("max after".into(), "#a9cce3".into(), a_max),
+                ("mean after".into(), COLORS[1].into(), a_mean),
+            ],
+        ),
+    });
+    if let Some((before, after)) = per_point {
+        let line = |name: &str, e: &[f64], c: &str| Series {
+            name: name.into(),
+            points: decimate(
+                &e.iter()
+                    .enumerate()
+                    .map(|(k, v)| ((k + 1) as f64, v * 1e3))
+                    .collect::<Vec<_>>(),
+                2000,
+            ),
+            color: c.into(),
+            markers: false,
+        };
+        s.push(Block::Figure {
+            caption: "|Δp| at every check point, before and after.".into(),
+            svg: xy(
+                "|Δp| per check point",
+                "check point",
+                "|Δp| (µm)",
+                &[
+                    line("before (nominal)", before, COLORS[0]),
+                    line("after (identified)", after, COLORS[1]),
+                ],
+            ),
+        });
+    }
+    Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn units_follow_the_parameter_names() {
+        assert_eq!(unit_of("EXX.c0"), (1e3, "µm"));
+        assert_eq!(unit_of("ECX.c1"), (1e6, "µrad"));
+        assert_eq!(unit_of("EB0C"), (1e6, "µrad"));
+        assert_eq!(unit_of("REG.tx"), (1.0, "mm"));
+        assert_eq!(unit_of("REG.b"), (1e6, "µrad"));
+    }
+
+    #[test]
+    fn verdict_lists_confounded_parameters() {
+        let v = serde_json::json!({
+            "rank": 2, "parameters": 3, "rms_before": 0.1, "rms_after": 0.01,
+            "condition_number": 12.0, "unidentifiable": ["EXY.c0"],
+            "relations": ["EXY.c0 − 1.0000·EXX.c0 ≈ 0"], "outliers": [], "warnings": [],
+            "estimates": [
+                {"name": "EXX.c0", "value": 0.002, "uncertainty": 0.0001, "unidentifiable": null},
+                {"name": "EXY.c0", "value": 0.0, "uncertainty": null, "unidentifiable": "Confounded"},
+                {"name": "ECX.c1", "value": 3e-6, "uncertainty": 1e-7, "unidentifiable": null}
+            ]
+        });
+        let s = identify_section(&v, "id.json").unwrap();
+        let Block::Verdict { verdict, lines, .. } = &s.blocks[1] else {
+            panic!()
+        };
+        assert_eq!(*verdict, Verdict::Caution);
+        assert!(lines.iter().any(|l| l.contains("EXY.c0 − 1.0000·EXX.c0")));
+        let Block::Table(t) = &s.blocks[2] else {
+            panic!()
+        };
+        assert_eq!(t.rows.len(), 2);
+        assert_eq!(t.rows[0][1], "2.000");
+        assert_eq!(t.rows[1][1], "3.000");
+        assert_eq!(t.rows[1][3], "µrad");
+    }
+}
