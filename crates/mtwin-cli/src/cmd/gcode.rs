@@ -1,5 +1,7 @@
 //! `mtwin gcode`: interpolate a program into axis commands, program statistics.
 
+use std::fs::File;
+use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};

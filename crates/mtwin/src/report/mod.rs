@@ -4,8 +4,8 @@
 //! CSV) into a report section.
 
 pub mod html;
-pub mod sections;
 pub mod path3d;
+pub mod sections;
 pub mod svg;
 
 pub use sections::twin;
