@@ -28,7 +28,11 @@
 //! * When a move starts away from the current axis positions (TCP switched
 //!   on, so the same program position means another axis position), a
 //!   straight *transition* in axis space at the rapid rate joins them; it is
-//!   counted in [`InterpolationSummary::transitions`].
+//!   counted in [`InterpolationSummary::transitions`]. A rapid (G0) that
+//!   starts away from the current axis positions under TCP is itself made that
+//!   transition, straight in axis space to its end: the program's last
+//!   numbers are not where the tool is, and going to them first would move
+//!   the tool where the program never sent it.
 //! * Samples are at `t = k·ts`, k = 0, 1, ..., with a last sample at the
 //!   first `k·ts` not before the end of the program (holding the final
 //!   position). They are handed to a callback one by one: memory does not
@@ -415,6 +419,24 @@ impl<'m> Interpolator<'m> {
             .zip(&self.q)
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
+        if gap > SAME_POSITION && tcp && matches!(feed, Feed::Rapid) && !still {
+            // The first rapid after TCP is switched on: the program's idea of the
+            // tip (its last programmed numbers) is not where the tool is, so the
+            // whole rapid goes straight in axis space to its end, instead of
+            // diving to the programmed start first.
+            let mut end = self.q.clone();
+            self.eval(&path, 1.0, &mut end)?;
+            let joint = Path::Joint {
+                q0: self.q.clone(),
+                q1: end.clone(),
+            };
+            let minutes = self.joint_rapid_minutes(&self.q, &end);
+            self.segment(&joint, 60.0 * minutes, sink)?;
+            self.summary.transitions += 1;
+            self.summary.moves += 1;
+            self.q.copy_from_slice(&end);
+            return Ok(());
+        }
         if gap > SAME_POSITION {
             let joint = Path::Joint {
                 q0: self.q.clone(),
@@ -925,6 +947,39 @@ mod tests {
         forced.force_tcp = true;
         let (s2, _) = run(&prog[5..], &m, &forced).unwrap();
         assert_eq!(s2.last().unwrap().1, s.last().unwrap().1);
+    }
+
+    #[test]
+    fn first_tcp_rapid_goes_straight_in_axis_space_to_its_end() {
+        // After M428 the program's numbers (X0 Y0 Z0 from before) are not the
+        // tip (at W z = 150 at the zero pose): the rapid must not visit them.
+        let m = trunnion();
+        let kin = Kinematics::nominal(&m);
+        let prog = "M428\nG0 X-60 Y0 A20 C-30\nG1 Z5 F600\n";
+        let (s, sum) = run(prog, &m, &InterpolateOptions::new(0.001)).unwrap();
+        assert_eq!(sum.transitions, 1);
+        let rapid: Vec<_> = s.iter().filter(|x| x.2 == 2).collect();
+        let q1 = &rapid.last().unwrap().1;
+        // The program ends where it says: the tip at (-60, 0, 5) in W.
+        let last = kin.pose(&s.last().unwrap().1).tip;
+        assert!(
+            (last - Vector3::new(-60.0, 0.0, 5.0)).norm() < 1e-9,
+            "{last:?}"
+        );
+        let end = kin.pose(q1).tip;
+        // Every sample lies on the straight axis-space segment from the zero pose.
+        for (_, q, _) in &rapid {
+            let f = q[3] / q1[3];
+            for i in 0..q.len() {
+                assert!((q[i] - f * q1[i]).abs() < 1e-9, "{q:?} not on 0 → {q1:?}");
+            }
+        }
+        // So the tip never dives below the lower of its two ends.
+        let lowest = rapid
+            .iter()
+            .map(|x| kin.pose(&x.1).tip.z)
+            .fold(f64::INFINITY, f64::min);
+        assert!(lowest > end.z.min(150.0) - 1.0, "dived to z = {lowest}");
     }
 
     fn corpus(name: &str) -> Option<PathBuf> {
