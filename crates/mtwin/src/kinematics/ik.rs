@@ -136,7 +136,10 @@ impl Kinematics {
             let pose = self.pose(q);
             let dp = pose.tip - target.tip;
             let (dv, ang) = match target.axis {
-                Some(t) => (pose.axis - t, pose.axis.cross(&t).norm().atan2(pose.axis.dot(&t))),
+                Some(t) => (
+                    pose.axis - t,
+                    pose.axis.cross(&t).norm().atan2(pose.axis.dot(&t)),
+                ),
                 None => (Vector3::zeros(), 0.0),
             };
             last = (dp.norm(), ang);
@@ -306,7 +309,7 @@ fn normal_equations(
     let mut scale = [0.0; MAX_AXES];
     for (c, &i) in free.iter().enumerate() {
         let n2: f64 = d[i][..rows].iter().map(|v| v * v).sum();
-        if !(n2 > 0.0) || !n2.is_finite() {
+        if n2.is_nan() || n2 <= 0.0 || !n2.is_finite() {
             return None;
         }
         scale[c] = 1.0 / n2.sqrt();
@@ -336,7 +339,7 @@ fn normal_equations(
         for k in 0..c {
             diag -= a[c][k] * a[c][k];
         }
-        if !(diag > MIN_PIVOT) {
+        if diag.is_nan() || diag <= MIN_PIVOT {
             return None;
         }
         let l = diag.sqrt();

@@ -53,16 +53,16 @@ fn sin_cos_deg_reduced(d: f64) -> (f64, f64) {
     let r = d - 90.0 * n;
     let x = r * (std::f64::consts::PI / 180.0);
     let x2 = x * x;
-    let s = x
-        + x * x2
-            * (-1.0 / 6.0
-                + x2 * (1.0 / 120.0
-                    + x2 * (-1.0 / 5040.0
-                        + x2 * (1.0 / 362_880.0
-                            + x2 * (-1.0 / 39_916_800.0
-                                + x2 * (1.0 / 6_227_020_800.0
-                                    + x2 * (-1.0 / 1_307_674_368_000.0
-                                        + x2 * (1.0 / 355_687_428_096_000.0))))))));
+    let s = x + x
+        * x2
+        * (-1.0 / 6.0
+            + x2 * (1.0 / 120.0
+                + x2 * (-1.0 / 5040.0
+                    + x2 * (1.0 / 362_880.0
+                        + x2 * (-1.0 / 39_916_800.0
+                            + x2 * (1.0 / 6_227_020_800.0
+                                + x2 * (-1.0 / 1_307_674_368_000.0
+                                    + x2 * (1.0 / 355_687_428_096_000.0))))))));
     let c = 1.0
         + x2 * (-0.5
             + x2 * (1.0 / 24.0
@@ -79,7 +79,10 @@ fn sin_cos_deg_reduced(d: f64) -> (f64, f64) {
     let c_out = (sb & swap) | (cb & !swap);
     let sign_s = (bits & 2) << 62;
     let sign_c = (bits.wrapping_add(1) & 2) << 62;
-    (f64::from_bits(s_out ^ sign_s), f64::from_bits(c_out ^ sign_c))
+    (
+        f64::from_bits(s_out ^ sign_s),
+        f64::from_bits(c_out ^ sign_c),
+    )
 }
 
 type V<const L: usize> = [f64; L];
@@ -144,12 +147,11 @@ fn small_sin_cos<const L: usize>(x: &V<L>) -> (V<L>, V<L>) {
     if x.iter().all(|v| v.abs() < 1e-2) {
         for l in 0..L {
             let x2 = x[l] * x[l];
-            s[l] = x[l]
-                * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0))));
+            s[l] =
+                x[l] * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0))));
             c[l] = 1.0
                 - x2 / 2.0
-                    * (1.0
-                        - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0 * (1.0 - x2 / 90.0))));
+                    * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0 * (1.0 - x2 / 90.0))));
         }
     } else {
         for l in 0..L {
@@ -332,10 +334,7 @@ impl AxisKin {
 impl Kinematics {
     /// `L` poses; `q(i)` gives axis `i`'s position in every lane.
     #[inline(always)]
-    pub(crate) fn pose_lanes<const L: usize>(
-        &self,
-        q: impl Fn(usize) -> V<L>,
-    ) -> (V3<L>, V3<L>) {
+    pub(crate) fn pose_lanes<const L: usize>(&self, q: impl Fn(usize) -> V<L>) -> (V3<L>, V3<L>) {
         let mut p: V3<L> = [
             splat(self.tool_point.x),
             splat(self.tool_point.y),
@@ -382,8 +381,7 @@ impl Kinematics {
         let mut rows = qs.chunks_exact(n * LANES);
         let mut outs = out.chunks_exact_mut(LANES);
         for (rows, out) in (&mut rows).zip(&mut outs) {
-            let (p, v) =
-                self.pose_lanes::<LANES>(|i| std::array::from_fn(|l| rows[l * n + i]));
+            let (p, v) = self.pose_lanes::<LANES>(|i| std::array::from_fn(|l| rows[l * n + i]));
             for (l, o) in out.iter_mut().enumerate() {
                 *o = ToolPose {
                     tip: Vector3::new(p[0][l], p[1][l], p[2][l]),
@@ -391,11 +389,7 @@ impl Kinematics {
                 };
             }
         }
-        for (q, o) in rows
-            .remainder()
-            .chunks_exact(n)
-            .zip(outs.into_remainder())
-        {
+        for (q, o) in rows.remainder().chunks_exact(n).zip(outs.into_remainder()) {
             *o = self.pose(q);
         }
     }

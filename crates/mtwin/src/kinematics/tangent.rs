@@ -119,7 +119,10 @@ impl Kinematics {
         q: &[f64],
         d: &mut [PoseDerivative; MAX_AXES],
     ) -> ToolPose {
-        assert!(self.axes.len() <= MAX_AXES, "too many axes for the fixed-size path");
+        assert!(
+            self.axes.len() <= MAX_AXES,
+            "too many axes for the fixed-size path"
+        );
         let mut dp = [Vector3::zeros(); MAX_AXES];
         let mut dv = [Vector3::zeros(); MAX_AXES];
         let mut active = [0usize; MAX_AXES];

@@ -424,7 +424,11 @@ fn fast_forward_kinematics_equals_the_full_transform_route() {
             let p = k.pose(&q);
             // 1e-12 mm, relative to metres of reach (the AFP gantry's 8 m).
             let tol = 1e-12 * (1.0 + t.t.norm() / 1000.0);
-            assert!((t.t - p.tip).norm() < tol, "{name} {q:?}: {}", (t.t - p.tip).norm());
+            assert!(
+                (t.t - p.tip).norm() < tol,
+                "{name} {q:?}: {}",
+                (t.t - p.tip).norm()
+            );
             assert!((t.r * m.tool_direction - p.axis).norm() < 1e-14, "{name}");
             assert!((p.axis.norm() - 1.0).abs() < 1e-14, "{name}");
         }
@@ -574,7 +578,10 @@ fn fixed_size_inverse_keeps_the_error_behaviour() {
             },
         ) => {
             assert_eq!(ia, ib);
-            assert!(*ra > 0.0 && (ra - rb).abs() < 1e-9 + 1e-6 * rb, "{ra} vs {rb}");
+            assert!(
+                *ra > 0.0 && (ra - rb).abs() < 1e-9 + 1e-6 * rb,
+                "{ra} vs {rb}"
+            );
         }
         _ => panic!("{a:?} / {b:?}"),
     }
