@@ -1,10 +1,11 @@
 //! Forward kinematics of a [`Machine`] with its geometric errors, exact (00 §3–4):
 //! `A_i(q) = P_i·L_i·J_i(q)·E_i(q)`, `T_WT = T_MW⁻¹·T_MT`.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
-use super::transform::{Rigid, rxyz, sin_cos};
+use super::lanes::sin_cos_deg;
+use super::transform::{Rigid, rot_sc};
 use crate::model::{AxisKind, ErrorFunction, Machine};
 
 /// Tool tip (mm) and unit tool axis in the workpiece frame W.
@@ -119,7 +120,12 @@ pub(crate) struct AxisKin {
     pub(crate) has_loc_rotation: bool,
     pub(crate) pdge: [Option<ErrorFunction>; 6],
     pub(crate) has_pdge: bool,
+    /// Some rotational PDGE component (EA, EB, EC) is not zero.
+    pub(crate) pdge_rotates: bool,
     pub(crate) compiled: CompiledPdge,
+    /// For a rotary axis, `[M₀, M₁, M₂]` with `L_i·J_i(θ) = cos θ·M₀ + sin θ·M₁ + M₂`
+    /// (rotation parts; Rodrigues with the location rotation folded in).
+    pub(crate) rot_terms: [Matrix3<f64>; 3],
 }
 
 impl AxisKin {
@@ -178,18 +184,18 @@ impl AxisKin {
         Rigid::from_error(Vector3::new(e[0], e[1], e[2]), e[3], e[4], e[5])
     }
 
-    /// Joint angle in rad for a rotary axis.
-    #[inline]
-    pub(crate) fn angle(q: f64) -> f64 {
-        q.to_radians()
-    }
-
     /// `J_i(q)`.
     #[inline]
     pub(crate) fn j_transform(&self, q: f64) -> Rigid {
         match self.kind {
             AxisKind::Linear => Rigid::translation(self.dir * q),
-            AxisKind::Rotary => Rigid::rotation(&self.dir, Self::angle(q)),
+            AxisKind::Rotary => {
+                let (s, c) = sin_cos_deg(q);
+                Rigid {
+                    r: rot_sc(&self.dir, s, c),
+                    t: Vector3::zeros(),
+                }
+            }
         }
     }
 
@@ -199,60 +205,6 @@ impl AxisKin {
             .compose(&self.j_transform(q))
             .compose(&self.e_transform(q))
     }
-
-    /// Apply `A_i(q)` to a point and a vector.
-    #[inline]
-    fn apply(&self, q: f64, p: &mut Vector3<f64>, v: &mut Vector3<f64>) {
-        if self.has_pdge {
-            let e = self.pdge_values(q);
-            let r = rxyz(e[3], e[4], e[5]);
-            *p = r * *p + Vector3::new(e[0], e[1], e[2]);
-            *v = r * *v;
-        }
-        match self.kind {
-            AxisKind::Linear => *p += self.dir * q,
-            AxisKind::Rotary => {
-                let (s, c) = sin_cos(Self::angle(q));
-                *p = rodrigues(&self.dir, s, c, p);
-                *v = rodrigues(&self.dir, s, c, v);
-            }
-        }
-        if self.has_loc_rotation {
-            *p = self.pl.r * *p;
-            *v = self.pl.r * *v;
-        }
-        *p += self.pl.t;
-    }
-
-    /// Apply `A_i(q)⁻¹` to a point and a vector.
-    #[inline]
-    fn apply_inv(&self, q: f64, p: &mut Vector3<f64>, v: &mut Vector3<f64>) {
-        *p -= self.pl.t;
-        if self.has_loc_rotation {
-            *p = self.pl.r.tr_mul(p);
-            *v = self.pl.r.tr_mul(v);
-        }
-        match self.kind {
-            AxisKind::Linear => *p -= self.dir * q,
-            AxisKind::Rotary => {
-                let (s, c) = sin_cos(Self::angle(q));
-                *p = rodrigues(&self.dir, -s, c, p);
-                *v = rodrigues(&self.dir, -s, c, v);
-            }
-        }
-        if self.has_pdge {
-            let e = self.pdge_values(q);
-            let r = rxyz(e[3], e[4], e[5]);
-            *p = r.tr_mul(&(*p - Vector3::new(e[0], e[1], e[2])));
-            *v = r.tr_mul(v);
-        }
-    }
-}
-
-/// `Rot(u, θ)·x` from `sin θ`, `cos θ` (Rodrigues, vector form).
-#[inline]
-fn rodrigues(u: &Vector3<f64>, s: f64, c: f64, x: &Vector3<f64>) -> Vector3<f64> {
-    x * c + u.cross(x) * s + u * (u.dot(x) * (1.0 - c))
 }
 
 /// The kinematics of one machine with its current geometric errors, compiled from a
@@ -281,6 +233,12 @@ impl Kinematics {
                 let loc = a.errors.location;
                 let l =
                     Rigid::from_error(Vector3::new(loc[0], loc[1], loc[2]), loc[3], loc[4], loc[5]);
+                let u = a.direction;
+                let uu = u * u.transpose();
+                let rot_terms = [l.r - l.r * uu, l.r * u.cross_matrix(), l.r * uu];
+                let pdge_rotates = a.errors.pdge[3..]
+                    .iter()
+                    .any(|f| f.as_ref().is_some_and(|f| !f.is_zero()));
                 AxisKin {
                     name: a.name.clone(),
                     kind: a.kind,
@@ -292,7 +250,9 @@ impl Kinematics {
                     has_loc_rotation: loc[3] != 0.0 || loc[4] != 0.0 || loc[5] != 0.0,
                     pdge: a.errors.pdge.clone(),
                     has_pdge: a.errors.has_pdge(),
+                    pdge_rotates,
                     compiled: CompiledPdge::new(&a.errors.pdge, a.travel),
+                    rot_terms,
                 }
             })
             .collect();
@@ -340,25 +300,27 @@ impl Kinematics {
     #[inline]
     pub fn pose(&self, q: &[f64]) -> ToolPose {
         debug_assert_eq!(q.len(), self.axes.len());
-        let mut p = self.tool_point;
-        let mut v = self.tool_dir;
-        for &i in self.tool_chain.iter().rev() {
-            self.axes[i].apply(q[i], &mut p, &mut v);
+        let (p, v) = self.pose_lanes::<1>(|i| [q[i]]);
+        ToolPose {
+            tip: Vector3::new(p[0][0], p[1][0], p[2][0]),
+            axis: Vector3::new(v[0][0], v[1][0], v[2][0]),
         }
-        for &i in &self.work_chain {
-            self.axes[i].apply_inv(q[i], &mut p, &mut v);
-        }
-        p -= self.work_point;
-        ToolPose { tip: p, axis: v }
     }
 
     /// Poses for many positions: `qs` holds `n_axes` values per pose, row after row.
-    /// Runs in parallel (rayon) in chunks.
+    /// Runs in parallel (rayon) over blocks of 1024 poses, each evaluated by
+    /// [`Kinematics::poses_into`]; the result is bit-for-bit that of single calls.
     pub fn poses(&self, qs: &[f64]) -> Vec<ToolPose> {
         let n = self.axes.len().max(1);
-        qs.par_chunks(n * 1024)
-            .flat_map_iter(|c| c.chunks_exact(n).map(|q| self.pose(q)))
-            .collect()
+        let zero = ToolPose {
+            tip: Vector3::zeros(),
+            axis: Vector3::zeros(),
+        };
+        let mut out = vec![zero; qs.len() / n];
+        out.par_chunks_mut(1024)
+            .zip(qs.par_chunks(n * 1024))
+            .for_each(|(o, q)| self.poses_into(&q[..o.len() * n], o));
+        out
     }
 
     /// `T_MT(q)`: the tool frame in M.

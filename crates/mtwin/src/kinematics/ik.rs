@@ -2,9 +2,11 @@
 //! (and, with enough rotary axes, the tool axis) on a target in W, by Gauss–Newton iteration
 //! from a start (usually the nominal solution).
 
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DMatrix, DVector, SMatrix, SVector, Vector3};
 
 use super::chain::Kinematics;
+use super::jacobian::PoseDerivative;
+use super::tangent::MAX_AXES;
 
 /// What the tool must reach, in the workpiece frame W.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -79,8 +81,96 @@ impl Kinematics {
     /// `free[i]` says whether axis `i` may move; the others keep their `start` value. With a
     /// position-only target on a five-axis machine, free only the linear axes (the usual
     /// choice) or all axes (minimum-norm steps). Converges quadratically; for the small
-    /// geometric errors of a machine tool two or three steps reach 1e-11 mm.
+    /// geometric errors of a machine tool two or three steps reach 1e-11 mm. On a machine
+    /// without errors, with only linear axes free, the tip is affine in them, so the first
+    /// Newton step is the exact solution.
+    ///
+    /// Newton steps are least-squares solutions with the exact position Jacobian: by
+    /// Cholesky on the column-scaled normal equations when the free columns are well
+    /// conditioned, else (and with more free axes than rows) the minimum-norm solution by SVD
+    /// with singular values below `1e-12·σ_max` dropped. Nothing is allocated but the result
+    /// (machines of up to 8 axes).
     pub fn inverse(
+        &self,
+        target: &IkTarget,
+        start: &[f64],
+        free: &[bool],
+        opts: &IkOptions,
+    ) -> Result<Vec<f64>, IkError> {
+        let mut q = start.to_vec();
+        self.inverse_in_place(target, &mut q, free, opts)?;
+        Ok(q)
+    }
+
+    /// [`Kinematics::inverse`] starting from, and writing the solution into, `q`. On error
+    /// `q` holds the last iterate.
+    pub fn inverse_in_place(
+        &self,
+        target: &IkTarget,
+        q: &mut [f64],
+        free: &[bool],
+        opts: &IkOptions,
+    ) -> Result<(), IkError> {
+        let n = self.n_axes();
+        if n > MAX_AXES {
+            let sol = self.inverse_dynamic(target, q, free, opts)?;
+            q.copy_from_slice(&sol);
+            return Ok(());
+        }
+        let mut free_idx = [0usize; MAX_AXES];
+        let mut m = 0;
+        for i in 0..n {
+            if free[i] {
+                free_idx[m] = i;
+                m += 1;
+            }
+        }
+        if m == 0 {
+            return Err(IkError::NoFreeAxis);
+        }
+        let free_idx = &free_idx[..m];
+        let rows = if target.axis.is_some() { 6 } else { 3 };
+        let mut last = (f64::INFINITY, f64::INFINITY);
+        let mut d = [[0.0; 6]; MAX_AXES];
+        for it in 0..=opts.max_iterations {
+            let pose = self.pose(q);
+            let dp = pose.tip - target.tip;
+            let (dv, ang) = match target.axis {
+                Some(t) => (
+                    pose.axis - t,
+                    pose.axis.cross(&t).norm().atan2(pose.axis.dot(&t)),
+                ),
+                None => (Vector3::zeros(), 0.0),
+            };
+            last = (dp.norm(), ang);
+            if dp.norm() <= opts.tip_tolerance && ang <= opts.axis_tolerance {
+                if opts.check_travel {
+                    self.check_travel(q)?;
+                }
+                return Ok(());
+            }
+            if it == opts.max_iterations {
+                break;
+            }
+            self.pose_and_position_derivatives(q, &mut d);
+            let r = [-dp.x, -dp.y, -dp.z, -dv.x, -dv.y, -dv.z];
+            let Some(step) = least_squares(&d, free_idx, rows, &r) else {
+                break;
+            };
+            for (c, &i) in free_idx.iter().enumerate() {
+                q[i] += step[c];
+            }
+        }
+        Err(IkError::NotConverged {
+            iterations: opts.max_iterations,
+            tip_residual: last.0,
+            axis_residual: last.1,
+        })
+    }
+
+    /// The reference implementation of [`Kinematics::inverse`] (heap matrices, the full
+    /// Jacobian and an SVD every step); used for machines of more than 8 axes and in tests.
+    pub(crate) fn inverse_dynamic(
         &self,
         target: &IkTarget,
         start: &[f64],
@@ -162,4 +252,125 @@ impl Kinematics {
         }
         Ok(())
     }
+}
+
+/// The least-squares step `x` minimising `|J·x − r|` over the first `rows` components, where
+/// column `c` of `J` is `d[free[c]]`. `None` when the SVD cannot solve (never, for finite
+/// input).
+fn least_squares(
+    d: &[PoseDerivative; MAX_AXES],
+    free: &[usize],
+    rows: usize,
+    r: &[f64; 6],
+) -> Option<[f64; MAX_AXES]> {
+    let m = free.len();
+    if m <= rows
+        && let Some(x) = normal_equations(d, free, rows, r)
+    {
+        return Some(x);
+    }
+    // Minimum-norm solution by SVD, zero-padded to a fixed 8×8 (zero rows and columns do
+    // not change the pseudo-inverse solution of the others).
+    let mut j = SMatrix::<f64, MAX_AXES, MAX_AXES>::zeros();
+    let mut b = SVector::<f64, MAX_AXES>::zeros();
+    for (c, &i) in free.iter().enumerate() {
+        for k in 0..rows {
+            j[(k, c)] = d[i][k];
+        }
+    }
+    for k in 0..rows {
+        b[k] = r[k];
+    }
+    let svd = j.svd(true, true);
+    let smax = svd.singular_values.max();
+    let s = svd.solve(&b, smax * 1e-12).ok()?;
+    let mut x = [0.0; MAX_AXES];
+    for c in 0..m {
+        x[c] = s[c];
+    }
+    Some(x)
+}
+
+/// Smallest accepted ratio of a Cholesky pivot to the (unit) diagonal of the column-scaled
+/// normal matrix: below it the columns are too close to dependent (condition number above
+/// ~1e6) and the SVD decides.
+const MIN_PIVOT: f64 = 1e-12;
+
+/// The full-column-rank least-squares solution by Cholesky on the normal equations with
+/// columns scaled to unit length; `None` when a column is zero or the scaled normal matrix
+/// is nearly singular.
+fn normal_equations(
+    d: &[PoseDerivative; MAX_AXES],
+    free: &[usize],
+    rows: usize,
+    r: &[f64; 6],
+) -> Option<[f64; MAX_AXES]> {
+    let m = free.len();
+    let mut scale = [0.0; MAX_AXES];
+    for (c, &i) in free.iter().enumerate() {
+        let n2: f64 = d[i][..rows].iter().map(|v| v * v).sum();
+        if n2.is_nan() || n2 <= 0.0 || !n2.is_finite() {
+            return None;
+        }
+        scale[c] = 1.0 / n2.sqrt();
+    }
+    // a = Sᵀ JᵀJ S (unit diagonal), b = Sᵀ Jᵀ r.
+    let mut a = [[0.0; MAX_AXES]; MAX_AXES];
+    let mut b = [0.0; MAX_AXES];
+    for c in 0..m {
+        let jc = &d[free[c]];
+        for e in 0..=c {
+            let je = &d[free[e]];
+            let mut s = 0.0;
+            for k in 0..rows {
+                s += jc[k] * je[k];
+            }
+            a[c][e] = s * scale[c] * scale[e];
+        }
+        let mut s = 0.0;
+        for k in 0..rows {
+            s += jc[k] * r[k];
+        }
+        b[c] = s * scale[c];
+    }
+    // In-place Cholesky a = L·Lᵀ (lower triangle).
+    for c in 0..m {
+        let mut diag = a[c][c];
+        for k in 0..c {
+            diag -= a[c][k] * a[c][k];
+        }
+        if diag.is_nan() || diag <= MIN_PIVOT {
+            return None;
+        }
+        let l = diag.sqrt();
+        a[c][c] = l;
+        for e in c + 1..m {
+            let mut s = a[e][c];
+            for k in 0..c {
+                s -= a[e][k] * a[c][k];
+            }
+            a[e][c] = s / l;
+        }
+    }
+    // L y = b, Lᵀ z = y, x = S z.
+    let mut y = [0.0; MAX_AXES];
+    for c in 0..m {
+        let mut s = b[c];
+        for k in 0..c {
+            s -= a[c][k] * y[k];
+        }
+        y[c] = s / a[c][c];
+    }
+    let mut x = [0.0; MAX_AXES];
+    for c in (0..m).rev() {
+        let mut s = y[c];
+        for k in c + 1..m {
+            s -= a[k][c] * x[k];
+        }
+        x[c] = s / a[c][c];
+    }
+    for c in 0..m {
+        x[c] *= scale[c];
+    }
+    Some(x)
 }

@@ -8,11 +8,14 @@
 mod chain;
 mod ik;
 mod jacobian;
+mod lanes;
+mod tangent;
 pub mod transform;
 
 pub use chain::{Kinematics, ToolPose};
 pub use ik::{IkError, IkOptions, IkTarget};
 pub use jacobian::{PoseDerivative, PoseJacobian, SLOTS};
+pub use lanes::{LANES, sin_cos_deg};
 pub use transform::Rigid;
 
 #[cfg(test)]

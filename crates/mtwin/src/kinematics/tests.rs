@@ -385,3 +385,229 @@ fn compiled_error_functions_equal_the_definitions() {
         }
     }
 }
+
+/// The three example machines with errors, plus the AC trunnion with table-form errors on
+/// X and C (which take the general, per-function path) and large error angles on C (which
+/// take the `f64::sin_cos` branch of the small-angle series).
+fn fast_path_machines() -> Vec<(String, Machine)> {
+    let mut out: Vec<(String, Machine)> = [
+        "ac-trunnion-with-errors.toml",
+        "afp-gantry-with-errors.toml",
+        "skiving-with-errors.toml",
+    ]
+    .iter()
+    .map(|n| (n.to_string(), load(n)))
+    .collect();
+    let mut m = load("ac-trunnion-with-errors.toml");
+    let ix = m.axis_index("X").unwrap();
+    m.axes[ix].errors.pdge[Component::Ty.index()] = Some(ErrorFunction::Table {
+        q: vec![-300.0, -100.0, 50.0, 300.0],
+        e: vec![0.004, -0.002, 0.001, 0.006],
+    });
+    m.axes[ix].errors.pdge[Component::Rz.index()] = Some(ErrorFunction::Table {
+        q: vec![-300.0, 0.0, 300.0],
+        e: vec![2e-5, -1e-5, 3e-5],
+    });
+    let ic = m.axis_index("C").unwrap();
+    m.axes[ic].errors.pdge[Component::Rx.index()] = Some(ErrorFunction::Poly(vec![0.02, 1e-4]));
+    out.push(("ac-trunnion with tables".into(), m));
+    out
+}
+
+#[test]
+fn fast_forward_kinematics_equals_the_full_transform_route() {
+    for (name, m) in fast_path_machines() {
+        let k = Kinematics::new(&m);
+        for q in poses(&m, 300, 21) {
+            // Reference: compose every A_i as a full rigid transform, T_WT = T_MW⁻¹·T_MT.
+            let t = k.tool_in_workpiece(&q);
+            let p = k.pose(&q);
+            // 1e-12 mm, relative to metres of reach (the AFP gantry's 8 m).
+            let tol = 1e-12 * (1.0 + t.t.norm() / 1000.0);
+            assert!(
+                (t.t - p.tip).norm() < tol,
+                "{name} {q:?}: {}",
+                (t.t - p.tip).norm()
+            );
+            assert!((t.r * m.tool_direction - p.axis).norm() < 1e-14, "{name}");
+            assert!((p.axis.norm() - 1.0).abs() < 1e-14, "{name}");
+        }
+    }
+}
+
+#[test]
+fn batch_kernel_is_bit_for_bit_the_single_pose() {
+    for (name, m) in fast_path_machines() {
+        let k = Kinematics::new(&m);
+        // 4·k + 3 poses: full lane groups and a remainder.
+        let ps = poses(&m, 4 * 250 + 3, 22);
+        let flat: Vec<f64> = ps.iter().flatten().copied().collect();
+        let zero = ToolPose {
+            tip: Vector3::zeros(),
+            axis: Vector3::zeros(),
+        };
+        let mut out = vec![zero; ps.len()];
+        k.poses_into(&flat, &mut out);
+        let par = k.poses(&flat);
+        for ((q, a), b) in ps.iter().zip(&out).zip(&par) {
+            assert_eq!(k.pose(q), *a, "{name}");
+            assert_eq!(a, b, "{name}");
+        }
+    }
+}
+
+#[test]
+fn position_derivatives_equal_the_full_jacobian() {
+    for (name, m) in fast_path_machines() {
+        let k = Kinematics::new(&m);
+        let mut d = [[0.0; 6]; super::tangent::MAX_AXES];
+        for q in poses(&m, 60, 23) {
+            let pose = k.pose_and_position_derivatives(&q, &mut d);
+            let jac = k.jacobian(&q);
+            let reach = 1.0 + pose.tip.norm() / 1000.0;
+            assert!((pose.tip - jac.pose.tip).norm() < 1e-12 * reach, "{name}");
+            assert!((pose.axis - jac.pose.axis).norm() < 1e-14, "{name}");
+            for i in 0..m.n_axes() {
+                let size = jac.positions[i].iter().fold(1.0f64, |s, v| s.max(v.abs()));
+                for r in 0..6 {
+                    let (a, b) = (d[i][r], jac.positions[i][r]);
+                    assert!(
+                        (a - b).abs() < 1e-13 * size,
+                        "{name} axis {i} row {r}: {a} vs {b}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn fixed_size_inverse_gives_the_reference_solutions() {
+    for (name, m) in fast_path_machines() {
+        let k = Kinematics::new(&m);
+        let kn = Kinematics::nominal(&m);
+        let linear: Vec<bool> = m
+            .axes
+            .iter()
+            .map(|a| a.kind == crate::model::AxisKind::Linear)
+            .collect();
+        let all = vec![true; m.n_axes()];
+        for q in poses(&m, 30, 24) {
+            let opts = IkOptions::default();
+            // Tip only, linear axes free (actual and nominal machine: affine, one step).
+            for kin in [&k, &kn] {
+                let t = IkTarget {
+                    tip: kn.pose(&q).tip + Vector3::new(0.3, -0.2, 0.1),
+                    axis: None,
+                };
+                let fast = kin.inverse(&t, &q, &linear, &opts);
+                let reference = kin.inverse_dynamic(&t, &q, &linear, &opts);
+                match (fast, reference) {
+                    (Ok(a), Ok(b)) => {
+                        for i in 0..a.len() {
+                            assert!((a[i] - b[i]).abs() < 1e-9, "{name}: {a:?} vs {b:?}");
+                        }
+                        assert!((kin.pose(&a).tip - t.tip).norm() < 1e-9);
+                    }
+                    (Err(a), Err(b)) => {
+                        assert_eq!(std::mem::discriminant(&a), std::mem::discriminant(&b))
+                    }
+                    (a, b) => panic!("{name}: {a:?} vs {b:?}"),
+                }
+            }
+            // Tip and axis, every axis free (minimum-norm steps where there are more
+            // unknowns than rows).
+            let actual = k.pose(&q);
+            let t = IkTarget {
+                tip: actual.tip,
+                axis: Some(actual.axis),
+            };
+            let start: Vec<f64> = q.iter().map(|v| v + 0.1).collect();
+            let fast = k.inverse(&t, &start, &all, &opts);
+            let reference = k.inverse_dynamic(&t, &start, &all, &opts);
+            match (fast, reference) {
+                (Ok(a), Ok(b)) => {
+                    let p = k.pose(&a);
+                    assert!((p.tip - t.tip).norm() < 1e-9, "{name}");
+                    assert!((p.axis - actual.axis).norm() < 1e-12, "{name}");
+                    // With six axes the tip-and-axis problem is redundant (rank 5): both
+                    // reach the target, at points of the solution set that may differ.
+                    if m.n_axes() <= 5 {
+                        for i in 0..a.len() {
+                            assert!((a[i] - b[i]).abs() < 1e-8, "{name}: {a:?} vs {b:?}");
+                        }
+                    }
+                }
+                (Err(a), Err(b)) => {
+                    assert_eq!(std::mem::discriminant(&a), std::mem::discriminant(&b))
+                }
+                (a, b) => panic!("{name}: {a:?} vs {b:?}"),
+            }
+        }
+    }
+}
+
+#[test]
+fn fixed_size_inverse_keeps_the_error_behaviour() {
+    let m = load("ac-trunnion-with-errors.toml");
+    let k = Kinematics::new(&m);
+    let q = [10.0, 20.0, -30.0, 15.0, 40.0];
+    let free = [true, true, true, false, false];
+    let target = IkTarget {
+        tip: k.pose(&q).tip + Vector3::new(0.5, 0.5, 0.5),
+        axis: None,
+    };
+    // Too few iterations: not converged, with the same residuals as the reference.
+    let opts = IkOptions {
+        max_iterations: 1,
+        ..IkOptions::default()
+    };
+    let a = k.inverse(&target, &q, &free, &opts).unwrap_err();
+    let b = k.inverse_dynamic(&target, &q, &free, &opts).unwrap_err();
+    match (&a, &b) {
+        (
+            IkError::NotConverged {
+                iterations: ia,
+                tip_residual: ra,
+                ..
+            },
+            IkError::NotConverged {
+                iterations: ib,
+                tip_residual: rb,
+                ..
+            },
+        ) => {
+            assert_eq!(ia, ib);
+            assert!(
+                *ra > 0.0 && (ra - rb).abs() < 1e-9 + 1e-6 * rb,
+                "{ra} vs {rb}"
+            );
+        }
+        _ => panic!("{a:?} / {b:?}"),
+    }
+    // No free axis.
+    assert_eq!(
+        k.inverse(&target, &q, &[false; 5], &IkOptions::default()),
+        Err(IkError::NoFreeAxis)
+    );
+    // Singular pose: A = 0, tool axis along C; tip and axis with every axis free. The
+    // Jacobian loses rank (C and the tool axis), the minimum-norm step still converges.
+    let q0 = [10.0, 20.0, -30.0, 0.0, 40.0];
+    let actual = k.pose(&q0);
+    let t = IkTarget {
+        tip: actual.tip,
+        axis: Some(actual.axis),
+    };
+    let start = [10.2, 19.9, -30.1, 0.0, 40.0];
+    let a = k.inverse(&t, &start, &[true; 5], &IkOptions::default());
+    let b = k.inverse_dynamic(&t, &start, &[true; 5], &IkOptions::default());
+    match (a, b) {
+        (Ok(a), Ok(b)) => {
+            assert!((k.pose(&a).tip - t.tip).norm() < 1e-9);
+            for i in 0..5 {
+                assert!((a[i] - b[i]).abs() < 1e-7, "{a:?} vs {b:?}");
+            }
+        }
+        (a, b) => assert_eq!(a.is_err(), b.is_err(), "{a:?} vs {b:?}"),
+    }
+}

@@ -43,16 +43,18 @@ pub fn rxyz(a: f64, b: f64, c: f64) -> Matrix3<f64> {
 /// Derivatives of `Rx(a)·Ry(b)·Rz(c)·v` with respect to `a`, `b` and `c`.
 #[inline]
 pub fn rxyz_derivatives(a: f64, b: f64, c: f64, v: &Vector3<f64>) -> [Vector3<f64>; 3] {
-    let rz = Matrix3::from(nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), c));
-    let ry = Matrix3::from(nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), b));
-    let rx = Matrix3::from(nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), a));
-    let rz_v = rz * v;
-    let ryrz_v = ry * rz_v;
-    let full = rx * ryrz_v;
+    let (sa, ca) = sin_cos(a);
+    let (sb, cb) = sin_cos(b);
+    let (sc, cc) = sin_cos(c);
+    let rz_v = Vector3::new(cc * v.x - sc * v.y, sc * v.x + cc * v.y, v.z);
+    let ry = |w: &Vector3<f64>| Vector3::new(cb * w.x + sb * w.z, w.y, -sb * w.x + cb * w.z);
+    let rx = |w: &Vector3<f64>| Vector3::new(w.x, ca * w.y - sa * w.z, sa * w.y + ca * w.z);
+    let ryrz_v = ry(&rz_v);
+    let full = rx(&ryrz_v);
     [
         Vector3::x().cross(&full),
-        rx * Vector3::y().cross(&ryrz_v),
-        rx * (ry * Vector3::z().cross(&rz_v)),
+        rx(&Vector3::y().cross(&ryrz_v)),
+        rx(&ry(&Vector3::z().cross(&rz_v))),
     ]
 }
 
@@ -62,6 +64,12 @@ pub fn rot(u: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
     let (s, c) = angle.sin_cos();
     let k = u.cross_matrix();
     Matrix3::identity() * c + k * s + u * u.transpose() * (1.0 - c)
+}
+
+/// Rotation about the unit vector `u` by the angle whose sine and cosine are `s`, `c`.
+#[inline]
+pub fn rot_sc(u: &Vector3<f64>, s: f64, c: f64) -> Matrix3<f64> {
+    Matrix3::identity() * c + u.cross_matrix() * s + u * u.transpose() * (1.0 - c)
 }
 
 /// A rigid transform `T_ab`: maps coordinates in frame b to frame a, `x_a = r·x_b + t`.
