@@ -44,6 +44,10 @@ fn bench(c: &mut Criterion) {
             acc
         })
     });
+    let mut out = vec![k.pose(&qs[..5]); n];
+    g.bench_function("batch_single_core", |b| {
+        b.iter(|| k.poses_into(black_box(&qs), &mut out))
+    });
     g.bench_function("batch_rayon", |b| b.iter(|| k.poses(black_box(&qs))));
     g.bench_function("jacobian_single_core", |b| {
         b.iter(|| {

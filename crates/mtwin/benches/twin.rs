@@ -1,7 +1,8 @@
 //! The digital twin end to end (servo models, kinematics with the 41 error terms,
 //! exact global nearest point, summary): samples per second on the AC trunnion with
 //! errors and five servo models (`examples/machines/ac-trunnion-twin.toml`), on a
-//! five-axis raster at 1 ms of 10k, 100k and 1M samples (growth with length). Rows go to a sink that sums the errors (no CSV formatting).
+//! five-axis raster at 1 ms of 10k, 100k, 1M and 3.6M samples (an hour at 1 kHz; growth
+//! with length). Rows go to a sink that sums the errors (no CSV formatting).
 //!
 //!     cargo bench -p mtwin --bench twin
 
@@ -39,7 +40,7 @@ fn bench(c: &mut Criterion) {
     let twin = Twin::new(&machine, Sources::All).expect("the servo models are valid");
     let mut g = c.benchmark_group("twin");
     g.sample_size(10);
-    for n in [10_000usize, 100_000, 1_000_000] {
+    for n in [10_000usize, 100_000, 1_000_000, 3_600_000] {
         let qs = trajectory(n);
         g.throughput(Throughput::Elements(n as u64));
         g.bench_with_input(BenchmarkId::new("predict", n), &qs, |b, qs| {

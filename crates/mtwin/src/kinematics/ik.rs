@@ -132,8 +132,13 @@ impl Kinematics {
         let rows = if target.axis.is_some() { 6 } else { 3 };
         let mut last = (f64::INFINITY, f64::INFINITY);
         let mut d = [[0.0; 6]; MAX_AXES];
+        // The first pose comes with its derivatives: a warm start usually
+        // needs exactly one step, so this saves a forward kinematics per call.
+        let mut pose = self.pose_and_position_derivatives(q, &mut d);
         for it in 0..=opts.max_iterations {
-            let pose = self.pose(q);
+            if it > 0 {
+                pose = self.pose(q);
+            }
             let dp = pose.tip - target.tip;
             let (dv, ang) = match target.axis {
                 Some(t) => (
@@ -152,7 +157,9 @@ impl Kinematics {
             if it == opts.max_iterations {
                 break;
             }
-            self.pose_and_position_derivatives(q, &mut d);
+            if it > 0 {
+                self.pose_and_position_derivatives(q, &mut d);
+            }
             let r = [-dp.x, -dp.y, -dp.z, -dv.x, -dv.y, -dv.z];
             let Some(step) = least_squares(&d, free_idx, rows, &r) else {
                 break;

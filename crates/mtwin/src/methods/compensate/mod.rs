@@ -163,6 +163,29 @@ struct Point {
     q_nom: Vec<f64>,
     /// Compensated program coordinates.
     new_p: Axes,
+    /// Compensated machine axes (`None` at the program start, which is not a
+    /// target).
+    q_act: Option<Vec<f64>>,
+}
+
+impl Point {
+    /// Where the inverse kinematics of the next point starts.
+    fn seed(&self) -> Seed<'_> {
+        Seed {
+            q_nom: &self.q_nom,
+            q_act: self.q_act.as_deref(),
+        }
+    }
+}
+
+/// The previous target, from which the inverse kinematics of the next one
+/// starts: its nominal axes seed the nominal (TCP) solution, and its
+/// correction `q_act − q_nom` the actual one. Corrections vary slowly along a
+/// program, so the warm start saves about one Newton iteration per target.
+#[derive(Clone, Copy)]
+struct Seed<'a> {
+    q_nom: &'a [f64],
+    q_act: Option<&'a [f64]>,
 }
 
 impl Compensator {
@@ -302,7 +325,7 @@ impl Compensator {
         &self,
         p: &Axes,
         tcp: bool,
-        start: &[f64],
+        seed: Seed<'_>,
         line: u64,
         summary: &mut Summary,
     ) -> Result<Point, CompensateError> {
@@ -317,7 +340,7 @@ impl Compensator {
                 .letters
                 .iter()
                 .zip(&self.linear)
-                .zip(start)
+                .zip(seed.q_nom)
                 .map(|((&g, &lin), &s)| if lin { s } else { p[g] })
                 .collect();
             let tip = Vector3::from(p.xyz());
@@ -344,7 +367,21 @@ impl Compensator {
                 },
             )
         };
-        let full = self.actual.inverse(&target, &q_nom, free, &self.ik);
+        let warm = seed.q_act.and_then(|q_act| {
+            let mut q: Vec<f64> = q_nom
+                .iter()
+                .zip(q_act.iter().zip(seed.q_nom))
+                .map(|(&n, (&a, &an))| n + (a - an))
+                .collect();
+            self.actual
+                .inverse_in_place(&target, &mut q, free, &self.ik)
+                .ok()
+                .map(|()| q)
+        });
+        let full = match warm {
+            Some(q) => Ok(q),
+            None => self.actual.inverse(&target, &q_nom, free, &self.ik),
+        };
         let q_act = match full {
             Ok(q) if target.axis.is_none() || self.rotary_change(&q, &q_nom) <= MAX_ROTARY => q,
             _ if target.axis.is_some() => {
@@ -401,6 +438,7 @@ impl Compensator {
             p: *p,
             q_nom,
             new_p,
+            q_act: Some(q_act),
         })
     }
 
@@ -462,7 +500,7 @@ impl Compensator {
                 deviation_um: dev * 1e3,
             });
         }
-        let m = self.point(&nominal, mv.tcp, &a.q_nom, mv.line, summary)?;
+        let m = self.point(&nominal, mv.tcp, a.seed(), mv.line, summary)?;
         self.refine(mv, (sa, a), (sm, &m), depth + 1, out, summary)?;
         out.push((sm, m.clone()));
         let m = out.last().map(|(_, p)| p.clone()).unwrap_or(m);
@@ -474,7 +512,7 @@ impl Compensator {
         let p0 = mv.path.at(0.0);
         let start = match run.last.take() {
             Some(pt) if close(&pt.p, &p0) => pt,
-            Some(_) => self.point(&p0, mv.tcp, &run.q_nom, mv.line, &mut run.summary)?,
+            Some(pt) => self.point(&p0, mv.tcp, pt.seed(), mv.line, &mut run.summary)?,
             // The start of the program is where the machine is, not a target.
             None => {
                 let q_nom = if mv.tcp {
@@ -486,13 +524,14 @@ impl Compensator {
                     p: p0,
                     q_nom,
                     new_p: p0,
+                    q_act: None,
                 }
             }
         };
         let end = self.point(
             &mv.path.at(1.0),
             mv.tcp,
-            &start.q_nom,
+            start.seed(),
             mv.line,
             &mut run.summary,
         )?;
