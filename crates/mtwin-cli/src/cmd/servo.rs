@@ -130,7 +130,12 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
         max_delay: a.max_delay,
         ..ServoFitOptions::default()
     };
-    let fit = sysid::fit_servo_csv(&a.data, &options)?;
+    // Every structure of the order grid is refined by output error: seconds
+    // on a long log.
+    let spin = crate::output::spinner("fitting servo structures");
+    let fit = sysid::fit_servo_csv(&a.data, &options);
+    spin.finish_and_clear();
+    let fit = fit?;
     write_atomic(&a.out, fit.to_toml().as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     for w in fit.warnings() {
