@@ -464,8 +464,9 @@ fn tracker_step(a: &Args) -> anyhow::Result<Step> {
         sections: vec![
             sections::tracker::identify_section(&id_json, "identify")?,
             vs,
-            sections::machine::section(
+            sections::machine::section_against(
                 &id.machine,
+                Some(&truth),
                 "gantry-identified",
                 "Identified gantry: error curves over the travels",
             ),

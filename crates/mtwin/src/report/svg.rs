@@ -193,6 +193,10 @@ pub fn xy(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Strin
     if y1 == y0 {
         y1 = y0 + 1.0;
     }
+    // x keeps the data range (a travel is what it is), y widens to whole steps.
+    let xt = Ticks::over(x0, x1);
+    let yt = Ticks::over(y0, y1);
+    (y0, y1) = (yt.lo, yt.hi);
     let (l, t, w, h) = (70.0, 40.0, SIZE - 100.0, SIZE - 120.0);
     let px = |x: f64| l + (x - x0) / (x1 - x0) * w;
     let py = |y: f64| t + h - (y - y0) / (y1 - y0) * h;
@@ -202,22 +206,24 @@ pub fn xy(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Strin
         s,
         r#"<rect x="{l}" y="{t}" width="{w}" height="{h}" fill="none" stroke="black"/>"#
     );
-    for k in 0..=4 {
-        let fx = x0 + (x1 - x0) * k as f64 / 4.0;
-        let fy = y0 + (y1 - y0) * k as f64 / 4.0;
+    for fx in xt.within(x0, x1) {
         let _ = writeln!(
             s,
             r#"<text x="{:.2}" y="{}" text-anchor="middle">{}</text>"#,
             px(fx),
             t + h + 16.0,
-            fmt_tick(fx)
+            xt.label(fx)
         );
+    }
+    for fy in yt.within(y0, y1) {
         let _ = writeln!(
             s,
-            r#"<text x="{}" y="{:.2}" text-anchor="end">{}</text>"#,
+            r##"<line x1="{l}" y1="{0:.2}" x2="{1}" y2="{0:.2}" stroke="#eee"/><text x="{2}" y="{3:.2}" text-anchor="end">{4}</text>"##,
+            py(fy),
+            l + w,
             l - 4.0,
             py(fy) + 4.0,
-            fmt_tick(fy)
+            yt.label(fy)
         );
     }
     let _ = writeln!(
@@ -266,10 +272,8 @@ pub fn bars(
     let hi = vals().fold(0.0_f64, |a, &b| a.max(b));
     let lo = vals().fold(0.0_f64, |a, &b| a.min(b));
     let (y0, y1) = if hi > lo { (lo, hi) } else { (0.0, 1.0) };
-    let (y0, y1) = (
-        if y0 < 0.0 { -nice(-y0) } else { 0.0 },
-        if y1 > 0.0 { nice(y1) } else { 0.0 },
-    );
+    let yt = Ticks::over(y0, y1);
+    let (y0, y1) = (yt.lo, yt.hi);
     let (l, t, w, h) = (70.0, 40.0, SIZE - 100.0, SIZE - 140.0);
     let py = |y: f64| t + h - (y - y0) / (y1 - y0) * h;
     let mut s = String::new();
@@ -283,8 +287,7 @@ pub fn bars(
         s,
         r#"<rect x="{l}" y="{t}" width="{w}" height="{h}" fill="none" stroke="black"/>"#
     );
-    for k in 0..=4 {
-        let fy = y0 + (y1 - y0) * k as f64 / 4.0;
+    for fy in yt.within(y0, y1) {
         let _ = writeln!(
             s,
             r##"<line x1="{l}" y1="{0:.2}" x2="{1}" y2="{0:.2}" stroke="#eee"/><text x="{2}" y="{3:.2}" text-anchor="end">{4}</text>"##,
@@ -292,7 +295,7 @@ pub fn bars(
             l + w,
             l - 4.0,
             py(fy) + 4.0,
-            fmt_tick(fy)
+            yt.label(fy)
         );
     }
     let _ = writeln!(
@@ -354,6 +357,70 @@ pub(crate) fn nice(x: f64) -> f64 {
         .unwrap_or(10.0 * e)
 }
 
+/// Axis ticks at whole multiples of a step of 1, 2, 2.5 or 5 × 10^k, about
+/// four intervals over the data.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Ticks {
+    /// First tick at or below the data, a multiple of `step`.
+    pub lo: f64,
+    /// Last tick at or above the data, a multiple of `step`.
+    pub hi: f64,
+    pub step: f64,
+    /// Decimals that show every multiple of `step` exactly.
+    decimals: usize,
+}
+
+impl Ticks {
+    /// Ticks covering `[a, b]` (`a < b`, both finite; anything else gives 0…1).
+    pub(crate) fn over(a: f64, b: f64) -> Ticks {
+        let (a, b) = if a.is_finite() && b.is_finite() && b > a {
+            (a, b)
+        } else {
+            (0.0, 1.0)
+        };
+        let raw = (b - a) / 4.0;
+        let e = 10f64.powf(raw.log10().floor());
+        let m = [1.0, 2.0, 2.5, 5.0, 10.0]
+            .into_iter()
+            .find(|&m| m * e >= raw * (1.0 - 1e-12))
+            .unwrap_or(10.0);
+        let step = m * e;
+        let decimals = (0..12)
+            .find(|&d| {
+                let v = step * 10f64.powi(d as i32);
+                (v - v.round()).abs() < 1e-6 * v.max(1.0)
+            })
+            .unwrap_or(12);
+        Ticks {
+            lo: (a / step + 1e-9).floor() * step,
+            hi: (b / step - 1e-9).ceil() * step,
+            step,
+            decimals,
+        }
+    }
+
+    /// The multiples of `step` within `[a, b]` (to a millionth of a step).
+    pub(crate) fn within(&self, a: f64, b: f64) -> impl Iterator<Item = f64> + use<> {
+        let step = self.step;
+        let first = (a / step - 1e-6).ceil() as i64;
+        let last = (b / step + 1e-6).floor() as i64;
+        (first..=last).map(move |k| k as f64 * step)
+    }
+
+    /// `v` printed with the step's decimals (no "-0").
+    pub(crate) fn label(&self, v: f64) -> String {
+        let s = format!("{:.*}", self.decimals, v);
+        if s.trim_start_matches('-')
+            .chars()
+            .all(|c| c == '0' || c == '.')
+        {
+            "0".into()
+        } else {
+            s
+        }
+    }
+}
+
 pub(crate) fn fmt_tick(v: f64) -> String {
     let s = format!("{v:.3}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
@@ -363,6 +430,32 @@ pub(crate) fn fmt_tick(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ticks_are_whole_steps_covering_the_data() {
+        // −1083.1 … 437.0: a quarter of the span is 380 → step 500.
+        let t = Ticks::over(-1083.097, 437.024);
+        assert_eq!((t.lo, t.hi, t.step), (-1500.0, 500.0, 500.0));
+        let v: Vec<String> = t.within(t.lo, t.hi).map(|v| t.label(v)).collect();
+        assert_eq!(v, ["-1500", "-1000", "-500", "0", "500"]);
+        // −45 … 45 deg: step 25 (2.5 × 10), ticks inside the travel only.
+        let t = Ticks::over(-45.0, 45.0);
+        assert_eq!(t.step, 25.0);
+        let v: Vec<f64> = t.within(-45.0, 45.0).collect();
+        assert_eq!(v, [-25.0, 0.0, 25.0]);
+        let t = Ticks::over(-1000.0, 0.0);
+        assert_eq!((t.step, t.label(-750.0)), (250.0, "-750".into()));
+        // Small steps keep their decimals; a 2.5 mantissa needs one more.
+        let t = Ticks::over(0.0, 1.0);
+        assert_eq!(
+            (t.step, t.label(0.25), t.label(-1e-17)),
+            (0.25, "0.25".into(), "0".into())
+        );
+        let t = Ticks::over(0.0, 0.0004);
+        assert_eq!((t.step, t.label(0.0003)), (0.0001, "0.0003".into()));
+        // Degenerate input still gives a usable axis.
+        assert_eq!(Ticks::over(f64::NAN, 1.0).step, 0.25);
+    }
 
     #[test]
     fn nice_rounds_up_to_1_2_5() {

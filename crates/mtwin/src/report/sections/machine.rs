@@ -1,6 +1,7 @@
 //! Machine section: the geometric errors of a machine model (typically an
 //! identified one) — location errors as a table, and every PDGE drawn over its
-//! axis' travel (translations in µm, rotations in µrad).
+//! axis' travel (translations in µm, rotations in µrad), optionally beside
+//! the curves of a known truth (a simulation's error model).
 
 use super::{COLORS, fmt};
 use crate::model::{Component, Machine};
@@ -10,8 +11,17 @@ use crate::report::svg::{Series, xy};
 /// Points per PDGE curve.
 const CURVE_POINTS: usize = 101;
 
+/// Colour of the truth curves.
+const TRUTH_COLOR: &str = "#999999";
+
 /// The section of machine `m`; `id` is its anchor, `title` its heading.
 pub fn section(m: &Machine, id: &str, title: &str) -> Section {
+    section_against(m, None, id, title)
+}
+
+/// [`section`] with the PDGE curves of `truth` (same axis names) drawn in grey
+/// beside those of `m`, for an identified model whose truth is known.
+pub fn section_against(m: &Machine, truth: Option<&Machine>, id: &str, title: &str) -> Section {
     let mut s = Section::new(id, title);
     s.push(Block::Text(format!(
         "Machine `{}`: {} axes, {} geometric error terms.",
@@ -19,6 +29,17 @@ pub fn section(m: &Machine, id: &str, title: &str) -> Section {
         m.n_axes(),
         m.n_error_terms()
     )));
+    if truth.is_some() {
+        s.push(Block::Text(
+            "Grey curves: the truth the data were simulated from. Error terms that the \
+             measurements cannot tell apart (see the identifiability verdict) are \
+             identified as one representative of their group, the others kept at 0: \
+             such a curve can differ from the truth by a constant or a trend that \
+             another term makes up for, while the predicted tool tip agrees (see the \
+             validation)."
+                .into(),
+        ));
+    }
     let mut t = Table::new(
         "Location errors (constant)",
         &["axis", "error", "value", "unit"],
@@ -47,34 +68,51 @@ pub fn section(m: &Machine, id: &str, title: &str) -> Section {
         s.push(Block::Table(t));
     }
     for a in &m.axes {
-        if !a.errors.has_pdge() {
+        let true_axis = truth.and_then(|t| t.axis_index(&a.name).map(|i| &t.axes[i]));
+        if !a.errors.has_pdge() && !true_axis.is_some_and(|t| t.errors.has_pdge()) {
             continue;
         }
         let unit = a.kind.unit();
         for rot in [false, true] {
-            let series: Vec<Series> = Component::ALL
+            let scale = if rot { 1e6 } else { 1e3 };
+            let curve = |a: &crate::model::Axis, c: Component| -> Vec<(f64, f64)> {
+                (0..CURVE_POINTS)
+                    .map(|i| {
+                        let q = a.travel[0]
+                            + (a.travel[1] - a.travel[0]) * i as f64 / (CURVE_POINTS - 1) as f64;
+                        (q, a.pdge_at(c, q) * scale)
+                    })
+                    .collect()
+            };
+            let mut series: Vec<Series> = Vec::new();
+            let shown = Component::ALL
                 .iter()
                 .filter(|c| c.is_rotation() == rot)
                 .filter(|c| {
-                    a.errors.pdge[c.index()]
-                        .as_ref()
-                        .is_some_and(|f| !f.is_zero())
-                })
-                .enumerate()
-                .map(|(k, &c)| Series {
-                    name: format!("E{}{}", c.letter(), a.name),
-                    points: (0..CURVE_POINTS)
-                        .map(|i| {
-                            let q = a.travel[0]
-                                + (a.travel[1] - a.travel[0]) * i as f64
-                                    / (CURVE_POINTS - 1) as f64;
-                            (q, a.pdge_at(c, q) * if rot { 1e6 } else { 1e3 })
-                        })
-                        .collect(),
+                    let has = |a: &crate::model::Axis| {
+                        a.errors.pdge[c.index()]
+                            .as_ref()
+                            .is_some_and(|f| !f.is_zero())
+                    };
+                    has(a) || true_axis.is_some_and(has)
+                });
+            for (k, &c) in shown.enumerate() {
+                let name = format!("E{}{}", c.letter(), a.name);
+                if let Some(t) = true_axis {
+                    series.push(Series {
+                        name: format!("{name} truth"),
+                        points: curve(t, c),
+                        color: TRUTH_COLOR.into(),
+                        markers: false,
+                    });
+                }
+                series.push(Series {
+                    name,
+                    points: curve(a, c),
                     color: COLORS[k % COLORS.len()].into(),
                     markers: false,
-                })
-                .collect();
+                });
+            }
             if series.is_empty() {
                 continue;
             }
@@ -129,5 +167,39 @@ mod tests {
             })
             .unwrap_or(0);
         assert_eq!(rows, n_loc);
+    }
+
+    #[test]
+    fn truth_curves_are_drawn_beside_the_model() {
+        let text = include_str!("../../../../../examples/machines/ac-trunnion-with-errors.toml");
+        let truth = parse_machine(Path::new("t.toml"), text).unwrap();
+        let nominal = include_str!("../../../../../examples/machines/ac-trunnion.toml");
+        let m = parse_machine(Path::new("m.toml"), nominal).unwrap();
+        // A model without PDGEs still shows the truth's curves, one grey and one
+        // coloured line per error.
+        let with = section_against(&m, Some(&truth), "id", "T");
+        let without = section(&truth, "id", "T");
+        assert_eq!(with.figures(), without.figures());
+        let grey: usize = with
+            .blocks
+            .iter()
+            .filter_map(|b| match b {
+                Block::Figure { svg, .. } => Some(svg.matches(TRUTH_COLOR).count()),
+                _ => None,
+            })
+            .sum();
+        let pdges: usize = truth
+            .axes
+            .iter()
+            .map(|a| {
+                a.errors
+                    .pdge
+                    .iter()
+                    .filter(|f| f.as_ref().is_some_and(|f| !f.is_zero()))
+                    .count()
+            })
+            .sum();
+        // Each grey series appears twice: its line and its legend swatch.
+        assert_eq!(grey, 2 * pdges);
     }
 }
