@@ -9,8 +9,9 @@ pub fn section(fits: &[(String, serde_json::Value)]) -> Result<Section, ReportEr
     let mut s = Section::new("servo", "Servo: axis transfer functions");
     s.push(Block::Text(
         "Discrete transfer function from command to encoder position per axis, \
-         y(k) = −Σ a_i·y(k−i) + Σ b_j·u(k−j−nk), fitted by least squares with orders chosen by an \
-         information criterion."
+         y(k) = −Σ a_i·y(k−i) + Σ b_j·u(k−j−nk): fitted by least squares (ARX), refined on the \
+         simulation error (output error, which encoder noise does not bias), orders chosen by an \
+         information criterion on the simulation error."
             .into(),
     ));
     let mut t = Table::new(
