@@ -485,7 +485,22 @@ fn bad_prediction_input_exits_1_and_writes_nothing() {
 fn docs_walkthrough_runs() {
     let dir = tempfile::tempdir().unwrap();
     let ran = run_doc("thermal.md", dir.path());
-    assert_eq!(ran.len(), 7, "{ran:?}");
+    assert_eq!(ran.len(), 10, "{ran:?}");
+    // Square-law heat: the quadratic variant's simulation RMS (in the model
+    // files' fit statistics) is well below the linear model's at every height.
+    let sim_rms = |f: &str| -> Vec<f64> {
+        std::fs::read_to_string(dir.path().join(f))
+            .unwrap()
+            .lines()
+            .filter_map(|l| l.trim().strip_prefix("simulation_rms_mm = "))
+            .map(|v| v.parse().unwrap())
+            .collect()
+    };
+    let (lin, quad) = (sim_rms("linear.toml"), sim_rms("quadratic.toml"));
+    assert_eq!((lin.len(), quad.len()), (2, 2));
+    for (l, q) in lin.iter().zip(&quad) {
+        assert!(*q < 0.5 * l, "quadratic {q} vs linear {l} mm");
+    }
     // The truth model at its own heights: the fitted model predicts its drift
     // closely; compare predict's output with the truth file's difference
     // equation written out here (speed / 8000 as input, one period of delay).
@@ -594,4 +609,204 @@ fn program_samples_on_the_period_and_refuses_a_pass_longer_than_it() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("sample period"), "{}", stderr(&o));
     assert!(!p.join("slow.ngc").exists());
+}
+
+#[test]
+fn auto_speed_model_picks_the_quadratic_for_square_law_heat_and_the_model_serves_predict_and_compensate()
+ {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    let m = TruthMachine {
+        speed_exponent: 2.0,
+        ..TruthMachine::demo()
+    };
+    std::fs::write(
+        p.join("train.csv"),
+        m.training_csv(&training_runs(), &HEIGHTS, 0.0003, 5),
+    )
+    .unwrap();
+    std::fs::write(
+        p.join("speed.csv"),
+        speed_csv(&new_programme(), m.period_min),
+    )
+    .unwrap();
+    let args = [
+        "thermal",
+        "fit",
+        "--data",
+        "train.csv",
+        "--max-order",
+        "2",
+        "--out",
+        "q.toml",
+    ];
+    let o = mtwin(
+        p,
+        &[&args[..], &["--speed-model", "auto", "--format", "json"]].concat(),
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["speed_model"]["chosen"], "quadratic", "{j}");
+    assert_eq!(j["speed_model"]["folds"], 3);
+    let (lin, quad) = (
+        j["speed_model"]["linear_rms_mm"].as_f64().unwrap(),
+        j["speed_model"]["quadratic_rms_mm"].as_f64().unwrap(),
+    );
+    assert!(quad < 0.95 * lin, "{quad} vs {lin}");
+    let powers: Vec<u64> = j["inputs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| i["power"].as_u64().unwrap())
+        .collect();
+    assert_eq!(powers, [1, 2]);
+    assert!(
+        std::fs::read_to_string(p.join("q.toml"))
+            .unwrap()
+            .contains("power = 2")
+    );
+
+    // The quadratic model predicts the held-out programme from `speed_rpm` alone,
+    // closer to the truth than the linear model does.
+    let err = |model: &str| {
+        let o = mtwin(
+            p,
+            &[
+                "thermal",
+                "predict",
+                "--model",
+                model,
+                "--speed",
+                "speed.csv",
+                "--z",
+                "-200",
+                "--out",
+                "drift.csv",
+            ],
+        );
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let truth = m.drift(&new_programme(), -200.0);
+        let rows = read_rows(&p.join("drift.csv"), &["drift_mm"]);
+        let e2: f64 = rows
+            .iter()
+            .zip(&truth)
+            .map(|(r, t)| (r[0] - t).powi(2))
+            .sum();
+        (e2 / truth.len() as f64).sqrt()
+    };
+    let o = mtwin(p, &[&args[..7], &["l.toml"]].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (e_quad, e_lin) = (err("q.toml"), err("l.toml"));
+    assert!(
+        e_quad < 0.5 * e_lin,
+        "quadratic {e_quad} vs linear {e_lin} mm"
+    );
+
+    // Compensation takes it (one column, the speed).
+    std::fs::write(
+        p.join("part.nc"),
+        "G21 G90\nS6000 M3\nG4 P1800\nG1 Z-100 F100\nM30\n",
+    )
+    .unwrap();
+    let o = mtwin(
+        p,
+        &[
+            "thermal",
+            "compensate",
+            "--model",
+            "q.toml",
+            "--program",
+            "part.nc",
+            "--out",
+            "part-comp.nc",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+
+    // One run cannot be held out against itself.
+    std::fs::write(
+        p.join("one.csv"),
+        m.training_csv(&training_runs()[..1], &HEIGHTS, 0.0003, 5),
+    )
+    .unwrap();
+    expect_failure(
+        p,
+        &[
+            "thermal",
+            "fit",
+            "--data",
+            "one.csv",
+            "--speed-model",
+            "auto",
+            "--out",
+            "one.toml",
+        ],
+        "cannot choose the speed model",
+        "one.toml",
+    );
+}
+
+#[test]
+fn extra_input_columns_enter_the_model_and_predict_needs_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    setup(p);
+    // An ambient temperature column that does not drive the drift.
+    let text = std::fs::read_to_string(p.join("train.csv")).unwrap();
+    let mut out = String::new();
+    for (i, line) in text.lines().enumerate() {
+        let extra = if i == 0 {
+            "ambient_c".to_string()
+        } else {
+            // One temperature per run and time (every height is listed at a time).
+            let t: f64 = line.split(',').nth(1).unwrap().parse().unwrap();
+            format!("{}", 20.0 + ((t / 10.0) as usize % 7) as f64 * 0.1)
+        };
+        out.push_str(&format!("{line},{extra}\n"));
+    }
+    std::fs::write(p.join("train.csv"), out).unwrap();
+    let o = mtwin(
+        p,
+        &[
+            "thermal",
+            "fit",
+            "--data",
+            "train.csv",
+            "--max-order",
+            "1",
+            "--extra-inputs",
+            "ambient_c",
+            "--out",
+            "t.toml",
+            "--format",
+            "json",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let names: Vec<&str> = j["inputs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| i["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["speed_rpm", "ambient_c"]);
+    // SPEED.csv without the column: a clear error naming it.
+    expect_failure(
+        p,
+        &[
+            "thermal",
+            "predict",
+            "--model",
+            "t.toml",
+            "--speed",
+            "speed.csv",
+            "--z",
+            "-100",
+            "--out",
+            "drift.csv",
+        ],
+        "ambient_c",
+        "drift.csv",
+    );
 }

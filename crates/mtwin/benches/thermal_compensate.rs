@@ -13,10 +13,7 @@ fn model() -> ThermalModel {
         model: Arx::new(vec![1.0, -0.8], vec![(vec![0.2 * g], 1)]).unwrap(),
         stats: None,
     };
-    let inputs = vec![InputChannel {
-        name: "speed_rpm".into(),
-        scale: 1000.0,
-    }];
+    let inputs = vec![InputChannel::linear("speed_rpm", 1000.0)];
     ThermalModel::new(10.0, inputs, vec![h(-350.0, -0.002), h(-50.0, -0.005)]).unwrap()
 }
 

@@ -91,14 +91,8 @@ fn a_temperature_input_enters_the_model() {
     let truth = ThermalModel::new(
         10.0,
         vec![
-            InputChannel {
-                name: "speed_rpm".into(),
-                scale: 1000.0,
-            },
-            InputChannel {
-                name: "ambient_c".into(),
-                scale: 1.0,
-            },
+            InputChannel::linear("speed_rpm", 1000.0),
+            InputChannel::linear("ambient_c", 1.0),
         ],
         vec![
             HeightModel {

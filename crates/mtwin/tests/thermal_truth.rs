@@ -7,7 +7,7 @@
 use std::path::Path;
 
 use mtwin::methods::thermal::{
-    ThermalFitOptions, TruthMachine, fit_csv, predict, read_model, read_programme,
+    SpeedModel, ThermalFitOptions, TruthMachine, fit_csv, predict, read_model, read_programme,
 };
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
@@ -45,20 +45,46 @@ fn rms(v: impl Iterator<Item = f64>) -> f64 {
 /// Fit on `machine`'s training runs, predict the cutting run between the
 /// measured heights; returns error RMS / drift RMS.
 fn relative_error(machine: &TruthMachine, noise_mm: f64, seed: u64, dir: &Path) -> f64 {
+    relative_error_with(machine, noise_mm, seed, dir, SpeedModel::Linear).0
+}
+
+/// [`relative_error`] with a speed model; also returns the fit's choice
+/// (`Some(true)`: quadratic) when `speed_model` is auto.
+fn relative_error_with(
+    machine: &TruthMachine,
+    noise_mm: f64,
+    seed: u64,
+    dir: &Path,
+    speed_model: SpeedModel,
+) -> (f64, Option<bool>) {
     let train = dir.join("TRAIN.csv");
     std::fs::write(
         &train,
         machine.training_csv(&training_runs(), &MEASURED, noise_mm, seed),
     )
     .unwrap();
-    let fit = fit_csv(&train, &ThermalFitOptions::default()).unwrap();
+    let options = ThermalFitOptions {
+        speed_model,
+        ..ThermalFitOptions::default()
+    };
+    let fit = fit_csv(&train, &options).unwrap();
     assert!(fit.warnings.is_empty(), "{:?}", fit.warnings);
     assert_eq!(fit.runs, 3);
     assert_eq!(fit.model.heights().len(), 4);
     let json = fit.to_json();
     assert_eq!(json["heights"].as_array().unwrap().len(), 4);
     assert_eq!(json["heights"][0]["z_mm"], -350.0);
-    assert_eq!(json["heights"][0]["grid"].as_array().unwrap().len(), 4 * 5);
+    let quadratic = fit.model.inputs().len() == 2;
+    // na 1..4 × nb 0..4 per input.
+    let grid = if quadratic { 4 * 5 * 5 } else { 4 * 5 };
+    assert_eq!(json["heights"][0]["grid"].as_array().unwrap().len(), grid);
+    let choice = fit.speed_model.as_ref().map(|c| c.quadratic);
+    assert_eq!(choice.is_some(), speed_model == SpeedModel::Auto);
+    if let Some(c) = &fit.speed_model {
+        assert_eq!(c.quadratic, quadratic);
+        assert_eq!(json["speed_model"]["folds"], 3);
+        eprintln!("{}", c.summary());
+    }
     let model_path = dir.join("THERMAL.toml");
     fit.model.write(&model_path).unwrap();
     let model = read_model(&model_path).unwrap();
@@ -84,7 +110,7 @@ fn relative_error(machine: &TruthMachine, noise_mm: f64, seed: u64, dir: &Path) 
         err.push(row[2] - truth[h][k]);
         drift.push(truth[h][k]);
     }
-    rms(err.into_iter()) / rms(drift.into_iter())
+    (rms(err.into_iter()) / rms(drift.into_iter()), choice)
 }
 
 #[test]
@@ -110,6 +136,46 @@ fn tolerates_heat_growing_faster_than_speed() {
     let r = relative_error(&machine, 0.0005, 11, dir.path());
     eprintln!("heat ~ n^1.2: error RMS / drift RMS = {r:.4}");
     assert!(r <= 0.15, "{r}");
+}
+
+#[test]
+fn quadratic_speed_model_predicts_square_law_heat_better_and_auto_picks_it() {
+    // Heat ∝ n²: the linear model's error is a modelling error, which the
+    // Hammerstein variant (speed and speed² through the same lags) removes.
+    let dir = tempfile::tempdir().unwrap();
+    let machine = TruthMachine {
+        speed_exponent: 2.0,
+        ..TruthMachine::demo()
+    };
+    for seed in [21, 22] {
+        let (lin, _) = relative_error_with(&machine, 0.0005, seed, dir.path(), SpeedModel::Linear);
+        let (quad, _) =
+            relative_error_with(&machine, 0.0005, seed, dir.path(), SpeedModel::Quadratic);
+        let (auto, chose) =
+            relative_error_with(&machine, 0.0005, seed, dir.path(), SpeedModel::Auto);
+        eprintln!(
+            "heat ~ n², seed {seed}: held-out error / drift RMS linear {lin:.4}, quadratic {quad:.4}"
+        );
+        assert!(
+            quad < 0.5 * lin,
+            "seed {seed}: quadratic {quad} vs linear {lin}"
+        );
+        assert_eq!(chose, Some(true), "seed {seed}");
+        assert_eq!(auto, quad);
+    }
+}
+
+#[test]
+fn auto_keeps_the_linear_model_when_heat_is_linear_in_speed() {
+    let dir = tempfile::tempdir().unwrap();
+    let machine = TruthMachine::demo();
+    for seed in [31, 32] {
+        let (lin, _) = relative_error_with(&machine, 0.0005, seed, dir.path(), SpeedModel::Linear);
+        let (auto, chose) =
+            relative_error_with(&machine, 0.0005, seed, dir.path(), SpeedModel::Auto);
+        assert_eq!(chose, Some(false), "seed {seed}");
+        assert_eq!(auto, lin);
+    }
 }
 
 #[test]

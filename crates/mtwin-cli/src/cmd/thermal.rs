@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use mtwin::methods::thermal::{
-    self, Programme, ThermalFitOptions, ThermalModel, TrainingData, read_training,
+    self, Programme, SpeedModel, ThermalFitOptions, ThermalModel, TrainingData, read_training,
 };
 use mtwin::report::svg::{Series, xy};
 use serde_json::json;
@@ -110,6 +110,15 @@ pub struct FitArgs {
     /// Largest ARX order tried (na in 1..=N, nb in 0..=N).
     #[arg(long, default_value_t = 4)]
     max_order: usize,
+    /// How the spindle speed enters the model: `linear` (spec 04's model), `quadratic` (speed and
+    /// speed², for heat that grows faster than the speed), or `auto` (quadratic only if it predicts
+    /// held-out runs better: each run predicted by the model of the others; needs two runs or more).
+    #[arg(long, default_value = "linear", value_parser = parse_speed_model)]
+    speed_model: SpeedModel,
+    /// Further input columns of the training data (temperatures, …) that enter the model beside
+    /// the speed, comma separated; `thermal predict` then needs them in SPEED.csv too.
+    #[arg(long, value_delimiter = ',')]
+    extra_inputs: Vec<String>,
     /// Output model file (TOML).
     #[arg(long)]
     out: PathBuf,
@@ -265,9 +274,15 @@ fn program(a: ProgramArgs) -> anyhow::Result<()> {
     }
 }
 
+fn parse_speed_model(s: &str) -> Result<SpeedModel, String> {
+    s.parse()
+}
+
 fn fit(a: FitArgs) -> anyhow::Result<()> {
     let options = ThermalFitOptions {
         max_order: a.max_order,
+        speed_model: a.speed_model,
+        extra_inputs: a.extra_inputs.clone(),
         ..ThermalFitOptions::default()
     };
     let data = read_training(&a.data, &options.extra_inputs).map_err(diag)?;
@@ -306,6 +321,19 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
                 fit.model.period_min(),
                 a.out.display()
             );
+            let inputs: Vec<String> = fit
+                .model
+                .inputs()
+                .iter()
+                .map(|c| match c.power {
+                    1 => format!("{}/{}", c.name, c.scale),
+                    p => format!("({}/{})^{p}", c.name, c.scale),
+                })
+                .collect();
+            println!("inputs: {}", inputs.join(", "));
+            if let Some(c) = &fit.speed_model {
+                println!("{}", c.summary());
+            }
             for (h, r) in fit.model.heights().iter().zip(&fit.heights) {
                 let s = &r.selection.fit.stats;
                 println!(

@@ -246,10 +246,9 @@ pub fn compensate(
     program: &[u8],
     options: &CompensateOptions,
 ) -> Result<Compensation, CompensateError> {
-    if model.inputs().len() != 1 {
-        return Err(CompensateError::ModelInputs(
-            model.inputs().iter().map(|c| c.name.clone()).collect(),
-        ));
+    // One column, the speed (it may feed several inputs: speed and speed²).
+    if model.columns().len() != 1 {
+        return Err(CompensateError::ModelInputs(model.columns().to_vec()));
     }
     if !(options.rapid_mm_min.is_finite() && options.rapid_mm_min > 0.0) {
         return Err(CompensateError::Options(format!(
@@ -515,10 +514,7 @@ mod tests {
             model: Arx::new(vec![1.0, -0.8], vec![(vec![0.2 * g], 1)]).unwrap(),
             stats: None,
         };
-        let inputs = vec![InputChannel {
-            name: "speed_rpm".into(),
-            scale: 1000.0,
-        }];
+        let inputs = vec![InputChannel::linear("speed_rpm", 1000.0)];
         ThermalModel::new(10.0, inputs, vec![h(-100.0, g_low), h(0.0, g_high)]).unwrap()
     }
 
@@ -770,10 +766,7 @@ mod tests {
         let two = ThermalModel::new(
             10.0,
             ["speed_rpm", "ambient_c"]
-                .map(|n| InputChannel {
-                    name: n.into(),
-                    scale: 1.0,
-                })
+                .map(|n| InputChannel::linear(n, 1.0))
                 .to_vec(),
             vec![HeightModel {
                 z_mm: 0.0,

@@ -60,6 +60,34 @@ pub struct TrainingData {
     pub runs: Vec<String>,
 }
 
+impl TrainingData {
+    /// The same data without run `label` (for held-out checks); heights left
+    /// without any series are dropped.
+    pub fn without_run(&self, label: &str) -> TrainingData {
+        let heights = self
+            .heights
+            .iter()
+            .map(|h| HeightData {
+                z_mm: h.z_mm,
+                series: h
+                    .series
+                    .iter()
+                    .filter(|s| s.run != label)
+                    .cloned()
+                    .collect(),
+            })
+            .filter(|h| !h.series.is_empty())
+            .collect();
+        TrainingData {
+            path: self.path.clone(),
+            period_min: self.period_min,
+            input_names: self.input_names.clone(),
+            heights,
+            runs: self.runs.iter().filter(|r| *r != label).cloned().collect(),
+        }
+    }
+}
+
 /// Read and check `TRAIN.csv`; `extra_inputs` names further input columns
 /// (temperatures, …) that enter the model beside the speed.
 pub fn read_training(path: &Path, extra_inputs: &[String]) -> Result<TrainingData, Diagnostics> {

@@ -5,7 +5,9 @@
 //!
 //! [[inputs]]                     # in the order the models take them
 //! name = "speed_rpm"             # CSV column
-//! scale = 8000.0                 # the model sees value / scale
+//! scale = 8000.0                 # the model sees (value / scale)^power
+//! power = 1                      # optional, 1 to 3 (default 1); the quadratic
+//!                                # variant has a second speed_rpm input, power 2
 //!
 //! [[heights]]
 //! z_mm = -50.0
@@ -59,7 +61,7 @@ impl ThermalModel {
     pub fn to_toml(&self) -> String {
         let mut s = String::from(
             "# mtwin thermal drift model (04): one ARX model per measured height,\n\
-             # e(k) = -sum a_i e(k-i) + sum_inputs sum_j b_j u(k-j-nk), u = value / scale,\n\
+             # e(k) = -sum a_i e(k-i) + sum_inputs sum_j b_j u(k-j-nk), u = (value / scale)^power,\n\
              # drift in mm (tool relative to workpiece, +Z), time in min, cold before t = 0.\n",
         );
         s.push_str(&format!("period_min = {}\n", float(self.period_min())));
@@ -69,6 +71,9 @@ impl ThermalModel {
                 toml_string(&c.name),
                 float(c.scale)
             ));
+            if c.power != 1 {
+                s.push_str(&format!("power = {}\n", c.power));
+            }
         }
         for h in self.heights() {
             let m = &h.model;
@@ -148,20 +153,38 @@ pub fn model_from_toml_str(path: &Path, text: &str) -> Result<ThermalModel, Diag
         Some((_, Some(arr))) => {
             for t in arr.iter() {
                 let at = t.span();
-                r.check_keys(t, &["name", "scale"], "an `[[inputs]]` table");
+                r.check_keys(t, &["name", "scale", "power"], "an `[[inputs]]` table");
                 let name = r
                     .required(t, "name", "an `[[inputs]]` table", at.clone())
                     .and_then(|i| r.string(i, "name"));
                 let scale = r
                     .required(t, "scale", "an `[[inputs]]` table", at.clone())
                     .and_then(|i| r.number(i, "scale"));
+                // Optional, 1 (linear) when absent.
+                let power = match t.get("power") {
+                    None => Some(1),
+                    Some(i) => r.number(i, "power").and_then(|p| {
+                        let ok = p.fract() == 0.0
+                            && (1.0..=f64::from(InputChannel::MAX_POWER)).contains(&p);
+                        if !ok {
+                            r.error(
+                                i.span(),
+                                format!(
+                                    "`power` must be a whole number from 1 to {}, not {p}",
+                                    InputChannel::MAX_POWER
+                                ),
+                            );
+                        }
+                        ok.then_some(p as u32)
+                    }),
+                };
                 if let Some(s) = scale.filter(|s| *s <= 0.0) {
                     r.error(
                         t.get("scale").and_then(Item::span),
                         format!("`scale` must be positive, not {s}"),
                     );
-                } else if let (Some(name), Some(scale)) = (name, scale) {
-                    inputs.push(InputChannel { name, scale });
+                } else if let (Some(name), Some(scale), Some(power)) = (name, scale, power) {
+                    inputs.push(InputChannel { name, scale, power });
                 }
             }
         }
@@ -360,16 +383,49 @@ mod tests {
             stats: None,
         };
         let inputs = vec![
-            InputChannel {
-                name: "speed_rpm".into(),
-                scale: 8000.0,
-            },
-            InputChannel {
-                name: "temp \"ambient\"".into(),
-                scale: 0.1 + 0.2,
-            },
+            InputChannel::linear("speed_rpm", 8000.0),
+            InputChannel::linear("temp \"ambient\"", 0.1 + 0.2),
         ];
         ThermalModel::new(10.0, inputs, vec![h1, h2]).unwrap()
+    }
+
+    #[test]
+    fn powers_round_trip_and_bad_powers_are_refused() {
+        let arx = Arx::new(vec![1.0, -0.8], vec![(vec![0.1], 1), (vec![0.05], 1)]).unwrap();
+        let quadratic = ThermalModel::new(
+            10.0,
+            vec![
+                InputChannel::linear("speed_rpm", 8000.0),
+                InputChannel {
+                    name: "speed_rpm".into(),
+                    scale: 8000.0,
+                    power: 2,
+                },
+            ],
+            vec![HeightModel {
+                z_mm: -50.0,
+                model: arx,
+                stats: None,
+            }],
+        )
+        .unwrap();
+        let text = quadratic.to_toml();
+        assert_eq!(text.matches("power = 2").count(), 1, "{text}");
+        let p = Path::new("T.toml");
+        assert_eq!(model_from_toml_str(p, &text).unwrap(), quadratic);
+        for bad in ["power = 0", "power = 1.5", "power = 4"] {
+            let t = text.replacen("power = 2", bad, 1);
+            let line = t.lines().position(|l| l == bad).unwrap() + 1;
+            let e = model_from_toml_str(p, &t).unwrap_err();
+            assert!(
+                e.0.iter()
+                    .any(|d| d.line == line && d.message.contains("`power`")),
+                "{bad}: {e}"
+            );
+        }
+        // The same input and power twice is refused.
+        let t = text.replacen("power = 2", "power = 1", 1);
+        assert!(model_from_toml_str(p, &t).is_err());
     }
 
     #[test]

@@ -25,6 +25,7 @@ mod file;
 mod model;
 mod predict;
 mod program;
+mod speed_model;
 mod synthetic;
 
 pub use compensate::{
@@ -43,6 +44,7 @@ pub use predict::{
 pub use program::{
     BallArray, ProbeMotion, ThermalProgram, ThermalProgramError, pass_seconds, thermal_program,
 };
+pub use speed_model::{REQUIRED_GAIN, SpeedModel, SpeedModelChoice, choose_speed_model};
 pub use synthetic::TruthMachine;
 
 use crate::io::Diagnostics;
@@ -65,6 +67,9 @@ pub enum ThermalError {
     /// A model that breaks an invariant (built in code, not read from a file).
     #[error("invalid thermal model: {0}")]
     Model(String),
+    /// `auto` could not compare the speed models.
+    #[error("cannot choose the speed model: {0}")]
+    SpeedModel(String),
     /// Writing an output file failed.
     #[error("cannot write {path}: {source}")]
     Write {

@@ -3,14 +3,39 @@ use crate::sysid::{Arx, ArxStepper};
 use super::ThermalError;
 use super::predict::Programme;
 
-/// One input of a thermal model: the CSV column it is read from and the
-/// scale it is divided by before it enters the ARX model.
+/// One input of a thermal model: the CSV column it is read from, the scale it
+/// is divided by and the power it is raised to before it enters the ARX model.
+///
+/// A power above 1 makes the model a Hammerstein model (a static nonlinearity
+/// before linear dynamics): `speed_rpm` twice, with powers 1 and 2, models a
+/// heat input that grows faster than the speed (bearing friction).
 #[derive(Debug, Clone, PartialEq)]
 pub struct InputChannel {
     /// Column name in `TRAIN.csv` / `SPEED.csv` (`speed_rpm` for the spindle speed).
     pub name: String,
-    /// The model sees `value / scale` (positive; the unit of the column).
+    /// The model sees `(value / scale)^power` (positive; the unit of the column).
     pub scale: f64,
+    /// Power of the scaled value, 1 ..= [`InputChannel::MAX_POWER`] (1: linear).
+    pub power: u32,
+}
+
+impl InputChannel {
+    /// Largest power of an input.
+    pub const MAX_POWER: u32 = 3;
+
+    /// A linear input.
+    pub fn linear(name: impl Into<String>, scale: f64) -> InputChannel {
+        InputChannel {
+            name: name.into(),
+            scale,
+            power: 1,
+        }
+    }
+
+    /// What the ARX model sees of the raw column value `v`.
+    pub fn apply(&self, v: f64) -> f64 {
+        (v / self.scale).powi(self.power as i32)
+    }
 }
 
 /// Statistics of the fit of one height (drift in mm).
@@ -81,6 +106,10 @@ impl Drift {
 pub struct ThermalModel {
     period_min: f64,
     inputs: Vec<InputChannel>,
+    /// Distinct input column names, in order of first use.
+    columns: Vec<String>,
+    /// Column of every input channel (index into `columns`).
+    column_of: Vec<usize>,
     heights: Vec<HeightModel>,
 }
 
@@ -106,6 +135,25 @@ impl ThermalModel {
                 return bad(format!(
                     "the scale of input `{}` must be positive, not {}",
                     c.name, c.scale
+                ));
+            }
+            if !(1..=InputChannel::MAX_POWER).contains(&c.power) {
+                return bad(format!(
+                    "the power of input `{}` must be 1 to {}, not {}",
+                    c.name,
+                    InputChannel::MAX_POWER,
+                    c.power
+                ));
+            }
+        }
+        for (i, c) in inputs.iter().enumerate() {
+            if inputs[..i]
+                .iter()
+                .any(|d| d.name == c.name && d.power == c.power)
+            {
+                return bad(format!(
+                    "input `{}` with power {} appears twice",
+                    c.name, c.power
                 ));
             }
         }
@@ -136,11 +184,31 @@ impl ThermalModel {
         if let Some(w) = heights.windows(2).find(|w| w[0].z_mm == w[1].z_mm) {
             return bad(format!("the height z = {} mm appears twice", w[0].z_mm));
         }
+        let mut columns: Vec<String> = Vec::new();
+        let mut column_of = Vec::with_capacity(inputs.len());
+        for c in &inputs {
+            let i = match columns.iter().position(|n| *n == c.name) {
+                Some(i) => i,
+                None => {
+                    columns.push(c.name.clone());
+                    columns.len() - 1
+                }
+            };
+            column_of.push(i);
+        }
         Ok(ThermalModel {
             period_min,
             inputs,
+            columns,
+            column_of,
             heights,
         })
+    }
+
+    /// The distinct input columns (`speed_rpm` first for models fitted by
+    /// mtwin), in the order a [`Programme`] sample gives their values.
+    pub fn columns(&self) -> &[String] {
+        &self.columns
     }
 
     /// Sample period, min.
@@ -148,7 +216,8 @@ impl ThermalModel {
         self.period_min
     }
 
-    /// The inputs, in the order every height model takes them.
+    /// The inputs, in the order every height model takes them (a column can
+    /// feed several inputs, with different powers).
     pub fn inputs(&self) -> &[InputChannel] {
         &self.inputs
     }
@@ -231,7 +300,7 @@ impl ThermalModel {
         let pos = (t_min / self.period_min).max(0.0);
         let k = pos.floor() as usize;
         let frac = pos - k as f64;
-        let zero = vec![0.0; self.inputs.len()];
+        let zero = vec![0.0; self.columns.len()];
         let input = |j: usize| {
             if j < programme.len() {
                 programme.sample(j)
@@ -292,21 +361,23 @@ impl ThermalPredictor<'_> {
         self.model.interpolate(&self.drift, z_mm)
     }
 
-    /// Apply the raw (unscaled) inputs held over the next period, in the
-    /// order of [`ThermalModel::inputs`], and move one sample on.
+    /// Apply the raw column values (rev/min for the speed) held over the next
+    /// period, in the order of [`ThermalModel::columns`], and move one sample on.
     ///
     /// # Panics
-    /// If `inputs.len()` differs from the model's number of inputs.
-    pub fn advance(&mut self, inputs: &[f64]) {
+    /// If `values.len()` differs from the model's number of columns.
+    pub fn advance(&mut self, values: &[f64]) {
         assert_eq!(
-            inputs.len(),
-            self.model.inputs.len(),
-            "one value per model input is needed"
+            values.len(),
+            self.model.columns.len(),
+            "one value per input column is needed"
         );
-        let scaled: Vec<f64> = inputs
+        let scaled: Vec<f64> = self
+            .model
+            .inputs
             .iter()
-            .zip(&self.model.inputs)
-            .map(|(v, c)| v / c.scale)
+            .zip(&self.model.column_of)
+            .map(|(c, &col)| c.apply(values[col]))
             .collect();
         for (d, s) in self.drift.iter_mut().zip(&mut self.steppers) {
             *d = s.push(&scaled);
@@ -329,10 +400,7 @@ mod tests {
     }
 
     fn model() -> ThermalModel {
-        let inputs = vec![InputChannel {
-            name: "speed_rpm".into(),
-            scale: 1000.0,
-        }];
+        let inputs = vec![InputChannel::linear("speed_rpm", 1000.0)];
         ThermalModel::new(
             10.0,
             inputs,
@@ -404,10 +472,7 @@ mod tests {
 
     #[test]
     fn invariants() {
-        let inputs = vec![InputChannel {
-            name: "speed_rpm".into(),
-            scale: 1000.0,
-        }];
+        let inputs = vec![InputChannel::linear("speed_rpm", 1000.0)];
         let direct = HeightModel {
             z_mm: 0.0,
             model: Arx::new(vec![1.0], vec![(vec![1.0], 0)]).unwrap(),

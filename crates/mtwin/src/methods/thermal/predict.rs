@@ -11,11 +11,13 @@ use serde_json::json;
 use super::ThermalError;
 use super::data::{TrainingData, read_training};
 use super::model::{HeightModel, HeightStats, InputChannel, ThermalModel};
+use super::speed_model::{SpeedModel, SpeedModelChoice, choose_speed_model};
 use crate::io::{Diagnostic, Diagnostics, Table, write_atomic_with, write_csv_row};
 use crate::sysid::{Criterion, OrderGrid, OrderSelection, Run, Start, select_orders};
 
 /// Inputs on the model's sample grid from `t = 0`: sample `k` holds over
-/// `[kT, (k+1)T)`, raw units (rev/min for the speed), one value per model input.
+/// `[kT, (k+1)T)`, raw units (rev/min for the speed), one value per input
+/// column of the model ([`ThermalModel::columns`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Programme {
     samples: Vec<Vec<f64>>,
@@ -23,7 +25,7 @@ pub struct Programme {
 }
 
 impl Programme {
-    /// A programme from its samples, every one with one value per model input.
+    /// A programme from its samples, every one with one value per input column.
     pub fn new(samples: Vec<Vec<f64>>) -> Programme {
         Programme { samples, first: 0 }
     }
@@ -54,13 +56,13 @@ impl Programme {
     }
 }
 
-/// Read `SPEED.csv` (`t_min` and one column per model input, `speed_rpm`
+/// Read `SPEED.csv` (`t_min` and the model's input columns, `speed_rpm`
 /// first) for `model`: times on the model's grid `t = kT` (within 1 % of T),
 /// `k ≥ 0`, consecutive. Samples before the first time are idle (inputs 0).
 pub fn read_programme(path: &Path, model: &ThermalModel) -> Result<Programme, Diagnostics> {
     let table = Table::read(path)?;
     let mut names = vec!["t_min"];
-    names.extend(model.inputs().iter().map(|c| c.name.as_str()));
+    names.extend(model.columns().iter().map(String::as_str));
     let rows = table.number_rows(&names)?;
     if rows.is_empty() {
         return Err(
@@ -183,6 +185,8 @@ pub struct ThermalFitOptions {
     pub criterion: Criterion,
     /// Further input columns of `TRAIN.csv` (temperatures, …) beside `speed_rpm`.
     pub extra_inputs: Vec<String>,
+    /// How the speed enters the model (04's model: linearly).
+    pub speed_model: SpeedModel,
 }
 
 impl Default for ThermalFitOptions {
@@ -192,6 +196,7 @@ impl Default for ThermalFitOptions {
             delay: 1,
             criterion: Criterion::Fpe,
             extra_inputs: Vec::new(),
+            speed_model: SpeedModel::Linear,
         }
     }
 }
@@ -216,6 +221,9 @@ pub struct ThermalFit {
     pub runs: usize,
     /// Plain sentences for the user (unstable models, …).
     pub warnings: Vec<String>,
+    /// The held-out comparison of linear and quadratic speed models, when
+    /// [`SpeedModel::Auto`] chose.
+    pub speed_model: Option<SpeedModelChoice>,
 }
 
 impl ThermalFit {
@@ -258,7 +266,8 @@ impl ThermalFit {
         json!({
             "period_min": self.model.period_min(),
             "runs": self.runs,
-            "inputs": self.model.inputs().iter().map(|c| json!({"name": c.name, "scale": c.scale})).collect::<Vec<_>>(),
+            "inputs": self.model.inputs().iter().map(|c| json!({"name": c.name, "scale": c.scale, "power": c.power})).collect::<Vec<_>>(),
+            "speed_model": self.speed_model.as_ref().map(SpeedModelChoice::to_json),
             "heights": heights,
             "warnings": self.warnings,
         })
@@ -267,16 +276,37 @@ impl ThermalFit {
 
 /// Fit one ARX model per height (orders by `options.criterion` over
 /// `na ∈ 1..=max_order`, `nb ∈ 0..=max_order` per input, every run from cold).
+/// The inputs are the data's columns, linear, plus the squared speed for
+/// [`SpeedModel::Quadratic`], or for [`SpeedModel::Auto`] when it predicts
+/// held-out runs better ([`choose_speed_model`]).
 ///
 /// A height with fewer than three samples per parameter of the largest model
 /// of the grid is an error at the line of its first sample.
 pub fn fit(data: &TrainingData, options: &ThermalFitOptions) -> Result<ThermalFit, ThermalError> {
+    match options.speed_model {
+        SpeedModel::Linear => fit_with(data, options, false),
+        SpeedModel::Quadratic => fit_with(data, options, true),
+        SpeedModel::Auto => {
+            let choice = choose_speed_model(data, options)?;
+            let mut fit = fit_with(data, options, choice.quadratic)?;
+            fit.speed_model = Some(choice);
+            Ok(fit)
+        }
+    }
+}
+
+/// [`fit`] with the squared speed as a further input or not.
+pub(super) fn fit_with(
+    data: &TrainingData,
+    options: &ThermalFitOptions,
+    quadratic: bool,
+) -> Result<ThermalFit, ThermalError> {
     if options.delay == 0 {
         return Err(ThermalError::Model(
             "the input delay must be at least 1: a speed given at t holds over [t, t+T)".into(),
         ));
     }
-    let n_inputs = data.input_names.len();
+    let n_inputs = data.input_names.len() + usize::from(quadratic);
     let grid = OrderGrid::up_to(options.max_order, &vec![options.delay; n_inputs]);
     let needed = 3 * grid.max_params();
     let mut diags = Diagnostics::default();
@@ -299,7 +329,7 @@ pub fn fit(data: &TrainingData, options: &ThermalFitOptions) -> Result<ThermalFi
     if !diags.is_empty() {
         return Err(diags.into());
     }
-    let inputs: Vec<InputChannel> = data
+    let mut inputs: Vec<InputChannel> = data
         .input_names
         .iter()
         .enumerate()
@@ -309,12 +339,18 @@ pub fn fit(data: &TrainingData, options: &ThermalFitOptions) -> Result<ThermalFi
                 .iter()
                 .flat_map(|h| h.series.iter().flat_map(move |s| s.inputs[i].iter()))
                 .fold(0.0f64, |m, v| m.max(v.abs()));
-            InputChannel {
-                name: name.clone(),
-                scale: if max > 0.0 { max } else { 1.0 },
-            }
+            InputChannel::linear(name.clone(), if max > 0.0 { max } else { 1.0 })
         })
         .collect();
+    // Column of every input: the data's columns in order, then the speed again.
+    let mut column_of: Vec<usize> = (0..inputs.len()).collect();
+    if quadratic {
+        inputs.push(InputChannel {
+            power: 2,
+            ..inputs[0].clone()
+        });
+        column_of.push(0);
+    }
     let mut reports = Vec::new();
     let mut models = Vec::new();
     let mut warnings = Vec::new();
@@ -327,11 +363,10 @@ pub fn fit(data: &TrainingData, options: &ThermalFitOptions) -> Result<ThermalFi
             .series
             .iter()
             .map(|s| {
-                let scaled = s
-                    .inputs
+                let scaled = inputs
                     .iter()
-                    .zip(&inputs)
-                    .map(|(u, c)| u.iter().map(|v| v / c.scale).collect());
+                    .zip(&column_of)
+                    .map(|(c, &col)| s.inputs[col].iter().map(|&v| c.apply(v)).collect());
                 Run::new(s.drift.clone(), scaled.collect())
             })
             .collect::<Result<_, _>>()
@@ -369,6 +404,7 @@ pub fn fit(data: &TrainingData, options: &ThermalFitOptions) -> Result<ThermalFi
         heights: reports,
         runs: data.runs.len(),
         warnings,
+        speed_model: None,
     })
 }
 
@@ -441,7 +477,7 @@ pub fn simulate(
         })
         .collect();
     Ok(SimulatedData {
-        input_names: model.inputs().iter().map(|c| c.name.clone()).collect(),
+        input_names: model.columns().to_vec(),
         rows,
     })
 }
@@ -457,10 +493,7 @@ mod tests {
             model: Arx::new(vec![1.0, -0.8], vec![(vec![0.2 * g], 1)]).unwrap(),
             stats: None,
         };
-        let inputs = vec![InputChannel {
-            name: "speed_rpm".into(),
-            scale: 1000.0,
-        }];
+        let inputs = vec![InputChannel::linear("speed_rpm", 1000.0)];
         ThermalModel::new(10.0, inputs, vec![h(-50.0, 0.01), h(-150.0, 0.03)]).unwrap()
     }
 
