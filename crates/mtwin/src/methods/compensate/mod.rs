@@ -378,9 +378,13 @@ impl Compensator {
                 .ok()
                 .map(|()| q)
         });
+        // A warm solution far from the nominal rotaries (near a singular pose)
+        // is not taken: the cold start from the nominal axes decides there.
         let full = match warm {
-            Some(q) => Ok(q),
-            None => self.actual.inverse(&target, &q_nom, free, &self.ik),
+            Some(q) if target.axis.is_none() || self.rotary_change(&q, &q_nom) <= MAX_ROTARY => {
+                Ok(q)
+            }
+            _ => self.actual.inverse(&target, &q_nom, free, &self.ik),
         };
         let q_act = match full {
             Ok(q) if target.axis.is_none() || self.rotary_change(&q, &q_nom) <= MAX_ROTARY => q,
