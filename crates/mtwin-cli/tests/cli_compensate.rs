@@ -200,3 +200,38 @@ fn refusals_name_the_line_and_write_nothing() {
     assert!(stderr(&o).contains("line 3:") && stderr(&o).contains("outside its travel"));
     assert!(!dir.path().join("comp.ngc").exists());
 }
+
+#[test]
+fn fanuc_programs_get_a_decimal_point_in_every_rewritten_word() {
+    let dir = tempfile::tempdir().unwrap();
+    // Fanuc without decimal point programming: X40000 is 40 mm.
+    let part = "G21 G90 G94\nG0 X40000 Y0 Z-50000 A20000 C0\nG1 X-40000 F1000\nG1 Y30000\nM30\n";
+    std::fs::write(dir.path().join("part.nc"), part).unwrap();
+    let o = mtwin(
+        dir.path(),
+        &[
+            "compensate",
+            "--machine",
+            &example("ac-trunnion-with-errors.toml"),
+            "--program",
+            "part.nc",
+            "--out",
+            "comp.nc",
+            "--dialect",
+            "fanuc",
+            "--max-correction",
+            "2",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let new = std::fs::read_to_string(dir.path().join("comp.nc")).unwrap();
+    let old: Vec<&str> = part.split_whitespace().collect();
+    let changed: Vec<&str> = new
+        .split_whitespace()
+        .filter(|w| !old.contains(w) && w.starts_with(['X', 'Y', 'Z', 'A', 'C']))
+        .collect();
+    assert!(changed.len() >= 4, "{new}");
+    for w in changed {
+        assert!(w.contains('.'), "`{w}` lacks a decimal point:\n{new}");
+    }
+}

@@ -135,3 +135,31 @@ fn documented_walkthrough_ends_where_it_started() {
     let last = rows.last().unwrap();
     assert_eq!(&last[1..4], &[0.0, 0.0, 0.0]);
 }
+
+#[test]
+fn fanuc_dialect_reads_numbers_without_a_point_in_least_increments() {
+    let dir = tempfile::tempdir().unwrap();
+    // X10000 is 10 mm for Fanuc without decimal point programming, 10000 mm
+    // for LinuxCNC; X5. is 5 mm for both; G4 P1500 is 1.5 s for Fanuc.
+    write(
+        dir.path(),
+        "f.nc",
+        "G21 G90\nG1 X10000 F600\nG1 X5.\nG4 P1500\n",
+    );
+    let stats = |extra: &[&str]| -> serde_json::Value {
+        let args = [&["gcode", "stats", "f.nc", "--format", "json"][..], extra].concat();
+        let o = mtwin(dir.path(), &args);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        serde_json::from_str(&stdout(&o)).unwrap()
+    };
+    let fanuc = stats(&["--dialect", "fanuc"]);
+    assert!(
+        (fanuc["feed_length_mm"].as_f64().unwrap() - 15.0).abs() < 1e-9,
+        "{fanuc}"
+    );
+    assert!((fanuc["dwell_time_s"].as_f64().unwrap() - 1.5).abs() < 1e-12);
+    let dpi = stats(&["--dialect", "fanuc", "--decimal-point"]);
+    assert!((dpi["feed_length_mm"].as_f64().unwrap() - (10000.0 + 9995.0)).abs() < 1e-9);
+    let linuxcnc = stats(&[]);
+    assert!((linuxcnc["dwell_time_s"].as_f64().unwrap() - 1500.0).abs() < 1e-9);
+}

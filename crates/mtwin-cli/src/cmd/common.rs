@@ -2,6 +2,7 @@
 
 use std::path::Path;
 
+use mtwin::gcode::Dialect;
 use mtwin::io::{Diagnostics, Table};
 use mtwin::model::{Machine, read_machine};
 
@@ -18,4 +19,41 @@ pub fn load_machine(path: &Path) -> anyhow::Result<Machine> {
 /// Read a CSV table.
 pub fn load_table(path: &Path) -> anyhow::Result<Table> {
     Table::read(path).map_err(diag)
+}
+
+/// The controller whose reading of a program is reproduced.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum DialectArg {
+    /// LinuxCNC: `G4 P` in seconds, G90.1/G91.1 arc-centre modes.
+    #[default]
+    Linuxcnc,
+    /// Fanuc: `G4 P` in milliseconds, `G4 X` in seconds, arc centres always
+    /// incremental, numbers without a decimal point in least increments
+    /// (0.001 mm) unless `--decimal-point`.
+    Fanuc,
+}
+
+/// How a part program is read (`--dialect`, `--decimal-point`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct DialectArgs {
+    /// The controller whose reading of the program is reproduced.
+    #[arg(long, value_enum, default_value_t)]
+    pub dialect: DialectArg,
+    /// With `--dialect fanuc`: a number without a decimal point is in mm or
+    /// degrees (decimal point programming, Fanuc parameter DPI), not in least
+    /// increments.
+    #[arg(long)]
+    pub decimal_point: bool,
+}
+
+impl DialectArgs {
+    /// The library's dialect.
+    pub fn dialect(&self) -> Dialect {
+        match self.dialect {
+            DialectArg::Linuxcnc => Dialect::LinuxCnc,
+            DialectArg::Fanuc => Dialect::Fanuc {
+                decimal_point_programming: self.decimal_point,
+            },
+        }
+    }
 }

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use mtwin::methods::compensate::{CompensateError, CompensateOptions, Compensator, Summary};
 use serde_json::json;
 
-use super::common::load_machine;
+use super::common::{DialectArgs, load_machine};
 use crate::output::{Format, note, print_json};
 
 #[derive(Debug, clap::Args)]
@@ -15,7 +15,7 @@ pub struct Args {
     /// Identified machine model (TOML): its errors are the actual machine.
     #[arg(long)]
     machine: PathBuf,
-    /// Part program to compensate (G-code, LinuxCNC dialect).
+    /// Part program to compensate (G-code; `--dialect` says how it reads).
     #[arg(long)]
     program: PathBuf,
     /// Compensated program to write (not written on any error).
@@ -31,6 +31,11 @@ pub struct Args {
     /// (X Y Z = tool tip in the work frame); M428/M429 switch it anywhere.
     #[arg(long)]
     tcp: bool,
+    /// G54 work offset of one axis, `AXIS=VALUE` (mm, deg); repeatable.
+    #[arg(long = "offset", value_name = "AXIS=VALUE")]
+    offsets: Vec<String>,
+    #[command(flatten)]
+    dialect: DialectArgs,
     /// Output format of the summary.
     #[arg(long, value_enum, default_value_t)]
     format: Format,
@@ -53,6 +58,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         max_correction: a.max_correction,
         ..CompensateOptions::default()
     };
+    opts.interp = super::gcode::interp_options(&a.offsets, &a.dialect)?;
     opts.interp.tcp_at_start = a.tcp;
     let comp =
         Compensator::new(&m, opts).map_err(|e| anyhow::anyhow!("{}: {e}", a.machine.display()))?;

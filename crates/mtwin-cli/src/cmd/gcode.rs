@@ -12,7 +12,7 @@ use mtwin::gcode::{
 use mtwin::io::write_csv_row;
 use serde_json::json;
 
-use super::common::load_machine;
+use super::common::{DialectArgs, load_machine};
 use crate::output::{Format, print_json, warn};
 
 #[derive(Debug, clap::Subcommand)]
@@ -49,6 +49,8 @@ pub struct InterpolateArgs {
     /// G54 work offset of one axis, `AXIS=VALUE` (mm, deg); repeatable.
     #[arg(long = "offset", value_name = "AXIS=VALUE")]
     offsets: Vec<String>,
+    #[command(flatten)]
+    dialect: DialectArgs,
     /// Write samples outside the axis travels instead of stopping.
     #[arg(long)]
     no_travel_check: bool,
@@ -71,6 +73,8 @@ pub struct StatsArgs {
     /// G54 work offset of one axis, `AXIS=VALUE` (mm, deg); repeatable.
     #[arg(long = "offset", value_name = "AXIS=VALUE")]
     offsets: Vec<String>,
+    #[command(flatten)]
+    dialect: DialectArgs,
     /// Output format.
     #[arg(long, value_enum, default_value_t)]
     format: Format,
@@ -125,16 +129,21 @@ pub(super) fn located(
     }
 }
 
-pub(super) fn interp_options(offsets: &[String]) -> anyhow::Result<InterpOptions> {
+/// Interpreter options from `--offset` items and the dialect arguments.
+pub(super) fn interp_options(
+    offsets: &[String],
+    dialect: &DialectArgs,
+) -> anyhow::Result<InterpOptions> {
     let mut o = InterpOptions::default();
     o.work_offsets[0] = parse_offsets(offsets)?;
+    o.dialect = dialect.dialect();
     Ok(o)
 }
 
 fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
     let m = load_machine(&a.machine)?;
     let mut opts = InterpolateOptions::new(a.ts);
-    opts.interp = interp_options(&a.offsets)?;
+    opts.interp = interp_options(&a.offsets, &a.dialect)?;
     opts.force_tcp = a.tcp;
     opts.check_travel = !a.no_travel_check;
     let (input, bar) = crate::output::open_with_progress(&a.program, "interpolate")?;
@@ -198,7 +207,7 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
 fn stats(a: StatsArgs) -> anyhow::Result<()> {
     let machine = a.machine.as_deref().map(load_machine).transpose()?;
     let mut opts = StatsOptions {
-        interp: interp_options(&a.offsets)?,
+        interp: interp_options(&a.offsets, &a.dialect)?,
         ..StatsOptions::default()
     };
     if let Some(m) = &machine {

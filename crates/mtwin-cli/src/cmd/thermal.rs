@@ -14,8 +14,8 @@ use mtwin::methods::thermal::{
 use mtwin::report::svg::{Series, xy};
 use serde_json::json;
 
+use super::common::DialectArg;
 use super::common::diag;
-use super::thermal_compensate::DialectArg;
 use crate::output::{Format, note, print_json, warn};
 
 #[derive(Debug, clap::Subcommand)]

@@ -5,26 +5,14 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use mtwin::gcode::Dialect;
 use mtwin::methods::thermal::{
     CompensateError, CompensateOptions, CorrectionUpdate, compensate, read_model,
 };
 use mtwin::report::svg::{Series, xy};
 use serde_json::json;
 
-use super::common::diag;
+use super::common::{DialectArgs, diag};
 use crate::output::{Format, note, print_json};
-
-/// The controller whose reading of the program is reproduced.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
-pub enum DialectArg {
-    /// LinuxCNC: `G4 P` in seconds.
-    #[default]
-    Linuxcnc,
-    /// Fanuc: `G4 P` in milliseconds, `G4 X` in seconds, numbers without a
-    /// decimal point in least increments (0.001 mm).
-    Fanuc,
-}
 
 #[derive(Debug, clap::Args)]
 #[command(allow_negative_numbers = true)]
@@ -47,9 +35,8 @@ pub struct Args {
     /// Rapid (G0) rate along the path, mm/min.
     #[arg(long, default_value_t = 10_000.0)]
     rapid: f64,
-    /// How the program reads.
-    #[arg(long, value_enum, default_value_t)]
-    dialect: DialectArg,
+    #[command(flatten)]
+    dialect: DialectArgs,
     /// Output format of the summary.
     #[arg(long, value_enum, default_value_t)]
     format: Format,
@@ -64,12 +51,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let bytes = std::fs::read(&a.program)
         .with_context(|| format!("cannot read {}", a.program.display()))?;
     let options = CompensateOptions {
-        dialect: match a.dialect {
-            DialectArg::Linuxcnc => Dialect::LinuxCnc,
-            DialectArg::Fanuc => Dialect::Fanuc {
-                decimal_point_programming: false,
-            },
-        },
+        dialect: a.dialect.dialect(),
         rapid_mm_min: a.rapid,
         update: if a.continuous {
             CorrectionUpdate::Continuous

@@ -15,6 +15,7 @@ use mtwin::methods::twin::{
 use mtwin::model::Machine;
 use serde_json::{Value, json};
 
+use super::common::DialectArgs;
 use super::common::load_machine;
 use super::gcode::{interp_options, located, open};
 use crate::output::{Format, print_json, progress};
@@ -61,6 +62,8 @@ pub struct PredictArgs {
     /// G54 work offset of one axis for `--gcode`, `AXIS=VALUE` (mm, deg); repeatable.
     #[arg(long = "offset", value_name = "AXIS=VALUE", requires = "gcode")]
     offsets: Vec<String>,
+    #[command(flatten)]
+    dialect: DialectArgs,
     /// Interpolate samples outside the axis travels instead of stopping.
     #[arg(long, requires = "gcode")]
     no_travel_check: bool,
@@ -114,7 +117,7 @@ fn run_twin(
             .as_deref()
             .context("--commands or --gcode is needed")?;
         let mut opts = InterpolateOptions::new(a.ts);
-        opts.interp = interp_options(&a.offsets)?;
+        opts.interp = interp_options(&a.offsets, &a.dialect)?;
         opts.interp.tcp_at_start = a.tcp;
         opts.check_travel = !a.no_travel_check;
         twin::predict_gcode(&twin, machine, open(path)?, &opts, sink, &mut hook)

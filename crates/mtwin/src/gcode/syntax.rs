@@ -134,6 +134,10 @@ pub enum NumberFormat {
     /// At most this many decimals, trailing zeros (and a bare point) removed:
     /// `Fixed(4)` writes 12.345 as `12.345`, 2.0 as `2`, 1/3 as `0.3333`.
     Fixed(u8),
+    /// [`NumberFormat::Fixed`] that always keeps a decimal point (`2.0` is
+    /// written `2.`): for controllers that read a number without a point in
+    /// least increments (Fanuc without decimal point programming).
+    FixedPoint(u8),
     /// The shortest decimal text that reads back to the same `f64`, never
     /// with an exponent (G-code has none).
     Shortest,
@@ -151,6 +155,13 @@ impl NumberFormat {
     pub fn write(self, v: f64, out: &mut String) {
         match self {
             NumberFormat::Fixed(d) => write_fixed(v, d, out),
+            NumberFormat::FixedPoint(d) => {
+                let start = out.len();
+                write_fixed(v, d, out);
+                if !out[start..].contains('.') {
+                    out.push('.');
+                }
+            }
             // Display of f64 is shortest round-trip and never uses an
             // exponent; -0 is written as 0.
             NumberFormat::Shortest if v == 0.0 => out.push('0'),
@@ -717,6 +728,9 @@ mod tests {
                 .trim_end_matches('.')
         );
         assert_eq!(f(NumberFormat::Fixed(4), -2.5), "-2.5");
+        assert_eq!(f(NumberFormat::FixedPoint(4), 2.0), "2.");
+        assert_eq!(f(NumberFormat::FixedPoint(4), -2.5), "-2.5");
+        assert_eq!(f(NumberFormat::FixedPoint(4), 0.0), "0.");
         assert_eq!(f(NumberFormat::Fixed(4), -0.00001), "0");
         assert_eq!(f(NumberFormat::Shortest, 1e-7), "0.0000001");
         assert_eq!(f(NumberFormat::Shortest, 0.1 + 0.2), "0.30000000000000004");

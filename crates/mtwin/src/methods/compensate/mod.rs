@@ -24,8 +24,8 @@ use std::io::{BufRead, Write};
 use nalgebra::Vector3;
 
 use crate::gcode::{
-    Axes, Axis, Block, BlockReader, BlockWriter, DistanceMode, EventKind, Feed, GcodeError,
-    InterpOptions, Interpreter, Item, NumberFormat, Programmed, Value,
+    Axes, Axis, Block, BlockReader, BlockWriter, Dialect, DistanceMode, EventKind, Feed,
+    GcodeError, InterpOptions, Interpreter, Item, NumberFormat, Programmed, Value,
 };
 use crate::kinematics::{IkError, IkOptions, IkTarget, Kinematics};
 use crate::model::{AxisKind, Machine};
@@ -659,8 +659,15 @@ impl Compensator {
             .fold(0.0, f64::max)
     }
 
+    /// How new numbers are written: with a decimal point always when the
+    /// dialect reads a number without one in least increments.
     fn format(&self) -> NumberFormat {
-        NumberFormat::Fixed(self.opts.decimals)
+        match self.opts.interp.dialect {
+            Dialect::Fanuc {
+                decimal_point_programming: false,
+            } => NumberFormat::FixedPoint(self.opts.decimals),
+            _ => NumberFormat::Fixed(self.opts.decimals),
+        }
     }
 
     /// Half a unit of the last written decimal, in mm (or degree) for a word

@@ -377,3 +377,42 @@ fn arc_path_runs_from_start_to_end_on_the_circle() {
     assert!(m[Axis::X].abs() < 1e-12 && (m[Axis::Y] - 10.0).abs() < 1e-12);
     assert!((m[Axis::Z] - 2.0).abs() < 1e-12);
 }
+
+#[test]
+fn fanuc_program_without_decimal_points_gets_points_in_every_new_number() {
+    // Fanuc without decimal point programming: `X10` is 0.010 mm. A new
+    // number written without a point would be read in least increments, so
+    // every rewritten word must carry one; the program must still reach the
+    // nominal targets when read the Fanuc way.
+    let m = example("ac-trunnion-with-errors.toml");
+    let mut opts = CompensateOptions {
+        max_correction: 2.0,
+        ..CompensateOptions::default()
+    };
+    opts.interp.dialect = crate::gcode::Dialect::Fanuc {
+        decimal_point_programming: false,
+    };
+    let program = "G21 G90 G94 (setup)\nG0 X10000 Y20000 Z-50000 A10000 C0 (1)\n\
+                   G1 X150. Y-80000 Z-60. F1000 (2)\nG1 X-150000 (3)\nG1 A30. C45000 (4)\n\
+                   G1 X100. Y100. Z-100. A20. C200. (5)\nM30 (end)\n";
+    let (out, s) = run(&m, program.as_bytes(), &opts);
+    assert!(s.blocks_changed >= 4, "{s:?}");
+    let text = String::from_utf8(out.clone()).unwrap();
+    let old_words: Vec<&str> = program.split_whitespace().collect();
+    let mut new_words = 0;
+    for w in text.split_whitespace() {
+        if !old_words.contains(&w) && w.starts_with(['X', 'Y', 'Z', 'A', 'C']) {
+            assert!(w.contains('.'), "`{w}` has no decimal point in\n{text}");
+            new_words += 1;
+        }
+    }
+    assert!(new_words >= 8, "{text}");
+    // A whole value, which the data above need not produce, keeps its point too.
+    let comp = Compensator::new(&m, opts.clone()).unwrap();
+    let mut w = String::new();
+    comp.format().write(150.0, &mut w);
+    assert_eq!(w, "150.");
+    let (end, mid, _) = check(&m, program.as_bytes(), &out, &opts.interp);
+    assert!(end <= opts.tol + ROUNDING, "end deviation {end}");
+    assert!(mid <= opts.tol + ROUNDING, "midpoint deviation {mid}");
+}
