@@ -1,5 +1,6 @@
 //! Reading and writing the data files of 00 §6: CSV tables matched by
-//! header name, full-precision number formatting, and atomic output files.
+//! header name, span-aware reading of the TOML model files (machine, servo,
+//! thermal), full-precision number formatting, and atomic output files.
 //!
 //! Every reader reports problems as a [`Diagnostic`] naming the file, the
 //! line and (where it applies) the column, so the CLI can print one plain
@@ -10,6 +11,7 @@ mod diagnostic;
 mod number;
 mod rows;
 mod table;
+pub(crate) mod toml;
 
 pub use atomic::{write_atomic, write_atomic_with};
 pub use diagnostic::{Diagnostic, Diagnostics};

@@ -4,11 +4,13 @@ use std::ops::Range;
 use std::path::Path;
 
 use nalgebra::Vector3;
-use toml_edit::{ImDocument, Item, Key, TableLike, Value};
+use toml_edit::{Item, TableLike, Value};
 
 use super::machine::DEFAULT_RAPID_FEED;
 use super::{Axis, AxisErrors, AxisKind, ErrorFunction, ErrorKind, ErrorName, Machine, ServoTable};
+use crate::io::toml::{Reader, parse};
 use crate::io::{Diagnostic, Diagnostics};
+use crate::sysid::read_servo_table;
 
 /// Tolerance on |d| − 1 for a direction to count as a unit vector.
 pub const UNIT_TOLERANCE: f64 = 1e-9;
@@ -22,70 +24,39 @@ pub fn read_machine(path: &Path) -> Result<Machine, Diagnostics> {
 
 /// Parse and validate machine-model TOML text; `path` names it in messages.
 pub fn parse_machine(path: &Path, text: &str) -> Result<Machine, Diagnostics> {
-    let mut cx = Cx::new(path, text);
-    let doc = match ImDocument::parse(text.to_string()) {
-        Ok(d) => d,
-        Err(e) => {
-            let line = cx.line(e.span());
-            let msg = e.message().trim().trim_end_matches('.').to_string();
-            return Err(Diagnostic::at_line(path, line, format!("not valid TOML: {msg}")).into());
-        }
+    let doc = parse(path, text)?;
+    let mut cx = Cx {
+        r: Reader::new(path, text),
     };
     let m = cx.machine(doc.as_table());
-    cx.diags
+    cx.r.diags
         .into_result(())
         .map(|()| m.expect("no diagnostics means a machine was built"))
 }
 
+/// The machine schema on top of the shared [`Reader`]: values read as
+/// `toml_edit::Value`s, problems worded for the machine file.
 struct Cx<'a> {
-    path: &'a Path,
-    line_starts: Vec<usize>,
-    diags: Diagnostics,
+    r: Reader<'a>,
 }
 
 type Span = Option<Range<usize>>;
 
-impl<'a> Cx<'a> {
-    fn new(path: &'a Path, text: &str) -> Self {
-        let mut line_starts = vec![0];
-        line_starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
-        Cx {
-            path,
-            line_starts,
-            diags: Diagnostics::default(),
-        }
-    }
-
+impl Cx<'_> {
     fn line(&self, span: Span) -> usize {
-        match span {
-            Some(r) => self.line_starts.partition_point(|&s| s <= r.start),
-            None => 0,
-        }
+        self.r.line(span)
     }
 
     fn err(&mut self, span: Span, msg: impl Into<String>) {
-        let line = self.line(span);
-        self.diags.push(Diagnostic::at_line(self.path, line, msg));
+        self.r.error(span, msg);
     }
 
     fn key_span(t: &dyn TableLike, k: &str) -> Span {
-        t.get_key_value(k)
-            .and_then(|(key, item)| key_span(key).or_else(|| item.span()))
+        Reader::key_span(t, k)
     }
 
     fn check_keys(&mut self, t: &dyn TableLike, allowed: &[&str], what: &str) {
-        for (k, _) in t.iter() {
-            if !allowed.contains(&k) {
-                let span = Self::key_span(t, k);
-                self.err(
-                    span,
-                    format!(
-                        "unknown key `{k}` in {what} (allowed: {})",
-                        allowed.join(", ")
-                    ),
-                );
-            }
-        }
+        self.r.check_keys(t, allowed, what);
     }
 
     fn number(&mut self, v: &Value, what: &str) -> Option<f64> {
@@ -591,7 +562,7 @@ impl<'a> Cx<'a> {
                         };
                         for (kk, _) in tt.iter() {
                             if kk != "q" && kk != "e" {
-                                let span = tt.get_key_value(kk).and_then(|(key, _)| key_span(key));
+                                let span = tt.get_key_value(kk).and_then(|(key, _)| key.span());
                                 self.err(span.or(tt.span()), format!("unknown key `{kk}` in `table` of error `{k}` (allowed: q, e)"));
                             }
                         }
@@ -622,7 +593,7 @@ impl<'a> Cx<'a> {
                         Some(ErrorFunction::Table { q, e })
                     }
                     other => {
-                        let span = it.get_key_value(other).and_then(|(key, _)| key_span(key));
+                        let span = it.get_key_value(other).and_then(|(key, _)| key.span());
                         self.err(
                             span.or(it.span()),
                             format!(
@@ -645,61 +616,16 @@ impl<'a> Cx<'a> {
         }
     }
 
+    /// The `[axes.servo]` table, read and validated exactly as a `SERVO.toml`.
     fn servo(&mut self, t: &dyn TableLike, what: &str) -> Option<ServoTable> {
-        let span = None;
-        self.check_keys(
-            t,
-            &["ts", "b", "a", "nk"],
-            &format!("the servo table of {what}"),
-        );
         let w = format!("the servo table of {what}");
-        let ts = self.required(t, "ts", &w, span.clone()).and_then(|v| {
-            let x = self.number(v, &format!("`ts` of {w} (s)"))?;
-            if x <= 0.0 {
-                self.err(v.span(), format!("`ts` of {w} must be positive"));
-                return None;
-            }
-            Some(x)
-        });
-        let b = self
-            .required(t, "b", &w, span.clone())
-            .and_then(|v| self.numbers(v, &format!("`b` of {w}")));
-        let a = self.required(t, "a", &w, span.clone()).and_then(|v| {
-            let a = self.numbers(v, &format!("`a` of {w}"))?;
-            if a.first() != Some(&1.0) {
-                self.err(v.span(), format!("`a` of {w} must start with a_0 = 1"));
-                return None;
-            }
-            Some(a)
-        });
-        let nk = match self.value(t, "nk", &w, span) {
-            Some(Value::Integer(i)) if *i.value() >= 0 => Some(*i.value() as usize),
-            Some(v) => {
-                self.err(
-                    v.span(),
-                    format!("`nk` of {w} must be a non-negative integer (samples)"),
-                );
-                None
-            }
-            None => Some(0),
-        };
-        if let Some(b) = &b
-            && b.is_empty()
-        {
-            self.err(None, format!("`b` of {w} needs at least one coefficient"));
-            return None;
-        }
-        Some(ServoTable {
-            ts: ts?,
-            b: b?,
-            a: a?,
-            nk: nk?,
+        read_servo_table(&mut self.r, t, &w).map(|s| ServoTable {
+            ts: s.ts(),
+            b: s.b().to_vec(),
+            a: s.a().to_vec(),
+            nk: s.nk(),
         })
     }
-}
-
-fn key_span(k: &Key) -> Span {
-    k.span()
 }
 
 #[cfg(test)]
@@ -811,6 +737,18 @@ travel = [-360, 360]
             30,
             "a_0 = 1",
         );
+        // The servo table follows the SERVO.toml rules (one reader for both).
+        expect_error(
+            &GOOD.replace("ts = 0.001", "ts = 0.0"),
+            28,
+            "the servo table of",
+        );
+        expect_error(
+            &GOOD.replace("ts = 0.001", "ts = 0.001\n  nk = -1"),
+            29,
+            "`nk` must be a non-negative integer",
+        );
+        expect_error(&GOOD.replace("b = [0.0, 0.5]", "b = []"), 29, "no `b` coefficient");
         expect_error(
             &GOOD.replace("EXX = {", "EQX = {"),
             16,

@@ -3,14 +3,16 @@
 
 use std::path::Path;
 
+use toml_edit::TableLike;
+
 use thiserror::Error;
 
 use super::sampling::{check_sampling, median_interval};
-use super::toml_read::{Reader, fmt_f64_float, parse};
 use super::{
     Criterion, OrderGrid, OrderSelection, Run, Servo, Stability, SysidError,
     select_orders_output_error,
 };
+use crate::io::toml::{Reader, fmt_f64_float, parse};
 use crate::io::{Diagnostic, Diagnostics, Table, fmt_f64};
 
 /// A servo log: commands and encoder positions (mm or deg) every `ts` seconds.
@@ -293,41 +295,45 @@ impl Servo {
 /// optional `nk` (default 0). Unknown keys and bad values are reported with their line.
 pub fn servo_from_toml_str(path: &Path, text: &str) -> Result<Servo, Diagnostics> {
     let doc = parse(path, text)?;
-    let root = doc.as_table();
     let mut r = Reader::new(path, text);
-    r.check_keys(root, &["ts", "b", "a", "nk"], "the servo file");
+    let servo = read_servo_table(&mut r, doc.as_table(), "the servo file");
+    match servo {
+        Some(s) if r.diags.is_empty() => Ok(s),
+        _ => Err(r.diags),
+    }
+}
+
+/// A servo table — the root of a `SERVO.toml` or the `[axes.servo]` table of
+/// a machine file, named `what` in messages: `ts` (s), `b`, `a` (with
+/// `a_0 = 1`) and optional `nk` (default 0), validated as [`Servo::new`]
+/// does. Problems go to `r` with their line; `None` when there were any.
+pub(crate) fn read_servo_table(r: &mut Reader, t: &dyn TableLike, what: &str) -> Option<Servo> {
+    r.check_keys(t, &["ts", "b", "a", "nk"], what);
     let ts = r
-        .required(root, "ts", "the servo file", None)
+        .required(t, "ts", what, None)
         .and_then(|i| r.number(i, "ts"));
     let b = r
-        .required(root, "b", "the servo file", None)
+        .required(t, "b", what, None)
         .and_then(|i| r.numbers(i, "b"));
     let a = r
-        .required(root, "a", "the servo file", None)
+        .required(t, "a", what, None)
         .and_then(|i| r.numbers(i, "a"));
-    let nk = match root.get("nk") {
+    let nk = match t.get("nk") {
         Some(i) => r.count(i, "nk"),
         None => Some(0),
     };
-    let a_span = root.get("a").and_then(|i| i.span());
-    let mut servo = None;
-    if let (Some(ts), Some(b), Some(a), Some(nk)) = (ts, b, a, nk) {
-        match Servo::new(ts, b, a, nk) {
-            Ok(s) => servo = Some(s),
-            Err(e) => {
-                let span = match e {
-                    SysidError::LeadingA(_) => a_span,
-                    SysidError::EmptyB { .. } => root.get("b").and_then(|i| i.span()),
-                    _ => root.get("ts").and_then(|i| i.span()),
-                };
-                r.error(span, e.to_string());
-            }
+    let (ts, b, a, nk) = (ts?, b?, a?, nk?);
+    match Servo::new(ts, b, a, nk) {
+        Ok(s) => Some(s),
+        Err(e) => {
+            let key = match e {
+                SysidError::LeadingA(_) => "a",
+                SysidError::EmptyB { .. } => "b",
+                _ => "ts",
+            };
+            r.error(t.get(key).and_then(|i| i.span()), format!("{what}: {e}"));
+            None
         }
-    }
-    let diags = r.diags;
-    match servo {
-        Some(s) if diags.is_empty() => Ok(s),
-        _ => Err(diags),
     }
 }
 

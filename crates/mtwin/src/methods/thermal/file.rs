@@ -32,11 +32,11 @@ use std::path::Path;
 use toml_edit::{Item, TableLike};
 
 use super::model::{HeightModel, HeightStats, InputChannel, ThermalModel};
+use crate::io::toml::{Reader, parse};
 use crate::io::{Diagnostic, Diagnostics};
 use crate::sysid::Arx;
-use crate::sysid::toml_read::{Reader, parse};
 
-use crate::sysid::toml_read::fmt_f64_float as float;
+use crate::io::toml::fmt_f64_float as float;
 
 fn array(values: &[f64]) -> String {
     format!(

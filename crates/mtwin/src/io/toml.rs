@@ -1,6 +1,9 @@
-//! Span-aware reading of small TOML files: every problem becomes a
-//! [`Diagnostic`] with the file and the line of the offending key or value,
-//! and reading goes on so that all problems are reported at once.
+//! Span-aware reading of the TOML model files (machine, servo, thermal):
+//! every problem becomes a [`Diagnostic`] with the file and the line of the
+//! offending key or value, and reading goes on so that all problems are
+//! reported at once. Each file's schema lives with its domain module
+//! (`model::toml_read`, `sysid::servo_fit`, `methods::thermal::file`); the
+//! primitives they share live here.
 
 use std::ops::Range;
 use std::path::Path;
@@ -34,22 +37,25 @@ pub(crate) fn line_of(text: &str, offset: usize) -> usize {
 /// Collects the problems of one file while values are read from it.
 pub(crate) struct Reader<'a> {
     pub path: &'a Path,
-    pub text: &'a str,
+    /// Byte offset of the start of every line.
+    line_starts: Vec<usize>,
     pub diags: Diagnostics,
 }
 
 impl<'a> Reader<'a> {
-    pub fn new(path: &'a Path, text: &'a str) -> Self {
+    pub fn new(path: &'a Path, text: &str) -> Self {
+        let mut line_starts = vec![0];
+        line_starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
         Reader {
             path,
-            text,
+            line_starts,
             diags: Diagnostics::default(),
         }
     }
 
-    /// Line of a span (0, "the whole file", when unknown).
+    /// 1-based line of a span (0, "the whole file", when unknown).
     pub fn line(&self, span: Option<Range<usize>>) -> usize {
-        span.map_or(0, |s| line_of(self.text, s.start))
+        span.map_or(0, |s| self.line_starts.partition_point(|&l| l <= s.start))
     }
 
     pub fn error(&mut self, span: Option<Range<usize>>, message: impl Into<String>) {
@@ -58,11 +64,18 @@ impl<'a> Reader<'a> {
             .push(Diagnostic::at_line(self.path, line, message));
     }
 
+    /// Span of key `key` of `table` (else of its value).
+    pub fn key_span(table: &dyn TableLike, key: &str) -> Option<Range<usize>> {
+        table
+            .get_key_value(key)
+            .and_then(|(k, item)| k.span().or_else(|| item.span()))
+    }
+
     /// Report every key of `table` not in `allowed`.
     pub fn check_keys(&mut self, table: &dyn TableLike, allowed: &[&str], what: &str) {
         for (key, _) in table.iter() {
             if !allowed.contains(&key) {
-                let span = table.key(key).and_then(|k| k.span());
+                let span = Self::key_span(table, key);
                 self.error(
                     span,
                     format!(
