@@ -748,7 +748,11 @@ travel = [-360, 360]
             29,
             "`nk` must be a non-negative integer",
         );
-        expect_error(&GOOD.replace("b = [0.0, 0.5]", "b = []"), 29, "no `b` coefficient");
+        expect_error(
+            &GOOD.replace("b = [0.0, 0.5]", "b = []"),
+            29,
+            "no `b` coefficient",
+        );
         expect_error(
             &GOOD.replace("EXX = {", "EQX = {"),
             16,
