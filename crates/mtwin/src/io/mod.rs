@@ -10,6 +10,7 @@ mod diagnostic;
 mod number;
 mod rows;
 mod table;
+pub(crate) mod toml;
 
 pub use atomic::{write_atomic, write_atomic_with};
 pub use diagnostic::{Diagnostic, Diagnostics};

@@ -29,7 +29,6 @@ mod output_error;
 pub(crate) mod sampling;
 mod servo;
 mod servo_fit;
-pub(crate) mod toml_read;
 
 pub use arx::{Arx, ArxOrders, ArxStepper, InputOrder, Stability};
 pub use error::SysidError;
@@ -39,6 +38,7 @@ pub use output_error::{
     OutputErrorFit, OutputErrorModel, fit_output_error, select_orders_output_error,
 };
 pub use servo::{Servo, ServoStepper};
+pub(crate) use servo_fit::read_servo_table;
 pub use servo_fit::{
     ServoFit, ServoFitError, ServoFitOptions, ServoLog, fit_servo, fit_servo_csv, read_servo_log,
     read_servo_toml, servo_from_toml_str,
