@@ -10,7 +10,7 @@ use std::ops::Range;
 use std::path::Path;
 
 use nalgebra::Vector3;
-use toml_edit::{ImDocument, Item, TableLike, Value};
+use toml_edit::{Array, ImDocument, Item, TableLike, Value};
 
 use super::{Diagnostic, Diagnostics};
 
@@ -193,11 +193,17 @@ impl<'a> TomlReader<'a> {
         what: &str,
         at: Span,
     ) -> Option<&'t Value> {
-        let v = self.value(t, k, what, at.clone());
-        if t.get(k).is_none() {
-            self.error(at, format!("{what} lacks the key `{k}`"));
+        self.required(t, k, what, at.clone())?;
+        self.value(t, k, what, at)
+    }
+
+    /// An array; anything else is reported with `message`.
+    fn array<'n, N: Node + ?Sized>(&mut self, n: &'n N, message: String) -> Option<&'n Array> {
+        let arr = n.as_toml_value().and_then(Value::as_array);
+        if arr.is_none() {
+            self.error(n.node_span(), message);
         }
-        v
+        arr
     }
 
     /// A finite number (integer or float).
@@ -242,13 +248,10 @@ impl<'a> TomlReader<'a> {
 
     /// An array of finite numbers; every bad element is reported.
     pub fn numbers(&mut self, n: &(impl Node + ?Sized), what: &str) -> Option<Vec<f64>> {
-        let Some(arr) = n.as_toml_value().and_then(Value::as_array) else {
-            self.error(
-                n.node_span(),
-                format!("{what} must be an array of numbers, not {}", n.node_type()),
-            );
-            return None;
-        };
+        let arr = self.array(
+            n,
+            format!("{what} must be an array of numbers, not {}", n.node_type()),
+        )?;
         let mut out = Vec::with_capacity(arr.len());
         let mut ok = true;
         for v in arr.iter() {
@@ -268,13 +271,7 @@ impl<'a> TomlReader<'a> {
 
     /// An array of arrays of finite numbers.
     pub fn number_rows(&mut self, n: &(impl Node + ?Sized), what: &str) -> Option<Vec<Vec<f64>>> {
-        let Some(arr) = n.as_toml_value().and_then(Value::as_array) else {
-            self.error(
-                n.node_span(),
-                format!("{what} must be an array of arrays of numbers"),
-            );
-            return None;
-        };
+        let arr = self.array(n, format!("{what} must be an array of arrays of numbers"))?;
         let mut out = Vec::with_capacity(arr.len());
         let mut ok = true;
         for v in arr.iter() {
@@ -342,13 +339,7 @@ impl<'a> TomlReader<'a> {
         plural: &str,
         one: &str,
     ) -> Option<Vec<(String, Span)>> {
-        let Some(arr) = n.as_toml_value().and_then(Value::as_array) else {
-            self.error(
-                n.node_span(),
-                format!("{what} must be an array of {plural}"),
-            );
-            return None;
-        };
+        let arr = self.array(n, format!("{what} must be an array of {plural}"))?;
         let mut out = Vec::with_capacity(arr.len());
         for x in arr.iter() {
             match x.as_str() {
