@@ -1,16 +1,21 @@
-//! Span-aware reading of the TOML model files (machine, servo, thermal):
-//! every problem becomes a [`Diagnostic`] with the file and the line of the
-//! offending key or value, and reading goes on so that all problems are
-//! reported at once. Each file's schema lives with its domain module
-//! (`model::toml_read`, `sysid::servo_fit`, `methods::thermal::file`); the
-//! primitives they share live here.
+//! Span-aware reading of small TOML files (machine model, `SERVO.toml`,
+//! thermal model): every problem becomes a [`Diagnostic`] with the file and
+//! the line of the offending key or value, and reading goes on so that all
+//! problems are reported at once. Also the float formatting for writing them.
+//!
+//! Messages name the value read by a `what` phrase chosen by the caller
+//! (e.g. "`ts`" or "`origin` of [workpiece] (mm)").
 
 use std::ops::Range;
 use std::path::Path;
 
-use toml_edit::{ImDocument, Item, TableLike};
+use nalgebra::Vector3;
+use toml_edit::{Array, ImDocument, Item, TableLike, Value};
 
-use crate::io::{Diagnostic, Diagnostics};
+use super::{Diagnostic, Diagnostics};
+
+/// Byte range of a key or value in the file text (`None`: unknown, the whole file).
+pub(crate) type Span = Option<Range<usize>>;
 
 /// Parse `text`; a syntax error becomes one diagnostic at its line.
 pub(crate) fn parse<'t>(path: &Path, text: &'t str) -> Result<ImDocument<&'t str>, Diagnostics> {
@@ -34,52 +39,109 @@ pub(crate) fn line_of(text: &str, offset: usize) -> usize {
         + 1
 }
 
+/// Full-precision text that TOML reads as a float (`1` becomes `1.0`).
+pub(crate) fn fmt_f64_float(v: f64) -> String {
+    let s = super::fmt_f64(v);
+    if s.contains(['.', 'e', 'E']) || !v.is_finite() {
+        s
+    } else {
+        format!("{s}.0")
+    }
+}
+
+/// A TOML array of full-precision floats, `[1.0, 0.5]`.
+pub(crate) fn fmt_f64_array(values: &[f64]) -> String {
+    let items: Vec<String> = values.iter().map(|&v| fmt_f64_float(v)).collect();
+    format!("[{}]", items.join(", "))
+}
+
+/// Something a number can be read from: a table entry ([`Item`]) or an array element ([`Value`]).
+pub(crate) trait Node {
+    /// The value, `None` for a table.
+    fn as_toml_value(&self) -> Option<&Value>;
+    /// Where it is.
+    fn node_span(&self) -> Span;
+    /// Its TOML type in words ("string", "table", …).
+    fn node_type(&self) -> &'static str;
+}
+
+impl Node for Item {
+    fn as_toml_value(&self) -> Option<&Value> {
+        self.as_value()
+    }
+    fn node_span(&self) -> Span {
+        self.span()
+    }
+    fn node_type(&self) -> &'static str {
+        self.type_name()
+    }
+}
+
+impl Node for Value {
+    fn as_toml_value(&self) -> Option<&Value> {
+        Some(self)
+    }
+    fn node_span(&self) -> Span {
+        self.span()
+    }
+    fn node_type(&self) -> &'static str {
+        self.type_name()
+    }
+}
+
+fn finite(v: &Value) -> Option<f64> {
+    match v {
+        Value::Float(f) if f.value().is_finite() => Some(*f.value()),
+        Value::Integer(i) => Some(*i.value() as f64),
+        _ => None,
+    }
+}
+
 /// Collects the problems of one file while values are read from it.
-pub(crate) struct Reader<'a> {
-    pub path: &'a Path,
-    /// Byte offset of the start of every line.
+pub(crate) struct TomlReader<'a> {
+    path: &'a Path,
     line_starts: Vec<usize>,
+    /// The problems found so far.
     pub diags: Diagnostics,
 }
 
-impl<'a> Reader<'a> {
+impl<'a> TomlReader<'a> {
     pub fn new(path: &'a Path, text: &str) -> Self {
         let mut line_starts = vec![0];
         line_starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
-        Reader {
+        TomlReader {
             path,
             line_starts,
             diags: Diagnostics::default(),
         }
     }
 
-    /// 1-based line of a span (0, "the whole file", when unknown).
-    pub fn line(&self, span: Option<Range<usize>>) -> usize {
-        span.map_or(0, |s| self.line_starts.partition_point(|&l| l <= s.start))
+    /// Line of a span (0, "the whole file", when unknown).
+    pub fn line(&self, span: Span) -> usize {
+        span.map_or(0, |r| self.line_starts.partition_point(|&s| s <= r.start))
     }
 
-    pub fn error(&mut self, span: Option<Range<usize>>, message: impl Into<String>) {
+    /// Report an error at `span`.
+    pub fn error(&mut self, span: Span, message: impl Into<String>) {
         let line = self.line(span);
         self.diags
             .push(Diagnostic::at_line(self.path, line, message));
     }
 
-    /// Span of key `key` of `table` (else of its value).
-    pub fn key_span(table: &dyn TableLike, key: &str) -> Option<Range<usize>> {
-        table
-            .get_key_value(key)
-            .and_then(|(k, item)| k.span().or_else(|| item.span()))
+    /// Span of key `k` of `t` (of its value when the key has none).
+    pub fn key_span(t: &dyn TableLike, k: &str) -> Span {
+        t.get_key_value(k)
+            .and_then(|(key, item)| key.span().or_else(|| item.span()))
     }
 
-    /// Report every key of `table` not in `allowed`.
-    pub fn check_keys(&mut self, table: &dyn TableLike, allowed: &[&str], what: &str) {
-        for (key, _) in table.iter() {
-            if !allowed.contains(&key) {
-                let span = Self::key_span(table, key);
+    /// Report every key of `t` not in `allowed`, listing the allowed keys.
+    pub fn check_keys(&mut self, t: &dyn TableLike, allowed: &[&str], what: &str) {
+        for (k, _) in t.iter() {
+            if !allowed.contains(&k) {
                 self.error(
-                    span,
+                    Self::key_span(t, k),
                     format!(
-                        "unknown key `{key}` in {what} (allowed: {})",
+                        "unknown key `{k}` in {what} (allowed: {})",
                         allowed.join(", ")
                     ),
                 );
@@ -87,46 +149,83 @@ impl<'a> Reader<'a> {
         }
     }
 
-    /// A required item; a missing one is reported at `at` (the table's line).
+    /// A required entry; a missing one is reported at `at` (the table's line).
     pub fn required<'t>(
         &mut self,
-        table: &'t dyn TableLike,
-        key: &str,
+        t: &'t dyn TableLike,
+        k: &str,
         what: &str,
-        at: Option<Range<usize>>,
+        at: Span,
     ) -> Option<&'t Item> {
-        let item = table.get(key);
+        let item = t.get(k);
         if item.is_none() {
-            self.error(at, format!("{what} lacks the key `{key}`"));
+            self.error(at, format!("{what} lacks the key `{k}`"));
         }
         item
     }
 
-    /// A finite number (integer or float).
-    pub fn number(&mut self, item: &Item, key: &str) -> Option<f64> {
-        let v = item
-            .as_float()
-            .or_else(|| item.as_integer().map(|i| i as f64));
-        match v {
-            Some(v) if v.is_finite() => Some(v),
-            _ => {
+    /// An optional entry that must be a value, not a table.
+    pub fn value<'t>(
+        &mut self,
+        t: &'t dyn TableLike,
+        k: &str,
+        what: &str,
+        at: Span,
+    ) -> Option<&'t Value> {
+        match t.get(k) {
+            Some(Item::Value(v)) => Some(v),
+            Some(other) => {
                 self.error(
-                    item.span(),
-                    format!("`{key}` must be a finite number, not {}", item.type_name()),
+                    other.span().or(at),
+                    format!("`{k}` in {what} must be a value, not a table"),
                 );
                 None
             }
+            None => None,
         }
     }
 
+    /// A required entry that must be a value, not a table.
+    pub fn required_value<'t>(
+        &mut self,
+        t: &'t dyn TableLike,
+        k: &str,
+        what: &str,
+        at: Span,
+    ) -> Option<&'t Value> {
+        self.required(t, k, what, at.clone())?;
+        self.value(t, k, what, at)
+    }
+
+    /// An array; anything else is reported with `message`.
+    fn array<'n, N: Node + ?Sized>(&mut self, n: &'n N, message: String) -> Option<&'n Array> {
+        let arr = n.as_toml_value().and_then(Value::as_array);
+        if arr.is_none() {
+            self.error(n.node_span(), message);
+        }
+        arr
+    }
+
+    /// A finite number (integer or float).
+    pub fn number(&mut self, n: &(impl Node + ?Sized), what: &str) -> Option<f64> {
+        let v = n.as_toml_value().and_then(finite);
+        if v.is_none() {
+            self.error(
+                n.node_span(),
+                format!("{what} must be a finite number, not {}", n.node_type()),
+            );
+        }
+        v
+    }
+
     /// A non-negative integer.
-    pub fn count(&mut self, item: &Item, key: &str) -> Option<usize> {
-        match item.as_integer() {
+    pub fn count(&mut self, n: &(impl Node + ?Sized), what: &str) -> Option<usize> {
+        match n.as_toml_value().and_then(Value::as_integer) {
             Some(i) if i >= 0 => usize::try_from(i).ok(),
             _ => {
                 self.error(
-                    item.span(),
-                    format!("`{key}` must be a non-negative integer"),
+                    n.node_span(),
+                    format!("{what} must be a non-negative integer"),
                 );
                 None
             }
@@ -134,41 +233,34 @@ impl<'a> Reader<'a> {
     }
 
     /// A string.
-    pub fn string(&mut self, item: &Item, key: &str) -> Option<String> {
-        match item.as_str() {
+    pub fn string(&mut self, n: &(impl Node + ?Sized), what: &str) -> Option<String> {
+        match n.as_toml_value().and_then(Value::as_str) {
             Some(s) => Some(s.to_string()),
             None => {
                 self.error(
-                    item.span(),
-                    format!("`{key}` must be a string, not {}", item.type_name()),
+                    n.node_span(),
+                    format!("{what} must be a string, not {}", n.node_type()),
                 );
                 None
             }
         }
     }
 
-    /// An array of finite numbers.
-    pub fn numbers(&mut self, item: &Item, key: &str) -> Option<Vec<f64>> {
-        let Some(arr) = item.as_array() else {
-            self.error(
-                item.span(),
-                format!(
-                    "`{key}` must be an array of numbers, not {}",
-                    item.type_name()
-                ),
-            );
-            return None;
-        };
+    /// An array of finite numbers; every bad element is reported.
+    pub fn numbers(&mut self, n: &(impl Node + ?Sized), what: &str) -> Option<Vec<f64>> {
+        let arr = self.array(
+            n,
+            format!("{what} must be an array of numbers, not {}", n.node_type()),
+        )?;
         let mut out = Vec::with_capacity(arr.len());
         let mut ok = true;
         for v in arr.iter() {
-            match v.as_float().or_else(|| v.as_integer().map(|i| i as f64)) {
-                Some(x) if x.is_finite() => out.push(x),
-                _ => {
-                    let span = v.span().or_else(|| item.span());
+            match finite(v) {
+                Some(x) => out.push(x),
+                None => {
                     self.error(
-                        span,
-                        format!("every element of `{key}` must be a finite number"),
+                        v.span().or_else(|| n.node_span()),
+                        format!("every element of {what} must be a finite number"),
                     );
                     ok = false;
                 }
@@ -178,42 +270,26 @@ impl<'a> Reader<'a> {
     }
 
     /// An array of arrays of finite numbers.
-    pub fn number_rows(&mut self, item: &Item, key: &str) -> Option<Vec<Vec<f64>>> {
-        let Some(arr) = item.as_array() else {
-            self.error(
-                item.span(),
-                format!("`{key}` must be an array of arrays of numbers"),
-            );
-            return None;
-        };
+    pub fn number_rows(&mut self, n: &(impl Node + ?Sized), what: &str) -> Option<Vec<Vec<f64>>> {
+        let arr = self.array(n, format!("{what} must be an array of arrays of numbers"))?;
         let mut out = Vec::with_capacity(arr.len());
         let mut ok = true;
         for v in arr.iter() {
             match v.as_array() {
-                Some(inner) => {
-                    let row: Option<Vec<f64>> = inner
-                        .iter()
-                        .map(|x| {
-                            x.as_float()
-                                .or_else(|| x.as_integer().map(|i| i as f64))
-                                .filter(|x| x.is_finite())
-                        })
-                        .collect();
-                    match row {
-                        Some(r) => out.push(r),
-                        None => {
-                            self.error(
-                                v.span(),
-                                format!("every element of `{key}` must be a finite number"),
-                            );
-                            ok = false;
-                        }
+                Some(inner) => match inner.iter().map(finite).collect::<Option<Vec<f64>>>() {
+                    Some(r) => out.push(r),
+                    None => {
+                        self.error(
+                            v.span(),
+                            format!("every element of {what} must be a finite number"),
+                        );
+                        ok = false;
                     }
-                }
+                },
                 None => {
                     self.error(
                         v.span(),
-                        format!("every element of `{key}` must be an array of numbers"),
+                        format!("every element of {what} must be an array of numbers"),
                     );
                     ok = false;
                 }
@@ -221,14 +297,116 @@ impl<'a> Reader<'a> {
         }
         ok.then_some(out)
     }
+
+    /// Three finite numbers.
+    pub fn vec3(&mut self, n: &(impl Node + ?Sized), what: &str) -> Option<Vector3<f64>> {
+        let v = self.numbers(n, what)?;
+        if v.len() != 3 {
+            self.error(
+                n.node_span(),
+                format!("{what} must have 3 numbers, it has {}", v.len()),
+            );
+            return None;
+        }
+        Some(Vector3::new(v[0], v[1], v[2]))
+    }
+
+    /// A unit vector: three numbers with |‖d‖ − 1| ≤ `tolerance`.
+    pub fn unit3(
+        &mut self,
+        n: &(impl Node + ?Sized),
+        what: &str,
+        tolerance: f64,
+    ) -> Option<Vector3<f64>> {
+        let d = self.vec3(n, what)?;
+        let norm = d.norm();
+        if (norm - 1.0).abs() > tolerance {
+            self.error(
+                n.node_span(),
+                format!("{what} must be a unit vector, its length is {norm}"),
+            );
+            return None;
+        }
+        Some(d)
+    }
+
+    /// An array of strings with their spans; `plural` and `one` name the
+    /// elements in messages ("axis names", "an axis name").
+    pub fn strings(
+        &mut self,
+        n: &(impl Node + ?Sized),
+        what: &str,
+        plural: &str,
+        one: &str,
+    ) -> Option<Vec<(String, Span)>> {
+        let arr = self.array(n, format!("{what} must be an array of {plural}"))?;
+        let mut out = Vec::with_capacity(arr.len());
+        for x in arr.iter() {
+            match x.as_str() {
+                Some(s) => out.push((s.to_string(), x.span())),
+                None => {
+                    self.error(
+                        x.span(),
+                        format!("every element of {what} must be {one} in quotes"),
+                    );
+                    return None;
+                }
+            }
+        }
+        Some(out)
+    }
 }
 
-/// Full-precision text that TOML reads as a float (`1` becomes `1.0`).
-pub(crate) fn fmt_f64_float(v: f64) -> String {
-    let s = crate::io::fmt_f64(v);
-    if s.contains(['.', 'e', 'E']) || !v.is_finite() {
-        s
-    } else {
-        format!("{s}.0")
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lines_and_messages() {
+        let text = "a = 1\nb = [1, \"x\", 3]\nc = 1\nd = [1, 0, 0.5]\n";
+        let p = Path::new("f.toml");
+        let doc = parse(p, text).unwrap();
+        let root = doc.as_table();
+        let mut r = TomlReader::new(p, text);
+        r.check_keys(root, &["a", "b", "d"], "the file");
+        assert_eq!(r.number(&root["a"], "`a`"), Some(1.0));
+        assert_eq!(r.numbers(&root["b"], "`b`"), None);
+        assert_eq!(r.count(&root["a"], "`a`"), Some(1));
+        assert!(r.required(root, "e", "the file", None).is_none());
+        // |(1, 0, 0.5)| = √1.25 is not 1.
+        assert!(r.unit3(&root["d"], "`d`", 1e-9).is_none());
+        let got: Vec<(usize, &str)> = r
+            .diags
+            .0
+            .iter()
+            .map(|d| (d.line, d.message.as_str()))
+            .collect();
+        assert_eq!(got.len(), 4);
+        assert_eq!(
+            got[..3],
+            [
+                (3, "unknown key `c` in the file (allowed: a, b, d)"),
+                (2, "every element of `b` must be a finite number"),
+                (0, "the file lacks the key `e`"),
+            ]
+        );
+        assert_eq!(
+            r.diags.0[3].message,
+            format!(
+                "`d` must be a unit vector, its length is {}",
+                1.25f64.sqrt()
+            )
+        );
+        let e = parse(p, "a = 1\nb = [\n").unwrap_err();
+        assert_eq!(e.0[0].line, 3);
+        assert!(e.0[0].message.starts_with("not valid TOML"));
+    }
+
+    #[test]
+    fn floats_read_back_as_floats() {
+        assert_eq!(fmt_f64_float(1.0), "1.0");
+        assert_eq!(fmt_f64_array(&[1.0, 0.25]), "[1.0, 0.25]");
+        let v: f64 = fmt_f64_float(0.1 + 0.2).parse().unwrap();
+        assert_eq!(v, 0.1 + 0.2);
     }
 }

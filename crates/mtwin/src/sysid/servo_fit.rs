@@ -12,7 +12,7 @@ use super::{
     Criterion, OrderGrid, OrderSelection, Run, Servo, Stability, SysidError,
     select_orders_output_error,
 };
-use crate::io::toml::{Reader, fmt_f64_float, parse};
+use crate::io::toml::{Span, TomlReader, fmt_f64_array, fmt_f64_float, parse};
 use crate::io::{Diagnostic, Diagnostics, Table, fmt_f64};
 
 /// A servo log: commands and encoder positions (mm or deg) every `ts` seconds.
@@ -273,67 +273,87 @@ fn rms(it: impl Iterator<Item = f64>) -> f64 {
     if n == 0 { 0.0 } else { (s / n as f64).sqrt() }
 }
 
-fn array(values: &[f64]) -> String {
-    let items: Vec<String> = values.iter().map(|&v| fmt_f64_float(v)).collect();
-    format!("[{}]", items.join(", "))
-}
-
 impl Servo {
     /// The four keys of `SERVO.toml` / `[axes.servo]`: `ts`, `b`, `a`, `nk`, at full precision.
     pub fn to_toml(&self) -> String {
         format!(
             "ts = {}\nb = {}\na = {}\nnk = {}\n",
             fmt_f64_float(self.ts()),
-            array(self.b()),
-            array(self.a()),
+            fmt_f64_array(self.b()),
+            fmt_f64_array(self.a()),
             self.nk()
         )
     }
 }
 
-/// Read `SERVO.toml` text: top-level `ts`, `b`, `a` (with `a_0 = 1`) and
-/// optional `nk` (default 0). Unknown keys and bad values are reported with their line.
-pub fn servo_from_toml_str(path: &Path, text: &str) -> Result<Servo, Diagnostics> {
-    let doc = parse(path, text)?;
-    let mut r = Reader::new(path, text);
-    let servo = read_servo_table(&mut r, doc.as_table(), "the servo file");
-    match servo {
-        Some(s) if r.diags.is_empty() => Ok(s),
-        _ => Err(r.diags),
+/// Read a servo table — the top level of `SERVO.toml` or an `[axes.servo]`
+/// table of a machine file (`what` names it in messages): `ts` (s, positive),
+/// `b` (at least b_0), `a` (with `a_0 = 1`) and optional `nk` (samples,
+/// default 0). Every problem is reported to `r`; a missing key at `at`.
+pub(crate) fn read_servo_table(
+    r: &mut TomlReader<'_>,
+    t: &dyn TableLike,
+    what: &str,
+    at: Span,
+) -> Option<Servo> {
+    r.check_keys(t, &["ts", "b", "a", "nk"], what);
+    let ts = r.required(t, "ts", what, at.clone()).and_then(|i| {
+        let x = r.number(i, &format!("`ts` of {what} (s)"))?;
+        if x <= 0.0 {
+            r.error(
+                i.span(),
+                format!("`ts` of {what} must be positive, not {x}"),
+            );
+            return None;
+        }
+        Some(x)
+    });
+    let b = r.required(t, "b", what, at.clone()).and_then(|i| {
+        let b = r.numbers(i, &format!("`b` of {what}"))?;
+        if b.is_empty() {
+            r.error(
+                i.span(),
+                format!("`b` of {what} needs at least one coefficient (b_0)"),
+            );
+            return None;
+        }
+        Some(b)
+    });
+    let a = r.required(t, "a", what, at.clone()).and_then(|i| {
+        let a = r.numbers(i, &format!("`a` of {what}"))?;
+        if a.first() != Some(&1.0) {
+            let a0 = a.first().map_or("nothing".to_string(), f64::to_string);
+            r.error(
+                i.span(),
+                format!("`a` of {what} must start with a_0 = 1, not {a0}"),
+            );
+            return None;
+        }
+        Some(a)
+    });
+    let nk = match t.get("nk") {
+        Some(i) => r.count(i, &format!("`nk` of {what} (samples)")),
+        None => Some(0),
+    };
+    match Servo::new(ts?, b?, a?, nk?) {
+        Ok(s) => Some(s),
+        Err(e) => {
+            r.error(at, format!("{what}: {e}"));
+            None
+        }
     }
 }
 
-/// A servo table — the root of a `SERVO.toml` or the `[axes.servo]` table of
-/// a machine file, named `what` in messages: `ts` (s), `b`, `a` (with
-/// `a_0 = 1`) and optional `nk` (default 0), validated as [`Servo::new`]
-/// does. Problems go to `r` with their line; `None` when there were any.
-pub(crate) fn read_servo_table(r: &mut Reader, t: &dyn TableLike, what: &str) -> Option<Servo> {
-    r.check_keys(t, &["ts", "b", "a", "nk"], what);
-    let ts = r
-        .required(t, "ts", what, None)
-        .and_then(|i| r.number(i, "ts"));
-    let b = r
-        .required(t, "b", what, None)
-        .and_then(|i| r.numbers(i, "b"));
-    let a = r
-        .required(t, "a", what, None)
-        .and_then(|i| r.numbers(i, "a"));
-    let nk = match t.get("nk") {
-        Some(i) => r.count(i, "nk"),
-        None => Some(0),
-    };
-    let (ts, b, a, nk) = (ts?, b?, a?, nk?);
-    match Servo::new(ts, b, a, nk) {
-        Ok(s) => Some(s),
-        Err(e) => {
-            let key = match e {
-                SysidError::LeadingA(_) => "a",
-                SysidError::EmptyB { .. } => "b",
-                _ => "ts",
-            };
-            r.error(t.get(key).and_then(|i| i.span()), format!("{what}: {e}"));
-            None
-        }
+/// Read `SERVO.toml` text: top-level `ts`, `b`, `a` (with `a_0 = 1`) and
+/// optional `nk` (default 0), the same rules as `[axes.servo]` of a machine
+/// file ([`read_servo_table`]). Unknown keys and bad values are reported with their line.
+pub fn servo_from_toml_str(path: &Path, text: &str) -> Result<Servo, Diagnostics> {
+    let doc = parse(path, text)?;
+    let mut r = TomlReader::new(path, text);
+    let servo = read_servo_table(&mut r, doc.as_table(), "the servo file", None);
+    match servo {
+        Some(s) if r.diags.is_empty() => Ok(s),
+        _ => Err(r.diags),
     }
 }
 
@@ -562,10 +582,73 @@ mod tests {
         );
     }
 
+    /// `[axes.servo]` of a machine file and `SERVO.toml` accept the same
+    /// tables and report the same problems in the same words (only the
+    /// naming of the table differs).
+    #[test]
+    fn machine_servo_table_and_servo_file_share_their_rules() {
+        let machine = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../examples/machines/ac-trunnion.toml"
+        ))
+        .unwrap();
+        let bodies = [
+            "ts = 0.001\nb = [0.0, 0.5]\na = [1.0, -0.5]\n",
+            "ts = 0.001\nb = [0.5]\na = [1.0, -0.5]\nnk = 2\n",
+            "ts = 0.001\nb = [1.0]\na = [2.0, 0.5]\nfoo = 1\n",
+            "ts = -1\nb = []\na = [1.0]\nnk = -1\n",
+            "ts = \"x\"\nb = [1.0, \"y\"]\n",
+            "b = 3\na = []\n",
+        ];
+        for body in bodies {
+            let file = servo_from_toml_str(Path::new("S.toml"), body);
+            let m = crate::model::parse_machine(
+                Path::new("m.toml"),
+                &format!("{machine}\n[axes.servo]\n{body}"),
+            );
+            match (file, m) {
+                (Ok(s), Ok(m)) => {
+                    let t = m.axes.last().unwrap().servo.as_ref().unwrap();
+                    assert_eq!(
+                        (t.ts, &t.b[..], &t.a[..], t.nk),
+                        (s.ts(), s.b(), s.a(), s.nk())
+                    );
+                }
+                (Err(f), Err(m)) => {
+                    let f: Vec<String> =
+                        f.0.iter()
+                            .map(|d| {
+                                d.message
+                                    .replace("the servo file", "the servo table of axis `C`")
+                            })
+                            .collect();
+                    let m: Vec<String> = m.0.iter().map(|d| d.message.clone()).collect();
+                    assert!(!f.is_empty());
+                    assert_eq!(f, m, "{body}");
+                }
+                (f, m) => panic!("{body}: file {f:?}, machine {m:?}"),
+            }
+        }
+    }
+
     proptest::proptest! {
         #[test]
         fn servo_toml_parser_never_panics(s in ".{0,120}") {
             let _ = servo_from_toml_str(Path::new("p.toml"), &s);
+        }
+
+        #[test]
+        fn servo_toml_parser_never_panics_on_edits(pos in 0usize..200, junk in "[\\[\\]{}=,.0-9a-z\" \n-]{0,8}", del in 0usize..6) {
+            let good = Servo::new(0.001, vec![0.0, 0.0183, 0.0171], vec![1.0, -1.8106, 0.846], 2)
+                .unwrap()
+                .to_toml();
+            let mut cut = pos.min(good.len());
+            while !good.is_char_boundary(cut) {
+                cut -= 1;
+            }
+            let end = (cut + del).min(good.len());
+            let text = format!("{}{}{}", &good[..cut], junk, &good[end..]);
+            let _ = servo_from_toml_str(Path::new("p.toml"), &text);
         }
     }
 }

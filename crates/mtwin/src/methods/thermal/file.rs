@@ -32,22 +32,9 @@ use std::path::Path;
 use toml_edit::{Item, TableLike};
 
 use super::model::{HeightModel, HeightStats, InputChannel, ThermalModel};
-use crate::io::toml::{Reader, parse};
+use crate::io::toml::{TomlReader, fmt_f64_array as array, fmt_f64_float as float, parse};
 use crate::io::{Diagnostic, Diagnostics};
 use crate::sysid::Arx;
-
-use crate::io::toml::fmt_f64_float as float;
-
-fn array(values: &[f64]) -> String {
-    format!(
-        "[{}]",
-        values
-            .iter()
-            .map(|&v| float(v))
-            .collect::<Vec<_>>()
-            .join(", ")
-    )
-}
 
 fn arrays(rows: &[Vec<f64>]) -> String {
     format!(
@@ -129,7 +116,7 @@ pub fn read_model(path: &Path) -> Result<ThermalModel, Diagnostics> {
 pub fn model_from_toml_str(path: &Path, text: &str) -> Result<ThermalModel, Diagnostics> {
     let doc = parse(path, text)?;
     let root = doc.as_table();
-    let mut r = Reader::new(path, text);
+    let mut r = TomlReader::new(path, text);
     r.check_keys(
         root,
         &["period_min", "inputs", "heights"],
@@ -137,7 +124,7 @@ pub fn model_from_toml_str(path: &Path, text: &str) -> Result<ThermalModel, Diag
     );
     let period = r
         .required(root, "period_min", "the thermal model", None)
-        .and_then(|i| r.number(i, "period_min"));
+        .and_then(|i| r.number(i, "`period_min`"));
     if let Some(p) = period.filter(|p| *p <= 0.0) {
         let span = root.get("period_min").and_then(Item::span);
         r.error(span, format!("`period_min` must be positive, not {p}"));
@@ -156,14 +143,14 @@ pub fn model_from_toml_str(path: &Path, text: &str) -> Result<ThermalModel, Diag
                 r.check_keys(t, &["name", "scale", "power"], "an `[[inputs]]` table");
                 let name = r
                     .required(t, "name", "an `[[inputs]]` table", at.clone())
-                    .and_then(|i| r.string(i, "name"));
+                    .and_then(|i| r.string(i, "`name`"));
                 let scale = r
                     .required(t, "scale", "an `[[inputs]]` table", at.clone())
-                    .and_then(|i| r.number(i, "scale"));
+                    .and_then(|i| r.number(i, "`scale`"));
                 // Optional, 1 (linear) when absent.
                 let power = match t.get("power") {
                     None => Some(1),
-                    Some(i) => r.number(i, "power").and_then(|p| {
+                    Some(i) => r.number(i, "`power`").and_then(|p| {
                         let ok = p.fract() == 0.0
                             && (1.0..=f64::from(InputChannel::MAX_POWER)).contains(&p);
                         if !ok {
@@ -231,7 +218,7 @@ pub fn model_from_toml_str(path: &Path, text: &str) -> Result<ThermalModel, Diag
 }
 
 fn height(
-    r: &mut Reader<'_>,
+    r: &mut TomlReader<'_>,
     t: &dyn TableLike,
     at: Option<Range<usize>>,
     n_inputs: usize,
@@ -240,15 +227,15 @@ fn height(
     r.check_keys(t, &["z_mm", "a", "b", "nk", "fit"], what);
     let z = r
         .required(t, "z_mm", what, at.clone())
-        .and_then(|i| r.number(i, "z_mm"));
+        .and_then(|i| r.number(i, "`z_mm`"));
     let a = r
         .required(t, "a", what, at.clone())
-        .and_then(|i| r.numbers(i, "a"));
+        .and_then(|i| r.numbers(i, "`a`"));
     let b = r
         .required(t, "b", what, at.clone())
-        .and_then(|i| r.number_rows(i, "b"));
+        .and_then(|i| r.number_rows(i, "`b`"));
     let nk_item = r.required(t, "nk", what, at.clone());
-    let nk: Option<Vec<usize>> = nk_item.and_then(|i| r.numbers(i, "nk")).and_then(|v| {
+    let nk: Option<Vec<usize>> = nk_item.and_then(|i| r.numbers(i, "`nk`")).and_then(|v| {
         let ok = v.iter().all(|x| *x >= 1.0 && x.fract() == 0.0);
         if !ok {
             r.error(
@@ -297,7 +284,7 @@ fn height(
 }
 
 fn fit_stats(
-    r: &mut Reader<'_>,
+    r: &mut TomlReader<'_>,
     f: &dyn TableLike,
     at: Option<Range<usize>>,
 ) -> Option<HeightStats> {
@@ -314,9 +301,9 @@ fn fit_stats(
         "b_std",
     ];
     r.check_keys(f, &keys, what);
-    let num = |r: &mut Reader<'_>, k: &str| {
+    let num = |r: &mut TomlReader<'_>, k: &str| {
         r.required(f, k, what, at.clone())
-            .and_then(|i| r.number(i, k))
+            .and_then(|i| r.number(i, &format!("`{k}`")))
     };
     let fpe = num(r, "fpe");
     let aic = num(r, "aic");
@@ -325,16 +312,16 @@ fn fit_stats(
     let rad = num(r, "spectral_radius");
     let samples = r
         .required(f, "samples", what, at.clone())
-        .and_then(|i| r.count(i, "samples"));
+        .and_then(|i| r.count(i, "`samples`"));
     let params = r
         .required(f, "params", what, at.clone())
-        .and_then(|i| r.count(i, "params"));
+        .and_then(|i| r.count(i, "`params`"));
     let a_std = r
         .required(f, "a_std", what, at.clone())
-        .and_then(|i| r.numbers(i, "a_std"));
+        .and_then(|i| r.numbers(i, "`a_std`"));
     let b_std = r
         .required(f, "b_std", what, at.clone())
-        .and_then(|i| r.number_rows(i, "b_std"));
+        .and_then(|i| r.number_rows(i, "`b_std`"));
     Some(HeightStats {
         samples: samples?,
         params: params?,
