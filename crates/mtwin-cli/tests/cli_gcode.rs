@@ -123,6 +123,36 @@ fn stats_reports_travel_violations() {
     // 10 + hypot(390, 30) + hypot(400, 30) mm.
     let len = 10.0 + 390f64.hypot(30.0) + 400f64.hypot(30.0);
     assert!((v["feed_length_mm"].as_f64().unwrap() - len).abs() < 1e-9);
+
+    // --strict: the same report, then exit code 1 naming the count.
+    let strict = |prog: &str| {
+        mtwin(
+            dir.path(),
+            &[
+                "gcode",
+                "stats",
+                prog,
+                "--machine",
+                &example("ac-trunnion.toml"),
+                "--strict",
+            ],
+        )
+    };
+    let o = strict("far.nc");
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("far.nc:2: axis X at 400"),
+        "{}",
+        stdout(&o)
+    );
+    assert!(
+        stderr(&o).contains("1 move end(s) outside the travel"),
+        "{}",
+        stderr(&o)
+    );
+    write(dir.path(), "near.nc", "G1 X10 F600\nG1 X0 Y0\n");
+    let o = strict("near.nc");
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
 
 #[test]

@@ -70,6 +70,10 @@ pub struct StatsArgs {
     /// Treat every move as a TCP move for the travel check.
     #[arg(long)]
     tcp: bool,
+    /// With --machine: exit with code 1 (after the report) when a move leaves
+    /// the travel or a tool tip is unreachable, for scripts and CI.
+    #[arg(long, requires = "machine")]
+    strict: bool,
     /// G54 work offset of one axis, `AXIS=VALUE` (mm, deg); repeatable.
     #[arg(long = "offset", value_name = "AXIS=VALUE")]
     offsets: Vec<String>,
@@ -247,6 +251,27 @@ fn stats(a: StatsArgs) -> anyhow::Result<()> {
             })
         })
         .collect();
+    print_stats(&a, &st, &ranges, check.as_ref())?;
+    if let Some(c) = check.as_ref().filter(|_| a.strict) {
+        if c.count > 0 || !c.unreachable.is_empty() {
+            bail!(
+                "{}: {} move end(s) outside the travel and {} unreachable tool tip(s) (--strict)",
+                a.program.display(),
+                c.count,
+                c.unreachable.len()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Prints the statistics and the travel check in the chosen format.
+fn print_stats(
+    a: &StatsArgs,
+    st: &gcode::ProgramStats,
+    ranges: &[(String, gcode::AxisRange, gcode::AxisRange)],
+    check: Option<&TravelCheck>,
+) -> anyhow::Result<()> {
     match a.format {
         Format::Json => {
             let axes: serde_json::Map<_, _> = ranges
@@ -265,7 +290,7 @@ fn stats(a: StatsArgs) -> anyhow::Result<()> {
                 "feed_time_s": st.feed_time, "rapid_time_s": st.rapid_time, "dwell_time_s": st.dwell_time,
                 "total_time_s": st.total_time(), "axes": axes,
             });
-            if let Some(c) = &check {
+            if let Some(c) = check {
                 v["travel_violations"] = json!(c.count);
                 v["violations"] = c
                     .violations
@@ -291,13 +316,13 @@ fn stats(a: StatsArgs) -> anyhow::Result<()> {
                 st.rapid_time,
                 st.dwell_time
             );
-            for (n, r, mr) in &ranges {
+            for (n, r, mr) in ranges {
                 println!(
                     "  {n}: work [{}, {}], machine [{}, {}]",
                     r.min, r.max, mr.min, mr.max
                 );
             }
-            if let Some(c) = &check {
+            if let Some(c) = check {
                 if c.count == 0 && c.unreachable.is_empty() {
                     println!("travel: every move end is within the machine travels");
                 } else {
