@@ -1,6 +1,7 @@
 //! Throughput of `methods::compensate` on a synthetic five-axis program
 //! (plain, non-TCP: X Y Z A C axis words, short feed moves, comments) with the
-//! AC trunnion error model; bytes of input per second on one core.
+//! AC trunnion error model; bytes of input per second on one core. Then the
+//! corpus's real five-axis TCP program (boat), when `../shared` is present.
 //!
 //!     cargo bench -p mtwin --bench compensate
 
@@ -50,6 +51,39 @@ fn bench(c: &mut Criterion) {
             out.clear();
             let s = comp
                 .run(black_box(&program[..]), &mut out)
+                .expect("compensates");
+            black_box(s.blocks_changed)
+        })
+    });
+    g.finish();
+
+    // A real five-axis CAM program: the LinuxCNC corpus boat (TCP, M428), on
+    // the same machine with zero work offsets (docs/gcode.md, "Corpus programs").
+    let boat = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/corpus/gcode/linuxcnc/boat-xyzac.ngc");
+    let Ok(boat) = std::fs::read(&boat) else {
+        eprintln!(
+            "skipping compensate/corpus boat: {} not found (../shared/corpus is absent)",
+            boat.display()
+        );
+        return;
+    };
+    let comp = Compensator::new(
+        &machine,
+        CompensateOptions {
+            max_correction: 2.0,
+            ..CompensateOptions::default()
+        },
+    )
+    .expect("axis names");
+    let mut g = c.benchmark_group("compensate");
+    g.throughput(Throughput::Bytes(boat.len() as u64));
+    g.sample_size(20);
+    g.bench_function("corpus boat-xyzac.ngc (TCP)", |b| {
+        b.iter(|| {
+            out.clear();
+            let s = comp
+                .run(black_box(&boat[..]), &mut out)
                 .expect("compensates");
             black_box(s.blocks_changed)
         })

@@ -252,15 +252,16 @@ fn stats(a: StatsArgs) -> anyhow::Result<()> {
         })
         .collect();
     print_stats(&a, &st, &ranges, check.as_ref())?;
-    if let Some(c) = check.as_ref().filter(|_| a.strict) {
-        if c.count > 0 || !c.unreachable.is_empty() {
-            bail!(
-                "{}: {} move end(s) outside the travel and {} unreachable tool tip(s) (--strict)",
-                a.program.display(),
-                c.count,
-                c.unreachable.len()
-            );
-        }
+    if let Some(c) = check
+        .as_ref()
+        .filter(|c| a.strict && (c.count > 0 || !c.unreachable.is_empty()))
+    {
+        bail!(
+            "{}: {} move end(s) outside the travel and {} unreachable tool tip(s) (--strict)",
+            a.program.display(),
+            c.count,
+            c.unreachable.len()
+        );
     }
     Ok(())
 }

@@ -285,6 +285,7 @@ impl<'m> Interpolator<'m> {
                 tip_tolerance: 1e-11,
                 axis_tolerance: 1e-13,
                 check_travel: false,
+                stall_ratio: None,
             },
             buf: q.clone(),
             q,

@@ -4,7 +4,7 @@
 
 use nalgebra::{DMatrix, DVector, SMatrix, SVector, Vector3};
 
-use super::chain::Kinematics;
+use super::chain::{Kinematics, ToolPose};
 use super::jacobian::PoseDerivative;
 use super::tangent::MAX_AXES;
 
@@ -28,6 +28,10 @@ pub struct IkOptions {
     pub axis_tolerance: f64,
     /// Reject solutions outside the axis travels.
     pub check_travel: bool,
+    /// Give up early (not converged) when a Newton step with fresh derivatives shrinks the
+    /// residual by less than this factor: the target is out of reach from here (a singular
+    /// pose, say). `None` keeps iterating up to `max_iterations`.
+    pub stall_ratio: Option<f64>,
 }
 
 impl Default for IkOptions {
@@ -37,6 +41,7 @@ impl Default for IkOptions {
             tip_tolerance: 1e-11,
             axis_tolerance: 1e-13,
             check_travel: true,
+            stall_ratio: None,
         }
     }
 }
@@ -75,6 +80,14 @@ pub enum IkError {
     NoFreeAxis,
 }
 
+/// The derivatives of tool tip and tool axis with respect to every axis position at the
+/// last iterate of an inverse-kinematics solve, kept for the next solve at a nearby target
+/// (see [`Kinematics::inverse_warm`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IkJacobian {
+    d: [PoseDerivative; MAX_AXES],
+}
+
 impl Kinematics {
     /// Axis positions near `start` that put the tool on `target` (see [`IkTarget`]).
     ///
@@ -111,6 +124,23 @@ impl Kinematics {
         free: &[bool],
         opts: &IkOptions,
     ) -> Result<(), IkError> {
+        self.inverse_warm(target, q, free, opts, &mut None)
+    }
+
+    /// [`Kinematics::inverse_in_place`] along a path of nearby targets: `jac` holds the
+    /// derivatives of the previous solve (or `None`) and, on return, those of this one.
+    /// With them the first steps are chord steps (no derivatives computed); the
+    /// derivatives are refreshed as soon as a step shrinks the residual less than a
+    /// hundredfold, so a stale `jac` costs iterations, never accuracy: the tolerances
+    /// decide convergence exactly as in [`Kinematics::inverse`].
+    pub fn inverse_warm(
+        &self,
+        target: &IkTarget,
+        q: &mut [f64],
+        free: &[bool],
+        opts: &IkOptions,
+        jac: &mut Option<IkJacobian>,
+    ) -> Result<(), IkError> {
         let n = self.n_axes();
         if n > MAX_AXES {
             let sol = self.inverse_dynamic(target, q, free, opts)?;
@@ -130,14 +160,46 @@ impl Kinematics {
         }
         let free_idx = &free_idx[..m];
         let rows = if target.axis.is_some() { 6 } else { 3 };
-        let mut last = (f64::INFINITY, f64::INFINITY);
         let mut d = [[0.0; 6]; MAX_AXES];
-        // The first pose comes with its derivatives: a warm start usually
-        // needs exactly one step, so this saves a forward kinematics per call.
-        let mut pose = self.pose_and_position_derivatives(q, &mut d);
+        // The first pose comes with its derivatives (unless the caller kept
+        // those of a nearby solve): a warm start usually needs exactly one
+        // step, so this saves a forward kinematics per call.
+        let fresh = jac.is_none();
+        let mut pose = match jac.take() {
+            Some(j) => {
+                d = j.d;
+                self.pose(q)
+            }
+            None => self.pose_and_position_derivatives(q, &mut d),
+        };
+        let result = self.iterate(target, q, free_idx, rows, opts, fresh, &mut d, &mut pose);
+        *jac = Some(IkJacobian { d });
+        result
+    }
+
+    /// The Gauss–Newton / chord iteration of [`Kinematics::inverse_warm`] from `q`, whose
+    /// pose is `pose`, with derivatives `d` (of `q` when `fresh`, else of a nearby point).
+    #[allow(clippy::too_many_arguments)]
+    fn iterate(
+        &self,
+        target: &IkTarget,
+        q: &mut [f64],
+        free_idx: &[usize],
+        rows: usize,
+        opts: &IkOptions,
+        fresh: bool,
+        d: &mut [PoseDerivative; MAX_AXES],
+        pose: &mut ToolPose,
+    ) -> Result<(), IkError> {
+        let mut last = (f64::INFINITY, f64::INFINITY);
+        // Residual norm before the last step (tip in mm, axis in rad), and
+        // whether that step used derivatives taken where it started.
+        let mut before = f64::INFINITY;
+        let mut newton = fresh;
+        let mut iterations = opts.max_iterations;
         for it in 0..=opts.max_iterations {
             if it > 0 {
-                pose = self.pose(q);
+                *pose = self.pose(q);
             }
             let dp = pose.tip - target.tip;
             let (dv, ang) = match target.axis {
@@ -157,11 +219,24 @@ impl Kinematics {
             if it == opts.max_iterations {
                 break;
             }
-            if it > 0 {
-                self.pose_and_position_derivatives(q, &mut d);
+            // Chord steps: the Jacobian of the previous step is kept while it
+            // still shrinks the residual a hundredfold per step (the small
+            // corrections of a warm start), else it is refreshed (Newton).
+            let now = (dp.norm_squared() + dv.norm_squared()).sqrt();
+            if it > 0 && now > 1e-2 * before {
+                if newton && opts.stall_ratio.is_some_and(|r| now > r * before) {
+                    iterations = it;
+                    break;
+                }
+                self.pose_and_position_derivatives(q, d);
+                newton = true;
+            } else {
+                newton = it == 0 && fresh;
             }
+            before = now;
             let r = [-dp.x, -dp.y, -dp.z, -dv.x, -dv.y, -dv.z];
-            let Some(step) = least_squares(&d, free_idx, rows, &r) else {
+            let Some(step) = least_squares(d, free_idx, rows, &r) else {
+                iterations = it;
                 break;
             };
             for (c, &i) in free_idx.iter().enumerate() {
@@ -169,7 +244,7 @@ impl Kinematics {
             }
         }
         Err(IkError::NotConverged {
-            iterations: opts.max_iterations,
+            iterations,
             tip_residual: last.0,
             axis_residual: last.1,
         })

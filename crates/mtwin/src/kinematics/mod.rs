@@ -13,7 +13,7 @@ mod tangent;
 pub mod transform;
 
 pub use chain::{Kinematics, ToolPose};
-pub use ik::{IkError, IkOptions, IkTarget};
+pub use ik::{IkError, IkJacobian, IkOptions, IkTarget};
 pub use jacobian::{PoseDerivative, PoseJacobian, SLOTS};
 pub use lanes::{LANES, sin_cos_deg};
 pub use transform::Rigid;

@@ -611,3 +611,81 @@ fn fixed_size_inverse_keeps_the_error_behaviour() {
         (a, b) => assert_eq!(a.is_err(), b.is_err(), "{a:?} vs {b:?}"),
     }
 }
+
+#[test]
+fn warm_inverse_along_a_path_equals_the_cold_solution() {
+    // Targets along a smooth five-axis path, each solved from the previous
+    // solution with the previous derivatives (chord steps): every one on its
+    // target and equal to the Newton solution from the same start.
+    let m = load("ac-trunnion-with-errors.toml");
+    let k = Kinematics::new(&m);
+    let opts = IkOptions::default();
+    let all = [true; 5];
+    let q_at = |s: f64| {
+        [
+            40.0 * s.cos(),
+            40.0 * s.sin(),
+            -50.0 + 5.0 * s,
+            20.0 + 10.0 * s,
+            30.0 * s,
+        ]
+    };
+    let mut q = q_at(0.0).to_vec();
+    let mut jac = None;
+    for i in 1..=200 {
+        let pose = k.pose(&q_at(i as f64 * 5e-3));
+        let t = IkTarget {
+            tip: pose.tip,
+            axis: Some(pose.axis),
+        };
+        let cold = k.inverse(&t, &q, &all, &opts).expect("cold");
+        k.inverse_warm(&t, &mut q, &all, &opts, &mut jac)
+            .expect("warm");
+        assert!(jac.is_some());
+        let p = k.pose(&q);
+        assert!((p.tip - t.tip).norm() <= opts.tip_tolerance);
+        assert!(p.axis.cross(&t.axis.unwrap()).norm() <= 2.0 * opts.axis_tolerance);
+        for (a, b) in q.iter().zip(&cold) {
+            assert!((a - b).abs() < 1e-9, "{q:?} vs {cold:?}");
+        }
+    }
+}
+
+#[test]
+fn a_stall_ratio_gives_up_early_at_an_unreachable_axis() {
+    let m = load("ac-trunnion-with-errors.toml");
+    let k = Kinematics::new(&m);
+    let all = [true; 5];
+    let stall = IkOptions {
+        stall_ratio: Some(0.5),
+        ..IkOptions::default()
+    };
+    // A = 0: the tool axis lies along C. A tool axis tilted 0.1 mrad towards
+    // the C-rotated X direction needs C a quarter turn away: out of reach of
+    // small steps, and the solve says so in a few iterations, not fifty.
+    let q = [10.0, 20.0, -30.0, 0.0, 40.0];
+    let pose = k.pose(&q);
+    let c = 40f64.to_radians();
+    let sideways = Vector3::new(c.cos(), -c.sin(), 0.0);
+    let t = IkTarget {
+        tip: pose.tip,
+        axis: Some((pose.axis + 1e-4 * sideways).normalize()),
+    };
+    match k.inverse(&t, &q, &all, &stall) {
+        Err(IkError::NotConverged { iterations, .. }) => assert!(iterations <= 6, "{iterations}"),
+        Ok(sol) => panic!("converged to {sol:?}"),
+        Err(e) => panic!("{e}"),
+    }
+    // A reachable target from a cold start still converges with the ratio set.
+    let q0 = [10.0, 20.0, -30.0, 15.0, 40.0];
+    let pose = k.pose(&q0);
+    let t = IkTarget {
+        tip: pose.tip,
+        axis: Some(pose.axis),
+    };
+    let start: Vec<f64> = q0.iter().map(|v| v + 0.1).collect();
+    let sol = k.inverse(&t, &start, &all, &stall).expect("reachable");
+    for (a, b) in sol.iter().zip(&q0) {
+        assert!((a - b).abs() < 1e-8, "{sol:?}");
+    }
+}

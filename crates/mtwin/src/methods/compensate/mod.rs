@@ -27,7 +27,7 @@ use crate::gcode::{
     Axes, Axis, Block, BlockReader, BlockWriter, Dialect, DistanceMode, EventKind, Feed,
     GcodeError, InterpOptions, Interpreter, Item, NumberFormat, Programmed, Value,
 };
-use crate::kinematics::{IkError, IkOptions, IkTarget, Kinematics};
+use crate::kinematics::{IkError, IkJacobian, IkOptions, IkTarget, Kinematics};
 use crate::model::{AxisKind, Machine};
 use path::{NominalPath, lerp};
 
@@ -166,6 +166,9 @@ struct Point {
     /// Compensated machine axes (`None` at the program start, which is not a
     /// target).
     q_act: Option<Vec<f64>>,
+    /// Derivatives of the actual pose at `q_act`'s last iterate, for chord
+    /// steps at the next target.
+    jac: Option<IkJacobian>,
 }
 
 impl Point {
@@ -174,6 +177,7 @@ impl Point {
         Seed {
             q_nom: &self.q_nom,
             q_act: self.q_act.as_deref(),
+            jac: self.jac,
         }
     }
 }
@@ -186,6 +190,7 @@ impl Point {
 struct Seed<'a> {
     q_nom: &'a [f64],
     q_act: Option<&'a [f64]>,
+    jac: Option<IkJacobian>,
 }
 
 impl Compensator {
@@ -218,9 +223,14 @@ impl Compensator {
             all: vec![true; letters.len()],
             letters,
             linear,
+            // A thousandth of half the last written decimal (50 pm in mm
+            // with 4 decimals), the tool axis to the same over a 1 m lever.
             ik: IkOptions {
-                tip_tolerance: 1e-9,
-                axis_tolerance: 1e-11,
+                tip_tolerance: 0.5e-3 * 10f64.powi(-i32::from(opts.decimals)),
+                axis_tolerance: 0.5e-6 * 10f64.powi(-i32::from(opts.decimals)),
+                // Near a singular pose the tip-and-axis solve cannot converge:
+                // find out in a few steps, not fifty (the tip-only fallback decides).
+                stall_ratio: Some(0.5),
                 ..IkOptions::default()
             },
             opts,
@@ -367,6 +377,7 @@ impl Compensator {
                 },
             )
         };
+        let mut jac = seed.jac;
         let warm = seed.q_act.and_then(|q_act| {
             let mut q: Vec<f64> = q_nom
                 .iter()
@@ -374,7 +385,7 @@ impl Compensator {
                 .map(|(&n, (&a, &an))| n + (a - an))
                 .collect();
             self.actual
-                .inverse_in_place(&target, &mut q, free, &self.ik)
+                .inverse_warm(&target, &mut q, free, &self.ik, &mut jac)
                 .ok()
                 .map(|()| q)
         });
@@ -384,7 +395,13 @@ impl Compensator {
             Some(q) if target.axis.is_none() || self.rotary_change(&q, &q_nom) <= MAX_ROTARY => {
                 Ok(q)
             }
-            _ => self.actual.inverse(&target, &q_nom, free, &self.ik),
+            _ => {
+                jac = None;
+                let mut q = q_nom.clone();
+                self.actual
+                    .inverse_warm(&target, &mut q, free, &self.ik, &mut jac)
+                    .map(|()| q)
+            }
         };
         let q_act = match full {
             Ok(q) if target.axis.is_none() || self.rotary_change(&q, &q_nom) <= MAX_ROTARY => q,
@@ -393,6 +410,7 @@ impl Compensator {
                 // tool axis cannot be corrected by a small rotary move:
                 // correct the tip with the linear axes only.
                 summary.axis_not_corrected += 1;
+                jac = None;
                 let tip_only = IkTarget {
                     axis: None,
                     ..target
@@ -443,6 +461,7 @@ impl Compensator {
             q_nom,
             new_p,
             q_act: Some(q_act),
+            jac,
         })
     }
 
@@ -529,6 +548,7 @@ impl Compensator {
                     q_nom,
                     new_p: p0,
                     q_act: None,
+                    jac: None,
                 }
             }
         };
