@@ -259,6 +259,11 @@ impl CommandPath {
         scratch.clear();
         let mut dmin = f64::INFINITY;
         let mut visit = |run: &Run| {
+            // A segment within r of P lies in a box within r of P: boxes
+            // farther away hold no candidate (exact, not a heuristic).
+            if run.point_distance(p) > r {
+                return;
+            }
             for k in run.first..run.first + run.count {
                 let c = self.candidate(p, k, jf);
                 if c.d <= r {
