@@ -308,8 +308,8 @@ impl Kinematics {
     }
 
     /// Poses for many positions: `qs` holds `n_axes` values per pose, row after row.
-    /// Runs in parallel (rayon) over blocks of 1024 poses, each evaluated by
-    /// [`Kinematics::poses_into`]; the result is bit-for-bit that of single calls.
+    /// Runs in parallel (rayon); see [`Kinematics::par_poses_into`]. The result is
+    /// bit-for-bit that of single calls.
     pub fn poses(&self, qs: &[f64]) -> Vec<ToolPose> {
         let n = self.axes.len().max(1);
         let zero = ToolPose {
@@ -317,10 +317,31 @@ impl Kinematics {
             axis: Vector3::zeros(),
         };
         let mut out = vec![zero; qs.len() / n];
-        out.par_chunks_mut(1024)
-            .zip(qs.par_chunks(n * 1024))
-            .for_each(|(o, q)| self.poses_into(&q[..o.len() * n], o));
+        self.par_poses_into(&qs[..out.len() * n], &mut out);
         out
+    }
+
+    /// [`Kinematics::poses_into`] in parallel (rayon) over blocks of 1024 poses,
+    /// writing into a caller-owned buffer so repeated batches allocate nothing.
+    ///
+    /// # Panics
+    /// If `out.len() · n_axes ≠ qs.len()`.
+    pub fn par_poses_into(&self, qs: &[f64], out: &mut [ToolPose]) {
+        const BLOCK: usize = 1024;
+        let n = self.axes.len();
+        if n == 0 {
+            return self.poses_into(qs, out);
+        }
+        assert_eq!(
+            qs.len(),
+            out.len() * n,
+            "par_poses_into: {} positions for {} poses of {n} axes",
+            qs.len(),
+            out.len()
+        );
+        out.par_chunks_mut(BLOCK)
+            .zip(qs.par_chunks(n * BLOCK))
+            .for_each(|(o, q)| self.poses_into(q, o));
     }
 
     /// `T_MT(q)`: the tool frame in M.

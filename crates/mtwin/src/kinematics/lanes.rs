@@ -12,11 +12,11 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::chain::{AxisKin, CompiledPdge, Kinematics, ToolPose};
-use super::transform::sin_cos;
+use super::transform::{sin_cos, small_angle_sin_cos};
 use crate::model::AxisKind;
 
-/// Poses per batch step: four `f64` lanes (two SSE2 or one AVX register).
-pub const LANES: usize = 4;
+/// Poses per batch step: eight `f64` lanes (two AVX registers, four SSE2 registers).
+pub const LANES: usize = 8;
 
 /// `1.5·2⁵²`: adding it rounds a double of magnitude < 2⁵¹ to the nearest integer, which
 /// then sits in the low bits of the sum's mantissa (two's complement modulo 2⁵²).
@@ -40,8 +40,17 @@ pub fn sin_cos_deg(d: f64) -> (f64, f64) {
     if d.abs() < DEG_LIMIT {
         (s, c)
     } else {
-        d.to_radians().sin_cos()
+        sin_cos_deg_far(d)
     }
+}
+
+/// `f64::sin_cos` of `d` degrees: the rare fallback of [`sin_cos_deg`] for |d| ≥ 10¹² or
+/// non-finite `d`. Kept out of line so that the compiler does not evaluate it
+/// speculatively on every call (the standard sine and cosine are pure and may be hoisted).
+#[cold]
+#[inline(never)]
+fn sin_cos_deg_far(d: f64) -> (f64, f64) {
+    d.to_radians().sin_cos()
 }
 
 /// The branch-free body of [`sin_cos_deg`], valid for |d| < 10¹².
@@ -146,12 +155,7 @@ fn small_sin_cos<const L: usize>(x: &V<L>) -> (V<L>, V<L>) {
     let mut c = [0.0; L];
     if x.iter().all(|v| v.abs() < 1e-2) {
         for l in 0..L {
-            let x2 = x[l] * x[l];
-            s[l] =
-                x[l] * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0))));
-            c[l] = 1.0
-                - x2 / 2.0
-                    * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0 * (1.0 - x2 / 90.0))));
+            (s[l], c[l]) = small_angle_sin_cos(x[l]);
         }
     } else {
         for l in 0..L {
@@ -232,7 +236,7 @@ impl AxisKin {
         }
         for l in 0..L {
             if q[l].abs() >= DEG_LIMIT || q[l].is_nan() {
-                (s[l], c[l]) = q[l].to_radians().sin_cos();
+                (s[l], c[l]) = sin_cos_deg_far(q[l]);
             }
         }
         let [m0, m1, m2] = &self.rot_terms;
@@ -378,6 +382,31 @@ impl Kinematics {
             qs.len(),
             out.len()
         );
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, checked just above.
+            unsafe { self.poses_into_avx2(qs, out) };
+            return;
+        }
+        self.poses_into_lanes(qs, out);
+    }
+
+    /// [`Kinematics::poses_into_lanes`] compiled for AVX2: the same operations (no fused
+    /// multiply–add, so the same roundings) on 256-bit registers.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn poses_into_avx2(&self, qs: &[f64], out: &mut [ToolPose]) {
+        self.poses_into_lanes(qs, out);
+    }
+
+    /// The body of [`Kinematics::poses_into`]: [`LANES`] poses at a time, the rest one by
+    /// one. `n_axes ≥ 1` and the lengths are checked by the caller.
+    #[inline(always)]
+    fn poses_into_lanes(&self, qs: &[f64], out: &mut [ToolPose]) {
+        let n = self.axes.len();
         let mut rows = qs.chunks_exact(n * LANES);
         let mut outs = out.chunks_exact_mut(LANES);
         for (rows, out) in (&mut rows).zip(&mut outs) {
@@ -390,7 +419,17 @@ impl Kinematics {
             }
         }
         for (q, o) in rows.remainder().chunks_exact(n).zip(outs.into_remainder()) {
-            *o = self.pose(q);
+            *o = self.pose_lanes_one(q);
+        }
+    }
+
+    /// One pose through the lane kernel (inlined into the caller's target features).
+    #[inline(always)]
+    fn pose_lanes_one(&self, q: &[f64]) -> ToolPose {
+        let (p, v) = self.pose_lanes::<1>(|i| [q[i]]);
+        ToolPose {
+            tip: Vector3::new(p[0][0], p[1][0], p[2][0]),
+            axis: Vector3::new(v[0][0], v[1][0], v[2][0]),
         }
     }
 }

@@ -439,8 +439,9 @@ fn fast_forward_kinematics_equals_the_full_transform_route() {
 fn batch_kernel_is_bit_for_bit_the_single_pose() {
     for (name, m) in fast_path_machines() {
         let k = Kinematics::new(&m);
-        // 4·k + 3 poses: full lane groups and a remainder.
-        let ps = poses(&m, 4 * 250 + 3, 22);
+        // LANES·k + 3 poses: full lane groups, a remainder, and more than
+        // one parallel block of 1024.
+        let ps = poses(&m, super::lanes::LANES * 300 + 3, 22);
         let flat: Vec<f64> = ps.iter().flatten().copied().collect();
         let zero = ToolPose {
             tip: Vector3::zeros(),

@@ -10,15 +10,26 @@ use nalgebra::{Matrix3, Vector3};
 #[inline]
 pub fn sin_cos(x: f64) -> (f64, f64) {
     if x.abs() < 1e-2 {
-        let x2 = x * x;
-        let s = x * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0))));
-        let c = 1.0
-            - x2 / 2.0
-                * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0 * (1.0 - x2 / 90.0))));
-        (s, c)
+        small_angle_sin_cos(x)
     } else {
         x.sin_cos()
     }
+}
+
+/// The series branch of [`sin_cos`], valid for |x| < 0.01 rad: Horner's rule in `x²` with
+/// the reciprocal factorials as constants (multiplications, no divisions).
+#[inline(always)]
+pub(crate) fn small_angle_sin_cos(x: f64) -> (f64, f64) {
+    let x2 = x * x;
+    let s = x
+        * (1.0
+            + x2 * (-1.0 / 6.0
+                + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 * (1.0 / 362_880.0)))));
+    let c = 1.0
+        + x2 * (-0.5
+            + x2 * (1.0 / 24.0
+                + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40_320.0 + x2 * (-1.0 / 3_628_800.0)))));
+    (s, c)
 }
 
 /// `Rx(a)·Ry(b)·Rz(c)`, exact.

@@ -343,16 +343,12 @@ impl Predictor<'_> {
 
     /// Kinematics of the buffered chunk, in parallel.
     fn flush(&mut self) -> io::Result<()> {
-        let n = self.twin.names.len().max(1);
         let tw = self.twin;
-        let poses: Vec<_> = self
-            .chunk_q
-            .par_chunks(n)
-            .zip(self.chunk_qa.par_chunks(n))
-            .with_min_len(256)
-            .map(|(q, qa)| (tw.nominal.pose(q), tw.actual.pose(qa)))
-            .collect();
-        for (t, (c, a)) in self.chunk_t.iter().zip(&poses) {
+        let (commanded, actual) = rayon::join(
+            || tw.nominal.poses(&self.chunk_q),
+            || tw.actual.poses(&self.chunk_qa),
+        );
+        for ((t, c), a) in self.chunk_t.iter().zip(&commanded).zip(&actual) {
             self.tips.push(c.tip);
             self.axes.push(c.axis);
             self.spool
