@@ -323,12 +323,12 @@ impl Arx {
     /// A streaming simulator from rest: push one input sample, get one output.
     pub fn stepper(&self) -> ArxStepper {
         ArxStepper {
-            y_past: vec![0.0; self.a.len() - 1],
+            y_past: History::new(self.a.len() - 1),
             u_past: self
                 .b
                 .iter()
                 .zip(&self.nk)
-                .map(|(b, &nk)| vec![0.0; b.len() + nk])
+                .map(|(b, &nk)| History::new(b.len() + nk))
                 .collect(),
             model: self.clone(),
         }
@@ -358,9 +358,51 @@ pub(crate) fn polynomial_roots(coeffs: &[f64]) -> Vec<Complex<f64>> {
 pub struct ArxStepper {
     model: Arx,
     /// `y(k−1), y(k−2), …` newest first.
-    y_past: Vec<f64>,
+    y_past: History,
     /// Per input `u(k), u(k−1), …` newest first (after the push of sample k).
-    u_past: Vec<Vec<f64>>,
+    u_past: Vec<History>,
+}
+
+/// The last `len` values of a signal, newest first, initially zero. A mirrored
+/// ring buffer (every value stored at `i` and `i + len`), so the window is always
+/// one contiguous slice and a push moves nothing.
+#[derive(Debug, Clone)]
+struct History {
+    buf: Vec<f64>,
+    /// Index of the newest value.
+    head: usize,
+    len: usize,
+}
+
+impl History {
+    fn new(len: usize) -> History {
+        History {
+            buf: vec![0.0; 2 * len],
+            head: 0,
+            len,
+        }
+    }
+
+    /// Make `v` the newest value, dropping the oldest.
+    #[inline]
+    fn push(&mut self, v: f64) {
+        if self.len == 0 {
+            return;
+        }
+        self.head = if self.head == 0 {
+            self.len - 1
+        } else {
+            self.head - 1
+        };
+        self.buf[self.head] = v;
+        self.buf[self.head + self.len] = v;
+    }
+
+    /// The values, newest first.
+    #[inline]
+    fn values(&self) -> &[f64] {
+        &self.buf[self.head..self.head + self.len]
+    }
 }
 
 impl ArxStepper {
@@ -376,22 +418,18 @@ impl ArxStepper {
             "one value per model input is needed"
         );
         for (hist, &u) in self.u_past.iter_mut().zip(inputs) {
-            hist.rotate_right(1);
-            hist[0] = u;
+            hist.push(u);
         }
         let mut y = 0.0;
-        for (ai, yp) in self.model.a[1..].iter().zip(&self.y_past) {
+        for (ai, yp) in self.model.a[1..].iter().zip(self.y_past.values()) {
             y -= ai * yp;
         }
         for ((bu, &nk), hist) in self.model.b.iter().zip(&self.model.nk).zip(&self.u_past) {
-            for (bj, u) in bu.iter().zip(&hist[nk..]) {
+            for (bj, u) in bu.iter().zip(&hist.values()[nk..]) {
                 y += bj * u;
             }
         }
-        if !self.y_past.is_empty() {
-            self.y_past.rotate_right(1);
-            self.y_past[0] = y;
-        }
+        self.y_past.push(y);
         y
     }
 

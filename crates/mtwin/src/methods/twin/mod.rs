@@ -8,7 +8,7 @@
 //! ([`pipeline`]). [`plot`] draws the results.
 //!
 //! Memory: the command polyline (tips and axes, 48 bytes per sample, plus its
-//! R-tree, about 8 bytes per sample) is held for the global search; actual
+//! box hierarchy and clearances, about 8 bytes per sample) is held for the global search; actual
 //! samples are spooled to a temporary file (56 bytes per sample on disk) and
 //! rows are streamed to the caller.
 

@@ -7,11 +7,17 @@
 //!
 //! 1. the time-matched segments `j−1` and `j` give an upper bound `d0` on the
 //!    nearest distance;
-//! 2. an R*-tree over axis-aligned boxes of runs of [`LEAF`] consecutive
-//!    segments returns every run whose box meets the cube `P ± (d0 + slack)`;
-//!    a segment within `d0` of `P` lies in such a box, so no candidate is
+//! 2. a bounding-volume hierarchy over runs of [`LEAF`] consecutive segments
+//!    ([`TimeTree`]) yields every run whose box lies within `d0 + slack` of
+//!    `P`; a segment within `d0` of `P` lies in such a box, so no candidate is
 //!    missed (a proven bound, not a search window);
 //! 3. the exact point-to-segment distance of every segment of those runs.
+//!
+//! The hierarchy groups runs by time, not by space: node `i` of level `l + 1`
+//! bounds nodes `BRANCH·i .. BRANCH·(i+1)` of level `l`. A tool path is
+//! continuous, so runs close in time are close in space and the boxes stay
+//! tight; building it needs no sorting (linear time, in parallel), which is
+//! what makes a new path for every twin run cheap.
 //!
 //! A shortcut with the same proof skips the tree for most queries: every run
 //! `i` knows its *clearance* `c_i`, the smallest distance from its box to the
@@ -30,14 +36,16 @@
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
-use rstar::{AABB, RTree, RTreeObject};
 
 /// Distances within this many mm of the smallest one are ties (05 §6).
 pub const TIE_MM: f64 = 1e-12;
 
-/// Segments per R-tree leaf: consecutive segments are close in space, so one box holds
-/// a short run of them (fewer tree entries, a cheap exhaustive check inside).
+/// Segments per leaf of the hierarchy: consecutive segments are close in space, so
+/// one box holds a short run of them (fewer nodes, a cheap exhaustive check inside).
 pub const LEAF: usize = 8;
+
+/// Children per node of the hierarchy.
+pub const BRANCH: usize = 8;
 
 /// Runs on each side of the time-matched run searched by the clearance shortcut.
 pub const WINDOW: usize = 2;
@@ -45,46 +53,129 @@ pub const WINDOW: usize = 2;
 /// Largest clearance looked for, mm (beyond it the tree is used).
 pub const CLEARANCE_CAP_MM: f64 = 2.0;
 
-/// Extra half-width added to the query cube, mm: covers rounding in the computed
+/// Extra half-width added to the query radius, mm: covers rounding in the computed
 /// distances so that a segment at exactly `d0` is never lost.
 const SLACK_MM: f64 = 1e-9;
 
-/// A run of consecutive segments `first..first+count` with its bounding box.
-#[derive(Debug, Clone)]
-struct Run {
-    first: usize,
-    count: usize,
+/// An axis-aligned box, mm in W.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Aabb {
     lo: [f64; 3],
     hi: [f64; 3],
 }
 
-impl Run {
-    /// Distance from the box to the point `p` (0 inside).
+impl Aabb {
+    /// The box holding no point (the identity of [`Aabb::union`]).
+    const EMPTY: Aabb = Aabb {
+        lo: [f64::INFINITY; 3],
+        hi: [f64::NEG_INFINITY; 3],
+    };
+
+    /// The smallest box holding `points`.
+    fn around(points: &[Vector3<f64>]) -> Aabb {
+        let mut b = Aabb::EMPTY;
+        for p in points {
+            for c in 0..3 {
+                b.lo[c] = b.lo[c].min(p[c]);
+                b.hi[c] = b.hi[c].max(p[c]);
+            }
+        }
+        b
+    }
+
+    /// The smallest box holding both boxes.
+    fn union(&self, o: &Aabb) -> Aabb {
+        Aabb {
+            lo: std::array::from_fn(|c| self.lo[c].min(o.lo[c])),
+            hi: std::array::from_fn(|c| self.hi[c].max(o.hi[c])),
+        }
+    }
+
+    /// Squared distance from the box to the point `p`, mm² (0 inside).
     #[inline]
-    fn point_distance(&self, p: &Vector3<f64>) -> f64 {
+    fn point_distance2(&self, p: &Vector3<f64>) -> f64 {
         let mut s = 0.0;
         for c in 0..3 {
             let d = (self.lo[c] - p[c]).max(p[c] - self.hi[c]).max(0.0);
             s += d * d;
         }
-        s.sqrt()
+        s
     }
 
-    /// Distance between two boxes (0 when they meet).
-    fn box_distance(&self, o: &Run) -> f64 {
+    /// Squared distance between two boxes, mm² (0 when they meet).
+    #[inline]
+    fn box_distance2(&self, o: &Aabb) -> f64 {
         let mut s = 0.0;
         for c in 0..3 {
             let d = (o.lo[c] - self.hi[c]).max(self.lo[c] - o.hi[c]).max(0.0);
             s += d * d;
         }
-        s.sqrt()
+        s
     }
 }
 
-impl RTreeObject for Run {
-    type Envelope = AABB<[f64; 3]>;
-    fn envelope(&self) -> Self::Envelope {
-        AABB::from_corners(self.lo, self.hi)
+/// A bounding-volume hierarchy whose leaves are given in time order: level 0
+/// holds the leaf boxes, node `i` of level `l + 1` bounds nodes
+/// `BRANCH·i .. BRANCH·(i+1)` of level `l`, up to a top level of at most
+/// [`BRANCH`] nodes.
+#[derive(Debug, Clone)]
+struct TimeTree {
+    levels: Vec<Vec<Aabb>>,
+}
+
+impl TimeTree {
+    fn new(leaves: Vec<Aabb>) -> TimeTree {
+        let mut levels = vec![leaves];
+        while let Some(top) = levels.last().filter(|t| t.len() > BRANCH) {
+            let up: Vec<Aabb> = top
+                .par_chunks(BRANCH)
+                .with_min_len(64)
+                .map(|c| c.iter().fold(Aabb::EMPTY, |a, b| a.union(b)))
+                .collect();
+            levels.push(up);
+        }
+        TimeTree { levels }
+    }
+
+    /// The leaf boxes, in time order.
+    fn leaves(&self) -> &[Aabb] {
+        &self.levels[0]
+    }
+
+    /// Depth-first walk: `enter(level, index, box)` is called for a node whose parent
+    /// was entered (every top-level node is offered); it returns whether to go on
+    /// into the node's children. Leaves are level 0. The tree is implicit, so the
+    /// walk needs no stack: the next node is the first child, else the next sibling,
+    /// else the next sibling of the nearest ancestor that has one.
+    #[inline]
+    fn walk(&self, mut enter: impl FnMut(usize, usize, &Aabb) -> bool) {
+        let top = self.levels.len() - 1;
+        if self.levels[top].is_empty() {
+            return;
+        }
+        let (mut l, mut i) = (top, 0);
+        loop {
+            if enter(l, i, &self.levels[l][i]) && l > 0 {
+                l -= 1;
+                i *= BRANCH;
+                continue;
+            }
+            loop {
+                i += 1;
+                if l == top {
+                    if i < self.levels[top].len() {
+                        break;
+                    }
+                    return;
+                }
+                if i % BRANCH != 0 && i < self.levels[l].len() {
+                    break;
+                }
+                // The parent's children are done: continue after the parent.
+                l += 1;
+                i = (i - 1) / BRANCH;
+            }
+        }
     }
 }
 
@@ -106,15 +197,14 @@ pub struct Nearest {
 
 /// The command tool-tip polyline with its tool axes and spatial index.
 ///
-/// Memory: 48 bytes per sample for tips and axes, plus about 60 bytes per
-/// [`LEAF`] segments for the tree.
+/// Memory: 48 bytes per sample for tips and axes, plus about 64 bytes per
+/// [`LEAF`] segments for the hierarchy and the clearances.
 #[derive(Debug, Clone)]
 pub struct CommandPath {
     tips: Vec<Vector3<f64>>,
     axes: Vec<Vector3<f64>>,
-    tree: RTree<Run>,
-    /// The runs in time order.
-    runs: Vec<Run>,
+    /// Leaf `i` bounds the run of segments `LEAF·i .. LEAF·(i+1)` (fewer at the end).
+    tree: TimeTree,
     /// Clearance of each run (see the module documentation), mm.
     clearance: Vec<f64>,
 }
@@ -137,47 +227,37 @@ impl CommandPath {
     pub fn new(tips: Vec<Vector3<f64>>, axes: Vec<Vector3<f64>>) -> Self {
         assert_eq!(tips.len(), axes.len(), "one tool axis per tool tip");
         let n_seg = tips.len().saturating_sub(1);
-        let runs: Vec<Run> = (0..n_seg)
-            .step_by(LEAF)
-            .map(|first| {
-                let count = LEAF.min(n_seg - first);
-                let mut lo = [f64::INFINITY; 3];
-                let mut hi = [f64::NEG_INFINITY; 3];
-                for p in &tips[first..=first + count] {
-                    for c in 0..3 {
-                        lo[c] = lo[c].min(p[c]);
-                        hi[c] = hi[c].max(p[c]);
-                    }
-                }
-                Run {
-                    first,
-                    count,
-                    lo,
-                    hi,
-                }
-            })
+        let leaves: Vec<Aabb> = (0..n_seg.div_ceil(LEAF))
+            .into_par_iter()
+            .with_min_len(1024)
+            .map(|i| Aabb::around(&tips[i * LEAF..=((i + 1) * LEAF).min(n_seg)]))
             .collect();
-        let tree = RTree::bulk_load(runs.clone());
-        let clearance = runs
+        let tree = TimeTree::new(leaves);
+        let cap2 = CLEARANCE_CAP_MM * CLEARANCE_CAP_MM;
+        let clearance = tree
+            .leaves()
             .par_iter()
             .enumerate()
-            .map(|(i, run)| {
-                let r = CLEARANCE_CAP_MM;
-                let env = AABB::from_corners(
-                    [run.lo[0] - r, run.lo[1] - r, run.lo[2] - r],
-                    [run.hi[0] + r, run.hi[1] + r, run.hi[2] + r],
-                );
-                tree.locate_in_envelope_intersecting(&env)
-                    .filter(|o| (o.first / LEAF).abs_diff(i) > WINDOW)
-                    .map(|o| run.box_distance(o))
-                    .fold(CLEARANCE_CAP_MM, f64::min)
+            .with_min_len(256)
+            .map(|(i, b)| {
+                let mut best2 = cap2;
+                tree.walk(|level, o, node| {
+                    let d2 = node.box_distance2(b);
+                    if d2 >= best2 {
+                        return false;
+                    }
+                    if level == 0 && o.abs_diff(i) > WINDOW {
+                        best2 = d2;
+                    }
+                    true
+                });
+                best2.sqrt()
             })
             .collect();
         CommandPath {
             tips,
             axes,
             tree,
-            runs,
             clearance,
         }
     }
@@ -255,16 +335,13 @@ impl CommandPath {
             d0 = d0.min(self.candidate(p, k, jf).d);
         }
         let r = d0 + TIE_MM + SLACK_MM + 1e-15 * (p.amax() + d0);
-        let env = AABB::from_corners([p.x - r, p.y - r, p.z - r], [p.x + r, p.y + r, p.z + r]);
+        let r2 = r * r;
         scratch.clear();
         let mut dmin = f64::INFINITY;
-        let mut visit = |run: &Run| {
-            // A segment within r of P lies in a box within r of P: boxes
-            // farther away hold no candidate (exact, not a heuristic).
-            if run.point_distance(p) > r {
-                return;
-            }
-            for k in run.first..run.first + run.count {
+        // A segment within r of P lies in a box within r of P: boxes farther away
+        // hold no candidate (exact, not a heuristic).
+        let mut visit_run = |i: usize| {
+            for k in i * LEAF..((i + 1) * LEAF).min(last + 1) {
                 let c = self.candidate(p, k, jf);
                 if c.d <= r {
                     dmin = dmin.min(c.d);
@@ -272,16 +349,25 @@ impl CommandPath {
                 }
             }
         };
+        let leaves = self.tree.leaves();
         let ri = j.min(last) / LEAF;
-        if self.runs[ri].point_distance(p) + r < self.clearance[ri] {
-            let hi = (ri + WINDOW).min(self.runs.len() - 1);
-            for run in &self.runs[ri.saturating_sub(WINDOW)..=hi] {
-                visit(run);
+        if leaves[ri].point_distance2(p).sqrt() + r < self.clearance[ri] {
+            let hi = (ri + WINDOW).min(leaves.len() - 1);
+            for i in ri.saturating_sub(WINDOW)..=hi {
+                if leaves[i].point_distance2(p) <= r2 {
+                    visit_run(i);
+                }
             }
         } else {
-            for run in self.tree.locate_in_envelope_intersecting(&env) {
-                visit(run);
-            }
+            self.tree.walk(|level, i, node| {
+                if node.point_distance2(p) > r2 {
+                    return false;
+                }
+                if level == 0 {
+                    visit_run(i);
+                }
+                true
+            });
         }
         let mut best: Option<Candidate> = None;
         for &(d, gap, k, u) in scratch.iter() {
@@ -356,6 +442,97 @@ pub(super) mod tests {
                 gx.total_cmp(&gy)
             })
             .unwrap()
+    }
+
+    /// Boxes around short random walks, in time order.
+    fn random_leaves(n: usize, seed: u64) -> Vec<Aabb> {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+        let mut p = Vector3::zeros();
+        (0..n)
+            .map(|_| {
+                let a = p;
+                p += Vector3::new(rng.r#gen::<f64>(), rng.r#gen(), rng.r#gen()) * 2.0
+                    - Vector3::repeat(1.0);
+                Aabb::around(&[a, p])
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_walk_visits_every_node_once_and_leaves_in_time_order() {
+        for n in [0, 1, 7, 8, 9, 63, 64, 65, 100, 513, 4097] {
+            let tree = TimeTree::new(random_leaves(n, n as u64));
+            let mut seen: Vec<Vec<usize>> = vec![Vec::new(); tree.levels.len()];
+            tree.walk(|l, i, b| {
+                assert_eq!(*b, tree.levels[l][i]);
+                seen[l].push(i);
+                true
+            });
+            for (l, level) in tree.levels.iter().enumerate() {
+                let mut s = seen[l].clone();
+                s.sort_unstable();
+                assert_eq!(s, (0..level.len()).collect::<Vec<_>>(), "n {n} level {l}");
+            }
+            // Depth first: the leaves come in time order.
+            assert!(seen[0].windows(2).all(|w| w[0] < w[1]), "n {n}");
+            assert!(tree.levels.last().unwrap().len() <= BRANCH);
+            // Every node bounds its children.
+            for l in 1..tree.levels.len() {
+                for (c, child) in tree.levels[l - 1].iter().enumerate() {
+                    let parent = tree.levels[l][c / BRANCH];
+                    assert_eq!(parent.union(child), parent);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_pruned_walk_finds_every_leaf_within_the_radius() {
+        let leaves = random_leaves(3000, 5);
+        let tree = TimeTree::new(leaves.clone());
+        for (q, r) in [
+            (Vector3::new(0.0, 0.0, 0.0), 1.0),
+            (Vector3::new(3.0, -2.0, 5.0), 4.0),
+            (Vector3::new(30.0, 1.0, -7.0), 0.5),
+        ] {
+            let mut found = Vec::new();
+            tree.walk(|l, i, b| {
+                let near = b.point_distance2(&q) <= r * r;
+                if near && l == 0 {
+                    found.push(i);
+                }
+                near
+            });
+            let brute: Vec<usize> = (0..leaves.len())
+                .filter(|&i| leaves[i].point_distance2(&q) <= r * r)
+                .collect();
+            assert_eq!(found, brute);
+        }
+    }
+
+    #[test]
+    fn clearance_is_the_distance_to_the_nearest_box_outside_the_window() {
+        let n = 4000;
+        let tips: Vec<_> = (0..n)
+            .map(|i| {
+                let t = i as f64 * 0.01;
+                Vector3::new(10.0 * t.sin(), 10.0 * t.cos(), 0.05 * t)
+            })
+            .collect();
+        let path = CommandPath::new(tips, vec![Vector3::z(); n]);
+        let leaves = path.tree.leaves();
+        for (i, b) in leaves.iter().enumerate() {
+            let brute = leaves
+                .iter()
+                .enumerate()
+                .filter(|(o, _)| o.abs_diff(i) > WINDOW)
+                .map(|(_, o)| b.box_distance2(o).sqrt())
+                .fold(CLEARANCE_CAP_MM, f64::min);
+            assert_eq!(path.clearance[i], brute, "run {i}");
+        }
+        // The helix passes within 0.05·2π mm of itself: clearances are below the cap.
+        assert!(path.clearance.iter().all(|&c| c < 0.4));
     }
 
     #[test]
