@@ -194,34 +194,42 @@ fn write_fixed(v: f64, decimals: u8, out: &mut String) {
     }
     let n = scaled as u64;
     let p = 10u64.pow(u32::from(decimals));
-    let (int, mut frac) = (n / p, n % p);
-    if n != 0 && v < 0.0 {
-        out.push('-');
-    }
-    push_digits(out, int, 1);
+    let (mut int, mut frac) = (n / p, n % p);
+    // Digits from the right into a stack buffer (at most '-', 16 integer digits, '.'
+    // and 15 decimals), then one append.
+    let mut buf = [0u8; 40];
+    let mut i = buf.len();
     if frac != 0 {
         let mut width = d;
         while frac % 10 == 0 {
             frac /= 10;
             width -= 1;
         }
-        out.push('.');
-        push_digits(out, frac, width);
-    }
-}
-
-/// Appends the decimal digits of `n`, zero-padded to at least `width`.
-fn push_digits(out: &mut String, mut n: u64, width: usize) {
-    let mut buf = [b'0'; 20];
-    let mut i = buf.len();
-    while n > 0 || buf.len() - i < width {
+        for _ in 0..width {
+            i -= 1;
+            buf[i] = b'0' + (frac % 10) as u8;
+            frac /= 10;
+        }
         i -= 1;
-        buf[i] = b'0' + (n % 10) as u8;
-        n /= 10;
+        buf[i] = b'.';
     }
-    for &c in &buf[i..] {
-        out.push(char::from(c));
+    loop {
+        i -= 1;
+        buf[i] = b'0' + (int % 10) as u8;
+        int /= 10;
+        if int == 0 {
+            break;
+        }
     }
+    if n != 0 && v < 0.0 {
+        i -= 1;
+        buf[i] = b'-';
+    }
+    let digits = &buf[i..];
+    debug_assert!(digits.is_ascii());
+    // SAFETY: `digits` holds only ASCII digits, '.' and '-' (written above), so it is
+    // valid UTF-8; checking it costs more than writing it.
+    out.push_str(unsafe { std::str::from_utf8_unchecked(digits) });
 }
 
 /// One block (line) of a program: its exact bytes and the items in them.
@@ -734,5 +742,30 @@ mod tests {
         assert_eq!(f(NumberFormat::Fixed(4), -0.00001), "0");
         assert_eq!(f(NumberFormat::Shortest, 1e-7), "0.0000001");
         assert_eq!(f(NumberFormat::Shortest, 0.1 + 0.2), "0.30000000000000004");
+    }
+
+    proptest::proptest! {
+        /// The digit writer against a plain reference: the rounded scaled integer in
+        /// decimal, the point inserted `d` digits from the right, zeros trimmed.
+        #[test]
+        fn fixed_matches_the_scaled_integer(v in -1e9f64..1e9, d in 0u8..=6, tiny in proptest::bool::ANY) {
+            let v = if tiny { v * 1e-9 } else { v };
+            let n = (v.abs() * 10f64.powi(i32::from(d))).round() as u64;
+            let digits = format!("{n:0>width$}", width = usize::from(d) + 1);
+            let (int, frac) = digits.split_at(digits.len() - usize::from(d));
+            let frac = frac.trim_end_matches('0');
+            let mut want = String::new();
+            if n != 0 && v < 0.0 {
+                want.push('-');
+            }
+            want.push_str(int);
+            if !frac.is_empty() {
+                want.push('.');
+                want.push_str(frac);
+            }
+            let mut got = String::new();
+            NumberFormat::Fixed(d).write(v, &mut got);
+            proptest::prop_assert_eq!(got, want);
+        }
     }
 }

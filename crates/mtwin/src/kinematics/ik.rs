@@ -86,6 +86,25 @@ pub enum IkError {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IkJacobian {
     d: [PoseDerivative; MAX_AXES],
+    /// The step solver factored from `d`, for the free axes and rows it was made for.
+    factor: Option<(StepKey, StepSolver)>,
+}
+
+/// Which least-squares problem a [`StepSolver`] was factored for: the free axes (bit `i`
+/// for axis `i`) and the residual rows (3: tip; 6: tip and axis).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct StepKey {
+    free: u32,
+    rows: usize,
+}
+
+impl StepKey {
+    fn new(free: &[usize], rows: usize) -> StepKey {
+        StepKey {
+            free: free.iter().fold(0, |m, &i| m | 1 << i),
+            rows,
+        }
+    }
 }
 
 impl Kinematics {
@@ -160,25 +179,29 @@ impl Kinematics {
         }
         let free_idx = &free_idx[..m];
         let rows = if target.axis.is_some() { 6 } else { 3 };
-        let mut d = [[0.0; 6]; MAX_AXES];
         // The first pose comes with its derivatives (unless the caller kept
         // those of a nearby solve): a warm start usually needs exactly one
         // step, so this saves a forward kinematics per call.
         let fresh = jac.is_none();
-        let mut pose = match jac.take() {
+        let (j, mut pose) = match jac {
             Some(j) => {
-                d = j.d;
-                self.pose(q)
+                let pose = self.pose(q);
+                (j, pose)
             }
-            None => self.pose_and_position_derivatives(q, &mut d),
+            None => {
+                let mut d = [[0.0; 6]; MAX_AXES];
+                let pose = self.pose_and_position_derivatives(q, &mut d);
+                (jac.insert(IkJacobian { d, factor: None }), pose)
+            }
         };
-        let result = self.iterate(target, q, free_idx, rows, opts, fresh, &mut d, &mut pose);
-        *jac = Some(IkJacobian { d });
-        result
+        let key = StepKey::new(free_idx, rows);
+        self.iterate(target, q, free_idx, rows, key, opts, fresh, j, &mut pose)
     }
 
     /// The Gauss–Newton / chord iteration of [`Kinematics::inverse_warm`] from `q`, whose
-    /// pose is `pose`, with derivatives `d` (of `q` when `fresh`, else of a nearby point).
+    /// pose is `pose`, with derivatives `jac.d` (of `q` when `fresh`, else of a nearby
+    /// point) and their factored step solver when it was made for `key` (kept while the
+    /// derivatives are: chord steps solve with the same matrix).
     #[allow(clippy::too_many_arguments)]
     fn iterate(
         &self,
@@ -186,11 +209,15 @@ impl Kinematics {
         q: &mut [f64],
         free_idx: &[usize],
         rows: usize,
+        key: StepKey,
         opts: &IkOptions,
         fresh: bool,
-        d: &mut [PoseDerivative; MAX_AXES],
+        jac: &mut IkJacobian,
         pose: &mut ToolPose,
     ) -> Result<(), IkError> {
+        if jac.factor.is_some_and(|(k, _)| k != key) {
+            jac.factor = None;
+        }
         let mut last = (f64::INFINITY, f64::INFINITY);
         // Residual norm before the last step (tip in mm, axis in rad), and
         // whether that step used derivatives taken where it started.
@@ -228,14 +255,18 @@ impl Kinematics {
                     iterations = it;
                     break;
                 }
-                self.pose_and_position_derivatives(q, d);
+                self.pose_and_position_derivatives(q, &mut jac.d);
+                jac.factor = None;
                 newton = true;
             } else {
                 newton = it == 0 && fresh;
             }
             before = now;
             let r = [-dp.x, -dp.y, -dp.z, -dv.x, -dv.y, -dv.z];
-            let Some(step) = least_squares(d, free_idx, rows, &r) else {
+            let (_, solver) = jac
+                .factor
+                .get_or_insert_with(|| (key, StepSolver::new(&jac.d, free_idx, rows)));
+            let Some(step) = solver.solve(&jac.d, free_idx, rows, &r) else {
                 iterations = it;
                 break;
             };
@@ -337,22 +368,134 @@ impl Kinematics {
 }
 
 /// The least-squares step `x` minimising `|J·x − r|` over the first `rows` components, where
-/// column `c` of `J` is `d[free[c]]`. `None` when the SVD cannot solve (never, for finite
-/// input).
-fn least_squares(
+/// column `c` of `J` is `d[free[c]]`, factored once for a fixed `J` and solved for any `r`.
+// Kept inline (no box): a solver is made per derivative refresh and must not allocate.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum StepSolver {
+    /// Full column rank: the Cholesky factor `L` (lower triangle) of the normal matrix
+    /// `Sᵀ JᵀJ S` with the columns scaled to unit length by `S = diag(scale)`.
+    Cholesky {
+        scale: [f64; MAX_AXES],
+        l: [[f64; MAX_AXES]; MAX_AXES],
+    },
+    /// More free axes than rows, or nearly dependent columns: the minimum-norm solution by
+    /// SVD, each solve.
+    Svd,
+}
+
+/// Smallest accepted ratio of a Cholesky pivot to the (unit) diagonal of the column-scaled
+/// normal matrix: below it the columns are too close to dependent (condition number above
+/// ~1e6) and the SVD decides.
+const MIN_PIVOT: f64 = 1e-12;
+
+impl StepSolver {
+    fn new(d: &[PoseDerivative; MAX_AXES], free: &[usize], rows: usize) -> StepSolver {
+        if free.len() <= rows {
+            Self::cholesky(d, free, rows).unwrap_or(StepSolver::Svd)
+        } else {
+            StepSolver::Svd
+        }
+    }
+
+    /// The Cholesky factor of the column-scaled normal matrix; `None` when a column is zero
+    /// or the matrix is nearly singular.
+    fn cholesky(d: &[PoseDerivative; MAX_AXES], free: &[usize], rows: usize) -> Option<Self> {
+        let m = free.len();
+        let mut scale = [0.0; MAX_AXES];
+        for (c, &i) in free.iter().enumerate() {
+            let n2: f64 = d[i][..rows].iter().map(|v| v * v).sum();
+            if n2.is_nan() || n2 <= 0.0 || !n2.is_finite() {
+                return None;
+            }
+            scale[c] = 1.0 / n2.sqrt();
+        }
+        // a = Sᵀ JᵀJ S (unit diagonal).
+        let mut a = [[0.0; MAX_AXES]; MAX_AXES];
+        for c in 0..m {
+            let jc = &d[free[c]];
+            for e in 0..=c {
+                let je = &d[free[e]];
+                let mut s = 0.0;
+                for k in 0..rows {
+                    s += jc[k] * je[k];
+                }
+                a[c][e] = s * scale[c] * scale[e];
+            }
+        }
+        // In-place Cholesky a = L·Lᵀ (lower triangle).
+        for c in 0..m {
+            let mut diag = a[c][c];
+            for k in 0..c {
+                diag -= a[c][k] * a[c][k];
+            }
+            if diag.is_nan() || diag <= MIN_PIVOT {
+                return None;
+            }
+            let l = diag.sqrt();
+            a[c][c] = l;
+            for e in c + 1..m {
+                let mut s = a[e][c];
+                for k in 0..c {
+                    s -= a[e][k] * a[c][k];
+                }
+                a[e][c] = s / l;
+            }
+        }
+        Some(StepSolver::Cholesky { scale, l: a })
+    }
+
+    /// The step for residual `r`, with the `d`, `free` and `rows` the solver was made
+    /// from. `None` when the SVD cannot solve (never, for finite input).
+    fn solve(
+        &self,
+        d: &[PoseDerivative; MAX_AXES],
+        free: &[usize],
+        rows: usize,
+        r: &[f64; 6],
+    ) -> Option<[f64; MAX_AXES]> {
+        let m = free.len();
+        let StepSolver::Cholesky { scale, l } = self else {
+            return svd_step(d, free, rows, r);
+        };
+        // b = Sᵀ Jᵀ r; L y = b, Lᵀ z = y, x = S z.
+        let mut y = [0.0; MAX_AXES];
+        for c in 0..m {
+            let jc = &d[free[c]];
+            let mut s = 0.0;
+            for k in 0..rows {
+                s += jc[k] * r[k];
+            }
+            let mut s = s * scale[c];
+            for k in 0..c {
+                s -= l[c][k] * y[k];
+            }
+            y[c] = s / l[c][c];
+        }
+        let mut x = [0.0; MAX_AXES];
+        for c in (0..m).rev() {
+            let mut s = y[c];
+            for k in c + 1..m {
+                s -= l[k][c] * x[k];
+            }
+            x[c] = s / l[c][c];
+        }
+        for c in 0..m {
+            x[c] *= scale[c];
+        }
+        Some(x)
+    }
+}
+
+/// The minimum-norm least-squares step by SVD, zero-padded to a fixed 8×8 (zero rows and
+/// columns do not change the pseudo-inverse solution of the others).
+fn svd_step(
     d: &[PoseDerivative; MAX_AXES],
     free: &[usize],
     rows: usize,
     r: &[f64; 6],
 ) -> Option<[f64; MAX_AXES]> {
     let m = free.len();
-    if m <= rows
-        && let Some(x) = normal_equations(d, free, rows, r)
-    {
-        return Some(x);
-    }
-    // Minimum-norm solution by SVD, zero-padded to a fixed 8×8 (zero rows and columns do
-    // not change the pseudo-inverse solution of the others).
     let mut j = SMatrix::<f64, MAX_AXES, MAX_AXES>::zeros();
     let mut b = SVector::<f64, MAX_AXES>::zeros();
     for (c, &i) in free.iter().enumerate() {
@@ -369,90 +512,6 @@ fn least_squares(
     let mut x = [0.0; MAX_AXES];
     for c in 0..m {
         x[c] = s[c];
-    }
-    Some(x)
-}
-
-/// Smallest accepted ratio of a Cholesky pivot to the (unit) diagonal of the column-scaled
-/// normal matrix: below it the columns are too close to dependent (condition number above
-/// ~1e6) and the SVD decides.
-const MIN_PIVOT: f64 = 1e-12;
-
-/// The full-column-rank least-squares solution by Cholesky on the normal equations with
-/// columns scaled to unit length; `None` when a column is zero or the scaled normal matrix
-/// is nearly singular.
-fn normal_equations(
-    d: &[PoseDerivative; MAX_AXES],
-    free: &[usize],
-    rows: usize,
-    r: &[f64; 6],
-) -> Option<[f64; MAX_AXES]> {
-    let m = free.len();
-    let mut scale = [0.0; MAX_AXES];
-    for (c, &i) in free.iter().enumerate() {
-        let n2: f64 = d[i][..rows].iter().map(|v| v * v).sum();
-        if n2.is_nan() || n2 <= 0.0 || !n2.is_finite() {
-            return None;
-        }
-        scale[c] = 1.0 / n2.sqrt();
-    }
-    // a = Sᵀ JᵀJ S (unit diagonal), b = Sᵀ Jᵀ r.
-    let mut a = [[0.0; MAX_AXES]; MAX_AXES];
-    let mut b = [0.0; MAX_AXES];
-    for c in 0..m {
-        let jc = &d[free[c]];
-        for e in 0..=c {
-            let je = &d[free[e]];
-            let mut s = 0.0;
-            for k in 0..rows {
-                s += jc[k] * je[k];
-            }
-            a[c][e] = s * scale[c] * scale[e];
-        }
-        let mut s = 0.0;
-        for k in 0..rows {
-            s += jc[k] * r[k];
-        }
-        b[c] = s * scale[c];
-    }
-    // In-place Cholesky a = L·Lᵀ (lower triangle).
-    for c in 0..m {
-        let mut diag = a[c][c];
-        for k in 0..c {
-            diag -= a[c][k] * a[c][k];
-        }
-        if diag.is_nan() || diag <= MIN_PIVOT {
-            return None;
-        }
-        let l = diag.sqrt();
-        a[c][c] = l;
-        for e in c + 1..m {
-            let mut s = a[e][c];
-            for k in 0..c {
-                s -= a[e][k] * a[c][k];
-            }
-            a[e][c] = s / l;
-        }
-    }
-    // L y = b, Lᵀ z = y, x = S z.
-    let mut y = [0.0; MAX_AXES];
-    for c in 0..m {
-        let mut s = b[c];
-        for k in 0..c {
-            s -= a[c][k] * y[k];
-        }
-        y[c] = s / a[c][c];
-    }
-    let mut x = [0.0; MAX_AXES];
-    for c in (0..m).rev() {
-        let mut s = y[c];
-        for k in c + 1..m {
-            s -= a[k][c] * x[k];
-        }
-        x[c] = s / a[c][c];
-    }
-    for c in 0..m {
-        x[c] *= scale[c];
     }
     Some(x)
 }

@@ -653,6 +653,52 @@ fn warm_inverse_along_a_path_equals_the_cold_solution() {
 }
 
 #[test]
+fn a_kept_jacobian_serves_other_free_axes_and_rows() {
+    // One kept Jacobian (and its factored step solver) passed between solves that
+    // alternate tip-only targets with the linear axes free and full-pose targets with
+    // all axes free: each solve must refactor for its own problem and reach its target.
+    let m = load("ac-trunnion-with-errors.toml");
+    let k = Kinematics::new(&m);
+    let opts = IkOptions::default();
+    let all = [true; 5];
+    let linear = [true, true, true, false, false];
+    let mut q = vec![40.0, 0.0, -50.0, 20.0, 0.0];
+    let mut jac = None;
+    for i in 1..=60 {
+        let s = i as f64 * 1e-2;
+        let want = [
+            40.0 * s.cos(),
+            40.0 * s.sin(),
+            -50.0,
+            20.0 + 5.0 * s,
+            30.0 * s,
+        ];
+        let pose = k.pose(&want);
+        let full = i % 2 == 0;
+        let t = IkTarget {
+            tip: pose.tip,
+            axis: full.then_some(pose.axis),
+        };
+        if !full {
+            // The rotaries are not free: put them where the target needs them.
+            q[3] = want[3];
+            q[4] = want[4];
+        }
+        let free = if full { &all } else { &linear };
+        k.inverse_warm(&t, &mut q, free, &opts, &mut jac)
+            .expect("converges");
+        let p = k.pose(&q);
+        assert!((p.tip - t.tip).norm() <= opts.tip_tolerance, "step {i}");
+        if full {
+            assert!(p.axis.cross(&pose.axis).norm() <= 2.0 * opts.axis_tolerance);
+        }
+        for (a, b) in q.iter().zip(&want) {
+            assert!((a - b).abs() < 1e-8, "step {i}: {q:?} vs {want:?}");
+        }
+    }
+}
+
+#[test]
 fn a_stall_ratio_gives_up_early_at_an_unreachable_axis() {
     let m = load("ac-trunnion-with-errors.toml");
     let k = Kinematics::new(&m);

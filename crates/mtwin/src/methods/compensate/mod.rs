@@ -167,8 +167,9 @@ struct Point {
     /// target).
     q_act: Option<Vec<f64>>,
     /// Derivatives of the actual pose at `q_act`'s last iterate, for chord
-    /// steps at the next target.
-    jac: Option<IkJacobian>,
+    /// steps at the next target (boxed: points are moved often, the
+    /// derivatives and their factor are most of a point's size).
+    jac: Option<Box<IkJacobian>>,
 }
 
 impl Point {
@@ -177,7 +178,7 @@ impl Point {
         Seed {
             q_nom: &self.q_nom,
             q_act: self.q_act.as_deref(),
-            jac: self.jac,
+            jac: self.jac.as_deref(),
         }
     }
 }
@@ -190,7 +191,7 @@ impl Point {
 struct Seed<'a> {
     q_nom: &'a [f64],
     q_act: Option<&'a [f64]>,
-    jac: Option<IkJacobian>,
+    jac: Option<&'a IkJacobian>,
 }
 
 impl Compensator {
@@ -377,7 +378,7 @@ impl Compensator {
                 },
             )
         };
-        let mut jac = seed.jac;
+        let mut jac = seed.jac.copied();
         let warm = seed.q_act.and_then(|q_act| {
             let mut q: Vec<f64> = q_nom
                 .iter()
@@ -461,7 +462,7 @@ impl Compensator {
             q_nom,
             new_p,
             q_act: Some(q_act),
-            jac,
+            jac: jac.map(Box::new),
         })
     }
 
