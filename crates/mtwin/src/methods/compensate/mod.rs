@@ -122,6 +122,13 @@ pub enum CompensateError {
     /// A machine axis has no G-code letter.
     #[error("machine axis '{name}' has no G-code letter (name axes X Y Z A B C U V W)")]
     AxisName { name: String },
+    /// Two machine axes read as the same G-code letter (`x` and `X`).
+    #[error("machine axes '{first}' and '{second}' are both G-code letter {letter}")]
+    AxisLetterTwice {
+        first: String,
+        second: String,
+        letter: char,
+    },
     /// Writing failed.
     #[error("cannot write the program: {0}")]
     Io(#[from] std::io::Error),
@@ -210,7 +217,16 @@ impl Compensator {
                     name: a.name.clone(),
                 })
             })
-            .collect::<Result<Vec<_>, _>>()?;
+            .collect::<Result<Vec<Axis>, _>>()?;
+        for (i, g) in letters.iter().enumerate() {
+            if let Some(j) = letters[..i].iter().position(|h| h == g) {
+                return Err(CompensateError::AxisLetterTwice {
+                    first: machine.axes[j].name.clone(),
+                    second: machine.axes[i].name.clone(),
+                    letter: char::from(g.letter()),
+                });
+            }
+        }
         let linear: Vec<bool> = machine
             .axes
             .iter()
@@ -329,6 +345,15 @@ impl Compensator {
     /// Machine axis positions of program coordinates `p` (plain program).
     fn axes_of(&self, p: &Axes) -> Vec<f64> {
         self.letters.iter().map(|&g| p[g]).collect()
+    }
+
+    /// [`Compensator::axes_of`] into a stack buffer (a machine has at most one axis per
+    /// letter, so at most nine), for the hot paths that need it only briefly.
+    fn axes_in<'b>(&self, p: &Axes, buf: &'b mut [f64; 9]) -> &'b [f64] {
+        for (b, &g) in buf.iter_mut().zip(&self.letters) {
+            *b = p[g];
+        }
+        &buf[..self.letters.len()]
     }
 
     /// Nominal axes, then the compensated point, for nominal program point `p`.
@@ -491,10 +516,10 @@ impl Compensator {
                 .map_err(|source| CompensateError::Ik { line, source })?;
             (Vector3::from(nominal.xyz()), q)
         } else {
-            (
-                self.nominal.pose(&self.axes_of(nominal)).tip,
-                self.axes_of(executed),
-            )
+            let mut buf = [0.0; 9];
+            let want = self.nominal.pose(self.axes_in(nominal, &mut buf)).tip;
+            let q_exec = self.axes_in(executed, &mut buf);
+            return Ok((self.actual.pose(q_exec).tip - want).norm());
         };
         Ok((self.actual.pose(&q_exec).tip - want).norm())
     }
@@ -585,7 +610,7 @@ impl Compensator {
             )?;
         }
         let changed = self.emit(mv, block, inserted, &pieces, &end, run)?;
-        run.q_nom = end.q_nom.clone();
+        run.q_nom.clone_from(&end.q_nom);
         run.last = Some(end);
         Ok(changed)
     }
@@ -640,7 +665,7 @@ impl Compensator {
                 }
             }
             changed |= self.emit(mv, block, inserted, &[], &end, run)?;
-            run.q_nom = end.q_nom.clone();
+            run.q_nom.clone_from(&end.q_nom);
             run.last = Some(end);
             return Ok(changed);
         }
@@ -665,7 +690,7 @@ impl Compensator {
             pieces.len() + 1
         ));
         self.emit(mv, block, inserted, &pieces, &end, run)?;
-        run.q_nom = end.q_nom.clone();
+        run.q_nom.clone_from(&end.q_nom);
         run.last = Some(end);
         Ok(true)
     }

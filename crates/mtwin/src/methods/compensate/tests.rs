@@ -418,3 +418,41 @@ fn fanuc_program_without_decimal_points_gets_points_in_every_new_number() {
     assert!(end <= opts.tol + ROUNDING, "end deviation {end}");
     assert!(mid <= opts.tol + ROUNDING, "midpoint deviation {mid}");
 }
+
+#[test]
+fn axes_without_a_distinct_letter_are_refused() {
+    let m = example("ac-trunnion.toml");
+    let mut q = m.clone();
+    q.axes[0].name = "Q".into();
+    match Compensator::new(&q, CompensateOptions::default()) {
+        Err(CompensateError::AxisName { name }) => assert_eq!(name, "Q"),
+        other => panic!("{other:?}"),
+    }
+    // Letters are case-insensitive in G-code: `x` is X a second time.
+    let mut twice = m.clone();
+    let second = twice
+        .axes
+        .iter()
+        .position(|a| a.name != "X")
+        .expect("more than one axis");
+    let first = twice
+        .axes
+        .iter()
+        .position(|a| a.name == "X")
+        .expect("an X axis");
+    twice.axes[second].name = "x".into();
+    match Compensator::new(&twice, CompensateOptions::default()) {
+        Err(e @ CompensateError::AxisLetterTwice { .. }) => {
+            let (a, b) = if first < second {
+                ("X", "x")
+            } else {
+                ("x", "X")
+            };
+            assert_eq!(
+                e.to_string(),
+                format!("machine axes '{a}' and '{b}' are both G-code letter X")
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+}
