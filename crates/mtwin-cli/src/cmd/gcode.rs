@@ -98,11 +98,7 @@ fn parse_offsets(items: &[String]) -> anyhow::Result<Axes> {
         let Some((name, value)) = item.split_once('=') else {
             bail!("--offset `{item}` is not AXIS=VALUE");
         };
-        let axis = match name.trim().as_bytes() {
-            [b] => Axis::from_letter(*b),
-            _ => None,
-        };
-        let Some(axis) = axis else {
+        let Some(axis) = Axis::from_name(name.trim()) else {
             bail!("--offset `{item}`: `{name}` is not an axis letter (X Y Z A B C U V W)");
         };
         off[axis] = value

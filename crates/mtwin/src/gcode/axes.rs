@@ -2,6 +2,26 @@
 
 use std::ops::{Index, IndexMut};
 
+use crate::model::Machine;
+
+/// Why a machine's axes do not map one to one onto G-code axis words.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum AxisLetterError {
+    /// A machine axis name is not a G-code axis letter.
+    #[error("machine axis '{0}' has no G-code letter (name axes X Y Z A B C U V W)")]
+    NotALetter(String),
+    /// Two machine axes read as the same G-code letter (`x` and `X`).
+    #[error("machine axes '{first}' and '{second}' are both G-code letter {letter}")]
+    Twice {
+        /// The earlier axis, in machine axis order.
+        first: String,
+        /// The later axis.
+        second: String,
+        /// The letter both stand for.
+        letter: char,
+    },
+}
+
 /// A machine axis addressed by a G-code word. X Y Z U V W are linear (mm),
 /// A B C rotary (degree).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -50,6 +70,34 @@ impl Axis {
             b'W' => Axis::W,
             _ => return None,
         })
+    }
+
+    /// The axis a machine axis name stands for: a one-letter name that is a word
+    /// letter (case-insensitive), else `None`.
+    pub fn from_name(name: &str) -> Option<Axis> {
+        match name.as_bytes() {
+            [b] => Axis::from_letter(*b),
+            _ => None,
+        }
+    }
+
+    /// The G-code axis of every axis of `machine`, in machine axis order: every name
+    /// must be a word letter, and no two may name the same one (`x` and `X`).
+    pub fn of_machine(machine: &Machine) -> Result<Vec<Axis>, AxisLetterError> {
+        let mut letters = Vec::with_capacity(machine.axes.len());
+        for (i, a) in machine.axes.iter().enumerate() {
+            let g = Axis::from_name(&a.name)
+                .ok_or_else(|| AxisLetterError::NotALetter(a.name.clone()))?;
+            if let Some(j) = letters.iter().position(|&h| h == g) {
+                return Err(AxisLetterError::Twice {
+                    first: machine.axes[j].name.clone(),
+                    second: machine.axes[i].name.clone(),
+                    letter: char::from(g.letter()),
+                });
+            }
+            letters.push(g);
+        }
+        Ok(letters)
     }
 
     /// Upper-case word letter of the axis.
@@ -142,5 +190,47 @@ impl AxisMask {
     /// The axes in the set, in canonical order.
     pub fn iter(self) -> impl Iterator<Item = Axis> {
         Axis::ALL.into_iter().filter(move |a| self.contains(*a))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::read_machine;
+
+    #[test]
+    fn machine_axes_map_one_to_one_onto_letters() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../examples/machines/ac-trunnion.toml");
+        let m = read_machine(&path).expect("example machine reads");
+        let letters = Axis::of_machine(&m).expect("X Y Z A C");
+        let names: Vec<String> = letters
+            .iter()
+            .map(|g| char::from(g.letter()).to_string())
+            .collect();
+        assert_eq!(names, m.axis_names());
+        assert_eq!(Axis::from_name("c"), Some(Axis::C));
+        assert_eq!(Axis::from_name("XX"), None);
+        assert_eq!(Axis::from_name(""), None);
+
+        let mut q = m.clone();
+        q.axes[1].name = "Q".into();
+        assert_eq!(
+            Axis::of_machine(&q),
+            Err(AxisLetterError::NotALetter("Q".into()))
+        );
+        let mut twice = m.clone();
+        let x = twice.axes.iter().position(|a| a.name == "X").expect("X");
+        let other = (x + 1) % twice.axes.len();
+        twice.axes[other].name = "x".into();
+        let (first, second) = if x < other { ("X", "x") } else { ("x", "X") };
+        assert_eq!(
+            Axis::of_machine(&twice),
+            Err(AxisLetterError::Twice {
+                first: first.into(),
+                second: second.into(),
+                letter: 'X',
+            })
+        );
     }
 }

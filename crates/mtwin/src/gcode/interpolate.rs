@@ -43,7 +43,7 @@ use std::io::{self, BufRead};
 use nalgebra::Vector3;
 
 use super::arc::{self, Geometry};
-use super::axes::{Axes, Axis};
+use super::axes::{Axes, Axis, AxisLetterError};
 use super::error::GcodeError;
 use super::event::{ArcMove, Event, EventKind, Feed, Linear};
 use super::interp::{InterpOptions, Interpreter};
@@ -113,9 +113,9 @@ pub enum InterpolateError {
     /// The sample period is not a positive finite number.
     #[error("the sample period must be a positive number of seconds, not {0}")]
     Period(f64),
-    /// A machine axis name is not a G-code axis letter.
-    #[error("machine axis `{0}` has no G-code axis letter (X Y Z A B C U V W)")]
-    AxisName(String),
+    /// The machine's axes are not one G-code axis letter each.
+    #[error(transparent)]
+    AxisName(#[from] AxisLetterError),
     /// The program moves an axis the machine does not have.
     #[error("line {line}: the program moves axis {letter}, which the machine does not have")]
     MissingAxis { line: u64, letter: char },
@@ -255,14 +255,7 @@ impl<'m> Interpolator<'m> {
         if !(opts.ts > 0.0 && opts.ts.is_finite()) {
             return Err(InterpolateError::Period(opts.ts));
         }
-        let mut letters = Vec::with_capacity(machine.n_axes());
-        for a in &machine.axes {
-            let letter = match a.name.as_bytes() {
-                [b] => Axis::from_letter(*b),
-                _ => None,
-            };
-            letters.push(letter.ok_or_else(|| InterpolateError::AxisName(a.name.clone()))?);
-        }
+        let letters = Axis::of_machine(machine)?;
         let q: Vec<f64> = letters
             .iter()
             .map(|&l| opts.interp.initial_machine_position[l])

@@ -51,7 +51,7 @@ mod stream;
 mod syntax;
 mod travel;
 
-pub use axes::{Axes, Axis, AxisMask};
+pub use axes::{Axes, Axis, AxisLetterError, AxisMask};
 pub use dialect::Dialect;
 pub use error::{GcodeError, Location};
 pub use event::{

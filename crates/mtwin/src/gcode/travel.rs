@@ -61,10 +61,7 @@ impl<'m> TravelCheck<'m> {
             letters: machine
                 .axes
                 .iter()
-                .map(|a| match a.name.as_bytes() {
-                    [b] => Axis::from_letter(*b),
-                    _ => None,
-                })
+                .map(|a| Axis::from_name(&a.name))
                 .collect(),
             linear: machine
                 .axes

@@ -24,8 +24,8 @@ use std::io::{BufRead, Write};
 use nalgebra::Vector3;
 
 use crate::gcode::{
-    Axes, Axis, Block, BlockReader, BlockWriter, Dialect, DistanceMode, EventKind, Feed,
-    GcodeError, InterpOptions, Interpreter, Item, NumberFormat, Programmed, Value,
+    Axes, Axis, AxisLetterError, Block, BlockReader, BlockWriter, Dialect, DistanceMode, EventKind,
+    Feed, GcodeError, InterpOptions, Interpreter, Item, NumberFormat, Programmed, Value,
 };
 use crate::kinematics::{IkError, IkJacobian, IkOptions, IkTarget, Kinematics};
 use crate::model::{AxisKind, Machine};
@@ -119,16 +119,9 @@ pub enum CompensateError {
         "line {line}: the compensated path still deviates by {deviation_um:.2} µm after {MAX_DEPTH} halvings"
     )]
     NoConvergence { line: u64, deviation_um: f64 },
-    /// A machine axis has no G-code letter.
-    #[error("machine axis '{name}' has no G-code letter (name axes X Y Z A B C U V W)")]
-    AxisName { name: String },
-    /// Two machine axes read as the same G-code letter (`x` and `X`).
-    #[error("machine axes '{first}' and '{second}' are both G-code letter {letter}")]
-    AxisLetterTwice {
-        first: String,
-        second: String,
-        letter: char,
-    },
+    /// The machine's axes are not one G-code axis letter each.
+    #[error(transparent)]
+    AxisName(#[from] AxisLetterError),
     /// Writing failed.
     #[error("cannot write the program: {0}")]
     Io(#[from] std::io::Error),
@@ -204,29 +197,7 @@ struct Seed<'a> {
 impl Compensator {
     /// Prepares the kinematics of `machine` (its errors are the actual machine).
     pub fn new(machine: &Machine, opts: CompensateOptions) -> Result<Self, CompensateError> {
-        let letters = machine
-            .axes
-            .iter()
-            .map(|a| {
-                let b = a.name.as_bytes();
-                match b {
-                    [c] => Axis::from_letter(*c),
-                    _ => None,
-                }
-                .ok_or_else(|| CompensateError::AxisName {
-                    name: a.name.clone(),
-                })
-            })
-            .collect::<Result<Vec<Axis>, _>>()?;
-        for (i, g) in letters.iter().enumerate() {
-            if let Some(j) = letters[..i].iter().position(|h| h == g) {
-                return Err(CompensateError::AxisLetterTwice {
-                    first: machine.axes[j].name.clone(),
-                    second: machine.axes[i].name.clone(),
-                    letter: char::from(g.letter()),
-                });
-            }
-        }
+        let letters = Axis::of_machine(machine)?;
         let linear: Vec<bool> = machine
             .axes
             .iter()
@@ -344,7 +315,7 @@ impl Compensator {
 
     /// Machine axis positions of program coordinates `p` (plain program).
     fn axes_of(&self, p: &Axes) -> Vec<f64> {
-        self.letters.iter().map(|&g| p[g]).collect()
+        self.axes_in(p, &mut [0.0; 9]).to_vec()
     }
 
     /// [`Compensator::axes_of`] into a stack buffer (a machine has at most one axis per
@@ -501,7 +472,7 @@ impl Compensator {
         start: &[f64],
         line: u64,
     ) -> Result<f64, CompensateError> {
-        let (want, q_exec) = if tcp {
+        if tcp {
             let q0: Vec<f64> = self
                 .letters
                 .iter()
@@ -510,18 +481,17 @@ impl Compensator {
                 .map(|((&g, &lin), &s)| if lin { s } else { executed[g] })
                 .collect();
             let tip = Vector3::from(executed.xyz());
-            let q = self
+            let q_exec = self
                 .nominal
                 .inverse(&IkTarget { tip, axis: None }, &q0, &self.linear, &self.ik)
                 .map_err(|source| CompensateError::Ik { line, source })?;
-            (Vector3::from(nominal.xyz()), q)
-        } else {
-            let mut buf = [0.0; 9];
-            let want = self.nominal.pose(self.axes_in(nominal, &mut buf)).tip;
-            let q_exec = self.axes_in(executed, &mut buf);
-            return Ok((self.actual.pose(q_exec).tip - want).norm());
-        };
-        Ok((self.actual.pose(&q_exec).tip - want).norm())
+            let want = Vector3::from(nominal.xyz());
+            return Ok((self.actual.pose(&q_exec).tip - want).norm());
+        }
+        let mut buf = [0.0; 9];
+        let want = self.nominal.pose(self.axes_in(nominal, &mut buf)).tip;
+        let q_exec = self.axes_in(executed, &mut buf);
+        Ok((self.actual.pose(q_exec).tip - want).norm())
     }
 
     /// Splits `[a, b]` of `mv` until every checked midpoint is within `tol`;

@@ -4,7 +4,7 @@ use nalgebra::Vector3;
 
 use super::path::NominalPath;
 use super::*;
-use crate::gcode::{self, EventKind};
+use crate::gcode::{self, AxisLetterError, EventKind};
 use crate::model::{parse_machine, read_machine};
 
 fn example(name: &str) -> Machine {
@@ -425,7 +425,9 @@ fn axes_without_a_distinct_letter_are_refused() {
     let mut q = m.clone();
     q.axes[0].name = "Q".into();
     match Compensator::new(&q, CompensateOptions::default()) {
-        Err(CompensateError::AxisName { name }) => assert_eq!(name, "Q"),
+        Err(CompensateError::AxisName(AxisLetterError::NotALetter(name))) => {
+            assert_eq!(name, "Q")
+        }
         other => panic!("{other:?}"),
     }
     // Letters are case-insensitive in G-code: `x` is X a second time.
@@ -442,7 +444,7 @@ fn axes_without_a_distinct_letter_are_refused() {
         .expect("an X axis");
     twice.axes[second].name = "x".into();
     match Compensator::new(&twice, CompensateOptions::default()) {
-        Err(e @ CompensateError::AxisLetterTwice { .. }) => {
+        Err(e @ CompensateError::AxisName(AxisLetterError::Twice { .. })) => {
             let (a, b) = if first < second {
                 ("X", "x")
             } else {

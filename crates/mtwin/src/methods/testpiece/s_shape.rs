@@ -36,6 +36,7 @@ use std::fmt::Write as _;
 use nalgebra::Vector3;
 use thiserror::Error;
 
+use crate::gcode::Axis;
 use crate::io::fmt_f64;
 use crate::kinematics::{IkError, IkOptions, IkTarget, Kinematics};
 use crate::model::{AxisKind, Machine};
@@ -244,22 +245,11 @@ pub fn s_shape_program(
             opts.feed
         )));
     }
-    let letters: Vec<char> = machine
-        .axes
-        .iter()
-        .map(|a| {
-            let mut c = a.name.chars();
-            match (c.next(), c.next()) {
-                (Some(l), None) if "XYZABCUVW".contains(l.to_ascii_uppercase()) => {
-                    Ok(l.to_ascii_uppercase())
-                }
-                _ => Err(SShapeError::Machine(format!(
-                    "axis `{}` has no G-code letter (X Y Z A B C U V W)",
-                    a.name
-                ))),
-            }
-        })
-        .collect::<Result<_, _>>()?;
+    let letters: Vec<char> = Axis::of_machine(machine)
+        .map_err(|e| SShapeError::Machine(e.to_string()))?
+        .into_iter()
+        .map(|g| char::from(g.letter()))
+        .collect();
     if opts.tcp
         && ["X", "Y", "Z"]
             .iter()
