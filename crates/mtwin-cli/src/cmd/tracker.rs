@@ -230,10 +230,10 @@ pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
     let text = machine_to_toml(
         &id.machine,
         &[
-            &format!("Identified by mtwin identify --fit {}", a.fit),
+            &format!("Identified by mtwin tracker identify --fit {}", a.fit),
             &format!("from {} ({} points)", a.data.display(), points.len()),
         ],
-    );
+    )?;
     write_atomic_with(&a.out, |w| w.write_all(text.as_bytes()))
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     let (rms_before, rms_after) = r.rms();
