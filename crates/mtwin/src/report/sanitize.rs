@@ -13,6 +13,8 @@
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
 
+use super::html::escape;
+
 /// The SVG namespace.
 const SVG_NS: &str = "http://www.w3.org/2000/svg";
 /// The XLink namespace (`xlink:href`).
@@ -230,7 +232,7 @@ impl Writer {
                     .insert(format!("attribute {aname}=\"{value}\""));
                 continue;
             }
-            let _ = write!(self.out, " {written}=\"{}\"", escape_attr(value));
+            let _ = write!(self.out, " {written}=\"{}\"", escape(value));
         }
         let children: Vec<_> = n
             .children()
@@ -245,7 +247,7 @@ impl Writer {
             if c.is_element() {
                 self.element(c, false);
             } else if let Some(t) = c.text() {
-                self.out.push_str(&escape_text(t));
+                self.out.push_str(&escape(t));
             }
         }
         let _ = write!(self.out, "</{name}>");
@@ -282,16 +284,6 @@ fn safe_value(v: &str) -> bool {
 /// that could hide a URL from that check.
 fn safe_style(v: &str) -> bool {
     safe_value(v) && !v.contains(['\\', '@']) && !v.contains("/*")
-}
-
-fn escape_text(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-}
-
-fn escape_attr(s: &str) -> String {
-    escape_text(s).replace('"', "&quot;")
 }
 
 #[cfg(test)]
