@@ -45,7 +45,7 @@ mod tests {
         let path = format!("{path} {}", cmd.get_name()).trim().to_string();
         let subs: Vec<_> = cmd
             .get_subcommands()
-            .filter(|s| s.get_name() != "help")
+            .filter(|s| s.get_name() != "help" && !s.is_hide_set())
             .collect();
         for s in &subs {
             leaves(s, &path, out);
@@ -97,6 +97,87 @@ mod tests {
                 panic!("`{path}`: the example does not parse: {e}");
             }
         }
+    }
+
+    /// The tracker commands are the `mtwin tracker` family; the old top-level
+    /// spellings still parse to the same arguments but are not listed in help.
+    #[test]
+    fn tracker_family_and_hidden_old_spellings() {
+        let mut top = Cli::command();
+        top.build();
+        let help = top.render_help().to_string();
+        assert!(help.contains("\n  tracker "), "{help}");
+        for old in [
+            "identify",
+            "validate",
+            "plan",
+            "simulate",
+            "compensate-points",
+        ] {
+            assert!(
+                !help
+                    .lines()
+                    .any(|l| l.trim_start().starts_with(&format!("{old} "))),
+                "`{old}` listed in\n{help}"
+            );
+        }
+        let tracker = top.find_subcommand_mut("tracker").unwrap();
+        let help = tracker.render_help().to_string();
+        for new in [
+            "identify",
+            "validate",
+            "plan",
+            "simulate",
+            "compensate-points",
+        ] {
+            assert!(
+                help.contains(&format!("\n  {new} ")),
+                "`{new}` not in\n{help}"
+            );
+        }
+        let args = "--machine m.toml --data d.csv --fit location --out o.toml";
+        let pairs = [
+            ("tracker identify", "identify", args),
+            (
+                "tracker validate",
+                "validate",
+                "--machine m.toml --data d.csv",
+            ),
+            (
+                "tracker plan",
+                "plan tracker",
+                "--machine m.toml --fit location --candidates 10 --select 5 --out-csv p.csv --out-gcode p.nc",
+            ),
+            (
+                "tracker simulate",
+                "simulate tracker",
+                "--machine m.toml --poses p.csv --noise -0.5 --out f.csv",
+            ),
+            (
+                "tracker compensate-points",
+                "compensate-points",
+                "--machine m.toml --data d.csv --out c.csv",
+            ),
+        ];
+        use clap::Parser;
+        for (new, old, rest) in pairs {
+            let parse = |verb: &str| {
+                let argv = format!("mtwin {verb} {rest}");
+                Cli::try_parse_from(argv.split_whitespace())
+                    .unwrap_or_else(|e| panic!("{argv}: {e}"))
+            };
+            // Same arguments parsed; the debug form differs only in the variant path.
+            let (n, o) = (format!("{:?}", parse(new)), format!("{:?}", parse(old)));
+            let inner = |s: &str| {
+                s[s.find("Args {").unwrap()..]
+                    .trim_end_matches([')', '}', ' '])
+                    .to_string()
+            };
+            assert_eq!(inner(&n), inner(&o), "{new} / {old}");
+        }
+        // -q/--quiet is global: listed in the help of a tracker subcommand too.
+        let id = tracker.find_subcommand_mut("identify").unwrap();
+        assert!(id.render_help().to_string().contains("-q, --quiet"));
     }
 
     /// Leaves that print no numbers on stdout (files and notes only), so

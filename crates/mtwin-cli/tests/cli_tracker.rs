@@ -1,5 +1,6 @@
-//! `mtwin identify` (contract), `validate`, `plan tracker`, `simulate tracker`,
-//! `compensate-points`: an end-to-end run on the AFP gantry and bad input.
+//! `mtwin tracker identify` (contract), `validate`, `plan`, `simulate`,
+//! `compensate-points`: an end-to-end run on the AFP gantry and bad input;
+//! the old top-level spellings still work and print the same.
 
 mod common;
 use common::*;
@@ -28,8 +29,8 @@ fn plan_simulate_identify_validate_compensate() {
     let o = mtwin(
         d,
         &[
-            "plan",
             "tracker",
+            "plan",
             "--machine",
             &nominal,
             "--fit",
@@ -64,8 +65,8 @@ fn plan_simulate_identify_validate_compensate() {
         let o = mtwin(
             d,
             &[
-                "simulate",
                 "tracker",
+                "simulate",
                 "--machine",
                 &truth,
                 "--poses",
@@ -100,6 +101,7 @@ fn plan_simulate_identify_validate_compensate() {
     let o = mtwin(
         d,
         &[
+            "tracker",
             "validate",
             "--machine",
             "id.toml",
@@ -122,7 +124,14 @@ fn plan_simulate_identify_validate_compensate() {
     );
     let o = mtwin(
         d,
-        &["validate", "--machine", "id.toml", "--data", "check.csv"],
+        &[
+            "tracker",
+            "validate",
+            "--machine",
+            "id.toml",
+            "--data",
+            "check.csv",
+        ],
     );
     ok(&o);
     assert!(stdout(&o).contains("|Δp|"));
@@ -130,6 +139,7 @@ fn plan_simulate_identify_validate_compensate() {
     let o = mtwin(
         d,
         &[
+            "tracker",
             "compensate-points",
             "--machine",
             "id.toml",
@@ -159,10 +169,11 @@ fn identify(d: &Path, spec: &str) -> std::process::Output {
     identify_with(d, spec, &[])
 }
 
-/// `mtwin identify` on the AFP gantry from fit.csv into id.toml.
+/// `mtwin tracker identify` on the AFP gantry from fit.csv into id.toml.
 fn identify_with(d: &Path, spec: &str, extra: &[&str]) -> std::process::Output {
     let machine = example("afp-gantry.toml");
     let mut args = vec![
+        "tracker",
         "identify",
         "--machine",
         &machine,
@@ -296,8 +307,8 @@ fn plan_and_simulate_reject_bad_arguments() {
     let o = mtwin(
         d,
         &[
-            "plan",
             "tracker",
+            "plan",
             "--machine",
             &m,
             "--fit",
@@ -319,8 +330,8 @@ fn plan_and_simulate_reject_bad_arguments() {
     let o = mtwin(
         d,
         &[
-            "simulate",
             "tracker",
+            "simulate",
             "--machine",
             &m,
             "--poses",
@@ -334,4 +345,109 @@ fn plan_and_simulate_reject_bad_arguments() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("--noise"));
     assert!(!d.join("f.csv").exists());
+}
+
+/// The old spellings (`mtwin plan tracker`, `simulate tracker`, `identify`,
+/// `validate`, `compensate-points`) are hidden aliases: the whole chain run
+/// with either spelling, each in its own folder, prints and writes the same.
+#[test]
+fn old_spellings_run_the_same_commands() {
+    let nominal = example("afp-gantry.toml");
+    let truth = example("afp-gantry-with-errors.toml");
+    let steps: [(&[&str], &[&str], Vec<&str>); 5] = [
+        (
+            &["tracker", "plan"],
+            &["plan", "tracker"],
+            vec![
+                "--machine",
+                &nominal,
+                "--fit",
+                "location",
+                "--candidates",
+                "60",
+                "--select",
+                "30",
+                "--out-csv",
+                "poses.csv",
+                "--out-gcode",
+                "poses.nc",
+            ],
+        ),
+        (
+            &["tracker", "simulate"],
+            &["simulate", "tracker"],
+            vec![
+                "--machine",
+                &truth,
+                "--poses",
+                "poses.csv",
+                "--seed",
+                "3",
+                "--out",
+                "fit.csv",
+            ],
+        ),
+        (
+            &["tracker", "identify"],
+            &["identify"],
+            vec![
+                "--machine",
+                &nominal,
+                "--data",
+                "fit.csv",
+                "--fit",
+                "location",
+                "--out",
+                "id.toml",
+            ],
+        ),
+        (
+            &["tracker", "validate"],
+            &["validate"],
+            vec![
+                "--machine",
+                "id.toml",
+                "--data",
+                "fit.csv",
+                "--plot",
+                "v.svg",
+            ],
+        ),
+        (
+            &["tracker", "compensate-points"],
+            &["compensate-points"],
+            vec![
+                "--machine",
+                "id.toml",
+                "--data",
+                "poses.csv",
+                "--out",
+                "c.csv",
+            ],
+        ),
+    ];
+    let (new_dir, old_dir) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    for (new, old, rest) in &steps {
+        let mut printed = Vec::new();
+        for (d, verb) in [(new_dir.path(), new), (old_dir.path(), old)] {
+            let mut args: Vec<&str> = verb.to_vec();
+            args.extend(rest);
+            args.extend(["--format", "json"]);
+            let o = mtwin(d, &args);
+            ok(&o);
+            printed.push(stdout(&o));
+        }
+        assert_eq!(printed[0], printed[1], "{new:?} / {old:?}");
+    }
+    for f in [
+        "poses.csv",
+        "poses.nc",
+        "fit.csv",
+        "id.toml",
+        "v.svg",
+        "c.csv",
+    ] {
+        let read = |d: &Path| std::fs::read_to_string(d.join(f)).unwrap();
+        assert_eq!(read(new_dir.path()), read(old_dir.path()), "{f}");
+    }
 }

@@ -309,7 +309,7 @@ fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
             "Machine model with the rotary-axis PIGEs identified by `mtwin ballbar identify`.",
             "The eight PIGEs of A and C are absolute (relative to the nominal geometry).",
         ];
-        write_atomic(out, machine_to_toml(&id.machine, &header).as_bytes())
+        write_atomic(out, machine_to_toml(&id.machine, &header)?.as_bytes())
             .with_context(|| format!("cannot write {}", out.display()))?;
     }
     let mut plots = Vec::new();

@@ -424,7 +424,7 @@ fn tracker_step(a: &Args) -> anyhow::Result<Step> {
     let identified = a.out_dir.join("gantry-identified.toml");
     mtwin::io::write_atomic(
         &identified,
-        machine_to_toml(&id.machine, &["Identified by mtwin demo (tracker step)"]).as_bytes(),
+        machine_to_toml(&id.machine, &["Identified by mtwin demo (tracker step)"])?.as_bytes(),
     )
     .with_context(|| format!("cannot write {}", identified.display()))?;
     let diag = body_diagonals(&model, 25);
@@ -769,7 +769,7 @@ fn servo_step(a: &Args) -> anyhow::Result<Step> {
         machine_to_toml(
             &twin_machine,
             &["The AC trunnion with errors and the servos identified by mtwin demo"],
-        )
+        )?
         .as_bytes(),
     )
     .with_context(|| format!("cannot write {}", path.display()))?;

@@ -47,26 +47,23 @@ pub enum Command {
     /// Fit and predict spindle-speed-driven thermal drift in Z (spec 04).
     #[command(subcommand)]
     Thermal(thermal::Command),
-    /// Identify geometric errors from measured tool-tip positions (laser tracker).
-    #[command(
-        after_help = "Example:\n  mtwin identify --machine examples/machines/afp-gantry.toml --data fit.csv --fit pdge:cheb3,location --out identified.toml"
-    )]
+    /// Laser-tracker identification of the volumetric error model: plan, simulate, identify, validate, compensate points.
+    #[command(subcommand)]
+    Tracker(tracker::Command),
+    /// Old spelling of `mtwin tracker identify` (hidden).
+    #[command(hide = true)]
     Identify(tracker::IdentifyArgs),
-    /// Compare measured tool tips at check poses with the nominal and the identified model.
-    #[command(
-        after_help = "Example:\n  mtwin validate --machine identified.toml --data check.csv --plot check.svg"
-    )]
+    /// Old spelling of `mtwin tracker validate` (hidden).
+    #[command(hide = true)]
     Validate(tracker::ValidateArgs),
-    /// Plan a measurement.
-    #[command(subcommand)]
+    /// Old spelling of `mtwin tracker plan`: `mtwin plan tracker` (hidden).
+    #[command(subcommand, hide = true)]
     Plan(tracker::PlanCommand),
-    /// Simulate a measurement of a known machine.
-    #[command(subcommand)]
+    /// Old spelling of `mtwin tracker simulate`: `mtwin simulate tracker` (hidden).
+    #[command(subcommand, hide = true)]
     Simulate(tracker::SimulateCommand),
-    /// Corrected axis commands from an identified model (inverse kinematics).
-    #[command(
-        after_help = "Example:\n  mtwin compensate-points --machine identified.toml --data targets.csv --out corrected.csv"
-    )]
+    /// Old spelling of `mtwin tracker compensate-points` (hidden).
+    #[command(hide = true)]
     CompensatePoints(tracker::CompensateArgs),
     /// Workpiece set-up error of a power-skiving machine from touch-offs (spec 03).
     #[command(subcommand)]
@@ -105,6 +102,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Predict(a) => predict::run(a),
         Command::Servo(c) => servo::run(c),
         Command::Thermal(c) => thermal::run(c),
+        Command::Tracker(c) => tracker::run(c),
         Command::Identify(a) => tracker::run_identify(a),
         Command::Validate(a) => tracker::run_validate(a),
         Command::Plan(c) => tracker::run_plan(c),

@@ -30,10 +30,10 @@ pub struct Args {
     /// Folder of polar plots written by `ballbar identify --plot DIR` (mode1.svg … mode4.svg).
     #[arg(long, requires = "ballbar")]
     ballbar_plots: Option<PathBuf>,
-    /// Saved output of `mtwin identify --format json` (tracker identification).
+    /// Saved output of `mtwin tracker identify --format json` (tracker identification).
     #[arg(long)]
     identify: Option<PathBuf>,
-    /// Saved output of `mtwin validate --format json`.
+    /// Saved output of `mtwin tracker validate --format json`.
     #[arg(long)]
     validate: Option<PathBuf>,
     /// Saved output of `mtwin skiving setup-error --format json`.

@@ -136,7 +136,7 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
     let fit = sysid::fit_servo_csv(&a.data, &options);
     spin.finish_and_clear();
     let fit = fit?;
-    write_atomic(&a.out, fit.to_toml().as_bytes())
+    write_atomic(&a.out, fit.to_toml()?.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     for w in fit.warnings() {
         warn(w);

@@ -1,6 +1,8 @@
-//! Tool-tip (laser-tracker) identification commands (spec 02): `identify`
-//! (contract), `validate`, `plan tracker`, `simulate tracker`,
-//! `compensate-points`.
+//! Tool-tip (laser-tracker) identification commands, the `mtwin tracker`
+//! family: `identify`, `validate`, `plan`, `simulate`, `compensate-points`.
+//! The old top-level spellings (`mtwin identify`, `mtwin validate`,
+//! `mtwin plan tracker`, `mtwin simulate tracker`, `mtwin compensate-points`)
+//! are hidden subcommands that run the same code.
 
 use std::path::{Path, PathBuf};
 
@@ -23,6 +25,49 @@ use crate::output::{Format, note, print_json, progress, warn};
 
 /// How long the identification runs before it shows a progress bar.
 const PROGRESS_AFTER: std::time::Duration = std::time::Duration::from_secs(1);
+
+/// `mtwin tracker …`.
+#[derive(Debug, clap::Subcommand)]
+pub enum Command {
+    /// Choose laser-tracker measurement poses (greedy D-optimal).
+    #[command(
+        allow_negative_numbers = true,
+        after_help = "Example:\n  mtwin tracker plan --machine examples/machines/afp-gantry.toml --fit pdge:cheb3,location --candidates 1000 --select 180 --out-csv poses.csv --out-gcode poses.nc"
+    )]
+    Plan(PlanArgs),
+    /// Simulate a laser-tracker measurement of a known machine.
+    #[command(
+        allow_negative_numbers = true,
+        after_help = "Example:\n  mtwin tracker simulate --machine examples/machines/afp-gantry-with-errors.toml --poses poses.csv --noise 0.010 --seed 1 --out fit.csv"
+    )]
+    Simulate(SimulateArgs),
+    /// Identify geometric errors from measured tool-tip positions.
+    #[command(
+        after_help = "Example:\n  mtwin tracker identify --machine examples/machines/afp-gantry.toml --data fit.csv --fit pdge:cheb3,location --out identified.toml"
+    )]
+    Identify(IdentifyArgs),
+    /// Compare measured tool tips at check poses with the nominal and the identified model.
+    #[command(
+        after_help = "Example:\n  mtwin tracker validate --machine identified.toml --data check.csv --plot check.svg"
+    )]
+    Validate(ValidateArgs),
+    /// Corrected axis commands from an identified model (inverse kinematics).
+    #[command(
+        after_help = "Example:\n  mtwin tracker compensate-points --machine identified.toml --data targets.csv --out corrected.csv"
+    )]
+    CompensatePoints(CompensateArgs),
+}
+
+/// Run one `mtwin tracker` subcommand.
+pub fn run(c: Command) -> anyhow::Result<()> {
+    match c {
+        Command::Plan(a) => run_plan(PlanCommand::Tracker(a)),
+        Command::Simulate(a) => run_simulate(SimulateCommand::Tracker(a)),
+        Command::Identify(a) => run_identify(a),
+        Command::Validate(a) => run_validate(a),
+        Command::CompensatePoints(a) => run_compensate(a),
+    }
+}
 
 #[derive(Debug, clap::Args)]
 #[command(allow_negative_numbers = true)]
@@ -63,9 +108,10 @@ pub struct ValidateArgs {
     format: Format,
 }
 
+/// The old spelling `mtwin plan tracker` (hidden; `mtwin tracker plan`).
 #[derive(Debug, clap::Subcommand)]
 pub enum PlanCommand {
-    /// Choose laser-tracker measurement poses (greedy D-optimal).
+    /// Choose laser-tracker measurement poses (greedy D-optimal); the same as `mtwin tracker plan`.
     #[command(
         allow_negative_numbers = true,
         after_help = "Example:\n  mtwin plan tracker --machine examples/machines/afp-gantry.toml --fit pdge:cheb3,location --candidates 1000 --select 180 --out-csv poses.csv --out-gcode poses.nc"
@@ -101,9 +147,10 @@ pub struct PlanArgs {
     format: Format,
 }
 
+/// The old spelling `mtwin simulate tracker` (hidden; `mtwin tracker simulate`).
 #[derive(Debug, clap::Subcommand)]
 pub enum SimulateCommand {
-    /// Simulate a laser-tracker measurement of a known machine.
+    /// Simulate a laser-tracker measurement of a known machine; the same as `mtwin tracker simulate`.
     #[command(
         allow_negative_numbers = true,
         after_help = "Example:\n  mtwin simulate tracker --machine examples/machines/afp-gantry-with-errors.toml --poses poses.csv --noise 0.010 --seed 1 --out fit.csv"
@@ -230,10 +277,10 @@ pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
     let text = machine_to_toml(
         &id.machine,
         &[
-            &format!("Identified by mtwin identify --fit {}", a.fit),
+            &format!("Identified by mtwin tracker identify --fit {}", a.fit),
             &format!("from {} ({} points)", a.data.display(), points.len()),
         ],
-    );
+    )?;
     write_atomic_with(&a.out, |w| w.write_all(text.as_bytes()))
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     let (rms_before, rms_after) = r.rms();

@@ -12,9 +12,11 @@ mod number;
 mod rows;
 mod table;
 pub(crate) mod toml;
+pub(crate) mod toml_write;
 
 pub use atomic::{write_atomic, write_atomic_with};
 pub use diagnostic::{Diagnostic, Diagnostics};
 pub use number::{fmt_f64, write_csv_row};
 pub use rows::CsvRows;
 pub use table::{Column, Table};
+pub use toml_write::TomlWriteError;

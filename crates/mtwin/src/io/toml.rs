@@ -1,7 +1,7 @@
 //! Span-aware reading of small TOML files (machine model, `SERVO.toml`,
 //! thermal model): every problem becomes a [`Diagnostic`] with the file and
 //! the line of the offending key or value, and reading goes on so that all
-//! problems are reported at once. Also the float formatting for writing them.
+//! problems are reported at once. Writing is in [`super::toml_write`].
 //!
 //! Messages name the value read by a `what` phrase chosen by the caller
 //! (e.g. "`ts`" or "`origin` of [workpiece] (mm)").
@@ -37,22 +37,6 @@ pub(crate) fn line_of(text: &str, offset: usize) -> usize {
         .filter(|&&b| b == b'\n')
         .count()
         + 1
-}
-
-/// Full-precision text that TOML reads as a float (`1` becomes `1.0`).
-pub(crate) fn fmt_f64_float(v: f64) -> String {
-    let s = super::fmt_f64(v);
-    if s.contains(['.', 'e', 'E']) || !v.is_finite() {
-        s
-    } else {
-        format!("{s}.0")
-    }
-}
-
-/// A TOML array of full-precision floats, `[1.0, 0.5]`.
-pub(crate) fn fmt_f64_array(values: &[f64]) -> String {
-    let items: Vec<String> = values.iter().map(|&v| fmt_f64_float(v)).collect();
-    format!("[{}]", items.join(", "))
 }
 
 /// Something a number can be read from: a table entry ([`Item`]) or an array element ([`Value`]).
@@ -400,13 +384,5 @@ mod tests {
         let e = parse(p, "a = 1\nb = [\n").unwrap_err();
         assert_eq!(e.0[0].line, 3);
         assert!(e.0[0].message.starts_with("not valid TOML"));
-    }
-
-    #[test]
-    fn floats_read_back_as_floats() {
-        assert_eq!(fmt_f64_float(1.0), "1.0");
-        assert_eq!(fmt_f64_array(&[1.0, 0.25]), "[1.0, 0.25]");
-        let v: f64 = fmt_f64_float(0.1 + 0.2).parse().unwrap();
-        assert_eq!(v, 0.1 + 0.2);
     }
 }

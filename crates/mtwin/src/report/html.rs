@@ -8,6 +8,8 @@
 
 use std::fmt::Write as _;
 
+use super::sanitize::sanitize_svg;
+
 /// A whole report.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Report {
@@ -140,42 +142,23 @@ pub fn escape(s: &str) -> String {
     o
 }
 
-/// Keeps an SVG document safe to inline: drops anything before `<svg` (XML
-/// declaration, DOCTYPE) and refuses documents with scripts, event handlers
-/// or external references, which are shown as an escaped note instead.
+/// An SVG document made safe to inline by [`sanitize_svg`]: parsed as XML and
+/// written again with only allowlisted elements and attributes. What was removed
+/// is listed in a note under the figure; a document that cannot be parsed, or
+/// that is not SVG, is left out with a note saying why.
 fn inline_svg(svg: &str) -> String {
-    let lower = svg.to_ascii_lowercase();
-    let Some(start) = lower.find("<svg") else {
-        return "<p class=\"note\">(not an SVG document)</p>".into();
-    };
-    let unsafe_markers = [
-        "<script",
-        " on",
-        "href=\"http",
-        "href='http",
-        "<foreignobject",
-    ];
-    if unsafe_markers.iter().any(|m| {
-        if *m == " on" {
-            // an attribute like onload= / onclick=
-            lower.match_indices(" on").any(|(i, _)| {
-                lower[i + 3..]
-                    .chars()
-                    .take_while(|c| c.is_ascii_alphabetic())
-                    .count()
-                    > 0
-                    && lower[i + 3..]
-                        .trim_start_matches(|c: char| c.is_ascii_alphabetic())
-                        .starts_with('=')
-            })
-        } else {
-            lower.contains(m)
-        }
-    }) {
-        return "<p class=\"note\">(figure left out: it contains scripts or external references)</p>"
-            .into();
+    match sanitize_svg(svg) {
+        Ok(d) if d.dropped.is_empty() => d.svg,
+        Ok(d) => format!(
+            "{}<p class=\"note\">(removed from this figure: {})</p>",
+            d.svg,
+            escape(&d.dropped.join(", "))
+        ),
+        Err(e) => format!(
+            "<p class=\"note\">(figure left out: {})</p>",
+            escape(&e.to_string())
+        ),
     }
-    svg[start..].to_string()
 }
 
 const CSS: &str = "
@@ -371,15 +354,37 @@ mod tests {
     }
 
     #[test]
-    fn unsafe_svg_is_left_out() {
+    fn unsafe_svg_is_cleaned_or_left_out() {
         for bad in [
             "<svg><script>alert(1)</script></svg>",
             "<svg onload=\"alert(1)\"></svg>",
             "<svg><image href=\"http://x/y.png\"/></svg>",
+            "<svg xmlns=\"http://www.w3.org/2000/svg\"\nonload=\"alert(1)\"/>",
+            "<svg><use href=\"javascript:alert(1)\"/></svg>",
         ] {
-            assert!(inline_svg(bad).contains("left out"), "{bad}");
+            let h = inline_svg(bad);
+            let (svg, note) = h
+                .split_once("<p class=\"note\">(removed from this figure: ")
+                .unwrap();
+            assert!(svg.starts_with("<svg") && svg.ends_with(">"), "{svg}");
+            for gone in ["script", "alert", "http://x", "onload="] {
+                assert!(!svg.contains(gone), "{gone} in {svg}");
+            }
+            // The note names what went, escaped.
+            assert!(
+                !note.contains("<script") && note.ends_with(")</p>"),
+                "{note}"
+            );
         }
-        assert!(inline_svg("<svg font-size=\"12\"><text>one</text></svg>").starts_with("<svg"));
+        // Not XML (an HTML parser would run this handler): left out, with the reason.
+        let h = inline_svg("<svg/onload=alert(1)>");
+        assert!(h.starts_with("<p class=\"note\">(figure left out: it is not well-formed XML"));
+        assert!(!h.contains("<svg"));
+        assert!(inline_svg("<p>no</p>").contains("root element is &lt;p&gt;"));
+        assert_eq!(
+            inline_svg("<svg font-size=\"12\"><text>one</text></svg>"),
+            "<svg xmlns=\"http://www.w3.org/2000/svg\" font-size=\"12\"><text>one</text></svg>"
+        );
     }
 
     #[test]

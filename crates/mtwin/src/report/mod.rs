@@ -5,6 +5,7 @@
 
 pub mod html;
 pub mod path3d;
+pub mod sanitize;
 pub mod sections;
 pub mod svg;
 

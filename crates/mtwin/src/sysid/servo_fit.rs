@@ -12,8 +12,11 @@ use super::{
     Criterion, OrderGrid, OrderSelection, Run, Servo, Stability, SysidError,
     select_orders_output_error,
 };
-use crate::io::toml::{Span, TomlReader, fmt_f64_array, fmt_f64_float, parse};
+use crate::io::TomlWriteError;
+use crate::io::toml::{Span, TomlReader, parse};
+use crate::io::toml_write::{float, floats, int, set, with_header};
 use crate::io::{Diagnostic, Diagnostics, Table, fmt_f64};
+use toml_edit::DocumentMut;
 
 /// A servo log: commands and encoder positions (mm or deg) every `ts` seconds.
 #[derive(Debug, Clone, PartialEq)]
@@ -177,28 +180,30 @@ impl ServoFit {
         })
     }
 
-    /// `SERVO.toml`: top-level `ts`, `b`, `a`, `nk` (05), with the fit summary as comments.
-    pub fn to_toml(&self) -> String {
+    /// `SERVO.toml`: top-level `ts`, `b`, `a`, `nk`, with the fit summary as comments.
+    ///
+    /// # Errors
+    /// A non-finite coefficient or sample time, named by its key.
+    pub fn to_toml(&self) -> Result<String, TomlWriteError> {
         let s = &self.selection.fit.stats;
-        let mut out = format!(
-            "# Servo transfer function identified by mtwin (05 §3), command -> encoder position.\n\
-             # orders {}; simulation RMS {} (log unit); one-step RMS {}; samples {}\n",
-            self.selection.table[self.selection.best].orders,
-            fmt_f64(self.simulation_rms),
-            fmt_f64(s.one_step_rms),
-            s.samples
-        );
+        let mut header = vec![
+            "Servo transfer function identified by mtwin, command -> encoder position.".to_string(),
+            format!(
+                "orders {}; simulation RMS {} (log unit); one-step RMS {}; samples {}",
+                self.selection.table[self.selection.best].orders,
+                fmt_f64(self.simulation_rms),
+                fmt_f64(s.one_step_rms),
+                s.samples
+            ),
+        ];
         if let Some(bw) = self.bandwidth_hz {
-            out.push_str(&format!("# bandwidth (-3 dB) {} Hz\n", fmt_f64(bw)));
+            header.push(format!("bandwidth (-3 dB) {} Hz", fmt_f64(bw)));
         }
         if let Some(lag) = self.velocity_lag_s {
-            out.push_str(&format!(
-                "# following error = velocity x {} s\n",
-                fmt_f64(lag)
-            ));
+            header.push(format!("following error = velocity x {} s", fmt_f64(lag)));
         }
-        out.push_str(&self.servo.to_toml());
-        out
+        let header: Vec<&str> = header.iter().map(String::as_str).collect();
+        Ok(with_header(&self.servo.toml_document()?, &header))
     }
 }
 
@@ -275,14 +280,21 @@ fn rms(it: impl Iterator<Item = f64>) -> f64 {
 
 impl Servo {
     /// The four keys of `SERVO.toml` / `[axes.servo]`: `ts`, `b`, `a`, `nk`, at full precision.
-    pub fn to_toml(&self) -> String {
-        format!(
-            "ts = {}\nb = {}\na = {}\nnk = {}\n",
-            fmt_f64_float(self.ts()),
-            fmt_f64_array(self.b()),
-            fmt_f64_array(self.a()),
-            self.nk()
-        )
+    ///
+    /// # Errors
+    /// A non-finite coefficient or sample time, named by its key.
+    pub fn to_toml(&self) -> Result<String, TomlWriteError> {
+        Ok(self.toml_document()?.to_string())
+    }
+
+    fn toml_document(&self) -> Result<DocumentMut, TomlWriteError> {
+        let mut doc = DocumentMut::new();
+        let t = doc.as_table_mut();
+        set(t, "ts", float("ts", self.ts())?, None);
+        set(t, "b", floats("b", self.b())?, None);
+        set(t, "a", floats("a", self.a())?, None);
+        set(t, "nk", int(self.nk() as i64), None);
+        Ok(doc)
     }
 }
 
@@ -513,7 +525,7 @@ mod tests {
             let j = fit.to_json();
             assert_eq!(j["nk"], fit.servo.nk());
             assert_eq!(j["a"][0], 1.0);
-            let back = servo_from_toml_str(Path::new("S.toml"), &fit.to_toml()).unwrap();
+            let back = servo_from_toml_str(Path::new("S.toml"), &fit.to_toml().unwrap()).unwrap();
             assert_eq!(back, fit.servo);
         }
     }
@@ -527,7 +539,7 @@ mod tests {
             2,
         )
         .unwrap();
-        let back = servo_from_toml_str(Path::new("S.toml"), &s.to_toml()).unwrap();
+        let back = servo_from_toml_str(Path::new("S.toml"), &s.to_toml().unwrap()).unwrap();
         assert_eq!(back, s);
         let e = servo_from_toml_str(
             Path::new("S.toml"),
@@ -631,7 +643,27 @@ mod tests {
         }
     }
 
+    fn finite() -> impl proptest::strategy::Strategy<Value = f64> {
+        use proptest::num::f64::{NORMAL, SUBNORMAL, ZERO};
+        NORMAL | SUBNORMAL | ZERO
+    }
+
     proptest::proptest! {
+        /// Any finite coefficients and positive sample time read back identical.
+        #[test]
+        fn servo_toml_round_trips_any_finite_values(
+            ts in proptest::num::f64::POSITIVE | proptest::num::f64::NORMAL,
+            b in proptest::collection::vec(finite(), 1..6),
+            tail in proptest::collection::vec(finite(), 0..6),
+            nk in 0usize..100,
+        ) {
+            let mut a = vec![1.0];
+            a.extend(tail);
+            let s = Servo::new(ts, b, a, nk).unwrap();
+            let back = servo_from_toml_str(Path::new("S.toml"), &s.to_toml().unwrap()).unwrap();
+            proptest::prop_assert_eq!(back, s);
+        }
+
         #[test]
         fn servo_toml_parser_never_panics(s in ".{0,120}") {
             let _ = servo_from_toml_str(Path::new("p.toml"), &s);
@@ -641,7 +673,8 @@ mod tests {
         fn servo_toml_parser_never_panics_on_edits(pos in 0usize..200, junk in "[\\[\\]{}=,.0-9a-z\" \n-]{0,8}", del in 0usize..6) {
             let good = Servo::new(0.001, vec![0.0, 0.0183, 0.0171], vec![1.0, -1.8106, 0.846], 2)
                 .unwrap()
-                .to_toml();
+                .to_toml()
+                .unwrap();
             let mut cut = pos.min(good.len());
             while !good.is_char_boundary(cut) {
                 cut -= 1;

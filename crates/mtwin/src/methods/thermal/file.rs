@@ -29,80 +29,100 @@
 use std::ops::Range;
 use std::path::Path;
 
-use toml_edit::{Item, TableLike};
+use toml_edit::{ArrayOfTables, DocumentMut, Item, Table, TableLike, Value};
 
 use super::model::{HeightModel, HeightStats, InputChannel, ThermalModel};
-use crate::io::toml::{TomlReader, fmt_f64_array as array, fmt_f64_float as float, parse};
+use crate::io::TomlWriteError;
+use crate::io::toml::{TomlReader, parse};
+use crate::io::toml_write::{
+    blank_line_before, float, float_rows, floats, indent, int, ints, set, with_header,
+};
 use crate::io::{Diagnostic, Diagnostics};
 use crate::sysid::Arx;
 
-fn arrays(rows: &[Vec<f64>]) -> String {
-    format!(
-        "[{}]",
-        rows.iter().map(|r| array(r)).collect::<Vec<_>>().join(", ")
-    )
-}
-
 impl ThermalModel {
     /// The model file text (schema in this module's docs), numbers at full precision.
-    pub fn to_toml(&self) -> String {
-        let mut s = String::from(
-            "# mtwin thermal drift model (04): one ARX model per measured height,\n\
-             # e(k) = -sum a_i e(k-i) + sum_inputs sum_j b_j u(k-j-nk), u = (value / scale)^power,\n\
-             # drift in mm (tool relative to workpiece, +Z), time in min, cold before t = 0.\n",
+    ///
+    /// # Errors
+    /// A non-finite number (e.g. a fit statistic), named by its key
+    /// (`heights[0].fit.aic`): the file could not be read back.
+    pub fn to_toml(&self) -> Result<String, TomlWriteError> {
+        let mut doc = DocumentMut::new();
+        let root = doc.as_table_mut();
+        set(
+            root,
+            "period_min",
+            float("period_min", self.period_min())?,
+            None,
         );
-        s.push_str(&format!("period_min = {}\n", float(self.period_min())));
-        for c in self.inputs() {
-            s.push_str(&format!(
-                "\n[[inputs]]\nname = {}\nscale = {}\n",
-                toml_string(&c.name),
-                float(c.scale)
-            ));
+        let mut inputs = ArrayOfTables::new();
+        for (i, c) in self.inputs().iter().enumerate() {
+            let mut t = Table::new();
+            set(&mut t, "name", Value::from(c.name.as_str()), None);
+            set(
+                &mut t,
+                "scale",
+                float(&format!("inputs[{i}].scale"), c.scale)?,
+                None,
+            );
             if c.power != 1 {
-                s.push_str(&format!("power = {}\n", c.power));
+                set(&mut t, "power", int(c.power), None);
             }
+            blank_line_before(&mut t);
+            inputs.push(t);
         }
-        for h in self.heights() {
+        root.insert("inputs", Item::ArrayOfTables(inputs));
+        let mut heights = ArrayOfTables::new();
+        for (k, h) in self.heights().iter().enumerate() {
+            let key = |name: &str| format!("heights[{k}].{name}");
             let m = &h.model;
             let n = m.n_inputs();
-            s.push_str(&format!(
-                "\n[[heights]]\nz_mm = {}\na = {}\nb = {}\nnk = [{}]\n",
-                float(h.z_mm),
-                array(m.a()),
-                arrays(&(0..n).map(|i| m.b(i).to_vec()).collect::<Vec<_>>()),
-                (0..n)
-                    .map(|i| m.nk(i).to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ));
+            let mut t = Table::new();
+            set(&mut t, "z_mm", float(&key("z_mm"), h.z_mm)?, None);
+            set(&mut t, "a", floats(&key("a"), m.a())?, None);
+            let b: Vec<Vec<f64>> = (0..n).map(|i| m.b(i).to_vec()).collect();
+            set(&mut t, "b", float_rows(&key("b"), &b)?, None);
+            set(&mut t, "nk", ints((0..n).map(|i| m.nk(i) as i64)), None);
             if let Some(st) = &h.stats {
-                s.push_str(&format!(
-                    "  [heights.fit]\n  samples = {}\n  params = {}\n  fpe = {}\n  aic = {}\n  \
-                     one_step_rms_mm = {}\n  simulation_rms_mm = {}\n  spectral_radius = {}\n  \
-                     a_std = {}\n  b_std = {}\n",
-                    st.samples,
-                    st.params,
-                    float(st.fpe),
-                    float(st.aic),
-                    float(st.one_step_rms_mm),
-                    float(st.simulation_rms_mm),
-                    float(st.spectral_radius),
-                    array(&st.a_std),
-                    arrays(&st.b_std)
-                ));
+                let key = |name: &str| format!("heights[{k}].fit.{name}");
+                let mut f = Table::new();
+                set(&mut f, "samples", int(st.samples as i64), None);
+                set(&mut f, "params", int(st.params as i64), None);
+                set(&mut f, "fpe", float(&key("fpe"), st.fpe)?, None);
+                set(&mut f, "aic", float(&key("aic"), st.aic)?, None);
+                let one = float(&key("one_step_rms_mm"), st.one_step_rms_mm)?;
+                set(&mut f, "one_step_rms_mm", one, None);
+                let sim = float(&key("simulation_rms_mm"), st.simulation_rms_mm)?;
+                set(&mut f, "simulation_rms_mm", sim, None);
+                let rad = float(&key("spectral_radius"), st.spectral_radius)?;
+                set(&mut f, "spectral_radius", rad, None);
+                set(&mut f, "a_std", floats(&key("a_std"), &st.a_std)?, None);
+                set(&mut f, "b_std", float_rows(&key("b_std"), &st.b_std)?, None);
+                indent(&mut f);
+                t.insert("fit", Item::Table(f));
             }
+            blank_line_before(&mut t);
+            heights.push(t);
         }
-        s
+        root.insert("heights", Item::ArrayOfTables(heights));
+        Ok(with_header(
+            &doc,
+            &[
+                "mtwin thermal drift model: one ARX model per measured height,",
+                "e(k) = -sum a_i e(k-i) + sum_inputs sum_j b_j u(k-j-nk), u = (value / scale)^power,",
+                "drift in mm (tool relative to workpiece, +Z), time in min, cold before t = 0.",
+            ],
+        ))
     }
 
-    /// Write the model file atomically.
+    /// Write the model file atomically. A non-finite number in the model is
+    /// refused ([`ThermalModel::to_toml`]) as an error of kind `InvalidData`.
     pub fn write(&self, path: &Path) -> std::io::Result<()> {
-        crate::io::write_atomic(path, self.to_toml().as_bytes())
+        let text = self
+            .to_toml()
+            .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))?;
+        crate::io::write_atomic(path, text.as_bytes())
     }
-}
-
-fn toml_string(s: &str) -> String {
-    toml_edit::Value::from(s).to_string().trim().to_string()
 }
 
 /// Read a thermal model file.
@@ -396,7 +416,7 @@ mod tests {
             }],
         )
         .unwrap();
-        let text = quadratic.to_toml();
+        let text = quadratic.to_toml().unwrap();
         assert_eq!(text.matches("power = 2").count(), 1, "{text}");
         let p = Path::new("T.toml");
         assert_eq!(model_from_toml_str(p, &text).unwrap(), quadratic);
@@ -418,7 +438,7 @@ mod tests {
     #[test]
     fn round_trip_is_exact() {
         let m = model();
-        let text = m.to_toml();
+        let text = m.to_toml().unwrap();
         let back = model_from_toml_str(Path::new("T.toml"), &text).unwrap();
         assert_eq!(back, m);
     }
@@ -426,7 +446,7 @@ mod tests {
     #[test]
     fn bad_files_report_lines() {
         let p = Path::new("T.toml");
-        let good = model().to_toml();
+        let good = model().to_toml().unwrap();
         // Unknown key, at its own line.
         let text = good.replacen("period_min = 10.0\n", "period_min = 10.0\ncolour = 3\n", 1);
         let line = text.lines().position(|l| l.starts_with("colour")).unwrap() + 1;
@@ -478,6 +498,121 @@ mod tests {
         );
     }
 
+    mod round_trip {
+        use super::*;
+        use proptest::prelude::*;
+
+        fn finite() -> impl Strategy<Value = f64> {
+            prop::num::f64::NORMAL | prop::num::f64::SUBNORMAL | prop::num::f64::ZERO
+        }
+
+        fn positive() -> impl Strategy<Value = f64> {
+            prop::num::f64::POSITIVE | prop::num::f64::NORMAL | prop::num::f64::SUBNORMAL
+        }
+
+        fn name() -> impl Strategy<Value = String> {
+            prop::collection::vec(any::<char>(), 0..16).prop_map(|c| c.into_iter().collect())
+        }
+
+        fn stats(n: usize) -> impl Strategy<Value = HeightStats> {
+            (
+                (0usize..1_000_000, 0usize..1000),
+                (finite(), finite(), finite(), finite(), finite()),
+                prop::collection::vec(finite(), 0..4),
+                prop::collection::vec(prop::collection::vec(finite(), 0..3), n),
+            )
+                .prop_map(
+                    |((samples, params), (fpe, aic, one, sim, rad), a_std, b_std)| HeightStats {
+                        samples,
+                        params,
+                        fpe,
+                        aic,
+                        one_step_rms_mm: one,
+                        simulation_rms_mm: sim,
+                        spectral_radius: rad,
+                        a_std,
+                        b_std,
+                    },
+                )
+        }
+
+        fn height(n: usize) -> impl Strategy<Value = HeightModel> {
+            (
+                finite(),
+                prop::collection::vec(finite(), 0..4),
+                prop::collection::vec((prop::collection::vec(finite(), 1..4), 1usize..30), n),
+                prop::option::of(stats(n)),
+            )
+                .prop_map(|(z_mm, tail, inputs, stats)| {
+                    let mut a = vec![1.0];
+                    a.extend(tail);
+                    HeightModel {
+                        z_mm,
+                        model: Arx::new(a, inputs).unwrap(),
+                        stats,
+                    }
+                })
+        }
+
+        fn model() -> impl Strategy<Value = ThermalModel> {
+            (
+                positive(),
+                prop::collection::btree_set(name(), 1..4),
+                prop::collection::vec((positive(), 1u32..=InputChannel::MAX_POWER), 4),
+            )
+                .prop_flat_map(|(period, names, scales)| {
+                    let inputs: Vec<InputChannel> = names
+                        .into_iter()
+                        .zip(scales)
+                        .map(|(name, (scale, power))| InputChannel { name, scale, power })
+                        .collect();
+                    let n = inputs.len();
+                    (
+                        Just(period),
+                        Just(inputs),
+                        prop::collection::vec(height(n), 1..4),
+                    )
+                })
+                .prop_filter_map(
+                    "distinct heights",
+                    |(period, inputs, mut heights)| {
+                        heights.sort_by(|a, b| a.z_mm.total_cmp(&b.z_mm));
+                        heights.dedup_by(|a, b| a.z_mm == b.z_mm);
+                        ThermalModel::new(period, inputs, heights).ok()
+                    },
+                )
+        }
+
+        proptest! {
+            /// Any input name (any character: quotes, backslashes, newlines) and any
+            /// finite numbers read back identical; a non-finite statistic is refused
+            /// with its key.
+            #[test]
+            fn any_model_round_trips(m in model()) {
+                let text = m.to_toml().unwrap();
+                let back = model_from_toml_str(Path::new("T.toml"), &text);
+                prop_assert!(back.is_ok(), "{:?}\n{}", back.err(), text);
+                prop_assert_eq!(back.unwrap(), m.clone());
+                let mut bad = m;
+                let mut h = bad.heights()[0].clone();
+                let mut st = h.stats.clone().unwrap_or(HeightStats {
+                    samples: 1, params: 1, fpe: 0.0, aic: 0.0, one_step_rms_mm: 0.0,
+                    simulation_rms_mm: 0.0, spectral_radius: 0.0, a_std: vec![], b_std: vec![],
+                });
+                st.aic = f64::NAN;
+                h.stats = Some(st);
+                bad = ThermalModel::new(bad.period_min(), bad.inputs().to_vec(), {
+                    let mut hs = bad.heights().to_vec();
+                    hs[0] = h;
+                    hs
+                })
+                .unwrap();
+                let e = bad.to_toml().unwrap_err();
+                prop_assert_eq!(e.key, "heights[0].fit.aic");
+            }
+        }
+    }
+
     proptest::proptest! {
         #[test]
         fn parser_never_panics(s in ".{0,200}") {
@@ -486,7 +621,7 @@ mod tests {
 
         #[test]
         fn parser_never_panics_on_edits(pos in 0usize..2000, junk in "[\\[\\]=,.0-9a-z\" \n-]{0,8}") {
-            let good = model().to_toml();
+            let good = model().to_toml().unwrap();
             let mut cut = pos.min(good.len());
             while !good.is_char_boundary(cut) {
                 cut -= 1;

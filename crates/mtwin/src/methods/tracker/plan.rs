@@ -186,7 +186,7 @@ pub fn plan(
 /// The pose program: rapid-free linear moves to every pose with a dwell for
 /// the tracker reading, axis words by axis name (mm, degree).
 pub fn gcode(machine: &Machine, poses: &[Vec<f64>], feed: f64, dwell_s: f64) -> String {
-    let mut s = String::from("(mtwin plan tracker: measurement poses)\nG90 G21 G94\n");
+    let mut s = String::from("(mtwin tracker plan: measurement poses)\nG90 G21 G94\n");
     for (k, q) in poses.iter().enumerate() {
         s.push_str(&format!("(POSE {})\nG01", k + 1));
         for (a, v) in machine.axes.iter().zip(q) {

@@ -1,6 +1,6 @@
 //! Tracker sections (spec 02): identification from the JSON of
-//! `mtwin identify --format json` (identifiability verdict and estimates with
-//! uncertainties) and validation from the JSON of `mtwin validate --format
+//! `mtwin tracker identify --format json` (identifiability verdict and estimates with
+//! uncertainties) and validation from the JSON of `mtwin tracker validate --format
 //! json` (before/after statistics per direction and as a chart).
 
 use super::{COLORS, Json, ReportError, decimate, fmt};
