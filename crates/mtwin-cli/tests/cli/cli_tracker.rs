@@ -1,8 +1,7 @@
 //! `mtwin identify` (contract), `validate`, `plan tracker`, `simulate tracker`,
 //! `compensate-points`: an end-to-end run on the AFP gantry and bad input.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 use std::path::Path;
 
