@@ -24,3 +24,6 @@ pub mod sysid;
 
 /// Re-export of the linear-algebra crate used in the public API (vectors, matrices).
 pub use nalgebra;
+
+#[cfg(test)]
+mod test_support;

@@ -977,13 +977,7 @@ mod tests {
     }
 
     fn corpus(name: &str) -> Option<PathBuf> {
-        let dir =
-            FsPath::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/corpus/gcode/linuxcnc");
-        if !dir.is_dir() {
-            eprintln!("skipping: {} is absent", dir.display());
-            return None;
-        }
-        Some(dir.join(name))
+        crate::test_support::shared_dir("corpus/gcode/linuxcnc").map(|d| d.join(name))
     }
 
     /// Interpolates a corpus program under TCP and checks every sample's

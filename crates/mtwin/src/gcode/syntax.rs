@@ -225,11 +225,9 @@ fn write_fixed(v: f64, decimals: u8, out: &mut String) {
         i -= 1;
         buf[i] = b'-';
     }
-    let digits = &buf[i..];
-    debug_assert!(digits.is_ascii());
-    // SAFETY: `digits` holds only ASCII digits, '.' and '-' (written above), so it is
-    // valid UTF-8; checking it costs more than writing it.
-    out.push_str(unsafe { std::str::from_utf8_unchecked(digits) });
+    // Only ASCII digits, '.' and '-' were written, so the check cannot fail; on at most
+    // 40 bytes it costs a few nanoseconds.
+    out.push_str(std::str::from_utf8(&buf[i..]).expect("ASCII digits"));
 }
 
 /// One block (line) of a program: its exact bytes and the items in them.

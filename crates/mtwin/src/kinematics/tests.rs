@@ -18,7 +18,7 @@ fn load(name: &str) -> Machine {
 }
 
 /// Deterministic pseudo-random poses inside the travels.
-fn poses(m: &Machine, n: usize, seed: u64) -> Vec<Vec<f64>> {
+pub(super) fn poses(m: &Machine, n: usize, seed: u64) -> Vec<Vec<f64>> {
     let mut s = seed;
     let mut next = || {
         s = s
@@ -389,7 +389,7 @@ fn compiled_error_functions_equal_the_definitions() {
 /// The three example machines with errors, plus the AC trunnion with table-form errors on
 /// X and C (which take the general, per-function path) and large error angles on C (which
 /// take the `f64::sin_cos` branch of the small-angle series).
-fn fast_path_machines() -> Vec<(String, Machine)> {
+pub(super) fn fast_path_machines() -> Vec<(String, Machine)> {
     let mut out: Vec<(String, Machine)> = [
         "ac-trunnion-with-errors.toml",
         "afp-gantry-with-errors.toml",

@@ -1,4 +1,4 @@
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use nalgebra::Vector3;
 
@@ -209,12 +209,10 @@ fn zero_error_model_leaves_programs_byte_identical() {
 
 #[test]
 fn zero_error_model_leaves_the_corpus_boat_identical() {
-    let p: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/corpus/gcode/linuxcnc/boat-xyzac.ngc");
-    let Ok(text) = std::fs::read(&p) else {
-        eprintln!("skipped: {} is absent", p.display());
+    let Some(p) = crate::test_support::shared_dir("corpus/gcode/linuxcnc/boat-xyzac.ngc") else {
         return;
     };
+    let text = std::fs::read(&p).unwrap();
     let m = example("ac-trunnion.toml");
     let (out, s) = run(&m, &text, &CompensateOptions::default());
     assert!(out == text, "boat-xyzac.ngc changed");

@@ -335,12 +335,7 @@ fn rotary_only_tcp_move_takes_the_sample_closest_in_time() {
 }
 
 fn corpus(name: &str) -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/corpus/gcode/linuxcnc");
-    if !dir.is_dir() {
-        eprintln!("skipping: the corpus folder {} is absent", dir.display());
-        return None;
-    }
-    Some(dir.join(name))
+    crate::test_support::shared_dir("corpus/gcode/linuxcnc").map(|d| d.join(name))
 }
 
 #[test]

@@ -7,12 +7,10 @@
 //! Needs Debian's `chromium` (`.ci/run` installs it). Without it the test
 //! says so and passes, unless `MTWIN_REQUIRE_BROWSER=1` (set by `.ci/run`).
 
-mod common;
-
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use common::{mtwin, repo, stderr};
+use crate::common::{mtwin, repo, stderr};
 
 fn chromium() -> Option<PathBuf> {
     if let Ok(p) = std::env::var("MTWIN_CHROMIUM") {

@@ -1,18 +1,12 @@
 //! The real programs of the corpus: every one round-trips byte for byte, and
 //! the five-axis TCP programs interpret without error.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use mtwin::gcode::{self, EventKind, InterpOptions, Program, StatsOptions};
 
 fn corpus() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/corpus/gcode/linuxcnc");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!("skipping: corpus folder {} is absent", dir.display());
-        None
-    }
+    crate::shared::shared_dir("corpus/gcode/linuxcnc")
 }
 
 #[test]

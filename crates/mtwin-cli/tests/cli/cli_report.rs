@@ -2,11 +2,9 @@
 //! numbers of its inputs in the units it names, bad inputs are refused with
 //! the file named and nothing written, and the demo recovers its known truths.
 
-mod common;
-
 use std::path::Path;
 
-use common::{example, mtwin, repo, stderr, stdout};
+use crate::common::{example, mtwin, repo, stderr, stdout};
 
 fn ok(dir: &Path, args: &[&str]) -> String {
     let o = mtwin(dir, args);

@@ -2,8 +2,7 @@
 //! forms, errors with file:line:col and no partial output, and the commands
 //! of docs/gcode.md.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 fn write(dir: &std::path::Path, name: &str, text: &str) {
     std::fs::write(dir.join(name), text).unwrap();
@@ -158,7 +157,7 @@ fn stats_reports_travel_violations() {
 #[test]
 fn documented_walkthrough_ends_where_it_started() {
     let dir = tempfile::tempdir().unwrap();
-    let ran = common::run_doc("gcode.md", dir.path());
+    let ran = crate::common::run_doc("gcode.md", dir.path());
     assert_eq!(ran.len(), 5, "{ran:?}");
     // Read the Fanuc way, the square's numbers (no decimal point) are in
     // least increments: a thousand times smaller.

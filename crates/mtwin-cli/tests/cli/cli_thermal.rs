@@ -2,8 +2,7 @@
 //! data of a known synthetic machine → fit → predict a new speed programme →
 //! compare with the machine's exact drift; simulate; bad input.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 use std::path::Path;
 

@@ -2,8 +2,7 @@
 //! reaching the nominal path with a known error model, refusals, and the
 //! commands of docs/compensation.md.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 use std::path::Path;
 
@@ -17,13 +16,7 @@ G1 X40 Y-30 Z10 F800 (cut)\nG1 X-60 Y30 Z5 A25 C-40\nG1   x-20 y60 z0 a-15 c120 
 M429\nM30\n%\n";
 
 fn boat() -> Option<std::path::PathBuf> {
-    let p = repo().join("../shared/corpus/gcode/linuxcnc/boat-xyzac.ngc");
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("skipped: {} is absent", p.display());
-        None
-    }
+    crate::shared::shared_dir("corpus/gcode/linuxcnc/boat-xyzac.ngc")
 }
 
 /// Straight TCP moves of a program: (from, to) tips in W, and whether the

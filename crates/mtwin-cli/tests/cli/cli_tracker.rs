@@ -2,8 +2,7 @@
 //! `compensate-points`: an end-to-end run on the AFP gantry and bad input;
 //! the old top-level spellings still work and print the same.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 use std::path::Path;
 

@@ -181,14 +181,7 @@ const SKIPPED: &[(&str, &str)] = &[
 ];
 
 fn root() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/corpus/gcode-conformance/linuxcnc-interp");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!("skipping: conformance folder {} is absent", dir.display());
-        None
-    }
+    crate::shared::shared_dir("corpus/gcode-conformance/linuxcnc-interp")
 }
 
 /// One motion call: name and arguments in LinuxCNC's order, mm and degree.

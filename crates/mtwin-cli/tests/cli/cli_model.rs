@@ -1,7 +1,6 @@
 //! `mtwin model check`: exit codes, messages with line numbers, JSON.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 #[test]
 fn good_file_passes_with_a_summary() {

@@ -1,8 +1,7 @@
 //! `mtwin ballbar` (contract, spec 01): setup-error, identify on simulated data, bad
 //! input with file and line, subsets, outputs (docs/ballbar.md is run by docs.rs).
 
-mod common;
-use common::*;
+use crate::common::*;
 
 use serde_json::Value;
 

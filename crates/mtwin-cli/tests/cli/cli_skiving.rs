@@ -2,8 +2,7 @@
 //! truths, the program and simulate subcommands, bad input, and every
 //! command of docs/skiving.md.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 use std::path::Path;
 
@@ -247,7 +246,7 @@ fn programs_in_both_dialects_and_no_output_on_failure() {
 #[test]
 fn documented_walkthrough_recovers_its_truth() {
     let dir = tempfile::tempdir().unwrap();
-    let ran = common::run_doc("skiving.md", dir.path());
+    let ran = crate::common::run_doc("skiving.md", dir.path());
     assert!(ran.len() >= 6, "{ran:?}");
     // The documented truth, recovered within 3 uncertainties (95 % factor 4.3).
     let o = run(

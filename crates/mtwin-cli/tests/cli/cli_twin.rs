@@ -1,7 +1,6 @@
 //! `mtwin twin predict` (contract, spec 05) end to end through the binary.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 use std::path::Path;
 
@@ -222,14 +221,9 @@ fn uneven_sampling_and_missing_columns_are_refused() {
 
 #[test]
 fn perfect_machine_runs_the_corpus_boat_without_error_and_plots() {
-    let boat = repo().join("../shared/corpus/gcode/linuxcnc/boat-xyzac.ngc");
-    if !boat.parent().unwrap().is_dir() {
-        eprintln!(
-            "skipping: the corpus folder {} is absent",
-            boat.parent().unwrap().display()
-        );
+    let Some(boat) = crate::shared::shared_dir("corpus/gcode/linuxcnc/boat-xyzac.ngc") else {
         return;
-    }
+    };
     let dir = tempfile::tempdir().unwrap();
     let m = example("ac-trunnion.toml");
     let b = boat.display().to_string();

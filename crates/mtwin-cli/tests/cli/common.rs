@@ -39,15 +39,29 @@ pub fn stderr(o: &Output) -> String {
 }
 
 /// Run one page of `docs/` by the documentation convention, in `dir` (which
-/// gets an `examples` link to the repository's `examples/` folder): every
-/// fenced block whose info string holds `file=NAME` is written to NAME, and
-/// every `$ mtwin …` line of a ```` ```console ```` block is run in order; each
-/// must exit 0, and with `--format json` its stdout must be one JSON
-/// document. A line ending in `> NAME` writes its stdout to NAME, as a shell
-/// would. Returns the commands run.
+/// gets an `examples` link to the repository's `examples/` folder); see
+/// [`run_doc_text`]. Returns the commands run with their stdout.
 pub fn run_doc(page: &str, dir: &Path) -> Vec<(String, String)> {
     let text = std::fs::read_to_string(repo().join("docs").join(page))
         .unwrap_or_else(|e| panic!("docs/{page}: {e}"));
+    run_doc_text(&format!("docs/{page}"), &text, dir)
+}
+
+/// Run a page written by the documentation convention, in `dir`; `name`
+/// labels failures. Every fenced block whose info string holds `file=NAME`
+/// is written to NAME, and every `$ mtwin …` line of a ```` ```console ````
+/// block is run in order; each must exit 0, and with `--format json` its
+/// stdout must be one JSON document. A line ending in `> NAME` writes its
+/// stdout to NAME, as a shell would. A block indented (under a list item)
+/// is read without the indent of its opening fence.
+///
+/// The lines after a command, up to the next `$` line or the end of the
+/// block, are the output the page shows: the command's stdout must equal
+/// them line for line (see `docs::output_matches`: only wall-clock timings are
+/// normalised, and a line holding only `…` stands for lines left out). A
+/// command followed by no lines is run but its output is not compared.
+/// Every `$` line must be an `mtwin` command.
+pub fn run_doc_text(name: &str, text: &str, dir: &Path) -> Vec<(String, String)> {
     let link = dir.join("examples");
     if !link.exists() {
         #[cfg(unix)]
@@ -59,17 +73,23 @@ pub fn run_doc(page: &str, dir: &Path) -> Vec<(String, String)> {
         let Some(info) = line.trim_start().strip_prefix("```") else {
             continue;
         };
+        // A block indented under a list item: its lines lose the fence's indent.
+        let indent = line.len() - line.trim_start().len();
         let body: Vec<&str> = lines
             .by_ref()
             .take_while(|l| !l.trim_start().starts_with("```"))
+            .map(|l| {
+                let spaces = l.len() - l.trim_start_matches(' ').len();
+                &l[spaces.min(indent)..]
+            })
             .collect();
-        if let Some(name) = info
+        if let Some(file) = info
             .split_whitespace()
             .find_map(|w| w.strip_prefix("file="))
         {
-            std::fs::write(dir.join(name), body.join("\n") + "\n").unwrap();
+            std::fs::write(dir.join(file), body.join("\n") + "\n").unwrap();
         } else if info.split_whitespace().next() == Some("console") {
-            for cmd in body.iter().filter_map(|l| l.strip_prefix("$ mtwin ")) {
+            for (cmd, shown) in crate::docs::console_commands(name, &body) {
                 let words = split_words(cmd);
                 let mut args: Vec<&str> = words.iter().map(String::as_str).collect();
                 let redirect = match args[..] {
@@ -86,18 +106,29 @@ pub fn run_doc(page: &str, dir: &Path) -> Vec<(String, String)> {
                 assert_eq!(
                     o.status.code(),
                     Some(0),
-                    "docs/{page}: `mtwin {cmd}` failed: {}",
+                    "{name}: `mtwin {cmd}` failed: {}",
                     stderr(&o)
                 );
+                let out = stdout(&o);
                 if args.windows(2).any(|w| w == ["--format", "json"]) {
-                    let _: serde_json::Value =
-                        serde_json::from_str(&stdout(&o)).unwrap_or_else(|e| {
-                            panic!(
-                                "docs/{page}: `mtwin {cmd}`: stdout is not one JSON document: {e}"
-                            )
-                        });
+                    let _: serde_json::Value = serde_json::from_str(&out).unwrap_or_else(|e| {
+                        panic!("{name}: `mtwin {cmd}`: stdout is not one JSON document: {e}")
+                    });
                 }
-                ran.push((cmd.to_string(), stdout(&o)));
+                if !shown.is_empty() {
+                    assert!(
+                        redirect.is_none(),
+                        "{name}: `mtwin {cmd}` writes its stdout to a file, yet output is shown"
+                    );
+                    if let Err(why) = crate::docs::output_matches(&shown, &out) {
+                        panic!(
+                            "{name}: `mtwin {cmd}` does not print what the page shows ({why}).\n\
+                             The page shows:\n{}\nThe command prints:\n{out}",
+                            shown.join("\n")
+                        );
+                    }
+                }
+                ran.push((cmd.to_string(), out));
             }
         }
     }

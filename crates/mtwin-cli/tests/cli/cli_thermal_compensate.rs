@@ -3,12 +3,10 @@
 //! programs without spindle, errors with file:line, and the commands of
 //! docs/thermal-compensation.md.
 
-mod common;
-
 use std::path::Path;
 use std::process::Output;
 
-use common::{mtwin, run_doc, stderr, stdout};
+use crate::common::{mtwin, run_doc, stderr, stdout};
 use mtwin::gcode::{
     Axis, EventKind, InterpOptions, Interpreter, Program, ProgramStats, SpindleState, StatsOptions,
 };

@@ -1,7 +1,6 @@
 //! `mtwin predict` (contract): columns, values against an independent closed form, bad input.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 fn write(dir: &std::path::Path, name: &str, text: &str) {
     std::fs::write(dir.join(name), text).unwrap();

@@ -2,8 +2,7 @@
 //! known second-order axis → simulated excitation log → fit → the fitted
 //! model reproduces a held-out command; the fitted file works as `[axes.servo]`.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 use std::path::Path;
 

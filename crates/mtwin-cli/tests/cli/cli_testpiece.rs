@@ -1,8 +1,7 @@
 //! `mtwin testpiece s-shape` end to end: the documented commands run, the
 //! program interpolates within travel, travel violations exit 1 without output.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 #[test]
 fn docs_walkthrough_runs_and_the_tip_feed_holds() {

@@ -1,0 +1,24 @@
+//! The command-line tool's integration tests, one test binary (so `cargo
+//! test` links the library and the tool once): each module was once its own
+//! file under `tests/`. Run one family with a name filter, e.g.
+//! `cargo test -p mtwin-cli --test cli cli_gcode::`.
+
+mod common;
+#[path = "../../../mtwin/src/test_support.rs"]
+mod shared;
+
+mod browser;
+mod cli_ballbar;
+mod cli_compensate;
+mod cli_gcode;
+mod cli_model;
+mod cli_predict;
+mod cli_report;
+mod cli_servo;
+mod cli_skiving;
+mod cli_testpiece;
+mod cli_thermal;
+mod cli_thermal_compensate;
+mod cli_tracker;
+mod cli_twin;
+mod docs;
