@@ -128,6 +128,13 @@ impl Plan {
         self
     }
 
+    /// Several folders (`.folders(&a.plot)` for an optional one).
+    pub fn folders<P: AsRef<Path>>(mut self, paths: impl IntoIterator<Item = P>) -> Self {
+        self.folders
+            .extend(paths.into_iter().map(|p| p.as_ref().to_path_buf()));
+        self
+    }
+
     /// Check every output against the inputs and the file system, then
     /// create the declared folders and one temporary file per output file.
     /// Nothing is created when a check fails.
@@ -137,7 +144,12 @@ impl Plan {
         for f in &self.folders {
             match fs::metadata(f) {
                 Ok(m) if m.is_dir() => {}
-                Ok(_) => return Err(refuse(format!("{} exists and is not a folder", f.display()))),
+                Ok(_) => {
+                    return Err(refuse(format!(
+                        "{} exists and is not a folder",
+                        f.display()
+                    )));
+                }
                 Err(_) => {
                     let mut missing = vec![f.clone()];
                     let mut cur = f.as_path();
@@ -582,6 +594,28 @@ impl Outputs {
         }
     }
 
+    /// The content staged so far for the declared output file `path` (for a
+    /// command whose later step reads what an earlier one wrote).
+    pub fn staged(&self, path: impl AsRef<Path>) -> io::Result<Vec<u8>> {
+        let path = path.as_ref();
+        match self
+            .targets
+            .iter()
+            .find(|t| t.given == path)
+            .map(|t| &t.kind)
+        {
+            Some(Kind::File {
+                tmp: Some(Temp { path: Some(p), .. }),
+                written: true,
+                ..
+            }) => fs::read(p),
+            _ => Err(io::Error::new(
+                io::ErrorKind::NotFound,
+                format!("{} has not been written yet", path.display()),
+            )),
+        }
+    }
+
     /// Write `bytes` as the content of the declared output `path`.
     pub fn write(&mut self, path: impl AsRef<Path>, bytes: &[u8]) -> io::Result<()> {
         self.write_with(path, |w| w.write_all(bytes))
@@ -832,9 +866,17 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let a = dir.path().join("a.csv");
         let again = dir.path().join(".").join("a.csv");
-        let e = Outputs::plan().output(&a).output(&again).begin().unwrap_err();
+        let e = Outputs::plan()
+            .output(&a)
+            .output(&again)
+            .begin()
+            .unwrap_err();
         assert!(e.to_string().contains("same output file"), "{e}");
-        let e = Outputs::plan().output("-").output("/dev/stdout").begin().unwrap_err();
+        let e = Outputs::plan()
+            .output("-")
+            .output("/dev/stdout")
+            .begin()
+            .unwrap_err();
         assert!(e.to_string().contains("same output file"), "{e}");
         assert!(names(dir.path()).is_empty());
     }
@@ -887,7 +929,12 @@ mod tests {
         let link = dir.path().join("link.csv");
         std::os::unix::fs::symlink("real.csv", &link).unwrap();
         write_atomic(&link, b"new").unwrap();
-        assert!(fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        assert!(
+            fs::symlink_metadata(&link)
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
         assert_eq!(fs::read_link(&link).unwrap(), Path::new("real.csv"));
         assert_eq!(fs::read(&real).unwrap(), b"new");
         // A dangling link: its target is created.
@@ -895,7 +942,12 @@ mod tests {
         std::os::unix::fs::symlink("created.csv", &dangling).unwrap();
         write_atomic(&dangling, b"made").unwrap();
         assert_eq!(fs::read(dir.path().join("created.csv")).unwrap(), b"made");
-        assert!(fs::symlink_metadata(&dangling).unwrap().file_type().is_symlink());
+        assert!(
+            fs::symlink_metadata(&dangling)
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
         no_temporaries(dir.path());
     }
 
