@@ -5,8 +5,8 @@
 //! Standard output is written only through [`print_out`] / [`write_stdout`]
 //! (the crate's `print!`/`println!` call them): a closed pipe there ends the
 //! command quietly with [`EXIT_CLOSED_PIPE`], after removing the temporary
-//! files of unfinished outputs. SIGINT, SIGTERM and SIGHUP do the same with
-//! 130, 143 and 129 ([`remove_temporaries_on_signals`]).
+//! files of unfinished outputs. SIGINT, SIGTERM and SIGHUP remove them too,
+//! then end the process by the signal ([`remove_temporaries_on_signals`]).
 
 use std::io::{IsTerminal, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -117,10 +117,12 @@ pub fn is_closed_pipe(e: &anyhow::Error) -> bool {
 }
 
 /// Catch SIGINT, SIGTERM and SIGHUP on a thread of their own: remove the
-/// temporary files (and created folders) of unfinished outputs, then exit
-/// 128 + the signal number (130, 143, 129). An output already being renamed
-/// into place finishes first, so a signal never leaves part of a command's
-/// outputs replaced.
+/// temporary files (and created folders) of unfinished outputs, then end the
+/// process by the same signal with its default action, so that a shell
+/// reports 130, 143 or 129 and a script stops on Ctrl-C as it would for any
+/// program (exit 128 + the signal number should that fail). An output
+/// already being renamed into place finishes first, so a signal never leaves
+/// part of a command's outputs replaced.
 pub fn remove_temporaries_on_signals() {
     #[cfg(unix)]
     {
@@ -136,7 +138,12 @@ pub fn remove_temporaries_on_signals() {
                 if let Ok(mut signals) = signals
                     && let Some(sig) = signals.forever().next()
                 {
-                    mtwin::io::remove_temporaries_and_exit(128 + sig);
+                    mtwin::io::remove_temporaries_then_exit(
+                        || {
+                            let _ = signal_hook::low_level::emulate_default_handler(sig);
+                        },
+                        128 + sig,
+                    );
                 }
             });
         if spawned.is_ok() {

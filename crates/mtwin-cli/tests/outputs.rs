@@ -482,7 +482,7 @@ fn slow_program(dir: &Path) -> PathBuf {
 /// Start `gcode interpolate` of the slow program, wait until its temporary
 /// output has grown past 1 MB, send `signal`, and return the exit code.
 #[cfg(unix)]
-fn interrupt_a_long_write(signal: &str) -> (Option<i32>, tempfile::TempDir) {
+fn interrupt_a_long_write(signal: &str) -> (std::process::ExitStatus, tempfile::TempDir) {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     slow_program(d);
@@ -551,16 +551,32 @@ fn interrupt_a_long_write(signal: &str) -> (Option<i32>, tempfile::TempDir) {
         "the previous output must stay whole"
     );
     assert_eq!(names(d), ["cmd.csv", "slow.nc"]);
-    (status.code(), dir)
+    (status, dir)
 }
 
 #[cfg(unix)]
 #[test]
 fn sigint_and_sigterm_leave_no_temporary_file() {
-    let (code, _d) = interrupt_a_long_write("INT");
-    assert_eq!(code, Some(130), "128 + SIGINT");
-    let (code, _d) = interrupt_a_long_write("TERM");
-    assert_eq!(code, Some(143), "128 + SIGTERM");
+    use std::os::unix::process::ExitStatusExt;
+    // Ended by the signal itself (a shell reports 130 and 143).
+    let (status, _d) = interrupt_a_long_write("INT");
+    assert_eq!(status.signal(), Some(2), "{status}");
+    let (status, _d) = interrupt_a_long_write("TERM");
+    assert_eq!(status.signal(), Some(15), "{status}");
+    // And as a shell sees it.
+    let dir = tempfile::tempdir().unwrap();
+    slow_program(dir.path());
+    let script = "\"$0\" gcode interpolate --machine \"$1\" slow.nc --ts 0.001 --out cmd.csv & \
+                  pid=$!; \
+                  while ! ls -a | grep -q '^.mtwin-'; do sleep 0.01; done; \
+                  sleep 0.05; kill -TERM $pid; wait $pid; echo \"status $?\"";
+    let o = Command::new("sh")
+        .args(["-c", script, bin(), &example("ac-trunnion.toml")])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert_eq!(stdout(&o).trim(), "status 143", "{}", stderr(&o));
+    assert_eq!(names(dir.path()), ["slow.nc"]);
 }
 
 #[test]

@@ -17,8 +17,8 @@ pub(crate) mod toml;
 pub use diagnostic::{Diagnostic, Diagnostics};
 pub use number::{fmt_f64, write_csv_row};
 pub use outputs::{
-    Outputs, Plan, remove_temporaries_and_exit, stdout_closed, stdout_is_output, write_atomic,
-    write_atomic_with,
+    Outputs, Plan, remove_temporaries_and_exit, remove_temporaries_then_exit, stdout_closed,
+    stdout_is_output, write_atomic, write_atomic_with,
 };
 pub use rows::CsvRows;
 pub use table::{Column, Table};

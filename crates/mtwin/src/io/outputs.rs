@@ -55,12 +55,20 @@ static STDOUT_IS_OUTPUT: AtomicBool = AtomicBool::new(false);
 static STDOUT_CLOSED: AtomicBool = AtomicBool::new(false);
 
 /// Remove every temporary file and every folder created for an uncommitted
-/// [`Outputs`] of this process, then exit with `code`. Meant for a signal
-/// handler thread (SIGINT → 130, SIGTERM → 143) and for a closed standard
-/// output. The registry stays locked until the process is gone, so no
-/// commit can start (or be half done) after the clean-up: a commit already
-/// under way finishes first, and its outputs are then complete.
+/// [`Outputs`] of this process, then exit with `code`. Meant for a closed
+/// standard output; see [`remove_temporaries_then_exit`].
 pub fn remove_temporaries_and_exit(code: i32) -> ! {
+    remove_temporaries_then_exit(|| {}, code)
+}
+
+/// Remove every temporary file and every folder created for an uncommitted
+/// [`Outputs`] of this process, run `end` (which may end the process, e.g.
+/// by raising a signal again with its default action), then exit with
+/// `code`. Meant for a signal handler thread. The registry stays locked until
+/// the process is gone, so no commit can start (or be half done) after the
+/// clean-up: a commit already under way finishes first, and its outputs are
+/// then complete.
+pub fn remove_temporaries_then_exit(end: impl FnOnce(), code: i32) -> ! {
     let mut g = live();
     for f in g.files.drain(..) {
         let _ = fs::remove_file(&f);
@@ -68,6 +76,7 @@ pub fn remove_temporaries_and_exit(code: i32) -> ! {
     for d in g.dirs.drain(..).rev() {
         let _ = fs::remove_dir(&d);
     }
+    end();
     std::process::exit(code)
 }
 
