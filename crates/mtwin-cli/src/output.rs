@@ -127,13 +127,19 @@ pub fn remove_temporaries_on_signals() {
     #[cfg(unix)]
     {
         use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+        // A signal the process was started with ignored (`nohup`, SIGINT for
+        // a script's background job) stays ignored.
+        let caught: Vec<i32> = [SIGINT, SIGTERM, SIGHUP]
+            .into_iter()
+            .filter(|&s| !ignored(s))
+            .collect();
         let (ready, wait) = std::sync::mpsc::channel();
         // The handlers are registered on the thread itself, so a thread that
         // cannot be started leaves the default actions in place.
         let spawned = std::thread::Builder::new()
             .name("signals".into())
             .spawn(move || {
-                let signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]);
+                let signals = signal_hook::iterator::Signals::new(&caught);
                 let _ = ready.send(());
                 if let Ok(mut signals) = signals
                     && let Some(sig) = signals.forever().next()
@@ -149,6 +155,18 @@ pub fn remove_temporaries_on_signals() {
         if spawned.is_ok() {
             let _ = wait.recv();
         }
+    }
+}
+
+/// True when `sig` is ignored (inherited from the parent).
+#[cfg(unix)]
+fn ignored(sig: i32) -> bool {
+    // SAFETY: `sigaction` with a null new action only reads the current
+    // disposition into `old`, a valid, zero-initialised (plain C data)
+    // out-parameter.
+    unsafe {
+        let mut old: libc::sigaction = std::mem::zeroed();
+        libc::sigaction(sig, std::ptr::null(), &mut old) == 0 && old.sa_sigaction == libc::SIG_IGN
     }
 }
 

@@ -853,3 +853,29 @@ fn folders_of_several_outputs_are_created_only_on_success() {
     assert_refused(&o, "negative noise");
     assert!(!d.join("sim").exists(), "{:?}", names(d));
 }
+
+/// `nohup` (SIGHUP ignored by the parent) keeps working: a SIGHUP does not
+/// stop the command.
+#[cfg(unix)]
+#[test]
+fn an_ignored_signal_stays_ignored() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    slow_program(d);
+    let script = "trap '' HUP; \"$0\" gcode interpolate --machine \"$1\" slow.nc --ts 0.001 --out cmd.csv >/dev/null & \
+                  pid=$!; \
+                  while ! ls -a | grep -q '^.mtwin-'; do sleep 0.01; done; \
+                  kill -HUP $pid; wait $pid; echo \"status $?\"";
+    let o = Command::new("sh")
+        .args(["-c", script, bin(), &example("ac-trunnion.toml")])
+        .current_dir(d)
+        .output()
+        .unwrap();
+    assert_eq!(stdout(&o).trim(), "status 0", "{}", stderr(&o));
+    assert_eq!(names(d), ["cmd.csv", "slow.nc"]);
+    let lines = std::fs::read_to_string(d.join("cmd.csv"))
+        .unwrap()
+        .lines()
+        .count();
+    assert_eq!(lines, 6_000_002 + 1, "header and every sample");
+}
