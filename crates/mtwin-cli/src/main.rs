@@ -4,6 +4,42 @@
 //! computation lives in the `mtwin` library. Each subcommand family has its own
 //! module under `cmd/`.
 
+// Every `print!`/`println!`/`eprint!`/`eprintln!` of this crate goes through
+// `output`: these crate-level macros are defined before the modules, so they
+// shadow the standard ones everywhere below. A closed standard output then
+// ends the command quietly (exit 141, temporary files removed) instead of
+// the standard macros' panic; see `output::print_out`.
+#[allow(unused_macros)]
+macro_rules! print {
+    ($($arg:tt)*) => {
+        $crate::output::print_out(::std::format_args!($($arg)*))
+    };
+}
+#[allow(unused_macros)]
+macro_rules! println {
+    () => {
+        $crate::output::print_out(::std::format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::output::print_out(::std::format_args!("{}\n", ::std::format_args!($($arg)*)))
+    };
+}
+#[allow(unused_macros)]
+macro_rules! eprint {
+    ($($arg:tt)*) => {
+        $crate::output::print_err(::std::format_args!($($arg)*))
+    };
+}
+#[allow(unused_macros)]
+macro_rules! eprintln {
+    () => {
+        $crate::output::print_err(::std::format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::output::print_err(::std::format_args!("{}\n", ::std::format_args!($($arg)*)))
+    };
+}
+
 mod bundled;
 mod cmd;
 mod output;
@@ -24,10 +60,17 @@ pub struct Cli {
 }
 
 fn main() -> std::process::ExitCode {
+    output::remove_temporaries_on_signals();
     let cli = Cli::parse();
     output::set_quiet(cli.quiet);
-    match cmd::run(cli.command) {
+    let result = cmd::run(cli.command);
+    // Whatever is still buffered for stdout: a closed pipe here is handled too.
+    output::flush_stdout();
+    match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) if output::is_closed_pipe(&e) => {
+            std::process::ExitCode::from(output::EXIT_CLOSED_PIPE)
+        }
         Err(e) => {
             output::print_error(&e);
             std::process::ExitCode::from(1)

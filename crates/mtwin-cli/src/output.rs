@@ -1,8 +1,14 @@
 //! Output conventions shared by every subcommand (00 §7): `--format json` prints
 //! machine-readable JSON on stdout and nothing else; notes, warnings and progress
-//! go to stderr; output files are written atomically.
+//! go to stderr; output files are written all-or-nothing (`mtwin::io::Outputs`).
+//!
+//! Standard output is written only through [`print_out`] / [`write_stdout`]
+//! (the crate's `print!`/`println!` call them): a closed pipe there ends the
+//! command quietly with [`EXIT_CLOSED_PIPE`], after removing the temporary
+//! files of unfinished outputs. SIGINT, SIGTERM and SIGHUP remove them too,
+//! then end the process by the signal ([`remove_temporaries_on_signals`]).
 
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::ValueEnum;
@@ -46,6 +52,121 @@ pub fn print_error(e: &anyhow::Error) {
     eprintln!("error: {e}");
     for cause in e.chain().skip(1) {
         eprintln!("  caused by: {cause}");
+    }
+}
+
+/// Exit status when standard output is a closed pipe (`mtwin … | head -1`):
+/// 128 + SIGPIPE, what a shell reports for a program that the closed pipe
+/// killed, so `set -o pipefail` scripts see that the results were cut short.
+pub const EXIT_CLOSED_PIPE: u8 = 141;
+
+/// Write printed results on stdout. A closed pipe ends the process quietly
+/// with [`EXIT_CLOSED_PIPE`]; any other failure to write prints one error and
+/// exits 1; temporary output files are removed first either way. When an
+/// output file is stdout itself (`--out -`), printed results go to stderr so
+/// that stdout carries the file alone.
+pub fn print_out(args: std::fmt::Arguments<'_>) {
+    if mtwin::io::stdout_is_output() {
+        print_err(args);
+        return;
+    }
+    if let Err(e) = std::io::stdout().lock().write_fmt(args) {
+        stdout_failed(e);
+    }
+}
+
+/// Write raw bytes on stdout, as [`print_out`].
+pub fn write_stdout(bytes: &[u8]) {
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_all(bytes).and_then(|()| out.flush()) {
+        stdout_failed(e);
+    }
+}
+
+/// Flush what is still buffered for stdout (before the exit status is chosen).
+pub fn flush_stdout() {
+    if let Err(e) = std::io::stdout().lock().flush() {
+        stdout_failed(e);
+    }
+}
+
+fn stdout_failed(e: std::io::Error) -> ! {
+    if e.kind() == std::io::ErrorKind::BrokenPipe {
+        mtwin::io::remove_temporaries_and_exit(i32::from(EXIT_CLOSED_PIPE));
+    }
+    print_err(format_args!(
+        "error: cannot write to standard output: {e}\n"
+    ));
+    mtwin::io::remove_temporaries_and_exit(1)
+}
+
+/// Write on stderr; a failure to (a closed pipe) is ignored: there is nowhere
+/// left to report it.
+pub fn print_err(args: std::fmt::Arguments<'_>) {
+    let _ = std::io::stderr().lock().write_fmt(args);
+}
+
+/// True when a command failed because its standard output (or an output
+/// FIFO) is a closed pipe: the command then ends quietly.
+pub fn is_closed_pipe(e: &anyhow::Error) -> bool {
+    mtwin::io::stdout_closed()
+        || e.chain().any(|c| {
+            c.downcast_ref::<std::io::Error>()
+                .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+        })
+}
+
+/// Catch SIGINT, SIGTERM and SIGHUP on a thread of their own: remove the
+/// temporary files (and created folders) of unfinished outputs, then end the
+/// process by the same signal with its default action, so that a shell
+/// reports 130, 143 or 129 and a script stops on Ctrl-C as it would for any
+/// program (exit 128 + the signal number should that fail). An output
+/// already being renamed into place finishes first, so a signal never leaves
+/// part of a command's outputs replaced.
+pub fn remove_temporaries_on_signals() {
+    #[cfg(unix)]
+    {
+        use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+        // A signal the process was started with ignored (`nohup`, SIGINT for
+        // a script's background job) stays ignored.
+        let caught: Vec<i32> = [SIGINT, SIGTERM, SIGHUP]
+            .into_iter()
+            .filter(|&s| !ignored(s))
+            .collect();
+        let (ready, wait) = std::sync::mpsc::channel();
+        // The handlers are registered on the thread itself, so a thread that
+        // cannot be started leaves the default actions in place.
+        let spawned = std::thread::Builder::new()
+            .name("signals".into())
+            .spawn(move || {
+                let signals = signal_hook::iterator::Signals::new(&caught);
+                let _ = ready.send(());
+                if let Ok(mut signals) = signals
+                    && let Some(sig) = signals.forever().next()
+                {
+                    mtwin::io::remove_temporaries_then_exit(
+                        || {
+                            let _ = signal_hook::low_level::emulate_default_handler(sig);
+                        },
+                        128 + sig,
+                    );
+                }
+            });
+        if spawned.is_ok() {
+            let _ = wait.recv();
+        }
+    }
+}
+
+/// True when `sig` is ignored (inherited from the parent).
+#[cfg(unix)]
+fn ignored(sig: i32) -> bool {
+    // SAFETY: `sigaction` with a null new action only reads the current
+    // disposition into `old`, a valid, zero-initialised (plain C data)
+    // out-parameter.
+    unsafe {
+        let mut old: libc::sigaction = std::mem::zeroed();
+        libc::sigaction(sig, std::ptr::null(), &mut old) == 0 && old.sa_sigaction == libc::SIG_IGN
     }
 }
 

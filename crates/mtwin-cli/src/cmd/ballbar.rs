@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use mtwin::fit::Options;
-use mtwin::io::{fmt_f64, write_atomic, write_atomic_with};
+use mtwin::io::{Outputs, fmt_f64};
 use mtwin::methods::ballbar::{
     self, Mode, ModeData, Pige, ProgramSpec, Rig, SetupErrorInput, SimulationSpec, angle_range,
     identify, read_mode_file, sensitivity_table, setup_error, simulate_modes, write_mode_file,
@@ -277,11 +277,30 @@ fn run_setup(a: SetupArgs) -> anyhow::Result<()> {
 }
 
 fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
-    let machine = machine_or(&a.machine, "ac-trunnion.toml")?;
     let files = [&a.mode1, &a.mode2, &a.mode3, &a.mode4];
     if files.iter().all(|f| f.is_none()) {
         bail!("give at least one of --mode1 … --mode4");
     }
+    // One polar plot per mode given.
+    let plot_path = |dir: &Path, m: Mode| dir.join(format!("{}.svg", m.label()));
+    let plot_files: Vec<PathBuf> = a
+        .plot
+        .iter()
+        .flat_map(|dir| {
+            Mode::ALL
+                .into_iter()
+                .filter(|m| files[m.index()].is_some())
+                .map(|m| plot_path(dir, m))
+        })
+        .collect();
+    let mut out = Outputs::plan()
+        .inputs(&a.machine)
+        .inputs(files.into_iter().flatten())
+        .outputs(&a.out)
+        .folders(&a.plot)
+        .outputs(&plot_files)
+        .begin()?;
+    let machine = machine_or(&a.machine, "ac-trunnion.toml")?;
     let mut data: Vec<Option<ModeData>> = Vec::new();
     let mut problems = mtwin::io::Diagnostics::default();
     for f in files {
@@ -303,29 +322,29 @@ fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
     let rig = a.rig.rig();
     let id = identify(&machine, &rig, &refs, &Options::default())?;
 
-    // Outputs first (atomic), then the report.
-    if let Some(out) = &a.out {
+    // Outputs first (all or nothing), then the report.
+    if let Some(path) = &a.out {
         let header = [
             "Machine model with the rotary-axis PIGEs identified by `mtwin ballbar identify`.",
             "The eight PIGEs of A and C are absolute (relative to the nominal geometry).",
         ];
-        write_atomic(out, machine_to_toml(&id.machine, &header)?.as_bytes())
-            .with_context(|| format!("cannot write {}", out.display()))?;
+        out.write(path, machine_to_toml(&id.machine, &header)?.as_bytes())
+            .with_context(|| format!("cannot write {}", path.display()))?;
     }
     let mut plots = Vec::new();
     if let Some(dir) = &a.plot {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         for m in Mode::ALL {
             if let Some(d) = refs[m.index()]
                 && let Some(svg) = ballbar::plot::polar_plot(&id, m, d)
             {
-                let p = dir.join(format!("{}.svg", m.label()));
-                write_atomic(&p, svg.as_bytes())
+                let p = plot_path(dir, m);
+                out.write(&p, svg.as_bytes())
                     .with_context(|| format!("cannot write {}", p.display()))?;
                 plots.push(p);
             }
         }
     }
+    out.commit()?;
     for u in &id.unresolved {
         note(format!("not identified: {}", u.reason));
     }
@@ -465,9 +484,13 @@ fn run_sensitivity(a: SensitivityArgs) -> anyhow::Result<()> {
 }
 
 fn run_program(a: ProgramArgs) -> anyhow::Result<()> {
+    let program_path = |m: Mode| a.out.join(format!("{}.ngc", m.label()));
+    let mut out = Outputs::plan()
+        .inputs(&a.machine)
+        .folder(&a.out)
+        .outputs(Mode::ALL.map(program_path))
+        .begin()?;
     let machine = machine_or(&a.machine, "ac-trunnion.toml")?;
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("cannot create {}", a.out.display()))?;
     let mut texts = Vec::new();
     for m in Mode::ALL {
         let spec = ProgramSpec {
@@ -480,11 +503,16 @@ fn run_program(a: ProgramArgs) -> anyhow::Result<()> {
     }
     let mut files = Vec::new();
     for (m, t) in &texts {
-        let p = a.out.join(format!("{}.ngc", m.label()));
-        write_atomic(&p, t.as_bytes()).with_context(|| format!("cannot write {}", p.display()))?;
-        note(format!("{} → {}", m.label(), p.display()));
-        files.push(p.display().to_string());
+        let p = program_path(*m);
+        out.write(&p, t.as_bytes())
+            .with_context(|| format!("cannot write {}", p.display()))?;
+        files.push(p);
     }
+    out.commit()?;
+    for (p, (m, _)) in files.iter().zip(&texts) {
+        note(format!("{} → {}", m.label(), p.display()));
+    }
+    let files: Vec<String> = files.iter().map(|p| p.display().to_string()).collect();
     match a.format {
         Format::Json => print_json(&json!({"files": files})),
         Format::Human => Ok(()),
@@ -492,6 +520,12 @@ fn run_program(a: ProgramArgs) -> anyhow::Result<()> {
 }
 
 fn run_simulate(a: SimulateArgs) -> anyhow::Result<()> {
+    let data_path = |m: Mode| a.out.join(format!("{}.csv", m.label()));
+    let mut out = Outputs::plan()
+        .inputs(&a.machine)
+        .folder(&a.out)
+        .outputs(Mode::ALL.map(data_path))
+        .begin()?;
     let machine = machine_or(&a.machine, "ac-trunnion-with-errors.toml")?;
     if !(a.noise >= 0.0 && a.noise.is_finite()) {
         bail!(
@@ -511,14 +545,14 @@ fn run_simulate(a: SimulateArgs) -> anyhow::Result<()> {
         ));
     }
     let data = simulate_modes(&machine, &specs, a.seed)?;
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("cannot create {}", a.out.display()))?;
     let mut written = Vec::new();
     for (m, d) in Mode::ALL.iter().zip(&data) {
-        let p = a.out.join(format!("{}.csv", m.label()));
-        write_file(&p, d)?;
+        let p = data_path(*m);
+        out.write_with(&p, |w| write_mode_file(w, d))
+            .with_context(|| format!("cannot write {}", p.display()))?;
         written.push(p.display().to_string());
     }
+    out.commit()?;
     match a.format {
         Format::Json => print_json(&json!({"files": written, "seed": a.seed, "noise": a.noise})),
         Format::Human => {
@@ -528,9 +562,4 @@ fn run_simulate(a: SimulateArgs) -> anyhow::Result<()> {
             Ok(())
         }
     }
-}
-
-fn write_file(p: &Path, d: &ModeData) -> anyhow::Result<()> {
-    write_atomic_with(p, |w| write_mode_file(w, d))
-        .with_context(|| format!("cannot write {}", p.display()))
 }

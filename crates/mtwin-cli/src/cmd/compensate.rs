@@ -52,6 +52,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "--max-correction must be a positive number of mm, not {}",
         a.max_correction
     );
+    let mut out = mtwin::io::Outputs::plan()
+        .input(&a.machine)
+        .input(&a.program)
+        .output(&a.out)
+        .begin()?;
     let m = load_machine(&a.machine)?;
     let mut opts = CompensateOptions {
         tol: a.tol,
@@ -64,7 +69,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         Compensator::new(&m, opts).map_err(|e| anyhow::anyhow!("{}: {e}", a.machine.display()))?;
     let (input, bar) = crate::output::open_with_progress(&a.program, "compensate")?;
     let mut summary = Summary::default();
-    let written = mtwin::io::write_atomic_with(&a.out, |w| -> Result<(), CompensateError> {
+    let written = out.write_with(&a.out, |w| -> Result<(), CompensateError> {
         summary = comp.run(input, w)?;
         Ok(())
     });
@@ -73,6 +78,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         CompensateError::Io(e) => anyhow::anyhow!("cannot write {}: {e}", a.out.display()),
         e => anyhow::anyhow!("{}: {e}", a.program.display()),
     })?;
+    out.commit()?;
     for n in &summary.notes {
         note(n);
     }

@@ -28,7 +28,10 @@ pub struct ManArgs {
 
 pub fn run_completions(a: CompletionsArgs) -> anyhow::Result<()> {
     let mut cmd = crate::Cli::command();
-    clap_complete::generate(a.shell, &mut cmd, "mtwin", &mut std::io::stdout());
+    // Rendered first: the generators panic on a failed write, and stdout may be a closed pipe.
+    let mut buf = Vec::new();
+    clap_complete::generate(a.shell, &mut cmd, "mtwin", &mut buf);
+    crate::output::write_stdout(&buf);
     Ok(())
 }
 
@@ -43,21 +46,30 @@ fn pages(cmd: &clap::Command, out: &mut Vec<clap::Command>) {
 pub fn run_man(a: ManArgs) -> anyhow::Result<()> {
     let mut cmd = crate::Cli::command().disable_help_subcommand(true);
     cmd.build();
-    std::fs::create_dir_all(&a.out_dir)
-        .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
     let mut list = Vec::new();
     pages(&cmd, &mut list);
+    let paths: Vec<PathBuf> = list
+        .iter()
+        .map(|c| {
+            a.out_dir
+                .join(clap_mangen::Man::new(c.clone()).get_filename())
+        })
+        .collect();
+    let mut out = mtwin::io::Outputs::plan()
+        .folder(&a.out_dir)
+        .outputs(&paths)
+        .begin()?;
     let mut written = Vec::new();
-    for c in list {
+    for (c, path) in list.into_iter().zip(&paths) {
         let man = clap_mangen::Man::new(c);
         let mut buf = Vec::new();
         man.render(&mut buf)
             .with_context(|| format!("cannot render {}", man.get_filename()))?;
-        let path = a.out_dir.join(man.get_filename());
-        mtwin::io::write_atomic(&path, &buf)
+        out.write(path, &buf)
             .with_context(|| format!("cannot write {}", path.display()))?;
         written.push(path.display().to_string());
     }
+    out.commit()?;
     match a.format {
         Format::Json => print_json(&json!({"pages": written.len(), "files": written})),
         Format::Human => {

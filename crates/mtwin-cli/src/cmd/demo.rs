@@ -11,6 +11,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use mtwin::fit::Options;
+use mtwin::io::Outputs;
 use mtwin::kinematics::{IkOptions, IkTarget, Kinematics};
 use mtwin::methods::ballbar::{
     self, Mode, ModeData, Pige, Piges, Rig, SimulationSpec, Trunnion, angle_range, simulate_modes,
@@ -79,15 +80,27 @@ fn spread_poses(m: &Machine, n: usize) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// The files the demo writes into `--out-dir`, all or none.
+const FILES: [&str; 6] = [
+    "report.html",
+    "gantry-identified.toml",
+    "thermal.toml",
+    "faces-comp.nc",
+    "ac-trunnion-twin.toml",
+    "s-curve-5axis-comp.ngc",
+];
+
 pub fn run(a: Args) -> anyhow::Result<()> {
     let t0 = Instant::now();
-    std::fs::create_dir_all(&a.out_dir)
-        .with_context(|| format!("cannot create {}", a.out_dir.display()))?;
+    let mut out = Outputs::plan()
+        .folder(&a.out_dir)
+        .outputs(FILES.map(|f| a.out_dir.join(f)))
+        .begin()?;
     let human = a.format == Format::Human;
     if human {
         println!("mtwin demo — every method end to end on the bundled examples and known truths\n");
     }
-    type StepFn = fn(&Args) -> anyhow::Result<Step>;
+    type StepFn = fn(&Args, &mut Outputs) -> anyhow::Result<Step>;
     let steps: [(&str, StepFn); 8] = [
         ("machine", machine_step),
         ("ballbar", ballbar_step),
@@ -110,7 +123,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     for (k, (name, f)) in steps.iter().enumerate() {
         bar.set_message(name.to_string());
         let t = Instant::now();
-        let step = f(&a).with_context(|| format!("demo step `{name}`"))?;
+        let step = f(&a, &mut out).with_context(|| format!("demo step `{name}`"))?;
         let dt = t.elapsed().as_secs_f64();
         bar.inc(1);
         if human {
@@ -134,8 +147,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     methods.extend(machine);
     report.sections = methods;
     let path = a.out_dir.join("report.html");
-    mtwin::io::write_atomic(&path, render(&report).as_bytes())
+    out.write(&path, render(&report).as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))?;
+    out.commit()?;
     let total = t0.elapsed().as_secs_f64();
     match a.format {
         Format::Json => {
@@ -152,7 +166,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 }
 
 /// Step 1: The machine model, its volumetric error and inverse kinematics.
-fn machine_step(_: &Args) -> anyhow::Result<Step> {
+fn machine_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
     let m = bundled::machine("ac-trunnion-with-errors.toml")?;
     let k = Kinematics::new(&m);
     let kn = Kinematics::nominal(&m);
@@ -237,7 +251,7 @@ fn machine_step(_: &Args) -> anyhow::Result<Step> {
 
 /// Step 2: Ballbar: four modes simulated on the machine with errors, the eight
 /// PIGEs identified on the nominal model, the offsets compensated.
-fn ballbar_step(_: &Args) -> anyhow::Result<Step> {
+fn ballbar_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
     // The truth: the nominal trunnion with the eight PIGEs of the example
     // machine with errors (the ballbar sees the rotary axes; the seed takes
     // the linear axes as calibrated).
@@ -407,7 +421,7 @@ fn body_diagonals(m: &Machine, n: usize) -> Vec<Vec<f64>> {
 
 /// Step 3: Tracker: plan 180 poses, simulate the measurement of the gantry with
 /// errors, identify `pdge:cheb3,location`, validate on the body diagonals.
-fn tracker_step(a: &Args) -> anyhow::Result<Step> {
+fn tracker_step(a: &Args, out: &mut Outputs) -> anyhow::Result<Step> {
     let truth = bundled::machine("afp-gantry-with-errors.toml")?;
     let model = bundled::machine("afp-gantry.toml")?;
     let spec = "pdge:cheb3,location";
@@ -422,7 +436,7 @@ fn tracker_step(a: &Args) -> anyhow::Result<Step> {
         &|_| {},
     )?;
     let identified = a.out_dir.join("gantry-identified.toml");
-    mtwin::io::write_atomic(
+    out.write(
         &identified,
         machine_to_toml(&id.machine, &["Identified by mtwin demo (tracker step)"])?.as_bytes(),
     )
@@ -494,7 +508,7 @@ fn tracker_step(a: &Args) -> anyhow::Result<Step> {
 }
 
 /// Step 4: Skiving: twelve touch-offs simulated with a known set-up error.
-fn skiving_step(_: &Args) -> anyhow::Result<Step> {
+fn skiving_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
     let g = Geometry::new(80.0, 150.0, 40.0, 60.0)?;
     let plan = Plan::standard(0.0, &g).touches(&g)?;
     let truth = SetupError {
@@ -563,7 +577,7 @@ fn face(n: u32, out: &mut String) {
 /// Step 5: Thermal: probing runs of a known two-time-constant machine, ARX fit per
 /// height, and the seed's check: a face milled cold and again after an hour at
 /// varying speed, without and with the program compensated.
-fn thermal_step(a: &Args) -> anyhow::Result<Step> {
+fn thermal_step(a: &Args, out: &mut Outputs) -> anyhow::Result<Step> {
     let mut truth = TruthMachine::demo();
     truth.fast_gain_mm *= 0.5;
     truth.slow_gain_mm *= 0.5;
@@ -580,8 +594,7 @@ fn thermal_step(a: &Args) -> anyhow::Result<Step> {
     let data = thermal::training_from_table(&table, &[]).map_err(super::common::diag)?;
     let fit = thermal::fit(&data, &ThermalFitOptions::default())?;
     let model = fit.model;
-    model
-        .write(&a.out_dir.join("thermal.toml"))
+    out.write(a.out_dir.join("thermal.toml"), model.to_toml()?.as_bytes())
         .context("cannot write thermal.toml")?;
     // The seed's check as a program.
     let mut program = String::from("%\nG21 G90 G94 G17\nG0 Z5\nS6000 M3\n");
@@ -603,7 +616,7 @@ fn thermal_step(a: &Args) -> anyhow::Result<Step> {
         program.as_bytes(),
         &thermal::CompensateOptions::default(),
     )?;
-    mtwin::io::write_atomic(&a.out_dir.join("faces-comp.nc"), &comp.output)
+    out.write(a.out_dir.join("faces-comp.nc"), &comp.output)
         .context("cannot write faces-comp.nc")?;
     // True drift at the face height over the program's speed programme.
     let speeds: Vec<f64> = (0..comp.programme.len())
@@ -724,7 +737,7 @@ fn excitation(ts: f64) -> Vec<f64> {
 
 /// Step 6: Servo: command/encoder logs of each axis simulated with known transfer
 /// functions and 20 nm encoder noise, fitted by ARX with order selection.
-fn servo_step(a: &Args) -> anyhow::Result<Step> {
+fn servo_step(a: &Args, out: &mut Outputs) -> anyhow::Result<Step> {
     let m = bundled::machine("ac-trunnion-with-errors.toml")?;
     let mut rng = rand::rngs::StdRng::seed_from_u64(5);
     let noise = Normal::new(0.0, 0.00002)?;
@@ -764,7 +777,7 @@ fn servo_step(a: &Args) -> anyhow::Result<Step> {
         fits.push((axis.name.clone(), fit.to_json()));
     }
     let path = a.out_dir.join("ac-trunnion-twin.toml");
-    mtwin::io::write_atomic(
+    out.write(
         &path,
         machine_to_toml(
             &twin_machine,
@@ -787,7 +800,7 @@ fn servo_step(a: &Args) -> anyhow::Result<Step> {
 const PROGRAM: &str = include_str!("../../../../examples/programs/s-curve-5axis.ngc");
 
 /// Step 7: Geometric compensation of the five-axis program on the machine with errors.
-fn compensate_step(a: &Args) -> anyhow::Result<Step> {
+fn compensate_step(a: &Args, staged: &mut Outputs) -> anyhow::Result<Step> {
     let m = bundled::machine("ac-trunnion-with-errors.toml")?;
     let opts = CompensateOptions {
         tol: 0.001,
@@ -798,7 +811,8 @@ fn compensate_step(a: &Args) -> anyhow::Result<Step> {
     let mut out = Vec::new();
     let summary = comp.run(std::io::BufReader::new(PROGRAM.as_bytes()), &mut out)?;
     let path = a.out_dir.join("s-curve-5axis-comp.ngc");
-    mtwin::io::write_atomic(&path, &out)
+    staged
+        .write(&path, &out)
         .with_context(|| format!("cannot write {}", path.display()))?;
     let j = super::compensate::summary_json(&summary, &path);
     Ok(Step {
@@ -919,11 +933,16 @@ fn cutting_starts(machine: &Machine, program: &[u8]) -> anyhow::Result<f64> {
 /// Step 8: The digital twin on the five-axis program, before and after geometric
 /// compensation: the whole error (servo + geometry) and the geometric part alone
 /// (`--only geometry`), both measured against the original program's path.
-fn twin_step(a: &Args) -> anyhow::Result<Step> {
+fn twin_step(a: &Args, out: &mut Outputs) -> anyhow::Result<Step> {
     use mtwin::methods::twin::Sources;
     use mtwin::report::twin::summary;
-    let machine = super::common::load_machine(&a.out_dir.join("ac-trunnion-twin.toml"))?;
-    let compensated = std::fs::read(a.out_dir.join("s-curve-5axis-comp.ngc"))
+    // The files of the servo and compensate steps, as staged (written at the end).
+    let machine_path = a.out_dir.join("ac-trunnion-twin.toml");
+    let machine_text = String::from_utf8(out.staged(&machine_path)?)?;
+    let machine =
+        mtwin::model::parse_machine(&machine_path, &machine_text).map_err(super::common::diag)?;
+    let compensated = out
+        .staged(a.out_dir.join("s-curve-5axis-comp.ngc"))
         .context("cannot read the compensated program")?;
     let before = twin_predict(&machine, PROGRAM.as_bytes(), Sources::All)?;
     anyhow::ensure!(!before.is_empty(), "the five-axis program gave no samples");

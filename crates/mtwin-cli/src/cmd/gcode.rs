@@ -141,6 +141,11 @@ pub(super) fn interp_options(
 }
 
 fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
+    let mut out = mtwin::io::Outputs::plan()
+        .input(&a.machine)
+        .input(&a.program)
+        .output(&a.out)
+        .begin()?;
     let m = load_machine(&a.machine)?;
     let mut opts = InterpolateOptions::new(a.ts);
     opts.interp = interp_options(&a.offsets, &a.dialect)?;
@@ -149,7 +154,7 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
     let (input, bar) = crate::output::open_with_progress(&a.program, "interpolate")?;
     let mut failure: Option<InterpolateError> = None;
     let mut summary = None;
-    let written = mtwin::io::write_atomic_with(&a.out, |w| -> std::io::Result<()> {
+    let written = out.write_with(&a.out, |w| -> std::io::Result<()> {
         let mut header = vec!["t_s".to_string()];
         header.extend(m.axis_names().iter().map(|s| s.to_string()));
         writeln!(w, "{}", header.join(","))?;
@@ -177,6 +182,7 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
         return Err(located(&a.program, e.line(), e.column(), &e));
     }
     written.with_context(|| format!("cannot write {}", a.out.display()))?;
+    out.commit()?;
     let s = summary.context("interpolation produced no summary")?;
     if s.transitions > 0 {
         warn(format!(

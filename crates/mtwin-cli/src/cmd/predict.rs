@@ -29,6 +29,11 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
+    let mut out = mtwin::io::Outputs::plan()
+        .input(&a.machine)
+        .input(&a.data)
+        .output(&a.out)
+        .begin()?;
     let m = load_machine(&a.machine)?;
     let t = load_table(&a.data)?;
     let poses = read_poses(&t, &m, true).map_err(diag)?;
@@ -37,7 +42,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let flat: Vec<f64> = poses.iter().flatten().copied().collect();
     let actual = k.poses(&flat);
     let nominal = kn.poses(&flat);
-    mtwin::io::write_atomic_with(&a.out, |w| -> std::io::Result<()> {
+    out.write_with(&a.out, |w| -> std::io::Result<()> {
         let mut header: Vec<String> = m.axis_names().iter().map(|s| s.to_string()).collect();
         header.extend(["x", "y", "z", "i", "j", "k"].map(String::from));
         writeln!(w, "{}", header.join(","))?;
@@ -52,6 +57,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         Ok(())
     })
     .with_context(|| format!("cannot write {}", a.out.display()))?;
+    out.commit()?;
     let errs: Vec<f64> = actual
         .iter()
         .zip(&nominal)

@@ -190,6 +190,29 @@ fn build(a: &Args) -> anyhow::Result<Vec<Section>> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
+    let servo_files = a
+        .servo
+        .iter()
+        .filter_map(|s| s.split_once('=').map(|(_, f)| f));
+    let plot_files = a
+        .ballbar_plots
+        .iter()
+        .flat_map(|d| ["mode1", "mode2", "mode3", "mode4"].map(|m| d.join(format!("{m}.svg"))));
+    let mut out = mtwin::io::Outputs::plan()
+        .inputs(&a.machine)
+        .inputs(&a.ballbar)
+        .inputs(plot_files)
+        .inputs(&a.identify)
+        .inputs(&a.validate)
+        .inputs(&a.skiving)
+        .inputs(&a.thermal_model)
+        .inputs(&a.thermal_drift)
+        .inputs(servo_files)
+        .inputs(&a.compensate)
+        .inputs(&a.twin)
+        .inputs(&a.twin_compensated)
+        .output(&a.out)
+        .begin()?;
     let sections = build(&a)?;
     if sections.is_empty() {
         bail!(
@@ -203,8 +226,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         subtitle: format!("{n} section(s) from the results of mtwin commands."),
         sections,
     };
-    mtwin::io::write_atomic(&a.out, render(&report).as_bytes())
+    out.write(&a.out, render(&report).as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
+    out.commit()?;
     match a.format {
         Format::Json => print_json(&json!({
             "out": a.out.display().to_string(),

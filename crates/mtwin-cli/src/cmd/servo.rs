@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use mtwin::io::{Table, fmt_f64, write_atomic, write_atomic_with, write_csv_row};
+use mtwin::io::{Outputs, Table, fmt_f64, write_csv_row};
 use mtwin::sysid::{self, ServoFitOptions};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
@@ -125,6 +125,7 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
     if !(a.feed.is_finite() && a.feed > 0.0) {
         anyhow::bail!("--feed must be a positive feed in mm/min, not {}", a.feed);
     }
+    let mut out = Outputs::plan().input(&a.data).output(&a.out).begin()?;
     let options = ServoFitOptions {
         max_order: a.max_order,
         max_delay: a.max_delay,
@@ -136,8 +137,9 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
     let fit = sysid::fit_servo_csv(&a.data, &options);
     spin.finish_and_clear();
     let fit = fit?;
-    write_atomic(&a.out, fit.to_toml()?.as_bytes())
+    out.write(&a.out, fit.to_toml()?.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
+    out.commit()?;
     for w in fit.warnings() {
         warn(w);
     }
@@ -192,6 +194,11 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
     if !(a.noise.is_finite() && a.noise >= 0.0) {
         anyhow::bail!("--noise must be finite and >= 0 mm, not {}", a.noise);
     }
+    let mut out = Outputs::plan()
+        .input(&a.servo)
+        .input(&a.commands)
+        .output(&a.out)
+        .begin()?;
     let servo = sysid::read_servo_toml(&a.servo).map_err(diag)?;
     let table = load_table(&a.commands)?;
     let column = a.axis.as_deref().unwrap_or("command_mm");
@@ -201,7 +208,7 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
     let feedback = servo.simulate(&commands);
     let noise = Normal::new(0.0, a.noise).context("the noise level")?;
     let mut rng = rand::rngs::StdRng::seed_from_u64(a.seed);
-    write_atomic_with(&a.out, |w| -> std::io::Result<()> {
+    out.write_with(&a.out, |w| -> std::io::Result<()> {
         w.write_all(b"t_s,command_mm,feedback_mm\n")?;
         for (r, y) in rows.iter().zip(&feedback) {
             write_csv_row(w, &[r[0], r[1], y + noise.sample(&mut rng)])?;
@@ -209,6 +216,7 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
         Ok(())
     })
     .with_context(|| format!("cannot write {}", a.out.display()))?;
+    out.commit()?;
     note(format!(
         "{} samples (noise {} mm, seed {}) → {}",
         rows.len(),
@@ -313,6 +321,7 @@ fn excitation_program(
 }
 
 fn excitation(a: ExcitationArgs) -> anyhow::Result<()> {
+    let mut out = Outputs::plan().output(&a.out).begin()?;
     let values: Vec<f64> = a
         .travel
         .iter()
@@ -326,8 +335,9 @@ fn excitation(a: ExcitationArgs) -> anyhow::Result<()> {
         ),
     };
     let text = excitation_program(&a.axis, travel, a.feed, a.levels, a.dwell)?;
-    write_atomic(&a.out, text.as_bytes())
+    out.write(&a.out, text.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
+    out.commit()?;
     note(format!(
         "excitation program for {} ({} levels) → {}",
         a.axis,

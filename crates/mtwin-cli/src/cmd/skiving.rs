@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use mtwin::io::{fmt_f64, write_atomic_with};
+use mtwin::io::{Outputs, fmt_f64};
 use mtwin::methods::skiving::closed_form::{self, STANDARD_FORMULAS};
 use mtwin::methods::skiving::program::{self, Dialect, Motion, Plan};
 use mtwin::methods::skiving::simulate::{Noise, simulate};
@@ -343,6 +343,7 @@ pub(crate) fn setup_json(
 }
 
 fn write_program(a: ProgramArgs) -> anyhow::Result<()> {
+    let mut out = Outputs::plan().output(&a.out).begin()?;
     let g = a.geometry.geometry()?;
     let motion = Motion {
         approach: a.approach,
@@ -356,8 +357,9 @@ fn write_program(a: ProgramArgs) -> anyhow::Result<()> {
     };
     let text = program::program(&a.plan.plan(&g), &g, &motion, dialect)
         .context("cannot write the touch-off program")?;
-    write_atomic_with(&a.out, |w| w.write_all(text.as_bytes()))
+    out.write(&a.out, text.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
+    out.commit()?;
     match a.format {
         Format::Json => {
             print_json(&json!({"probing_moves": 6, "out": a.out.display().to_string()}))
@@ -373,6 +375,7 @@ fn write_program(a: ProgramArgs) -> anyhow::Result<()> {
 }
 
 fn simulate_touches(a: SimulateArgs) -> anyhow::Result<()> {
+    let mut out = Outputs::plan().output(&a.out).begin()?;
     let g = a.geometry.geometry()?;
     let plan = a
         .plan
@@ -396,7 +399,7 @@ fn simulate_touches(a: SimulateArgs) -> anyhow::Result<()> {
         });
         touches.extend(simulate(&plan, &g, &truth, noise).context("cannot simulate the touches")?);
     }
-    write_atomic_with(&a.out, |w| -> std::io::Result<()> {
+    out.write_with(&a.out, |w| -> std::io::Result<()> {
         writeln!(w, "x,y,z,a,b,c,point,contact")?;
         for t in &touches {
             let q = t.at;
@@ -406,6 +409,7 @@ fn simulate_touches(a: SimulateArgs) -> anyhow::Result<()> {
         Ok(())
     })
     .with_context(|| format!("cannot write {}", a.out.display()))?;
+    out.commit()?;
     match a.format {
         Format::Json => {
             print_json(&json!({"touches": touches.len(), "out": a.out.display().to_string()}))

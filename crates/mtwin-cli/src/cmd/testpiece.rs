@@ -4,7 +4,6 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use mtwin::io::write_atomic;
 use mtwin::methods::testpiece::{SShape, SShapeProgram, s_shape_program};
 use serde_json::json;
 
@@ -77,6 +76,10 @@ fn s_shape(a: SShapeArgs) -> anyhow::Result<()> {
     if !(a.scale.is_finite() && a.scale > 0.0) {
         anyhow::bail!("--scale must be positive, not {}", a.scale);
     }
+    let mut out = mtwin::io::Outputs::plan()
+        .input(&a.machine)
+        .output(&a.out)
+        .begin()?;
     let machine = load_machine(&a.machine)?;
     let shape = SShape {
         length: a.length,
@@ -95,8 +98,9 @@ fn s_shape(a: SShapeArgs) -> anyhow::Result<()> {
     };
     let text = s_shape_program(&machine, &shape, &opts)
         .with_context(|| format!("the S-shaped piece on {}", a.machine.display()))?;
-    write_atomic(&a.out, text.as_bytes())
+    out.write(&a.out, text.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
+    out.commit()?;
     let length: f64 = (1..=a.segments)
         .map(|i| {
             let n = a.segments as f64;

@@ -221,6 +221,7 @@ pub fn run(c: Command) -> anyhow::Result<()> {
 
 fn program(a: ProgramArgs) -> anyhow::Result<()> {
     use mtwin::methods::skiving::program::Dialect;
+    let mut out = mtwin::io::Outputs::plan().output(&a.out).begin()?;
     let balls = thermal::BallArray {
         x0: a.x0,
         pitch: a.pitch,
@@ -247,8 +248,9 @@ fn program(a: ProgramArgs) -> anyhow::Result<()> {
         a.period_min,
         dialect,
     )?;
-    mtwin::io::write_atomic(&a.out, p.text.as_bytes())
+    out.write(&a.out, p.text.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
+    out.commit()?;
     match a.format {
         Format::Json => print_json(&json!({
             "out": a.out.display().to_string(),
@@ -286,18 +288,26 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
         ..ThermalFitOptions::default()
     };
     let data = read_training(&a.data, &options.extra_inputs).map_err(diag)?;
+    // The plot files are named after the heights of the data.
+    let plot_files: Vec<PathBuf> = a
+        .plot
+        .iter()
+        .flat_map(|dir| data.heights.iter().map(|h| plot_path(dir, h.z_mm)))
+        .collect();
+    let mut out = mtwin::io::Outputs::plan()
+        .input(&a.data)
+        .output(&a.out)
+        .folders(&a.plot)
+        .outputs(&plot_files)
+        .begin()?;
     let fit = thermal::fit(&data, &options)?;
-    if let Some(dir) = &a.plot {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("cannot create the plot folder {}", dir.display()))?;
-    }
-    fit.model
-        .write(&a.out)
+    out.write(&a.out, fit.model.to_toml()?.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     let mut plots = Vec::new();
     if let Some(dir) = &a.plot {
-        plots = write_plots(dir, &data, &fit.model)?;
+        plots = write_plots(&mut out, dir, &data, &fit.model)?;
     }
+    out.commit()?;
     for w in &fit.warnings {
         warn(w);
     }
@@ -356,11 +366,17 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
 
 fn predict(a: PredictArgs) -> anyhow::Result<()> {
     let heights = a.heights.parse()?;
+    let mut out = mtwin::io::Outputs::plan()
+        .input(&a.model)
+        .input(&a.speed)
+        .output(&a.out)
+        .begin()?;
     let model = thermal::read_model(&a.model).map_err(diag)?;
     let programme = thermal::read_programme(&a.speed, &model).map_err(diag)?;
     let p = thermal::predict(&model, &programme, &heights);
-    p.write_csv(&a.out)
+    out.write_with(&a.out, |w| p.write_csv_to(w))
         .with_context(|| format!("cannot write {}", a.out.display()))?;
+    out.commit()?;
     let warnings = p.warnings(&model);
     for w in &warnings {
         warn(w);
@@ -403,11 +419,17 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
 
 fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
     let heights = a.heights.parse()?;
+    let mut out = mtwin::io::Outputs::plan()
+        .input(&a.model)
+        .input(&a.speed)
+        .output(&a.out)
+        .begin()?;
     let model = thermal::read_model(&a.model).map_err(diag)?;
     let programme = thermal::read_programme(&a.speed, &model).map_err(diag)?;
     let data = thermal::simulate(&model, &programme, &heights, a.noise, a.seed)?;
-    data.write_csv(&a.out)
+    out.write_with(&a.out, |w| data.write_csv_to(w))
         .with_context(|| format!("cannot write {}", a.out.display()))?;
+    out.commit()?;
     note(format!(
         "{} rows ({} height(s), noise {} mm, seed {}) → {}",
         data.rows.len(),
@@ -423,6 +445,7 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
 /// simulated from cold with the run's own speeds (line), every run after the
 /// previous one on the time axis. Returns the files written.
 fn write_plots(
+    out: &mut mtwin::io::Outputs,
     dir: &Path,
     data: &TrainingData,
     model: &ThermalModel,
@@ -467,12 +490,17 @@ fn write_plots(
             markers: false,
         }));
         let svg = xy(&title, "t (min)", "drift (µm)", &series);
-        let path = dir.join(format!("drift_z{}.svg", h.z_mm));
-        mtwin::io::write_atomic(&path, svg.as_bytes())
+        let path = plot_path(dir, h.z_mm);
+        out.write(&path, svg.as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;
         written.push(path);
     }
     Ok(written)
+}
+
+/// The plot file of one height.
+fn plot_path(dir: &Path, z_mm: f64) -> PathBuf {
+    dir.join(format!("drift_z{z_mm}.svg"))
 }
 
 #[cfg(test)]

@@ -47,6 +47,12 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
+    let mut out = mtwin::io::Outputs::plan()
+        .input(&a.model)
+        .input(&a.program)
+        .output(&a.out)
+        .outputs(&a.plot)
+        .begin()?;
     let model = read_model(&a.model).map_err(diag)?;
     let bytes = std::fs::read(&a.program)
         .with_context(|| format!("cannot read {}", a.program.display()))?;
@@ -72,7 +78,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             _ => anyhow::anyhow!("{e}"),
         }
     })?;
-    mtwin::io::write_atomic_with(&a.out, |w| w.write_all(&c.output))
+    out.write(&a.out, &c.output)
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     if let Some(path) = &a.plot {
         let points: Vec<(f64, f64)> = c
@@ -89,9 +95,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }];
         let title = format!("Thermal correction along {}", a.program.display());
         let svg = xy(&title, "t (min)", "correction (µm)", &series);
-        mtwin::io::write_atomic(path, svg.as_bytes())
+        out.write(path, svg.as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
+    out.commit()?;
     for n in &c.notes {
         note(n);
     }

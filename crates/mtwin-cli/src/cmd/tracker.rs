@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use mtwin::fit::Progress;
-use mtwin::io::{Table, write_atomic_with, write_csv_row};
+use mtwin::io::{Outputs, Table, write_csv_row};
 use mtwin::methods::tracker::compensate::Compensator;
 use mtwin::methods::tracker::plan::{gcode, plan};
 use mtwin::methods::tracker::simulate::simulate_seeded;
@@ -215,8 +215,14 @@ fn header(m: &Machine, extra: &[&str]) -> String {
     h.join(",")
 }
 
-fn write_points(path: &Path, m: &Machine, rows: &[Vec<f64>], extra: &[&str]) -> anyhow::Result<()> {
-    write_atomic_with(path, |w| -> std::io::Result<()> {
+fn write_points(
+    out: &mut Outputs,
+    path: &Path,
+    m: &Machine,
+    rows: &[Vec<f64>],
+    extra: &[&str],
+) -> anyhow::Result<()> {
+    out.write_with(path, |w| -> std::io::Result<()> {
         writeln!(w, "{}", header(m, extra))?;
         for r in rows {
             write_csv_row(w, r)?;
@@ -227,6 +233,11 @@ fn write_points(path: &Path, m: &Machine, rows: &[Vec<f64>], extra: &[&str]) -> 
 }
 
 pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
+    let mut out = Outputs::plan()
+        .input(&a.machine)
+        .input(&a.data)
+        .output(&a.out)
+        .begin()?;
     let m = load_machine(&a.machine)?;
     let params = ParameterSet::from_spec(&m, &a.fit).map_err(|e| anyhow::anyhow!("--fit: {e}"))?;
     let t = load_table(&a.data)?;
@@ -281,8 +292,9 @@ pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
             &format!("from {} ({} points)", a.data.display(), points.len()),
         ],
     )?;
-    write_atomic_with(&a.out, |w| w.write_all(text.as_bytes()))
+    out.write(&a.out, text.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
+    out.commit()?;
     let (rms_before, rms_after) = r.rms();
     let unident = r.unidentifiable_names();
     let rot = params.is_rotation();
@@ -407,6 +419,11 @@ fn print_table(title: &str, before: &ErrorStats, after: &ErrorStats) {
 }
 
 pub fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
+    let mut out = Outputs::plan()
+        .input(&a.machine)
+        .input(&a.data)
+        .outputs(&a.plot)
+        .begin()?;
     let m = load_machine(&a.machine)?;
     let t = load_table(&a.data)?;
     let points = read_points(&t, &m)?;
@@ -434,9 +451,10 @@ pub fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
                 series("after (identified)", &v.errors_after, "#2471a3"),
             ],
         );
-        write_atomic_with(p, |w| w.write_all(svg.as_bytes()))
+        out.write(p, svg.as_bytes())
             .with_context(|| format!("cannot write {}", p.display()))?;
     }
+    out.commit()?;
     match a.format {
         Format::Json => print_json(&validate_json(&v)),
         Format::Human => {
@@ -465,16 +483,22 @@ pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
             a.select
         );
     }
+    let mut out = Outputs::plan()
+        .input(&a.machine)
+        .output(&a.out_csv)
+        .output(&a.out_gcode)
+        .begin()?;
     let m = load_machine(&a.machine)?;
     let params = ParameterSet::from_spec(&m, &a.fit).map_err(|e| anyhow::anyhow!("--fit: {e}"))?;
     let spin = crate::output::spinner("planning");
     let p = plan(&m, &params, a.candidates, a.select, a.noise, a.seed);
     spin.finish_and_clear();
     let p = p.context("cannot evaluate the chosen poses")?;
-    write_points(&a.out_csv, &m, &p.poses, &[])?;
+    write_points(&mut out, &a.out_csv, &m, &p.poses, &[])?;
     let g = gcode(&m, &p.poses, 2000.0, 2.0);
-    write_atomic_with(&a.out_gcode, |w| w.write_all(g.as_bytes()))
+    out.write(&a.out_gcode, g.as_bytes())
         .with_context(|| format!("cannot write {}", a.out_gcode.display()))?;
+    out.commit()?;
     let r = &p.expected;
     let rot = params.is_rotation();
     match a.format {
@@ -522,6 +546,11 @@ pub fn run_simulate(c: SimulateCommand) -> anyhow::Result<()> {
             a.noise
         );
     }
+    let mut out = Outputs::plan()
+        .input(&a.machine)
+        .input(&a.poses)
+        .output(&a.out)
+        .begin()?;
     let m = load_machine(&a.machine)?;
     let t = load_table(&a.poses)?;
     let poses = read_poses(&t, &m, true).map_err(diag)?;
@@ -534,7 +563,8 @@ pub fn run_simulate(c: SimulateCommand) -> anyhow::Result<()> {
             r
         })
         .collect();
-    write_points(&a.out, &m, &rows, &["x", "y", "z"])?;
+    write_points(&mut out, &a.out, &m, &rows, &["x", "y", "z"])?;
+    out.commit()?;
     match a.format {
         Format::Json => print_json(&json!({
             "points": rows.len(), "noise": a.noise, "seed": a.seed,
@@ -552,6 +582,11 @@ pub fn run_simulate(c: SimulateCommand) -> anyhow::Result<()> {
 }
 
 pub fn run_compensate(a: CompensateArgs) -> anyhow::Result<()> {
+    let mut out = Outputs::plan()
+        .input(&a.machine)
+        .input(&a.data)
+        .output(&a.out)
+        .begin()?;
     let m = load_machine(&a.machine)?;
     let t = load_table(&a.data)?;
     let poses = read_poses(&t, &m, true).map_err(diag)?;
@@ -572,11 +607,13 @@ pub fn run_compensate(a: CompensateArgs) -> anyhow::Result<()> {
         rows.push(row);
     }
     write_points(
+        &mut out,
         &a.out,
         &m,
         &rows,
         &["error_before", "error_after", "axis_error_after"],
     )?;
+    out.commit()?;
     match a.format {
         Format::Json => print_json(&json!({
             "poses": rows.len(), "mode": c.mode(),

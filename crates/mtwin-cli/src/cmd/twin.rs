@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use mtwin::gcode::InterpolateOptions;
-use mtwin::io::{write_atomic, write_atomic_with, write_csv_row};
+use mtwin::io::write_csv_row;
 use mtwin::methods::twin::{
     self, Progress, Sources, Twin, TwinError, TwinSample, TwinSummary, plot::PlotCollector,
 };
@@ -129,7 +129,23 @@ fn run_twin(
     })
 }
 
+/// The plot files written into `--plot DIR`.
+const PLOT_FILES: [&str; 3] = ["path.svg", "tip_error.svg", "axis_error.svg"];
+
 fn predict(a: PredictArgs) -> anyhow::Result<()> {
+    let plot_files: Vec<PathBuf> = a
+        .plot
+        .iter()
+        .flat_map(|d| PLOT_FILES.map(|f| d.join(f)))
+        .collect();
+    let mut out = mtwin::io::Outputs::plan()
+        .input(&a.machine)
+        .inputs(&a.commands)
+        .inputs(&a.gcode)
+        .output(&a.out)
+        .folders(&a.plot)
+        .outputs(&plot_files)
+        .begin()?;
     let machine = load_machine(&a.machine)?;
     let sources = match a.only {
         None => Sources::All,
@@ -138,7 +154,7 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
     };
     let mut plot = a.plot.as_ref().map(|_| PlotCollector::new(2000));
     let mut summary = None;
-    write_atomic_with(&a.out, |w| -> anyhow::Result<()> {
+    out.write_with(&a.out, |w| -> anyhow::Result<()> {
         w.write_all(HEADER.as_bytes())?;
         let s = run_twin(&a, &machine, sources, |r| {
             if let Some(p) = plot.as_mut() {
@@ -179,19 +195,19 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
     };
     let mut plots = Vec::new();
     if let (Some(dir), Some(p)) = (&a.plot, &plot) {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         let pts = p.points();
-        for (name, svg) in [
-            ("path.svg", twin::plot::path_svg(&pts)),
-            ("tip_error.svg", twin::plot::tip_error_svg(&pts)),
-            ("axis_error.svg", twin::plot::axis_error_svg(&pts)),
-        ] {
+        for (name, svg) in PLOT_FILES.into_iter().zip([
+            twin::plot::path_svg(&pts),
+            twin::plot::tip_error_svg(&pts),
+            twin::plot::axis_error_svg(&pts),
+        ]) {
             let f = dir.join(name);
-            write_atomic(&f, svg.as_bytes())
+            out.write(&f, svg.as_bytes())
                 .with_context(|| format!("cannot write {}", f.display()))?;
             plots.push(f);
         }
     }
+    out.commit()?;
     match a.format {
         Format::Json => {
             let mut v = summary_json(&s);

@@ -22,3 +22,4 @@ mod cli_thermal_compensate;
 mod cli_tracker;
 mod cli_twin;
 mod docs;
+mod outputs;

@@ -2,6 +2,7 @@
 //! predict` (model + SPEED.csv → DRIFT.csv), and `simulate` (model + speeds →
 //! TRAIN-format data with seeded noise).
 
+use std::io::Write;
 use std::path::Path;
 
 use rand::{SeedableRng, rngs::StdRng};
@@ -140,13 +141,16 @@ impl Prediction {
 
     /// Write `DRIFT.csv` atomically (header `t_min,z_mm,drift_mm`).
     pub fn write_csv(&self, path: &Path) -> std::io::Result<()> {
-        write_atomic_with(path, |w| {
-            w.write_all(b"t_min,z_mm,drift_mm\n")?;
-            for r in &self.rows {
-                write_csv_row(&mut &mut *w, r)?;
-            }
-            Ok(())
-        })
+        write_atomic_with(path, |w| self.write_csv_to(w))
+    }
+
+    /// Write the `DRIFT.csv` text (header `t_min,z_mm,drift_mm`) to `w`.
+    pub fn write_csv_to(&self, w: &mut dyn Write) -> std::io::Result<()> {
+        w.write_all(b"t_min,z_mm,drift_mm\n")?;
+        for r in &self.rows {
+            write_csv_row(&mut &mut *w, r)?;
+        }
+        Ok(())
     }
 }
 
@@ -426,18 +430,21 @@ pub struct SimulatedData {
 impl SimulatedData {
     /// Write as `TRAIN.csv` (`t_min,<inputs>,z_mm,drift_mm`), atomically.
     pub fn write_csv(&self, path: &Path) -> std::io::Result<()> {
-        write_atomic_with(path, |w| {
-            writeln!(w, "t_min,{},z_mm,drift_mm", self.input_names.join(","))?;
-            let mut row = Vec::new();
-            for (t, inputs, z, e) in &self.rows {
-                row.clear();
-                row.push(*t);
-                row.extend_from_slice(inputs);
-                row.extend_from_slice(&[*z, *e]);
-                write_csv_row(&mut &mut *w, &row)?;
-            }
-            Ok(())
-        })
+        write_atomic_with(path, |w| self.write_csv_to(w))
+    }
+
+    /// Write the `TRAIN.csv` text (`t_min,<inputs>,z_mm,drift_mm`) to `w`.
+    pub fn write_csv_to(&self, w: &mut dyn Write) -> std::io::Result<()> {
+        writeln!(w, "t_min,{},z_mm,drift_mm", self.input_names.join(","))?;
+        let mut row = Vec::new();
+        for (t, inputs, z, e) in &self.rows {
+            row.clear();
+            row.push(*t);
+            row.extend_from_slice(inputs);
+            row.extend_from_slice(&[*z, *e]);
+            write_csv_row(&mut &mut *w, &row)?;
+        }
+        Ok(())
     }
 }
 
