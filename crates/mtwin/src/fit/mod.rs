@@ -62,6 +62,7 @@ use scaling::Scaled;
 
 /// Why a fit could not be run.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum FitError {
     #[error("the start vector has {got} values but the model has {expected} parameters")]
     ParameterCount { expected: usize, got: usize },
@@ -110,6 +111,7 @@ pub enum Progress {
 
 /// Settings of a fit. The defaults suit the identifications of this crate.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct Options {
     pub strategy: Strategy,
     /// Largest `m·n` for which [`Strategy::Auto`] goes dense (default
