@@ -30,6 +30,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         summary.blocks_changed,
         summary.largest_correction * 1e3
     );
-    print!("{}", String::from_utf8(out)?);
+    println!("first blocks of the compensated program:");
+    for line in String::from_utf8(out)?.lines().take(6) {
+        println!("  {line}");
+    }
     Ok(())
 }

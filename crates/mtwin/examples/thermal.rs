@@ -40,10 +40,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     )?;
     for b in comp.z_blocks.iter().filter(|b| b.changed) {
         println!(
-            "line {:2} at {:5.1} min: Z corrected by {:+.2} µm",
+            "line {:2} at {:5.1} min: predicted drift compensated {:+.2} µm",
             b.line,
             b.end_min,
-            -b.correction_mm * 1e3
+            b.correction_mm * 1e3
         );
     }
     Ok(())
