@@ -54,14 +54,19 @@
 // Index loops over small fixed-size arrays are the clearest form of numeric kernels.
 #![allow(clippy::needless_range_loop)]
 
+#[warn(missing_docs)]
 pub mod examples;
 pub mod fit;
 pub mod gcode;
+#[warn(missing_docs)]
 pub mod io;
+#[warn(missing_docs)]
 pub mod kinematics;
 pub mod methods;
+#[warn(missing_docs)]
 pub mod model;
 pub mod report;
+#[warn(missing_docs)]
 pub mod sysid;
 
 /// Re-export of the dense linear-algebra crate used in the public API (`Mat`, `Col`).

@@ -48,9 +48,11 @@ mod interp;
 mod interpolate;
 mod lexer;
 mod profile;
+#[warn(missing_docs)]
 mod stats;
 mod stream;
 mod syntax;
+#[warn(missing_docs)]
 pub mod timing;
 mod travel;
 

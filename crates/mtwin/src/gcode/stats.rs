@@ -44,7 +44,9 @@ impl Default for StatsOptions {
 /// Smallest and largest value an axis reached, mm or degree.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AxisRange {
+    /// Smallest value, mm or degree.
     pub min: f64,
+    /// Largest value, mm or degree.
     pub max: f64,
 }
 

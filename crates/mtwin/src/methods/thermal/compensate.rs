@@ -54,7 +54,10 @@ const WRITE_TOLERANCE_MM: f64 = 0.5e-4;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum CorrectionUpdate {
     /// Held constant over intervals of this length (min, > 0), starting at `t = 0`.
-    Periodic { period_min: f64 },
+    Periodic {
+        /// Interval length, min.
+        period_min: f64,
+    },
     /// The drift at the end time of each block.
     Continuous,
 }
