@@ -56,6 +56,7 @@
 
 #[warn(missing_docs)]
 pub mod examples;
+#[warn(missing_docs)]
 pub mod fit;
 pub mod gcode;
 #[warn(missing_docs)]
