@@ -111,6 +111,22 @@ mod tests {
     }
 
     #[test]
+    fn only_five_axis_machines_with_two_rotary_axes_orient_the_tool() {
+        let ac = machine("ac-trunnion").unwrap();
+        assert!(ac.orients_tool()); // X Y Z + A C
+        assert!(!machine("afp-gantry").unwrap().orients_tool()); // six axes
+        let mut three_rotary = ac.clone();
+        let x = three_rotary.axis_index("X").unwrap();
+        three_rotary.axes[x].kind = crate::model::AxisKind::Rotary;
+        assert_eq!(three_rotary.n_rotary(), 3);
+        assert!(!three_rotary.orients_tool());
+        let mut four = ac;
+        let c = four.axis_index("C").unwrap();
+        four.axes.remove(c);
+        assert!(!four.orients_tool());
+    }
+
+    #[test]
     fn unknown_names_are_refused_with_the_list() {
         let e = machine("no-such").unwrap_err().to_string();
         assert!(
