@@ -68,14 +68,9 @@ fn bench(c: &mut Criterion) {
         );
         return;
     };
-    let comp = Compensator::new(
-        &machine,
-        CompensateOptions {
-            max_correction: 2.0,
-            ..CompensateOptions::default()
-        },
-    )
-    .expect("axis names");
+    let mut opts = CompensateOptions::default();
+    opts.max_correction = 2.0;
+    let comp = Compensator::new(&machine, opts).expect("axis names");
     let mut g = c.benchmark_group("compensate");
     g.throughput(Throughput::Bytes(boat.len() as u64));
     g.sample_size(20);

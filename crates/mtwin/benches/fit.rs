@@ -338,10 +338,8 @@ fn tracker(c: &mut Criterion) {
         .map(|p| p.scale.unwrap_or(1.0) * 2.0)
         .collect();
     assert!(check_jacobian(&model, &probe).unwrap().passes(1e-6));
-    let opts = Options {
-        strategy: Strategy::Dense,
-        ..Options::default()
-    };
+    let mut opts = Options::default();
+    opts.strategy = Strategy::Dense;
     let (t, cpu) = (Instant::now(), cpu_seconds());
     let rep = fit(&model, &theta0, &opts).unwrap();
     eprintln!(
@@ -383,10 +381,8 @@ fn big(c: &mut Criterion) {
     // Built on first use, so that filtering this benchmark out costs nothing.
     let model: OnceLock<Smooth> = OnceLock::new();
     let theta0 = vec![0.0; 1000];
-    let opts = Options {
-        strategy: Strategy::NormalEquations,
-        ..Options::default()
-    };
+    let mut opts = Options::default();
+    opts.strategy = Strategy::NormalEquations;
     let mut g = c.benchmark_group("fit");
     g.sample_size(10)
         .warm_up_time(Duration::from_millis(1))

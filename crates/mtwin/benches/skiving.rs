@@ -25,7 +25,7 @@ fn bench(c: &mut Criterion) {
     for seed in 0..10 {
         sixty.extend(simulate(&plan, &g, &truth, noise(seed)).expect("contacts"));
     }
-    let opts = Options { noise: Some(1e-3) };
+    let opts = Options::with_noise(Some(1e-3));
     c.bench_function("skiving identify 6 touches", |b| {
         b.iter(|| identify(black_box(&six), &g, &opts).expect("identifiable"))
     });

@@ -29,10 +29,8 @@ fn bench(c: &mut Criterion) {
         ));
     }
     let m = model();
-    let opts = CompensateOptions {
-        update: CorrectionUpdate::Continuous,
-        ..CompensateOptions::default()
-    };
+    let mut opts = CompensateOptions::default();
+    opts.update = CorrectionUpdate::Continuous;
     let mut g = c.benchmark_group("thermal_compensate");
     g.throughput(Throughput::Bytes(src.len() as u64));
     g.sample_size(10);

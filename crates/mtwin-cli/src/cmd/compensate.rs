@@ -58,11 +58,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .output(&a.out)
         .begin()?;
     let m = load_machine(&a.machine)?;
-    let mut opts = CompensateOptions {
-        tol: a.tol,
-        max_correction: a.max_correction,
-        ..CompensateOptions::default()
-    };
+    let mut opts = CompensateOptions::default();
+    opts.tol = a.tol;
+    opts.max_correction = a.max_correction;
     opts.interp = super::gcode::interp_options(&a.offsets, &a.dialect)?;
     opts.interp.tcp_at_start = a.tcp;
     let comp =

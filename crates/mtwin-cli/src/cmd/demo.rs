@@ -526,7 +526,7 @@ fn skiving_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
             Some(skiving::simulate::Noise { sigma: 0.001, seed }),
         )?);
     }
-    let sol = skiving::identify(&touches, &g, &skiving::Options { noise: Some(0.001) })?;
+    let sol = skiving::identify(&touches, &g, &skiving::Options::with_noise(Some(0.001)))?;
     let first = closed_form::first_order(&touches[..6], &g).ok();
     let e = sol.estimate;
     let s = sections::skiving::section(
@@ -802,11 +802,9 @@ const PROGRAM: &str = include_str!("../../../../examples/programs/s-curve-5axis.
 /// Step 7: Geometric compensation of the five-axis program on the machine with errors.
 fn compensate_step(a: &Args, staged: &mut Outputs) -> anyhow::Result<Step> {
     let m = bundled::machine("ac-trunnion-with-errors.toml")?;
-    let opts = CompensateOptions {
-        tol: 0.001,
-        max_correction: 2.0,
-        ..CompensateOptions::default()
-    };
+    let mut opts = CompensateOptions::default();
+    opts.tol = 0.001;
+    opts.max_correction = 2.0;
     let comp = Compensator::new(&m, opts)?;
     let mut out = Vec::new();
     let summary = comp.run(std::io::BufReader::new(PROGRAM.as_bytes()), &mut out)?;

@@ -212,12 +212,10 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
 
 fn stats(a: StatsArgs) -> anyhow::Result<()> {
     let machine = a.machine.as_deref().map(load_machine).transpose()?;
-    let mut opts = StatsOptions {
-        interp: interp_options(&a.offsets, &a.dialect)?,
-        ..StatsOptions::default()
-    };
+    let mut opts = StatsOptions::default();
+    opts.interp = interp_options(&a.offsets, &a.dialect)?;
     if let Some(m) = &machine {
-        opts.rapid_rate = m.rapid_feed;
+        opts.rapid_feed = m.rapid_feed;
     }
     opts.interp.tcp_at_start = a.tcp;
     let (input, bar) = crate::output::open_with_progress(&a.program, "read")?;

@@ -126,11 +126,9 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
         anyhow::bail!("--feed must be a positive feed in mm/min, not {}", a.feed);
     }
     let mut out = Outputs::plan().input(&a.data).output(&a.out).begin()?;
-    let options = ServoFitOptions {
-        max_order: a.max_order,
-        max_delay: a.max_delay,
-        ..ServoFitOptions::default()
-    };
+    let mut options = ServoFitOptions::default();
+    options.max_order = a.max_order;
+    options.max_delay = a.max_delay;
     // Every structure of the order grid is refined by output error: seconds
     // on a long log.
     let spin = crate::output::spinner("fitting servo structures");

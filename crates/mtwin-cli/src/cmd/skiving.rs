@@ -192,7 +192,7 @@ fn setup_error(a: SetupErrorArgs) -> anyhow::Result<()> {
     let g = a.geometry.geometry()?;
     let t = load_table(&a.data)?;
     let touches = read_touches(&t, &g, a.tolerance).map_err(diag)?;
-    let s = identify(&touches, &g, &Options { noise: a.noise })
+    let s = identify(&touches, &g, &Options::with_noise(a.noise))
         .with_context(|| format!("{}: cannot identify the set-up error", a.data.display()))?;
     let first = closed_form::first_order(&touches, &g);
     let e = s.estimate;

@@ -229,13 +229,12 @@ fn program(a: ProgramArgs) -> anyhow::Result<()> {
         heights: a.heights.parse()?,
         diameter: a.ball_diameter,
     };
-    let motion = thermal::ProbeMotion {
-        approach: a.approach,
-        overtravel: a.overtravel,
-        clearance: a.clearance,
-        feed: a.feed,
-        rapid: a.rapid,
-    };
+    let mut motion = thermal::ProbeMotion::default();
+    motion.approach = a.approach;
+    motion.overtravel = a.overtravel;
+    motion.clearance = a.clearance;
+    motion.feed = a.feed;
+    motion.rapid_feed = a.rapid;
     let dialect = match a.dialect {
         DialectArg::Linuxcnc => Dialect::LinuxCnc,
         DialectArg::Fanuc => Dialect::Fanuc,

@@ -56,16 +56,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let model = read_model(&a.model).map_err(diag)?;
     let bytes = std::fs::read(&a.program)
         .with_context(|| format!("cannot read {}", a.program.display()))?;
-    let options = CompensateOptions {
-        dialect: a.dialect.dialect(),
-        rapid_mm_min: a.rapid,
-        update: if a.continuous {
-            CorrectionUpdate::Continuous
-        } else {
-            CorrectionUpdate::Periodic {
-                period_min: a.period_min,
-            }
-        },
+    let mut options = CompensateOptions::default();
+    options.dialect = a.dialect.dialect();
+    options.rapid_feed = a.rapid;
+    options.update = if a.continuous {
+        CorrectionUpdate::Continuous
+    } else {
+        CorrectionUpdate::Periodic {
+            period_min: a.period_min,
+        }
     };
     let c = compensate(&model, &bytes, &options).map_err(|e| {
         let file = a.program.display();

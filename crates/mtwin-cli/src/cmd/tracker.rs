@@ -242,10 +242,8 @@ pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
     let params = ParameterSet::from_spec(&m, &a.fit).map_err(|e| anyhow::anyhow!("--fit: {e}"))?;
     let t = load_table(&a.data)?;
     let points = read_points(&t, &m)?;
-    let options = IdentifyOptions {
-        registration: a.registration,
-        ..Default::default()
-    };
+    let mut options = IdentifyOptions::default();
+    options.registration = a.registration;
     // A progress bar once the identification has run for a second: the
     // rows of the current pass over the data, or the analysis stage.
     let start = std::time::Instant::now();

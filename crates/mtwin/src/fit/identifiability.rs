@@ -65,7 +65,9 @@ pub enum Unidentifiable {
 /// One term of a confounded combination.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Term {
+    /// Parameter index in the model's order.
     pub index: usize,
+    /// Parameter name.
     pub name: String,
     /// Coefficient of the scaled (unit-norm) null vector.
     pub scaled: f64,
@@ -122,6 +124,7 @@ pub struct Identifiability {
     pub rank: usize,
     /// Relative singular-value threshold used.
     pub threshold: f64,
+    /// Which decomposition gave the singular values.
     pub source: Source,
     /// Singular values of the column-scaled Jacobian over the non-zero
     /// columns, descending (dimensionless).

@@ -76,11 +76,13 @@ impl StopReason {
 /// Convergence summary.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Convergence {
+    /// Accepted iterations.
     pub iterations: usize,
     /// `½‖r‖²` at the start (residual unit squared).
     pub initial_cost: f64,
     /// `½‖r‖²` at the solution.
     pub final_cost: f64,
+    /// Why the iteration stopped.
     pub reason: StopReason,
     /// Passes over the residuals (each computes residuals and Jacobian rows).
     pub evaluations: usize,

@@ -62,19 +62,43 @@ use scaling::Scaled;
 
 /// Why a fit could not be run.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum FitError {
+    /// The start vector's length is not the model's parameter count.
     #[error("the start vector has {got} values but the model has {expected} parameters")]
-    ParameterCount { expected: usize, got: usize },
+    ParameterCount {
+        /// Parameters of the model.
+        expected: usize,
+        /// Values in the start vector.
+        got: usize,
+    },
+    /// The model declares no parameters.
     #[error("the model has no parameters")]
     NoParameters,
+    /// The model has no residual rows.
     #[error("the problem has no residual rows")]
     NoResiduals,
+    /// A start value is NaN or infinite.
     #[error("start value of parameter {name} is not a finite number")]
-    NonFiniteStart { name: String },
+    NonFiniteStart {
+        /// The parameter's name.
+        name: String,
+    },
+    /// The model returned a NaN or infinite residual or Jacobian entry.
     #[error("the model produced a non-finite {what} value (row {row})")]
-    NonFinite { what: &'static str, row: usize },
+    NonFinite {
+        /// `residual` or `Jacobian`.
+        what: &'static str,
+        /// Residual row.
+        row: usize,
+    },
+    /// A part of a stacked model declares other parameters than the first.
     #[error("part {part} of the stack does not declare the same parameters as the first part")]
-    StackParameters { part: usize },
+    StackParameters {
+        /// Index of the part.
+        part: usize,
+    },
+    /// An SVD or eigen-decomposition did not converge.
     #[error("a matrix decomposition failed to converge")]
     Decomposition,
 }
@@ -97,26 +121,37 @@ pub enum Strategy {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Progress {
     /// A pass over the residual rows.
-    Evaluating { rows_done: usize, rows_total: usize },
+    Evaluating {
+        /// Rows evaluated in this pass.
+        rows_done: usize,
+        /// Rows of the problem.
+        rows_total: usize,
+    },
     /// The identifiability analysis is running.
     Analysing,
     /// An accepted Levenberg–Marquardt step.
     Iteration {
+        /// Iteration number, from 1.
         iteration: usize,
+        /// `½‖r‖²` after the step (residual unit squared).
         cost: f64,
+        /// Levenberg–Marquardt damping λ after the step.
         damping: f64,
     },
 }
 
 /// Settings of a fit. The defaults suit the identifications of this crate.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct Options {
+    /// Linear-algebra path (default [`Strategy::Auto`]).
     pub strategy: Strategy,
     /// Largest `m·n` for which [`Strategy::Auto`] goes dense (default
     /// 2²⁴ ≈ 16.8 M entries, 134 MB).
     pub dense_limit: usize,
+    /// How the numerical rank is decided.
     pub rank: RankRule,
-    /// Default 100.
+    /// Largest number of Levenberg–Marquardt iterations; default 100.
     pub max_iterations: usize,
     /// Gradient test (MINPACK `gtol`), default 1e-10.
     pub gradient_tolerance: f64,
@@ -144,6 +179,7 @@ pub struct Options {
     /// ([`Model::factored`]) when it has one (default true); false forms
     /// Jacobian rows as for any model.
     pub factored: bool,
+    /// Which blocks count as outliers and whether they are left out.
     pub outliers: OutlierRule,
     /// Warn above this condition number of the scaled Jacobian of the
     /// estimated parameters (default 1e6: uncertainties amplified a million

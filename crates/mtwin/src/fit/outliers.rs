@@ -54,9 +54,11 @@ pub struct Outlier {
 /// The outcome of the rule at the solution.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct OutlierScan {
+    /// The rule applied.
     pub rule: OutlierRule,
     /// `σ̂` (residual unit).
     pub robust_sigma: f64,
+    /// Blocks the rule flags, in block order.
     pub flagged: Vec<Outlier>,
 }
 

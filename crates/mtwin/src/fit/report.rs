@@ -15,6 +15,7 @@ use super::outliers::OutlierScan;
 /// One parameter's result.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Estimate {
+    /// Parameter name.
     pub name: String,
     /// Start value (parameter unit).
     pub start: f64,
@@ -30,6 +31,7 @@ pub struct Estimate {
 /// Residual statistics of one labelled group of blocks.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct GroupStats {
+    /// Group label (as the model names its blocks).
     pub label: String,
     /// Blocks taking part in the fit.
     pub blocks: usize,
@@ -52,19 +54,38 @@ pub struct GroupStats {
 pub enum Warning {
     /// The condition number of the scaled Jacobian of the estimated
     /// parameters exceeds [`super::Options::ill_conditioned_above`].
-    IllConditioned { condition_number: f64 },
+    IllConditioned {
+        /// The condition number.
+        condition_number: f64,
+    },
     /// Some parameters are not identifiable and were left at their start
     /// values.
-    RankDeficient { rank: usize, parameters: usize },
+    RankDeficient {
+        /// Numerical rank.
+        rank: usize,
+        /// Parameters of the model.
+        parameters: usize,
+    },
     /// The iteration stopped without converging.
-    NotConverged { reason: StopReason },
+    NotConverged {
+        /// Why it stopped.
+        reason: StopReason,
+    },
     /// At the solution, directions that were identifiable at the start have
     /// become singular; they were left out of the covariance.
-    SingularAtSolution { directions: usize },
+    SingularAtSolution {
+        /// Directions left out.
+        directions: usize,
+    },
     /// `m ≤ rank`: no residual variance, no uncertainties.
     NoDegreesOfFreedom,
     /// Blocks flagged as outliers (listed in the report).
-    Outliers { flagged: usize, excluded: usize },
+    Outliers {
+        /// Blocks flagged.
+        flagged: usize,
+        /// Blocks left out of the fit.
+        excluded: usize,
+    },
 }
 
 impl fmt::Display for Warning {
@@ -101,11 +122,13 @@ impl fmt::Display for Warning {
 #[derive(Debug, Clone, Serialize)]
 pub struct FitReport {
     /// The path actually taken.
+    /// The linear-algebra path taken.
     pub strategy: Strategy,
     /// Per parameter, in the model's order.
     pub estimates: Vec<Estimate>,
     /// Final parameter vector.
     pub theta: Vec<f64>,
+    /// How the iteration ended.
     pub convergence: Convergence,
     /// Analysis at the start values of the final fit.
     pub identifiability: Identifiability,
@@ -117,8 +140,11 @@ pub struct FitReport {
     pub sigma: Option<f64>,
     /// `m − rank` over the rows taking part.
     pub degrees_of_freedom: usize,
+    /// Residual statistics per labelled group of blocks.
     pub groups: Vec<GroupStats>,
+    /// Outlier scan at the solution.
     pub outliers: OutlierScan,
+    /// What the user must know about the result.
     pub warnings: Vec<Warning>,
     /// Covariance of the estimated parameters (`None` without degrees of
     /// freedom).

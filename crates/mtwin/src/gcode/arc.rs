@@ -33,7 +33,7 @@ impl std::fmt::Display for ArcError {
 /// inch programs, 2·√2·0.01 mm for metric ones (LinuxCNC).
 fn center_abs_tolerance(units: Units) -> f64 {
     match units {
-        Units::Inch => 2.0 * 0.001 * 25.4 * std::f64::consts::SQRT_2,
+        Units::Inch => 2.0 * 0.001 * Units::Inch.mm_per_unit() * std::f64::consts::SQRT_2,
         Units::Millimetre => 2.0 * 0.01 * std::f64::consts::SQRT_2,
     }
 }
@@ -45,7 +45,7 @@ const CENTER_REL_TOLERANCE: f64 = 0.001;
 /// 0.0005 in and TOLERANCE_MM 0.005 mm).
 fn tolerance(units: Units) -> f64 {
     match units {
-        Units::Inch => 0.0005 * 25.4,
+        Units::Inch => 0.0005 * Units::Inch.mm_per_unit(),
         Units::Millimetre => 0.005,
     }
 }

@@ -6,6 +6,7 @@ use crate::model::Machine;
 
 /// Why a machine's axes do not map one to one onto G-code axis words.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
 pub enum AxisLetterError {
     /// A machine axis name is not a G-code axis letter.
     #[error("machine axis '{0}' has no G-code letter (name axes X Y Z A B C U V W)")]

@@ -25,6 +25,7 @@ impl std::fmt::Display for Location {
 
 /// Everything that can go wrong reading, interpreting or measuring a program.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum GcodeError {
     /// The bytes do not form a block (bad character, unclosed comment, word
     /// letter without a value, ...).

@@ -50,11 +50,13 @@ use super::interp::{InterpOptions, Interpreter};
 use super::profile::Trapezoid;
 use super::stream::BlockReader;
 use super::syntax::Block;
+use super::timing::{self, lerp};
 use crate::kinematics::{IkError, IkOptions, IkTarget, Kinematics};
 use crate::model::{AxisKind, Machine};
 
 /// Settings of [`interpolate`].
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct InterpolateOptions {
     /// Interpreter settings (work offsets, tool table, dialect, TCP M-codes).
     pub interp: InterpOptions,
@@ -109,6 +111,7 @@ pub struct InterpolationSummary {
 
 /// Why a program cannot be interpolated.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum InterpolateError {
     /// The sample period is not a positive finite number.
     #[error("the sample period must be a positive number of seconds, not {0}")]
@@ -200,13 +203,6 @@ impl Geom {
             }
         }
     }
-}
-
-fn lerp(a: &Axes, b: &Axes, s: f64) -> Axes {
-    if s >= 1.0 {
-        return *b;
-    }
-    Axes(std::array::from_fn(|i| a.0[i] + (b.0[i] - a.0[i]) * s))
 }
 
 /// A segment of motion.
@@ -468,35 +464,14 @@ impl<'m> Interpolator<'m> {
         path / self.machine.rapid_feed
     }
 
-    /// Programmed duration of a move, s.
+    /// Programmed duration of a move, s ([`timing::move_seconds`]).
     fn feed_seconds(&self, feed: Feed, xyz: f64, d: &Axes) -> Result<f64, InterpolateError> {
-        let path = if xyz > 0.0 {
-            xyz
-        } else if d.uvw_norm() > 0.0 {
-            d.uvw_norm()
-        } else {
-            d.abc_norm()
-        };
-        let per_minute = |f: f64| -> Result<f64, InterpolateError> {
-            if f > 0.0 && f.is_finite() {
-                Ok(60.0 * path / f)
-            } else {
-                Err(InterpolateError::Feed {
-                    line: self.line,
-                    message: format!("cannot move at a feed of {f} mm/min"),
-                })
-            }
-        };
-        match feed {
-            Feed::Rapid => per_minute(self.machine.rapid_feed),
-            Feed::PerMinute(f) => per_minute(f),
-            Feed::InverseTime(f) if f > 0.0 && f.is_finite() => Ok(60.0 / f),
-            Feed::InverseTime(f) => Err(InterpolateError::Feed {
+        timing::move_seconds(feed, xyz, d, self.machine.rapid_feed).map_err(|e| {
+            InterpolateError::Feed {
                 line: self.line,
-                message: format!("cannot move at an inverse-time feed of {f} 1/min"),
-            }),
-            Feed::PerRevolution { mm_per_rev, rpm } => per_minute(mm_per_rev * rpm),
-        }
+                message: e.0,
+            }
+        })
     }
 
     /// Axis positions at `s` along `path` into `out` (which holds the

@@ -20,6 +20,8 @@
 //!   period along a program on a machine model (feeds, G93, rapids, dwells,
 //!   trapezoidal profiles within the axis velocity and acceleration limits,
 //!   TCP through the nominal inverse kinematics), streamed to a callback.
+//! * [`timing`]: the motion rules both use (the path a feed applies to, the
+//!   duration of a move at a feed, of a rapid, straight interpolation).
 //! * Machine travel checks during statistics plug in through
 //!   [`MotionObserver`].
 //!
@@ -46,9 +48,12 @@ mod interp;
 mod interpolate;
 mod lexer;
 mod profile;
+#[warn(missing_docs)]
 mod stats;
 mod stream;
 mod syntax;
+#[warn(missing_docs)]
+pub mod timing;
 mod travel;
 
 pub use axes::{Axes, Axis, AxisLetterError, AxisMask};

@@ -14,25 +14,29 @@ use super::event::{ArcMove, Event, EventKind, Feed, Linear};
 use super::interp::{InterpOptions, Interpreter};
 use super::stream::BlockReader;
 use super::syntax::Block;
+use super::timing;
 
 /// Settings of [`stats`].
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct StatsOptions {
     /// Interpreter settings (offsets, tools, dialect, ...).
     pub interp: InterpOptions,
-    /// Rapid rate of the linear axes along the path, mm/min.
-    pub rapid_rate: f64,
-    /// Rapid rate of each rotary axis, deg/min.
-    pub rapid_rate_rotary: f64,
+    /// Rapid feed of the linear axes along the path, mm/min (the machine's
+    /// [`Machine::rapid_feed`](crate::model::Machine::rapid_feed)).
+    pub rapid_feed: f64,
+    /// Rapid feed of each rotary axis, deg/min.
+    pub rapid_feed_rotary: f64,
 }
 
 impl Default for StatsOptions {
-    /// Rapids at 10 m/min and 3600 deg/min (10 rev/min).
+    /// Rapids at [`DEFAULT_RAPID_FEED`](crate::model::DEFAULT_RAPID_FEED)
+    /// (10 m/min) and 3600 deg/min (10 rev/min).
     fn default() -> Self {
         StatsOptions {
             interp: InterpOptions::default(),
-            rapid_rate: 10_000.0,
-            rapid_rate_rotary: 3600.0,
+            rapid_feed: crate::model::DEFAULT_RAPID_FEED,
+            rapid_feed_rotary: 3600.0,
         }
     }
 }
@@ -40,7 +44,9 @@ impl Default for StatsOptions {
 /// Smallest and largest value an axis reached, mm or degree.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AxisRange {
+    /// Smallest value, mm or degree.
     pub min: f64,
+    /// Largest value, mm or degree.
     pub max: f64,
 }
 
@@ -101,30 +107,23 @@ impl ProgramStats {
             EventKind::Traverse(m) => {
                 self.rapid_moves += 1;
                 let d = m.to.sub(&m.from);
-                let xyz = d.xyz_norm();
-                self.rapid_length += xyz;
-                let rot = [Axis::A, Axis::B, Axis::C]
-                    .iter()
-                    .map(|&a| d[a].abs())
-                    .fold(0.0, f64::max);
-                let minutes = (xyz / opts.rapid_rate)
-                    .max(d.uvw_norm() / opts.rapid_rate)
-                    .max(rot / opts.rapid_rate_rotary);
-                self.rapid_time += 60.0 * minutes;
+                self.rapid_length += d.xyz_norm();
+                self.rapid_time +=
+                    timing::rapid_seconds(&d, opts.rapid_feed, opts.rapid_feed_rotary);
                 self.linear_extent(m);
             }
             EventKind::Feed(m) => {
                 self.linear_moves += 1;
                 let d = m.to.sub(&m.from);
                 self.feed_length += d.xyz_norm();
-                self.feed_time += feed_seconds(m.feed, d.xyz_norm(), &d, event)?;
+                self.feed_time += feed_seconds(m.feed, d.xyz_norm(), &d, event, opts)?;
                 self.linear_extent(m);
             }
             EventKind::Arc(a) => {
                 self.arc_moves += 1;
                 let len = a.xyz_length();
                 self.feed_length += len;
-                self.feed_time += feed_seconds(a.feed, len, &a.to.sub(&a.from), event)?;
+                self.feed_time += feed_seconds(a.feed, len, &a.to.sub(&a.from), event, opts)?;
                 self.arc_extent(a);
             }
             EventKind::Dwell { seconds } => self.dwell_time += seconds,
@@ -176,33 +175,17 @@ impl ProgramStats {
     }
 }
 
-/// Time of a feed move: LinuxCNC applies a per-minute feed to the XYZ path,
-/// else to UVW, else to the rotary axes (deg/min).
-fn feed_seconds(feed: Feed, xyz: f64, d: &Axes, event: &Event) -> Result<f64, GcodeError> {
-    const STILL: f64 = 1e-9;
-    let path = if xyz > STILL {
-        xyz
-    } else if d.uvw_norm() > STILL {
-        d.uvw_norm()
-    } else {
-        d.abc_norm()
-    };
-    let minutes = match feed {
-        Feed::Rapid => 0.0,
-        Feed::PerMinute(f) => path / f,
-        Feed::InverseTime(f) => 1.0 / f,
-        Feed::PerRevolution { mm_per_rev, rpm } => {
-            if rpm <= 0.0 {
-                return Err(GcodeError::invalid(
-                    event.at.line,
-                    0,
-                    "cannot time a feed-per-revolution move with the spindle speed at 0",
-                ));
-            }
-            path / (mm_per_rev * rpm)
-        }
-    };
-    Ok(60.0 * minutes)
+/// Time of a feed move ([`timing::move_seconds`]); a move that cannot be
+/// timed is an error naming its line.
+fn feed_seconds(
+    feed: Feed,
+    xyz: f64,
+    d: &Axes,
+    event: &Event,
+    opts: &StatsOptions,
+) -> Result<f64, GcodeError> {
+    timing::move_seconds(feed, xyz, d, opts.rapid_feed)
+        .map_err(|e| GcodeError::invalid(event.at.line, 0, &e.0))
 }
 
 /// Sees every canonical event of a program (with its block) during

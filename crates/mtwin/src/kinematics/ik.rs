@@ -19,6 +19,7 @@ pub struct IkTarget {
 
 /// Iteration controls.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct IkOptions {
     /// Largest number of Gauss–Newton steps.
     pub max_iterations: usize,
@@ -48,6 +49,7 @@ impl Default for IkOptions {
 
 /// Why inverse kinematics failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum IkError {
     /// The iteration did not reach the tolerance.
     #[error(

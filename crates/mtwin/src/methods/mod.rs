@@ -6,6 +6,8 @@ pub mod ballbar;
 pub mod compensate;
 pub mod skiving;
 pub mod testpiece;
+#[warn(missing_docs)]
 pub mod thermal;
 pub mod tracker;
+#[warn(missing_docs)]
 pub mod twin;

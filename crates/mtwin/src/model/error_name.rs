@@ -87,6 +87,7 @@ pub struct ErrorName {
 
 /// Why a text is not an error name.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
 pub enum ErrorNameError {
     /// Does not start with `E`.
     #[error("`{0}` is not an ISO 230-1 error name: it must start with `E` (e.g. `EXX`, `EY0A`)")]

@@ -1,4 +1,4 @@
-//! The machine of 00 §3: a base carrying a tool chain and a workpiece chain of axes.
+//! The machine model: a base carrying a tool chain and a workpiece chain of axes.
 
 use nalgebra::Vector3;
 
@@ -158,17 +158,80 @@ pub struct Machine {
     pub tool_direction: Vector3<f64>,
     /// Workpiece frame origin in M at the zero pose (mm).
     pub workpiece_origin: Vector3<f64>,
-    /// Rapid feed for G0, mm/min (default 10000).
+    /// Rapid feed for G0, mm/min; [`DEFAULT_RAPID_FEED`] when the machine
+    /// file has no `rapid_feed`. Every timing of a rapid (G-code statistics,
+    /// interpolation, thermal programs) uses this one rate.
     pub rapid_feed: f64,
 }
 
-/// Default rapid feed of 00 §5, mm/min.
+/// Default rapid feed, mm/min (10 m/min).
 pub const DEFAULT_RAPID_FEED: f64 = 10000.0;
 
 impl Machine {
     /// Number of axes.
     pub fn n_axes(&self) -> usize {
         self.axes.len()
+    }
+
+    /// Checks a machine built in code with the checks `mtwin model check`
+    /// runs on a machine file (chains, axis names and kinds, directions,
+    /// error functions, servo tables, rapid feed, finite numbers), so a
+    /// [`Machine`] that passes is one a file could hold.
+    ///
+    /// The machine is written as its TOML file ([`machine_to_toml`](super::machine_to_toml))
+    /// and read back by the file reader ([`parse_machine`](super::parse_machine)): the
+    /// checks are the reader's own, not a copy. Each problem is one
+    /// [`Diagnostic`](crate::io::Diagnostic) on the machine as a whole,
+    /// named `<machine NAME>`, its message the reader's (keys name the place).
+    ///
+    /// ```
+    /// let mut m = mtwin::examples::machine("ac-trunnion").unwrap();
+    /// assert!(m.validate().is_ok());
+    /// m.rapid_feed = -1.0;
+    /// let e = m.validate().unwrap_err();
+    /// assert!(e.to_string().contains("rapid_feed"), "{e}");
+    /// ```
+    pub fn validate(&self) -> Result<(), crate::io::Diagnostics> {
+        use crate::io::{Diagnostic, Diagnostics};
+        let file = std::path::PathBuf::from(format!("<machine {}>", self.name));
+        let whole = |m: String| Diagnostics(vec![Diagnostic::whole(&file, m)]);
+        let n = self.n_axes();
+        for (what, chain) in [
+            ("tool", &self.tool_chain),
+            ("workpiece", &self.workpiece_chain),
+        ] {
+            if let Some(i) = chain.iter().find(|&&i| i >= n) {
+                return Err(whole(format!(
+                    "the {what} chain names axis index {i}, but the machine has {n} axes"
+                )));
+            }
+        }
+        let text = super::machine_to_toml(self, &[]).map_err(|e| whole(e.to_string()))?;
+        super::parse_machine(&file, &text).map(|_| ()).map_err(|d| {
+            Diagnostics(
+                d.0.into_iter()
+                    .map(|x| Diagnostic::whole(&file, x.message))
+                    .collect(),
+            )
+        })
+    }
+
+    /// Number of rotary axes.
+    pub fn n_rotary(&self) -> usize {
+        self.axes
+            .iter()
+            .filter(|a| a.kind == AxisKind::Rotary)
+            .count()
+    }
+
+    /// Whether a correction can orient the tool as well as place its tip:
+    /// exactly five axes of which two are rotary (three linear), so that
+    /// the five constraints of tip position and tool-axis direction fix all
+    /// axes. Compensation moves the tool axis too only on such a machine
+    /// (the tracker's and the program's compensation alike); elsewhere it
+    /// moves the linear axes and leaves the rotary axes as commanded.
+    pub fn orients_tool(&self) -> bool {
+        self.n_axes() == 5 && self.n_rotary() == 2
     }
 
     /// Index of the axis called `name`.

@@ -33,6 +33,7 @@ impl FittedError {
 
 /// A problem with a fit specification.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
 pub enum SpecError {
     /// An empty item or an empty specification.
     #[error("the fit specification is empty (e.g. `pdge:cheb3,location` or `EXX:cheb3,EY0A`)")]

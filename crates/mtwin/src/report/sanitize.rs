@@ -148,6 +148,7 @@ pub struct SafeSvg {
 
 /// Why a document could not be inlined at all.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum SvgError {
     /// Not well-formed XML.
     #[error("it is not well-formed XML ({0})")]

@@ -2,6 +2,7 @@ use thiserror::Error;
 
 /// Why an ARX model could not be built, fitted or run.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum SysidError {
     /// The `a` polynomial must start with `a_0 = 1`.
     #[error("the first `a` coefficient must be 1 (a_0 = 1), not {0}")]

@@ -94,6 +94,7 @@ pub fn read_servo_log(path: &Path) -> Result<ServoLog, Diagnostics> {
 
 /// Options of [`fit_servo`].
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct ServoFitOptions {
     /// Largest `na` and `nb` tried (`na ∈ 1..=max`, `nb ∈ 0..=max`).
     pub max_order: usize,
@@ -209,6 +210,7 @@ impl ServoFit {
 
 /// Why `servo fit` failed: a bad file, or data that cannot be fitted.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum ServoFitError {
     /// Problems in the log file, each with its line.
     #[error("{0}")]

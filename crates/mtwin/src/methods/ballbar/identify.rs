@@ -27,6 +27,7 @@ pub const RESIDUAL_IMBALANCE: f64 = 3.0;
 
 /// Why an identification could not be run.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum IdentifyError {
     #[error("no mode data given; at least one of the four modes is needed")]
     NoModes,

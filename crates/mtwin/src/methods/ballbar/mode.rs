@@ -124,6 +124,7 @@ impl Rig {
 
 /// Why a machine does not fit the ballbar method.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum TrunnionError {
     #[error(
         "the machine has no rotary axis named {0} in its workpiece chain; the ballbar PIGE \

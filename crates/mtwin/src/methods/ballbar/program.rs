@@ -26,6 +26,7 @@ pub struct ProgramSpec {
 
 /// Why a program cannot be written.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum ProgramError {
     #[error(transparent)]
     Machine(#[from] TrunnionError),

@@ -23,13 +23,14 @@ use std::io::{BufRead, Write};
 
 use nalgebra::Vector3;
 
+use crate::gcode::timing::lerp;
 use crate::gcode::{
     Axes, Axis, AxisLetterError, Block, BlockReader, BlockWriter, Dialect, DistanceMode, EventKind,
     Feed, GcodeError, InterpOptions, Interpreter, Item, NumberFormat, Programmed, Value,
 };
 use crate::kinematics::{IkError, IkJacobian, IkOptions, IkTarget, Kinematics};
 use crate::model::{AxisKind, Machine};
-use path::{NominalPath, lerp};
+use path::NominalPath;
 
 /// Largest rotary correction accepted from a tip-and-axis solution, degree;
 /// above it the pose is taken as singular (see [`Summary::axis_not_corrected`]).
@@ -40,6 +41,7 @@ const MAX_DEPTH: u32 = 24;
 
 /// Compensation settings.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct CompensateOptions {
     /// Largest allowed deviation of the compensated path from the nominal
     /// path, mm (drives subdivision).
@@ -94,6 +96,7 @@ pub struct Summary {
 
 /// Why a program cannot be compensated.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum CompensateError {
     /// The program could not be read, interpreted or edited.
     #[error(transparent)]
@@ -203,11 +206,10 @@ impl Compensator {
             .iter()
             .map(|a| a.kind == AxisKind::Linear)
             .collect();
-        let n_rot = linear.iter().filter(|l| !**l).count();
         Ok(Compensator {
             nominal: Kinematics::nominal(machine),
             actual: Kinematics::new(machine),
-            full_pose: machine.axes.len() == 5 && n_rot == 2,
+            full_pose: machine.orients_tool(),
             all: vec![true; letters.len()],
             letters,
             linear,

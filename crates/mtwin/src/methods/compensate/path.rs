@@ -2,6 +2,7 @@
 //! offsets: machine axis positions for a plain program, the tool tip in W and
 //! the rotary positions under TCP), as a function of a parameter `s ∈ [0, 1]`.
 
+use crate::gcode::timing::lerp;
 use crate::gcode::{ArcMove, Axes, Axis, Linear};
 
 /// Where a move goes, parameterised from its start (`s = 0`) to its end (`s = 1`).
@@ -83,9 +84,4 @@ impl NominalPath {
             }
         }
     }
-}
-
-/// `a + s (b − a)`, per axis.
-pub(crate) fn lerp(a: &Axes, b: &Axes, s: f64) -> Axes {
-    Axes(std::array::from_fn(|i| a.0[i] + s * (b.0[i] - a.0[i])))
 }

@@ -26,6 +26,7 @@ pub struct Geometry {
 
 /// Why a [`Geometry`] cannot be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum GeometryError {
     #[error("{name} = {value} is not a finite number")]
     NotFinite { name: &'static str, value: f64 },

@@ -48,6 +48,7 @@ pub const STANDARD_FORMULAS: [(&str, &str); 4] = [
 
 /// Why the first-order forms do not apply.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum ClosedFormError {
     #[error("touch {0} has a or b different from 0; the closed forms assume a = b = 0")]
     Swivelled(usize),

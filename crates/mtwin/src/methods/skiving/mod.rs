@@ -35,12 +35,21 @@ pub const FLAG_THRESHOLD: f64 = 3.0;
 
 /// Settings of [`identify`].
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[non_exhaustive]
 pub struct Options {
     /// Known standard deviation of one touch (mm, along the probing
     /// direction). When given, the uncertainties are `σ·√diag((JᵀJ)⁻¹)`;
     /// otherwise `σ` is estimated from the residuals (few degrees of
     /// freedom: see [`Uncertainty::coverage_factor_95`]).
     pub noise: Option<f64>,
+}
+
+impl Options {
+    /// Settings with the known standard deviation of one touch, mm (`None`:
+    /// estimated from the residuals).
+    pub fn with_noise(noise: Option<f64>) -> Self {
+        Options { noise }
+    }
 }
 
 /// Where the standard uncertainties come from.
@@ -118,6 +127,7 @@ pub struct Solution {
 
 /// Why the set-up error cannot be identified.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum IdentifyError {
     #[error(
         "{0} touches cannot determine 4 unknowns; at least 4 (the standard plan has 6) are needed"

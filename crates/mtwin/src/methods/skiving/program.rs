@@ -60,6 +60,7 @@ pub struct Plan {
 
 /// Why a plan or program cannot be made.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum PlanError {
     #[error("x = {x} mm puts the tool beside the workpiece (|x| must be below rg = {rg} mm)")]
     XOutside { x: f64, rg: f64 },

@@ -26,6 +26,7 @@ pub struct Noise {
 
 /// Why a contact could not be found.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum SimulateError {
     #[error("touch {touch}: the probing move runs parallel to the surface; no contact")]
     Grazing { touch: usize },

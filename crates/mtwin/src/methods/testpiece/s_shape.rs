@@ -124,6 +124,7 @@ impl SShape {
 
 /// Why the program could not be written.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum SShapeError {
     /// A dimension is not positive and finite (or the lean is not within ±80°).
     #[error("the S-shaped piece needs positive finite dimensions and a lean within ±80°: {0}")]

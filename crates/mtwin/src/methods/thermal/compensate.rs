@@ -3,7 +3,7 @@
 //!
 //! 1. Every block is timed with the G-code engine's estimate
 //!    ([`ProgramStats::add`]: feed moves at the programmed feed, rapids at
-//!    [`CompensateOptions::rapid_mm_min`], `G4` dwells in the dialect's unit).
+//!    [`CompensateOptions::rapid_feed`], `G4` dwells in the dialect's unit).
 //! 2. The spindle speed (S with M3/M4, 0 after M5 or before the first M3/M4)
 //!    is a step function of time; its mean over each sample period `[kT,
 //!    (k+1)T)` of the model is the model input of that sample.
@@ -54,18 +54,22 @@ const WRITE_TOLERANCE_MM: f64 = 0.5e-4;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum CorrectionUpdate {
     /// Held constant over intervals of this length (min, > 0), starting at `t = 0`.
-    Periodic { period_min: f64 },
+    Periodic {
+        /// Interval length, min.
+        period_min: f64,
+    },
     /// The drift at the end time of each block.
     Continuous,
 }
 
 /// Settings of [`compensate`].
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct CompensateOptions {
     /// How the program reads (dwell units, Fanuc least increments).
     pub dialect: Dialect,
     /// Rapid rate along the path, mm/min (> 0).
-    pub rapid_mm_min: f64,
+    pub rapid_feed: f64,
     /// Correction update policy.
     pub update: CorrectionUpdate,
 }
@@ -75,7 +79,7 @@ impl Default for CompensateOptions {
     fn default() -> Self {
         CompensateOptions {
             dialect: Dialect::LinuxCnc,
-            rapid_mm_min: 10_000.0,
+            rapid_feed: crate::model::DEFAULT_RAPID_FEED,
             update: CorrectionUpdate::Periodic { period_min: 10.0 },
         }
     }
@@ -83,6 +87,7 @@ impl Default for CompensateOptions {
 
 /// Why a program could not be compensated.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum CompensateError {
     /// The program could not be read, interpreted or timed.
     #[error(transparent)]
@@ -250,10 +255,10 @@ pub fn compensate(
     if model.columns().len() != 1 {
         return Err(CompensateError::ModelInputs(model.columns().to_vec()));
     }
-    if !(options.rapid_mm_min.is_finite() && options.rapid_mm_min > 0.0) {
+    if !(options.rapid_feed.is_finite() && options.rapid_feed > 0.0) {
         return Err(CompensateError::Options(format!(
             "the rapid rate must be > 0 mm/min, not {}",
-            options.rapid_mm_min
+            options.rapid_feed
         )));
     }
     if let CorrectionUpdate::Periodic { period_min } = options.update
@@ -269,7 +274,7 @@ pub fn compensate(
             dialect: options.dialect,
             ..InterpOptions::default()
         },
-        rapid_rate: options.rapid_mm_min,
+        rapid_feed: options.rapid_feed,
         ..StatsOptions::default()
     };
 
@@ -783,7 +788,7 @@ mod tests {
         }
         let m = model(0.01, 0.01);
         let bad = CompensateOptions {
-            rapid_mm_min: 0.0,
+            rapid_feed: 0.0,
             ..CompensateOptions::default()
         };
         assert!(matches!(

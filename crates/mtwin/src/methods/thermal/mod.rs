@@ -52,6 +52,7 @@ use crate::sysid::SysidError;
 
 /// Why a thermal command failed.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ThermalError {
     /// Problems in an input file, each with file and line.
     #[error("{0}")]

@@ -62,6 +62,7 @@ impl BallArray {
 
 /// Probing motion (mm, mm/min).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct ProbeMotion {
     /// Start of the probing move above the ball top.
     pub approach: f64,
@@ -72,7 +73,7 @@ pub struct ProbeMotion {
     /// Probing feed, mm/min.
     pub feed: f64,
     /// Rapid rate assumed for the timing, mm/min (the `--rapid` of `gcode stats`).
-    pub rapid: f64,
+    pub rapid_feed: f64,
 }
 
 impl Default for ProbeMotion {
@@ -82,7 +83,7 @@ impl Default for ProbeMotion {
             overtravel: 1.0,
             clearance: 10.0,
             feed: 100.0,
-            rapid: 10_000.0,
+            rapid_feed: crate::model::DEFAULT_RAPID_FEED,
         }
     }
 }
@@ -104,6 +105,7 @@ pub struct ThermalProgram {
 
 /// Why the program could not be written.
 #[derive(Debug, Error, PartialEq)]
+#[non_exhaustive]
 pub enum ThermalProgramError {
     /// A setting out of range.
     #[error("{0}")]
@@ -121,7 +123,7 @@ pub enum ThermalProgramError {
     },
 }
 
-/// Duration of one probing pass (s): rapid path at `motion.rapid`, probing
+/// Duration of one probing pass (s): rapid path at `motion.rapid_feed`, probing
 /// moves at `motion.feed`, from and back to `(x0, y, safe height)`.
 pub fn pass_seconds(balls: &BallArray, motion: &ProbeMotion) -> f64 {
     let safe = safe_height(balls, motion);
@@ -135,7 +137,7 @@ pub fn pass_seconds(balls: &BallArray, motion: &ProbeMotion) -> f64 {
     }
     rapid += (at - balls.x0).abs();
     let probing = balls.heights.len() as f64 * (motion.approach + motion.overtravel);
-    60.0 * (rapid / motion.rapid + probing / motion.feed)
+    60.0 * (rapid / motion.rapid_feed + probing / motion.feed)
 }
 
 fn safe_height(balls: &BallArray, motion: &ProbeMotion) -> f64 {
@@ -172,7 +174,7 @@ pub fn thermal_program(
         ("overtravel", motion.overtravel),
         ("clearance", motion.clearance),
         ("probing feed", motion.feed),
-        ("rapid rate", motion.rapid),
+        ("rapid rate", motion.rapid_feed),
         ("step duration", step_min),
         ("sample period", period_min),
     ] {

@@ -3,8 +3,8 @@
 //! would put the tool: the identified machine is driven there.
 //!
 //! Position only (the seed's choice) moves the linear axes; position and tool
-//! axis is used where the machine can do it: at least two rotary axes and
-//! exactly five axes (all axes move).
+//! axis is used where the machine can do it ([`Machine::orients_tool`]:
+//! two rotary axes of five; all axes move).
 
 use serde::Serialize;
 
@@ -24,12 +24,7 @@ pub enum Mode {
 impl Mode {
     /// The mode `machine` allows (see the module documentation).
     pub fn for_machine(machine: &Machine) -> Mode {
-        let rotary = machine
-            .axes
-            .iter()
-            .filter(|a| a.kind == AxisKind::Rotary)
-            .count();
-        if rotary >= 2 && machine.n_axes() == 5 {
+        if machine.orients_tool() {
             Mode::PositionAndAxis
         } else {
             Mode::Position

@@ -12,6 +12,7 @@ use crate::model::{Machine, ParameterSet};
 
 /// Settings of an identification.
 #[derive(Debug, Clone)]
+#[non_exhaustive]
 pub struct IdentifyOptions {
     /// Fit the tracker-to-W registration (6 parameters) with the errors.
     pub registration: bool,
@@ -34,6 +35,7 @@ impl Default for IdentifyOptions {
 
 /// Why an identification could not be made.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum IdentifyError {
     #[error("there are no measured points")]
     NoPoints,

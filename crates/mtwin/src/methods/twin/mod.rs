@@ -30,6 +30,7 @@ use crate::sysid::SysidError;
 
 /// Why the twin could not run.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum TwinError {
     /// A problem in CMD.csv (file, line, column).
     #[error("{0}")]

@@ -160,7 +160,12 @@ pub enum Progress {
     /// Stage 1: command samples read so far (total unknown while streaming).
     Commands(u64),
     /// Stage 2: samples whose errors are computed, of `total`.
-    Errors { done: u64, total: u64 },
+    Errors {
+        /// Samples done.
+        done: u64,
+        /// Samples in all.
+        total: u64,
+    },
 }
 
 impl Twin {

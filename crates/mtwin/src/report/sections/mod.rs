@@ -16,6 +16,7 @@ use serde_json::Value;
 
 /// A result that cannot be read into a section.
 #[derive(Debug, thiserror::Error, PartialEq)]
+#[non_exhaustive]
 pub enum ReportError {
     /// A field the section needs is missing or has the wrong type.
     #[error("{what}: `{field}` is missing or is not {expected}")]
