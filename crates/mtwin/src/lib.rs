@@ -17,6 +17,7 @@ pub mod fit;
 pub mod gcode;
 pub mod io;
 pub mod kinematics;
+pub mod limits;
 pub mod methods;
 pub mod model;
 pub mod report;

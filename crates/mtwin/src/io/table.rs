@@ -272,7 +272,16 @@ pub(super) fn parse_number(
     s: &str,
 ) -> Result<f64, Diagnostic> {
     match s.parse::<f64>() {
-        Ok(v) if v.is_finite() => Ok(v),
+        Ok(v) if v.is_finite() && v.abs() <= crate::limits::MAX_ABS_VALUE => Ok(v),
+        Ok(v) if v.is_finite() => Err(Diagnostic::at(
+            path,
+            line,
+            index + 1,
+            format!(
+                "column `{name}` holds `{s}`, beyond the largest magnitude accepted ({}): no quantity in these files is that large",
+                crate::limits::fmt_message_number(crate::limits::MAX_ABS_VALUE)
+            ),
+        )),
         Ok(_) => Err(Diagnostic::at(
             path,
             line,
