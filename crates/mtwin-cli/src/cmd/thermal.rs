@@ -285,6 +285,7 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
         extra_inputs: a.extra_inputs.clone(),
         ..ThermalFitOptions::default()
     };
+    options.validate()?;
     let data = read_training(&a.data, &options.extra_inputs).map_err(diag)?;
     let fit = thermal::fit(&data, &options)?;
     if let Some(dir) = &a.plot {

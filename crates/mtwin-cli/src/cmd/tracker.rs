@@ -418,6 +418,13 @@ pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
             a.select
         );
     }
+    mtwin::methods::tracker::plan::check_plan_size(a.candidates, a.select).map_err(|mut e| {
+        e.what = match e.what.as_str() {
+            "the number of candidates" => "--candidates".into(),
+            _ => "--candidates × --select".into(),
+        };
+        anyhow::anyhow!("{e}")
+    })?;
     let m = load_machine(&a.machine)?;
     let params = ParameterSet::from_spec(&m, &a.fit).map_err(|e| anyhow::anyhow!("--fit: {e}"))?;
     let spin = crate::output::spinner("planning");
