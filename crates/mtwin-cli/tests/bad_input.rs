@@ -160,6 +160,11 @@ fn ballbar_programs_in_machine_coordinates(dir: &Path, _: &str) -> Option<String
     None
 }
 
+fn start_position_note(dir: &Path, _: &str) -> Option<String> {
+    let p = std::fs::read_to_string(dir.join("o.ngc")).ok()?;
+    (!p.starts_with("G1 X10.")).then(|| format!("not a compensated move: {p}"))
+}
+
 fn mode3_hint(_: &Path, out: &str) -> Option<String> {
     (!out.contains("add mode1")).then(|| format!("no `add mode1` hint in:\n{out}"))
 }
@@ -266,6 +271,54 @@ fn cases() -> Vec<Case> {
             args: &["model", "check", "m.toml"],
             outputs: &[],
             expect: Accepted(no_problem),
+        },
+        Case {
+            category: "silent-wrong",
+            files: &[("p.csv", b"X,Y,Z,A,C\n")],
+            setup: &[],
+            args: &[
+                "predict",
+                "--machine",
+                "@M:ac-trunnion-with-errors.toml",
+                "--data",
+                "p.csv",
+                "--out",
+                "o.csv",
+            ],
+            outputs: &["o.csv"],
+            expect: Refused(&["p.csv:1", "no poses"]),
+        },
+        Case {
+            category: "silent-wrong",
+            files: &[("p.csv", b"X,Y,Z,A,C\n0,0,1e308,0,0\n")],
+            setup: &[],
+            args: &[
+                "predict",
+                "--machine",
+                "@M:ac-trunnion-with-errors.toml",
+                "--data",
+                "p.csv",
+                "--out",
+                "o.csv",
+            ],
+            outputs: &["o.csv"],
+            expect: Refused(&["p.csv:2:3", "1e308", "largest magnitude"]),
+        },
+        Case {
+            category: "accepted",
+            files: &[("c.ngc", b"G1 X10 F100\n")],
+            setup: &[],
+            args: &[
+                "compensate",
+                "--machine",
+                "@M:ac-trunnion-with-errors.toml",
+                "--program",
+                "c.ngc",
+                "--out",
+                "o.ngc",
+            ],
+            outputs: &[],
+            expect: Accepted(start_position_note),
         },
         // --- Servo: sizes, overflow, instability ---
         Case {
