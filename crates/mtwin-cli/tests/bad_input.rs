@@ -435,6 +435,25 @@ fn cases() -> Vec<Case> {
             outputs: &["e.nc"],
             expect: Refused(&["--levels is 100000000", "limit"]),
         },
+        Case {
+            category: "words",
+            files: &[],
+            setup: &[],
+            args: &[
+                "servo",
+                "excitation",
+                "--axis",
+                "X",
+                "--travel",
+                "0,100",
+                "--feed",
+                "-1e308",
+                "--out",
+                "e.nc",
+            ],
+            outputs: &["e.nc"],
+            expect: Refused(&["not -1e308"]),
+        },
         // --- Sizes of generated programs and plans ---
         Case {
             category: "hang/resource",

@@ -127,7 +127,10 @@ pub fn run(c: Command) -> anyhow::Result<()> {
 
 fn fit(a: FitArgs) -> anyhow::Result<()> {
     if !(a.feed.is_finite() && a.feed > 0.0) {
-        anyhow::bail!("--feed must be a positive feed in mm/min, not {}", a.feed);
+        anyhow::bail!(
+            "--feed must be a positive feed in mm/min, not {}",
+            mtwin::limits::fmt_message_number(a.feed)
+        );
     }
     let options = ServoFitOptions {
         max_order: a.max_order,
@@ -205,7 +208,10 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
 
 fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
     if !(a.noise.is_finite() && a.noise >= 0.0) {
-        anyhow::bail!("--noise must be finite and >= 0 mm, not {}", a.noise);
+        anyhow::bail!(
+            "--noise must be finite and >= 0 mm, not {}",
+            mtwin::limits::fmt_message_number(a.noise)
+        );
     }
     let servo = sysid::read_servo_toml(&a.servo).map_err(diag)?;
     if let Some(w) = servo.arx().stability().warning()
@@ -291,10 +297,17 @@ fn excitation_program(
     }
     let (lo, hi) = travel;
     if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-        anyhow::bail!("--travel must be MIN,MAX with MIN < MAX, not {lo},{hi}");
+        anyhow::bail!(
+            "--travel must be MIN,MAX with MIN < MAX, not {},{}",
+            mtwin::limits::fmt_message_number(lo),
+            mtwin::limits::fmt_message_number(hi)
+        );
     }
     if !(feed.is_finite() && feed > 0.0) {
-        anyhow::bail!("--feed must be a positive feed in mm/min, not {feed}");
+        anyhow::bail!(
+            "--feed must be a positive feed in mm/min, not {}",
+            mtwin::limits::fmt_message_number(feed)
+        );
     }
     if levels == 0 {
         anyhow::bail!("--levels must be at least 1");
@@ -306,7 +319,10 @@ fn excitation_program(
         "each level is two moves and two dwells of the program",
     )?;
     if !(dwell.is_finite() && dwell >= 0.0) {
-        anyhow::bail!("--dwell must be finite and >= 0 s, not {dwell}");
+        anyhow::bail!(
+            "--dwell must be finite and >= 0 s, not {}",
+            mtwin::limits::fmt_message_number(dwell)
+        );
     }
     let centre = 0.5 * (lo + hi);
     let half = 0.5 * (hi - lo);

@@ -409,7 +409,10 @@ pub fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
 pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
     let PlanCommand::Tracker(a) = c;
     if !(a.noise.is_finite() && a.noise > 0.0) {
-        bail!("--noise must be a positive number of mm, got {}", a.noise);
+        bail!(
+            "--noise must be a positive number of mm, got {}",
+            mtwin::limits::fmt_message_number(a.noise)
+        );
     }
     if a.select == 0 || a.select > a.candidates {
         bail!(
@@ -479,7 +482,7 @@ pub fn run_simulate(c: SimulateCommand) -> anyhow::Result<()> {
     if !(a.noise.is_finite() && a.noise >= 0.0) {
         bail!(
             "--noise must be a non-negative number of mm, got {}",
-            a.noise
+            mtwin::limits::fmt_message_number(a.noise)
         );
     }
     let m = load_machine(&a.machine)?;
