@@ -360,6 +360,16 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
     let model = thermal::read_model(&a.model).map_err(diag)?;
     let programme = thermal::read_programme(&a.speed, &model).map_err(diag)?;
     let p = thermal::predict(&model, &programme, &heights);
+    // An unstable model diverges: never write inf or NaN with exit 0.
+    if let Some(r) = p.rows.iter().find(|r| r.iter().any(|v| !v.is_finite())) {
+        anyhow::bail!(
+            "{}: the predicted drift overflows at t = {} min, z = {} mm (the model is unstable or \
+             its coefficients too large); nothing written",
+            a.model.display(),
+            mtwin::limits::fmt_message_number(r[0]),
+            mtwin::limits::fmt_message_number(r[1])
+        );
+    }
     p.write_csv(&a.out)
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     let warnings = p.warnings(&model);
