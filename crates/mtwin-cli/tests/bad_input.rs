@@ -169,9 +169,37 @@ fn mode3_hint(_: &Path, out: &str) -> Option<String> {
     (!out.contains("add mode1")).then(|| format!("no `add mode1` hint in:\n{out}"))
 }
 
+/// A thermal model with a pole at 2 (unstable) and 1200 samples of speed:
+/// its prediction overflows after about 1024 samples.
+const THERMAL_UNSTABLE: &[u8] = b"period_min = 10.0\n[[inputs]]\nname = \"speed_rpm\"\nscale = 1000.0\n[[heights]]\nz_mm = -50.0\na = [1.0, -2.0]\nb = [[1.0]]\nnk = [1]\n";
+
+fn leak(s: String) -> &'static [u8] {
+    Box::leak(s.into_boxed_str()).as_bytes()
+}
+
 fn cases() -> Vec<Case> {
     use Expect::*;
+    let speeds = leak(
+        std::iter::once("t_min,speed_rpm\n".to_string())
+            .chain((0..1200).map(|k| format!("{},1000\n", k * 10)))
+            .collect(),
+    );
+    let thermal_files: &'static [(&'static str, &'static [u8])] = Box::leak(Box::new([
+        ("th.toml", THERMAL_UNSTABLE),
+        ("sp.csv", speeds),
+    ]));
     vec![
+        Case {
+            category: "silent-wrong",
+            files: thermal_files,
+            setup: &[],
+            args: &[
+                "thermal", "predict", "--model", "th.toml", "--speed", "sp.csv", "--z", "-50",
+                "--out", "o.csv",
+            ],
+            outputs: &["o.csv"],
+            expect: Refused(&["th.toml", "overflows", "nothing written"]),
+        },
         // --- G-code words LinuxCNC refuses (silent-wrong before) ---
         Case {
             category: "silent-wrong",
