@@ -63,6 +63,7 @@ pub mod gcode;
 pub mod io;
 #[warn(missing_docs)]
 pub mod kinematics;
+pub mod limits;
 pub mod methods;
 #[warn(missing_docs)]
 pub mod model;

@@ -63,10 +63,10 @@ pub struct SetupArgs {
     format: Format,
 }
 
-/// The rig options shared by several subcommands.
+/// The rig geometry: bar length and tool-ball placements.
 #[derive(Debug, clap::Args)]
 #[command(allow_negative_numbers = true)]
-pub struct RigArgs {
+pub struct GeometryArgs {
     /// Nominal bar length L, mm.
     #[arg(long, default_value_t = 100.0)]
     length: f64,
@@ -76,6 +76,26 @@ pub struct RigArgs {
     /// Height of the tool ball above the A line in mode 4, mm.
     #[arg(long, default_value_t = 100.0)]
     zb1a: f64,
+}
+
+impl GeometryArgs {
+    /// The rig with an ideal set-up (no tool-ball set-up error).
+    fn ideal_rig(&self) -> Rig {
+        Rig {
+            length: self.length,
+            zb1c: self.zb1c,
+            zb1a: self.zb1a,
+            setup: ballbar::SetupError { ex: 0.0, ey: 0.0 },
+        }
+    }
+}
+
+/// The rig options shared by several subcommands.
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct RigArgs {
+    #[command(flatten)]
+    geometry: GeometryArgs,
     /// Set-up error eX of the tool ball, mm (from `mtwin ballbar setup-error`).
     #[arg(long, default_value_t = 0.0)]
     ex: f64,
@@ -87,13 +107,11 @@ pub struct RigArgs {
 impl RigArgs {
     fn rig(&self) -> Rig {
         Rig {
-            length: self.length,
-            zb1c: self.zb1c,
-            zb1a: self.zb1a,
             setup: ballbar::SetupError {
                 ex: self.ex,
                 ey: self.ey,
             },
+            ..self.geometry.ideal_rig()
         }
     }
 }
@@ -153,6 +171,15 @@ impl RangeArgs {
                 r.len()
             );
         };
+        // The count before the list: `--a-range -90,90,1e-9` would be 1.8e11 angles.
+        if step > 0.0 && end >= start {
+            mtwin::limits::check(
+                &format!("the number of angles of {name}"),
+                ((end - start) / step).floor() + 1.0,
+                mtwin::limits::MAX_PROGRAM_POINTS,
+                "each angle is a move and a dwell of the program; use a larger step",
+            )?;
+        }
         let v = angle_range(start, end, step);
         if v.is_empty() {
             bail!(
@@ -174,14 +201,16 @@ impl RangeArgs {
 #[derive(Debug, clap::Args)]
 #[command(allow_negative_numbers = true)]
 pub struct SensitivityArgs {
+    // The table is for an ideal set-up, so it takes the rig geometry only,
+    // no --ex/--ey.
     #[command(flatten)]
-    rig: RigArgs,
+    rig: GeometryArgs,
     #[command(flatten)]
     range: RangeArgs,
-    /// Size of the offsets, mm (seed table 1: 0.010).
+    /// Size of the offsets, mm.
     #[arg(long, default_value_t = 0.010)]
     offset: f64,
-    /// Size of the tilts, rad (seed table 1: 0.005° = 8.7266e-5).
+    /// Size of the tilts, rad (default 0.005° = 8.7266e-5 rad).
     #[arg(long, default_value_t = 0.005_f64.to_radians())]
     tilt: f64,
     /// Machine model; default: the bundled ac-trunnion.toml.
@@ -451,7 +480,7 @@ fn run_sensitivity(a: SensitivityArgs) -> anyhow::Result<()> {
         a.range.angles(Mode::Three)?,
         a.range.angles(Mode::Four)?,
     ];
-    let rows = sensitivity_table(&machine, &a.rig.rig(), a.offset, a.tilt, &angles)?;
+    let rows = sensitivity_table(&machine, &a.rig.ideal_rig(), a.offset, a.tilt, &angles)?;
     match a.format {
         Format::Json => print_json(&Value::Array(
             rows.iter()
@@ -501,6 +530,9 @@ fn run_program(a: ProgramArgs) -> anyhow::Result<()> {
         };
         texts.push((m, ballbar::program(&machine, m, &spec)?));
     }
+    // The folder only once every program is made: nothing is left on an error.
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
     let mut files = Vec::new();
     for (m, t) in &texts {
         let p = program_path(*m);

@@ -45,12 +45,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     anyhow::ensure!(
         a.tol > 0.0 && a.tol.is_finite(),
         "--tol must be a positive number of mm, not {}",
-        a.tol
+        mtwin::limits::fmt_message_number(a.tol)
     );
     anyhow::ensure!(
         a.max_correction > 0.0 && a.max_correction.is_finite(),
         "--max-correction must be a positive number of mm, not {}",
-        a.max_correction
+        mtwin::limits::fmt_message_number(a.max_correction)
     );
     let mut out = mtwin::io::Outputs::plan()
         .input(&a.machine)

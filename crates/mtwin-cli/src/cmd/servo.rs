@@ -83,6 +83,10 @@ pub struct SimulateArgs {
     /// Output LOG.csv: `t_s,command_mm,feedback_mm`.
     #[arg(long)]
     out: PathBuf,
+    /// Simulate even when the servo is unstable (a pole on or outside the
+    /// unit circle); the simulation stops with an error if it overflows.
+    #[arg(long)]
+    allow_unstable: bool,
 }
 
 #[derive(Debug, clap::Args)]
@@ -123,12 +127,26 @@ pub fn run(c: Command) -> anyhow::Result<()> {
 
 fn fit(a: FitArgs) -> anyhow::Result<()> {
     if !(a.feed.is_finite() && a.feed > 0.0) {
-        anyhow::bail!("--feed must be a positive feed in mm/min, not {}", a.feed);
+        anyhow::bail!(
+            "--feed must be a positive feed in mm/min, not {}",
+            mtwin::limits::fmt_message_number(a.feed)
+        );
     }
-    let mut out = Outputs::plan().input(&a.data).output(&a.out).begin()?;
     let mut options = ServoFitOptions::default();
     options.max_order = a.max_order;
     options.max_delay = a.max_delay;
+    options.validate().map_err(|e| match e {
+        sysid::SysidError::Limit(mut l) => {
+            l.what = match l.what.as_str() {
+                "the largest order" => "--max-order".into(),
+                "the largest delay" => "--max-delay".into(),
+                _ => format!("{} (--max-order × --max-delay)", l.what),
+            };
+            anyhow::anyhow!("{l}")
+        }
+        other => anyhow::anyhow!("--max-order: {other}"),
+    })?;
+    let mut out = Outputs::plan().input(&a.data).output(&a.out).begin()?;
     // Every structure of the order grid is refined by output error: seconds
     // on a long log.
     let spin = crate::output::spinner("fitting servo structures");
@@ -190,7 +208,10 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
 
 fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
     if !(a.noise.is_finite() && a.noise >= 0.0) {
-        anyhow::bail!("--noise must be finite and >= 0 mm, not {}", a.noise);
+        anyhow::bail!(
+            "--noise must be finite and >= 0 mm, not {}",
+            mtwin::limits::fmt_message_number(a.noise)
+        );
     }
     let mut out = Outputs::plan()
         .input(&a.servo)
@@ -198,12 +219,28 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
         .output(&a.out)
         .begin()?;
     let servo = sysid::read_servo_toml(&a.servo).map_err(diag)?;
+    if let Some(w) = servo.arx().stability().warning()
+        && !a.allow_unstable
+    {
+        anyhow::bail!(
+            "{}: {w}; refusing to simulate it (give --allow-unstable to simulate anyway)",
+            a.servo.display()
+        );
+    }
     let table = load_table(&a.commands)?;
     let column = a.axis.as_deref().unwrap_or("command_mm");
     let rows = table.number_rows(&["t_s", column]).map_err(diag)?;
     check_grid(&table, &rows, servo.ts())?;
     let commands: Vec<f64> = rows.iter().map(|r| r[1]).collect();
     let feedback = servo.simulate(&commands);
+    if let Some(k) = feedback.iter().position(|y| !y.is_finite()) {
+        anyhow::bail!(
+            "the simulated feedback overflows at t_s = {} (sample {}): the servo of {} diverges; nothing written",
+            fmt_f64(rows[k][0]),
+            k + 1,
+            a.servo.display()
+        );
+    }
     let noise = Normal::new(0.0, a.noise).context("the noise level")?;
     let mut rng = rand::rngs::StdRng::seed_from_u64(a.seed);
     out.write_with(&a.out, |w| -> std::io::Result<()> {
@@ -266,16 +303,32 @@ fn excitation_program(
     }
     let (lo, hi) = travel;
     if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-        anyhow::bail!("--travel must be MIN,MAX with MIN < MAX, not {lo},{hi}");
+        anyhow::bail!(
+            "--travel must be MIN,MAX with MIN < MAX, not {},{}",
+            mtwin::limits::fmt_message_number(lo),
+            mtwin::limits::fmt_message_number(hi)
+        );
     }
     if !(feed.is_finite() && feed > 0.0) {
-        anyhow::bail!("--feed must be a positive feed in mm/min, not {feed}");
+        anyhow::bail!(
+            "--feed must be a positive feed in mm/min, not {}",
+            mtwin::limits::fmt_message_number(feed)
+        );
     }
     if levels == 0 {
         anyhow::bail!("--levels must be at least 1");
     }
+    mtwin::limits::check(
+        "--levels",
+        levels as f64,
+        mtwin::limits::MAX_PROGRAM_POINTS / 4,
+        "each level is two moves and two dwells of the program",
+    )?;
     if !(dwell.is_finite() && dwell >= 0.0) {
-        anyhow::bail!("--dwell must be finite and >= 0 s, not {dwell}");
+        anyhow::bail!(
+            "--dwell must be finite and >= 0 s, not {}",
+            mtwin::limits::fmt_message_number(dwell)
+        );
     }
     let centre = 0.5 * (lo + hi);
     let half = 0.5 * (hi - lo);

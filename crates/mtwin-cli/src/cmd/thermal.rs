@@ -286,6 +286,7 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
         extra_inputs: a.extra_inputs.clone(),
         ..ThermalFitOptions::default()
     };
+    options.validate()?;
     let data = read_training(&a.data, &options.extra_inputs).map_err(diag)?;
     // The plot files are named after the heights of the data.
     let plot_files: Vec<PathBuf> = a
@@ -373,6 +374,16 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
     let model = thermal::read_model(&a.model).map_err(diag)?;
     let programme = thermal::read_programme(&a.speed, &model).map_err(diag)?;
     let p = thermal::predict(&model, &programme, &heights);
+    // An unstable model diverges: never write inf or NaN with exit 0.
+    if let Some(r) = p.rows.iter().find(|r| r.iter().any(|v| !v.is_finite())) {
+        anyhow::bail!(
+            "{}: the predicted drift overflows at t = {} min, z = {} mm (the model is unstable or \
+             its coefficients too large); nothing written",
+            a.model.display(),
+            mtwin::limits::fmt_message_number(r[0]),
+            mtwin::limits::fmt_message_number(r[1])
+        );
+    }
     out.write_with(&a.out, |w| p.write_csv_to(w))
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     out.commit()?;

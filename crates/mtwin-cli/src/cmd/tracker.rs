@@ -472,7 +472,10 @@ pub fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
 pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
     let PlanCommand::Tracker(a) = c;
     if !(a.noise.is_finite() && a.noise > 0.0) {
-        bail!("--noise must be a positive number of mm, got {}", a.noise);
+        bail!(
+            "--noise must be a positive number of mm, got {}",
+            mtwin::limits::fmt_message_number(a.noise)
+        );
     }
     if a.select == 0 || a.select > a.candidates {
         bail!(
@@ -481,6 +484,13 @@ pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
             a.select
         );
     }
+    mtwin::methods::tracker::plan::check_plan_size(a.candidates, a.select).map_err(|mut e| {
+        e.what = match e.what.as_str() {
+            "the number of candidates" => "--candidates".into(),
+            _ => "--candidates × --select".into(),
+        };
+        anyhow::anyhow!("{e}")
+    })?;
     let mut out = Outputs::plan()
         .input(&a.machine)
         .output(&a.out_csv)
@@ -541,7 +551,7 @@ pub fn run_simulate(c: SimulateCommand) -> anyhow::Result<()> {
     if !(a.noise.is_finite() && a.noise >= 0.0) {
         bail!(
             "--noise must be a non-negative number of mm, got {}",
-            a.noise
+            mtwin::limits::fmt_message_number(a.noise)
         );
     }
     let mut out = Outputs::plan()

@@ -7,6 +7,7 @@ mod common;
 #[path = "../../../mtwin/src/test_support.rs"]
 mod shared;
 
+mod bad_input;
 mod browser;
 mod cli_ballbar;
 mod cli_compensate;

@@ -686,6 +686,7 @@ impl Interpreter {
                 }
             }
         }
+        self.check_word_use(block, w, &has_g, arc_now, line)?;
         // 14. Program end.
         if let Some((2 | 30, _)) = m_stop {
             self.ended = true;
@@ -693,6 +694,73 @@ impl Interpreter {
                 at,
                 kind: EventKind::ProgramEnd,
             });
+        }
+        Ok(())
+    }
+
+    /// Refuses D, E, H, L, P and Q words that no code of the block reads, as
+    /// LinuxCNC does ("E word with no G76, M66, M67 or M68 to use it", ...):
+    /// a word nothing reads is a typing error, never silently dropped. Only
+    /// the codes this interpreter accepts are listed (canned cycles, G10 and
+    /// cutter compensation are refused before this check).
+    fn check_word_use(
+        &self,
+        block: &Block,
+        w: &BlockWords,
+        has_g: &dyn Fn(u32) -> bool,
+        arc_now: bool,
+        line: u64,
+    ) -> Result<(), GcodeError> {
+        let has_m = |codes: &[u32]| w.m.iter().any(|(c, _)| codes.contains(c));
+        let checks: [(u8, bool, &str); 6] = [
+            (b'D', false, "D word with no G41, G42 or G96 to use it"),
+            (
+                b'E',
+                has_m(&[66, 67, 68]),
+                "E word with no G76, M66, M67 or M68 to use it",
+            ),
+            (
+                b'H',
+                has_g(430) || has_g(434),
+                "H word with no G43 to use it",
+            ),
+            (
+                b'L',
+                has_m(&[66]),
+                "L word with no G10, cutter compensation, canned cycle or M66 to use it",
+            ),
+            (
+                b'P',
+                has_g(40)
+                    || has_g(640)
+                    || arc_now
+                    || has_m(&[19, 50, 51, 52, 53, 62, 63, 64, 65, 66]),
+                "P word with no G2, G3, G4, G64, M19, M50-M53 or M62-M66 to use it",
+            ),
+            (
+                b'Q',
+                has_g(640) || has_m(&[19, 61, 66, 67, 68]),
+                "Q word with no G64, M19, M61, M66, M67, M68 or canned cycle to use it",
+            ),
+        ];
+        for (l, used, message) in checks {
+            let Some(x) = w.get(l) else { continue };
+            if used {
+                continue;
+            }
+            let mut message = message.to_string();
+            // `X1e3`: the E (or D) was meant as an exponent.
+            let at = x.column - 1;
+            let text = block.text();
+            if matches!(l, b'E' | b'D')
+                && at > 0
+                && text.get(at - 1).is_some_and(u8::is_ascii_digit)
+            {
+                message.push_str(
+                    " (G-code numbers have no exponent: `1e3` reads as 1 followed by an E word)",
+                );
+            }
+            return Err(GcodeError::invalid(line, x.column, message));
         }
         Ok(())
     }
@@ -1372,5 +1440,68 @@ mod tests {
             ..Default::default()
         };
         assert_eq!(moves(&run_with("/G0 X5\n", keep).unwrap()).len(), 1);
+    }
+
+    /// Words no code of the block reads are refused as LinuxCNC refuses
+    /// them; the same words are accepted beside the codes that read them.
+    #[test]
+    fn unused_words_are_refused_like_linuxcnc() {
+        let err = |src: &str| match run_with(src, InterpOptions::default()) {
+            Err(GcodeError::Invalid { at, message }) => (at.column, message),
+            other => panic!("{src}: expected an invalid block, got {other:?}"),
+        };
+        // `X1e3` is X1 and E3: refused, with the exponent explained.
+        let (col, m) = err("G1 X1e3 F100\n");
+        assert_eq!(col, 6, "{m}");
+        assert!(m.starts_with("E word with no G76, M66, M67 or M68"), "{m}");
+        assert!(m.contains("no exponent"), "{m}");
+        let (col, m) = err("G1 X10 E5 F100\n");
+        assert_eq!(col, 8);
+        assert!(m.starts_with("E word") && !m.contains("exponent"), "{m}");
+        let (col, m) = err("G1 X10 Q5 F100\n");
+        assert_eq!(col, 8);
+        assert!(m.starts_with("Q word with no"), "{m}");
+        assert!(err("G1 X10 P2 F100\n").1.starts_with("P word with no"));
+        assert!(err("G0 X1 L2\n").1.starts_with("L word with no"));
+        assert!(err("G0 X1 D1\n").1.starts_with("D word with no"));
+        assert!(err("G0 X1 H1\n").1.starts_with("H word with no G43"));
+        // Beside the codes that read them the words are fine.
+        for ok in [
+            "G4 P1\n",
+            "G64 P0.01 Q0.01\n",
+            "G2 X10 I5 P2 F100\n",
+            "M66 P0 L0 Q1\n",
+            "M68 E0 Q1\n",
+            "M61 Q1\n",
+            "G43 H0\n",
+            "N10 G0 X1\n",
+            "/N10.5 G0 X1\n",
+        ] {
+            run_with(ok, InterpOptions::default()).unwrap_or_else(|e| panic!("{ok}: {e}"));
+        }
+    }
+
+    /// A line number only starts a block and is an unsigned integer.
+    #[test]
+    fn line_numbers_as_linuxcnc_reads_them() {
+        for bad in [
+            "G0 N10 X1\n",
+            "N-5 G0 X1\n",
+            "N[1] G0 X1\n",
+            "(c) N1 G0 X1\n",
+        ] {
+            assert!(
+                matches!(
+                    Program::parse(bad.as_bytes()),
+                    Err(GcodeError::Syntax { .. })
+                ),
+                "{bad} must be a syntax error"
+            );
+        }
+        // `N1e5` is N1 followed by an E word nothing reads.
+        assert!(matches!(
+            run_with("N1e5\n", InterpOptions::default()),
+            Err(GcodeError::Invalid { .. })
+        ));
     }
 }

@@ -68,6 +68,11 @@ pub struct InterpolateOptions {
     /// Stop with [`InterpolateError::OutOfTravel`] when a sample leaves an
     /// axis travel (otherwise samples are written as computed, never clipped).
     pub check_travel: bool,
+    /// Most samples handed to the callback ([`crate::limits::MAX_SAMPLES`]
+    /// by default); a program that would need more stops with
+    /// [`InterpolateError::TooManySamples`] before the samples of the move
+    /// that crosses the bound are made.
+    pub max_samples: u64,
 }
 
 impl InterpolateOptions {
@@ -79,6 +84,7 @@ impl InterpolateOptions {
             ts,
             force_tcp: false,
             check_travel: true,
+            max_samples: crate::limits::MAX_SAMPLES,
         }
     }
 }
@@ -135,6 +141,18 @@ pub enum InterpolateError {
         #[source]
         source: IkError,
     },
+    /// The program needs more samples than [`InterpolateOptions::max_samples`].
+    #[error(
+        "line {line}: the program runs to t = {} s, which at a sample period of {} s is more than {max} samples (the limit): use a longer sample period",
+        crate::limits::fmt_message_number(*t),
+        crate::limits::fmt_message_number(*ts)
+    )]
+    TooManySamples {
+        line: u64,
+        t: f64,
+        ts: f64,
+        max: u64,
+    },
     /// A sample leaves an axis travel.
     #[error(
         "line {line}: axis {axis} reaches {value} {unit} at t = {t} s, outside its travel [{lo}, {hi}]"
@@ -163,7 +181,8 @@ impl InterpolateError {
             InterpolateError::MissingAxis { line, .. }
             | InterpolateError::Feed { line, .. }
             | InterpolateError::Ik { line, .. }
-            | InterpolateError::OutOfTravel { line, .. } => Some(*line),
+            | InterpolateError::OutOfTravel { line, .. }
+            | InterpolateError::TooManySamples { line, .. } => Some(*line),
             InterpolateError::Gcode(e) => e.location().map(|l| l.line),
             _ => None,
         }
@@ -640,6 +659,15 @@ impl<'m> Interpolator<'m> {
         F: FnMut(&Sample<'_>) -> io::Result<()>,
         G: Fn(&Self, &mut [f64]) -> Result<(), InterpolateError>,
     {
+        // The samples this move needs, counted before any is made.
+        if end / self.opts.ts >= self.opts.max_samples as f64 {
+            return Err(InterpolateError::TooManySamples {
+                line: self.line,
+                t: end,
+                ts: self.opts.ts,
+                max: self.opts.max_samples,
+            });
+        }
         let mut out = std::mem::take(&mut self.buf);
         out.copy_from_slice(&self.q);
         let result = loop {
@@ -765,6 +793,40 @@ mod tests {
             Ok(())
         })?;
         Ok((out, summary))
+    }
+
+    /// The sample count of a move is checked before its samples are made:
+    /// 5 s at ts = 1e-12 s is 5e12 samples, refused with nothing emitted; at
+    /// a bound of 5001 the 5 s move (samples 0..4999, then the last) passes
+    /// and at 4999 it does not.
+    #[test]
+    fn sample_count_is_bounded_before_sampling() {
+        let m = xyz(None, None);
+        let opts = InterpolateOptions::new(1e-12);
+        let mut n = 0u64;
+        let r = interpolate(b"G1 X30 Y40 F600\n".as_slice(), &m, &opts, |_| {
+            n += 1;
+            Ok(())
+        });
+        assert!(
+            matches!(r, Err(InterpolateError::TooManySamples { line: 1, .. })),
+            "{r:?}"
+        );
+        assert_eq!(n, 0);
+        let mut opts = InterpolateOptions::new(0.001);
+        opts.max_samples = 5001;
+        assert_eq!(run("G1 X30 Y40 F600\n", &m, &opts).unwrap().0.len(), 5001);
+        opts.max_samples = 4999;
+        assert!(matches!(
+            run("G1 X30 Y40 F600\n", &m, &opts),
+            Err(InterpolateError::TooManySamples { .. })
+        ));
+        // A dwell of 1e8 s (1e11 samples) is refused, not run.
+        let opts = InterpolateOptions::new(0.001);
+        assert!(matches!(
+            run("G4 P100000000\n", &m, &opts),
+            Err(InterpolateError::TooManySamples { .. })
+        ));
     }
 
     #[test]

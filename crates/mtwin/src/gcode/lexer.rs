@@ -35,6 +35,8 @@ pub(crate) fn lex(text: &[u8], line: u64, items: &mut Vec<Item>) -> Result<(), G
         line,
     };
     let mut first = true;
+    // Nothing but a block delete '/' read yet: where a line number may stand.
+    let mut at_start = true;
     loop {
         lx.skip_space();
         let Some(c) = lx.peek() else { break };
@@ -86,6 +88,9 @@ pub(crate) fn lex(text: &[u8], line: u64, items: &mut Vec<Item>) -> Result<(), G
                     lx.i = text.len();
                 } else {
                     lx.i += 1;
+                    if letter == b'N' {
+                        lx.line_number(at_start)?;
+                    }
                     let (value, span, has_point) = lx.real_value()?;
                     items.push(Item::Word(Word {
                         letter,
@@ -100,6 +105,7 @@ pub(crate) fn lex(text: &[u8], line: u64, items: &mut Vec<Item>) -> Result<(), G
                 return Err(lx.err(format!("unexpected character {}", show_byte(c))));
             }
         }
+        at_start &= matches!(items.last(), Some(Item::BlockDelete { .. }));
         first = false;
     }
     Ok(())
@@ -134,6 +140,32 @@ impl Lexer<'_> {
     #[inline(never)]
     fn err(&self, message: impl Into<String>) -> GcodeError {
         GcodeError::syntax(self.line, self.i + 1, message)
+    }
+
+    /// Checks the line number after an `N` at `self.i` as LinuxCNC reads
+    /// it: only at the start of the block (after an optional `/`), and an
+    /// unsigned integer, optionally with a fraction (`N10`, `N10.5`), never
+    /// a sign, expression or parameter.
+    fn line_number(&self, at_start: bool) -> Result<(), GcodeError> {
+        if !at_start {
+            return Err(GcodeError::syntax(
+                self.line,
+                self.i,
+                "a line number (N word) may only start the block",
+            ));
+        }
+        let mut j = self.i;
+        while self.b.get(j).copied().is_some_and(is_space) {
+            j += 1;
+        }
+        if !self.b.get(j).is_some_and(u8::is_ascii_digit) {
+            return Err(GcodeError::syntax(
+                self.line,
+                j + 1,
+                "a line number (N word) must be an unsigned integer",
+            ));
+        }
+        Ok(())
     }
 
     /// End (exclusive) of the `( )` comment starting at `self.i`.

@@ -272,7 +272,16 @@ pub(super) fn parse_number(
     s: &str,
 ) -> Result<f64, Diagnostic> {
     match s.parse::<f64>() {
-        Ok(v) if v.is_finite() => Ok(v),
+        Ok(v) if v.is_finite() && v.abs() <= crate::limits::MAX_ABS_VALUE => Ok(v),
+        Ok(v) if v.is_finite() => Err(Diagnostic::at(
+            path,
+            line,
+            index + 1,
+            format!(
+                "column `{name}` holds `{s}`, beyond the largest magnitude accepted ({}): no quantity in these files is that large",
+                crate::limits::fmt_message_number(crate::limits::MAX_ABS_VALUE)
+            ),
+        )),
         Ok(_) => Err(Diagnostic::at(
             path,
             line,
@@ -361,6 +370,24 @@ mod tests {
         assert_eq!(e.unwrap(), 1.0);
         let t = parse("x\nNaN\n").unwrap();
         assert!(t.number(0, t.column("x").unwrap()).is_err());
+    }
+
+    /// Finite numbers beyond the magnitude bound are refused at their cell
+    /// (1e308 would overflow every square and sum downstream); the bound
+    /// itself is accepted.
+    #[test]
+    fn magnitude_bound_at_the_cell() {
+        let t = parse("x,y\n1e15,-1e15\n2,1e308\n1e16,0\n").unwrap();
+        let (x, y) = (t.column("x").unwrap(), t.column("y").unwrap());
+        assert_eq!(t.number(0, x).unwrap(), 1e15);
+        assert_eq!(t.number(0, y).unwrap(), -1e15);
+        let e = t.number(1, y).unwrap_err();
+        assert_eq!((e.line, e.column), (3, Some(2)));
+        assert!(
+            e.message.contains("1e308") && e.message.contains("1e15"),
+            "{e}"
+        );
+        assert!(t.number(2, x).is_err());
     }
 
     #[test]

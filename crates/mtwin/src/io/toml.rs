@@ -73,11 +73,31 @@ impl Node for Value {
     }
 }
 
+/// A number within [`crate::limits::MAX_ABS_VALUE`]; `None` for anything else.
 fn finite(v: &Value) -> Option<f64> {
-    match v {
-        Value::Float(f) if f.value().is_finite() => Some(*f.value()),
-        Value::Integer(i) => Some(*i.value() as f64),
-        _ => None,
+    let x = match v {
+        Value::Float(f) => *f.value(),
+        Value::Integer(i) => *i.value() as f64,
+        _ => return None,
+    };
+    (x.is_finite() && x.abs() <= crate::limits::MAX_ABS_VALUE).then_some(x)
+}
+
+/// Why `v` is not accepted as a number, after `must be ` / `is `.
+fn why_not_number(v: &Value) -> String {
+    let x = match v {
+        Value::Float(f) => *f.value(),
+        Value::Integer(i) => *i.value() as f64,
+        _ => return format!("a finite number, not {}", v.type_name()),
+    };
+    if x.is_finite() {
+        format!(
+            "within ±{} (it is {}): no quantity in these files is that large",
+            crate::limits::fmt_message_number(crate::limits::MAX_ABS_VALUE),
+            crate::limits::fmt_message_number(x)
+        )
+    } else {
+        format!("a finite number, not {}", crate::io::fmt_f64(x))
     }
 }
 
@@ -194,10 +214,11 @@ impl<'a> TomlReader<'a> {
     pub fn number(&mut self, n: &(impl Node + ?Sized), what: &str) -> Option<f64> {
         let v = n.as_toml_value().and_then(finite);
         if v.is_none() {
-            self.error(
-                n.node_span(),
-                format!("{what} must be a finite number, not {}", n.node_type()),
-            );
+            let why = match n.as_toml_value() {
+                Some(x) => why_not_number(x),
+                None => format!("a finite number, not {}", n.node_type()),
+            };
+            self.error(n.node_span(), format!("{what} must be {why}"));
         }
         v
     }
@@ -244,7 +265,7 @@ impl<'a> TomlReader<'a> {
                 None => {
                     self.error(
                         v.span().or_else(|| n.node_span()),
-                        format!("every element of {what} must be a finite number"),
+                        format!("every element of {what} must be {}", why_not_number(v)),
                     );
                     ok = false;
                 }
@@ -263,9 +284,13 @@ impl<'a> TomlReader<'a> {
                 Some(inner) => match inner.iter().map(finite).collect::<Option<Vec<f64>>>() {
                     Some(r) => out.push(r),
                     None => {
+                        let bad = inner.iter().find(|x| finite(x).is_none());
                         self.error(
                             v.span(),
-                            format!("every element of {what} must be a finite number"),
+                            format!(
+                                "every element of {what} must be {}",
+                                bad.map_or_else(|| "a finite number".into(), why_not_number)
+                            ),
                         );
                         ok = false;
                     }
@@ -370,7 +395,10 @@ mod tests {
             got[..3],
             [
                 (3, "unknown key `c` in the file (allowed: a, b, d)"),
-                (2, "every element of `b` must be a finite number"),
+                (
+                    2,
+                    "every element of `b` must be a finite number, not string"
+                ),
                 (0, "the file lacks the key `e`"),
             ]
         );

@@ -1,7 +1,7 @@
 //! Axis positions read from a CSV table whose columns are named by the machine's axes.
 
 use super::Machine;
-use crate::io::{Diagnostics, Table};
+use crate::io::{Diagnostic, Diagnostics, Table};
 
 /// Axis positions of every row of `table`, in the machine's axis order (mm, degree).
 ///
@@ -14,6 +14,14 @@ pub fn read_poses(
 ) -> Result<Vec<Vec<f64>>, Diagnostics> {
     let names = machine.axis_names();
     let cols = table.require(&names)?;
+    if table.is_empty() {
+        return Err(Diagnostic::at_line(
+            table.path(),
+            table.header_line(),
+            "the file has a header but no poses",
+        )
+        .into());
+    }
     let mut diags = Diagnostics::default();
     let mut out = Vec::with_capacity(table.len());
     for r in 0..table.len() {

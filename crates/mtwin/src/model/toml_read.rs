@@ -133,8 +133,11 @@ impl Cx<'_> {
                         Some(Item::Value(Value::String(s))) => s.value().clone(),
                         _ => String::new(),
                     };
-                    if let Some((_, first)) =
-                        names.iter().find(|(n, _)| !n.is_empty() && *n == name)
+                    // Names become column headers and G-code letters, where case
+                    // does not separate them: `x` beside `X` is a duplicate.
+                    if let Some((_, first)) = names
+                        .iter()
+                        .find(|(n, _)| !n.is_empty() && n.eq_ignore_ascii_case(&name))
                     {
                         let first_line = self.line(first.clone());
                         self.error(
@@ -392,7 +395,36 @@ impl Cx<'_> {
         out
     }
 
+    /// An error function, checked over the axis travel: its value and
+    /// derivative must stay within [`crate::limits::MAX_ERROR_VALUE`]
+    /// everywhere, so that coefficients which overflow (`cheb = [0, 1e308]`
+    /// or a high power of a long travel) are refused here with their line
+    /// instead of giving NaN later.
     fn function(&mut self, v: &Value, k: &str, travel: Option<[f64; 2]>) -> Option<ErrorFunction> {
+        let f = self.function_unchecked(v, k, travel)?;
+        if let Some(travel) = travel
+            && let Some((q, what, x)) = overflow_over_travel(&f, travel)
+        {
+            self.error(
+                v.span(),
+                format!(
+                    "error `{k}` is out of range over the axis travel: its {what} at {} is {} (the limit is ±{})",
+                    crate::limits::fmt_message_number(q),
+                    crate::limits::fmt_message_number(x),
+                    crate::limits::fmt_message_number(crate::limits::MAX_ERROR_VALUE)
+                ),
+            );
+            return None;
+        }
+        Some(f)
+    }
+
+    fn function_unchecked(
+        &mut self,
+        v: &Value,
+        k: &str,
+        travel: Option<[f64; 2]>,
+    ) -> Option<ErrorFunction> {
         let unit = if k
             .parse::<ErrorName>()
             .is_ok_and(|n| n.component.is_rotation())
@@ -511,6 +543,33 @@ impl Cx<'_> {
     }
 }
 
+/// The first point of `travel` where `f` or its derivative is non-finite or
+/// beyond [`crate::limits::MAX_ERROR_VALUE`]: (position, "value" or
+/// "derivative", the value there). Checked on 1025 evenly spaced points with
+/// both ends (a polynomial's magnitude is largest at an end or between
+/// points that close; tables are checked at their own points too).
+fn overflow_over_travel(f: &ErrorFunction, travel: [f64; 2]) -> Option<(f64, &'static str, f64)> {
+    const N: usize = 1024;
+    let bad = |x: f64| !x.is_finite() || x.abs() > crate::limits::MAX_ERROR_VALUE;
+    let mut points: Vec<f64> = (0..=N)
+        .map(|i| travel[0] + (travel[1] - travel[0]) * i as f64 / N as f64)
+        .collect();
+    if let ErrorFunction::Table { q, .. } = f {
+        points.extend(q.iter().copied());
+    }
+    for q in points {
+        let x = f.eval(q, travel);
+        if bad(x) {
+            return Some((q, "value", x));
+        }
+        let d = f.deriv(q, travel);
+        if bad(d) {
+            return Some((q, "derivative", d));
+        }
+    }
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -626,6 +685,40 @@ travel = [-360, 360]
             "not an ISO 230-1 error name",
         );
         expect_error("name = [", 1, "not valid TOML");
+    }
+
+    /// Coefficients that overflow over the travel, numbers beyond the
+    /// magnitude bound and axis names differing only in case are refused
+    /// with their line.
+    #[test]
+    fn overflowing_errors_and_case_duplicates_are_refused() {
+        // T_1 + T_2 at u = 1 is 2e308: overflows (line 17 holds EXX).
+        expect_error(
+            &GOOD.replace("[0.0, 0.004]", "[0, 1e14, 1e14]"),
+            16,
+            "out of range over the axis travel",
+        );
+        // c3 q^3 at q = 100 mm: 1e-3 * 1e6 = 1e3 mm, fine; c3 = 1e4: 1e10, refused.
+        assert!(
+            parse(&GOOD.replace("{ cheb = [0.0, 0.004] }", "{ poly = [0, 0, 0, 1e-3] }")).is_ok()
+        );
+        expect_error(
+            &GOOD.replace("{ cheb = [0.0, 0.004] }", "{ poly = [0, 0, 0, 1e4] }"),
+            16,
+            "its value at -100 is -1e10",
+        );
+        expect_error(
+            &GOOD.replace("EC0X = 1e-5", "EC0X = 1e308"),
+            17,
+            "within ±1e15",
+        );
+        let e = parse(
+            &GOOD
+                .replace("name = \"C\"", "name = \"x\"")
+                .replace("[\"C\"]", "[\"x\"]"),
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("axis `x` is defined twice"), "{e}");
     }
 
     #[test]

@@ -67,4 +67,10 @@ pub enum SysidError {
     /// A property that needs a nonzero static gain.
     #[error("{0}")]
     Degenerate(String),
+    /// An option outside its domain (an order of 0, ...); the text names it.
+    #[error("{0}")]
+    BadOption(String),
+    /// A size beyond the bounds of [`crate::limits`].
+    #[error("{0}")]
+    Limit(#[from] crate::limits::LimitError),
 }

@@ -7,8 +7,14 @@ use crate::io::{Diagnostics, Table};
 pub(crate) const PERIOD_TOLERANCE: f64 = 0.01;
 
 /// The median of the positive intervals between successive `times`, if any.
+///
+/// The median is rounded to 9 significant digits: the difference of two
+/// decimal times carries binary rounding noise (0.003 − 0.002 is
+/// 0.0010000000000000002), which would otherwise show in every file and
+/// message that prints the period (`ts = 0.0010000000000000009`).
 pub(crate) fn median_interval(times: &[f64]) -> Option<f64> {
     median_positive(times.windows(2).map(|w| w[1] - w[0]).collect())
+        .map(|d| format!("{d:.8e}").parse().unwrap_or(d))
 }
 
 /// The median of the positive values of `d`, if any.
@@ -62,5 +68,22 @@ pub(crate) fn check_sampling(
                 ),
             ));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_period_of_decimal_times_prints_as_written() {
+        let t: Vec<f64> = (0..1000).map(|k| 10.0 + f64::from(k) * 0.001).collect();
+        let ts = median_interval(&t).unwrap();
+        assert_eq!(ts, 0.001);
+        assert_eq!(crate::io::fmt_f64(ts), "0.001");
+        assert_eq!(
+            median_interval(&[0.0, 1.0 / 3.0, 2.0 / 3.0]),
+            Some(0.333333333)
+        );
     }
 }

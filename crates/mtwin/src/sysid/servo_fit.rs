@@ -16,6 +16,7 @@ use crate::io::TomlWriteError;
 use crate::io::toml::{Span, TomlReader, parse};
 use crate::io::toml_write::{float, floats, int, set, with_header};
 use crate::io::{Diagnostic, Diagnostics, Table, fmt_f64};
+use crate::limits;
 use toml_edit::DocumentMut;
 
 /// A servo log: commands and encoder positions (mm or deg) every `ts` seconds.
@@ -111,6 +112,42 @@ impl Default for ServoFitOptions {
             max_delay: 3,
             criterion: Criterion::Fpe,
         }
+    }
+}
+
+impl ServoFitOptions {
+    /// Checks the options before any work: `max_order` at least 1 and at
+    /// most [`limits::MAX_MODEL_ORDER`], `max_delay` at most
+    /// [`limits::MAX_DELAY_SAMPLES`], and the number of structures tried
+    /// (`max_order · (max_order + 1) · (max_delay + 1)`, each one an
+    /// output-error fit) at most [`limits::MAX_FIT_CANDIDATES`].
+    pub fn validate(&self) -> Result<(), SysidError> {
+        if self.max_order == 0 {
+            return Err(SysidError::BadOption(
+                "the largest order must be at least 1 (a servo has at least one pole)".into(),
+            ));
+        }
+        limits::check(
+            "the largest order",
+            self.max_order as f64,
+            limits::MAX_MODEL_ORDER,
+            "a servo axis needs a few poles; use a smaller order",
+        )?;
+        limits::check(
+            "the largest delay",
+            self.max_delay as f64,
+            limits::MAX_DELAY_SAMPLES,
+            "a servo dead time is a few samples; use a smaller delay",
+        )?;
+        let n =
+            self.max_order as f64 * (self.max_order as f64 + 1.0) * (self.max_delay as f64 + 1.0);
+        limits::check(
+            "the number of structures to fit (orders × delays)",
+            n,
+            limits::MAX_FIT_CANDIDATES,
+            "each is a separate fit; lower the largest order or delay",
+        )?;
+        Ok(())
     }
 }
 
@@ -233,6 +270,7 @@ pub enum ServoFitError {
 /// orders are chosen by `criterion` evaluated on the simulation error,
 /// preferring stable models.
 pub fn fit_servo(log: &ServoLog, options: &ServoFitOptions) -> Result<ServoFit, SysidError> {
+    options.validate()?;
     let Some(&u0) = log.command.first() else {
         return Err(SysidError::TooFewSamples { rows: 0, params: 1 });
     };
@@ -240,7 +278,7 @@ pub fn fit_servo(log: &ServoLog, options: &ServoFitOptions) -> Result<ServoFit, 
     let y: Vec<f64> = log.feedback.iter().map(|c| c - u0).collect();
     let run = Run::new(y, vec![u])?;
     let grid = OrderGrid {
-        na: 1..=options.max_order.max(1),
+        na: 1..=options.max_order,
         inputs: vec![super::InputGrid {
             nb: 0..=options.max_order,
             nk: 0..=options.max_delay,
@@ -250,6 +288,11 @@ pub fn fit_servo(log: &ServoLog, options: &ServoFitOptions) -> Result<ServoFit, 
     let servo = Servo::from_arx(log.ts, &selection.fit.model)?;
     let sim = servo.simulate(&log.command);
     let simulation_rms = rms(sim.iter().zip(&log.feedback).map(|(s, m)| m - s));
+    if !simulation_rms.is_finite() {
+        return Err(SysidError::NotFinite {
+            what: "the simulation of the fitted servo (the model diverges on this log)".into(),
+        });
+    }
     let max_velocity = log
         .command
         .windows(2)
@@ -316,7 +359,10 @@ pub(crate) fn read_servo_table(
         if x <= 0.0 {
             r.error(
                 i.span(),
-                format!("`ts` of {what} must be positive, not {x}"),
+                format!(
+                    "`ts` of {what} must be positive, not {}",
+                    limits::fmt_message_number(x)
+                ),
             );
             return None;
         }
@@ -346,7 +392,22 @@ pub(crate) fn read_servo_table(
         Some(a)
     });
     let nk = match t.get("nk") {
-        Some(i) => r.count(i, &format!("`nk` of {what} (samples)")),
+        Some(i) => r
+            .count(i, &format!("`nk` of {what} (samples)"))
+            .and_then(|nk| {
+                match limits::check(
+                    &format!("`nk` of {what} (samples)"),
+                    nk as f64,
+                    limits::MAX_DELAY_SAMPLES,
+                    "a servo dead time is a few samples",
+                ) {
+                    Ok(()) => Some(nk),
+                    Err(e) => {
+                        r.error(i.span(), e.to_string());
+                        None
+                    }
+                }
+            }),
         None => Some(0),
     };
     match Servo::new(ts?, b?, a?, nk?) {

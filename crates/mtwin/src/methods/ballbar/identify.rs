@@ -263,7 +263,11 @@ pub fn identify(
 }
 
 /// The PIGEs the given modes cannot determine, from the engine's analysis
-/// at the ideal configuration.
+/// at the ideal configuration. The hint of each (which modes to add) is
+/// derived the same way: the analysis is repeated with each absent mode
+/// added (its readings at the angles of a given mode of the same axis, or
+/// an even spread), and the modes after which the PIGE is determined are
+/// named.
 fn structural(
     base: &Machine,
     trunnion: &Trunnion,
@@ -272,6 +276,103 @@ fn structural(
     modes: &[Mode],
     options: &Options,
 ) -> Result<Vec<Unresolved>, IdentifyError> {
+    let ident = analyse(base, trunnion, rig, data, modes, options)?;
+    // Readings for the absent modes, used only for their sensitivity.
+    let stand_in = |m: Mode| -> ModeData {
+        let angles = modes
+            .iter()
+            .find(|g| g.moves_a() == m.moves_a())
+            .and_then(|g| data[g.index()])
+            .map(|d| d.angles_deg.clone())
+            .unwrap_or_else(|| {
+                if m.moves_a() {
+                    crate::methods::ballbar::simulate::angle_range(-90.0, 90.0, 10.0)
+                } else {
+                    crate::methods::ballbar::simulate::angle_range(0.0, 350.0, 10.0)
+                }
+            });
+        ModeData {
+            source: None,
+            lengths: vec![rig.length; angles.len()],
+            angles_deg: angles,
+        }
+    };
+    let mut separating: Vec<(Mode, Vec<Pige>)> = Vec::new();
+    if !ident.unidentifiable.is_empty() {
+        for m in Mode::ALL.into_iter().filter(|m| !modes.contains(m)) {
+            let extra = stand_in(m);
+            let mut with = *data;
+            with[m.index()] = Some(&extra);
+            let mut more = modes.to_vec();
+            more.push(m);
+            more.sort();
+            let after = analyse(base, trunnion, rig, &with, &more, options)?;
+            let still: Vec<Pige> = after
+                .unidentifiable
+                .iter()
+                .filter_map(|&(j, _)| Pige::ALL.get(j).copied())
+                .collect();
+            separating.push((m, still));
+        }
+    }
+    let hint = |pige: Pige, verb: &str| -> String {
+        let helps: Vec<&str> = separating
+            .iter()
+            .filter(|(_, still)| !still.contains(&pige))
+            .map(|(m, _)| m.label())
+            .collect();
+        if helps.is_empty() {
+            format!("no single further mode {verb} it")
+        } else {
+            format!("add {} to {verb} it", helps.join(" or "))
+        }
+    };
+    let mut out = Vec::new();
+    for (k, &(j, why)) in ident.unidentifiable.iter().enumerate() {
+        let Some(&pige) = Pige::ALL.get(j) else {
+            continue; // a bar length: cannot happen with ≥ 5 distinct angles
+        };
+        let reason = match why {
+            Unidentifiable::ZeroColumn => format!(
+                "{pige} does not change the bar length in the modes given ({})",
+                hint(pige, "determine")
+            ),
+            Unidentifiable::Confounded => {
+                let rel = ident
+                    .relations
+                    .get(
+                        ident
+                            .unidentifiable
+                            .iter()
+                            .take(k)
+                            .filter(|u| u.1 == Unidentifiable::Confounded)
+                            .count(),
+                    )
+                    .map(|c| c.describe())
+                    .unwrap_or_default();
+                format!(
+                    "{pige} acts exactly like other PIGEs in the modes given ({rel}); it is held \
+                     at 0, so the estimate it is confounded with absorbs it ({})",
+                    hint(pige, "separate")
+                )
+            }
+        };
+        out.push(Unresolved { pige, reason });
+    }
+    Ok(out)
+}
+
+/// The engine's identifiability analysis of all PIGEs (and one bar length
+/// per mode) from the given modes at the ideal configuration; columns
+/// `0..Pige::ALL.len()` are the PIGEs in order.
+fn analyse(
+    base: &Machine,
+    trunnion: &Trunnion,
+    rig: &Rig,
+    data: &[Option<&ModeData>; 4],
+    modes: &[Mode],
+    options: &Options,
+) -> Result<crate::fit::Identifiability, IdentifyError> {
     let ideal = base.nominal();
     let ideal_rig = Rig {
         setup: Default::default(),
@@ -303,45 +404,7 @@ fn structural(
         ..options.clone()
     };
     let report = fit::fit(&stack, &theta0, &opts)?;
-    let ident = &report.identifiability;
-    let mut out = Vec::new();
-    for (k, &(j, why)) in ident.unidentifiable.iter().enumerate() {
-        let Some(&pige) = unknowns.free.get(j) else {
-            continue; // a bar length: cannot happen with ≥ 5 distinct angles
-        };
-        let seen_by: Vec<&str> = Mode::ALL
-            .iter()
-            .filter(|m| sees(**m, pige))
-            .map(|m| m.label())
-            .collect();
-        let reason = match why {
-            Unidentifiable::ZeroColumn => format!(
-                "{pige} does not change the bar length in the modes given (it shows in {})",
-                seen_by.join(", ")
-            ),
-            Unidentifiable::Confounded => {
-                let rel = ident
-                    .relations
-                    .get(
-                        ident
-                            .unidentifiable
-                            .iter()
-                            .take(k)
-                            .filter(|u| u.1 == Unidentifiable::Confounded)
-                            .count(),
-                    )
-                    .map(|c| c.describe())
-                    .unwrap_or_default();
-                format!(
-                    "{pige} acts exactly like other PIGEs in the modes given ({rel}); it is held \
-                     at 0, so the estimate it is confounded with absorbs it (add {} to separate them)",
-                    seen_by.join(" or ")
-                )
-            }
-        };
-        out.push(Unresolved { pige, reason });
-    }
-    Ok(out)
+    Ok(report.identifiability)
 }
 
 /// Which modes a PIGE moves at first order (spec 01 table).
@@ -589,6 +652,49 @@ mod tests {
         let sum = only3.piges.get(Pige::EY0A) + only3.piges.get(Pige::EY0C);
         assert!((sum - TRUTH.get(Pige::EY0A) - TRUTH.get(Pige::EY0C)).abs() < 1e-3);
         assert!((only3.piges.get(Pige::EX0C) - TRUTH.get(Pige::EX0C)).abs() < 1e-3);
+        // Mode 1 sees EY0A without EY0C, so it separates them; mode 3 itself
+        // is never proposed. The hint is checked against an identification
+        // with the proposed mode added: the PIGE is then determined.
+        assert!(
+            conf[0].reason.contains("(add mode1") && !conf[0].reason.contains("mode3"),
+            "{}",
+            conf[0].reason
+        );
+        let with1 = identify(
+            &nominal(),
+            &rig,
+            &[Some(&d[0]), None, Some(&d[2]), None],
+            &Options::default(),
+        )
+        .unwrap();
+        assert!(!with1.unresolved.iter().any(|u| u.pige == conf[0].pige));
+        assert!((with1.piges.get(Pige::EY0C) - TRUTH.get(Pige::EY0C)).abs() < 1e-3);
+
+        // A hint never proposes a mode already given.
+        let only4 = identify(
+            &nominal(),
+            &rig,
+            &[None, None, None, Some(&d[3])],
+            &Options::default(),
+        )
+        .unwrap();
+        assert!(!only4.unresolved.is_empty());
+        for u in &only4.unresolved {
+            assert!(!u.reason.contains("add mode4"), "{}", u.reason);
+            assert!(u.reason.contains("add mode") || u.reason.contains("no single further mode"));
+        }
+        // With mode 1 alone the C-line offsets need a C mode, never mode 2
+        // (an A mode: it does not see the C line); mode 3 does it (checked by
+        // the identification from modes 1 and 3 above).
+        for u in only1
+            .unresolved
+            .iter()
+            .filter(|u| matches!(u.pige, Pige::EX0C | Pige::EY0C))
+        {
+            assert!(u.reason.contains("add mode3"), "{}", u.reason);
+            assert!(!u.reason.contains("mode2"), "{}", u.reason);
+            assert!(!with1.unresolved.iter().any(|w| w.pige == u.pige));
+        }
     }
 
     #[test]

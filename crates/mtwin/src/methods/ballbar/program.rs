@@ -1,10 +1,18 @@
 //! The four test programs (G-code) for a static-mode ballbar: the linear
 //! axes place the tool ball B1, then the moving rotary axis steps through
 //! the angles with a dwell at each step while the instrument takes its
-//! reading. Dialect: `G4 P` dwell in seconds (LinuxCNC, 04/05 specs),
-//! rotary feed in deg/min under G94, positions in the model's frame M
-//! (set the work offset G54 to M's origin, with the tool-ball length as the
-//! tool length).
+//! reading. Dialect: `G4 P` dwell in seconds (LinuxCNC), rotary feed in
+//! deg/min under G94.
+//!
+//! Every move is written with `G53`: positions are the model's axis
+//! positions, which are the controller's machine coordinates, so no work
+//! offset (G54 …) and no tool length offset takes part — LinuxCNC's G53
+//! suspends both. This is deliberate: with `G54` an operator who had set the
+//! work offset to the part (on `ac-trunnion` the workpiece origin is 150 mm
+//! below the pivot) would drive the ball into the table. What the program
+//! needs is stated in its header: the model's axis zero is the controller's
+//! machine zero, and the model's tool tip (`[tool] tip`) is the centre of
+//! the tool ball.
 
 use std::fmt::Write as _;
 
@@ -108,11 +116,23 @@ pub fn program(machine: &Machine, mode: Mode, spec: &ProgramSpec) -> Result<Stri
         f(spec.dwell_s),
         spec.angles_deg.len()
     );
-    let _ = writeln!(s, "G21 G90 G94 G17 G54");
-    let _ = writeln!(s, "G0 A0 C0");
     let _ = writeln!(
         s,
-        "G0 {}",
+        "(every move is G53, in machine coordinates: work offsets such as G54 and the tool)"
+    );
+    let _ = writeln!(
+        s,
+        "(length offset are ignored. The machine zero must be the model's axis zero, and the)"
+    );
+    let _ = writeln!(
+        s,
+        "(model's tool tip must be the centre of the tool ball; check both before running.)"
+    );
+    let _ = writeln!(s, "G21 G90 G94 G17");
+    let _ = writeln!(s, "G53 G0 A0 C0");
+    let _ = writeln!(
+        s,
+        "G53 G0 {}",
         lin.iter()
             .map(|(n, v)| format!("{n}{}", f(*v)))
             .collect::<Vec<_>>()
@@ -123,10 +143,10 @@ pub fn program(machine: &Machine, mode: Mode, spec: &ProgramSpec) -> Result<Stri
         "M0 (mount the bar: B2 on the table, {bar} of B1, then start the instrument)"
     );
     for &a in &spec.angles_deg {
-        let _ = writeln!(s, "G1 {w}{} F{}", f(a), f(spec.feed));
+        let _ = writeln!(s, "G53 G1 {w}{} F{}", f(a), f(spec.feed));
         let _ = writeln!(s, "G4 P{}", f(spec.dwell_s));
     }
-    let _ = writeln!(s, "G1 {w}0 F{}", f(spec.feed));
+    let _ = writeln!(s, "G53 G1 {w}0 F{}", f(spec.feed));
     let _ = writeln!(s, "M0 (remove the bar)");
     let _ = writeln!(s, "M30");
     let _ = writeln!(s, "%");
@@ -174,13 +194,59 @@ mod tests {
         assert_eq!(p.matches("G4 P2").count(), 37);
         let angles: Vec<f64> = p
             .lines()
-            .filter_map(|l| l.strip_prefix("G1 A"))
+            .filter_map(|l| l.strip_prefix("G53 G1 A"))
             .map(|l| l.split(' ').next().unwrap().parse().unwrap())
             .collect();
         let mut expect = angle_range(-90.0, 90.0, 5.0);
         expect.push(0.0);
         assert_eq!(angles, expect);
         assert!(p.trim_end().ends_with("M30\n%") || p.trim_end().ends_with('%'));
+    }
+
+    /// Every move is in machine coordinates (G53), so neither G54 nor a tool
+    /// length offset can move the ball: interpreted with a G54 offset of
+    /// -150 mm in Z and a tool length of 50 mm, the ball still goes to the
+    /// model's axis positions, and no work-offset code is in the program.
+    #[test]
+    fn moves_are_in_machine_coordinates_whatever_the_offsets() {
+        use crate::gcode::{Axis, EventKind, InterpOptions, Interpreter, Program};
+        let spec = ProgramSpec {
+            rig: Rig::seed(),
+            angles_deg: angle_range(0.0, 90.0, 45.0),
+            dwell_s: 1.0,
+            feed: 720.0,
+        };
+        let p = program(&machine(), Mode::Four, &spec).unwrap();
+        assert!(
+            !p.lines().any(|l| !l.starts_with('(') && l.contains("G54")),
+            "{p}"
+        );
+        assert!(p.contains("G53 G0 X0 Y0 Z100"), "{p}");
+        assert!(
+            p.contains("machine zero must be the model's axis zero"),
+            "{p}"
+        );
+        let mut opts = InterpOptions::default();
+        opts.work_offsets[0][Axis::Z] = -150.0;
+        opts.tools.insert(1, 50.0);
+        let program =
+            Program::parse(p.replace("G21 G90", "T1 M6 G43 H1 G21 G90").as_bytes()).unwrap();
+        let mut it = Interpreter::new(opts);
+        let mut ev = Vec::new();
+        for b in &program.blocks {
+            it.execute(b, &mut ev).unwrap();
+        }
+        let ball = ev
+            .iter()
+            .find_map(|e| match &e.kind {
+                EventKind::Traverse(m) if m.to[Axis::Z] + m.offset[Axis::Z] != 0.0 => {
+                    Some([Axis::X, Axis::Y, Axis::Z].map(|a| m.to[a] + m.offset[a]))
+                }
+                _ => None,
+            })
+            .expect("the move to the ball position");
+        let ball = (ball[0], ball[1], ball[2]);
+        assert_eq!(ball, (0.0, 0.0, 100.0));
     }
 
     #[test]

@@ -498,12 +498,20 @@ impl Compensator {
 
     /// Splits `[a, b]` of `mv` until every checked midpoint is within `tol`;
     /// pushes the interior points in order.
+    ///
+    /// `fade` (mm) is the machine's error at the start of the move when that
+    /// start is not compensated (the position the program starts from, where
+    /// the machine is, not a target): along the move that error fades
+    /// linearly to the compensated end and no split can remove it, so a
+    /// midpoint is accepted within `tol + fade · (1 − s)`.
+    #[allow(clippy::too_many_arguments)]
     fn refine(
         &self,
         mv: &Move,
         (sa, a): (f64, &Point),
         (sb, b): (f64, &Point),
         depth: u32,
+        fade: f64,
         out: &mut Vec<(f64, Point)>,
         summary: &mut Summary,
     ) -> Result<(), CompensateError> {
@@ -511,7 +519,7 @@ impl Compensator {
         let nominal = mv.path.at(sm);
         let executed = lerp(&a.new_p, &b.new_p, 0.5);
         let dev = self.deviation(&nominal, &executed, mv.tcp, &a.q_nom, mv.line)?;
-        if dev <= self.opts.tol {
+        if dev <= self.opts.tol + fade * (1.0 - sm) {
             summary.largest_midpoint_deviation = summary.largest_midpoint_deviation.max(dev);
             return Ok(());
         }
@@ -522,10 +530,36 @@ impl Compensator {
             });
         }
         let m = self.point(&nominal, mv.tcp, a.seed(), mv.line, summary)?;
-        self.refine(mv, (sa, a), (sm, &m), depth + 1, out, summary)?;
+        self.refine(mv, (sa, a), (sm, &m), depth + 1, fade, out, summary)?;
         out.push((sm, m.clone()));
         let m = out.last().map(|(_, p)| p.clone()).unwrap_or(m);
-        self.refine(mv, (sm, &m), (sb, b), depth + 1, out, summary)
+        self.refine(mv, (sm, &m), (sb, b), depth + 1, fade, out, summary)
+    }
+
+    /// The machine's error (mm) at the start of `mv` when that start is the
+    /// uncompensated position the program starts from, with a note saying
+    /// so; 0 for a compensated start.
+    fn start_fade(
+        &self,
+        mv: &Move,
+        start: &Point,
+        summary: &mut Summary,
+    ) -> Result<f64, CompensateError> {
+        if start.q_act.is_some() {
+            return Ok(0.0);
+        }
+        let e = self.deviation(&start.p, &start.new_p, mv.tcp, &start.q_nom, mv.line)?;
+        if e > self.opts.tol {
+            summary.notes.push(format!(
+                "line {}: the first feed move starts from the start position, which is not compensated \
+                 (the machine's error there is {:.2} µm): the path fades from that error to the \
+                 compensated end of the move; begin the program with a rapid (G0) move to the \
+                 start of the cut so that every feed move starts from a compensated point",
+                mv.line,
+                e * 1e3
+            ));
+        }
+        Ok(e)
     }
 
     /// The compensated start and end of a move.
@@ -577,6 +611,7 @@ impl Compensator {
                 (0.0, &start),
                 (1.0, &end),
                 0,
+                self.start_fade(mv, &start, &mut run.summary)?,
                 &mut pieces,
                 &mut run.summary,
             )?;
@@ -647,6 +682,7 @@ impl Compensator {
             (0.0, &start),
             (1.0, &end),
             0,
+            self.start_fade(mv, &start, &mut run.summary)?,
             &mut pieces,
             &mut run.summary,
         )?;

@@ -456,3 +456,28 @@ fn axes_without_a_distinct_letter_are_refused() {
         other => panic!("{other:?}"),
     }
 }
+
+/// The simplest program, one feed move from the (uncompensated) start
+/// position: its start error cannot be removed by splitting, so the move is
+/// accepted with the error fading along it and a note saying what happened
+/// and what to do; with a G0 to the start first, no such note.
+#[test]
+fn first_feed_move_from_the_start_position_is_explained_not_refused() {
+    let m = example("ac-trunnion-with-errors.toml");
+    let opts = CompensateOptions::default();
+    let (out, s) = run(&m, b"G1 X10 F100\n", &opts);
+    assert!(String::from_utf8(out).unwrap().starts_with("G1 X10."));
+    assert!(
+        s.notes.iter().any(|n| n
+            .contains("starts from the start position, which is not compensated")
+            && n.contains("G0")),
+        "{:?}",
+        s.notes
+    );
+    let (_, s) = run(&m, b"G0 X0 Y0 Z0\nG1 X10 F100\n", &opts);
+    assert!(
+        !s.notes.iter().any(|n| n.contains("not compensated")),
+        "{:?}",
+        s.notes
+    );
+}

@@ -188,6 +188,14 @@ pub fn s_shape_poses(
     segments: usize,
 ) -> Result<Vec<Vec<f64>>, SShapeError> {
     shape.check()?;
+    if let Err(e) = crate::limits::check(
+        "the number of segments",
+        segments as f64,
+        crate::limits::MAX_PROGRAM_POINTS,
+        "each segment is a block of the program and an inverse-kinematics solve",
+    ) {
+        return Err(SShapeError::Options(e.to_string()));
+    }
     if segments == 0 {
         return Err(SShapeError::Options(
             "at least one segment is needed".into(),

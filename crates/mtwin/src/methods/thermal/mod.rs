@@ -68,6 +68,9 @@ pub enum ThermalError {
     /// A model that breaks an invariant (built in code, not read from a file).
     #[error("invalid thermal model: {0}")]
     Model(String),
+    /// An option outside its domain or beyond a bound of [`crate::limits`].
+    #[error("{0}")]
+    Options(String),
     /// `auto` could not compare the speed models.
     #[error("cannot choose the speed model: {0}")]
     SpeedModel(String),

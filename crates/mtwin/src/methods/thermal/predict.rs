@@ -205,6 +205,53 @@ impl Default for ThermalFitOptions {
     }
 }
 
+impl ThermalFitOptions {
+    /// Checks the options before any work: `max_order` from 1 to
+    /// [`crate::limits::MAX_MODEL_ORDER`], `delay` from 1 to
+    /// [`crate::limits::MAX_DELAY_SAMPLES`], and the order grid (one fit per
+    /// `na` and per `nb` of every input: `max · (max + 1)^inputs`, the speed
+    /// counted twice for the quadratic model) at most
+    /// [`crate::limits::MAX_FIT_CANDIDATES`].
+    pub fn validate(&self) -> Result<(), ThermalError> {
+        if self.max_order == 0 {
+            return Err(ThermalError::Options(
+                "the largest order (--max-order) must be at least 1 (the drift needs at least one pole)".into(),
+            ));
+        }
+        if self.delay == 0 {
+            return Err(ThermalError::Options(
+                "the input delay must be at least 1: a speed given at t holds over [t, t+T)".into(),
+            ));
+        }
+        let limit = |e: crate::limits::LimitError| ThermalError::Options(e.to_string());
+        crate::limits::check(
+            "the largest order (--max-order)",
+            self.max_order as f64,
+            crate::limits::MAX_MODEL_ORDER,
+            "a thermal drift needs a few poles; use a smaller order",
+        )
+        .map_err(limit)?;
+        crate::limits::check(
+            "the input delay",
+            self.delay as f64,
+            crate::limits::MAX_DELAY_SAMPLES,
+            "use a smaller delay",
+        )
+        .map_err(limit)?;
+        let quadratic = usize::from(self.speed_model != SpeedModel::Linear);
+        let inputs = 1 + quadratic + self.extra_inputs.len();
+        let m = self.max_order as f64;
+        crate::limits::check(
+            "the number of order combinations to fit (--max-order, --extra-inputs)",
+            m * (m + 1.0).powi(inputs as i32),
+            crate::limits::MAX_FIT_CANDIDATES,
+            "each is a separate fit; lower --max-order or give fewer --extra-inputs",
+        )
+        .map_err(limit)?;
+        Ok(())
+    }
+}
+
 /// The order search of one height.
 #[derive(Debug, Clone)]
 pub struct HeightReport {
@@ -305,11 +352,7 @@ pub(super) fn fit_with(
     options: &ThermalFitOptions,
     quadratic: bool,
 ) -> Result<ThermalFit, ThermalError> {
-    if options.delay == 0 {
-        return Err(ThermalError::Model(
-            "the input delay must be at least 1: a speed given at t holds over [t, t+T)".into(),
-        ));
-    }
+    options.validate()?;
     let n_inputs = data.input_names.len() + usize::from(quadratic);
     let grid = OrderGrid::up_to(options.max_order, &vec![options.delay; n_inputs]);
     let needed = 3 * grid.max_params();

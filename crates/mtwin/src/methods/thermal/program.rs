@@ -191,7 +191,15 @@ pub fn thermal_program(
         return Err(ThermalProgramError::PassTooLong { pass_s, period_s });
     }
     let duration_min = step_min * speeds.len() as f64;
-    let passes = (duration_min / period_min + 1e-9).floor() as usize + 1;
+    let passes_f = (duration_min / period_min + 1e-9).floor() + 1.0;
+    crate::limits::check(
+        "the number of probing passes (step duration × speeds / sample period)",
+        passes_f,
+        crate::limits::MAX_PROGRAM_POINTS / 100,
+        "each pass is a block of probing moves in the program; shorten the steps or lengthen the period",
+    )
+    .map_err(|e| ThermalProgramError::Setting(e.to_string()))?;
+    let passes = passes_f as usize;
     let safe = safe_height(balls, motion);
     let n = |v: f64| {
         let r = (v * 1e4).round() / 1e4;

@@ -164,6 +164,25 @@ pub struct Plan {
     pub expected: FitReport,
 }
 
+/// Checks the size of a plan before any work: at most
+/// [`crate::limits::MAX_TRACKER_CANDIDATES`] candidates, and the selection
+/// work (`candidates × select`, each step of the D-optimal selection scores
+/// every candidate) at most [`crate::limits::MAX_TRACKER_WORK`].
+pub fn check_plan_size(candidates: usize, select: usize) -> Result<(), crate::limits::LimitError> {
+    crate::limits::check(
+        "the number of candidates",
+        candidates as f64,
+        crate::limits::MAX_TRACKER_CANDIDATES,
+        "every candidate holds a Jacobian; use fewer candidates",
+    )?;
+    crate::limits::check(
+        "candidates × selected poses",
+        candidates as f64 * select as f64,
+        crate::limits::MAX_TRACKER_WORK,
+        "the selection scores every candidate for every selected pose; use fewer candidates or select fewer poses",
+    )
+}
+
 /// Draws `candidates` poses uniformly in the travel (seeded), keeps the
 /// `select` D-optimal ones and evaluates them with [`expected`].
 pub fn plan(

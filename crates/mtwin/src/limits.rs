@@ -1,0 +1,142 @@
+//! Bounds on what a user can ask for: sizes that set memory, disk or run time,
+//! and magnitudes of values read from files. Every size a user gives is
+//! checked against these bounds before anything is allocated or written, so
+//! a typing error (`--ts 1e-12`, `--levels 100000000`) ends with a clear
+//! message instead of exhausting the machine. The table of bounds is in
+//! `docs/guide.md` ("Limits").
+
+use std::fmt;
+
+/// Largest magnitude of a number read from a data file (CSV cell, TOML value).
+/// Lengths are mm, times s, temperatures °C: nothing physical in these files
+/// comes near 1e15, and with this bound squares and sums of squares of any
+/// data set stay far from `f64` overflow (1e308).
+pub const MAX_ABS_VALUE: f64 = 1e15;
+
+/// Largest magnitude of an error function (mm or rad) or of its derivative
+/// (per mm or per degree) anywhere over its axis travel.
+pub const MAX_ERROR_VALUE: f64 = 1e6;
+
+/// Most samples (rows) of one generated time series or trajectory: about
+/// 1 GB of CSV and a few GB of memory at most.
+pub const MAX_SAMPLES: u64 = 10_000_000;
+
+/// Most points of one generated measurement program (ballbar arcs, thermal
+/// steps, S-shape segments): a G-code file of a few hundred MB at most.
+pub const MAX_PROGRAM_POINTS: u64 = 1_000_000;
+
+/// Highest model order of a system-identification fit (servo and thermal).
+/// Orders above this are far beyond what a machine axis or a thermal
+/// response needs and cost memory and time growing with the square.
+pub const MAX_MODEL_ORDER: u64 = 20;
+
+/// Longest dead time, in samples, of a servo model or a servo fit.
+pub const MAX_DELAY_SAMPLES: u64 = 100_000;
+
+/// Most candidate model structures one fit may try (orders × delays ×
+/// input subsets).
+pub const MAX_FIT_CANDIDATES: u64 = 100_000;
+
+/// Most candidate positions a tracker plan may rank.
+pub const MAX_TRACKER_CANDIDATES: u64 = 100_000;
+
+/// Most work units (candidates × selected positions) of a tracker plan: about
+/// a minute on one core.
+pub const MAX_TRACKER_WORK: u64 = 200_000_000;
+
+/// A size or value a user gave that is beyond a bound: names what was given
+/// (`what`, e.g. "the number of levels"), the value and the bound. The CLI
+/// names the option.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LimitError {
+    /// What was asked for, in words.
+    pub what: String,
+    /// The value asked for (or implied by the options).
+    pub value: f64,
+    /// The bound it exceeds.
+    pub bound: f64,
+    /// Why the bound exists and what to do instead.
+    pub why: &'static str,
+}
+
+impl fmt::Display for LimitError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} is {}, above the limit of {}: {}",
+            self.what,
+            fmt_message_number(self.value),
+            fmt_message_number(self.bound),
+            self.why
+        )
+    }
+}
+
+impl std::error::Error for LimitError {}
+
+/// Checks that `value` (a count or size, may be non-integral when implied by
+/// a division) is at most `bound`; a non-finite value is beyond every bound.
+pub fn check(what: &str, value: f64, bound: u64, why: &'static str) -> Result<(), LimitError> {
+    if value.is_finite() && value <= bound as f64 {
+        Ok(())
+    } else {
+        Err(LimitError {
+            what: what.to_string(),
+            value,
+            bound: bound as f64,
+            why,
+        })
+    }
+}
+
+/// One number format for messages: the shortest text that reads back to the
+/// same value, in scientific notation when the magnitude is ≥ 1e9 or < 1e-5
+/// (so 1e308 is `1e308`, not 309 digits); `NaN`, `inf`, `-inf` otherwise.
+pub fn fmt_message_number(x: f64) -> String {
+    if !x.is_finite() {
+        return crate::io::fmt_f64(x);
+    }
+    let a = x.abs();
+    if a != 0.0 && !(1e-5..1e9).contains(&a) {
+        // `{:e}` of Rust is the shortest round-trip mantissa.
+        format!("{x:e}")
+    } else {
+        crate::io::fmt_f64(x)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn message_numbers_are_short_and_round_trip() {
+        for (x, text) in [
+            (1e308, "1e308"),
+            (-2.5e20, "-2.5e20"),
+            (0.001, "0.001"),
+            (0.0010000000000000009, "0.0010000000000000009"),
+            (3e-9, "3e-9"),
+            (123456.0, "123456"),
+            (3e12, "3e12"),
+            (0.0, "0"),
+        ] {
+            let s = fmt_message_number(x);
+            assert_eq!(s, text);
+            assert_eq!(s.parse::<f64>().unwrap(), x);
+        }
+        assert!(fmt_message_number(f64::MAX).len() < 30);
+    }
+
+    #[test]
+    fn check_refuses_beyond_the_bound_and_non_finite() {
+        assert!(check("n", 10.0, 10, "").is_ok());
+        let e = check("the number of levels", 1e8, 1000, "fewer levels").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "the number of levels is 100000000, above the limit of 1000: fewer levels"
+        );
+        assert!(check("n", f64::INFINITY, 10, "").is_err());
+        assert!(check("n", f64::NAN, 10, "").is_err());
+    }
+}
