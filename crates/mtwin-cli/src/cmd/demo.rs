@@ -333,7 +333,7 @@ fn ballbar_step(_: &Args) -> anyhow::Result<Step> {
         })
         .collect();
     let mut s = sections::ballbar::section(
-        &super::ballbar::identify_json(&id),
+        &ballbar::BallbarIdentifyDoc::new(&id, None, Vec::new()),
         "ballbar identify",
         figures,
     )?;

@@ -61,18 +61,28 @@ pub struct Args {
     format: Format,
 }
 
-/// A JSON file, with errors naming the file, line and column.
-fn read_json(path: &Path) -> anyhow::Result<Value> {
+/// A saved `--format json` document read into its type `D`, with errors
+/// naming the file, line and column, and the field that does not fit.
+fn read_doc<D: serde::de::DeserializeOwned>(path: &Path, what: &str) -> anyhow::Result<D> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     serde_json::from_str(&text).map_err(|e| {
+        let kind = if e.is_syntax() || e.is_eof() {
+            "not a JSON document".to_string()
+        } else {
+            format!("not the output of `{what}`")
+        };
         anyhow::anyhow!(
-            "{}:{}:{}: not a JSON document: {e}",
+            "{}:{}:{}: {kind}: {e}",
             path.display(),
             e.line(),
             e.column()
         )
     })
+}
+
+fn read_json(path: &Path) -> anyhow::Result<Value> {
+    read_doc(path, "mtwin")
 }
 
 fn section_err(path: &Path, e: sections::ReportError) -> anyhow::Error {
@@ -112,8 +122,12 @@ fn build(a: &Args) -> anyhow::Result<Vec<Section>> {
             }
         }
         out.push(
-            sections::ballbar::section(&read_json(p)?, &name(p), figures)
-                .map_err(|e| section_err(p, e))?,
+            sections::ballbar::section(
+                &read_doc(p, "mtwin ballbar identify --format json")?,
+                &name(p),
+                figures,
+            )
+            .map_err(|e| section_err(p, e))?,
         );
     }
     if let Some(p) = &a.identify {
