@@ -179,7 +179,8 @@ fn bad_inputs_name_the_file_and_write_nothing() {
     );
     assert_eq!(o.status.code(), Some(1));
     assert!(
-        stderr(&o).contains("other.json") && stderr(&o).contains("parameters"),
+        stderr(&o).contains("other.json:1:")
+            && stderr(&o).contains("missing field `condition_number`"),
         "{}",
         stderr(&o)
     );

@@ -431,14 +431,14 @@ fn tracker_step(a: &Args) -> anyhow::Result<Step> {
     let check = tracker::simulate::simulate_seeded(&truth, &diag, 0.010, 2);
     let v = tracker::validate(&id.machine, &check);
     let r = &id.report;
-    let id_json = super::tracker::identify_json(&id, &identified);
+    let id_doc =
+        tracker::TrackerIdentifyDoc::new(&id, points.len(), &identified.display().to_string());
     let before: Vec<f64> = v.errors_before.iter().map(|e| e.norm()).collect();
     let after: Vec<f64> = v.errors_after.iter().map(|e| e.norm()).collect();
     let mut vs = sections::tracker::validate_section(
-        &super::tracker::validate_json(&v),
-        "validate",
+        &tracker::TrackerValidateDoc::from(&v),
         Some((&before, &after)),
-    )?;
+    );
     let ch = &v.change.distance;
     vs.blocks.insert(
         1,
@@ -481,7 +481,7 @@ fn tracker_step(a: &Args) -> anyhow::Result<Step> {
             "diagonal_change_max_percent": ch.max, "diagonal_change_mean_percent": ch.mean,
             "seed_change_max_percent": -70.0, "seed_change_mean_percent": -81.0}),
         sections: vec![
-            sections::tracker::identify_section(&id_json, "identify")?,
+            sections::tracker::identify_section(&id_doc),
             vs,
             sections::machine::section_against(
                 &id.machine,

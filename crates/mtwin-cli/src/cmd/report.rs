@@ -131,16 +131,16 @@ fn build(a: &Args) -> anyhow::Result<Vec<Section>> {
         );
     }
     if let Some(p) = &a.identify {
-        out.push(
-            sections::tracker::identify_section(&read_json(p)?, &name(p))
-                .map_err(|e| section_err(p, e))?,
-        );
+        out.push(sections::tracker::identify_section(&read_doc(
+            p,
+            "mtwin identify --format json",
+        )?));
     }
     if let Some(p) = &a.validate {
-        out.push(
-            sections::tracker::validate_section(&read_json(p)?, &name(p), None)
-                .map_err(|e| section_err(p, e))?,
-        );
+        out.push(sections::tracker::validate_section(
+            &read_doc(p, "mtwin validate --format json")?,
+            None,
+        ));
     }
     if let Some(p) = &a.skiving {
         out.push(

@@ -15,6 +15,6 @@ pub(crate) mod toml;
 
 pub use atomic::{write_atomic, write_atomic_with};
 pub use diagnostic::{Diagnostic, Diagnostics};
-pub use number::{fmt_f64, write_csv_row};
+pub use number::{fmt_f64, nan_if_null, write_csv_row};
 pub use rows::CsvRows;
 pub use table::{Column, Table};
