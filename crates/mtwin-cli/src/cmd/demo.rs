@@ -515,10 +515,11 @@ fn skiving_step(_: &Args) -> anyhow::Result<Step> {
     let sol = skiving::identify(&touches, &g, &skiving::Options { noise: Some(0.001) })?;
     let first = closed_form::first_order(&touches[..6], &g).ok();
     let e = sol.estimate;
-    let s = sections::skiving::section(
-        &super::skiving::setup_json(&sol, first.as_ref(), touches.len()),
-        "skiving setup-error",
-    )?;
+    let s = sections::skiving::section(&skiving::doc::SkivingSetupDoc::new(
+        &sol,
+        first,
+        touches.len(),
+    ));
     let err = [
         (e.dgx - truth.dgx) * 1e3,
         (e.dgy - truth.dgy) * 1e3,

@@ -143,9 +143,10 @@ fn build(a: &Args) -> anyhow::Result<Vec<Section>> {
         ));
     }
     if let Some(p) = &a.skiving {
-        out.push(
-            sections::skiving::section(&read_json(p)?, &name(p)).map_err(|e| section_err(p, e))?,
-        );
+        out.push(sections::skiving::section(&read_doc(
+            p,
+            "mtwin skiving setup-error --format json",
+        )?));
     }
     if let Some(p) = &a.thermal_model {
         let model = mtwin::methods::thermal::read_model(p).map_err(diag)?;
