@@ -762,7 +762,7 @@ fn servo_step(a: &Args) -> anyhow::Result<Step> {
             a: fit.servo.a().to_vec(),
             nk: fit.servo.nk(),
         });
-        fits.push((axis.name.clone(), fit.to_json()));
+        fits.push((axis.name.clone(), mtwin::sysid::ServoFitDoc::new(&fit)));
     }
     let path = a.out_dir.join("ac-trunnion-twin.toml");
     mtwin::io::write_atomic(
@@ -780,7 +780,7 @@ fn servo_step(a: &Args) -> anyhow::Result<Step> {
         lines,
         json: json!({"axes": fits.len(), "largest_velocity_lag_error_s": worst_lag,
             "machine": path.display().to_string()}),
-        sections: vec![sections::servo::section(&fits)?],
+        sections: vec![sections::servo::section(&fits)],
     })
 }
 
@@ -801,7 +801,7 @@ fn compensate_step(a: &Args) -> anyhow::Result<Step> {
     let path = a.out_dir.join("s-curve-5axis-comp.ngc");
     mtwin::io::write_atomic(&path, &out)
         .with_context(|| format!("cannot write {}", path.display()))?;
-    let j = super::compensate::summary_json(&summary, &path);
+    let doc = mtwin::methods::compensate::CompensateDoc::new(&summary, &path.display().to_string());
     Ok(Step {
         key: "compensate",
         title: "Geometric compensation of a five-axis program".into(),
@@ -813,8 +813,8 @@ fn compensate_step(a: &Args) -> anyhow::Result<Step> {
             summary.largest_midpoint_deviation * 1e3,
             path.display()
         )],
-        sections: vec![sections::compensate::section(&j, "compensate")?],
-        json: j,
+        sections: vec![sections::compensate::section(&doc)],
+        json: serde_json::to_value(&doc)?,
     })
 }
 

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 use mtwin::report::html::{Report, Section, render};
 use mtwin::report::sections::{self, thermal::curves_from_rows};
-use serde_json::{Value, json};
+use serde_json::json;
 
 use super::common::{diag, load_machine, load_table};
 use crate::output::{Format, note, print_json};
@@ -79,10 +79,6 @@ fn read_doc<D: serde::de::DeserializeOwned>(path: &Path, what: &str) -> anyhow::
             e.column()
         )
     })
-}
-
-fn read_json(path: &Path) -> anyhow::Result<Value> {
-    read_doc(path, "mtwin")
 }
 
 fn section_err(path: &Path, e: sections::ReportError) -> anyhow::Error {
@@ -172,15 +168,18 @@ fn build(a: &Args) -> anyhow::Result<Vec<Section>> {
             let Some((axis, file)) = s.split_once('=') else {
                 bail!("--servo {s}: give AXIS=FILE, e.g. --servo X=servo-x.json");
             };
-            fits.push((axis.to_string(), read_json(Path::new(file))?));
+            fits.push((
+                axis.to_string(),
+                read_doc(Path::new(file), "mtwin servo fit --format json")?,
+            ));
         }
-        out.push(sections::servo::section(&fits).map_err(|e| anyhow::anyhow!("--servo: {e}"))?);
+        out.push(sections::servo::section(&fits));
     }
     if let Some(p) = &a.compensate {
-        out.push(
-            sections::compensate::section(&read_json(p)?, &name(p))
-                .map_err(|e| section_err(p, e))?,
-        );
+        out.push(sections::compensate::section(&read_doc(
+            p,
+            "mtwin compensate --format json",
+        )?));
     }
     if let Some(p) = &a.twin {
         let rows = mtwin::report::twin::rows_from_table(&load_table(p)?)
