@@ -8,10 +8,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 use mtwin::report::html::{Report, Section, render};
 use mtwin::report::sections::{self, thermal::curves_from_rows};
-use serde_json::json;
 
 use super::common::{diag, load_machine, load_table};
-use crate::output::{Format, note, print_json};
+use crate::output::{Format, note, print_doc};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -219,16 +218,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     mtwin::io::write_atomic(&a.out, render(&report).as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
-    match a.format {
-        Format::Json => print_json(&json!({
-            "out": a.out.display().to_string(),
-            "sections": n,
-            "figures": figures,
-        })),
-        Format::Human => {
-            note(format!("{n} section(s), {figures} figure(s)"));
-            println!("report → {}", a.out.display());
-            Ok(())
-        }
+    if a.format == Format::Human {
+        note(format!("{n} section(s), {figures} figure(s)"));
     }
+    let doc = sections::ReportDoc {
+        figures,
+        out: a.out.display().to_string(),
+        sections: n,
+    };
+    print_doc(&doc, a.format)
 }

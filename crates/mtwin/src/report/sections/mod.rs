@@ -13,6 +13,23 @@ pub mod thermal;
 pub mod tracker;
 pub mod twin;
 
+/// `mtwin report --format json`: the HTML file written and what it holds.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ReportDoc {
+    /// Figures in the report.
+    pub figures: usize,
+    /// The HTML file written.
+    pub out: String,
+    /// Sections in the report.
+    pub sections: usize,
+}
+
+impl std::fmt::Display for ReportDoc {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "report → {}", self.out)
+    }
+}
+
 /// A result that cannot be read into a section.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum ReportError {
@@ -98,6 +115,19 @@ mod tests {
         assert!(d.contains(&(4321.0, 9.0)));
         assert!(d.contains(&(777.0, -3.0)));
         assert!(d.windows(2).all(|w| w[0].0 < w[1].0));
+    }
+
+    #[test]
+    fn the_report_document_round_trips() {
+        let d = ReportDoc {
+            figures: 3,
+            out: "r.html".into(),
+            sections: 2,
+        };
+        let back: ReportDoc =
+            serde_json::from_str(&serde_json::to_string_pretty(&d).unwrap()).unwrap();
+        assert_eq!(back, d);
+        assert_eq!(d.to_string(), "report → r.html\n");
     }
 
     #[test]
