@@ -176,6 +176,19 @@ pub fn print_json(v: &serde_json::Value) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Print a result document: its `Display` text for people, or exactly
+/// `serde_json::to_string_pretty(doc)` for `--format json`.
+pub fn print_doc<D>(doc: &D, format: Format) -> anyhow::Result<()>
+where
+    D: serde::Serialize + std::fmt::Display,
+{
+    match format {
+        Format::Json => println!("{}", serde_json::to_string_pretty(doc)?),
+        Format::Human => print!("{doc}"),
+    }
+    Ok(())
+}
+
 /// A progress bar on stderr when stderr is a terminal and not `--quiet`; hidden otherwise.
 pub fn progress(len: u64, what: &str) -> indicatif::ProgressBar {
     if quiet() || !std::io::stderr().is_terminal() {

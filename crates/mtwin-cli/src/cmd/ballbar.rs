@@ -5,17 +5,18 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use mtwin::fit::Options;
-use mtwin::io::{Outputs, fmt_f64};
+use mtwin::io::Outputs;
 use mtwin::methods::ballbar::{
-    self, Mode, ModeData, Pige, ProgramSpec, Rig, SetupErrorInput, SimulationSpec, angle_range,
-    identify, read_mode_file, sensitivity_table, setup_error, simulate_modes, write_mode_file,
+    self, BallbarIdentifyDoc, BallbarProgramDoc, BallbarSensitivityDoc, BallbarSetupDoc,
+    BallbarSimulateDoc, Mode, ModeData, ProgramSpec, Rig, SetupErrorInput, SimulationSpec,
+    angle_range, identify, read_mode_file, sensitivity_table, setup_error, simulate_modes,
+    write_mode_file,
 };
 use mtwin::model::{Machine, machine_to_toml};
-use serde_json::{Map, Value, json};
 
 use super::common::{diag, load_machine};
 use crate::bundled;
-use crate::output::{Format, note, print_json, warn};
+use crate::output::{Format, note, print_doc, warn};
 
 #[derive(Debug, clap::Subcommand)]
 pub enum Command {
@@ -290,19 +291,7 @@ fn run_setup(a: SetupArgs) -> anyhow::Result<()> {
         lmin: a.lmin,
         theta2_deg: a.theta2,
     })?;
-    match a.format {
-        Format::Json => print_json(&json!({"ex": e.ex, "ey": e.ey})),
-        Format::Human => {
-            println!(
-                "tool-ball set-up error: eX = {} mm, eY = {} mm ({:.1} µm, {:.1} µm)",
-                fmt_f64(e.ex),
-                fmt_f64(e.ey),
-                e.ex * 1e3,
-                e.ey * 1e3
-            );
-            Ok(())
-        }
-    }
+    print_doc(&BallbarSetupDoc::from(e), a.format)
 }
 
 fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
@@ -380,96 +369,12 @@ fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
     for w in &id.warnings {
         warn(w);
     }
-    let comp = id.compensation();
-    match a.format {
-        Format::Json => print_json(&identify_json(&id)),
-        Format::Human => {
-            println!("Identified PIGEs (absolute, ± standard uncertainty):");
-            for p in Pige::ALL {
-                let (f, unit) = if p.is_tilt() {
-                    (1e6, "µrad")
-                } else {
-                    (1e3, "µm")
-                };
-                match id.uncertainty[p.index()] {
-                    _ if id.unresolved.iter().any(|u| u.pige == p) => {
-                        println!("  {p}  not identified by the modes given")
-                    }
-                    Some(s) => {
-                        println!("  {p}  {:>9.2} ± {:.2} {unit}", id.piges.get(p) * f, s * f)
-                    }
-                    None => println!("  {p}  {:>9.2} {unit}", id.piges.get(p) * f),
-                }
-            }
-            println!("Residual RMS per mode:");
-            for m in Mode::ALL {
-                if let Some(r) = id.residual_rms[m.index()] {
-                    println!("  {}  {:.3} µm", m.label(), r * 1e3);
-                }
-            }
-            println!("Compensation (corrected axis-line positions, mm):");
-            println!(
-                "  A-axis line passes through Y = {}, Z = {} (in M)",
-                fmt_f64(comp.a_y),
-                fmt_f64(comp.a_z)
-            );
-            println!(
-                "  C-axis line passes through X = {}, Y = {} (in the A frame)",
-                fmt_f64(comp.c_x),
-                fmt_f64(comp.c_y)
-            );
-            if let Some(out) = &a.out {
-                println!("identified machine → {}", out.display());
-            }
-            for p in &plots {
-                println!("plot → {}", p.display());
-            }
-            Ok(())
-        }
-    }
-}
-
-/// The `--format json` document of `ballbar identify` (also read by `mtwin report`).
-pub(crate) fn identify_json(id: &ballbar::Identification) -> Value {
-    let comp = id.compensation();
-    let mut v = Map::new();
-    let mut unc = Map::new();
-    for p in Pige::ALL {
-        let est = !id.unresolved.iter().any(|u| u.pige == p);
-        v.insert(
-            p.name().into(),
-            if est {
-                json!(id.piges.get(p))
-            } else {
-                Value::Null
-            },
-        );
-        unc.insert(p.name().into(), json!(id.uncertainty[p.index()]));
-    }
-    v.insert("uncertainty".into(), Value::Object(unc));
-    let mut rms = Map::new();
-    let mut len = Map::new();
-    for m in Mode::ALL {
-        rms.insert(m.label().into(), json!(id.residual_rms[m.index()]));
-        len.insert(m.label().into(), json!(id.lengths[m.index()]));
-    }
-    v.insert("residual_rms".into(), Value::Object(rms));
-    v.insert("bar_length".into(), Value::Object(len));
-    v.insert(
-        "compensation".into(),
-        json!({"A_line_y": comp.a_y, "A_line_z": comp.a_z, "C_line_x": comp.c_x, "C_line_y": comp.c_y}),
+    let doc = BallbarIdentifyDoc::new(
+        &id,
+        a.out.as_ref().map(|p| p.display().to_string()),
+        plots.iter().map(|p| p.display().to_string()).collect(),
     );
-    v.insert(
-        "unidentified".into(),
-        Value::Object(
-            id.unresolved
-                .iter()
-                .map(|u| (u.pige.name().to_string(), json!(u.reason)))
-                .collect(),
-        ),
-    );
-    v.insert("warnings".into(), json!(id.warnings));
-    Value::Object(v)
+    print_doc(&doc, a.format)
 }
 
 fn run_sensitivity(a: SensitivityArgs) -> anyhow::Result<()> {
@@ -481,35 +386,7 @@ fn run_sensitivity(a: SensitivityArgs) -> anyhow::Result<()> {
         a.range.angles(Mode::Four)?,
     ];
     let rows = sensitivity_table(&machine, &a.rig.ideal_rig(), a.offset, a.tilt, &angles)?;
-    match a.format {
-        Format::Json => print_json(&Value::Array(
-            rows.iter()
-                .map(|r| {
-                    json!({"pige": r.pige.name(), "size": r.size,
-                        "peak_delta_l": {"mode1": r.peak[0], "mode2": r.peak[1], "mode3": r.peak[2], "mode4": r.peak[3]}})
-                })
-                .collect(),
-        )),
-        Format::Human => {
-            println!("Peak |ΔL| (µm) per mode for one PIGE at a time (ideal set-up):");
-            println!("  PIGE  size            mode1    mode2    mode3    mode4");
-            for r in &rows {
-                let size = if r.pige.is_tilt() {
-                    format!("{:.3e} rad", r.size)
-                } else {
-                    format!("{:.4} mm", r.size)
-                };
-                let cells: Vec<String> = r
-                    .peak
-                    .iter()
-                    .map(|&p| if p < 1e-6 { format!("{:>8}", "·") } else { format!("{:>8.3}", p * 1e3) })
-                    .collect();
-                println!("  {}  {:<14} {}", r.pige, size, cells.join(" "));
-            }
-            println!("(· : below 0.001 µm — the PIGE does not move that mode)");
-            Ok(())
-        }
-    }
+    print_doc(&BallbarSensitivityDoc::from(rows.as_slice()), a.format)
 }
 
 fn run_program(a: ProgramArgs) -> anyhow::Result<()> {
@@ -530,9 +407,6 @@ fn run_program(a: ProgramArgs) -> anyhow::Result<()> {
         };
         texts.push((m, ballbar::program(&machine, m, &spec)?));
     }
-    // The folder only once every program is made: nothing is left on an error.
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("cannot create {}", a.out.display()))?;
     let mut files = Vec::new();
     for (m, t) in &texts {
         let p = program_path(*m);
@@ -545,10 +419,7 @@ fn run_program(a: ProgramArgs) -> anyhow::Result<()> {
         note(format!("{} → {}", m.label(), p.display()));
     }
     let files: Vec<String> = files.iter().map(|p| p.display().to_string()).collect();
-    match a.format {
-        Format::Json => print_json(&json!({"files": files})),
-        Format::Human => Ok(()),
-    }
+    print_doc(&BallbarProgramDoc { files }, a.format)
 }
 
 fn run_simulate(a: SimulateArgs) -> anyhow::Result<()> {
@@ -585,13 +456,10 @@ fn run_simulate(a: SimulateArgs) -> anyhow::Result<()> {
         written.push(p.display().to_string());
     }
     out.commit()?;
-    match a.format {
-        Format::Json => print_json(&json!({"files": written, "seed": a.seed, "noise": a.noise})),
-        Format::Human => {
-            for w in &written {
-                println!("{w}");
-            }
-            Ok(())
-        }
-    }
+    let doc = BallbarSimulateDoc {
+        files: written,
+        noise: a.noise,
+        seed: a.seed,
+    };
+    print_doc(&doc, a.format)
 }

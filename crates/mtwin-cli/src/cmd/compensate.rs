@@ -3,11 +3,12 @@
 
 use std::path::PathBuf;
 
-use mtwin::methods::compensate::{CompensateError, CompensateOptions, Compensator, Summary};
-use serde_json::json;
+use mtwin::methods::compensate::{
+    CompensateDoc, CompensateError, CompensateOptions, Compensator, Summary,
+};
 
 use super::common::{DialectArgs, load_machine};
-use crate::output::{Format, note, print_json};
+use crate::output::{Format, note, print_doc};
 
 #[derive(Debug, clap::Args)]
 #[command(allow_negative_numbers = true)]
@@ -80,47 +81,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     for n in &summary.notes {
         note(n);
     }
-    let s = &summary;
-    match a.format {
-        Format::Json => print_json(&summary_json(s, &a.out)),
-        Format::Human => {
-            println!(
-                "{} blocks → {}\nblocks changed {}, subdivided {} (+{} blocks), arcs converted {}\nlargest correction {:.2} µm (line {}), rotary {:.5}°",
-                s.blocks,
-                a.out.display(),
-                s.blocks_changed,
-                s.blocks_subdivided,
-                s.blocks_inserted,
-                s.arcs_converted,
-                s.largest_correction * 1e3,
-                s.largest_correction_line,
-                s.largest_rotary_correction
-            );
-            if s.axis_not_corrected > 0 {
-                println!(
-                    "{} targets near the singular pose: tip corrected, tool axis not",
-                    s.axis_not_corrected
-                );
-            }
-            Ok(())
-        }
-    }
-}
-
-/// The `--format json` document of `compensate` (also read by `mtwin report`).
-pub(crate) fn summary_json(s: &Summary, out: &std::path::Path) -> serde_json::Value {
-    json!({
-        "out": out.display().to_string(),
-        "blocks": s.blocks,
-        "blocks_changed": s.blocks_changed,
-        "blocks_subdivided": s.blocks_subdivided,
-        "blocks_inserted": s.blocks_inserted,
-        "arcs_converted": s.arcs_converted,
-        "largest_correction_um": s.largest_correction * 1e3,
-        "largest_correction_line": s.largest_correction_line,
-        "largest_rotary_correction_deg": s.largest_rotary_correction,
-        "axis_not_corrected": s.axis_not_corrected,
-        "largest_midpoint_deviation_um": s.largest_midpoint_deviation * 1e3,
-        "notes": s.notes,
-    })
+    print_doc(
+        &CompensateDoc::new(&summary, &a.out.display().to_string()),
+        a.format,
+    )
 }

@@ -347,7 +347,7 @@ fn ballbar_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
         })
         .collect();
     let mut s = sections::ballbar::section(
-        &super::ballbar::identify_json(&id),
+        &ballbar::BallbarIdentifyDoc::new(&id, None, Vec::new()),
         "ballbar identify",
         figures,
     )?;
@@ -445,14 +445,14 @@ fn tracker_step(a: &Args, out: &mut Outputs) -> anyhow::Result<Step> {
     let check = tracker::simulate::simulate_seeded(&truth, &diag, 0.010, 2);
     let v = tracker::validate(&id.machine, &check);
     let r = &id.report;
-    let id_json = super::tracker::identify_json(&id, &identified);
+    let id_doc =
+        tracker::TrackerIdentifyDoc::new(&id, points.len(), &identified.display().to_string());
     let before: Vec<f64> = v.errors_before.iter().map(|e| e.norm()).collect();
     let after: Vec<f64> = v.errors_after.iter().map(|e| e.norm()).collect();
     let mut vs = sections::tracker::validate_section(
-        &super::tracker::validate_json(&v),
-        "validate",
+        &tracker::TrackerValidateDoc::from(&v),
         Some((&before, &after)),
-    )?;
+    );
     let ch = &v.change.distance;
     vs.blocks.insert(
         1,
@@ -495,7 +495,7 @@ fn tracker_step(a: &Args, out: &mut Outputs) -> anyhow::Result<Step> {
             "diagonal_change_max_percent": ch.max, "diagonal_change_mean_percent": ch.mean,
             "seed_change_max_percent": -70.0, "seed_change_mean_percent": -81.0}),
         sections: vec![
-            sections::tracker::identify_section(&id_json, "identify")?,
+            sections::tracker::identify_section(&id_doc),
             vs,
             sections::machine::section_against(
                 &id.machine,
@@ -529,10 +529,11 @@ fn skiving_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
     let sol = skiving::identify(&touches, &g, &skiving::Options::with_noise(Some(0.001)))?;
     let first = closed_form::first_order(&touches[..6], &g).ok();
     let e = sol.estimate;
-    let s = sections::skiving::section(
-        &super::skiving::setup_json(&sol, first.as_ref(), touches.len()),
-        "skiving setup-error",
-    )?;
+    let s = sections::skiving::section(&skiving::doc::SkivingSetupDoc::new(
+        &sol,
+        first,
+        touches.len(),
+    ));
     let err = [
         (e.dgx - truth.dgx) * 1e3,
         (e.dgy - truth.dgy) * 1e3,
@@ -774,7 +775,7 @@ fn servo_step(a: &Args, out: &mut Outputs) -> anyhow::Result<Step> {
             a: fit.servo.a().to_vec(),
             nk: fit.servo.nk(),
         });
-        fits.push((axis.name.clone(), fit.to_json()));
+        fits.push((axis.name.clone(), mtwin::sysid::ServoFitDoc::new(&fit)));
     }
     let path = a.out_dir.join("ac-trunnion-twin.toml");
     out.write(
@@ -792,7 +793,7 @@ fn servo_step(a: &Args, out: &mut Outputs) -> anyhow::Result<Step> {
         lines,
         json: json!({"axes": fits.len(), "largest_velocity_lag_error_s": worst_lag,
             "machine": path.display().to_string()}),
-        sections: vec![sections::servo::section(&fits)?],
+        sections: vec![sections::servo::section(&fits)],
     })
 }
 
@@ -812,7 +813,7 @@ fn compensate_step(a: &Args, staged: &mut Outputs) -> anyhow::Result<Step> {
     staged
         .write(&path, &out)
         .with_context(|| format!("cannot write {}", path.display()))?;
-    let j = super::compensate::summary_json(&summary, &path);
+    let doc = mtwin::methods::compensate::CompensateDoc::new(&summary, &path.display().to_string());
     Ok(Step {
         key: "compensate",
         title: "Geometric compensation of a five-axis program".into(),
@@ -824,8 +825,8 @@ fn compensate_step(a: &Args, staged: &mut Outputs) -> anyhow::Result<Step> {
             summary.largest_midpoint_deviation * 1e3,
             path.display()
         )],
-        sections: vec![sections::compensate::section(&j, "compensate")?],
-        json: j,
+        sections: vec![sections::compensate::section(&doc)],
+        json: serde_json::to_value(&doc)?,
     })
 }
 

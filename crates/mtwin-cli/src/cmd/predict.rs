@@ -4,12 +4,11 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use mtwin::io::write_csv_row;
-use mtwin::kinematics::Kinematics;
+use mtwin::kinematics::PREDICT_COLUMNS;
 use mtwin::model::read_poses;
-use serde_json::json;
 
 use super::common::{diag, load_machine, load_table};
-use crate::output::{Format, print_json};
+use crate::output::{Format, print_doc};
 
 #[derive(Debug, clap::Args)]
 #[command(allow_negative_numbers = true)]
@@ -37,14 +36,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let m = load_machine(&a.machine)?;
     let t = load_table(&a.data)?;
     let poses = read_poses(&t, &m, true).map_err(diag)?;
-    let k = Kinematics::new(&m);
-    let kn = Kinematics::nominal(&m);
-    let flat: Vec<f64> = poses.iter().flatten().copied().collect();
-    let actual = k.poses(&flat);
-    let nominal = kn.poses(&flat);
+    let (actual, doc) = mtwin::kinematics::predict::run(&m, &poses, &a.out.display().to_string());
     out.write_with(&a.out, |w| -> std::io::Result<()> {
         let mut header: Vec<String> = m.axis_names().iter().map(|s| s.to_string()).collect();
-        header.extend(["x", "y", "z", "i", "j", "k"].map(String::from));
+        header.extend(PREDICT_COLUMNS.map(String::from));
         writeln!(w, "{}", header.join(","))?;
         let mut row = Vec::with_capacity(m.n_axes() + 6);
         for (q, p) in poses.iter().zip(&actual) {
@@ -58,27 +53,5 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     })
     .with_context(|| format!("cannot write {}", a.out.display()))?;
     out.commit()?;
-    let errs: Vec<f64> = actual
-        .iter()
-        .zip(&nominal)
-        .map(|(a, n)| (a.tip - n.tip).norm())
-        .collect();
-    let max = errs.iter().copied().fold(0.0, f64::max);
-    let rms = (errs.iter().map(|e| e * e).sum::<f64>() / errs.len().max(1) as f64).sqrt();
-    match a.format {
-        Format::Json => print_json(&json!({
-            "poses": poses.len(), "out": a.out.display().to_string(),
-            "volumetric_error_max": max, "volumetric_error_rms": rms,
-        })),
-        Format::Human => {
-            println!(
-                "{} poses → {}\nvolumetric error |Δp| (actual − nominal): max {:.2} µm, rms {:.2} µm",
-                poses.len(),
-                a.out.display(),
-                max * 1e3,
-                rms * 1e3
-            );
-            Ok(())
-        }
-    }
+    print_doc(&doc, a.format)
 }

@@ -8,10 +8,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 use mtwin::report::html::{Report, Section, render};
 use mtwin::report::sections::{self, thermal::curves_from_rows};
-use serde_json::{Value, json};
 
 use super::common::{diag, load_machine, load_table};
-use crate::output::{Format, note, print_json};
+use crate::output::{Format, note, print_doc};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -61,13 +60,19 @@ pub struct Args {
     format: Format,
 }
 
-/// A JSON file, with errors naming the file, line and column.
-fn read_json(path: &Path) -> anyhow::Result<Value> {
+/// A saved `--format json` document read into its type `D`, with errors
+/// naming the file, line and column, and the field that does not fit.
+fn read_doc<D: serde::de::DeserializeOwned>(path: &Path, what: &str) -> anyhow::Result<D> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     serde_json::from_str(&text).map_err(|e| {
+        let kind = if e.is_syntax() || e.is_eof() {
+            "not a JSON document".to_string()
+        } else {
+            format!("not the output of `{what}`")
+        };
         anyhow::anyhow!(
-            "{}:{}:{}: not a JSON document: {e}",
+            "{}:{}:{}: {kind}: {e}",
             path.display(),
             e.line(),
             e.column()
@@ -112,26 +117,31 @@ fn build(a: &Args) -> anyhow::Result<Vec<Section>> {
             }
         }
         out.push(
-            sections::ballbar::section(&read_json(p)?, &name(p), figures)
-                .map_err(|e| section_err(p, e))?,
+            sections::ballbar::section(
+                &read_doc(p, "mtwin ballbar identify --format json")?,
+                &name(p),
+                figures,
+            )
+            .map_err(|e| section_err(p, e))?,
         );
     }
     if let Some(p) = &a.identify {
-        out.push(
-            sections::tracker::identify_section(&read_json(p)?, &name(p))
-                .map_err(|e| section_err(p, e))?,
-        );
+        out.push(sections::tracker::identify_section(&read_doc(
+            p,
+            "mtwin identify --format json",
+        )?));
     }
     if let Some(p) = &a.validate {
-        out.push(
-            sections::tracker::validate_section(&read_json(p)?, &name(p), None)
-                .map_err(|e| section_err(p, e))?,
-        );
+        out.push(sections::tracker::validate_section(
+            &read_doc(p, "mtwin validate --format json")?,
+            None,
+        ));
     }
     if let Some(p) = &a.skiving {
-        out.push(
-            sections::skiving::section(&read_json(p)?, &name(p)).map_err(|e| section_err(p, e))?,
-        );
+        out.push(sections::skiving::section(&read_doc(
+            p,
+            "mtwin skiving setup-error --format json",
+        )?));
     }
     if let Some(p) = &a.thermal_model {
         let model = mtwin::methods::thermal::read_model(p).map_err(diag)?;
@@ -157,15 +167,18 @@ fn build(a: &Args) -> anyhow::Result<Vec<Section>> {
             let Some((axis, file)) = s.split_once('=') else {
                 bail!("--servo {s}: give AXIS=FILE, e.g. --servo X=servo-x.json");
             };
-            fits.push((axis.to_string(), read_json(Path::new(file))?));
+            fits.push((
+                axis.to_string(),
+                read_doc(Path::new(file), "mtwin servo fit --format json")?,
+            ));
         }
-        out.push(sections::servo::section(&fits).map_err(|e| anyhow::anyhow!("--servo: {e}"))?);
+        out.push(sections::servo::section(&fits));
     }
     if let Some(p) = &a.compensate {
-        out.push(
-            sections::compensate::section(&read_json(p)?, &name(p))
-                .map_err(|e| section_err(p, e))?,
-        );
+        out.push(sections::compensate::section(&read_doc(
+            p,
+            "mtwin compensate --format json",
+        )?));
     }
     if let Some(p) = &a.twin {
         let rows = mtwin::report::twin::rows_from_table(&load_table(p)?)
@@ -229,16 +242,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     out.write(&a.out, render(&report).as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     out.commit()?;
-    match a.format {
-        Format::Json => print_json(&json!({
-            "out": a.out.display().to_string(),
-            "sections": n,
-            "figures": figures,
-        })),
-        Format::Human => {
-            note(format!("{n} section(s), {figures} figure(s)"));
-            println!("report → {}", a.out.display());
-            Ok(())
-        }
+    if a.format == Format::Human {
+        note(format!("{n} section(s), {figures} figure(s)"));
     }
+    let doc = sections::ReportDoc {
+        figures,
+        out: a.out.display().to_string(),
+        sections: n,
+    };
+    print_doc(&doc, a.format)
 }

@@ -10,13 +10,12 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use mtwin::io::{Outputs, Table, fmt_f64, write_csv_row};
-use mtwin::sysid::{self, ServoFitOptions};
+use mtwin::sysid::{self, ServoExcitationDoc, ServoFitDoc, ServoFitOptions, ServoSimulateDoc};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
-use serde_json::json;
 
 use super::common::{diag, load_table};
-use crate::output::{Format, note, print_json, warn};
+use crate::output::{Format, note, print_doc, warn};
 
 #[derive(Debug, clap::Subcommand)]
 pub enum Command {
@@ -87,6 +86,9 @@ pub struct SimulateArgs {
     /// unit circle); the simulation stops with an error if it overflows.
     #[arg(long)]
     allow_unstable: bool,
+    /// Output format of the summary.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
 }
 
 #[derive(Debug, clap::Args)]
@@ -115,6 +117,9 @@ pub struct ExcitationArgs {
     /// Output G-code program.
     #[arg(long)]
     out: PathBuf,
+    /// Output format of the summary.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
 }
 
 pub fn run(c: Command) -> anyhow::Result<()> {
@@ -164,11 +169,14 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
     let orders = &fit.selection.table[fit.selection.best].orders;
     match a.format {
         Format::Json => {
-            let mut v = fit.to_json();
-            v["out"] = json!(a.out.display().to_string());
-            v["feed_mm_min"] = json!(a.feed);
-            v["following_error_at_feed"] = json!(following);
-            print_json(&v)
+            let doc = ServoFitDoc {
+                out: Some(a.out.display().to_string()),
+                feed_mm_min: Some(a.feed),
+                following_error_at_feed: following,
+                ..ServoFitDoc::new(&fit)
+            };
+            println!("{}", serde_json::to_string_pretty(&doc)?);
+            Ok(())
         }
         Format::Human => {
             println!(
@@ -259,7 +267,19 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
         a.seed,
         a.out.display()
     ));
-    Ok(())
+    let doc = ServoSimulateDoc {
+        duration_s: rows.len() as f64 * servo.ts(),
+        largest_following_error: commands
+            .iter()
+            .zip(&feedback)
+            .map(|(c, y)| (c - y).abs())
+            .fold(0.0, f64::max),
+        noise: a.noise,
+        out: a.out.display().to_string(),
+        samples: rows.len(),
+        seed: a.seed,
+    };
+    print_doc(&doc, a.format)
 }
 
 /// Commands must be at least two samples, `t_s` increasing by the servo's `ts` (within 1 %).
@@ -395,7 +415,16 @@ fn excitation(a: ExcitationArgs) -> anyhow::Result<()> {
         a.levels,
         a.out.display()
     ));
-    Ok(())
+    let doc = ServoExcitationDoc {
+        axis: a.axis.clone(),
+        dwell_s: a.dwell,
+        feed: a.feed,
+        levels: a.levels,
+        lines: text.lines().count(),
+        out: a.out.display().to_string(),
+        travel: [travel.0, travel.1],
+    };
+    print_doc(&doc, a.format)
 }
 
 #[cfg(test)]

@@ -7,14 +7,14 @@ use std::path::PathBuf;
 use anyhow::Context;
 use mtwin::io::{Outputs, fmt_f64};
 use mtwin::methods::skiving::closed_form::{self, STANDARD_FORMULAS};
+use mtwin::methods::skiving::doc::{SkivingProgramDoc, SkivingSetupDoc, SkivingSimulateDoc};
 use mtwin::methods::skiving::program::{self, Dialect, Motion, Plan};
 use mtwin::methods::skiving::simulate::{Noise, simulate};
 use mtwin::methods::skiving::touch::{DEFAULT_PLAUSIBILITY_MM, read_touches};
 use mtwin::methods::skiving::{Geometry, Options, SetupError, Touch, UncertaintyBasis, identify};
-use serde_json::json;
 
 use super::common::{diag, load_table};
-use crate::output::{Format, note, print_json, warn};
+use crate::output::{Format, note, print_doc, warn};
 
 #[derive(Debug, clap::Subcommand)]
 pub enum Command {
@@ -229,7 +229,11 @@ fn setup_error(a: SetupErrorArgs) -> anyhow::Result<()> {
         );
     }
     match a.format {
-        Format::Json => print_json(&setup_json(&s, first.as_ref().ok(), touches.len())),
+        Format::Json => {
+            let doc = SkivingSetupDoc::new(&s, first.as_ref().ok().copied(), touches.len());
+            println!("{}", serde_json::to_string_pretty(&doc)?);
+            Ok(())
+        }
         Format::Human => {
             println!(
                 "Workpiece set-up error from {} touches ({}), exact chain, least squares",
@@ -309,39 +313,6 @@ fn setup_error(a: SetupErrorArgs) -> anyhow::Result<()> {
     }
 }
 
-/// The `--format json` document of `skiving setup-error` (also read by `mtwin report`).
-pub(crate) fn setup_json(
-    s: &mtwin::methods::skiving::Solution,
-    first: Option<&SetupError>,
-    touches: usize,
-) -> serde_json::Value {
-    let e = s.estimate;
-    let unc = s.uncertainty.map(|u| u.std);
-    let basis = s.uncertainty.map(|u| match u.basis {
-        UncertaintyBasis::KnownNoise { sigma } => {
-            json!({"kind": "known_noise", "sigma": sigma})
-        }
-        UncertaintyBasis::Residuals { sigma, dof } => {
-            json!({"kind": "residuals", "sigma": sigma, "dof": dof})
-        }
-    });
-    let uncertainty = unc.map(|u| json!({"dgx": u[0], "dgy": u[1], "exz": u[2], "ezy": u[3]}));
-    let closed = first.map(|f| json!({"dgx": f.dgx, "dgy": f.dgy, "exz": f.exz, "ezy": f.ezy}));
-    json!({
-        "dgx": e.dgx, "dgy": e.dgy, "exz": e.exz, "ezy": e.ezy,
-        "residuals": s.residuals,
-        "uncertainty": uncertainty,
-        "uncertainty_basis": basis,
-        "coverage_factor_95": s.uncertainty.map(|u| u.coverage_factor_95()),
-        "flags": s.flags.iter().map(|f| f.name()).collect::<Vec<_>>(),
-        "standardized_residuals": s.standardized,
-        "leverage": s.leverage,
-        "flag_noise": s.flag_noise,
-        "first_order": closed,
-        "touches": touches,
-    })
-}
-
 fn write_program(a: ProgramArgs) -> anyhow::Result<()> {
     let mut out = Outputs::plan().output(&a.out).begin()?;
     let g = a.geometry.geometry()?;
@@ -360,18 +331,18 @@ fn write_program(a: ProgramArgs) -> anyhow::Result<()> {
     out.write(&a.out, text.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     out.commit()?;
-    match a.format {
-        Format::Json => {
-            print_json(&json!({"probing_moves": 6, "out": a.out.display().to_string()}))
-        }
-        Format::Human => {
-            note(format!(
-                "touch-off program (6 probing moves) → {}",
-                a.out.display()
-            ));
-            Ok(())
-        }
+    let doc = SkivingProgramDoc {
+        out: a.out.display().to_string(),
+        probing_moves: 6,
+    };
+    print_doc(&doc, a.format)?;
+    if a.format == Format::Human {
+        note(format!(
+            "touch-off program (6 probing moves) → {}",
+            a.out.display()
+        ));
     }
+    Ok(())
 }
 
 fn simulate_touches(a: SimulateArgs) -> anyhow::Result<()> {
@@ -410,13 +381,9 @@ fn simulate_touches(a: SimulateArgs) -> anyhow::Result<()> {
     })
     .with_context(|| format!("cannot write {}", a.out.display()))?;
     out.commit()?;
-    match a.format {
-        Format::Json => {
-            print_json(&json!({"touches": touches.len(), "out": a.out.display().to_string()}))
-        }
-        Format::Human => {
-            println!("{} touches → {}", touches.len(), a.out.display());
-            Ok(())
-        }
-    }
+    let doc = SkivingSimulateDoc {
+        out: a.out.display().to_string(),
+        touches: touches.len(),
+    };
+    print_doc(&doc, a.format)
 }

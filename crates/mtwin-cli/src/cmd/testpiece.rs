@@ -5,10 +5,9 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use mtwin::methods::testpiece::{SShape, SShapeProgram, s_shape_program};
-use serde_json::json;
 
 use super::common::load_machine;
-use crate::output::{Format, note, print_json};
+use crate::output::{Format, note, print_doc};
 
 #[derive(Debug, clap::Subcommand)]
 pub enum Command {
@@ -110,38 +109,26 @@ fn s_shape(a: SShapeArgs) -> anyhow::Result<()> {
             (shape.lower(i as f64 / n) - shape.lower((i - 1) as f64 / n)).norm()
         })
         .sum();
-    match a.format {
-        Format::Json => print_json(&json!({
-            "out": a.out.display().to_string(),
-            "segments": a.segments,
-            "poses": a.segments + 1,
-            "tip_path_mm": length,
-            "feed_mm_min": a.feed,
-            "cutting_time_s": length / a.feed * 60.0,
-            "tcp": a.tcp,
-            "inverse_time": a.inverse_time,
-            "length_mm": shape.length,
-            "width_mm": shape.width,
-            "height_mm": shape.height,
-        })),
-        Format::Human => {
-            println!(
-                "S-shaped piece {:.1} x {:.1} x {:.1} mm, {} segments, tip path {:.2} mm at F{} ({:.1} s) → {}",
-                shape.length,
-                shape.width,
-                shape.height,
-                a.segments,
-                length,
-                a.feed,
-                length / a.feed * 60.0,
-                a.out.display()
-            );
-            note(if a.tcp {
-                "TCP program: X Y Z are the tool tip in W; interpolate with `mtwin gcode interpolate` (G43.4 switches TCP on)"
-            } else {
-                "joint-space program from the machine's nominal inverse kinematics"
-            });
-            Ok(())
-        }
+    let doc = mtwin::methods::testpiece::SShapeProgramDoc {
+        cutting_time_s: length / a.feed * 60.0,
+        feed_mm_min: a.feed,
+        height_mm: shape.height,
+        inverse_time: a.inverse_time,
+        length_mm: shape.length,
+        out: a.out.display().to_string(),
+        poses: a.segments + 1,
+        segments: a.segments,
+        tcp: a.tcp,
+        tip_path_mm: length,
+        width_mm: shape.width,
+    };
+    print_doc(&doc, a.format)?;
+    if a.format == Format::Human {
+        note(if a.tcp {
+            "TCP program: X Y Z are the tool tip in W; interpolate with `mtwin gcode interpolate` (G43.4 switches TCP on)"
+        } else {
+            "joint-space program from the machine's nominal inverse kinematics"
+        });
     }
+    Ok(())
 }

@@ -207,6 +207,9 @@ pub struct SimulateArgs {
     /// Output CSV in the TRAIN.csv layout: `t_min,speed_rpm,z_mm,drift_mm`.
     #[arg(long)]
     out: PathBuf,
+    /// Output format of the summary.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
 }
 
 pub fn run(c: Command) -> anyhow::Result<()> {
@@ -448,7 +451,14 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
         a.seed,
         a.out.display()
     ));
-    Ok(())
+    let doc = thermal::ThermalSimulateDoc::new(
+        &data,
+        &heights,
+        a.noise,
+        a.seed,
+        &a.out.display().to_string(),
+    );
+    crate::output::print_doc(&doc, a.format)
 }
 
 /// One SVG per measured height: the measured drift (dots) and the model

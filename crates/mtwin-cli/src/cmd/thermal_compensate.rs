@@ -9,10 +9,9 @@ use mtwin::methods::thermal::{
     CompensateError, CompensateOptions, CorrectionUpdate, compensate, read_model,
 };
 use mtwin::report::svg::{Series, xy};
-use serde_json::json;
 
 use super::common::{DialectArgs, diag};
-use crate::output::{Format, note, print_json};
+use crate::output::{Format, note, print_doc};
 
 #[derive(Debug, clap::Args)]
 #[command(allow_negative_numbers = true)]
@@ -102,33 +101,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         note(n);
     }
     let span = c.changed_span_min();
-    match a.format {
-        Format::Json => print_json(&json!({
-            "out": a.out.display().to_string(),
-            "blocks": c.blocks,
-            "blocks_changed": c.blocks_changed(),
-            "z_blocks": c.z_blocks.len(),
-            "max_correction_um": c.max_correction_mm() * 1e3,
-            "duration_min": c.duration_min,
-            "changed_from_min": span.map(|s| s.0),
-            "changed_to_min": span.map(|s| s.1),
-            "spindle_used": c.spindle_used,
-            "notes": c.notes,
-        })),
-        Format::Human => {
-            println!(
-                "{} blocks, estimated {:.1} min → {}\n{} of {} Z blocks changed, largest correction {:.2} µm{}",
-                c.blocks,
-                c.duration_min,
-                a.out.display(),
-                c.blocks_changed(),
-                c.z_blocks.len(),
-                c.max_correction_mm() * 1e3,
-                span.map_or(String::new(), |(f, t)| format!(
-                    ", changes from {f:.1} to {t:.1} min"
-                )),
-            );
-            Ok(())
-        }
-    }
+    let doc = mtwin::methods::thermal::ThermalCompensateDoc {
+        blocks: c.blocks,
+        blocks_changed: c.blocks_changed(),
+        changed_from_min: span.map(|s| s.0),
+        changed_to_min: span.map(|s| s.1),
+        duration_min: c.duration_min,
+        max_correction_um: c.max_correction_mm() * 1e3,
+        notes: c.notes.clone(),
+        out: a.out.display().to_string(),
+        spindle_used: c.spindle_used,
+        z_blocks: c.z_blocks.len(),
+    };
+    print_doc(&doc, a.format)
 }

@@ -13,15 +13,15 @@ use mtwin::methods::tracker::compensate::Compensator;
 use mtwin::methods::tracker::plan::{gcode, plan};
 use mtwin::methods::tracker::simulate::simulate_seeded;
 use mtwin::methods::tracker::{
-    ErrorStats, IdentifyOptions, Stats, TrackerPoint, identify, validate,
+    CompensatePointsDoc, IdentifyOptions, TrackerIdentifyDoc, TrackerPlanDoc, TrackerPoint,
+    TrackerSimulateDoc, TrackerValidateDoc, identify, validate,
 };
 use mtwin::model::{Machine, ParameterSet, machine_to_toml, read_poses};
 use mtwin::nalgebra::Vector3;
 use mtwin::report::svg::{Series, xy};
-use serde_json::json;
 
 use super::common::{diag, load_machine, load_table};
-use crate::output::{Format, note, print_json, progress, warn};
+use crate::output::{Format, note, print_doc, progress, warn};
 
 /// How long the identification runs before it shows a progress bar.
 const PROGRESS_AFTER: std::time::Duration = std::time::Duration::from_secs(1);
@@ -293,127 +293,12 @@ pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
     out.write(&a.out, text.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     out.commit()?;
-    let (rms_before, rms_after) = r.rms();
-    let unident = r.unidentifiable_names();
-    let rot = params.is_rotation();
-    match a.format {
-        Format::Json => print_json(&identify_json(&id, &a.out)),
-        Format::Human => {
-            println!(
-                "{} points, {} parameters: rank {}, condition number {:.3e}",
-                points.len(),
-                r.estimates.len(),
-                r.identifiability.rank,
-                r.condition_number
-            );
-            println!(
-                "{:<10} {:>14} {:>14}  unit",
-                "parameter", "value", "uncertainty"
-            );
-            for (j, e) in r.estimates.iter().enumerate() {
-                if e.unidentifiable.is_some() {
-                    continue;
-                }
-                let is_rot = rot.get(j).copied().unwrap_or(j >= params.len() + 3);
-                let reg_mm = j >= params.len() && !is_rot;
-                let (scale, unit) = if reg_mm {
-                    (1.0, "mm")
-                } else if is_rot {
-                    (1e6, "µrad")
-                } else {
-                    (1e3, "µm")
-                };
-                let u = e
-                    .uncertainty
-                    .map_or("-".to_string(), |u| format!("{:.3}", u * scale));
-                println!("{:<10} {:>14.3} {:>14}  {unit}", e.name, e.value * scale, u);
-            }
-            if !unident.is_empty() {
-                println!("not identifiable (kept at 0): {}", unident.join(", "));
-                for c in &r.identifiability.relations {
-                    println!("  {}", c.describe());
-                }
-            }
-            println!(
-                "residual RMS per coordinate: before {:.2} µm, after {:.2} µm",
-                rms_before * 1e3,
-                rms_after * 1e3
-            );
-            for o in &r.outliers.flagged {
-                println!("outlier: point {} (RMS {:.2} µm)", o.block + 1, o.rms * 1e3);
-            }
-            note(format!("identified machine written to {}", a.out.display()));
-            Ok(())
-        }
+    let doc = TrackerIdentifyDoc::new(&id, points.len(), &a.out.display().to_string());
+    print_doc(&doc, a.format)?;
+    if a.format == Format::Human {
+        note(format!("identified machine written to {}", a.out.display()));
     }
-}
-
-/// The `--format json` document of `identify` (contract; also read by `mtwin report`).
-pub(crate) fn identify_json(
-    id: &mtwin::methods::tracker::Identification,
-    out: &Path,
-) -> serde_json::Value {
-    let r = &id.report;
-    let (rms_before, rms_after) = r.rms();
-    json!({
-        "rank": r.identifiability.rank,
-        "parameters": r.estimates.len(),
-        "unidentifiable": r.unidentifiable_names(),
-        "rms_before": rms_before,
-        "rms_after": rms_after,
-        "condition_number": r.condition_number,
-        "sigma": r.sigma,
-        "estimates": r.estimates,
-        "registration": id.registration,
-        "relations": r.identifiability.relations.iter().map(|c| c.describe()).collect::<Vec<_>>(),
-        "outliers": r.outliers.flagged,
-        "convergence": r.convergence,
-        "warnings": r.warnings,
-        "out": out.display().to_string(),
-    })
-}
-
-/// The `--format json` document of `validate` (also read by `mtwin report`).
-pub(crate) fn validate_json(v: &mtwin::methods::tracker::Validation) -> serde_json::Value {
-    json!({
-        "points": v.points,
-        "before": stats_json(&v.before),
-        "after": stats_json(&v.after),
-        "change_percent": stats_json(&v.change),
-        "rms_before": v.before.rms(),
-        "rms_after": v.after.rms(),
-    })
-}
-
-fn stats_json(s: &ErrorStats) -> serde_json::Value {
-    serde_json::to_value(s).unwrap_or_default()
-}
-
-fn print_table(title: &str, before: &ErrorStats, after: &ErrorStats) {
-    let ch = ErrorStats::change(before, after);
-    println!("{title}");
-    println!(
-        "{:<5} {:>26} {:>26} {:>21}",
-        "", "before max/mean/std µm", "after max/mean/std µm", "change max/mean/std %"
-    );
-    let row = |n: &str, b: &Stats, a: &Stats, c: &Stats| {
-        println!(
-            "{n:<5} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>6.0} {:>6.0} {:>6.0}",
-            b.max * 1e3,
-            b.mean * 1e3,
-            b.std * 1e3,
-            a.max * 1e3,
-            a.mean * 1e3,
-            a.std * 1e3,
-            c.max,
-            c.mean,
-            c.std
-        )
-    };
-    row("x", &before.x, &after.x, &ch.x);
-    row("y", &before.y, &after.y, &ch.y);
-    row("z", &before.z, &after.z, &ch.z);
-    row("|Δp|", &before.distance, &after.distance, &ch.distance);
+    Ok(())
 }
 
 pub fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
@@ -453,20 +338,7 @@ pub fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
             .with_context(|| format!("cannot write {}", p.display()))?;
     }
     out.commit()?;
-    match a.format {
-        Format::Json => print_json(&validate_json(&v)),
-        Format::Human => {
-            print_table(
-                &format!(
-                    "{} check points: |error| before (nominal) and after (identified model)",
-                    v.points
-                ),
-                &v.before,
-                &v.after,
-            );
-            Ok(())
-        }
-    }
+    print_doc(&TrackerValidateDoc::from(&v), a.format)
 }
 
 pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
@@ -508,42 +380,10 @@ pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
         .with_context(|| format!("cannot write {}", a.out_gcode.display()))?;
     out.commit()?;
     let r = &p.expected;
-    let rot = params.is_rotation();
-    match a.format {
-        Format::Json => print_json(&json!({
-            "poses": p.poses.len(),
-            "rank": r.identifiability.rank,
-            "parameters": r.estimates.len(),
-            "unidentifiable": r.unidentifiable_names(),
-            "condition_number": r.condition_number,
-            "expected_uncertainties": r.estimates.iter().map(|e| json!({"name": e.name, "uncertainty": e.uncertainty})).collect::<Vec<_>>(),
-        })),
-        Format::Human => {
-            println!(
-                "{} of {} candidate poses chosen: rank {} of {} parameters, condition number {:.3e}",
-                p.poses.len(),
-                a.candidates,
-                r.identifiability.rank,
-                r.estimates.len(),
-                r.condition_number
-            );
-            println!(
-                "expected standard uncertainty at {} µm noise:",
-                a.noise * 1e3
-            );
-            for (j, e) in r.estimates.iter().enumerate() {
-                if let Some(u) = e.uncertainty {
-                    let (s, unit) = if rot[j] { (1e6, "µrad") } else { (1e3, "µm") };
-                    println!("  {:<10} {:>10.3} {unit}", e.name, u * s);
-                }
-            }
-            let un = r.unidentifiable_names();
-            if !un.is_empty() {
-                println!("not identifiable from these poses: {}", un.join(", "));
-            }
-            Ok(())
-        }
-    }
+    print_doc(
+        &TrackerPlanDoc::new(r, p.poses.len(), a.candidates, a.noise),
+        a.format,
+    )
 }
 
 pub fn run_simulate(c: SimulateCommand) -> anyhow::Result<()> {
@@ -573,20 +413,21 @@ pub fn run_simulate(c: SimulateCommand) -> anyhow::Result<()> {
         .collect();
     write_points(&mut out, &a.out, &m, &rows, &["x", "y", "z"])?;
     out.commit()?;
-    match a.format {
-        Format::Json => print_json(&json!({
-            "points": rows.len(), "noise": a.noise, "seed": a.seed,
-            "out": a.out.display().to_string(),
-        })),
-        Format::Human => {
-            note(format!(
-                "{} simulated points written to {}",
-                rows.len(),
-                a.out.display()
-            ));
-            Ok(())
-        }
+    let doc = TrackerSimulateDoc {
+        noise: a.noise,
+        out: a.out.display().to_string(),
+        points: rows.len(),
+        seed: a.seed,
+    };
+    print_doc(&doc, a.format)?;
+    if a.format == Format::Human {
+        note(format!(
+            "{} simulated points written to {}",
+            rows.len(),
+            a.out.display()
+        ));
     }
+    Ok(())
 }
 
 pub fn run_compensate(a: CompensateArgs) -> anyhow::Result<()> {
@@ -622,22 +463,12 @@ pub fn run_compensate(a: CompensateArgs) -> anyhow::Result<()> {
         &["error_before", "error_after", "axis_error_after"],
     )?;
     out.commit()?;
-    match a.format {
-        Format::Json => print_json(&json!({
-            "poses": rows.len(), "mode": c.mode(),
-            "max_error_before": before, "max_error_after": after,
-            "out": a.out.display().to_string(),
-        })),
-        Format::Human => {
-            println!(
-                "{} poses corrected ({:?}): predicted tip error max {:.2} µm before, {:.2e} µm after → {}",
-                rows.len(),
-                c.mode(),
-                before * 1e3,
-                after * 1e3,
-                a.out.display()
-            );
-            Ok(())
-        }
-    }
+    let doc = CompensatePointsDoc {
+        max_error_after: after,
+        max_error_before: before,
+        mode: c.mode(),
+        out: a.out.display().to_string(),
+        poses: rows.len(),
+    };
+    print_doc(&doc, a.format)
 }

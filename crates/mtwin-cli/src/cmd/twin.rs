@@ -20,9 +20,6 @@ use super::common::load_machine;
 use super::gcode::{interp_options, located, open};
 use crate::output::{Format, print_json, progress};
 
-/// PRED.csv header (contract).
-const HEADER: &str = "t_s,x_cmd,y_cmd,z_cmd,i_cmd,j_cmd,k_cmd,x,y,z,i,j,k,tip_error,axis_error\n";
-
 #[derive(Debug, clap::Subcommand)]
 pub enum Command {
     /// Predict the tool-tip and tool-axis trajectory errors of a program or of axis commands.
@@ -155,7 +152,8 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
     let mut plot = a.plot.as_ref().map(|_| PlotCollector::new(2000));
     let mut summary = None;
     out.write_with(&a.out, |w| -> anyhow::Result<()> {
-        w.write_all(HEADER.as_bytes())?;
+        // The PRED.csv columns, defined once beside the reader of the report.
+        writeln!(w, "{}", mtwin::report::twin::COLUMNS.join(","))?;
         let s = run_twin(&a, &machine, sources, |r| {
             if let Some(p) = plot.as_mut() {
                 p.add(r);

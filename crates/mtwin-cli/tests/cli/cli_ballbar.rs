@@ -10,6 +10,13 @@ fn json(o: &std::process::Output) -> Value {
     serde_json::from_str(&stdout(o)).expect("one JSON document on stdout")
 }
 
+/// stdout read into the library's document type: `--format json` is exactly
+/// the serialised document.
+fn doc<D: serde::de::DeserializeOwned>(o: &std::process::Output) -> D {
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(o));
+    serde_json::from_str(&stdout(o)).expect("the command's document on stdout")
+}
+
 #[test]
 fn setup_error_matches_the_cosine_rule_by_hand() {
     // Ball at (−0.06, −0.08): R = 0.1, |OB2|² = 99.94² + 0.08², cos φ = 0.6, θ2 = 233.13°.
@@ -34,6 +41,11 @@ fn setup_error_matches_the_cosine_rule_by_hand() {
         ],
     );
     let v = json(&o);
+    let d: mtwin::methods::ballbar::BallbarSetupDoc = doc(&o);
+    assert_eq!(
+        (d.ex, d.ey),
+        (v["ex"].as_f64().unwrap(), v["ey"].as_f64().unwrap())
+    );
     assert!((v["ex"].as_f64().unwrap() + 0.06).abs() < 1e-9, "{v}");
     assert!((v["ey"].as_f64().unwrap() + 0.08).abs() < 1e-9, "{v}");
     // θ2 in (0°, 180°]: the sign of eY flips.
@@ -131,10 +143,14 @@ fn identify_recovers_the_machine_file_errors() {
     let dir = tempfile::tempdir().unwrap();
     let m = example("ac-trunnion-with-errors.toml");
     simulate(dir.path(), &m);
-    let v = json(&mtwin(
+    let o = mtwin(
         dir.path(),
         &identify_args(&["--machine", &m, "--out", "id.toml"]),
-    ));
+    );
+    let v = json(&o);
+    let d: mtwin::methods::ballbar::BallbarIdentifyDoc = doc(&o);
+    assert_eq!(d.out.as_deref(), Some("id.toml"));
+    assert!(d.unidentified.is_empty() && d.residual_rms.0.iter().all(Option::is_some));
     let truth = [
         ("EY0A", 0.021),
         ("EZ0A", -0.017),
@@ -188,6 +204,11 @@ fn a_subset_says_what_it_cannot_identify() {
         ],
     );
     let v = json(&o);
+    let d: mtwin::methods::ballbar::BallbarIdentifyDoc = doc(&o);
+    assert_eq!(
+        d.unidentified.len(),
+        v["unidentified"].as_object().unwrap().len()
+    );
     // EY0A and EY0C act as one in mode 3: exactly one of them is left unidentified.
     let nulls = ["EY0A", "EY0C"].iter().filter(|k| v[**k].is_null()).count();
     assert_eq!(nulls, 1, "{v}");
@@ -261,4 +282,33 @@ fn program_writes_four_programs() {
     );
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("must pass through 0"));
+}
+
+#[test]
+fn sensitivity_program_and_simulate_print_their_documents() {
+    use mtwin::methods::ballbar::{BallbarProgramDoc, BallbarSensitivityDoc, BallbarSimulateDoc};
+    let dir = tempfile::tempdir().unwrap();
+    let d: BallbarSensitivityDoc = doc(&mtwin(
+        dir.path(),
+        &["ballbar", "sensitivity", "--format", "json"],
+    ));
+    assert_eq!(d.0.len(), 8);
+    let d: BallbarProgramDoc = doc(&mtwin(
+        dir.path(),
+        &["ballbar", "program", "--out", "progs", "--format", "json"],
+    ));
+    assert_eq!(d.files.len(), 4);
+    assert!(
+        d.files.iter().all(|f| dir.path().join(f).exists()),
+        "{:?}",
+        d.files
+    );
+    let d: BallbarSimulateDoc = doc(&mtwin(
+        dir.path(),
+        &[
+            "ballbar", "simulate", "--noise", "0.0002", "--seed", "9", "--out", "sim", "--format",
+            "json",
+        ],
+    ));
+    assert_eq!((d.files.len(), d.seed, d.noise), (4, 9, 0.0002));
 }

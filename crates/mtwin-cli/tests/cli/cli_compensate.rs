@@ -115,6 +115,9 @@ fn error_free_model_leaves_programs_byte_identical() {
         assert!(std::fs::read(&out).unwrap() == std::fs::read(&input).unwrap());
         let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
         assert_eq!(v["blocks_changed"], 0);
+        let d: mtwin::methods::compensate::CompensateDoc =
+            serde_json::from_str(&stdout(&o)).expect("stdout is a CompensateDoc");
+        assert_eq!(d.blocks_changed, 0);
     }
 }
 

@@ -40,6 +40,10 @@ fn json_is_the_only_stdout() {
     );
     assert_eq!(v["workpiece_chain"], serde_json::json!([]));
     assert_eq!(v["axes"].as_array().unwrap().len(), 6);
+    // The document is exactly the library's `ModelCheckDoc`.
+    let doc: mtwin::model::ModelCheckDoc = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(doc.axes.len(), 6);
+    assert!(doc.workpiece_chain.is_empty() && doc.ok);
 }
 
 #[test]

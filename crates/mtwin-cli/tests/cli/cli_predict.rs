@@ -178,6 +178,10 @@ fn json_summary_and_full_precision() {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["poses"], 1);
     assert!(v["volumetric_error_max"].as_f64().unwrap() > 0.0);
+    // The document is exactly the library's `PredictDoc`.
+    let doc: mtwin::kinematics::PredictDoc = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(doc.poses, 1);
+    assert_eq!(doc.out, "p.csv");
     let text = std::fs::read_to_string(dir.path().join("p.csv")).unwrap();
     let row = text.lines().nth(1).unwrap();
     // Input values are echoed exactly, and outputs have full precision (not rounded).

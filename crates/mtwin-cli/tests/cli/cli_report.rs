@@ -123,6 +123,9 @@ fn report_shows_the_numbers_of_its_inputs() {
     ))
     .unwrap();
     assert_eq!(v["sections"], 4);
+    // The document is exactly the library's `ReportDoc`.
+    let doc: mtwin::report::sections::ReportDoc = serde_json::from_value(v.clone()).unwrap();
+    assert_eq!((doc.sections, doc.out.as_str()), (4, "r.html"));
     let html = std::fs::read_to_string(d.join("r.html")).unwrap();
     // Self-contained: no script and nothing fetched.
     for bad in ["<script", "src=", "<link", "https://"] {
@@ -177,7 +180,8 @@ fn bad_inputs_name_the_file_and_write_nothing() {
     );
     assert_eq!(o.status.code(), Some(1));
     assert!(
-        stderr(&o).contains("other.json") && stderr(&o).contains("parameters"),
+        stderr(&o).contains("other.json:1:")
+            && stderr(&o).contains("missing field `condition_number`"),
         "{}",
         stderr(&o)
     );

@@ -109,6 +109,34 @@ fn simulate(dir: &Path, servo: &str, cmds: &str, out: &str, noise: &str, seed: &
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(stdout(&o).is_empty());
+    // With --format json: the library's `ServoSimulateDoc`.
+    let o = mtwin(
+        dir,
+        &[
+            "servo",
+            "simulate",
+            "--servo",
+            servo,
+            "--commands",
+            cmds,
+            "--noise",
+            noise,
+            "--seed",
+            seed,
+            "--out",
+            out,
+            "--format",
+            "json",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let d: mtwin::sysid::ServoSimulateDoc =
+        serde_json::from_str(&stdout(&o)).expect("stdout is a ServoSimulateDoc");
+    assert_eq!(
+        (d.out.as_str(), d.seed.to_string()),
+        (out, seed.to_string())
+    );
+    assert!(d.samples > 1 && d.duration_s > 0.0);
 }
 
 #[test]
@@ -159,6 +187,12 @@ fn fitted_servo_reproduces_a_held_out_command_within_1_um() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let v: serde_json::Value =
         serde_json::from_str(&stdout(&o)).expect("stdout is one JSON document");
+    let d: mtwin::sysid::ServoFitDoc =
+        serde_json::from_str(&stdout(&o)).expect("stdout is a ServoFitDoc");
+    assert_eq!(
+        (d.feed_mm_min, d.out.as_deref()),
+        (Some(3000.0), Some("servo.toml"))
+    );
     assert!((v["ts"].as_f64().unwrap() - TS).abs() < 1e-12);
     assert_eq!(v["stable"], true);
     // Steady following error at 50 mm/s = velocity × group delay of the truth:
@@ -370,10 +404,16 @@ fn excitation_program_stays_inside_the_travel() {
             "3000",
             "--out",
             "exc.nc",
+            "--format",
+            "json",
         ],
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let d: mtwin::sysid::ServoExcitationDoc =
+        serde_json::from_str(&stdout(&o)).expect("stdout is a ServoExcitationDoc");
+    assert_eq!((d.axis.as_str(), d.travel), ("X", [-100.0, 100.0]));
     let text = std::fs::read_to_string(dir.path().join("exc.nc")).unwrap();
+    assert_eq!(d.lines, text.lines().count());
     let xs: Vec<f64> = text
         .lines()
         .filter(|l| l.starts_with("G1 "))

@@ -21,7 +21,11 @@ fn simulate(dir: &Path, truth: [&str; 4], extra: &[&str], out: &str) {
         "--dgx", truth[0], "--dgy", truth[1], "--exz", truth[2], "--ezy", truth[3], "--out", out,
     ]);
     args.extend(extra);
-    run(dir, &args);
+    args.extend(["--format", "json"]);
+    let o = run(dir, &args);
+    let d: mtwin::methods::skiving::doc::SkivingSimulateDoc =
+        serde_json::from_slice(&o.stdout).expect("stdout is a SkivingSimulateDoc");
+    assert_eq!(d.out, out);
 }
 
 fn setup_error_json(dir: &Path, data: &str, extra: &[&str]) -> serde_json::Value {
@@ -30,7 +34,14 @@ fn setup_error_json(dir: &Path, data: &str, extra: &[&str]) -> serde_json::Value
     args.extend(["--format", "json"]);
     args.extend(extra);
     let o = run(dir, &args);
-    serde_json::from_slice(&o.stdout).expect("stdout is one JSON document")
+    let v: serde_json::Value =
+        serde_json::from_slice(&o.stdout).expect("stdout is one JSON document");
+    // The document is exactly the library's `SkivingSetupDoc`.
+    let d: mtwin::methods::skiving::doc::SkivingSetupDoc =
+        serde_json::from_slice(&o.stdout).expect("stdout is a SkivingSetupDoc");
+    assert_eq!(Some(d.touches as u64), v["touches"].as_u64());
+    assert_eq!(Some(d.estimate.dgx), v["dgx"].as_f64());
+    v
 }
 
 #[test]

@@ -12,6 +12,10 @@ fn docs_walkthrough_runs_and_the_tip_feed_holds() {
     // G93 at 600 mm/min: the program's feed time is the tip path over the feed.
     let summary: serde_json::Value = serde_json::from_str(&ran[1].1).unwrap();
     let path = summary["tip_path_mm"].as_f64().unwrap();
+    // The document is exactly the library's `SShapeProgramDoc`.
+    let doc: mtwin::methods::testpiece::SShapeProgramDoc =
+        serde_json::from_str(&ran[1].1).expect("stdout is an SShapeProgramDoc");
+    assert_eq!((doc.tip_path_mm, doc.poses), (path, doc.segments + 1));
     // 200 chords of the lower curve are shorter than the curve, by less than
     // the chord error; the curve length (Simpson, independent) bounds them.
     let n = 20000;

@@ -255,6 +255,30 @@ fn simulate_reproduces_predict_and_is_seeded() {
         assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
         assert!(stdout(&o).is_empty());
     };
+    // With --format json: the library's `ThermalSimulateDoc`.
+    let o = mtwin(
+        dir.path(),
+        &[
+            "thermal",
+            "simulate",
+            "--model",
+            "thermal.toml",
+            "--speed",
+            "speed.csv",
+            "--z",
+            "-250,-150",
+            "--out",
+            "simj.csv",
+            "--format",
+            "json",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let d: mtwin::methods::thermal::ThermalSimulateDoc =
+        serde_json::from_str(&stdout(&o)).expect("stdout is a ThermalSimulateDoc");
+    assert_eq!(d.heights, [-250.0, -150.0]);
+    let written = std::fs::read_to_string(dir.path().join("simj.csv")).unwrap();
+    assert_eq!(d.rows + 1, written.lines().count());
     run("0", "1", "sim0.csv");
     run("0.001", "5", "simA.csv");
     run("0.001", "5", "simB.csv");

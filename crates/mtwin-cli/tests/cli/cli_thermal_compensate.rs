@@ -196,6 +196,10 @@ fn incremental_g53_and_summary() {
     let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
     assert_eq!(j["blocks_changed"], 2);
     assert_eq!(j["z_blocks"], 3);
+    // The document is exactly the library's `ThermalCompensateDoc`.
+    let d: mtwin::methods::thermal::ThermalCompensateDoc =
+        serde_json::from_str(&stdout(&o)).expect("stdout is a ThermalCompensateDoc");
+    assert_eq!((d.blocks_changed, d.z_blocks), (2, 3));
     assert!(
         stderr(&o).contains("G53") && stderr(&o).contains("line(s) 4"),
         "{}",

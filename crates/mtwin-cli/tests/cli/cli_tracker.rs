@@ -14,6 +14,12 @@ fn json(o: &std::process::Output) -> serde_json::Value {
     serde_json::from_str(&stdout(o)).unwrap_or_else(|e| panic!("{e}: {}", stdout(o)))
 }
 
+/// stdout read into the library's document type: `--format json` is exactly
+/// the serialised document.
+fn doc<D: serde::de::DeserializeOwned>(o: &std::process::Output) -> D {
+    serde_json::from_str(&stdout(o)).unwrap_or_else(|e| panic!("{e}: {}", stdout(o)))
+}
+
 fn ok(o: &std::process::Output) {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(o));
 }
@@ -51,6 +57,8 @@ fn plan_simulate_identify_validate_compensate() {
     ok(&o);
     let p = json(&o);
     assert_eq!(p["poses"], 90);
+    let pd: mtwin::methods::tracker::TrackerPlanDoc = doc(&o);
+    assert_eq!((pd.poses, pd.candidates), (90, 200));
     let csv = std::fs::read_to_string(d.join("poses.csv")).unwrap();
     assert_eq!(csv.lines().next().unwrap(), "X,Y,Z,B,A,C");
     assert_eq!(csv.lines().count(), 91);
@@ -76,13 +84,19 @@ fn plan_simulate_identify_validate_compensate() {
                 seed,
                 "--out",
                 out,
+                "--format",
+                "json",
             ],
         );
         ok(&o);
+        let sd: mtwin::methods::tracker::TrackerSimulateDoc = doc(&o);
+        assert_eq!((sd.points, sd.out.as_str()), (90, out));
     }
     let o = identify_with(d, spec, &["--format", "json"]);
     ok(&o);
     let j = json(&o);
+    let idd: mtwin::methods::tracker::TrackerIdentifyDoc = doc(&o);
+    assert_eq!((idd.parameters, idd.points), (144, 90));
     // 6 axes × 6 PDGEs × 3 coefficients + 36 location errors.
     assert_eq!(j["parameters"], 144);
     let rank = j["rank"].as_u64().unwrap() as usize;
@@ -115,6 +129,8 @@ fn plan_simulate_identify_validate_compensate() {
     ok(&o);
     let v = json(&o);
     assert_eq!(v["points"], 90);
+    let vd: mtwin::methods::tracker::TrackerValidateDoc = doc(&o);
+    assert_eq!(vd.points, 90);
     assert!(v["rms_after"].as_f64().unwrap() < 0.3 * v["rms_before"].as_f64().unwrap());
     assert!(
         std::fs::read_to_string(d.join("v.svg"))
@@ -153,6 +169,8 @@ fn plan_simulate_identify_validate_compensate() {
     ok(&o);
     let c = json(&o);
     assert!(c["max_error_after"].as_f64().unwrap() < 1e-8);
+    let cd: mtwin::methods::tracker::CompensatePointsDoc = doc(&o);
+    assert_eq!(cd.poses, 90);
     let corr = std::fs::read_to_string(d.join("corr.csv")).unwrap();
     assert_eq!(
         corr.lines().next().unwrap(),

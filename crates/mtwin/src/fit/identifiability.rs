@@ -35,7 +35,7 @@
 
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::problem::Parameter;
 use super::scaling::{Scaled, Source, pivot_order};
@@ -53,7 +53,7 @@ pub enum RankRule {
 }
 
 /// Why a parameter is not estimated.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Unidentifiable {
     /// Its Jacobian column is zero to rounding: the data do not see it.

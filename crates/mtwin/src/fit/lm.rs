@@ -32,7 +32,7 @@
 //!   `JᵀJ` is formed anew at the accepted point, except at the step that
 //!   ends the iteration (no further step would use it).
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::evaluate::{Evaluation, Need, Pass};
 use super::scaling::Scaled;
@@ -43,7 +43,7 @@ use super::{FitError, Options, Progress};
 const LINEAR_GAIN: f64 = 0.1;
 
 /// Why the iteration stopped.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum StopReason {
     /// The scaled gradient is below `gradient_tolerance` (or `r = 0`).
@@ -74,7 +74,7 @@ impl StopReason {
 }
 
 /// Convergence summary.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Convergence {
     /// Accepted iterations.
     pub iterations: usize,

@@ -14,7 +14,7 @@
 //! fit is repeated once without them (they are still listed, marked
 //! excluded).
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::problem::BlockLayout;
 
@@ -37,7 +37,7 @@ impl Default for OutlierRule {
 }
 
 /// A flagged block.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Outlier {
     /// Block index in the model's layout.
     pub block: usize,

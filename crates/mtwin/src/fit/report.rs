@@ -4,7 +4,7 @@
 
 use std::fmt;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::Strategy;
 use super::covariance::Covariance;
@@ -13,7 +13,7 @@ use super::lm::{Convergence, StopReason};
 use super::outliers::OutlierScan;
 
 /// One parameter's result.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Estimate {
     /// Parameter name.
     pub name: String,
@@ -49,7 +49,7 @@ pub struct GroupStats {
 }
 
 /// Something the user must know about the result.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Warning {
     /// The condition number of the scaled Jacobian of the estimated

@@ -16,7 +16,7 @@ pub(crate) mod toml;
 pub(crate) mod toml_write;
 
 pub use diagnostic::{Diagnostic, Diagnostics};
-pub use number::{fmt_f64, write_csv_row};
+pub use number::{fmt_f64, nan_if_null, write_csv_row};
 pub use outputs::{
     Outputs, Plan, remove_temporaries_and_exit, remove_temporaries_then_exit, stdout_closed,
     stdout_is_output, write_atomic, write_atomic_with,

@@ -36,6 +36,14 @@ pub fn write_csv_row<W: Write + ?Sized>(w: &mut W, values: &[f64]) -> io::Result
     w.write_all(b"\n")
 }
 
+/// Reads a JSON number, or `null` as NaN: JSON has no NaN, and `serde_json`
+/// writes a non-finite `f64` as `null`, so documents that may hold one (a
+/// relative change over a zero) read back through this.
+pub fn nan_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    use serde::Deserialize;
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

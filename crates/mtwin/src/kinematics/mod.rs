@@ -9,6 +9,7 @@ mod chain;
 mod ik;
 mod jacobian;
 mod lanes;
+pub mod predict;
 mod tangent;
 pub mod transform;
 
@@ -16,6 +17,7 @@ pub use chain::{Kinematics, ToolPose};
 pub use ik::{IkError, IkJacobian, IkOptions, IkTarget};
 pub use jacobian::{PoseDerivative, PoseJacobian, SLOTS};
 pub use lanes::{LANES, sin_cos_deg};
+pub use predict::{PREDICT_COLUMNS, PredictDoc};
 pub use transform::Rigid;
 
 #[cfg(test)]

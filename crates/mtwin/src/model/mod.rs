@@ -1,6 +1,7 @@
 //! The machine model (00 §3–5): axes, chains, tool and workpiece, the ISO 230-1 geometric
 //! errors with their functions, the machine file, and the parameter view used by fits.
 
+pub mod check;
 mod error_fn;
 pub mod error_name;
 mod machine;
@@ -9,6 +10,7 @@ mod poses;
 mod toml_read;
 mod toml_write;
 
+pub use check::ModelCheckDoc;
 pub use error_fn::{ErrorFunction, Form};
 pub use error_name::{Component, ErrorKind, ErrorName};
 pub use machine::{Axis, AxisErrors, AxisKind, Chain, DEFAULT_RAPID_FEED, Machine, ServoTable};

@@ -28,6 +28,7 @@ mod order;
 mod output_error;
 pub(crate) mod sampling;
 mod servo;
+mod servo_doc;
 mod servo_fit;
 
 pub use arx::{Arx, ArxOrders, ArxStepper, InputOrder, Stability};
@@ -38,6 +39,7 @@ pub use output_error::{
     OutputErrorFit, OutputErrorModel, fit_output_error, select_orders_output_error,
 };
 pub use servo::{Servo, ServoStepper};
+pub use servo_doc::{OrdersDoc, ServoExcitationDoc, ServoFitDoc, ServoSimulateDoc};
 pub(crate) use servo_fit::read_servo_table;
 pub use servo_fit::{
     ServoFit, ServoFitError, ServoFitOptions, ServoLog, fit_servo, fit_servo_csv, read_servo_log,

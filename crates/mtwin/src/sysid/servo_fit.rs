@@ -195,27 +195,7 @@ impl ServoFit {
     /// (log unit per s, log unit), `dc_gain`, `stable`, `spectral_radius`, the
     /// whole order `grid` and the `warnings`.
     pub fn to_json(&self) -> serde_json::Value {
-        serde_json::json!({
-            "ts": self.servo.ts(),
-            "b": self.servo.b(),
-            "a": self.servo.a(),
-            "nk": self.servo.nk(),
-            "orders": self.selection.table[self.selection.best].orders.to_json(),
-            "criterion": format!("{:?}", self.selection.criterion).to_lowercase(),
-            "estimator": "output_error",
-            "samples": self.selection.fit.stats.samples,
-            "one_step_rms": self.selection.fit.stats.one_step_rms,
-            "simulation_rms": self.simulation_rms,
-            "bandwidth_hz": self.bandwidth_hz,
-            "velocity_lag_s": self.velocity_lag_s,
-            "max_velocity": self.max_velocity,
-            "following_error_at_max_velocity": self.following_error_at_max_velocity,
-            "dc_gain": self.dc_gain,
-            "stable": self.stability.is_stable(),
-            "spectral_radius": self.stability.spectral_radius(),
-            "grid": self.selection.table_json(),
-            "warnings": self.warnings(),
-        })
+        serde_json::to_value(super::ServoFitDoc::new(self)).unwrap_or_default()
     }
 
     /// `SERVO.toml`: top-level `ts`, `b`, `a`, `nk`, with the fit summary as comments.
@@ -588,6 +568,13 @@ mod tests {
             let j = fit.to_json();
             assert_eq!(j["nk"], fit.servo.nk());
             assert_eq!(j["a"][0], 1.0);
+            // The document round-trips through its type.
+            let doc = super::super::ServoFitDoc::new(&fit);
+            let text = serde_json::to_string_pretty(&doc).unwrap();
+            assert_eq!(
+                serde_json::from_str::<super::super::ServoFitDoc>(&text).unwrap(),
+                doc
+            );
             let back = servo_from_toml_str(Path::new("S.toml"), &fit.to_toml().unwrap()).unwrap();
             assert_eq!(back, fit.servo);
         }

@@ -83,15 +83,19 @@ pub struct Identification {
 
 /// The corrected axis-line positions a controller takes (mm): where the
 /// actual axis lines pass, nominal position plus the identified offset.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Compensation {
     /// y of the A-axis line in M.
+    #[serde(rename = "A_line_y")]
     pub a_y: f64,
     /// z of the A-axis line in M.
+    #[serde(rename = "A_line_z")]
     pub a_z: f64,
     /// x of the C-axis line in the A frame.
+    #[serde(rename = "C_line_x")]
     pub c_x: f64,
     /// y of the C-axis line in the A frame.
+    #[serde(rename = "C_line_y")]
     pub c_y: f64,
 }
 

@@ -17,6 +17,7 @@
 
 pub mod closed_form;
 pub mod data;
+pub mod doc;
 pub mod identify;
 pub mod mode;
 pub mod plot;
@@ -33,6 +34,10 @@ use crate::model::{AxisKind, Component, Machine};
 
 pub use closed_form::{first_order_delta_l, start_values};
 pub use data::{ModeData, read_mode_file, write_mode_file};
+pub use doc::{
+    BallbarIdentifyDoc, BallbarProgramDoc, BallbarSensitivityDoc, BallbarSetupDoc,
+    BallbarSimulateDoc, PerMode, PerPige,
+};
 pub use identify::{Compensation, Identification, IdentifyError, Unresolved, identify};
 pub use mode::{Mode, ModeModel, Rig, Trunnion, TrunnionError, Unknowns, predicted_reading};
 pub use program::{ProgramError, ProgramSpec, program};

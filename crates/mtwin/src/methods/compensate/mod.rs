@@ -17,7 +17,10 @@
 //! to lines (with a note). Every byte of an unchanged word is kept. The
 //! program is read and written block by block.
 
+pub mod doc;
 mod path;
+
+pub use doc::CompensateDoc;
 
 use std::io::{BufRead, Write};
 

@@ -84,7 +84,7 @@ pub struct AxisPositions {
 /// The four workpiece set-up errors: offsets `dgx`, `dgy` (mm, along the
 /// table's x and y after `RZ(c)`), tilts `exz` (about y, rad) and `ezy`
 /// (about x, rad).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct SetupError {
     pub dgx: f64,
     pub dgy: f64,

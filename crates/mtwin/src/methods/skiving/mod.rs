@@ -14,6 +14,7 @@
 
 pub mod chain;
 pub mod closed_form;
+pub mod doc;
 pub mod program;
 pub mod simulate;
 pub mod touch;
@@ -53,7 +54,8 @@ impl Options {
 }
 
 /// Where the standard uncertainties come from.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
 pub enum UncertaintyBasis {
     /// A known touch noise σ (mm): a 2σ interval is a 95 % interval.
     KnownNoise { sigma: f64 },
@@ -81,16 +83,19 @@ impl Uncertainty {
 }
 
 /// What the other touches say about one touch.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum TouchFlag {
     /// Its residual is consistent with the noise.
+    #[serde(rename = "ok")]
     Consistent,
     /// Its standardized residual exceeds [`FLAG_THRESHOLD`]: the touch (or
     /// its partner, e.g. the other face touch at the same table angle) is
     /// inconsistent with the others.
+    #[serde(rename = "inconsistent")]
     Inconsistent,
     /// No other touch checks it (leverage 1: its residual is zero whatever
     /// it measured, and an error in it goes straight into the estimate).
+    #[serde(rename = "unchecked")]
     Unchecked,
 }
 

@@ -4,6 +4,9 @@
 //!   digital-twin seed machines, spec 05): a ruled surface between two S
 //!   curves at two heights, flank-milled.
 
+pub mod doc;
 pub mod s_shape;
+
+pub use doc::SShapeProgramDoc;
 
 pub use s_shape::{SShape, SShapeError, SShapeProgram, s_shape_poses, s_shape_program};

@@ -21,6 +21,7 @@
 
 mod compensate;
 mod data;
+pub mod doc;
 mod file;
 mod model;
 mod predict;
@@ -33,6 +34,7 @@ pub use compensate::{
     compensate,
 };
 pub use data::{TrainingData, read_training, training_from_table};
+pub use doc::{ThermalCompensateDoc, ThermalSimulateDoc};
 pub use file::{model_from_toml_str, read_model};
 pub use model::{
     Drift, HeightModel, HeightRange, HeightStats, InputChannel, ThermalModel, ThermalPredictor,

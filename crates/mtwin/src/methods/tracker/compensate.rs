@@ -12,7 +12,7 @@ use crate::kinematics::{IkError, IkOptions, IkTarget, Kinematics};
 use crate::model::{AxisKind, Machine};
 
 /// What the correction matches.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Mode {
     /// Tool tip only, linear axes moved.

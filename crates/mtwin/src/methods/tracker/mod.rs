@@ -4,12 +4,16 @@
 //! planning, simulation and compensation.
 
 pub mod compensate;
+pub mod doc;
 pub mod identify;
 pub mod model;
 pub mod plan;
 pub mod simulate;
 pub mod validate;
 
+pub use doc::{
+    CompensatePointsDoc, TrackerIdentifyDoc, TrackerPlanDoc, TrackerSimulateDoc, TrackerValidateDoc,
+};
 pub use identify::{Identification, IdentifyError, IdentifyOptions, identify};
 pub use model::{TrackerModel, TrackerPoint};
 pub use validate::{ErrorStats, Stats, Validation, validate};

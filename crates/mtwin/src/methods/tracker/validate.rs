@@ -4,18 +4,21 @@
 //! identified model (measured − identified prediction).
 
 use nalgebra::Vector3;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::model::TrackerPoint;
 use crate::kinematics::Kinematics;
 use crate::model::Machine;
 
 /// Max, mean and standard deviation of `|e|` over the points (mm).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Stats {
+    #[serde(deserialize_with = "crate::io::nan_if_null")]
     pub max: f64,
+    #[serde(deserialize_with = "crate::io::nan_if_null")]
     pub mean: f64,
     /// Population standard deviation of `|e|`.
+    #[serde(deserialize_with = "crate::io::nan_if_null")]
     pub std: f64,
 }
 
@@ -53,7 +56,7 @@ impl Stats {
 }
 
 /// Statistics per direction x, y, z (W) and of the distance `|Δp|`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ErrorStats {
     pub x: Stats,
     pub y: Stats,

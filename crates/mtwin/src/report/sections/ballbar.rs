@@ -2,67 +2,62 @@
 //! the eight PIGEs with standard uncertainties, residual RMS per mode, the
 //! corrected axis-line positions and the polar plots.
 
-use super::{Json, ReportError, fmt};
+use super::{ReportError, fmt};
+use crate::methods::ballbar::{BallbarIdentifyDoc, Mode, Pige};
 use crate::report::html::{Block, Section, Table, Verdict};
 
-const PIGES: [&str; 8] = [
-    "EY0A", "EZ0A", "EB0A", "EC0A", "EX0C", "EY0C", "EA0C", "EB0C",
-];
-const MODES: [&str; 4] = ["mode1", "mode2", "mode3", "mode4"];
-
 /// The ballbar section. `figures` are `(caption, SVG)` pairs, e.g. the polar
-/// plots of `ballbar identify --plot DIR`.
+/// plots of `ballbar identify --plot DIR`; `what` names the input in errors.
 pub fn section(
-    id: &serde_json::Value,
+    doc: &BallbarIdentifyDoc,
     what: &str,
     figures: Vec<(String, String)>,
 ) -> Result<Section, ReportError> {
-    let j = Json::new(id, what);
     let mut s = Section::new("ballbar", "Ballbar: location errors of the rotary axes");
     s.push(Block::Text(
         "Eight position-independent location errors (PIGEs) of the A and C axes, identified from \
          the four ballbar modes. Offsets in µm, tilts in µrad, ± one standard uncertainty."
             .into(),
     ));
-    let unidentified =
-        j.v.get("unidentified")
-            .and_then(|u| u.as_object())
-            .cloned()
-            .unwrap_or_default();
+    let unidentified = &doc.unidentified;
     let mut t = Table::new(
         "Identified PIGEs (absolute)",
         &["PIGE", "meaning", "value", "std. uncertainty", "unit"],
     );
-    for p in PIGES {
-        let tilt = p.starts_with("EA") || p.starts_with("EB") || p.starts_with("EC");
-        let (f, unit) = if tilt { (1e6, "µrad") } else { (1e3, "µm") };
-        let meaning = match p {
-            "EY0A" | "EZ0A" => "offset of the A line",
-            "EB0A" | "EC0A" => "tilt of the A line",
-            "EX0C" | "EY0C" => "offset of the C line",
-            _ => "tilt of the C line",
+    for p in Pige::ALL {
+        let (f, unit) = if p.is_tilt() {
+            (1e6, "µrad")
+        } else {
+            (1e3, "µm")
         };
-        let v = j.opt_num(p);
-        let u = j.opt_num(&format!("uncertainty.{p}"));
-        let (val, unc) = if unidentified.contains_key(p) || v.is_none() {
+        let meaning = match (p.axis(), p.is_tilt()) {
+            ('A', false) => "offset of the A line",
+            ('A', true) => "tilt of the A line",
+            (_, false) => "offset of the C line",
+            (_, true) => "tilt of the C line",
+        };
+        let (val, unc) = if !doc.is_identified(p) {
             ("not identified".to_string(), "—".to_string())
         } else {
-            (fmt(v.map(|v| v * f), 2), fmt(u.map(|u| u * f), 2))
+            (
+                fmt(doc.value[p].map(|v| v * f), 2),
+                fmt(doc.uncertainty[p].map(|u| u * f), 2),
+            )
         };
-        t.row(vec![p.into(), meaning.into(), val, unc, unit.into()]);
+        t.row(vec![p.name().into(), meaning.into(), val, unc, unit.into()]);
     }
     s.push(Block::Table(t));
     let mut r = Table::new(
         "Residuals and fitted bar lengths per mode",
         &["mode", "residual RMS (µm)", "fitted bar length (mm)"],
     );
-    for m in MODES {
-        let rms = j.opt_num(&format!("residual_rms.{m}"));
+    for m in Mode::ALL {
+        let rms = doc.residual_rms[m];
         if rms.is_some() {
             r.row(vec![
-                m.into(),
+                m.label().into(),
                 fmt(rms.map(|v| v * 1e3), 3),
-                fmt(j.opt_num(&format!("bar_length.{m}")), 4),
+                fmt(doc.bar_length[m], 4),
             ]);
         }
     }
@@ -77,23 +72,20 @@ pub fn section(
         "Compensation: where the actual axis lines pass (enter in the control)",
         &["axis line", "coordinate", "value (mm)"],
     );
-    for (key, line, coord) in [
-        ("A_line_y", "A (in M)", "Y"),
-        ("A_line_z", "A (in M)", "Z"),
-        ("C_line_x", "C (in the A frame)", "X"),
-        ("C_line_y", "C (in the A frame)", "Y"),
+    let comp = &doc.compensation;
+    for (value, line, coord) in [
+        (comp.a_y, "A (in M)", "Y"),
+        (comp.a_z, "A (in M)", "Z"),
+        (comp.c_x, "C (in the A frame)", "X"),
+        (comp.c_y, "C (in the A frame)", "Y"),
     ] {
-        c.row(vec![
-            line.into(),
-            coord.into(),
-            fmt(Some(j.num(&format!("compensation.{key}"))?), 4),
-        ]);
+        c.row(vec![line.into(), coord.into(), fmt(Some(value), 4)]);
     }
     s.push(Block::Table(c));
-    let warnings = j.strings("warnings");
+    let warnings = &doc.warnings;
     let mut lines: Vec<String> = unidentified
         .iter()
-        .map(|(k, v)| format!("{k}: {}", v.as_str().unwrap_or("not identified")))
+        .map(|(k, v)| format!("{k}: {v}"))
         .collect();
     lines.extend(warnings.iter().cloned());
     let (verdict, title) = if unidentified.is_empty() && warnings.is_empty() {
@@ -127,8 +119,9 @@ pub fn section(
 mod tests {
     use super::*;
 
-    fn sample() -> serde_json::Value {
-        serde_json::json!({
+    /// A saved `ballbar identify --format json` document, as a user's file.
+    fn sample() -> BallbarIdentifyDoc {
+        serde_json::from_value(serde_json::json!({
             "EY0A": 0.010, "EZ0A": -0.02, "EB0A": 1e-5, "EC0A": 2e-5,
             "EX0C": 0.003, "EY0C": null, "EA0C": 0.0, "EB0C": 0.0,
             "uncertainty": {"EY0A": 1e-4, "EZ0A": 2e-4, "EB0A": 1e-6, "EC0A": null, "EX0C": 1e-4, "EY0C": null, "EA0C": 1e-6, "EB0C": 1e-6},
@@ -137,7 +130,8 @@ mod tests {
             "compensation": {"A_line_y": 0.01, "A_line_z": -0.02, "C_line_x": 0.003, "C_line_y": 0.0},
             "unidentified": {"EY0C": "mode 3 and 4 missing"},
             "warnings": []
-        })
+        }))
+        .unwrap()
     }
 
     #[test]
@@ -164,8 +158,21 @@ mod tests {
     }
 
     #[test]
-    fn other_json_is_refused_with_the_file_name() {
-        let e = section(&serde_json::json!({"rank": 3}), "x.json", vec![]).unwrap_err();
+    fn other_json_is_refused_naming_the_field() {
+        let e = serde_json::from_value::<BallbarIdentifyDoc>(serde_json::json!({"rank": 3}))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("bar_length") || e.contains("missing field"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_document_without_residuals_is_refused_with_its_name() {
+        let mut d = sample();
+        d.residual_rms = crate::methods::ballbar::PerMode::new([None; 4]);
+        let e = section(&d, "x.json", vec![]).unwrap_err();
         assert!(e.to_string().contains("x.json"), "{e}");
     }
 }

@@ -1,12 +1,12 @@
 //! Program compensation section from the JSON of `mtwin compensate --format
 //! json`: what the geometric compensation of a part program changed.
 
-use super::{Json, ReportError, fmt};
+use super::fmt;
+use crate::methods::compensate::CompensateDoc;
 use crate::report::html::{Block, Section, Table, Verdict};
 
 /// The compensation section.
-pub fn section(v: &serde_json::Value, what: &str) -> Result<Section, ReportError> {
-    let j = Json::new(v, what);
+pub fn section(doc: &CompensateDoc) -> Section {
     let mut s = Section::new("compensate", "Geometric compensation of the program");
     s.push(Block::Text(
         "Every target of the program rewritten by inverse kinematics on the identified machine, so \
@@ -15,66 +15,66 @@ pub fn section(v: &serde_json::Value, what: &str) -> Result<Section, ReportError
             .into(),
     ));
     let mut t = Table::new("What changed", &["quantity", "value", "unit"]);
-    let count = |k: &str| -> Result<String, ReportError> { Ok(format!("{}", j.num(k)?)) };
-    t.row(vec!["blocks read".into(), count("blocks")?, "".into()]);
+    let count = |n: u64| n.to_string();
+    t.row(vec!["blocks read".into(), count(doc.blocks), "".into()]);
     t.row(vec![
         "blocks changed".into(),
-        count("blocks_changed")?,
+        count(doc.blocks_changed),
         "".into(),
     ]);
     t.row(vec![
         "moves subdivided".into(),
-        count("blocks_subdivided")?,
+        count(doc.blocks_subdivided),
         "".into(),
     ]);
     t.row(vec![
         "blocks inserted".into(),
-        count("blocks_inserted")?,
+        count(doc.blocks_inserted),
         "".into(),
     ]);
     t.row(vec![
         "arcs converted to lines".into(),
-        count("arcs_converted")?,
+        count(doc.arcs_converted),
         "".into(),
     ]);
     t.row(vec![
         "largest correction".into(),
-        fmt(Some(j.num("largest_correction_um")?), 2),
+        fmt(Some(doc.largest_correction_um), 2),
         "µm".into(),
     ]);
     t.row(vec![
         "largest rotary correction".into(),
-        fmt(Some(j.num("largest_rotary_correction_deg")?), 5),
+        fmt(Some(doc.largest_rotary_correction_deg), 5),
         "deg".into(),
     ]);
     t.row(vec![
         "largest deviation left at a checked midpoint".into(),
-        fmt(Some(j.num("largest_midpoint_deviation_um")?), 3),
+        fmt(Some(doc.largest_midpoint_deviation_um), 3),
         "µm".into(),
     ]);
     s.push(Block::Table(t));
-    let not_corrected = j.num("axis_not_corrected")?;
-    let mut lines = j.strings("notes");
-    if not_corrected > 0.0 {
+    let not_corrected = doc.axis_not_corrected;
+    let mut lines = doc.notes.clone();
+    if not_corrected > 0 {
         lines.insert(
             0,
             format!("{not_corrected} targets near the singular pose: tip corrected, tool axis not"),
         );
     }
     s.push(Block::Verdict {
-        verdict: if not_corrected > 0.0 {
+        verdict: if not_corrected > 0 {
             Verdict::Caution
         } else {
             Verdict::Good
         },
-        title: if not_corrected > 0.0 {
+        title: if not_corrected > 0 {
             "Compensated, with targets where only the tip could be corrected.".into()
         } else {
             "Every target compensated in tip and tool axis.".into()
         },
         lines,
     });
-    Ok(s)
+    s
 }
 
 #[cfg(test)]
@@ -86,8 +86,9 @@ mod tests {
         let v = serde_json::json!({"blocks": 10, "blocks_changed": 8, "blocks_subdivided": 1,
             "blocks_inserted": 3, "arcs_converted": 0, "largest_correction_um": 41.257,
             "largest_rotary_correction_deg": 0.01, "largest_midpoint_deviation_um": 0.4,
-            "axis_not_corrected": 2, "notes": []});
-        let s = section(&v, "c.json").unwrap();
+            "axis_not_corrected": 2, "notes": [], "largest_correction_line": 7, "out": "c.ngc"});
+        let doc: CompensateDoc = serde_json::from_value(v).unwrap();
+        let s = section(&doc);
         let Block::Table(t) = &s.blocks[1] else {
             panic!()
         };

@@ -1,7 +1,8 @@
-//! One report section per kind of result. Each builder takes what the
-//! corresponding command writes — its `--format json` document, a model file
-//! or a CSV — so `mtwin report` (from saved files) and `mtwin demo` (from
-//! in-memory results) build the same sections through the same functions.
+//! One report section per kind of result. Each builder takes the typed
+//! document the corresponding command prints with `--format json` (e.g.
+//! [`crate::methods::ballbar::BallbarIdentifyDoc`]), a model file or a CSV, so
+//! `mtwin report` (documents read back from saved files) and `mtwin demo`
+//! (documents in memory) build the same sections through the same functions.
 
 pub mod ballbar;
 pub mod compensate;
@@ -12,83 +13,30 @@ pub mod thermal;
 pub mod tracker;
 pub mod twin;
 
-use serde_json::Value;
+/// `mtwin report --format json`: the HTML file written and what it holds.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ReportDoc {
+    /// Figures in the report.
+    pub figures: usize,
+    /// The HTML file written.
+    pub out: String,
+    /// Sections in the report.
+    pub sections: usize,
+}
+
+impl std::fmt::Display for ReportDoc {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "report → {}", self.out)
+    }
+}
 
 /// A result that cannot be read into a section.
 #[derive(Debug, thiserror::Error, PartialEq)]
 #[non_exhaustive]
 pub enum ReportError {
-    /// A field the section needs is missing or has the wrong type.
-    #[error("{what}: `{field}` is missing or is not {expected}")]
-    Field {
-        what: String,
-        field: String,
-        expected: &'static str,
-    },
     /// Anything else wrong with an input.
     #[error("{what}: {message}")]
     Input { what: String, message: String },
-}
-
-/// Typed access to a JSON result, with errors naming the input.
-pub(crate) struct Json<'a> {
-    pub v: &'a Value,
-    pub what: &'a str,
-}
-
-impl<'a> Json<'a> {
-    pub fn new(v: &'a Value, what: &'a str) -> Self {
-        Json { v, what }
-    }
-
-    fn get(&self, path: &str) -> Option<&'a Value> {
-        path.split('.').try_fold(self.v, |v, k| v.get(k))
-    }
-
-    fn err(&self, field: &str, expected: &'static str) -> ReportError {
-        ReportError::Field {
-            what: self.what.to_string(),
-            field: field.to_string(),
-            expected,
-        }
-    }
-
-    /// A required number.
-    pub fn num(&self, path: &str) -> Result<f64, ReportError> {
-        self.get(path)
-            .and_then(Value::as_f64)
-            .ok_or_else(|| self.err(path, "a number"))
-    }
-
-    /// A number that may be absent or null.
-    pub fn opt_num(&self, path: &str) -> Option<f64> {
-        self.get(path).and_then(Value::as_f64)
-    }
-
-    /// A required array.
-    pub fn arr(&self, path: &str) -> Result<&'a Vec<Value>, ReportError> {
-        self.get(path)
-            .and_then(Value::as_array)
-            .ok_or_else(|| self.err(path, "an array"))
-    }
-
-    /// An array that may be absent (empty then).
-    pub fn opt_arr(&self, path: &str) -> &'a [Value] {
-        self.get(path)
-            .and_then(Value::as_array)
-            .map_or(&[], |v| v.as_slice())
-    }
-
-    /// Strings of an array that may be absent.
-    pub fn strings(&self, path: &str) -> Vec<String> {
-        self.opt_arr(path)
-            .iter()
-            .map(|v| match v {
-                Value::String(s) => s.clone(),
-                other => other.to_string(),
-            })
-            .collect()
-    }
 }
 
 /// `v` with `decimals` decimals, a true minus sign, `—` for none.
@@ -171,19 +119,23 @@ mod tests {
     }
 
     #[test]
+    fn the_report_document_round_trips() {
+        let d = ReportDoc {
+            figures: 3,
+            out: "r.html".into(),
+            sections: 2,
+        };
+        let back: ReportDoc =
+            serde_json::from_str(&serde_json::to_string_pretty(&d).unwrap()).unwrap();
+        assert_eq!(back, d);
+        assert_eq!(d.to_string(), "report → r.html\n");
+    }
+
+    #[test]
     fn numbers_use_a_true_minus_and_no_negative_zero() {
         assert_eq!(fmt(Some(-1.26), 1), "−1.3");
         assert_eq!(fmt(Some(-0.0001), 2), "0.00");
         assert_eq!(fmt(None, 2), "—");
         assert_eq!(fmt(Some(f64::NAN), 2), "—");
-    }
-
-    #[test]
-    fn missing_fields_name_the_input() {
-        let v = serde_json::json!({"a": {"b": 1.5}});
-        let j = Json::new(&v, "r.json");
-        assert_eq!(j.num("a.b"), Ok(1.5));
-        let e = j.num("a.c").unwrap_err().to_string();
-        assert!(e.contains("r.json") && e.contains("a.c"), "{e}");
     }
 }

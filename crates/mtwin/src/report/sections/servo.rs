@@ -1,11 +1,12 @@
 //! Servo section (spec 05 §3) from the JSON of `mtwin servo fit --format json`
 //! (one document per axis): transfer function, orders, bandwidth, velocity lag.
 
-use super::{Json, ReportError, fmt};
+use super::fmt;
 use crate::report::html::{Block, Section, Table, Verdict};
+use crate::sysid::ServoFitDoc;
 
 /// The servo section from `(axis name, servo fit JSON)` pairs.
-pub fn section(fits: &[(String, serde_json::Value)]) -> Result<Section, ReportError> {
+pub fn section(fits: &[(String, ServoFitDoc)]) -> Section {
     let mut s = Section::new("servo", "Servo: axis transfer functions");
     s.push(Block::Text(
         "Discrete transfer function from command to encoder position per axis, \
@@ -29,11 +30,10 @@ pub fn section(fits: &[(String, serde_json::Value)]) -> Result<Section, ReportEr
     );
     let mut warnings = Vec::new();
     for (axis, v) in fits {
-        let j = Json::new(v, axis);
-        let na = j.arr("a")?.len().saturating_sub(1);
-        let nb = j.arr("b")?.len().saturating_sub(1);
-        let stable = v.get("stable").and_then(|b| b.as_bool()).unwrap_or(false);
-        for w in j.strings("warnings") {
+        let na = v.a.len().saturating_sub(1);
+        let nb = v.b.len().saturating_sub(1);
+        let stable = v.stable;
+        for w in &v.warnings {
             warnings.push(format!("{axis}: {w}"));
         }
         if !stable {
@@ -41,12 +41,12 @@ pub fn section(fits: &[(String, serde_json::Value)]) -> Result<Section, ReportEr
         }
         t.row(vec![
             axis.clone(),
-            fmt(Some(j.num("ts")?), 4),
-            format!("{na}, {nb}, {}", j.num("nk")?),
-            fmt(Some(j.num("simulation_rms")? * 1e3), 3),
-            fmt(j.opt_num("bandwidth_hz"), 1),
-            fmt(j.opt_num("velocity_lag_s").map(|l| l * 1e3), 3),
-            fmt(Some(j.num("dc_gain")?), 4),
+            fmt(Some(v.ts), 4),
+            format!("{na}, {nb}, {}", v.nk),
+            fmt(Some(v.simulation_rms * 1e3), 3),
+            fmt(v.bandwidth_hz, 1),
+            fmt(v.velocity_lag_s.map(|l| l * 1e3), 3),
+            fmt(Some(v.dc_gain), 4),
             if stable { "yes" } else { "no" }.into(),
         ]);
     }
@@ -64,7 +64,7 @@ pub fn section(fits: &[(String, serde_json::Value)]) -> Result<Section, ReportEr
         },
         lines: warnings,
     });
-    Ok(s)
+    s
 }
 
 #[cfg(test)]
@@ -75,8 +75,12 @@ mod tests {
     fn orders_come_from_the_polynomial_lengths() {
         let v = serde_json::json!({"ts": 0.001, "b": [0.1, 0.05], "a": [1.0, -0.85], "nk": 1,
             "simulation_rms": 2e-4, "bandwidth_hz": 30.0, "velocity_lag_s": 0.004, "dc_gain": 1.0,
-            "stable": true, "warnings": []});
-        let s = section(&[("X".into(), v)]).unwrap();
+            "stable": true, "warnings": [], "criterion": "aic", "estimator": "output_error",
+            "following_error_at_max_velocity": 0.001, "grid": [], "max_velocity": 100.0,
+            "one_step_rms": 1e-5, "orders": {"na": 1, "nb": [1], "nk": [1]}, "samples": 1000,
+            "spectral_radius": 0.85});
+        let doc: ServoFitDoc = serde_json::from_value(v).unwrap();
+        let s = section(&[("X".into(), doc)]);
         let Block::Table(t) = &s.blocks[1] else {
             panic!()
         };

@@ -2,13 +2,14 @@
 //! --format json`: the four set-up errors with uncertainties, the first-order
 //! closed form beside them, and the residual of every touch.
 
-use super::{COLORS, Json, ReportError, fmt};
+use super::{COLORS, fmt};
+use crate::methods::skiving::TouchFlag;
+use crate::methods::skiving::doc::SkivingSetupDoc;
 use crate::report::html::{Block, Section, Table, Verdict};
 use crate::report::svg::bars;
 
 /// The skiving section.
-pub fn section(v: &serde_json::Value, what: &str) -> Result<Section, ReportError> {
-    let j = Json::new(v, what);
+pub fn section(doc: &SkivingSetupDoc) -> Section {
     let mut s = Section::new("skiving", "Skiving: workpiece set-up error");
     s.push(Block::Text(
         "Offsets δgx, δgy of the workpiece on the table (µm) and tilts εxz (about Y), εzy (about X) \
@@ -25,30 +26,29 @@ pub fn section(v: &serde_json::Value, what: &str) -> Result<Section, ReportError
             "unit",
         ],
     );
-    for (k, name) in ["dgx", "dgy", "exz", "ezy"].iter().enumerate() {
+    let value = doc.estimate.to_array();
+    let unc = doc.uncertainty.map(|u| u.to_array());
+    let first = doc.first_order.map(|u| u.to_array());
+    for k in 0..4 {
         let (f, unit) = if k < 2 { (1e3, "µm") } else { (1e6, "µrad") };
         t.row(vec![
             ["δgx", "δgy", "εxz", "εzy"][k].into(),
-            fmt(Some(j.num(name)? * f), 3),
-            fmt(j.opt_num(&format!("uncertainty.{name}")).map(|u| u * f), 3),
-            fmt(j.opt_num(&format!("first_order.{name}")).map(|u| u * f), 3),
+            fmt(Some(value[k] * f), 3),
+            fmt(unc.map(|u| u[k] * f), 3),
+            fmt(first.map(|u| u[k] * f), 3),
             unit.into(),
         ]);
     }
     s.push(Block::Table(t));
-    let residuals: Vec<f64> = j
-        .arr("residuals")?
-        .iter()
-        .map(|r| r.as_f64().unwrap_or(f64::NAN) * 1e3)
-        .collect();
-    let flags = j.strings("flags");
+    let residuals: Vec<f64> = doc.residuals.iter().map(|r| r * 1e3).collect();
+    let flags = &doc.flags;
     let bad: Vec<String> = flags
         .iter()
         .enumerate()
-        .filter(|(_, f)| f.as_str() == "inconsistent")
+        .filter(|(_, f)| **f == TouchFlag::Inconsistent)
         .map(|(i, _)| format!("touch {} is inconsistent with the others", i + 1))
         .collect();
-    let unchecked = flags.iter().filter(|f| f.as_str() == "unchecked").count();
+    let unchecked = flags.iter().filter(|f| **f == TouchFlag::Unchecked).count();
     let mut lines = bad.clone();
     if unchecked > 0 {
         lines.push(format!(
@@ -80,7 +80,7 @@ pub fn section(v: &serde_json::Value, what: &str) -> Result<Section, ReportError
             &[("residual".into(), COLORS[1].into(), residuals)],
         ),
     });
-    Ok(s)
+    s
 }
 
 #[cfg(test)]
@@ -94,9 +94,13 @@ mod tests {
             "uncertainty": {"dgx": 1e-4, "dgy": 1e-4, "exz": 1e-6, "ezy": 1e-6},
             "first_order": {"dgx": 0.0301, "dgy": -0.0199, "exz": 2.01e-4, "ezy": -1e-4},
             "residuals": [0.0, 0.001, -0.001],
-            "flags": ["ok", "inconsistent", "ok"]
+            "flags": ["ok", "inconsistent", "ok"],
+            "coverage_factor_95": 2.0, "flag_noise": 0.001, "leverage": [0.5, 0.5, 0.5],
+            "standardized_residuals": [0.0, 3.5, null], "touches": 3,
+            "uncertainty_basis": {"kind": "known_noise", "sigma": 0.001}
         });
-        let s = section(&v, "sk.json").unwrap();
+        let doc: SkivingSetupDoc = serde_json::from_value(v).unwrap();
+        let s = section(&doc);
         let Block::Table(t) = &s.blocks[1] else {
             panic!()
         };

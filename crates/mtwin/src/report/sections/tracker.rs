@@ -3,37 +3,21 @@
 //! uncertainties) and validation from the JSON of `mtwin tracker validate --format
 //! json` (before/after statistics per direction and as a chart).
 
-use super::{COLORS, Json, ReportError, decimate, fmt};
+use super::{COLORS, decimate, fmt};
+use crate::methods::tracker::doc::unit_of;
+use crate::methods::tracker::{TrackerIdentifyDoc, TrackerValidateDoc};
 use crate::report::html::{Block, Section, Table, Verdict};
 use crate::report::svg::{Series, bars, xy};
 
-/// Scale and unit of a parameter by its name: registration translations in
-/// mm, rotations (`EA…`, `EB…`, `EC…`, `REG.a/b/c`) in µrad, the rest in µm.
-fn unit_of(name: &str) -> (f64, &'static str) {
-    if let Some(r) = name.strip_prefix("REG.") {
-        return if r.starts_with('t') {
-            (1.0, "mm")
-        } else {
-            (1e6, "µrad")
-        };
-    }
-    match name.chars().nth(1) {
-        Some('A' | 'B' | 'C') => (1e6, "µrad"),
-        _ => (1e3, "µm"),
-    }
-}
-
 /// The identification section.
-pub fn identify_section(v: &serde_json::Value, what: &str) -> Result<Section, ReportError> {
-    let j = Json::new(v, what);
-    let rank = j.num("rank")?;
-    let params = j.num("parameters")?;
-    let cond = j.opt_num("condition_number");
-    let (before, after) = (j.num("rms_before")?, j.num("rms_after")?);
-    let unident = j.strings("unidentifiable");
-    let relations = j.strings("relations");
-    let outliers = j.opt_arr("outliers");
-    let warnings = j.strings("warnings");
+pub fn identify_section(doc: &TrackerIdentifyDoc) -> Section {
+    let (rank, params) = (doc.rank, doc.parameters);
+    let cond = Some(doc.condition_number);
+    let (before, after) = (doc.rms_before, doc.rms_after);
+    let unident = &doc.unidentifiable;
+    let relations = &doc.relations;
+    let outliers = &doc.outliers;
+    let warnings: Vec<String> = doc.warnings.iter().map(|w| w.to_string()).collect();
     let mut s = Section::new("tracker-identify", "Tracker: identification");
     s.push(Block::Text(format!(
         "Geometric errors fitted by Levenberg–Marquardt to measured tool-tip positions. Residual RMS \
@@ -66,7 +50,7 @@ pub fn identify_section(v: &serde_json::Value, what: &str) -> Result<Section, Re
     lines.extend(warnings.iter().cloned());
     let verdict = if rank == params && warnings.is_empty() {
         Verdict::Good
-    } else if rank > 0.0 {
+    } else if rank > 0 {
         Verdict::Caution
     } else {
         Verdict::Bad
@@ -87,33 +71,26 @@ pub fn identify_section(v: &serde_json::Value, what: &str) -> Result<Section, Re
         "Estimates (coefficients of the error functions; ± standard uncertainty)",
         &["parameter", "value", "std. uncertainty", "unit"],
     );
-    for e in j.arr("estimates")? {
-        let ej = Json::new(e, what);
-        let name = e.get("name").and_then(|n| n.as_str()).unwrap_or("?");
-        let (f, unit) = unit_of(name);
-        if e.get("unidentifiable").is_some_and(|u| !u.is_null()) {
+    for e in &doc.estimates {
+        let (f, unit) = unit_of(&e.name);
+        if e.unidentifiable.is_some() {
             continue;
         }
         t.row(vec![
-            name.into(),
-            fmt(ej.opt_num("value").map(|v| v * f), 3),
-            fmt(ej.opt_num("uncertainty").map(|v| v * f), 3),
+            e.name.clone(),
+            fmt(Some(e.value * f), 3),
+            fmt(e.uncertainty.map(|v| v * f), 3),
             unit.into(),
         ]);
     }
     s.push(Block::Table(t));
-    Ok(s)
+    s
 }
 
 /// The validation section. `per_point` optionally gives `|Δp|` per check
 /// point before and after (mm) for a line chart.
-pub fn validate_section(
-    v: &serde_json::Value,
-    what: &str,
-    per_point: Option<(&[f64], &[f64])>,
-) -> Result<Section, ReportError> {
-    let j = Json::new(v, what);
-    let n = j.num("points")?;
+pub fn validate_section(doc: &TrackerValidateDoc, per_point: Option<(&[f64], &[f64])>) -> Section {
+    let n = doc.points;
     let mut s = Section::new("tracker-validate", "Tracker: validation at check poses");
     s.push(Block::Text(format!(
         "{n} check points not used in the fit: |error| of the nominal model (before) and of the \
@@ -135,25 +112,43 @@ pub fn validate_section(
         ],
     );
     let dirs = ["x", "y", "z", "distance"];
+    let stat = |e: &crate::methods::tracker::ErrorStats, d: &str| match d {
+        "x" => e.x,
+        "y" => e.y,
+        "z" => e.z,
+        _ => e.distance,
+    };
     let mut groups = Vec::new();
     let (mut b_mean, mut a_mean, mut b_max, mut a_max) = (vec![], vec![], vec![], vec![]);
     for d in dirs {
-        let g = |k: &str, stat: &str| j.num(&format!("{k}.{d}.{stat}"));
+        let g = |k: &str, s: &str| -> f64 {
+            let e = match k {
+                "before" => &doc.before,
+                "after" => &doc.after,
+                _ => &doc.change_percent,
+            };
+            let st = stat(e, d);
+            match s {
+                "max" => st.max,
+                "mean" => st.mean,
+                _ => st.std,
+            }
+        };
         let row = vec![
             if d == "distance" {
                 "|Δp|".into()
             } else {
                 d.to_string()
             },
-            fmt(Some(g("before", "max")? * 1e3), 2),
-            fmt(Some(g("before", "mean")? * 1e3), 2),
-            fmt(Some(g("before", "std")? * 1e3), 2),
-            fmt(Some(g("after", "max")? * 1e3), 2),
-            fmt(Some(g("after", "mean")? * 1e3), 2),
-            fmt(Some(g("after", "std")? * 1e3), 2),
-            fmt(Some(g("change_percent", "max")?), 0),
-            fmt(Some(g("change_percent", "mean")?), 0),
-            fmt(Some(g("change_percent", "std")?), 0),
+            fmt(Some(g("before", "max") * 1e3), 2),
+            fmt(Some(g("before", "mean") * 1e3), 2),
+            fmt(Some(g("before", "std") * 1e3), 2),
+            fmt(Some(g("after", "max") * 1e3), 2),
+            fmt(Some(g("after", "mean") * 1e3), 2),
+            fmt(Some(g("after", "std") * 1e3), 2),
+            fmt(Some(g("change_percent", "max")), 0),
+            fmt(Some(g("change_percent", "mean")), 0),
+            fmt(Some(g("change_percent", "std")), 0),
         ];
         t.row(row);
         groups.push(if d == "distance" {
@@ -161,10 +156,10 @@ pub fn validate_section(
         } else {
             d.to_string()
         });
-        b_max.push(g("before", "max")? * 1e3);
-        a_max.push(g("after", "max")? * 1e3);
-        b_mean.push(g("before", "mean")? * 1e3);
-        a_mean.push(g("after", "mean")? * 1e3);
+        b_max.push(g("before", "max") * 1e3);
+        a_max.push(g("after", "max") * 1e3);
+        b_mean.push(g("before", "mean") * 1e3);
+        a_mean.push(g("after", "mean") * 1e3);
     }
     s.push(Block::Table(t));
     s.push(Block::Figure {
@@ -207,7 +202,7 @@ pub fn validate_section(
             ),
         });
     }
-    Ok(s)
+    s
 }
 
 #[cfg(test)]
@@ -229,13 +224,17 @@ mod tests {
             "rank": 2, "parameters": 3, "rms_before": 0.1, "rms_after": 0.01,
             "condition_number": 12.0, "unidentifiable": ["EXY.c0"],
             "relations": ["EXY.c0 − 1.0000·EXX.c0 ≈ 0"], "outliers": [], "warnings": [],
+            "out": "id.toml", "registration": null, "sigma": 0.001,
+            "convergence": {"iterations": 3, "initial_cost": 1.0, "final_cost": 0.01,
+                "reason": "gradient", "evaluations": 4, "factorizations": 4, "damping": 1e-3},
             "estimates": [
-                {"name": "EXX.c0", "value": 0.002, "uncertainty": 0.0001, "unidentifiable": null},
-                {"name": "EXY.c0", "value": 0.0, "uncertainty": null, "unidentifiable": "Confounded"},
-                {"name": "ECX.c1", "value": 3e-6, "uncertainty": 1e-7, "unidentifiable": null}
+                {"name": "EXX.c0", "start": 0.0, "value": 0.002, "uncertainty": 0.0001, "unidentifiable": null},
+                {"name": "EXY.c0", "start": 0.0, "value": 0.0, "uncertainty": null, "unidentifiable": "confounded"},
+                {"name": "ECX.c1", "start": 0.0, "value": 3e-6, "uncertainty": 1e-7, "unidentifiable": null}
             ]
         });
-        let s = identify_section(&v, "id.json").unwrap();
+        let doc: TrackerIdentifyDoc = serde_json::from_value(v).unwrap();
+        let s = identify_section(&doc);
         let Block::Verdict { verdict, lines, .. } = &s.blocks[1] else {
             panic!()
         };
