@@ -140,3 +140,35 @@ mod tests {
         assert!(check("n", f64::NAN, 10, "").is_err());
     }
 }
+
+/// Property-test strategies for numbers the file readers accept.
+#[cfg(test)]
+pub(crate) mod strategies {
+    use proptest::prelude::*;
+
+    /// Any finite number within [`super::MAX_ABS_VALUE`], the bound every
+    /// reader applies: all bit patterns of normal, subnormal and zero numbers,
+    /// those beyond the bound folded into it by the (exact) remainder.
+    pub fn finite() -> impl Strategy<Value = f64> {
+        (prop::num::f64::NORMAL | prop::num::f64::SUBNORMAL | prop::num::f64::ZERO).prop_map(|v| {
+            if v.abs() <= super::MAX_ABS_VALUE {
+                v
+            } else {
+                v % super::MAX_ABS_VALUE
+            }
+        })
+    }
+
+    /// A positive number within the bound.
+    pub fn positive() -> impl Strategy<Value = f64> {
+        finite()
+            .prop_map(f64::abs)
+            .prop_filter("positive", |v| *v > 0.0)
+    }
+
+    /// A number of magnitude below `scale` with the bit variety of
+    /// [`finite`] (for error coefficients that must stay small over a travel).
+    pub fn small(scale: f64) -> impl Strategy<Value = f64> {
+        finite().prop_map(move |v| v % scale)
+    }
+}

@@ -230,14 +230,10 @@ mod tests {
         use proptest::prelude::*;
         use std::path::Path;
 
-        fn finite() -> impl Strategy<Value = f64> {
-            prop::num::f64::NORMAL | prop::num::f64::SUBNORMAL | prop::num::f64::ZERO
-        }
-
-        fn positive() -> impl Strategy<Value = f64> {
-            prop::num::f64::POSITIVE | prop::num::f64::NORMAL | prop::num::f64::SUBNORMAL
-        }
-
+        // Numbers the reader accepts: within `limits::MAX_ABS_VALUE`, and error
+        // functions whose value and slope stay within `limits::MAX_ERROR_VALUE`
+        // over the travel (|q| ≤ 2e4, travel at least 0.1 wide).
+        use crate::limits::strategies::{finite, positive, small};
         fn unit() -> impl Strategy<Value = Vector3<f64>> {
             (-1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64)
                 .prop_filter("not too short", |(x, y, z)| x * x + y * y + z * z > 1e-3)
@@ -248,28 +244,44 @@ mod tests {
             (finite(), finite(), finite()).prop_map(|(x, y, z)| Vector3::new(x, y, z))
         }
 
-        fn coeffs() -> impl Strategy<Value = Vec<f64>> {
-            prop::collection::vec(finite(), 1..5)
+        /// Coefficient k scaled by 1e-4^k: |c_k q^k| ≤ 1e-3 · 2^k over |q| ≤ 2e4.
+        fn poly_coeffs() -> impl Strategy<Value = Vec<f64>> {
+            prop::collection::vec(small(1e-3), 1..5).prop_map(|c| {
+                c.into_iter()
+                    .enumerate()
+                    .map(|(k, ck)| ck * 1e-4f64.powi(k as i32))
+                    .collect()
+            })
         }
 
         fn function() -> impl Strategy<Value = ErrorFunction> {
             prop_oneof![
-                finite().prop_map(ErrorFunction::Constant),
-                coeffs().prop_map(ErrorFunction::Poly),
-                coeffs().prop_map(ErrorFunction::Cheb),
-                prop::collection::vec((finite(), finite()), 1..5).prop_map(|mut qe| {
-                    qe.sort_by(|a, b| a.0.total_cmp(&b.0));
-                    qe.dedup_by(|a, b| a.0 == b.0);
-                    let (q, e) = qe.into_iter().unzip();
-                    ErrorFunction::Table { q, e }
-                }),
+                finite().prop_map(|v| ErrorFunction::Constant(v % 1e6)),
+                poly_coeffs().prop_map(ErrorFunction::Poly),
+                prop::collection::vec(small(1e-3), 1..5).prop_map(ErrorFunction::Cheb),
+                // Table positions at least 0.01 apart: slopes below 0.2.
+                (
+                    -1e4..1e4f64,
+                    prop::collection::vec((0.01..1e3f64, small(1e-3)), 1..5)
+                )
+                    .prop_map(|(q0, steps)| {
+                        let mut q = Vec::new();
+                        let mut e = Vec::new();
+                        let mut at = q0;
+                        for (step, v) in steps {
+                            q.push(at);
+                            e.push(v);
+                            at += step;
+                        }
+                        ErrorFunction::Table { q, e }
+                    }),
             ]
         }
 
         fn servo() -> impl Strategy<Value = ServoTable> {
             (
                 positive(),
-                coeffs(),
+                prop::collection::vec(finite(), 1..5),
                 prop::collection::vec(finite(), 0..4),
                 0usize..50,
             )
@@ -283,7 +295,7 @@ mod tests {
         fn axis() -> impl Strategy<Value = Axis> {
             (
                 (any::<bool>(), unit(), vec3()),
-                (finite(), finite()).prop_filter("lo < hi", |(a, b)| a != b),
+                (-1e4..1e4f64, 0.1..1e4f64).prop_map(|(lo, w)| (lo, lo + w)),
                 (
                     prop::array::uniform6(prop::option::of(function())),
                     prop::array::uniform6(finite()),
@@ -316,7 +328,14 @@ mod tests {
             (
                 prop::collection::vec(any::<char>(), 0..24)
                     .prop_map(|c| c.into_iter().collect::<String>()),
-                prop::collection::btree_set("[A-Za-z][A-Za-z0-9_]{0,6}", 0..5),
+                prop::collection::btree_set("[A-Za-z][A-Za-z0-9_]{0,6}", 0..5).prop_map(|names| {
+                    // Axis names are unique regardless of case.
+                    let mut seen = std::collections::BTreeSet::new();
+                    names
+                        .into_iter()
+                        .filter(|n| seen.insert(n.to_ascii_lowercase()))
+                        .collect::<Vec<_>>()
+                }),
                 prop::collection::vec(axis(), 5),
                 prop::collection::vec(any::<bool>(), 5),
                 (vec3(), unit(), vec3(), positive()),

@@ -693,16 +693,15 @@ mod tests {
         }
     }
 
-    fn finite() -> impl proptest::strategy::Strategy<Value = f64> {
-        use proptest::num::f64::{NORMAL, SUBNORMAL, ZERO};
-        NORMAL | SUBNORMAL | ZERO
-    }
+    // Any finite number the reader accepts (within `limits::MAX_ABS_VALUE`).
+    use crate::limits::strategies::{finite, positive};
 
     proptest::proptest! {
-        /// Any finite coefficients and positive sample time read back identical.
+        /// Any finite coefficients and positive sample time within the readers'
+        /// bound read back identical.
         #[test]
         fn servo_toml_round_trips_any_finite_values(
-            ts in proptest::num::f64::POSITIVE | proptest::num::f64::NORMAL,
+            ts in positive(),
             b in proptest::collection::vec(finite(), 1..6),
             tail in proptest::collection::vec(finite(), 0..6),
             nk in 0usize..100,

@@ -502,13 +502,8 @@ mod tests {
         use super::*;
         use proptest::prelude::*;
 
-        fn finite() -> impl Strategy<Value = f64> {
-            prop::num::f64::NORMAL | prop::num::f64::SUBNORMAL | prop::num::f64::ZERO
-        }
-
-        fn positive() -> impl Strategy<Value = f64> {
-            prop::num::f64::POSITIVE | prop::num::f64::NORMAL | prop::num::f64::SUBNORMAL
-        }
+        // Any finite number the reader accepts (within `limits::MAX_ABS_VALUE`).
+        use crate::limits::strategies::{finite, positive};
 
         fn name() -> impl Strategy<Value = String> {
             prop::collection::vec(any::<char>(), 0..16).prop_map(|c| c.into_iter().collect())
