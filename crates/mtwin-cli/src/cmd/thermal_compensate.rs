@@ -43,6 +43,11 @@ pub struct Args {
     /// (µm, at the end of every Z block, against the estimated time in min).
     #[arg(long)]
     plot: Option<PathBuf>,
+    /// Compensate even with a model that is unstable at some height (a pole
+    /// on or outside the unit circle); a drift that then diverges is still
+    /// refused.
+    #[arg(long)]
+    allow_unstable: bool,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -58,6 +63,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let mut options = CompensateOptions::default();
     options.dialect = a.dialect.dialect();
     options.rapid_feed = a.rapid;
+    options.allow_unstable = a.allow_unstable;
     options.update = if a.continuous {
         CorrectionUpdate::Continuous
     } else {
@@ -72,7 +78,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 Some(at) => anyhow::anyhow!("{file}:{}: {e}", at.line),
                 None => anyhow::anyhow!("{file}: {e}"),
             },
-            CompensateError::Unsafe { line, .. } => anyhow::anyhow!("{file}:{line}: {e}"),
+            CompensateError::Unsafe { line, .. } | CompensateError::Diverges { line, .. } => {
+                anyhow::anyhow!("{file}:{line}: {e}")
+            }
+            CompensateError::Unstable { .. } => {
+                anyhow::anyhow!("{}: {e} (--allow-unstable)", a.model.display())
+            }
             _ => anyhow::anyhow!("{e}"),
         }
     })?;

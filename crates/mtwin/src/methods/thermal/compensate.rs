@@ -72,6 +72,11 @@ pub struct CompensateOptions {
     pub rapid_feed: f64,
     /// Correction update policy.
     pub update: CorrectionUpdate,
+    /// Compensate with a model whose ARX model at some height is unstable (a
+    /// pole on or outside the unit circle). Refused by default: its drift
+    /// grows without bound, so a long program would be corrected by
+    /// meaningless amounts.
+    pub allow_unstable: bool,
 }
 
 impl Default for CompensateOptions {
@@ -81,6 +86,7 @@ impl Default for CompensateOptions {
             dialect: Dialect::LinuxCnc,
             rapid_feed: crate::model::DEFAULT_RAPID_FEED,
             update: CorrectionUpdate::Periodic { period_min: 10.0 },
+            allow_unstable: false,
         }
     }
 }
@@ -108,6 +114,27 @@ pub enum CompensateError {
     /// Invalid settings.
     #[error("{0}")]
     Options(String),
+    /// The model is unstable at some height and `allow_unstable` is off.
+    #[error(
+        "the thermal model at z = {z_mm} mm: {reason}; refusing to compensate with it (allow it explicitly to go on)"
+    )]
+    Unstable {
+        /// The height of the unstable ARX model, mm.
+        z_mm: f64,
+        /// The stability verdict.
+        reason: String,
+    },
+    /// The predicted drift is not finite or beyond any real drift.
+    #[error(
+        "line {line}: the predicted drift is {} mm (the model diverges): nothing written",
+        crate::limits::fmt_message_number(*.drift_mm)
+    )]
+    Diverges {
+        /// 1-based line of the block.
+        line: u64,
+        /// The drift predicted there, mm.
+        drift_mm: f64,
+    },
     /// The estimated duration is beyond what a drift prediction can cover.
     #[error(
         "the program's estimated duration ({duration_min} min) exceeds {MAX_DURATION_MIN} min: check its feeds and dwells"
@@ -268,6 +295,16 @@ pub fn compensate(
             "the correction period must be > 0 min, not {period_min}"
         )));
     }
+    if !options.allow_unstable {
+        for h in model.heights() {
+            if let Some(reason) = h.model.stability().warning() {
+                return Err(CompensateError::Unstable {
+                    z_mm: h.z_mm,
+                    reason,
+                });
+            }
+        }
+    }
     let mut prog = crate::gcode::Program::parse(program)?;
     let stats_opts = StatsOptions {
         interp: InterpOptions {
@@ -386,6 +423,12 @@ pub fn compensate(
             }
         };
         let c = drift(t_c, machine_z);
+        if !(c.is_finite() && c.abs() <= crate::limits::MAX_ERROR_VALUE) {
+            return Err(CompensateError::Diverges {
+                line: block.line(),
+                drift_mm: c,
+            });
+        }
         let new_end = match m.words.distance {
             DistanceMode::Absolute if c.abs() >= WRITE_TOLERANCE_MM => {
                 applied = c;
@@ -764,6 +807,39 @@ mod tests {
                 proptest::prop_assert_eq!(strip(a), strip(b));
             }
         }
+    }
+
+    #[test]
+    fn unstable_models_are_refused_and_divergent_drift_never_written() {
+        // e(k) = 3 e(k−1) + …: a pole at 3.
+        let h = |z: f64| HeightModel {
+            z_mm: z,
+            model: Arx::new(vec![1.0, -3.0], vec![(vec![0.002], 1)]).unwrap(),
+            stats: None,
+        };
+        let inputs = vec![InputChannel::linear("speed_rpm", 1000.0)];
+        let m = ThermalModel::new(10.0, inputs, vec![h(-100.0), h(0.0)]).unwrap();
+        // Five hours of dwell at 2000 rpm, then a cut: 30 samples, 3^30 ≈ 2e14.
+        let program = b"S2000 M3\nG0 Z0\nG4 P18000\nG1 Z-1 F100\nM5\n";
+        match compensate(&m, program, &CompensateOptions::default()) {
+            Err(CompensateError::Unstable { z_mm, reason }) => {
+                assert_eq!(z_mm, -100.0);
+                assert!(reason.contains("not stable"), "{reason}");
+            }
+            other => panic!("expected the unstable model refused, got {other:?}"),
+        }
+        let mut allow = CompensateOptions::default();
+        allow.allow_unstable = true;
+        match compensate(&m, program, &allow) {
+            Err(CompensateError::Diverges { line, drift_mm }) => {
+                assert_eq!(line, 4);
+                assert!(drift_mm.abs() > crate::limits::MAX_ERROR_VALUE);
+            }
+            other => panic!("expected the divergent drift refused, got {other:?}"),
+        }
+        // A short program with the same model allowed stays finite and is written.
+        let short = b"S2000 M3\nG0 Z0\nG4 P1200\nG1 Z-1 F100\nM5\n";
+        assert!(compensate(&m, short, &allow).is_ok());
     }
 
     #[test]
