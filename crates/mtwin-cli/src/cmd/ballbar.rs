@@ -1,4 +1,4 @@
-//! `mtwin ballbar …` (spec 01): double-ballbar identification of the eight
+//! `mtwin ballbar …` ([R1] in docs/references.md): double-ballbar identification of the eight
 //! location errors of the rotary axes of a double-turntable machine.
 
 use std::path::{Path, PathBuf};
@@ -30,7 +30,7 @@ pub enum Command {
         after_help = "Example:\n  mtwin ballbar identify --mode1 m1.csv --mode2 m2.csv --mode3 m3.csv --mode4 m4.csv --length 100 --zb1c 100 --zb1a 100 --ex -0.0403 --ey -0.0765 --format json"
     )]
     Identify(IdentifyArgs),
-    /// Which PIGE moves which mode, and by how much (the seed's table 2).
+    /// Which PIGE moves which mode, and by how much (table 2 of the source paper [R1], docs/references.md).
     #[command(after_help = "Example:\n  mtwin ballbar sensitivity --offset 0.010 --tilt 8.7e-5")]
     Sensitivity(SensitivityArgs),
     /// Write the four G-code test programs (static ballbar, dwell at each step).

@@ -10,7 +10,7 @@
 //! 2. **Start** from the closed forms ([`super::closed_form`]).
 //! 3. **Joint Levenberg–Marquardt** ([`crate::fit`]) over the four
 //!    [`ModeModel`]s stacked, on the exact model, with the bar length of
-//!    each mode as a nuisance parameter (spec 01: subtracting the single
+//!    each mode as a nuisance parameter (subtracting the single
 //!    noisy 0° reading instead roughly triples the uncertainty of EC0A).
 //!    Standard uncertainties come from the residual variance.
 
@@ -411,7 +411,7 @@ fn analyse(
     Ok(report.identifiability)
 }
 
-/// Which modes a PIGE moves at first order (spec 01 table).
+/// Which modes a PIGE moves at first order (table 2 of [R1]).
 pub fn sees(mode: Mode, p: Pige) -> bool {
     use Pige::*;
     match mode {
@@ -540,7 +540,7 @@ mod tests {
             };
             assert!(err < tol, "{p}: error {err:e}");
         }
-        // Spec 01: with 0.3 µm noise and 5° steps, σ ≈ 2.2 µrad (EC0A), 1.2 µrad (EB0C),
+        // The source paper [R1]: with 0.3 µm noise and 5° steps, σ ≈ 2.2 µrad (EC0A), 1.2 µrad (EB0C),
         // 0.15 µm (EY0A) when the bar length is a nuisance parameter.
         let s = |p: Pige| id.uncertainty[p.index()].unwrap();
         for (p, expect) in [
@@ -582,7 +582,7 @@ mod tests {
 
     #[test]
     fn seed_experiment_replayed_in_simulation() {
-        // Seed §3: eX = −0.0403, eY = −0.0765 mm; offsets up to 203.5 µm, tilts ±0.005°.
+        // Source paper [R1], experiment: eX = −0.0403, eY = −0.0765 mm; offsets up to 203.5 µm, tilts ±0.005°.
         let rig = rig(-0.0403, -0.0765);
         let t5 = 0.005_f64.to_radians();
         let truth = Piges([0.2035, -0.1421, t5, -t5, -0.1687, 0.0982, -t5, t5]);
@@ -604,7 +604,7 @@ mod tests {
             "largest remaining offset after compensation: {:.3} µm",
             worst * 1e3
         );
-        assert!(worst < 1e-3, "remaining offset {worst} mm (seed: 5.1 µm)");
+        assert!(worst < 1e-3, "remaining offset {worst} mm (source paper [R1]: 5.1 µm)");
         // The tilts are still found after compensation.
         for p in [Pige::EB0A, Pige::EC0A, Pige::EA0C, Pige::EB0C] {
             assert!((second.piges.get(p) - truth.get(p)).abs() < 1e-5, "{p}");

@@ -10,7 +10,7 @@
 //! ```
 //!
 //! with `X` the workpiece chain from the base up to the moving axis
-//! (`A_i = P_i·L_i·J_i·E_i`, 00 §4; the axes beyond the moving one cancel),
+//! (`A_i = P_i·L_i·J_i·E_i`, docs/machine-model.md; the axes beyond the moving one cancel),
 //! and the instrument reads `|B2(α) − B1|`. Nothing is linearised. The
 //! Jacobian with respect to the location errors is exact: for a component
 //! of `L_i`, `∂X/∂p = Pre_i·∂L_i·Post_i` with `Pre_i = A_1…A_{i−1}·P_i` and
@@ -35,7 +35,7 @@ use crate::kinematics::transform::rxyz_derivatives;
 use crate::kinematics::{Kinematics, Rigid};
 use crate::model::Machine;
 
-/// One of the four measurement modes of spec 01.
+/// One of the four measurement modes of [R1] (docs/references.md).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Mode {
     /// A turns; B1 on the A/C intersection; bar along −y. Sees EY0A, EZ0A.
@@ -57,7 +57,7 @@ impl Mode {
         self as usize
     }
 
-    /// 1..=4, the seed's numbering.
+    /// 1..=4, the numbering of the source paper [R1].
     pub fn number(self) -> usize {
         self.index() + 1
     }
@@ -111,7 +111,7 @@ pub struct Rig {
 }
 
 impl Rig {
-    /// The seed's rig: `L = 100`, `ZB1C = ZB1A = 100` mm, no set-up error.
+    /// The rig of the source paper [R1]: `L = 100`, `ZB1C = ZB1A = 100` mm, no set-up error.
     pub fn seed() -> Rig {
         Rig {
             length: 100.0,
@@ -515,7 +515,7 @@ mod tests {
 
     #[test]
     fn mode_one_matches_the_seed_exact_formula_for_offsets() {
-        // With offsets only, seed eq. 4/6 is exact: B2 turns about the line x-parallel
+        // With offsets only, eq. 4/6 of the source paper [R1] is exact: B2 turns about the line x-parallel
         // through (·, EY0A, EZ0A).
         let mut m = trunnion_machine();
         let t = Trunnion::of(&m).unwrap();
