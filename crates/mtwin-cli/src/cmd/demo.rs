@@ -14,7 +14,8 @@ use mtwin::fit::Options;
 use mtwin::io::Outputs;
 use mtwin::kinematics::{IkOptions, IkTarget, Kinematics};
 use mtwin::methods::ballbar::{
-    self, Mode, ModeData, Pige, Piges, Rig, SimulationSpec, Trunnion, angle_range, simulate_modes,
+    self, BallbarMode, ModeData, Pige, Piges, Rig, SimulationSpec, Trunnion, angle_range,
+    simulate_modes,
 };
 use mtwin::methods::compensate::{CompensateOptions, Compensator};
 use mtwin::methods::skiving::{self, Geometry, SetupError, closed_form, program::Plan};
@@ -266,7 +267,7 @@ fn ballbar_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
         ex: -0.0403,
         ey: -0.0765,
     };
-    let specs: Vec<(Mode, SimulationSpec)> = Mode::ALL
+    let specs: Vec<(BallbarMode, SimulationSpec)> = BallbarMode::ALL
         .iter()
         .map(|&m| {
             let angles = if m.moves_a() {
@@ -310,7 +311,7 @@ fn ballbar_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
     let (before, after) = (largest_offset(&id.piges), largest_offset(&id_again.piges));
     // The ballbar's own view: largest ΔL of an ideally set bar (no set-up
     // error, no noise) before and after; the tilts, not compensated, remain.
-    let clean: Vec<(Mode, SimulationSpec)> = specs
+    let clean: Vec<(BallbarMode, SimulationSpec)> = specs
         .iter()
         .map(|(m, s)| {
             let mut s = s.clone();
@@ -332,7 +333,7 @@ fn ballbar_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
         worst_err = worst_err
             .max((id.piges.get(p) - true_piges.get(p)).abs() * if p.is_tilt() { 1e6 } else { 1e3 });
     }
-    let figures: Vec<(String, String)> = Mode::ALL
+    let figures: Vec<(String, String)> = BallbarMode::ALL
         .iter()
         .filter_map(|&m| {
             ballbar::plot::polar_plot(&id, m, &data[m.index()]).map(|svg| {

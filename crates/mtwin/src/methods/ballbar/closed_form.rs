@@ -14,21 +14,21 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::data::ModeData;
-use super::mode::{Mode, Rig};
+use super::mode::{BallbarMode, Rig};
 use super::{Pige, Piges};
 
 /// The first-order coefficients `(a, b)` of `mode` for `piges` on `rig`.
-pub fn coefficients(mode: Mode, piges: &Piges, rig: &Rig) -> (f64, f64) {
+pub fn coefficients(mode: BallbarMode, piges: &Piges, rig: &Rig) -> (f64, f64) {
     let g = |p: Pige| piges.get(p);
     let (ex, ey) = (rig.setup.ex, rig.setup.ey);
     match mode {
-        Mode::One => (g(Pige::EY0A) - ey, -g(Pige::EZ0A)),
-        Mode::Two => (
+        BallbarMode::One => (g(Pige::EY0A) - ey, -g(Pige::EZ0A)),
+        BallbarMode::Two => (
             g(Pige::EY0A) - ey + rig.zb1c * g(Pige::EC0A),
             rig.zb1c * g(Pige::EB0A) - g(Pige::EZ0A),
         ),
-        Mode::Three => (ex - g(Pige::EX0C), g(Pige::EY0A) + g(Pige::EY0C) - ey),
-        Mode::Four => (
+        BallbarMode::Three => (ex - g(Pige::EX0C), g(Pige::EY0A) + g(Pige::EY0C) - ey),
+        BallbarMode::Four => (
             ex - g(Pige::EX0C) - rig.zb1a * (g(Pige::EB0A) + g(Pige::EB0C)),
             g(Pige::EY0A) + g(Pige::EY0C) - ey - rig.zb1a * g(Pige::EA0C),
         ),
@@ -36,7 +36,7 @@ pub fn coefficients(mode: Mode, piges: &Piges, rig: &Rig) -> (f64, f64) {
 }
 
 /// First-order `ΔL(α) = L(α) − L(0)` (mm) of `mode` at `alpha_deg`.
-pub fn first_order_delta_l(mode: Mode, alpha_deg: f64, piges: &Piges, rig: &Rig) -> f64 {
+pub fn first_order_delta_l(mode: BallbarMode, alpha_deg: f64, piges: &Piges, rig: &Rig) -> f64 {
     let (a, b) = coefficients(mode, piges, rig);
     let (s, c) = alpha_deg.to_radians().sin_cos();
     a * (1.0 - c) + b * s
@@ -69,7 +69,7 @@ pub fn start_values(data: &[Option<&ModeData>; 4], rig: &Rig) -> (Piges, [f64; 4
     let mut lengths = [rig.length; 4];
     let (ex, ey) = (rig.setup.ex, rig.setup.ey);
     let mut coef = [None; 4];
-    for m in Mode::ALL {
+    for m in BallbarMode::ALL {
         if let Some((l, a, b)) = data[m.index()].and_then(fit_coefficients) {
             lengths[m.index()] = l;
             coef[m.index()] = Some((a, b));
@@ -140,7 +140,7 @@ mod tests {
                 ..Rig::seed()
             };
             let mut worst = 0.0f64;
-            for mode in Mode::ALL {
+            for mode in BallbarMode::ALL {
                 for al in [-90.0, -45.0, 30.0, 90.0, 135.0, 270.0] {
                     if mode.moves_a() && !(-90.0..=90.0).contains(&al) {
                         continue;
@@ -173,7 +173,7 @@ mod tests {
         let truth = Piges([
             0.02, -0.015, 8.7e-5, -6.1e-5, 0.014, -0.026, 4.4e-5, -9.3e-5,
         ]);
-        let sets: Vec<ModeData> = Mode::ALL
+        let sets: Vec<ModeData> = BallbarMode::ALL
             .iter()
             .map(|&m| {
                 let angles: Vec<f64> = (-18..=18).map(|k| k as f64 * 5.0).collect();

@@ -38,8 +38,8 @@ pub use doc::{
     BallbarIdentifyDoc, BallbarProgramDoc, BallbarSensitivityDoc, BallbarSetupDoc,
     BallbarSimulateDoc, PerMode, PerPige,
 };
-pub use identify::{Compensation, Identification, IdentifyError, Unresolved, identify};
-pub use mode::{Mode, ModeModel, Rig, Trunnion, TrunnionError, Unknowns, predicted_reading};
+pub use identify::{BallbarIdentifyError, Compensation, Identification, Unresolved, identify};
+pub use mode::{BallbarMode, ModeModel, Rig, Trunnion, TrunnionError, Unknowns, predicted_reading};
 pub use program::{ProgramError, ProgramSpec, program};
 pub use sensitivity::{SensitivityRow, delta_l_curve, sensitivity_table};
 pub use setup::{SetupError, SetupErrorInput, SetupErrorProblem, setup_error};

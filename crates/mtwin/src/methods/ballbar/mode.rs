@@ -37,7 +37,7 @@ use crate::model::Machine;
 
 /// One of the four measurement modes of [R1] (docs/references.md).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Mode {
+pub enum BallbarMode {
     /// A turns; B1 on the A/C intersection; bar along −y. Sees EY0A, EZ0A.
     One,
     /// A turns; B1 `ZB1C` along x from the C line; bar along −y. Adds EB0A, EC0A.
@@ -48,9 +48,14 @@ pub enum Mode {
     Four,
 }
 
-impl Mode {
+impl BallbarMode {
     /// All four, in order.
-    pub const ALL: [Mode; 4] = [Mode::One, Mode::Two, Mode::Three, Mode::Four];
+    pub const ALL: [BallbarMode; 4] = [
+        BallbarMode::One,
+        BallbarMode::Two,
+        BallbarMode::Three,
+        BallbarMode::Four,
+    ];
 
     /// 0..4.
     pub fn index(self) -> usize {
@@ -69,7 +74,7 @@ impl Mode {
 
     /// True when A turns (modes 1 and 2), false when C turns.
     pub fn moves_a(self) -> bool {
-        matches!(self, Mode::One | Mode::Two)
+        matches!(self, BallbarMode::One | BallbarMode::Two)
     }
 
     /// Name of the moving axis.
@@ -81,9 +86,9 @@ impl Mode {
     pub fn tool_ball(self, rig: &Rig) -> Vector3<f64> {
         let e = Vector3::new(rig.setup.ex, rig.setup.ey, 0.0);
         e + match self {
-            Mode::One | Mode::Three => Vector3::zeros(),
-            Mode::Two => Vector3::new(rig.zb1c, 0.0, 0.0),
-            Mode::Four => Vector3::new(0.0, 0.0, rig.zb1a),
+            BallbarMode::One | BallbarMode::Three => Vector3::zeros(),
+            BallbarMode::Two => Vector3::new(rig.zb1c, 0.0, 0.0),
+            BallbarMode::Four => Vector3::new(0.0, 0.0, rig.zb1a),
         }
     }
 
@@ -179,7 +184,7 @@ impl Trunnion {
         if p.axis() == 'A' { self.a } else { self.c }
     }
 
-    fn chain(&self, mode: Mode) -> &[usize] {
+    fn chain(&self, mode: BallbarMode) -> &[usize] {
         if mode.moves_a() {
             &self.chain_a
         } else {
@@ -187,7 +192,7 @@ impl Trunnion {
         }
     }
 
-    fn moving(&self, mode: Mode) -> usize {
+    fn moving(&self, mode: BallbarMode) -> usize {
         if mode.moves_a() { self.a } else { self.c }
     }
 }
@@ -205,7 +210,7 @@ pub(crate) struct Geometry<'k> {
 }
 
 impl<'k> Geometry<'k> {
-    pub(crate) fn new(kin: &'k Kinematics, t: &'k Trunnion, mode: Mode, rig: &Rig) -> Self {
+    pub(crate) fn new(kin: &'k Kinematics, t: &'k Trunnion, mode: BallbarMode, rig: &Rig) -> Self {
         let chain = t.chain(mode);
         let x0 = product(kin, chain, |_| 0.0);
         Geometry {
@@ -299,7 +304,7 @@ fn product(kin: &Kinematics, chain: &[usize], q: impl Fn(usize) -> f64) -> Rigid
 pub fn predicted_reading(
     machine: &Machine,
     t: &Trunnion,
-    mode: Mode,
+    mode: BallbarMode,
     rig: &Rig,
     ell: f64,
     alpha_deg: f64,
@@ -319,7 +324,7 @@ pub struct Unknowns {
     /// Values of the PIGEs not estimated (the free ones' entries are ignored).
     pub fixed: Piges,
     /// Modes taking part, in θ order of their bar lengths.
-    pub modes: Vec<Mode>,
+    pub modes: Vec<BallbarMode>,
 }
 
 impl Unknowns {
@@ -358,7 +363,7 @@ impl Unknowns {
     }
 
     /// θ index of the bar length of `mode`.
-    pub fn length_index(&self, mode: Mode) -> Option<usize> {
+    pub fn length_index(&self, mode: BallbarMode) -> Option<usize> {
         self.modes
             .iter()
             .position(|&m| m == mode)
@@ -379,7 +384,7 @@ impl Unknowns {
 pub struct ModeModel<'a> {
     base: &'a Machine,
     trunnion: &'a Trunnion,
-    mode: Mode,
+    mode: BallbarMode,
     rig: Rig,
     data: &'a ModeData,
     unknowns: &'a Unknowns,
@@ -396,7 +401,7 @@ impl<'a> ModeModel<'a> {
     pub fn new(
         base: &'a Machine,
         trunnion: &'a Trunnion,
-        mode: Mode,
+        mode: BallbarMode,
         rig: Rig,
         data: &'a ModeData,
         unknowns: &'a Unknowns,
@@ -535,7 +540,7 @@ mod tests {
             let y = (ey - l - dy) * c + dz * s + dy;
             let z = (ey - l - dy) * s - dz * c + dz;
             let expect = ((y - ey).powi(2) + z * z).sqrt();
-            let got = predicted_reading(&m, &t, Mode::One, &rig, l, alpha);
+            let got = predicted_reading(&m, &t, BallbarMode::One, &rig, l, alpha);
             assert!((got - expect).abs() < 1e-11, "{alpha}: {got} {expect}");
         }
         let _ = ex;
@@ -562,7 +567,7 @@ mod tests {
         for alpha in [0.0_f64, 45.0, 170.0, 300.0] {
             let rot = nalgebra::Rotation2::new(alpha.to_radians());
             let b2 = ctr + rot * (b20 - ctr);
-            let got = predicted_reading(&m, &t, Mode::Three, &rig, 100.0, alpha);
+            let got = predicted_reading(&m, &t, BallbarMode::Three, &rig, 100.0, alpha);
             assert!((got - (b2 - b1).norm()).abs() < 1e-11);
         }
     }
@@ -581,7 +586,7 @@ mod tests {
         let unknowns = Unknowns {
             free: Pige::ALL.to_vec(),
             fixed: Piges::default(),
-            modes: Mode::ALL.to_vec(),
+            modes: BallbarMode::ALL.to_vec(),
         };
         let rig = Rig {
             setup: SetupError {
@@ -600,7 +605,7 @@ mod tests {
             &Piges([0.02, -0.015, 9e-5, -6e-5, 0.014, -0.026, 4.4e-5, -9.3e-5]),
             &[100.001, 99.999, 100.0, 100.002],
         );
-        for mode in Mode::ALL {
+        for mode in BallbarMode::ALL {
             let model = ModeModel::new(&base, &t, mode, rig, &data, &unknowns);
             let c = check_jacobian(&model, &theta).unwrap();
             // Columns are O(1) mm/mm for offsets and O(100) mm/rad for tilts; the

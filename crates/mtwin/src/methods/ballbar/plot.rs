@@ -5,13 +5,13 @@
 use super::Pige;
 use super::data::ModeData;
 use super::identify::Identification;
-use super::mode::{Mode, predicted_reading};
+use super::mode::{BallbarMode, predicted_reading};
 use crate::report::svg::{Series, polar};
 
 /// The SVG of `mode`: measured `ΔL = reading − ℓ`, fitted, and after
 /// compensating EY0A, EZ0A, EX0C, EY0C (µm rings). `None` when the mode did
 /// not take part.
-pub fn polar_plot(id: &Identification, mode: Mode, data: &ModeData) -> Option<String> {
+pub fn polar_plot(id: &Identification, mode: BallbarMode, data: &ModeData) -> Option<String> {
     let ell = id.lengths[mode.index()]?;
     let measured: Vec<(f64, f64)> = data
         .angles_deg

@@ -213,7 +213,7 @@ pub fn program(
     }
     comment(
         &mut s,
-        "mtwin skiving touch-off program: workpiece set-up error (docs/skiving.md)",
+        "mtwin skiving touch-off program: workpiece set-up error, see docs/skiving.md",
     );
     comment(
         &mut s,

@@ -219,7 +219,7 @@ pub fn thermal_program(
     s.push_str("%\n");
     comment(
         &mut s,
-        "mtwin thermal program: thermal drift measurement (docs/thermal.md)",
+        "mtwin thermal program: thermal drift measurement, see docs/thermal.md",
     );
     comment(
         &mut s,

@@ -244,7 +244,7 @@ fn bad_points_are_rejected() {
     };
     assert_eq!(
         identify(&m, &params, &[], &opts, &|_| {}).unwrap_err(),
-        IdentifyError::NoPoints
+        TrackerIdentifyError::NoPoints
     );
     let e = identify(
         &m,
@@ -254,7 +254,7 @@ fn bad_points_are_rejected() {
         &|_| {},
     );
     assert!(
-        matches!(e, Err(IdentifyError::OutOfTravel { point: 0, .. })),
+        matches!(e, Err(TrackerIdentifyError::OutOfTravel { point: 0, .. })),
         "{e:?}"
     );
     let e = identify(
@@ -265,14 +265,14 @@ fn bad_points_are_rejected() {
         &|_| {},
     );
     assert!(
-        matches!(e, Err(IdentifyError::NonFinite { point: 0 })),
+        matches!(e, Err(TrackerIdentifyError::NonFinite { point: 0 })),
         "{e:?}"
     );
     let mut rng = StdRng::seed_from_u64(1);
     let pts = simulate(&m, &random_poses(&m, 3, &mut rng), 0.01, &mut rng);
     let e = identify(&m, &params, &pts, &opts, &|_| {});
     assert!(
-        matches!(e, Err(IdentifyError::TooFewPoints { points: 3, .. })),
+        matches!(e, Err(TrackerIdentifyError::TooFewPoints { points: 3, .. })),
         "{e:?}"
     );
 }

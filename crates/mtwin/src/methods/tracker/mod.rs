@@ -14,6 +14,6 @@ pub mod validate;
 pub use doc::{
     CompensatePointsDoc, TrackerIdentifyDoc, TrackerPlanDoc, TrackerSimulateDoc, TrackerValidateDoc,
 };
-pub use identify::{Identification, IdentifyError, IdentifyOptions, identify};
+pub use identify::{Identification, IdentifyOptions, TrackerIdentifyError, identify};
 pub use model::{TrackerModel, TrackerPoint};
 pub use validate::{ErrorStats, Stats, Validation, validate};
