@@ -18,7 +18,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     true_piges.write_to(&mut truth, &t);
 
     // Every mode over its angle range, 0.3 µm noise on the bar length.
-    let rig = Rig::seed();
+    let rig = Rig::source_paper();
     let specs: Vec<(BallbarMode, SimulationSpec)> = BallbarMode::ALL
         .iter()
         .map(|&m| {

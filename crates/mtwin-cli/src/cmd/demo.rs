@@ -262,7 +262,7 @@ fn ballbar_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
     let true_piges = Piges::from_machine(&with_errors, &Trunnion::of(&with_errors)?);
     let mut truth = nominal.clone();
     true_piges.write_to(&mut truth, &t);
-    let mut rig = Rig::seed();
+    let mut rig = Rig::source_paper();
     rig.setup = ballbar::SetupError {
         ex: -0.0403,
         ey: -0.0765,

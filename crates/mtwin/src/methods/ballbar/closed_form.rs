@@ -137,7 +137,7 @@ mod tests {
                     ex: setup.ex * k,
                     ey: setup.ey * k,
                 },
-                ..Rig::seed()
+                ..Rig::source_paper()
             };
             let mut worst = 0.0f64;
             for mode in BallbarMode::ALL {
@@ -168,7 +168,7 @@ mod tests {
                 ex: 0.01,
                 ey: -0.02,
             },
-            ..Rig::seed()
+            ..Rig::source_paper()
         };
         let truth = Piges([
             0.02, -0.015, 8.7e-5, -6.1e-5, 0.014, -0.026, 4.4e-5, -9.3e-5,

@@ -385,7 +385,7 @@ mod tests {
             "ac-trunnion.toml",
             include_str!("../../../../../examples/machines/ac-trunnion.toml"),
         );
-        let rig = Rig::seed();
+        let rig = Rig::source_paper();
         // Modes 1 and 2 only: the C-line PIGEs stay unidentified.
         let specs: Vec<(BallbarMode, SimulationSpec)> = [BallbarMode::One, BallbarMode::Two]
             .map(|m| {
@@ -437,7 +437,7 @@ mod tests {
         );
         let rows = sensitivity_table(
             &nominal,
-            &Rig::seed(),
+            &Rig::source_paper(),
             0.010,
             1e-4,
             &BallbarMode::ALL.map(angles),

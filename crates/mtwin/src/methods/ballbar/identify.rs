@@ -523,7 +523,7 @@ mod tests {
     fn rig(ex: f64, ey: f64) -> Rig {
         Rig {
             setup: SetupError { ex, ey },
-            ..Rig::seed()
+            ..Rig::source_paper()
         }
     }
 
@@ -583,7 +583,7 @@ mod tests {
     }
 
     #[test]
-    fn seed_experiment_replayed_in_simulation() {
+    fn source_paper_experiment_replayed_in_simulation() {
         // Source paper [R1], experiment: eX = −0.0403, eY = −0.0765 mm; offsets up to 203.5 µm, tilts ±0.005°.
         let rig = rig(-0.0403, -0.0765);
         let t5 = 0.005_f64.to_radians();

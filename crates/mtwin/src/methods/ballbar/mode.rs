@@ -117,7 +117,7 @@ pub struct Rig {
 
 impl Rig {
     /// The rig of the source paper [R1]: `L = 100`, `ZB1C = ZB1A = 100` mm, no set-up error.
-    pub fn seed() -> Rig {
+    pub fn source_paper() -> Rig {
         Rig {
             length: 100.0,
             zb1c: 100.0,
@@ -519,7 +519,7 @@ mod tests {
     }
 
     #[test]
-    fn mode_one_matches_the_seed_exact_formula_for_offsets() {
+    fn mode_one_matches_the_source_paper_exact_formula_for_offsets() {
         // With offsets only, eq. 4/6 of the source paper [R1] is exact: B2 turns about the line x-parallel
         // through (·, EY0A, EZ0A).
         let mut m = trunnion_machine();
@@ -532,7 +532,7 @@ mod tests {
                 ex: -0.0403,
                 ey: -0.0765,
             },
-            ..Rig::seed()
+            ..Rig::source_paper()
         };
         let (ex, ey, l) = (rig.setup.ex, rig.setup.ey, 100.0);
         for alpha in [-90.0_f64, -35.0, 0.0, 20.0, 90.0] {
@@ -559,7 +559,7 @@ mod tests {
                 ex: 0.03,
                 ey: -0.02,
             },
-            ..Rig::seed()
+            ..Rig::source_paper()
         };
         let ctr = nalgebra::Vector2::new(-0.023, 0.011 + 0.007);
         let b1 = nalgebra::Vector2::new(0.03, -0.02);
@@ -593,7 +593,7 @@ mod tests {
                 ex: -0.04,
                 ey: 0.07,
             },
-            ..Rig::seed()
+            ..Rig::source_paper()
         };
         let angles: Vec<f64> = (-18..=18).map(|k| k as f64 * 10.0).collect();
         let data = ModeData {

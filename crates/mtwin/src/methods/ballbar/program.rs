@@ -187,7 +187,7 @@ mod tests {
     #[test]
     fn mode_two_places_the_ball_and_dwells_at_every_step() {
         let spec = ProgramSpec {
-            rig: Rig::seed(),
+            rig: Rig::source_paper(),
             angles_deg: angle_range(-90.0, 90.0, 5.0),
             dwell_s: 2.0,
             feed: 720.0,
@@ -215,7 +215,7 @@ mod tests {
     fn moves_are_in_machine_coordinates_whatever_the_offsets() {
         use crate::gcode::{Axis, EventKind, InterpOptions, Interpreter, Program};
         let spec = ProgramSpec {
-            rig: Rig::seed(),
+            rig: Rig::source_paper(),
             angles_deg: angle_range(0.0, 90.0, 45.0),
             dwell_s: 1.0,
             feed: 720.0,
@@ -256,7 +256,7 @@ mod tests {
     #[test]
     fn mode_four_raises_the_ball_and_rejects_out_of_travel() {
         let mut spec = ProgramSpec {
-            rig: Rig::seed(),
+            rig: Rig::source_paper(),
             angles_deg: angle_range(0.0, 360.0, 5.0),
             dwell_s: 1.0,
             feed: 720.0,

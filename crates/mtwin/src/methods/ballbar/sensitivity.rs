@@ -95,11 +95,11 @@ mod tests {
     }
 
     #[test]
-    fn reproduces_the_seed_table_2() {
+    fn reproduces_table_2_of_the_source_paper() {
         // Seed table 1: offsets 10 µm, tilts 0.005°.
         let (m, angles) = setup();
         let tilt = 0.005_f64.to_radians();
-        let rows = sensitivity_table(&m, &Rig::seed(), 0.010, tilt, &angles).unwrap();
+        let rows = sensitivity_table(&m, &Rig::source_paper(), 0.010, tilt, &angles).unwrap();
         for r in &rows {
             for mode in BallbarMode::ALL {
                 let peak = r.peak[mode.index()];
@@ -133,8 +133,22 @@ mod tests {
         a.set(Pige::EY0A, 0.01);
         let mut c = Piges::default();
         c.set(Pige::EY0C, 0.01);
-        let ca = delta_l_curve(&m, &t, BallbarMode::Three, &Rig::seed(), &a, &angles[2]);
-        let cc = delta_l_curve(&m, &t, BallbarMode::Three, &Rig::seed(), &c, &angles[2]);
+        let ca = delta_l_curve(
+            &m,
+            &t,
+            BallbarMode::Three,
+            &Rig::source_paper(),
+            &a,
+            &angles[2],
+        );
+        let cc = delta_l_curve(
+            &m,
+            &t,
+            BallbarMode::Three,
+            &Rig::source_paper(),
+            &c,
+            &angles[2],
+        );
         for (x, y) in ca.iter().zip(&cc) {
             assert!((x - y).abs() < 1e-12);
         }

@@ -142,7 +142,7 @@ mod tests {
     }
 
     #[test]
-    fn seed_machine_by_hand() {
+    fn source_paper_machine_by_hand() {
         // R = 0.1, L = 100 and Lmin + R = |OB2| with the ball at (−0.06, −0.08):
         // |OB2|² = 99.94² + 0.08², φ from the cosine rule, eX = −R cos φ = −0.06.
         let ob2 = (99.94_f64.powi(2) + 0.0064).sqrt();

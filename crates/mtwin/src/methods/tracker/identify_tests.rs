@@ -149,7 +149,7 @@ fn held_out_prediction_matches_an_independent_least_squares_fit() {
 const SEED_SPEC: &str = "pdge:cheb3,EC0Y,EB0Z,EA0Z,EX0B,EZ0B,EA0B,EB0B,EC0B,EY0A,EZ0A,EA0A,EB0A,EC0A,EX0C,EY0C,EA0C,EB0C,EC0C";
 
 #[test]
-fn verdict_names_the_confounded_parameters_of_the_seed_model() {
+fn verdict_names_the_confounded_parameters_of_the_source_paper_model() {
     let m = afp();
     let params = ParameterSet::from_spec(&m, SEED_SPEC).unwrap();
     assert_eq!(params.len(), 162);
