@@ -1,4 +1,4 @@
-//! Output conventions shared by every subcommand (00 §7): `--format json` prints
+//! Output conventions shared by every subcommand (see docs/guide.md): `--format json` prints
 //! machine-readable JSON on stdout and nothing else; notes, warnings and progress
 //! go to stderr; output files are written all-or-nothing (`mtwin::io::Outputs`).
 //!

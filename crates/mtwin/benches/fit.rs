@@ -1,7 +1,7 @@
 //! Benchmarks of the least-squares engine.
 //!
 //! * `fit/tracker_162x540`: a synthetic laser-tracker identification of the
-//!   size of spec 02 (162 parameters: 6 axes × 6 PDGEs × Chebyshev c0..c3 plus
+//!   size of the source paper [R2] (162 parameters: 6 axes × 6 PDGEs × Chebyshev c0..c3 plus
 //!   18 constants; 180 points × 3 coordinates), with the second-order
 //!   rotation term making it nonlinear and the Chebyshev constant terms of
 //!   parallel translations confounded, as in the real problem. Dense path.
@@ -14,7 +14,7 @@
 //!   AC trunnion from 100 000 simulated tracker points (1 µm noise) by
 //!   [`identify`]: normal-equation path, factored Jacobian.
 //! * `tracker/afp_simulate_identify_180`: the tracker workflow end to end on
-//!   the AFP gantry of spec 02: simulate 180 random poses of
+//!   the AFP gantry of [R2]: simulate 180 random poses of
 //!   `afp-gantry-with-errors.toml` (10 µm noise) and identify
 //!   `pdge:cheb3,location` (162 parameters, dense path).
 //!

@@ -1,4 +1,4 @@
-//! Forward kinematics with errors on the AC trunnion with all 41 error terms of spec 05.
+//! Forward kinematics with errors on the AC trunnion with all 41 error terms of the [R5] example (docs/references.md).
 //!
 //! `cargo bench -p mtwin --bench kinematics`
 

@@ -10,7 +10,7 @@ use mtwin::sysid::{
     Start, fit_arx, fit_servo, select_orders,
 };
 
-/// A servo log of `n` samples: the example servo of 00 §5 driven by a swept sine.
+/// A servo log of `n` samples: the example servo of docs/machine-model.md driven by a swept sine.
 fn servo_log(n: usize) -> (Servo, ServoLog) {
     let servo = Servo::new(
         0.001,

@@ -5,7 +5,7 @@
 
 use mtwin::fit::Options;
 use mtwin::methods::ballbar::{
-    self, Mode, ModeData, Piges, Rig, SimulationSpec, Trunnion, angle_range, simulate_modes,
+    self, BallbarMode, ModeData, Piges, Rig, SimulationSpec, Trunnion, angle_range, simulate_modes,
 };
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -18,8 +18,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     true_piges.write_to(&mut truth, &t);
 
     // Every mode over its angle range, 0.3 µm noise on the bar length.
-    let rig = Rig::seed();
-    let specs: Vec<(Mode, SimulationSpec)> = Mode::ALL
+    let rig = Rig::source_paper();
+    let specs: Vec<(BallbarMode, SimulationSpec)> = BallbarMode::ALL
         .iter()
         .map(|&m| {
             let angles = if m.moves_a() {

@@ -4,7 +4,7 @@
 //! `/usr/bin/time -f "%U s user %e s wall" target/release/examples/fit_scale 100000 32`
 //!
 //! Simulates N laser-tracker points (1 µm noise) of the AC trunnion with all 41 error terms
-//! of spec 05, then identifies `pdge:cheb<D>,location` (30·(D+1) + 30 parameters: 1 020 for
+//! of the [R5] example, then identifies `pdge:cheb<D>,location` (30·(D+1) + 30 parameters: 1 020 for
 //! D = 32) with [`mtwin::methods::tracker::identify`] on the normal-equation path.
 //! `FIT_SCALE_ROWS=1` forms Jacobian rows instead of using the factored Jacobian;
 //! `FIT_SCALE_VERBOSE=1` prints every progress report.

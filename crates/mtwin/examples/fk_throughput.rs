@@ -3,7 +3,7 @@
 //! `cargo build --release --example fk_throughput -p mtwin`
 //! `/usr/bin/time -f "%U s user" target/release/examples/fk_throughput 20000000 [single|batch]`
 //!
-//! Evaluates N poses of the AC trunnion with all 41 error terms of spec 05 on one thread,
+//! Evaluates N poses of the AC trunnion with all 41 error terms of the [R5] example on one thread,
 //! random poses from a xorshift generator (included in the time): `single` calls
 //! `Kinematics::pose` per pose, `batch` (default) fills blocks of 4096 positions and calls
 //! `Kinematics::poses_into`.

@@ -1,4 +1,4 @@
-//! `mtwin ballbar …` (spec 01): double-ballbar identification of the eight
+//! `mtwin ballbar …` ([R1] in docs/references.md): double-ballbar identification of the eight
 //! location errors of the rotary axes of a double-turntable machine.
 
 use std::path::{Path, PathBuf};
@@ -7,10 +7,10 @@ use anyhow::{Context, bail};
 use mtwin::fit::Options;
 use mtwin::io::Outputs;
 use mtwin::methods::ballbar::{
-    self, BallbarIdentifyDoc, BallbarProgramDoc, BallbarSensitivityDoc, BallbarSetupDoc,
-    BallbarSimulateDoc, Mode, ModeData, ProgramSpec, Rig, SetupErrorInput, SimulationSpec,
-    angle_range, identify, read_mode_file, sensitivity_table, setup_error, simulate_modes,
-    write_mode_file,
+    self, BallbarIdentifyDoc, BallbarMode, BallbarProgramDoc, BallbarSensitivityDoc,
+    BallbarSetupDoc, BallbarSimulateDoc, ModeData, ProgramSpec, Rig, SetupErrorInput,
+    SimulationSpec, angle_range, identify, read_mode_file, sensitivity_table, setup_error,
+    simulate_modes, write_mode_file,
 };
 use mtwin::model::{Machine, machine_to_toml};
 
@@ -30,7 +30,7 @@ pub enum Command {
         after_help = "Example:\n  mtwin ballbar identify --mode1 m1.csv --mode2 m2.csv --mode3 m3.csv --mode4 m4.csv --length 100 --zb1c 100 --zb1a 100 --ex -0.0403 --ey -0.0765 --format json"
     )]
     Identify(IdentifyArgs),
-    /// Which PIGE moves which mode, and by how much (the seed's table 2).
+    /// Which PIGE moves which mode, and by how much (table 2 of the source paper [R1], docs/references.md).
     #[command(after_help = "Example:\n  mtwin ballbar sensitivity --offset 0.010 --tilt 8.7e-5")]
     Sensitivity(SensitivityArgs),
     /// Write the four G-code test programs (static ballbar, dwell at each step).
@@ -160,7 +160,7 @@ pub struct RangeArgs {
 }
 
 impl RangeArgs {
-    fn angles(&self, mode: Mode) -> anyhow::Result<Vec<f64>> {
+    fn angles(&self, mode: BallbarMode) -> anyhow::Result<Vec<f64>> {
         let (r, name) = if mode.moves_a() {
             (&self.a_range, "--a-range")
         } else {
@@ -300,12 +300,12 @@ fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
         bail!("give at least one of --mode1 … --mode4");
     }
     // One polar plot per mode given.
-    let plot_path = |dir: &Path, m: Mode| dir.join(format!("{}.svg", m.label()));
+    let plot_path = |dir: &Path, m: BallbarMode| dir.join(format!("{}.svg", m.label()));
     let plot_files: Vec<PathBuf> = a
         .plot
         .iter()
         .flat_map(|dir| {
-            Mode::ALL
+            BallbarMode::ALL
                 .into_iter()
                 .filter(|m| files[m.index()].is_some())
                 .map(|m| plot_path(dir, m))
@@ -351,7 +351,7 @@ fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
     }
     let mut plots = Vec::new();
     if let Some(dir) = &a.plot {
-        for m in Mode::ALL {
+        for m in BallbarMode::ALL {
             if let Some(d) = refs[m.index()]
                 && let Some(svg) = ballbar::plot::polar_plot(&id, m, d)
             {
@@ -380,25 +380,25 @@ fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
 fn run_sensitivity(a: SensitivityArgs) -> anyhow::Result<()> {
     let machine = machine_or(&a.machine, "ac-trunnion.toml")?;
     let angles = [
-        a.range.angles(Mode::One)?,
-        a.range.angles(Mode::Two)?,
-        a.range.angles(Mode::Three)?,
-        a.range.angles(Mode::Four)?,
+        a.range.angles(BallbarMode::One)?,
+        a.range.angles(BallbarMode::Two)?,
+        a.range.angles(BallbarMode::Three)?,
+        a.range.angles(BallbarMode::Four)?,
     ];
     let rows = sensitivity_table(&machine, &a.rig.ideal_rig(), a.offset, a.tilt, &angles)?;
     print_doc(&BallbarSensitivityDoc::from(rows.as_slice()), a.format)
 }
 
 fn run_program(a: ProgramArgs) -> anyhow::Result<()> {
-    let program_path = |m: Mode| a.out.join(format!("{}.ngc", m.label()));
+    let program_path = |m: BallbarMode| a.out.join(format!("{}.ngc", m.label()));
     let mut out = Outputs::plan()
         .inputs(&a.machine)
         .folder(&a.out)
-        .outputs(Mode::ALL.map(program_path))
+        .outputs(BallbarMode::ALL.map(program_path))
         .begin()?;
     let machine = machine_or(&a.machine, "ac-trunnion.toml")?;
     let mut texts = Vec::new();
-    for m in Mode::ALL {
+    for m in BallbarMode::ALL {
         let spec = ProgramSpec {
             rig: a.rig.rig(),
             angles_deg: a.range.angles(m)?,
@@ -423,11 +423,11 @@ fn run_program(a: ProgramArgs) -> anyhow::Result<()> {
 }
 
 fn run_simulate(a: SimulateArgs) -> anyhow::Result<()> {
-    let data_path = |m: Mode| a.out.join(format!("{}.csv", m.label()));
+    let data_path = |m: BallbarMode| a.out.join(format!("{}.csv", m.label()));
     let mut out = Outputs::plan()
         .inputs(&a.machine)
         .folder(&a.out)
-        .outputs(Mode::ALL.map(data_path))
+        .outputs(BallbarMode::ALL.map(data_path))
         .begin()?;
     let machine = machine_or(&a.machine, "ac-trunnion-with-errors.toml")?;
     if !(a.noise >= 0.0 && a.noise.is_finite()) {
@@ -437,7 +437,7 @@ fn run_simulate(a: SimulateArgs) -> anyhow::Result<()> {
         );
     }
     let mut specs = Vec::new();
-    for m in Mode::ALL {
+    for m in BallbarMode::ALL {
         specs.push((
             m,
             SimulationSpec {
@@ -449,7 +449,7 @@ fn run_simulate(a: SimulateArgs) -> anyhow::Result<()> {
     }
     let data = simulate_modes(&machine, &specs, a.seed)?;
     let mut written = Vec::new();
-    for (m, d) in Mode::ALL.iter().zip(&data) {
+    for (m, d) in BallbarMode::ALL.iter().zip(&data) {
         let p = data_path(*m);
         out.write_with(&p, |w| write_mode_file(w, d))
             .with_context(|| format!("cannot write {}", p.display()))?;

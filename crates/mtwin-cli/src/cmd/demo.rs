@@ -1,6 +1,6 @@
 //! `mtwin demo`: every method end to end on the bundled example machines and
 //! on data simulated from known truths, a short summary of each (with the
-//! seed's headline figure beside ours), and the HTML report of everything.
+//! source's headline figure (docs/references.md) beside ours), and the HTML report of everything.
 //!
 //! Each step is one function returning its summary lines, its JSON summary and
 //! its report sections, built by the same library functions `mtwin report`
@@ -14,7 +14,8 @@ use mtwin::fit::Options;
 use mtwin::io::Outputs;
 use mtwin::kinematics::{IkOptions, IkTarget, Kinematics};
 use mtwin::methods::ballbar::{
-    self, Mode, ModeData, Pige, Piges, Rig, SimulationSpec, Trunnion, angle_range, simulate_modes,
+    self, BallbarMode, ModeData, Pige, Piges, Rig, SimulationSpec, Trunnion, angle_range,
+    simulate_modes,
 };
 use mtwin::methods::compensate::{CompensateOptions, Compensator};
 use mtwin::methods::skiving::{self, Geometry, SetupError, closed_form, program::Plan};
@@ -253,7 +254,7 @@ fn machine_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
 /// PIGEs identified on the nominal model, the offsets compensated.
 fn ballbar_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
     // The truth: the nominal trunnion with the eight PIGEs of the example
-    // machine with errors (the ballbar sees the rotary axes; the seed takes
+    // machine with errors (the ballbar sees the rotary axes; the source paper [R1] takes
     // the linear axes as calibrated).
     let nominal = bundled::machine("ac-trunnion.toml")?;
     let with_errors = bundled::machine("ac-trunnion-with-errors.toml")?;
@@ -261,12 +262,12 @@ fn ballbar_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
     let true_piges = Piges::from_machine(&with_errors, &Trunnion::of(&with_errors)?);
     let mut truth = nominal.clone();
     true_piges.write_to(&mut truth, &t);
-    let mut rig = Rig::seed();
+    let mut rig = Rig::source_paper();
     rig.setup = ballbar::SetupError {
         ex: -0.0403,
         ey: -0.0765,
     };
-    let specs: Vec<(Mode, SimulationSpec)> = Mode::ALL
+    let specs: Vec<(BallbarMode, SimulationSpec)> = BallbarMode::ALL
         .iter()
         .map(|&m| {
             let angles = if m.moves_a() {
@@ -287,7 +288,7 @@ fn ballbar_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
     let data = simulate_modes(&truth, &specs, 1)?;
     let refs: [Option<&ModeData>; 4] = [0, 1, 2, 3].map(|i| Some(&data[i]));
     let id = ballbar::identify(&nominal, &rig, &refs, &Options::default())?;
-    // The seed's headline (its table 4): the largest absolute location offset
+    // The headline of the source paper [R1] (its table 4): the largest absolute location offset
     // identified before compensation, and identified again from a second
     // measurement of the machine after the four offsets were compensated
     // (its offsets minus the identified ones).
@@ -310,7 +311,7 @@ fn ballbar_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
     let (before, after) = (largest_offset(&id.piges), largest_offset(&id_again.piges));
     // The ballbar's own view: largest ΔL of an ideally set bar (no set-up
     // error, no noise) before and after; the tilts, not compensated, remain.
-    let clean: Vec<(Mode, SimulationSpec)> = specs
+    let clean: Vec<(BallbarMode, SimulationSpec)> = specs
         .iter()
         .map(|(m, s)| {
             let mut s = s.clone();
@@ -332,7 +333,7 @@ fn ballbar_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
         worst_err = worst_err
             .max((id.piges.get(p) - true_piges.get(p)).abs() * if p.is_tilt() { 1e6 } else { 1e3 });
     }
-    let figures: Vec<(String, String)> = Mode::ALL
+    let figures: Vec<(String, String)> = BallbarMode::ALL
         .iter()
         .filter_map(|&m| {
             ballbar::plot::polar_plot(&id, m, &data[m.index()]).map(|svg| {
@@ -356,7 +357,7 @@ fn ballbar_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
         Block::Headlines(vec![Headline {
             label: "largest location offset of A and C: identified before → re-identified after compensating the four offsets".into(),
             ours: format!("{:.1} → {:.2} µm", before * 1e3, after * 1e3),
-            seed: "203.5 → 5.1 µm".into(),
+            source: "203.5 → 5.1 µm".into(),
         }]),
     );
     Ok(Step {
@@ -369,19 +370,19 @@ fn ballbar_step(_: &Args, _: &mut Outputs) -> anyhow::Result<Step> {
                 worst_err
             ),
             format!(
-                "largest location offset {:.1} µm → {:.2} µm re-identified after compensating the four offsets (seed: 203.5 → 5.1 µm)",
+                "largest location offset {:.1} µm → {:.2} µm re-identified after compensating the four offsets (source paper [R1]: 203.5 → 5.1 µm)",
                 before * 1e3,
                 after * 1e3
             ),
             format!(
-                "largest ballbar ΔL {:.1} µm → {:.1} µm (the four tilts are not compensated, as in the seed)",
+                "largest ballbar ΔL {:.1} µm → {:.1} µm (the four tilts are not compensated, as in the source paper [R1])",
                 dl_before * 1e3,
                 dl_after * 1e3
             ),
         ],
         json: json!({"largest_offset_before_mm": before, "largest_offset_after_mm": after,
             "largest_deviation_before_mm": dl_before, "largest_deviation_after_mm": dl_after,
-            "seed_before_mm": 0.2035, "seed_after_mm": 0.0051, "largest_error_vs_truth_um_or_urad": worst_err}),
+            "source_before_mm": 0.2035, "source_after_mm": 0.0051, "largest_error_vs_truth_um_or_urad": worst_err}),
         sections: vec![s],
     })
 }
@@ -460,12 +461,12 @@ fn tracker_step(a: &Args, out: &mut Outputs) -> anyhow::Result<Step> {
             Headline {
                 label: "body diagonals, change of the largest |Δp|".into(),
                 ours: format!("{:.0} %", ch.max),
-                seed: "−70 %".into(),
+                source: "−70 %".into(),
             },
             Headline {
                 label: "body diagonals, change of the mean |Δp|".into(),
                 ours: format!("{:.0} %", ch.mean),
-                seed: "−81 %".into(),
+                source: "−81 %".into(),
             },
         ]),
     );
@@ -481,7 +482,7 @@ fn tracker_step(a: &Args, out: &mut Outputs) -> anyhow::Result<Step> {
                 r.condition_number
             ),
             format!(
-                "validation on the four body diagonals ({} points): |Δp| max {:.0} → {:.0} µm ({:.0} %), mean {:.0} → {:.0} µm ({:.0} %) (seed: max −70 %, mean −81 %)",
+                "validation on the four body diagonals ({} points): |Δp| max {:.0} → {:.0} µm ({:.0} %), mean {:.0} → {:.0} µm ({:.0} %) (source paper [R2]: max −70 %, mean −81 %)",
                 v.points,
                 v.before.distance.max * 1e3,
                 v.after.distance.max * 1e3,
@@ -493,7 +494,7 @@ fn tracker_step(a: &Args, out: &mut Outputs) -> anyhow::Result<Step> {
         ],
         json: json!({"rank": r.identifiability.rank, "parameters": r.estimates.len(),
             "diagonal_change_max_percent": ch.max, "diagonal_change_mean_percent": ch.mean,
-            "seed_change_max_percent": -70.0, "seed_change_mean_percent": -81.0}),
+            "source_change_max_percent": -70.0, "source_change_mean_percent": -81.0}),
         sections: vec![
             sections::tracker::identify_section(&id_doc),
             vs,
@@ -576,7 +577,7 @@ fn face(n: u32, out: &mut String) {
 }
 
 /// Step 5: Thermal: probing runs of a known two-time-constant machine, ARX fit per
-/// height, and the seed's check: a face milled cold and again after an hour at
+/// height, and the check of the source paper [R4]: a face milled cold and again after an hour at
 /// varying speed, without and with the program compensated.
 fn thermal_step(a: &Args, out: &mut Outputs) -> anyhow::Result<Step> {
     let mut truth = TruthMachine::demo();
@@ -597,7 +598,7 @@ fn thermal_step(a: &Args, out: &mut Outputs) -> anyhow::Result<Step> {
     let model = fit.model;
     out.write(a.out_dir.join("thermal.toml"), model.to_toml()?.as_bytes())
         .context("cannot write thermal.toml")?;
-    // The seed's check as a program.
+    // The check of the source paper [R4] as a program.
     let mut program = String::from("%\nG21 G90 G94 G17\nG0 Z5\nS6000 M3\n");
     face(1, &mut program);
     for (rpm, seconds) in [
@@ -679,7 +680,7 @@ fn thermal_step(a: &Args, out: &mut Outputs) -> anyhow::Result<Step> {
             label: "cold face vs face after an hour: height difference without → with compensation"
                 .into(),
             ours: format!("{:.1} → {:.1} µm", d_raw * 1e3, d_cor * 1e3),
-            seed: "7 → 2 µm".into(),
+            source: "7 → 2 µm".into(),
         }]),
     );
     Ok(Step {
@@ -697,7 +698,7 @@ fn thermal_step(a: &Args, out: &mut Outputs) -> anyhow::Result<Step> {
                     * 1e3
             ),
             format!(
-                "test program ({:.0} min, {} blocks): faces cold and after an hour differ by {:.1} µm without and {:.1} µm with compensation (seed: 7 → 2 µm)",
+                "test program ({:.0} min, {} blocks): faces cold and after an hour differ by {:.1} µm without and {:.1} µm with compensation (source paper [R4]: 7 → 2 µm)",
                 comp.duration_min,
                 comp.blocks,
                 d_raw * 1e3,
@@ -705,7 +706,7 @@ fn thermal_step(a: &Args, out: &mut Outputs) -> anyhow::Result<Step> {
             ),
         ],
         json: json!({"face_difference_mm": d_raw, "face_difference_compensated_mm": d_cor,
-            "seed_face_difference_mm": 0.007, "seed_face_difference_compensated_mm": 0.002}),
+            "source_face_difference_mm": 0.007, "source_face_difference_compensated_mm": 0.002}),
         sections: vec![s],
     })
 }
@@ -830,7 +831,7 @@ fn compensate_step(a: &Args, staged: &mut Outputs) -> anyhow::Result<Step> {
     })
 }
 
-// ─── Digital twin (spec 05) ────────────────────────────────────────────────
+// ─── Digital twin ([R5]) ────────────────────────────────────────────────────
 
 /// The twin's prediction of `program` on `machine` (servos + geometric errors,
 /// `ac-trunnion-twin.toml` written by the servo step): one [`TwinRow`] per servo
@@ -975,7 +976,7 @@ fn twin_step(a: &Args, out: &mut Outputs) -> anyhow::Result<Step> {
     };
     let mut lines = vec![
         format!(
-            "{} samples at 1 ms, {} while cutting (from t = {:.3} s); the seed's S-piece: tip −1.2…1.5 mm, axis −4.5e-3…4e-3 rad",
+            "{} samples at 1 ms, {} while cutting (from t = {:.3} s); the source patent's [R5] S-piece: tip −1.2…1.5 mm, axis −4.5e-3…4e-3 rad",
             before.len(),
             before_cut.len(),
             t_cut

@@ -24,7 +24,7 @@ use clap::Subcommand;
 /// Every subcommand of `mtwin`.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Double-ballbar identification of the rotary-axis location errors (spec 01).
+    /// Double-ballbar identification of the rotary-axis location errors (after [R1], docs/references.md).
     #[command(subcommand)]
     Ballbar(ballbar::Command),
     /// Run every method end to end on the bundled examples, print a summary, write an HTML report.
@@ -41,10 +41,10 @@ pub enum Command {
         after_help = "Example:\n  mtwin predict --machine examples/machines/ac-trunnion-with-errors.toml --data poses.csv --out pred.csv"
     )]
     Predict(predict::Args),
-    /// Identify, simulate and excite axis servo transfer functions (spec 05 §3).
+    /// Identify, simulate and excite axis servo transfer functions (after [R5], docs/references.md).
     #[command(subcommand)]
     Servo(servo::Command),
-    /// Fit and predict spindle-speed-driven thermal drift in Z (spec 04).
+    /// Fit and predict spindle-speed-driven thermal drift in Z (after [R4], docs/references.md).
     #[command(subcommand)]
     Thermal(thermal::Command),
     /// Laser-tracker identification of the volumetric error model: plan, simulate, identify, validate, compensate points.
@@ -65,7 +65,7 @@ pub enum Command {
     /// Old spelling of `mtwin tracker compensate-points` (hidden).
     #[command(hide = true)]
     CompensatePoints(tracker::CompensateArgs),
-    /// Workpiece set-up error of a power-skiving machine from touch-offs (spec 03).
+    /// Workpiece set-up error of a power-skiving machine from touch-offs (after [R3], docs/references.md).
     #[command(subcommand)]
     Skiving(skiving::Command),
     /// Machining test pieces as five-axis programs (ISO 10791-7 S-shaped piece).
@@ -76,7 +76,7 @@ pub enum Command {
         after_help = "Example:\n  mtwin compensate --machine examples/machines/ac-trunnion-with-errors.toml --program part.ngc --out part-comp.ngc --tol 0.001"
     )]
     Compensate(compensate::Args),
-    /// Digital twin of five-axis trajectory error: servo + geometry → tool-tip and tool-axis error (spec 05).
+    /// Digital twin of five-axis trajectory error: servo + geometry → tool-tip and tool-axis error (after [R5], docs/references.md).
     #[command(subcommand)]
     Twin(twin::Command),
     /// One self-contained HTML report from saved results of the other commands.

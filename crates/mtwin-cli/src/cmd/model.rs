@@ -12,7 +12,7 @@ pub enum Command {
     /// Check a machine model file and summarise it (chains, axes, errors).
     #[command(after_help = "Example:\n  mtwin model check examples/machines/ac-trunnion.toml")]
     Check {
-        /// The machine model file (TOML, spec 00 §5).
+        /// The machine model file (TOML, see docs/machine-model.md).
         machine: PathBuf,
         /// Output format.
         #[arg(long, value_enum, default_value_t)]

@@ -1,4 +1,4 @@
-//! `mtwin predict` (contract, spec 02): the actual tool tip and tool axis in W at given poses.
+//! `mtwin predict` (see docs/machine-model.md): the actual tool tip and tool axis in W at given poses.
 
 use std::path::PathBuf;
 

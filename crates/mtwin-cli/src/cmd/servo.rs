@@ -1,4 +1,4 @@
-//! `mtwin servo …` (contract, spec 05 §3): identify an axis' command-to-encoder
+//! `mtwin servo …` ([R5] in docs/references.md): identify an axis' command-to-encoder
 //! transfer function from a log, simulate a servo, and write an excitation
 //! program to record such a log.
 //!

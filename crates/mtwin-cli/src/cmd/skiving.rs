@@ -1,5 +1,5 @@
 //! `mtwin skiving`: workpiece set-up error of a power-skiving machine from
-//! touch-offs (spec 03): identify it, write the touch-off program, simulate
+//! touch-offs ([R3] in docs/references.md): identify it, write the touch-off program, simulate
 //! touches.
 
 use std::path::PathBuf;

@@ -1,4 +1,4 @@
-//! `mtwin thermal …` (contract, spec 04): fit the spindle-speed-driven drift
+//! `mtwin thermal …` ([R4] in docs/references.md): fit the spindle-speed-driven drift
 //! model from probing data, predict the drift of a speed programme, and
 //! simulate probing data from a model.
 //!
@@ -35,7 +35,7 @@ pub enum Command {
         after_help = "Example:\n  mtwin thermal simulate --model thermal.toml --speed speed.csv --z -50,-350 --noise 0.001 --seed 7 --out train.csv"
     )]
     Simulate(SimulateArgs),
-    /// Pre-compensate an NC program: Z targets replaced by Z − e(t, Z) (spec 04).
+    /// Pre-compensate an NC program: Z targets replaced by Z − e(t, Z) (as in [R4], docs/references.md).
     #[command(
         after_help = "Example:\n  mtwin thermal compensate --model thermal.toml --program part.nc --out part-comp.nc --period-min 10"
     )]
@@ -110,7 +110,7 @@ pub struct FitArgs {
     /// Largest ARX order tried (na in 1..=N, nb in 0..=N).
     #[arg(long, default_value_t = 4)]
     max_order: usize,
-    /// How the spindle speed enters the model: `linear` (spec 04's model), `quadratic` (speed and
+    /// How the spindle speed enters the model: `linear` (the model of [R4]), `quadratic` (speed and
     /// speed², for heat that grows faster than the speed), or `auto` (quadratic only if it predicts
     /// held-out runs better: each run predicted by the model of the others; needs two runs or more).
     #[arg(long, default_value = "linear", value_parser = parse_speed_model)]

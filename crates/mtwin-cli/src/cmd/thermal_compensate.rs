@@ -1,4 +1,4 @@
-//! `mtwin thermal compensate` (contract, spec 04 "Pre-compensation"): rewrite
+//! `mtwin thermal compensate` (pre-compensation as in [R4], docs/references.md): rewrite
 //! the Z targets of an NC program so that the predicted thermal drift is
 //! cancelled; every other byte stays the same.
 

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 use mtwin::fit::Progress;
 use mtwin::io::{Outputs, Table, write_csv_row};
-use mtwin::methods::tracker::compensate::Compensator;
+use mtwin::methods::tracker::compensate::PointCompensator;
 use mtwin::methods::tracker::plan::{gcode, plan};
 use mtwin::methods::tracker::simulate::simulate_seeded;
 use mtwin::methods::tracker::{
@@ -439,7 +439,7 @@ pub fn run_compensate(a: CompensateArgs) -> anyhow::Result<()> {
     let m = load_machine(&a.machine)?;
     let t = load_table(&a.data)?;
     let poses = read_poses(&t, &m, true).map_err(diag)?;
-    let c = Compensator::new(&m);
+    let c = PointCompensator::new(&m);
     let mut rows = Vec::with_capacity(poses.len());
     let (mut before, mut after) = (0.0f64, 0.0f64);
     for (k, q) in poses.iter().enumerate() {

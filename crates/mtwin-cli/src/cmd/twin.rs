@@ -1,4 +1,4 @@
-//! `mtwin twin predict` (contract, spec 05): the five-axis digital twin of
+//! `mtwin twin predict` ([R5] in docs/references.md): the five-axis digital twin of
 //! trajectory error. Commands (CMD.csv or a G-code program) → command and actual
 //! tool tip and tool axis in W → tool-tip error ε_p (mm) and tool-axis error ε_o
 //! (rad) against the exact nearest point of the command path, per sample, in

@@ -1,4 +1,4 @@
-//! `mtwin ballbar` (contract, spec 01): setup-error, identify on simulated data, bad
+//! `mtwin ballbar` ([R1] in docs/references.md): setup-error, identify on simulated data, bad
 //! input with file and line, subsets, outputs (docs/ballbar.md is run by docs.rs).
 
 use crate::common::*;

@@ -218,7 +218,7 @@ fn demo_recovers_its_truths_and_writes_the_report() {
     ] {
         assert!(html.contains(&format!("<section id=\"{id}\">")), "{id}");
     }
-    // Ballbar: the seed's table 4 — offsets re-identified after compensating
+    // Ballbar: table 4 of the source paper [R1] — offsets re-identified after compensating
     // the identified ones are what the 0.3 µm noise leaves (truth offsets of
     // the example machine: up to 26 µm).
     let b = &v["ballbar"];

@@ -1,4 +1,4 @@
-//! `mtwin servo …` (contract, spec 05 §3) end to end through the binary: a
+//! `mtwin servo …` ([R5] in docs/references.md) end to end through the binary: a
 //! known second-order axis → simulated excitation log → fit → the fitted
 //! model reproduces a held-out command; the fitted file works as `[axes.servo]`.
 

@@ -1,4 +1,4 @@
-//! `mtwin skiving` (spec 03): the setup-error contract against synthetic
+//! `mtwin skiving` ([R3] in docs/references.md): the setup-error contract against synthetic
 //! truths, the program and simulate subcommands, bad input, and every
 //! command of docs/skiving.md.
 

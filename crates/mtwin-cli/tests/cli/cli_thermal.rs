@@ -1,4 +1,4 @@
-//! `mtwin thermal …` (contract, spec 04) end to end through the binary: probing
+//! `mtwin thermal …` ([R4] in docs/references.md) end to end through the binary: probing
 //! data of a known synthetic machine → fit → predict a new speed programme →
 //! compare with the machine's exact drift; simulate; bad input.
 
@@ -10,7 +10,7 @@ use mtwin::methods::thermal::TruthMachine;
 
 const HEIGHTS: [f64; 4] = [-350.0, -250.0, -150.0, -50.0];
 
-/// Three identification runs like the seed's: a constant speed, a speed
+/// Three identification runs like those of the source paper [R4]: a constant speed, a speed
 /// spectrum (steps), and a varying "cutting" programme; 30 samples of 10 min each.
 fn training_runs() -> Vec<(&'static str, Vec<f64>)> {
     let constant = vec![6000.0; 30];
@@ -159,7 +159,7 @@ fn fit_then_predict_matches_the_true_drift_of_a_new_programme() {
         }
         let rms = (sq / want.len() as f64).sqrt();
         let peak = want.iter().fold(0.0f64, |m, w| m.max(w.abs()));
-        // Drift of tens of µm predicted to within 2 µm RMS (the seed's
+        // Drift of tens of µm predicted to within 2 µm RMS (the source paper's
         // compensated residual); z = −300 also carries the interpolation.
         assert!(peak > 0.015, "the programme heats the machine: {peak}");
         assert!(rms < 0.002, "z = {z}: rms {rms} mm");

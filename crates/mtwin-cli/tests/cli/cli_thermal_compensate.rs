@@ -1,4 +1,4 @@
-//! `mtwin thermal compensate`: the seed's check replayed in simulation (a face
+//! `mtwin thermal compensate`: the check of the source paper [R4] replayed in simulation (a face
 //! milled cold and again after an hour at varying speed), G91 and G53 blocks,
 //! programs without spindle, errors with file:line, and the commands of
 //! docs/thermal-compensation.md.
@@ -57,7 +57,7 @@ fn face(n: u32, out: &mut String) {
 
 /// Cold face, an hour at varying speed (dwells stand for cutting elsewhere),
 /// face again.
-fn seed_program() -> String {
+fn source_paper_program() -> String {
     let mut s = String::from("%\nG21 G90 G94 G17\nG0 Z5\nS6000 M3\n");
     face(1, &mut s);
     for (rpm, seconds) in [
@@ -129,9 +129,9 @@ fn face_heights(program: &str, machine: &TruthMachine) -> [f64; 2] {
 }
 
 #[test]
-fn seed_check_faces_cold_and_after_an_hour() {
+fn source_paper_check_faces_cold_and_after_an_hour() {
     let dir = tempfile::tempdir().unwrap();
-    let program = seed_program();
+    let program = source_paper_program();
     // Truth magnitude chosen so the uncompensated faces differ by about 7 µm
     // (the demo machine gives about 14 µm on this program).
     let machine = truth(0.5);

@@ -1,4 +1,4 @@
-//! `mtwin twin predict` (contract, spec 05) end to end through the binary.
+//! `mtwin twin predict` ([R5] in docs/references.md) end to end through the binary.
 
 use crate::common::*;
 

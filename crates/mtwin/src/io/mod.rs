@@ -1,4 +1,4 @@
-//! Reading and writing the data files of 00 §6: CSV tables matched by
+//! Reading and writing the data files (docs/guide.md): CSV tables matched by
 //! header name, span-aware reading of the TOML model files (machine, servo,
 //! thermal), full-precision number formatting, and all-or-nothing output files
 //! ([`Outputs`]).

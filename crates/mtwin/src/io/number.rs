@@ -1,6 +1,6 @@
 use std::io::{self, Write};
 
-/// The shortest text that reads back to the same `f64` (00 §6: never rounded).
+/// The shortest text that reads back to the same `f64` (data files are never rounded).
 ///
 /// Integral values are written without a trailing `.0` only when that text still
 /// parses back to the same value, which it always does; NaN and infinities are

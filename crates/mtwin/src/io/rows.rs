@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use super::table::{parse_number, require_columns, split_fields};
 use super::{Column, Diagnostic};
 
-/// A CSV file (00 §6) read row by row, for inputs too long to hold as a [`Table`](super::Table):
+/// A CSV file read row by row, for inputs too long to hold as a [`Table`](super::Table):
 /// the same rules (UTF-8, one header row, `#` comment lines and blank lines skipped,
 /// columns matched by header name), the same messages, but only one line in memory.
 ///

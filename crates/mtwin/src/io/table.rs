@@ -3,7 +3,7 @@ use std::path::{Path, PathBuf};
 
 use super::{Diagnostic, Diagnostics};
 
-/// A CSV file as 00 §6 defines it: UTF-8, comma separated, one header row, `#` comment
+/// A CSV file as mtwin reads it: UTF-8, comma separated, one header row, `#` comment
 /// lines and blank lines ignored, columns matched by header name.
 ///
 /// Cells are kept as text with the line they came from, so a bad cell can be reported

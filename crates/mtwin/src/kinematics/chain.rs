@@ -1,4 +1,4 @@
-//! Forward kinematics of a [`Machine`] with its geometric errors, exact (00 §3–4):
+//! Forward kinematics of a [`Machine`] with its geometric errors, exact (docs/machine-model.md):
 //! `A_i(q) = P_i·L_i·J_i(q)·E_i(q)`, `T_WT = T_MW⁻¹·T_MT`.
 
 use nalgebra::{Matrix3, Vector3};

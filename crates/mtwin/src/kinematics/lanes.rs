@@ -4,7 +4,7 @@
 //! lane computes exactly the same floating-point operations as the one-lane path, so a batch
 //! gives bit-for-bit the poses of single calls.
 //!
-//! Nothing is linearised (00 §3–4): rotary angles use [`sin_cos_deg`] (exact reduction in
+//! Nothing is linearised: rotary angles use [`sin_cos_deg`] (exact reduction in
 //! degrees, then Taylor series to double precision), error angles the small-angle series of
 //! [`super::transform::sin_cos`] (exact to double precision below 0.01 rad, `f64::sin_cos`
 //! above).

@@ -2,7 +2,7 @@
 //! exact Jacobians with respect to error components and axis positions, and inverse
 //! kinematics on the actual (erroneous) machine.
 //!
-//! Frames and conventions are those of the project (00 §2–4): `T_ab` maps coordinates in b
+//! Frames and conventions are those of docs/machine-model.md: `T_ab` maps coordinates in b
 //! to a; the tool pose is reported in the workpiece frame W.
 
 mod chain;

@@ -1,4 +1,4 @@
-//! Exact rigid transforms (00 §2): rotation matrix and translation, `x ↦ R x + t`.
+//! Exact rigid transforms (docs/machine-model.md): rotation matrix and translation, `x ↦ R x + t`.
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -123,7 +123,7 @@ impl Rigid {
         }
     }
 
-    /// `Trans(t)·Rx(a)·Ry(b)·Rz(c)`: the error transform of 00 §4.
+    /// `Trans(t)·Rx(a)·Ry(b)·Rz(c)`: the error transform of docs/machine-model.md.
     pub fn from_error(t: Vector3<f64>, a: f64, b: f64, c: f64) -> Self {
         Rigid {
             r: rxyz(a, b, c),

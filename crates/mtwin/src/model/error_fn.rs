@@ -1,4 +1,4 @@
-//! Error functions of 00 §4: how an error component varies with its axis position.
+//! Error functions (docs/machine-model.md): how an error component varies with its axis position.
 
 /// The value of one error component as a function of its axis position `q`
 /// (mm for a linear axis, degree for a rotary one). Values are mm for translations and

@@ -1,4 +1,4 @@
-//! ISO 230-1 error names (00 §4), parsed once into a typed [`ErrorName`].
+//! ISO 230-1 error names (docs/machine-model.md), parsed once into a typed [`ErrorName`].
 
 use std::fmt;
 use std::str::FromStr;

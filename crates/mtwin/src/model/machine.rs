@@ -31,7 +31,7 @@ impl AxisKind {
     }
 }
 
-/// The geometric errors of one axis (00 §4): up to six position-dependent functions and six
+/// The geometric errors of one axis (ISO 230-1, docs/machine-model.md): up to six position-dependent functions and six
 /// location constants. Missing components are zero.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct AxisErrors {
@@ -60,7 +60,7 @@ impl AxisErrors {
     }
 }
 
-/// A servo model `y(k) = −Σ a_i y(k−i) + Σ b_j u(k−j−nk)` (05 §3), as stored in `[axes.servo]`.
+/// A servo model `y(k) = −Σ a_i y(k−i) + Σ b_j u(k−j−nk)` (docs/servo.md), as stored in `[axes.servo]`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ServoTable {
     /// Sample period, s.
@@ -141,7 +141,7 @@ pub enum Chain {
     Workpiece,
 }
 
-/// A machine model (00 §3–5).
+/// A machine model (docs/machine-model.md).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Machine {
     /// Human-readable name.

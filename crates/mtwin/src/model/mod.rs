@@ -1,4 +1,4 @@
-//! The machine model (00 §3–5): axes, chains, tool and workpiece, the ISO 230-1 geometric
+//! The machine model (docs/machine-model.md): axes, chains, tool and workpiece, the ISO 230-1 geometric
 //! errors with their functions, the machine file, and the parameter view used by fits.
 
 pub mod check;

@@ -1,7 +1,7 @@
 //! The parameter vector view of "the errors being fitted": which error components of which
 //! axes, in which form, and how a vector θ maps to and from a [`Machine`].
 //!
-//! A fit specification (spec 02) is a comma-separated list: `pdge:chebN` / `pdge:polyN` (all six
+//! A fit specification (docs/tracker.md) is a comma-separated list: `pdge:chebN` / `pdge:polyN` (all six
 //! PDGEs of every axis), `location` (all six location errors of every axis), or single names
 //! `EXX:cheb3`, `ECC:poly2`, `EXX:const`, `EY0A`. Later items override earlier ones for the
 //! same error.

@@ -1,4 +1,4 @@
-//! Reading a machine model file (00 §5) with every problem reported by file and line.
+//! Reading a machine model file (docs/machine-model.md) with every problem reported by file and line.
 
 use std::path::Path;
 

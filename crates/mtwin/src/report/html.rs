@@ -59,15 +59,15 @@ impl Section {
     }
 }
 
-/// A figure compared with the seed's (the source document's) own.
+/// A figure compared with the source's own (docs/references.md).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Headline {
     /// What is measured, e.g. "largest position error after compensation".
     pub label: String,
     /// Our value with its unit, e.g. "4.2 µm".
     pub ours: String,
-    /// The seed's value with its unit, e.g. "5.1 µm".
-    pub seed: String,
+    /// The source's value with its unit, e.g. "5.1 µm".
+    pub source: String,
 }
 
 /// A table; every header cell names its unit.
@@ -110,7 +110,7 @@ pub enum Verdict {
 pub enum Block {
     /// A paragraph of plain text.
     Text(String),
-    /// Our figures beside the seed's.
+    /// Our figures beside the sources'.
     Headlines(Vec<Headline>),
     Table(Table),
     /// An inline SVG document (from [`crate::report::svg`]) with a caption.
@@ -181,7 +181,7 @@ td.n{text-align:right;font-variant-numeric:tabular-nums}
 .headline{border:1px solid #d5d8dc;border-radius:6px;padding:8px 14px;min-width:220px}
 .headline .label{font-size:12px;color:#566573}
 .headline .ours{font-size:22px;font-weight:600;color:#1f618d}
-.headline .seed{font-size:12px;color:#566573}
+.headline .source{font-size:12px;color:#566573}
 .verdict{border-left:6px solid;padding:6px 14px;margin:10px 0;background:#fbfcfc}
 .verdict.good{border-color:#27ae60}.verdict.caution{border-color:#f39c12}.verdict.bad{border-color:#c0392b}
 .verdict ul{margin:4px 0;padding-left:20px;font-size:13px}
@@ -236,10 +236,10 @@ fn render_block(o: &mut String, b: &Block) {
             for h in hs {
                 let _ = write!(
                     o,
-                    "<div class=\"headline\"><div class=\"label\">{}</div><div class=\"ours\">{}</div><div class=\"seed\">seed: {}</div></div>",
+                    "<div class=\"headline\"><div class=\"label\">{}</div><div class=\"ours\">{}</div><div class=\"source\">source: {}</div></div>",
                     escape(&h.label),
                     escape(&h.ours),
-                    escape(&h.seed)
+                    escape(&h.source)
                 );
             }
             o.push_str("</div>\n");

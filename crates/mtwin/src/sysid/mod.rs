@@ -1,7 +1,7 @@
 //! ARX system identification: linear discrete-time models of an output driven
 //! by one or several exogenous inputs, fitted by least squares.
 //!
-//! The model (05 §3, and 04 with the sign of the `a` coefficients flipped):
+//! The model (docs/servo.md, and the thermal model of docs/thermal.md with the sign of the `a` coefficients flipped):
 //!
 //! ```text
 //! y(k) = −Σ_{i=1..na} a_i·y(k−i) + Σ_u Σ_{j=0..nb_u} b_{u,j}·u(k−j−nk_u),   a_0 = 1
@@ -14,7 +14,7 @@
 //!   coefficient standard uncertainties and the fit statistics;
 //! * [`select_orders`]: FPE and AIC over a grid of orders, with the whole
 //!   grid table;
-//! * [`Servo`]: the per-axis transfer function of 05 §3 (`[axes.servo]`),
+//! * [`Servo`]: the per-axis transfer function of docs/servo.md (`[axes.servo]`),
 //!   run on deviations from the first command, with its bandwidth and
 //!   following error, and [`fit_servo`] which identifies it from a log.
 //!

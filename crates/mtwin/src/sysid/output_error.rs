@@ -15,7 +15,7 @@
 //!
 //! in which only the inputs (noise-free commands) drive the model, so white
 //! output noise stays white and uncorrelated with the model: the estimate is
-//! consistent (Ljung, *System Identification*, 2nd ed., §4.2 and §7.3). The
+//! consistent (Ljung, *System Identification*, 2nd ed., sections 4.2 and 7.3). The
 //! cost is non-convex in `a`, so it is minimised by the crate's
 //! Levenberg–Marquardt engine ([`crate::fit`]) started from the ARX estimate,
 //! which lies close to the optimum when the noise is small.
@@ -370,7 +370,7 @@ pub fn fit_output_error(
     let m = run.len() - model.first_row();
     let d = dm;
     let sim = arx.simulate(&run.input_slices())?;
-    // The model is used from rest (05 §3), not from the initial state estimated
+    // The model is used from rest (docs/servo.md), not from the initial state estimated
     // here: a structure whose estimated initial state hides a slow mode would
     // look good on the fitted residuals and simulate badly from rest. The
     // criterion's loss is the larger of the two mean squares over the rows.

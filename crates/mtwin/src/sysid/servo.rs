@@ -3,7 +3,7 @@ use nalgebra::Complex;
 use super::{Arx, ArxStepper, SysidError};
 
 /// A servo axis as a discrete transfer function from command `u` to encoder
-/// position `y` (05 §3, the `[axes.servo]` table of 00 §5):
+/// position `y` (the `[axes.servo]` table of docs/machine-model.md):
 ///
 /// ```text
 /// y(k) = −Σ_{i=1..na} a_i·y(k−i) + Σ_{j=0..nb} b_j·u(k−j−nk),   a_0 = 1
@@ -186,7 +186,7 @@ impl ServoStepper {
 mod tests {
     use super::*;
 
-    /// The spec's example servo (00 §5).
+    /// The example servo of docs/machine-model.md.
     fn example() -> Servo {
         Servo::new(
             0.001,

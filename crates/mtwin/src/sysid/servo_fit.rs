@@ -1,4 +1,4 @@
-//! `servo fit` (05 §3): identify an axis' command-to-encoder transfer function
+//! `servo fit` (docs/servo.md): identify an axis' command-to-encoder transfer function
 //! from a log `t_s,command_mm,feedback_mm`, and the `SERVO.toml` file.
 
 use std::path::Path;

@@ -1,4 +1,4 @@
-//! The seed's first-order forms (eqs 19–22, spec 01), written as
+//! The first-order forms of the source paper [R1] (eqs 19–22), written as
 //! `ΔL(α) = a·(1 − cos α) + b·sin α`:
 //!
 //! | mode | `a` | `b` |
@@ -8,27 +8,27 @@
 //! | 3 | `eX − EX0C` | `EY0A + EY0C − eY` |
 //! | 4 | `eX − EX0C − ZB1A·(EB0A + EB0C)` | `EY0A + EY0C − eY − ZB1A·EA0C` |
 //!
-//! They hold for the orientation of spec 01 (A about +x, C about +z) and are
+//! They hold for the orientation of [R1] (A about +x, C about +z) and are
 //! used for the start of the joint fit and to cross-check the exact model.
 
 use nalgebra::{Matrix3, Vector3};
 
 use super::data::ModeData;
-use super::mode::{Mode, Rig};
+use super::mode::{BallbarMode, Rig};
 use super::{Pige, Piges};
 
 /// The first-order coefficients `(a, b)` of `mode` for `piges` on `rig`.
-pub fn coefficients(mode: Mode, piges: &Piges, rig: &Rig) -> (f64, f64) {
+pub fn coefficients(mode: BallbarMode, piges: &Piges, rig: &Rig) -> (f64, f64) {
     let g = |p: Pige| piges.get(p);
     let (ex, ey) = (rig.setup.ex, rig.setup.ey);
     match mode {
-        Mode::One => (g(Pige::EY0A) - ey, -g(Pige::EZ0A)),
-        Mode::Two => (
+        BallbarMode::One => (g(Pige::EY0A) - ey, -g(Pige::EZ0A)),
+        BallbarMode::Two => (
             g(Pige::EY0A) - ey + rig.zb1c * g(Pige::EC0A),
             rig.zb1c * g(Pige::EB0A) - g(Pige::EZ0A),
         ),
-        Mode::Three => (ex - g(Pige::EX0C), g(Pige::EY0A) + g(Pige::EY0C) - ey),
-        Mode::Four => (
+        BallbarMode::Three => (ex - g(Pige::EX0C), g(Pige::EY0A) + g(Pige::EY0C) - ey),
+        BallbarMode::Four => (
             ex - g(Pige::EX0C) - rig.zb1a * (g(Pige::EB0A) + g(Pige::EB0C)),
             g(Pige::EY0A) + g(Pige::EY0C) - ey - rig.zb1a * g(Pige::EA0C),
         ),
@@ -36,7 +36,7 @@ pub fn coefficients(mode: Mode, piges: &Piges, rig: &Rig) -> (f64, f64) {
 }
 
 /// First-order `ΔL(α) = L(α) − L(0)` (mm) of `mode` at `alpha_deg`.
-pub fn first_order_delta_l(mode: Mode, alpha_deg: f64, piges: &Piges, rig: &Rig) -> f64 {
+pub fn first_order_delta_l(mode: BallbarMode, alpha_deg: f64, piges: &Piges, rig: &Rig) -> f64 {
     let (a, b) = coefficients(mode, piges, rig);
     let (s, c) = alpha_deg.to_radians().sin_cos();
     a * (1.0 - c) + b * s
@@ -61,7 +61,7 @@ pub fn fit_coefficients(data: &ModeData) -> Option<(f64, f64, f64)> {
 }
 
 /// Start values from the modes present (`data[mode.index()]`), solving the
-/// table above in the seed's order (mode 1 → A offsets, 2 → A tilts,
+/// table above in the order of [R1] (mode 1 → A offsets, 2 → A tilts,
 /// 3 → C offsets, 4 → C tilts). PIGEs a missing mode would give start at 0.
 /// Also returns the bar length of each mode (the nominal length when absent).
 pub fn start_values(data: &[Option<&ModeData>; 4], rig: &Rig) -> (Piges, [f64; 4]) {
@@ -69,7 +69,7 @@ pub fn start_values(data: &[Option<&ModeData>; 4], rig: &Rig) -> (Piges, [f64; 4
     let mut lengths = [rig.length; 4];
     let (ex, ey) = (rig.setup.ex, rig.setup.ey);
     let mut coef = [None; 4];
-    for m in Mode::ALL {
+    for m in BallbarMode::ALL {
         if let Some((l, a, b)) = data[m.index()].and_then(fit_coefficients) {
             lengths[m.index()] = l;
             coef[m.index()] = Some((a, b));
@@ -116,7 +116,7 @@ mod tests {
         .unwrap()
     }
 
-    /// The exact model agrees with the seed's first-order forms up to second
+    /// The exact model agrees with the first-order forms up to second
     /// order: halving every error (and the set-up error) quarters the gap.
     #[test]
     fn exact_model_agrees_with_the_first_order_forms_to_second_order() {
@@ -137,10 +137,10 @@ mod tests {
                     ex: setup.ex * k,
                     ey: setup.ey * k,
                 },
-                ..Rig::seed()
+                ..Rig::source_paper()
             };
             let mut worst = 0.0f64;
-            for mode in Mode::ALL {
+            for mode in BallbarMode::ALL {
                 for al in [-90.0, -45.0, 30.0, 90.0, 135.0, 270.0] {
                     if mode.moves_a() && !(-90.0..=90.0).contains(&al) {
                         continue;
@@ -168,12 +168,12 @@ mod tests {
                 ex: 0.01,
                 ey: -0.02,
             },
-            ..Rig::seed()
+            ..Rig::source_paper()
         };
         let truth = Piges([
             0.02, -0.015, 8.7e-5, -6.1e-5, 0.014, -0.026, 4.4e-5, -9.3e-5,
         ]);
-        let sets: Vec<ModeData> = Mode::ALL
+        let sets: Vec<ModeData> = BallbarMode::ALL
             .iter()
             .map(|&m| {
                 let angles: Vec<f64> = (-18..=18).map(|k| k as f64 * 5.0).collect();

@@ -1,4 +1,4 @@
-//! Ballbar readings of one mode: the file `angle_deg,length_mm` (spec 01).
+//! Ballbar readings of one mode: the file `angle_deg,length_mm` (docs/ballbar.md).
 
 use std::path::{Path, PathBuf};
 
@@ -122,7 +122,7 @@ pub fn write_mode_file(w: &mut dyn std::io::Write, data: &ModeData) -> std::io::
     Ok(())
 }
 
-/// Reads a mode file: CSV with columns `angle_deg` and `length_mm` (00 §6).
+/// Reads a mode file: CSV with columns `angle_deg` and `length_mm` (docs/ballbar.md).
 /// Every problem is reported with file and line: non-numeric cells, a
 /// missing 0° reading, duplicate angles, fewer than [`MIN_READINGS`] rows.
 pub fn read_mode_file(path: &Path) -> Result<ModeData, Diagnostics> {

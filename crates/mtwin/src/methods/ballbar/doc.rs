@@ -10,7 +10,7 @@ use serde::de::{MapAccess, Visitor};
 use serde::ser::SerializeMap;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use super::{Compensation, Identification, Mode, Pige, SensitivityRow, SetupError};
+use super::{BallbarMode, Compensation, Identification, Pige, SensitivityRow, SetupError};
 use crate::io::fmt_f64;
 
 /// Something with a fixed set of names: the eight PIGEs or the four modes.
@@ -28,8 +28,8 @@ impl Named for Pige {
     }
 }
 
-impl Named for Mode {
-    const ALL: &'static [Mode] = &Mode::ALL;
+impl Named for BallbarMode {
+    const ALL: &'static [BallbarMode] = &BallbarMode::ALL;
     fn key(self) -> &'static str {
         self.label()
     }
@@ -44,7 +44,7 @@ pub struct PerName<K: Named, T>(pub Vec<T>, PhantomData<K>);
 /// One value per PIGE (see [`PerName`]).
 pub type PerPige<T> = PerName<Pige, T>;
 /// One value per ballbar mode (see [`PerName`]).
-pub type PerMode<T> = PerName<Mode, T>;
+pub type PerMode<T> = PerName<BallbarMode, T>;
 
 impl<K: Named, T> PerName<K, T> {
     /// The values in index order of `K::ALL`.
@@ -68,8 +68,8 @@ impl From<Pige> for usize {
     }
 }
 
-impl From<Mode> for usize {
-    fn from(m: Mode) -> usize {
+impl From<BallbarMode> for usize {
+    fn from(m: BallbarMode) -> usize {
         m.index()
     }
 }
@@ -217,7 +217,7 @@ impl fmt::Display for BallbarIdentifyDoc {
             }
         }
         writeln!(f, "Residual RMS per mode:")?;
-        for m in Mode::ALL {
+        for m in BallbarMode::ALL {
             if let Some(r) = self.residual_rms[m] {
                 writeln!(f, "  {}  {:.3} µm", m.label(), r * 1e3)?;
             }
@@ -360,7 +360,7 @@ mod tests {
         parse_machine(Path::new(name), text).unwrap()
     }
 
-    fn angles(m: Mode) -> Vec<f64> {
+    fn angles(m: BallbarMode) -> Vec<f64> {
         if m.moves_a() {
             angle_range(-90.0, 90.0, 10.0)
         } else {
@@ -385,9 +385,9 @@ mod tests {
             "ac-trunnion.toml",
             include_str!("../../../../../examples/machines/ac-trunnion.toml"),
         );
-        let rig = Rig::seed();
+        let rig = Rig::source_paper();
         // Modes 1 and 2 only: the C-line PIGEs stay unidentified.
-        let specs: Vec<(Mode, SimulationSpec)> = [Mode::One, Mode::Two]
+        let specs: Vec<(BallbarMode, SimulationSpec)> = [BallbarMode::One, BallbarMode::Two]
             .map(|m| {
                 (
                     m,
@@ -404,7 +404,10 @@ mod tests {
         let id = identify(&nominal, &rig, &refs, &Options::default()).unwrap();
         let doc = BallbarIdentifyDoc::new(&id, None, vec![]);
         assert!(!doc.unidentified.is_empty());
-        assert!(doc.residual_rms[Mode::One].is_some() && doc.residual_rms[Mode::Three].is_none());
+        assert!(
+            doc.residual_rms[BallbarMode::One].is_some()
+                && doc.residual_rms[BallbarMode::Three].is_none()
+        );
         assert_eq!(round_trip(&doc), doc);
         // The document's JSON layout: PIGEs at the top level, per-mode objects.
         let v = serde_json::to_value(&doc).unwrap();
@@ -432,8 +435,14 @@ mod tests {
             "ac-trunnion.toml",
             include_str!("../../../../../examples/machines/ac-trunnion.toml"),
         );
-        let rows =
-            sensitivity_table(&nominal, &Rig::seed(), 0.010, 1e-4, &Mode::ALL.map(angles)).unwrap();
+        let rows = sensitivity_table(
+            &nominal,
+            &Rig::source_paper(),
+            0.010,
+            1e-4,
+            &BallbarMode::ALL.map(angles),
+        )
+        .unwrap();
         let doc = BallbarSensitivityDoc::from(rows.as_slice());
         assert_eq!(doc.0.len(), 8);
         assert_eq!(round_trip(&doc), doc);

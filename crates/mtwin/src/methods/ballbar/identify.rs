@@ -10,13 +10,15 @@
 //! 2. **Start** from the closed forms ([`super::closed_form`]).
 //! 3. **Joint Levenberg–Marquardt** ([`crate::fit`]) over the four
 //!    [`ModeModel`]s stacked, on the exact model, with the bar length of
-//!    each mode as a nuisance parameter (spec 01: subtracting the single
+//!    each mode as a nuisance parameter (subtracting the single
 //!    noisy 0° reading instead roughly triples the uncertainty of EC0A).
 //!    Standard uncertainties come from the residual variance.
 
 use super::closed_form::start_values;
 use super::data::ModeData;
-use super::mode::{Mode, ModeModel, Rig, Trunnion, TrunnionError, Unknowns, predicted_reading};
+use super::mode::{
+    BallbarMode, ModeModel, Rig, Trunnion, TrunnionError, Unknowns, predicted_reading,
+};
 use super::{Pige, Piges};
 use crate::fit::{self, FitError, FitReport, Model, Options, Stack, Unidentifiable};
 use crate::model::Machine;
@@ -28,7 +30,7 @@ pub const RESIDUAL_IMBALANCE: f64 = 3.0;
 /// Why an identification could not be run.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
-pub enum IdentifyError {
+pub enum BallbarIdentifyError {
     #[error("no mode data given; at least one of the four modes is needed")]
     NoModes,
     #[error("{what} is {value} mm; it must be a positive finite length")]
@@ -119,7 +121,7 @@ impl Identification {
     }
 
     /// The fitted `ΔL(α) = L(α) − ℓ` (mm) of `mode` on the identified machine.
-    pub fn fitted_delta_l(&self, mode: Mode, alpha_deg: f64) -> Option<f64> {
+    pub fn fitted_delta_l(&self, mode: BallbarMode, alpha_deg: f64) -> Option<f64> {
         let ell = self.lengths[mode.index()]?;
         Some(
             predicted_reading(
@@ -143,28 +145,28 @@ pub fn identify(
     rig: &Rig,
     data: &[Option<&ModeData>; 4],
     options: &Options,
-) -> Result<Identification, IdentifyError> {
+) -> Result<Identification, BallbarIdentifyError> {
     for (what, value) in [
         ("the bar length", rig.length),
         ("ZB1C", rig.zb1c),
         ("ZB1A", rig.zb1a),
     ] {
         if !(value.is_finite() && value > 0.0) {
-            return Err(IdentifyError::BadRig { what, value });
+            return Err(BallbarIdentifyError::BadRig { what, value });
         }
     }
     if !(rig.setup.ex.is_finite() && rig.setup.ey.is_finite()) {
-        return Err(IdentifyError::BadSetup {
+        return Err(BallbarIdentifyError::BadSetup {
             ex: rig.setup.ex,
             ey: rig.setup.ey,
         });
     }
-    let modes: Vec<Mode> = Mode::ALL
+    let modes: Vec<BallbarMode> = BallbarMode::ALL
         .into_iter()
         .filter(|m| data[m.index()].is_some())
         .collect();
     if modes.is_empty() {
-        return Err(IdentifyError::NoModes);
+        return Err(BallbarIdentifyError::NoModes);
     }
     let trunnion = Trunnion::of(machine)?;
     for &m in &modes {
@@ -177,7 +179,7 @@ pub fn identify(
             .copied()
             .fold(f64::NEG_INFINITY, f64::max);
         if lo < ax.travel[0] || hi > ax.travel[1] {
-            return Err(IdentifyError::OutOfTravel {
+            return Err(BallbarIdentifyError::OutOfTravel {
                 mode: m.label(),
                 axis: m.axis_name(),
                 lo,
@@ -277,12 +279,12 @@ fn structural(
     trunnion: &Trunnion,
     rig: &Rig,
     data: &[Option<&ModeData>; 4],
-    modes: &[Mode],
+    modes: &[BallbarMode],
     options: &Options,
-) -> Result<Vec<Unresolved>, IdentifyError> {
+) -> Result<Vec<Unresolved>, BallbarIdentifyError> {
     let ident = analyse(base, trunnion, rig, data, modes, options)?;
     // Readings for the absent modes, used only for their sensitivity.
-    let stand_in = |m: Mode| -> ModeData {
+    let stand_in = |m: BallbarMode| -> ModeData {
         let angles = modes
             .iter()
             .find(|g| g.moves_a() == m.moves_a())
@@ -301,9 +303,9 @@ fn structural(
             angles_deg: angles,
         }
     };
-    let mut separating: Vec<(Mode, Vec<Pige>)> = Vec::new();
+    let mut separating: Vec<(BallbarMode, Vec<Pige>)> = Vec::new();
     if !ident.unidentifiable.is_empty() {
-        for m in Mode::ALL.into_iter().filter(|m| !modes.contains(m)) {
+        for m in BallbarMode::ALL.into_iter().filter(|m| !modes.contains(m)) {
             let extra = stand_in(m);
             let mut with = *data;
             with[m.index()] = Some(&extra);
@@ -374,9 +376,9 @@ fn analyse(
     trunnion: &Trunnion,
     rig: &Rig,
     data: &[Option<&ModeData>; 4],
-    modes: &[Mode],
+    modes: &[BallbarMode],
     options: &Options,
-) -> Result<crate::fit::Identifiability, IdentifyError> {
+) -> Result<crate::fit::Identifiability, BallbarIdentifyError> {
     let ideal = base.nominal();
     let ideal_rig = Rig {
         setup: Default::default(),
@@ -411,14 +413,14 @@ fn analyse(
     Ok(report.identifiability)
 }
 
-/// Which modes a PIGE moves at first order (spec 01 table).
-pub fn sees(mode: Mode, p: Pige) -> bool {
+/// Which modes a PIGE moves at first order (table 2 of [R1]).
+pub fn sees(mode: BallbarMode, p: Pige) -> bool {
     use Pige::*;
     match mode {
-        Mode::One => matches!(p, EY0A | EZ0A),
-        Mode::Two => matches!(p, EY0A | EZ0A | EB0A | EC0A),
-        Mode::Three => matches!(p, EY0A | EX0C | EY0C),
-        Mode::Four => matches!(p, EY0A | EB0A | EX0C | EY0C | EA0C | EB0C),
+        BallbarMode::One => matches!(p, EY0A | EZ0A),
+        BallbarMode::Two => matches!(p, EY0A | EZ0A | EB0A | EC0A),
+        BallbarMode::Three => matches!(p, EY0A | EX0C | EY0C),
+        BallbarMode::Four => matches!(p, EY0A | EB0A | EX0C | EY0C | EA0C | EB0C),
     }
 }
 
@@ -450,13 +452,13 @@ fn imbalance(rms: &[Option<f64>; 4]) -> Vec<String> {
             out.push(format!(
                 "{}: residual RMS {:.2} µm is {:.1}× the other modes' ({:.2} µm): check that run \
                  (ball seating, bar set at 0°, {}), or errors the model does not carry",
-                Mode::ALL[i].label(),
+                BallbarMode::ALL[i].label(),
                 r * 1e3,
                 r / med.max(1e-12),
                 med * 1e3,
-                match Mode::ALL[i] {
-                    Mode::Two => "ZB1C",
-                    Mode::Four => "ZB1A",
+                match BallbarMode::ALL[i] {
+                    BallbarMode::Two => "ZB1C",
+                    BallbarMode::Four => "ZB1A",
                     _ => "the set-up error",
                 }
             ));
@@ -488,7 +490,7 @@ mod tests {
         0.030, -0.021, 2.0e-4, -1.4e-4, -0.027, 0.018, 1.1e-4, -2.0e-4,
     ]);
 
-    fn angles(mode: Mode) -> Vec<f64> {
+    fn angles(mode: BallbarMode) -> Vec<f64> {
         if mode.moves_a() {
             angle_range(-90.0, 90.0, 5.0)
         } else {
@@ -501,7 +503,7 @@ mod tests {
         let t = Trunnion::of(&m).unwrap();
         truth.write_to(&mut m, &t);
         let mut rng = StdRng::seed_from_u64(seed);
-        Mode::ALL
+        BallbarMode::ALL
             .iter()
             .map(|&mode| {
                 let spec = SimulationSpec {
@@ -521,7 +523,7 @@ mod tests {
     fn rig(ex: f64, ey: f64) -> Rig {
         Rig {
             setup: SetupError { ex, ey },
-            ..Rig::seed()
+            ..Rig::source_paper()
         }
     }
 
@@ -540,7 +542,7 @@ mod tests {
             };
             assert!(err < tol, "{p}: error {err:e}");
         }
-        // Spec 01: with 0.3 µm noise and 5° steps, σ ≈ 2.2 µrad (EC0A), 1.2 µrad (EB0C),
+        // The source paper [R1]: with 0.3 µm noise and 5° steps, σ ≈ 2.2 µrad (EC0A), 1.2 µrad (EB0C),
         // 0.15 µm (EY0A) when the bar length is a nuisance parameter.
         let s = |p: Pige| id.uncertainty[p.index()].unwrap();
         for (p, expect) in [
@@ -555,7 +557,7 @@ mod tests {
                 s(p)
             );
         }
-        for m in Mode::ALL {
+        for m in BallbarMode::ALL {
             let r = id.residual_rms[m.index()].unwrap();
             assert!((2e-4..4e-4).contains(&r), "{}: rms {r}", m.label());
         }
@@ -581,8 +583,8 @@ mod tests {
     }
 
     #[test]
-    fn seed_experiment_replayed_in_simulation() {
-        // Seed §3: eX = −0.0403, eY = −0.0765 mm; offsets up to 203.5 µm, tilts ±0.005°.
+    fn source_paper_experiment_replayed_in_simulation() {
+        // Source paper [R1], experiment: eX = −0.0403, eY = −0.0765 mm; offsets up to 203.5 µm, tilts ±0.005°.
         let rig = rig(-0.0403, -0.0765);
         let t5 = 0.005_f64.to_radians();
         let truth = Piges([0.2035, -0.1421, t5, -t5, -0.1687, 0.0982, -t5, t5]);
@@ -604,7 +606,10 @@ mod tests {
             "largest remaining offset after compensation: {:.3} µm",
             worst * 1e3
         );
-        assert!(worst < 1e-3, "remaining offset {worst} mm (seed: 5.1 µm)");
+        assert!(
+            worst < 1e-3,
+            "remaining offset {worst} mm (source paper [R1]: 5.1 µm)"
+        );
         // The tilts are still found after compensation.
         for p in [Pige::EB0A, Pige::EC0A, Pige::EA0C, Pige::EB0C] {
             assert!((second.piges.get(p) - truth.get(p)).abs() < 1e-5, "{p}");
@@ -714,7 +719,7 @@ mod tests {
             angle_range(-90.0, 180.0, 5.0),
             angle_range(0.0, 270.0, 5.0),
         ];
-        let d: Vec<ModeData> = Mode::ALL
+        let d: Vec<ModeData> = BallbarMode::ALL
             .iter()
             .map(|&mode| {
                 let spec = SimulationSpec {
@@ -766,7 +771,7 @@ mod tests {
         assert!((c.c_x - TRUTH.get(Pige::EX0C)).abs() < 1e-9);
         assert!((c.c_y - TRUTH.get(Pige::EY0C)).abs() < 1e-9);
         // Noise-free data on the exact model: the fit reproduces the readings.
-        let f = id.fitted_delta_l(Mode::Four, 35.0).unwrap();
+        let f = id.fitted_delta_l(BallbarMode::Four, 35.0).unwrap();
         let i = d[3].angles_deg.iter().position(|&a| a == 35.0).unwrap();
         assert!((f - (d[3].lengths[i] - 100.0)).abs() < 1e-10);
     }

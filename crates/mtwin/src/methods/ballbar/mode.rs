@@ -10,7 +10,7 @@
 //! ```
 //!
 //! with `X` the workpiece chain from the base up to the moving axis
-//! (`A_i = P_i·L_i·J_i·E_i`, 00 §4; the axes beyond the moving one cancel),
+//! (`A_i = P_i·L_i·J_i·E_i`, docs/machine-model.md; the axes beyond the moving one cancel),
 //! and the instrument reads `|B2(α) − B1|`. Nothing is linearised. The
 //! Jacobian with respect to the location errors is exact: for a component
 //! of `L_i`, `∂X/∂p = Pre_i·∂L_i·Post_i` with `Pre_i = A_1…A_{i−1}·P_i` and
@@ -35,9 +35,9 @@ use crate::kinematics::transform::rxyz_derivatives;
 use crate::kinematics::{Kinematics, Rigid};
 use crate::model::Machine;
 
-/// One of the four measurement modes of spec 01.
+/// One of the four measurement modes of [R1] (docs/references.md).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Mode {
+pub enum BallbarMode {
     /// A turns; B1 on the A/C intersection; bar along −y. Sees EY0A, EZ0A.
     One,
     /// A turns; B1 `ZB1C` along x from the C line; bar along −y. Adds EB0A, EC0A.
@@ -48,16 +48,21 @@ pub enum Mode {
     Four,
 }
 
-impl Mode {
+impl BallbarMode {
     /// All four, in order.
-    pub const ALL: [Mode; 4] = [Mode::One, Mode::Two, Mode::Three, Mode::Four];
+    pub const ALL: [BallbarMode; 4] = [
+        BallbarMode::One,
+        BallbarMode::Two,
+        BallbarMode::Three,
+        BallbarMode::Four,
+    ];
 
     /// 0..4.
     pub fn index(self) -> usize {
         self as usize
     }
 
-    /// 1..=4, the seed's numbering.
+    /// 1..=4, the numbering of the source paper [R1].
     pub fn number(self) -> usize {
         self.index() + 1
     }
@@ -69,7 +74,7 @@ impl Mode {
 
     /// True when A turns (modes 1 and 2), false when C turns.
     pub fn moves_a(self) -> bool {
-        matches!(self, Mode::One | Mode::Two)
+        matches!(self, BallbarMode::One | BallbarMode::Two)
     }
 
     /// Name of the moving axis.
@@ -81,9 +86,9 @@ impl Mode {
     pub fn tool_ball(self, rig: &Rig) -> Vector3<f64> {
         let e = Vector3::new(rig.setup.ex, rig.setup.ey, 0.0);
         e + match self {
-            Mode::One | Mode::Three => Vector3::zeros(),
-            Mode::Two => Vector3::new(rig.zb1c, 0.0, 0.0),
-            Mode::Four => Vector3::new(0.0, 0.0, rig.zb1a),
+            BallbarMode::One | BallbarMode::Three => Vector3::zeros(),
+            BallbarMode::Two => Vector3::new(rig.zb1c, 0.0, 0.0),
+            BallbarMode::Four => Vector3::new(0.0, 0.0, rig.zb1a),
         }
     }
 
@@ -111,8 +116,8 @@ pub struct Rig {
 }
 
 impl Rig {
-    /// The seed's rig: `L = 100`, `ZB1C = ZB1A = 100` mm, no set-up error.
-    pub fn seed() -> Rig {
+    /// The rig of the source paper [R1]: `L = 100`, `ZB1C = ZB1A = 100` mm, no set-up error.
+    pub fn source_paper() -> Rig {
         Rig {
             length: 100.0,
             zb1c: 100.0,
@@ -179,7 +184,7 @@ impl Trunnion {
         if p.axis() == 'A' { self.a } else { self.c }
     }
 
-    fn chain(&self, mode: Mode) -> &[usize] {
+    fn chain(&self, mode: BallbarMode) -> &[usize] {
         if mode.moves_a() {
             &self.chain_a
         } else {
@@ -187,7 +192,7 @@ impl Trunnion {
         }
     }
 
-    fn moving(&self, mode: Mode) -> usize {
+    fn moving(&self, mode: BallbarMode) -> usize {
         if mode.moves_a() { self.a } else { self.c }
     }
 }
@@ -205,7 +210,7 @@ pub(crate) struct Geometry<'k> {
 }
 
 impl<'k> Geometry<'k> {
-    pub(crate) fn new(kin: &'k Kinematics, t: &'k Trunnion, mode: Mode, rig: &Rig) -> Self {
+    pub(crate) fn new(kin: &'k Kinematics, t: &'k Trunnion, mode: BallbarMode, rig: &Rig) -> Self {
         let chain = t.chain(mode);
         let x0 = product(kin, chain, |_| 0.0);
         Geometry {
@@ -299,7 +304,7 @@ fn product(kin: &Kinematics, chain: &[usize], q: impl Fn(usize) -> f64) -> Rigid
 pub fn predicted_reading(
     machine: &Machine,
     t: &Trunnion,
-    mode: Mode,
+    mode: BallbarMode,
     rig: &Rig,
     ell: f64,
     alpha_deg: f64,
@@ -319,7 +324,7 @@ pub struct Unknowns {
     /// Values of the PIGEs not estimated (the free ones' entries are ignored).
     pub fixed: Piges,
     /// Modes taking part, in θ order of their bar lengths.
-    pub modes: Vec<Mode>,
+    pub modes: Vec<BallbarMode>,
 }
 
 impl Unknowns {
@@ -358,7 +363,7 @@ impl Unknowns {
     }
 
     /// θ index of the bar length of `mode`.
-    pub fn length_index(&self, mode: Mode) -> Option<usize> {
+    pub fn length_index(&self, mode: BallbarMode) -> Option<usize> {
         self.modes
             .iter()
             .position(|&m| m == mode)
@@ -379,7 +384,7 @@ impl Unknowns {
 pub struct ModeModel<'a> {
     base: &'a Machine,
     trunnion: &'a Trunnion,
-    mode: Mode,
+    mode: BallbarMode,
     rig: Rig,
     data: &'a ModeData,
     unknowns: &'a Unknowns,
@@ -396,7 +401,7 @@ impl<'a> ModeModel<'a> {
     pub fn new(
         base: &'a Machine,
         trunnion: &'a Trunnion,
-        mode: Mode,
+        mode: BallbarMode,
         rig: Rig,
         data: &'a ModeData,
         unknowns: &'a Unknowns,
@@ -514,8 +519,8 @@ mod tests {
     }
 
     #[test]
-    fn mode_one_matches_the_seed_exact_formula_for_offsets() {
-        // With offsets only, seed eq. 4/6 is exact: B2 turns about the line x-parallel
+    fn mode_one_matches_the_source_paper_exact_formula_for_offsets() {
+        // With offsets only, eq. 4/6 of the source paper [R1] is exact: B2 turns about the line x-parallel
         // through (·, EY0A, EZ0A).
         let mut m = trunnion_machine();
         let t = Trunnion::of(&m).unwrap();
@@ -527,7 +532,7 @@ mod tests {
                 ex: -0.0403,
                 ey: -0.0765,
             },
-            ..Rig::seed()
+            ..Rig::source_paper()
         };
         let (ex, ey, l) = (rig.setup.ex, rig.setup.ey, 100.0);
         for alpha in [-90.0_f64, -35.0, 0.0, 20.0, 90.0] {
@@ -535,7 +540,7 @@ mod tests {
             let y = (ey - l - dy) * c + dz * s + dy;
             let z = (ey - l - dy) * s - dz * c + dz;
             let expect = ((y - ey).powi(2) + z * z).sqrt();
-            let got = predicted_reading(&m, &t, Mode::One, &rig, l, alpha);
+            let got = predicted_reading(&m, &t, BallbarMode::One, &rig, l, alpha);
             assert!((got - expect).abs() < 1e-11, "{alpha}: {got} {expect}");
         }
         let _ = ex;
@@ -554,7 +559,7 @@ mod tests {
                 ex: 0.03,
                 ey: -0.02,
             },
-            ..Rig::seed()
+            ..Rig::source_paper()
         };
         let ctr = nalgebra::Vector2::new(-0.023, 0.011 + 0.007);
         let b1 = nalgebra::Vector2::new(0.03, -0.02);
@@ -562,7 +567,7 @@ mod tests {
         for alpha in [0.0_f64, 45.0, 170.0, 300.0] {
             let rot = nalgebra::Rotation2::new(alpha.to_radians());
             let b2 = ctr + rot * (b20 - ctr);
-            let got = predicted_reading(&m, &t, Mode::Three, &rig, 100.0, alpha);
+            let got = predicted_reading(&m, &t, BallbarMode::Three, &rig, 100.0, alpha);
             assert!((got - (b2 - b1).norm()).abs() < 1e-11);
         }
     }
@@ -581,14 +586,14 @@ mod tests {
         let unknowns = Unknowns {
             free: Pige::ALL.to_vec(),
             fixed: Piges::default(),
-            modes: Mode::ALL.to_vec(),
+            modes: BallbarMode::ALL.to_vec(),
         };
         let rig = Rig {
             setup: SetupError {
                 ex: -0.04,
                 ey: 0.07,
             },
-            ..Rig::seed()
+            ..Rig::source_paper()
         };
         let angles: Vec<f64> = (-18..=18).map(|k| k as f64 * 10.0).collect();
         let data = ModeData {
@@ -600,7 +605,7 @@ mod tests {
             &Piges([0.02, -0.015, 9e-5, -6e-5, 0.014, -0.026, 4.4e-5, -9.3e-5]),
             &[100.001, 99.999, 100.0, 100.002],
         );
-        for mode in Mode::ALL {
+        for mode in BallbarMode::ALL {
             let model = ModeModel::new(&base, &t, mode, rig, &data, &unknowns);
             let c = check_jacobian(&model, &theta).unwrap();
             // Columns are O(1) mm/mm for offsets and O(100) mm/rad for tilts; the

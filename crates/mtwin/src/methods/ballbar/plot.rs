@@ -1,17 +1,17 @@
-//! Polar plots of ΔL per mode (the seed's figure 11): the measured readings,
+//! Polar plots of ΔL per mode (figure 11 of the source paper [R1]): the measured readings,
 //! the fit of the identified model, and the prediction after compensating
 //! the four axis-line offsets (the tilts remain).
 
 use super::Pige;
 use super::data::ModeData;
 use super::identify::Identification;
-use super::mode::{Mode, predicted_reading};
+use super::mode::{BallbarMode, predicted_reading};
 use crate::report::svg::{Series, polar};
 
 /// The SVG of `mode`: measured `ΔL = reading − ℓ`, fitted, and after
 /// compensating EY0A, EZ0A, EX0C, EY0C (µm rings). `None` when the mode did
 /// not take part.
-pub fn polar_plot(id: &Identification, mode: Mode, data: &ModeData) -> Option<String> {
+pub fn polar_plot(id: &Identification, mode: BallbarMode, data: &ModeData) -> Option<String> {
     let ell = id.lengths[mode.index()]?;
     let measured: Vec<(f64, f64)> = data
         .angles_deg

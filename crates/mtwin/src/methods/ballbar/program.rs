@@ -16,7 +16,7 @@
 
 use std::fmt::Write as _;
 
-use super::mode::{Mode, Rig, Trunnion, TrunnionError};
+use super::mode::{BallbarMode, Rig, Trunnion, TrunnionError};
 use crate::io::fmt_f64;
 use crate::model::Machine;
 
@@ -54,7 +54,11 @@ pub enum ProgramError {
 }
 
 /// The G-code program of `mode` for `machine`.
-pub fn program(machine: &Machine, mode: Mode, spec: &ProgramSpec) -> Result<String, ProgramError> {
+pub fn program(
+    machine: &Machine,
+    mode: BallbarMode,
+    spec: &ProgramSpec,
+) -> Result<String, ProgramError> {
     let t = Trunnion::of(machine)?;
     if !spec.angles_deg.contains(&0.0) {
         return Err(ProgramError::NoZero);
@@ -183,12 +187,12 @@ mod tests {
     #[test]
     fn mode_two_places_the_ball_and_dwells_at_every_step() {
         let spec = ProgramSpec {
-            rig: Rig::seed(),
+            rig: Rig::source_paper(),
             angles_deg: angle_range(-90.0, 90.0, 5.0),
             dwell_s: 2.0,
             feed: 720.0,
         };
-        let p = program(&machine(), Mode::Two, &spec).unwrap();
+        let p = program(&machine(), BallbarMode::Two, &spec).unwrap();
         // B1 at ZB1C = 100 along x from the C line: X100 Y0 Z0.
         assert!(p.contains("G0 X100 Y0 Z0"), "{p}");
         assert_eq!(p.matches("G4 P2").count(), 37);
@@ -211,12 +215,12 @@ mod tests {
     fn moves_are_in_machine_coordinates_whatever_the_offsets() {
         use crate::gcode::{Axis, EventKind, InterpOptions, Interpreter, Program};
         let spec = ProgramSpec {
-            rig: Rig::seed(),
+            rig: Rig::source_paper(),
             angles_deg: angle_range(0.0, 90.0, 45.0),
             dwell_s: 1.0,
             feed: 720.0,
         };
-        let p = program(&machine(), Mode::Four, &spec).unwrap();
+        let p = program(&machine(), BallbarMode::Four, &spec).unwrap();
         assert!(
             !p.lines().any(|l| !l.starts_with('(') && l.contains("G54")),
             "{p}"
@@ -252,17 +256,17 @@ mod tests {
     #[test]
     fn mode_four_raises_the_ball_and_rejects_out_of_travel() {
         let mut spec = ProgramSpec {
-            rig: Rig::seed(),
+            rig: Rig::source_paper(),
             angles_deg: angle_range(0.0, 360.0, 5.0),
             dwell_s: 1.0,
             feed: 720.0,
         };
-        let p = program(&machine(), Mode::Four, &spec).unwrap();
+        let p = program(&machine(), BallbarMode::Four, &spec).unwrap();
         assert!(p.contains("G0 X0 Y0 Z100"), "{p}");
         assert_eq!(p.matches("G1 C").count(), 74);
         spec.angles_deg = angle_range(0.0, 400.0, 5.0);
         assert!(matches!(
-            program(&machine(), Mode::Four, &spec),
+            program(&machine(), BallbarMode::Four, &spec),
             Err(ProgramError::OutOfTravel { .. })
         ));
     }

@@ -1,9 +1,9 @@
-//! Which PIGE moves which mode, and by how much (the seed's table 2),
+//! Which PIGE moves which mode, and by how much (table 2 of the source paper [R1]),
 //! computed on the exact model: one PIGE at a time set to a given size on
 //! the nominal machine with an ideal set-up, `ΔL(α) = L(α) − L(0)` over each
 //! mode's angles.
 
-use super::mode::{Geometry, Mode, Rig, Trunnion, TrunnionError};
+use super::mode::{BallbarMode, Geometry, Rig, Trunnion, TrunnionError};
 use super::{Pige, Piges};
 use crate::kinematics::Kinematics;
 use crate::model::Machine;
@@ -23,7 +23,7 @@ pub struct SensitivityRow {
 pub fn delta_l_curve(
     machine: &Machine,
     t: &Trunnion,
-    mode: Mode,
+    mode: BallbarMode,
     rig: &Rig,
     piges: &Piges,
     angles_deg: &[f64],
@@ -61,7 +61,7 @@ pub fn sensitivity_table(
             let mut piges = Piges::default();
             piges.set(p, size);
             let mut peak = [0.0; 4];
-            for m in Mode::ALL {
+            for m in BallbarMode::ALL {
                 peak[m.index()] = delta_l_curve(machine, &t, m, &ideal, &piges, &angles[m.index()])
                     .into_iter()
                     .fold(0.0_f64, |a, v| a.max(v.abs()));
@@ -95,13 +95,13 @@ mod tests {
     }
 
     #[test]
-    fn reproduces_the_seed_table_2() {
+    fn reproduces_table_2_of_the_source_paper() {
         // Seed table 1: offsets 10 µm, tilts 0.005°.
         let (m, angles) = setup();
         let tilt = 0.005_f64.to_radians();
-        let rows = sensitivity_table(&m, &Rig::seed(), 0.010, tilt, &angles).unwrap();
+        let rows = sensitivity_table(&m, &Rig::source_paper(), 0.010, tilt, &angles).unwrap();
         for r in &rows {
-            for mode in Mode::ALL {
+            for mode in BallbarMode::ALL {
                 let peak = r.peak[mode.index()];
                 if sees(mode, r.pige) {
                     // First order: an offset moves ΔL by up to ~its size (a full sine or
@@ -133,8 +133,22 @@ mod tests {
         a.set(Pige::EY0A, 0.01);
         let mut c = Piges::default();
         c.set(Pige::EY0C, 0.01);
-        let ca = delta_l_curve(&m, &t, Mode::Three, &Rig::seed(), &a, &angles[2]);
-        let cc = delta_l_curve(&m, &t, Mode::Three, &Rig::seed(), &c, &angles[2]);
+        let ca = delta_l_curve(
+            &m,
+            &t,
+            BallbarMode::Three,
+            &Rig::source_paper(),
+            &a,
+            &angles[2],
+        );
+        let cc = delta_l_curve(
+            &m,
+            &t,
+            BallbarMode::Three,
+            &Rig::source_paper(),
+            &c,
+            &angles[2],
+        );
         for (x, y) in ca.iter().zip(&cc) {
             assert!((x - y).abs() < 1e-12);
         }

@@ -1,4 +1,4 @@
-//! The set-up error of the tool ball (spec 01, seed eqs 23–26).
+//! The set-up error of the tool ball (eqs 23–26 of the source paper [R1]).
 //!
 //! The tool ball B1 sits in a cup on the spindle; clamping leaves its centre
 //! off the spindle axis by `(eX, eY)` in M. With the bar mounted along +X at
@@ -53,7 +53,7 @@ pub enum SetupErrorProblem {
     },
 }
 
-/// `(eX, eY)` from the spindle-rotation readings (spec 01 "Ballbar set-up error").
+/// `(eX, eY)` from the spindle-rotation readings (docs/ballbar.md).
 pub fn setup_error(input: &SetupErrorInput) -> Result<SetupError, SetupErrorProblem> {
     let SetupErrorInput {
         length,
@@ -142,7 +142,7 @@ mod tests {
     }
 
     #[test]
-    fn seed_machine_by_hand() {
+    fn source_paper_machine_by_hand() {
         // R = 0.1, L = 100 and Lmin + R = |OB2| with the ball at (−0.06, −0.08):
         // |OB2|² = 99.94² + 0.08², φ from the cosine rule, eX = −R cos φ = −0.06.
         let ob2 = (99.94_f64.powi(2) + 0.0064).sqrt();

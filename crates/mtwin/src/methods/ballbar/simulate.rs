@@ -4,7 +4,7 @@ use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
 
 use super::data::ModeData;
-use super::mode::{Geometry, Mode, Rig, Trunnion, TrunnionError};
+use super::mode::{BallbarMode, Geometry, Rig, Trunnion, TrunnionError};
 use crate::kinematics::Kinematics;
 use crate::model::Machine;
 
@@ -35,7 +35,7 @@ pub fn angle_range(start: f64, end: f64, step: f64) -> Vec<f64> {
 pub fn simulate_mode<R: Rng + ?Sized>(
     machine: &Machine,
     trunnion: &Trunnion,
-    mode: Mode,
+    mode: BallbarMode,
     spec: &SimulationSpec,
     rng: &mut R,
 ) -> ModeData {
@@ -61,7 +61,7 @@ pub fn simulate_mode<R: Rng + ?Sized>(
 /// (reproducible: same seed, same readings).
 pub fn simulate_modes(
     machine: &Machine,
-    specs: &[(Mode, SimulationSpec)],
+    specs: &[(BallbarMode, SimulationSpec)],
     seed: u64,
 ) -> Result<Vec<ModeData>, TrunnionError> {
     let t = Trunnion::of(machine)?;

@@ -180,8 +180,8 @@ struct Point {
 
 impl Point {
     /// Where the inverse kinematics of the next point starts.
-    fn seed(&self) -> Seed<'_> {
-        Seed {
+    fn warm_start(&self) -> WarmStart<'_> {
+        WarmStart {
             q_nom: &self.q_nom,
             q_act: self.q_act.as_deref(),
             jac: self.jac.as_deref(),
@@ -190,11 +190,11 @@ impl Point {
 }
 
 /// The previous target, from which the inverse kinematics of the next one
-/// starts: its nominal axes seed the nominal (TCP) solution, and its
+/// starts: its nominal axes start the nominal (TCP) solution, and its
 /// correction `q_act − q_nom` the actual one. Corrections vary slowly along a
 /// program, so the warm start saves about one Newton iteration per target.
 #[derive(Clone, Copy)]
-struct Seed<'a> {
+struct WarmStart<'a> {
     q_nom: &'a [f64],
     q_act: Option<&'a [f64]>,
     jac: Option<&'a IkJacobian>,
@@ -337,7 +337,7 @@ impl Compensator {
         &self,
         p: &Axes,
         tcp: bool,
-        seed: Seed<'_>,
+        from: WarmStart<'_>,
         line: u64,
         summary: &mut Summary,
     ) -> Result<Point, CompensateError> {
@@ -352,7 +352,7 @@ impl Compensator {
                 .letters
                 .iter()
                 .zip(&self.linear)
-                .zip(seed.q_nom)
+                .zip(from.q_nom)
                 .map(|((&g, &lin), &s)| if lin { s } else { p[g] })
                 .collect();
             let tip = Vector3::from(p.xyz());
@@ -379,11 +379,11 @@ impl Compensator {
                 },
             )
         };
-        let mut jac = seed.jac.copied();
-        let warm = seed.q_act.and_then(|q_act| {
+        let mut jac = from.jac.copied();
+        let warm = from.q_act.and_then(|q_act| {
             let mut q: Vec<f64> = q_nom
                 .iter()
-                .zip(q_act.iter().zip(seed.q_nom))
+                .zip(q_act.iter().zip(from.q_nom))
                 .map(|(&n, (&a, &an))| n + (a - an))
                 .collect();
             self.actual
@@ -532,7 +532,7 @@ impl Compensator {
                 deviation_um: dev * 1e3,
             });
         }
-        let m = self.point(&nominal, mv.tcp, a.seed(), mv.line, summary)?;
+        let m = self.point(&nominal, mv.tcp, a.warm_start(), mv.line, summary)?;
         self.refine(mv, (sa, a), (sm, &m), depth + 1, fade, out, summary)?;
         out.push((sm, m.clone()));
         let m = out.last().map(|(_, p)| p.clone()).unwrap_or(m);
@@ -570,7 +570,7 @@ impl Compensator {
         let p0 = mv.path.at(0.0);
         let start = match run.last.take() {
             Some(pt) if close(&pt.p, &p0) => pt,
-            Some(pt) => self.point(&p0, mv.tcp, pt.seed(), mv.line, &mut run.summary)?,
+            Some(pt) => self.point(&p0, mv.tcp, pt.warm_start(), mv.line, &mut run.summary)?,
             // The start of the program is where the machine is, not a target.
             None => {
                 let q_nom = if mv.tcp {
@@ -590,7 +590,7 @@ impl Compensator {
         let end = self.point(
             &mv.path.at(1.0),
             mv.tcp,
-            start.seed(),
+            start.warm_start(),
             mv.line,
             &mut run.summary,
         )?;

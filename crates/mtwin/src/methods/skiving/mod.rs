@@ -1,5 +1,5 @@
 //! Workpiece set-up (pose) error of a power-skiving machine from touch-offs
-//! (spec 03, seed 002).
+//! (after [R3] in docs/references.md).
 //!
 //! * [`chain`]: the exact chain `M_gt = M_xg'⁻¹·M_xt` with the four unknowns
 //!   `δgx, δgy` (mm), `εxz, εzy` (rad);
@@ -133,7 +133,7 @@ pub struct Solution {
 /// Why the set-up error cannot be identified.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
-pub enum IdentifyError {
+pub enum SkivingIdentifyError {
     #[error(
         "{0} touches cannot determine 4 unknowns; at least 4 (the standard plan has 6) are needed"
     )]
@@ -155,15 +155,15 @@ pub fn identify(
     touches: &[Touch],
     g: &Geometry,
     options: &Options,
-) -> Result<Solution, IdentifyError> {
+) -> Result<Solution, SkivingIdentifyError> {
     if let Some(s) = options.noise
         && !(s.is_finite() && s > 0.0)
     {
-        return Err(IdentifyError::Noise(s));
+        return Err(SkivingIdentifyError::Noise(s));
     }
     let m = touches.len();
     if m < 4 {
-        return Err(IdentifyError::TooFewTouches(m));
+        return Err(SkivingIdentifyError::TooFewTouches(m));
     }
     let model = TouchModel::new(touches, *g);
     let start = closed_form::first_order(touches, g)
@@ -182,14 +182,14 @@ pub fn identify(
         .map(str::to_owned)
         .collect();
     if !missing.is_empty() {
-        return Err(IdentifyError::NotIdentifiable(missing));
+        return Err(SkivingIdentifyError::NotIdentifiable(missing));
     }
     if let Some(w) = report
         .warnings
         .iter()
         .find(|w| matches!(w, fit::Warning::NotConverged { .. }))
     {
-        return Err(IdentifyError::NotConverged(w.to_string()));
+        return Err(SkivingIdentifyError::NotConverged(w.to_string()));
     }
     let theta = [
         report.theta[0],
@@ -205,7 +205,7 @@ pub fn identify(
     let j = DMatrix::from_fn(m, 4, |i, k| jf[(i, k)]);
     let jtj: Matrix4<f64> = (j.transpose() * &j).fixed_view::<4, 4>(0, 0).into_owned();
     let inv = jtj.try_inverse().ok_or_else(|| {
-        IdentifyError::NotIdentifiable(SetupError::NAMES.map(String::from).to_vec())
+        SkivingIdentifyError::NotIdentifiable(SetupError::NAMES.map(String::from).to_vec())
     })?;
     let leverage: Vec<f64> = (0..m)
         .map(|i| {

@@ -1,4 +1,4 @@
-//! The touch-off plan of spec 03 (steps S03.2–S03.7) and the G-code program
+//! The touch-off plan of [R3] (docs/references.md) and the G-code program
 //! that carries it out with probing moves.
 //!
 //! The six touches, all at `X = x`, `a = b = 0`:
@@ -77,7 +77,7 @@ pub enum PlanError {
 }
 
 impl Plan {
-    /// The seed's plan at `x`: face touches at `y = ±rg/2`, side touches 10 mm
+    /// The plan of the patent [R3] at `x`: face touches at `y = ±rg/2`, side touches 10 mm
     /// below the top face.
     pub fn standard(x: f64, g: &Geometry) -> Self {
         Self {
@@ -213,7 +213,7 @@ pub fn program(
     }
     comment(
         &mut s,
-        "mtwin skiving touch-off program: workpiece set-up error, spec 03",
+        "mtwin skiving touch-off program: workpiece set-up error, see docs/skiving.md",
     );
     comment(
         &mut s,

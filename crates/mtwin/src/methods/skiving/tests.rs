@@ -236,13 +236,13 @@ fn undetermined_layouts_are_refused() {
     let t = simulate(&six(&g), &g, &SetupError::default(), None).unwrap();
     assert_eq!(
         identify(&t[..3], &g, &Options::default()).unwrap_err(),
-        IdentifyError::TooFewTouches(3)
+        SkivingIdentifyError::TooFewTouches(3)
     );
     // Only c = 0: dgx and exz are not seen (to first order), the engine says so.
     let c0 = [t[0], t[1], t[2], t[0], t[1], t[2]];
     assert!(matches!(
         identify(&c0, &g, &Options::default()),
-        Err(IdentifyError::NotIdentifiable(_))
+        Err(SkivingIdentifyError::NotIdentifiable(_))
     ));
     assert!(identify(&t, &g, &Options { noise: Some(0.0) }).is_err());
 }

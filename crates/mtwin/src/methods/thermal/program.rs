@@ -1,5 +1,5 @@
-//! The thermal measurement programme as G-code (spec 04 §Measurement, the
-//! seed's procedure): a cold reference pass of the spindle probe over the
+//! The thermal measurement programme as G-code (the procedure of the
+//! source paper [R4]): a cold reference pass of the spindle probe over the
 //! ball array, then the spindle speed programme, interrupted every sample
 //! period by a probing pass over the balls.
 //!
@@ -219,7 +219,7 @@ pub fn thermal_program(
     s.push_str("%\n");
     comment(
         &mut s,
-        "mtwin thermal program: thermal drift measurement, spec 04",
+        "mtwin thermal program: thermal drift measurement, see docs/thermal.md",
     );
     comment(
         &mut s,

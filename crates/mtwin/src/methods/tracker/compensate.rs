@@ -2,7 +2,7 @@
 //! kinematics. The target of a commanded pose is where the nominal machine
 //! would put the tool: the identified machine is driven there.
 //!
-//! Position only (the seed's choice) moves the linear axes; position and tool
+//! Position only (the choice of the source paper [R2]) moves the linear axes; position and tool
 //! axis is used where the machine can do it ([`Machine::orients_tool`]:
 //! two rotary axes of five; all axes move).
 
@@ -14,20 +14,20 @@ use crate::model::{AxisKind, Machine};
 /// What the correction matches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
-pub enum Mode {
+pub enum CompensationMode {
     /// Tool tip only, linear axes moved.
     Position,
     /// Tool tip and tool axis, all axes moved.
     PositionAndAxis,
 }
 
-impl Mode {
+impl CompensationMode {
     /// The mode `machine` allows (see the module documentation).
-    pub fn for_machine(machine: &Machine) -> Mode {
+    pub fn for_machine(machine: &Machine) -> CompensationMode {
         if machine.orients_tool() {
-            Mode::PositionAndAxis
+            CompensationMode::PositionAndAxis
         } else {
-            Mode::Position
+            CompensationMode::Position
         }
     }
 }
@@ -47,22 +47,22 @@ pub struct Corrected {
 }
 
 /// Corrects commands with the identified machine.
-pub struct Compensator {
+pub struct PointCompensator {
     nominal: Kinematics,
     actual: Kinematics,
-    mode: Mode,
+    mode: CompensationMode,
     free: Vec<bool>,
     options: IkOptions,
 }
 
-impl Compensator {
+impl PointCompensator {
     /// A compensator for `identified` in the mode it allows.
     pub fn new(identified: &Machine) -> Self {
-        let mode = Mode::for_machine(identified);
+        let mode = CompensationMode::for_machine(identified);
         let free = identified
             .axes
             .iter()
-            .map(|a| mode == Mode::PositionAndAxis || a.kind == AxisKind::Linear)
+            .map(|a| mode == CompensationMode::PositionAndAxis || a.kind == AxisKind::Linear)
             .collect();
         Self {
             nominal: Kinematics::nominal(identified),
@@ -78,7 +78,7 @@ impl Compensator {
     }
 
     /// The mode in use.
-    pub fn mode(&self) -> Mode {
+    pub fn mode(&self) -> CompensationMode {
         self.mode
     }
 
@@ -87,7 +87,7 @@ impl Compensator {
         let want = self.nominal.pose(q);
         let target = IkTarget {
             tip: want.tip,
-            axis: (self.mode == Mode::PositionAndAxis).then_some(want.axis),
+            axis: (self.mode == CompensationMode::PositionAndAxis).then_some(want.axis),
         };
         let error_before = (self.actual.pose(q).tip - want.tip).norm();
         let qc = self.actual.inverse(&target, q, &self.free, &self.options)?;
@@ -120,8 +120,8 @@ mod tests {
     #[test]
     fn gantry_correction_shifts_linear_axes_by_minus_the_error() {
         let m = example("afp-gantry-with-errors.toml");
-        let c = Compensator::new(&m);
-        assert_eq!(c.mode(), Mode::Position);
+        let c = PointCompensator::new(&m);
+        assert_eq!(c.mode(), CompensationMode::Position);
         let q = [4000.0, 1500.0, -400.0, 20.0, -10.0, 45.0];
         let r = c.correct(&q).unwrap();
         assert!(r.error_after < 1e-8, "{}", r.error_after);
@@ -141,8 +141,8 @@ mod tests {
     #[test]
     fn five_axis_correction_matches_tip_and_tool_axis() {
         let m = example("ac-trunnion-with-errors.toml");
-        let c = Compensator::new(&m);
-        assert_eq!(c.mode(), Mode::PositionAndAxis);
+        let c = PointCompensator::new(&m);
+        assert_eq!(c.mode(), CompensationMode::PositionAndAxis);
         let q: Vec<f64> = m
             .axes
             .iter()

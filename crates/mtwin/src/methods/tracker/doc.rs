@@ -7,7 +7,7 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use super::Identification;
-use super::compensate::Mode;
+use super::compensate::CompensationMode;
 use super::validate::{ErrorStats, Stats, Validation};
 use crate::fit::{Convergence, Estimate, FitReport, Outlier, Warning};
 
@@ -337,7 +337,7 @@ pub struct CompensatePointsDoc {
     /// Largest predicted tip error before correction (mm).
     pub max_error_before: f64,
     /// What the correction matches.
-    pub mode: Mode,
+    pub mode: CompensationMode,
     /// The CSV written.
     pub out: String,
     /// Poses corrected.
@@ -361,7 +361,7 @@ impl fmt::Display for CompensatePointsDoc {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::methods::tracker::compensate::Compensator;
+    use crate::methods::tracker::compensate::PointCompensator;
     use crate::methods::tracker::{IdentifyOptions, identify, plan, simulate, validate};
     use crate::model::{Machine, ParameterSet, parse_machine};
     use std::path::Path;
@@ -414,7 +414,7 @@ mod tests {
         assert_eq!(v.points, 20);
         assert_eq!(round_trip(&v), v);
 
-        let c = Compensator::new(&id.machine);
+        let c = PointCompensator::new(&id.machine);
         let cd = CompensatePointsDoc {
             max_error_after: 1e-9,
             max_error_before: 0.02,

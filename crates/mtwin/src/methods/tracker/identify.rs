@@ -36,7 +36,7 @@ impl Default for IdentifyOptions {
 /// Why an identification could not be made.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
-pub enum IdentifyError {
+pub enum TrackerIdentifyError {
     #[error("there are no measured points")]
     NoPoints,
     #[error("point {point} has {got} axis positions but the machine has {expected} axes")]
@@ -78,24 +78,27 @@ pub struct Identification {
 }
 
 /// Checks the points against the machine: axis count, finite values, travel.
-pub fn check_points(machine: &Machine, points: &[TrackerPoint]) -> Result<(), IdentifyError> {
+pub fn check_points(
+    machine: &Machine,
+    points: &[TrackerPoint],
+) -> Result<(), TrackerIdentifyError> {
     if points.is_empty() {
-        return Err(IdentifyError::NoPoints);
+        return Err(TrackerIdentifyError::NoPoints);
     }
     for (k, p) in points.iter().enumerate() {
         if p.q.len() != machine.n_axes() {
-            return Err(IdentifyError::AxisCount {
+            return Err(TrackerIdentifyError::AxisCount {
                 point: k,
                 got: p.q.len(),
                 expected: machine.n_axes(),
             });
         }
         if p.q.iter().any(|v| !v.is_finite()) || p.measured.iter().any(|v| !v.is_finite()) {
-            return Err(IdentifyError::NonFinite { point: k });
+            return Err(TrackerIdentifyError::NonFinite { point: k });
         }
         if let Some((i, v)) = machine.out_of_travel(&p.q) {
             let a = &machine.axes[i];
-            return Err(IdentifyError::OutOfTravel {
+            return Err(TrackerIdentifyError::OutOfTravel {
                 point: k,
                 axis: a.name.clone(),
                 value: v,
@@ -145,7 +148,7 @@ pub fn identify(
     points: &[TrackerPoint],
     options: &IdentifyOptions,
     progress: &dyn Fn(Progress),
-) -> Result<Identification, IdentifyError> {
+) -> Result<Identification, TrackerIdentifyError> {
     check_points(machine, points)?;
     let model = TrackerModel::new(machine, params, points, options.registration);
     let mut theta0 = vec![0.0; model.len()];
@@ -159,7 +162,7 @@ pub fn identify(
     let report = fit::fit_with_progress(&model, &theta0, &options.fit, progress)?;
     let rank = report.identifiability.rank;
     if points.len() < rank || report.degrees_of_freedom == 0 {
-        return Err(IdentifyError::TooFewPoints {
+        return Err(TrackerIdentifyError::TooFewPoints {
             points: points.len(),
             rank,
         });

@@ -131,11 +131,11 @@ fn held_out_prediction_matches_an_independent_least_squares_fit() {
     assert!(after <= 1.2 * ref_rms, "{after} vs reference {ref_rms}");
     assert!(after <= 0.2 * before, "{after} vs nominal {before}");
 
-    // The seed's table: body diagonals.
+    // The table of the source paper [R2]: body diagonals.
     let diag = validate(&id.machine, &check_pts[100..]);
     let ch = ErrorStats::change(&diag.before, &diag.after);
     eprintln!(
-        "body diagonals |Δp|: max {:+.0} %, mean {:+.0} %, std {:+.0} % (seed: −70 %, −81 %, −81 %)",
+        "body diagonals |Δp|: max {:+.0} %, mean {:+.0} %, std {:+.0} % (source paper [R2]: −70 %, −81 %, −81 %)",
         ch.distance.max, ch.distance.mean, ch.distance.std
     );
     assert!(
@@ -144,12 +144,12 @@ fn held_out_prediction_matches_an_independent_least_squares_fit() {
     );
 }
 
-/// The seed's 162-parameter model: cubic Chebyshev PDGEs, three squareness
+/// The 162-parameter model of the source paper [R2]: cubic Chebyshev PDGEs, three squareness
 /// errors, five location errors per rotary axis.
 const SEED_SPEC: &str = "pdge:cheb3,EC0Y,EB0Z,EA0Z,EX0B,EZ0B,EA0B,EB0B,EC0B,EY0A,EZ0A,EA0A,EB0A,EC0A,EX0C,EY0C,EA0C,EB0C,EC0C";
 
 #[test]
-fn verdict_names_the_confounded_parameters_of_the_seed_model() {
+fn verdict_names_the_confounded_parameters_of_the_source_paper_model() {
     let m = afp();
     let params = ParameterSet::from_spec(&m, SEED_SPEC).unwrap();
     assert_eq!(params.len(), 162);
@@ -244,7 +244,7 @@ fn bad_points_are_rejected() {
     };
     assert_eq!(
         identify(&m, &params, &[], &opts, &|_| {}).unwrap_err(),
-        IdentifyError::NoPoints
+        TrackerIdentifyError::NoPoints
     );
     let e = identify(
         &m,
@@ -254,7 +254,7 @@ fn bad_points_are_rejected() {
         &|_| {},
     );
     assert!(
-        matches!(e, Err(IdentifyError::OutOfTravel { point: 0, .. })),
+        matches!(e, Err(TrackerIdentifyError::OutOfTravel { point: 0, .. })),
         "{e:?}"
     );
     let e = identify(
@@ -265,14 +265,14 @@ fn bad_points_are_rejected() {
         &|_| {},
     );
     assert!(
-        matches!(e, Err(IdentifyError::NonFinite { point: 0 })),
+        matches!(e, Err(TrackerIdentifyError::NonFinite { point: 0 })),
         "{e:?}"
     );
     let mut rng = StdRng::seed_from_u64(1);
     let pts = simulate(&m, &random_poses(&m, 3, &mut rng), 0.01, &mut rng);
     let e = identify(&m, &params, &pts, &opts, &|_| {});
     assert!(
-        matches!(e, Err(IdentifyError::TooFewPoints { points: 3, .. })),
+        matches!(e, Err(TrackerIdentifyError::TooFewPoints { points: 3, .. })),
         "{e:?}"
     );
 }

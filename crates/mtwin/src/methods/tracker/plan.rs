@@ -13,7 +13,7 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 
 use rand::{Rng, SeedableRng};
 
-use super::identify::{IdentifyError, IdentifyOptions, identify};
+use super::identify::{IdentifyOptions, TrackerIdentifyError, identify};
 use super::model::{TrackerModel, TrackerPoint};
 use super::simulate::simulate;
 use crate::fit::FitReport;
@@ -136,7 +136,7 @@ pub fn expected<R: Rng>(
     poses: &[Vec<f64>],
     noise: f64,
     rng: &mut R,
-) -> Result<FitReport, IdentifyError> {
+) -> Result<FitReport, TrackerIdentifyError> {
     let nominal = machine.nominal();
     let points = simulate(&nominal, poses, noise, rng);
     let id = identify(
@@ -192,7 +192,7 @@ pub fn plan(
     select: usize,
     noise: f64,
     seed: u64,
-) -> Result<Plan, IdentifyError> {
+) -> Result<Plan, TrackerIdentifyError> {
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
     let cands = super::simulate::random_poses(machine, candidates, &mut rng);
     let blocks = scaled_blocks(machine, params, &cands);

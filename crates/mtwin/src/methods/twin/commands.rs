@@ -1,4 +1,4 @@
-//! The twin's input (05 §1): axis commands at the servo sample period, read from
+//! The twin's input (docs/twin.md): axis commands at the servo sample period, read from
 //! CMD.csv or interpolated from a G-code program, streamed into a [`Predictor`].
 
 use std::io::{self, BufRead};

@@ -1,4 +1,4 @@
-//! The exact global nearest point on the command tool-tip polyline (05 §6).
+//! The exact global nearest point on the command tool-tip polyline (docs/twin.md).
 //!
 //! The polyline runs through the command samples `p_0, p_1, …, p_{N−1}` (tool
 //! tips in W, mm); segment `k` joins `p_k` and `p_{k+1}`. For a query point
@@ -37,7 +37,7 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-/// Distances within this many mm of the smallest one are ties (05 §6).
+/// Distances within this many mm of the smallest one are ties (docs/twin.md).
 pub const TIE_MM: f64 = 1e-12;
 
 /// Segments per leaf of the hierarchy: consecutive segments are close in space, so

@@ -50,7 +50,7 @@ fn five_servos() -> Vec<ServoTable> {
     ]
 }
 
-/// The servo difference equation written out (05 §3), on deviations from `u(0)`.
+/// The servo difference equation written out (docs/servo.md), on deviations from `u(0)`.
 fn servo_reference(s: &ServoTable, u: &[f64]) -> Vec<f64> {
     let u0 = u[0];
     let mut y: Vec<f64> = Vec::with_capacity(u.len());

@@ -1,9 +1,9 @@
-//! Ballbar section (spec 01) from the JSON of `mtwin ballbar identify --format json`:
+//! Ballbar section ([R1]) from the JSON of `mtwin ballbar identify --format json`:
 //! the eight PIGEs with standard uncertainties, residual RMS per mode, the
 //! corrected axis-line positions and the polar plots.
 
 use super::{ReportError, fmt};
-use crate::methods::ballbar::{BallbarIdentifyDoc, Mode, Pige};
+use crate::methods::ballbar::{BallbarIdentifyDoc, BallbarMode, Pige};
 use crate::report::html::{Block, Section, Table, Verdict};
 
 /// The ballbar section. `figures` are `(caption, SVG)` pairs, e.g. the polar
@@ -51,7 +51,7 @@ pub fn section(
         "Residuals and fitted bar lengths per mode",
         &["mode", "residual RMS (µm)", "fitted bar length (mm)"],
     );
-    for m in Mode::ALL {
+    for m in BallbarMode::ALL {
         let rms = doc.residual_rms[m];
         if rms.is_some() {
             r.row(vec![

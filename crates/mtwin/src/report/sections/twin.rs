@@ -1,4 +1,4 @@
-//! Digital-twin sections (spec 05): tool-tip and tool-axis trajectory errors
+//! Digital-twin sections ([R5], docs/references.md): tool-tip and tool-axis trajectory errors
 //! along the path, from the rows of `PRED.csv` (`t_s, x_cmd,y_cmd,z_cmd,
 //! i_cmd,j_cmd,k_cmd, x,y,z, i,j,k, tip_error, axis_error`: command and
 //! actual tool tip (mm) and tool axis in W, ε_p in mm, ε_o in rad).
@@ -8,7 +8,7 @@ use crate::io::Table as CsvTable;
 use crate::report::html::{Block, Headline, Section, Table};
 use crate::report::svg::{Series, xy};
 
-/// The columns of `PRED.csv`, in order (spec 05, contract).
+/// The columns of `PRED.csv`, in order (docs/twin.md).
 pub const COLUMNS: [&str; 15] = [
     "t_s",
     "x_cmd",
@@ -94,7 +94,7 @@ fn along(rows: &[TwinRow], f: impl Fn(&TwinRow) -> f64) -> Vec<(f64, f64)> {
 }
 
 /// A twin section from the rows of one prediction: summary table with the
-/// seed's figures, tip error and tool-axis error along the path, and the path
+/// source patent's [R5] figures, tip error and tool-axis error along the path, and the path
 /// itself (command and actual tool tip in the XY plane of W).
 pub fn section_from_rows(id: &str, title: &str, rows: &[TwinRow]) -> Section {
     let (tip_max, tip_rms, axis_max) = summary(rows);
@@ -110,12 +110,12 @@ pub fn section_from_rows(id: &str, title: &str, rows: &[TwinRow]) -> Section {
         Headline {
             label: "largest tool-tip error ε_p".into(),
             ours: format!("{} µm", fmt(Some(tip_max * 1e3), 1)),
-            seed: "−1.2…1.5 mm (S-shaped test piece)".into(),
+            source: "−1.2…1.5 mm (S-shaped test piece)".into(),
         },
         Headline {
             label: "largest tool-axis error ε_o".into(),
             ours: format!("{} µrad", fmt(Some(axis_max * 1e6), 1)),
-            seed: "−4.5e-3…4e-3 rad".into(),
+            source: "−4.5e-3…4e-3 rad".into(),
         },
     ]));
     let mut t = Table::new("Trajectory errors", &["quantity", "value", "unit"]);
