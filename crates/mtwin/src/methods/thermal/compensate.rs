@@ -828,8 +828,10 @@ mod tests {
             }
             other => panic!("expected the unstable model refused, got {other:?}"),
         }
-        let mut allow = CompensateOptions::default();
-        allow.allow_unstable = true;
+        let allow = CompensateOptions {
+            allow_unstable: true,
+            ..CompensateOptions::default()
+        };
         match compensate(&m, program, &allow) {
             Err(CompensateError::Diverges { line, drift_mm }) => {
                 assert_eq!(line, 4);
