@@ -16,6 +16,31 @@ pub struct OrdersDoc {
     pub nk: Vec<usize>,
 }
 
+impl From<&super::ArxOrders> for OrdersDoc {
+    fn from(o: &super::ArxOrders) -> Self {
+        OrdersDoc {
+            na: o.na,
+            nb: o.inputs.iter().map(|i| i.nb).collect(),
+            nk: o.inputs.iter().map(|i| i.nk).collect(),
+        }
+    }
+}
+
+impl OrdersDoc {
+    /// The orders as [`super::ArxOrders`] (for their `na=… nb=… nk=…` text).
+    pub fn orders(&self) -> super::ArxOrders {
+        super::ArxOrders {
+            na: self.na,
+            inputs: self
+                .nb
+                .iter()
+                .zip(&self.nk)
+                .map(|(&nb, &nk)| super::InputOrder { nb, nk })
+                .collect(),
+        }
+    }
+}
+
 /// An identified servo transfer function, command → encoder position,
 /// `y(k) = −Σ a_i·y(k−i) + Σ b_j·u(k−j−nk)`, with its fit statistics.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
