@@ -241,4 +241,3 @@ fn stats(a: StatsArgs) -> anyhow::Result<()> {
     }
     Ok(())
 }
-

@@ -352,8 +352,7 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
     for w in &warnings {
         warn(w);
     }
-    let doc =
-        thermal::ThermalPredictDoc::new(&p, &heights, &a.out.display().to_string(), warnings);
+    let doc = thermal::ThermalPredictDoc::new(&p, &heights, &a.out.display().to_string(), warnings);
     crate::output::print_doc(&doc, a.format)
 }
 

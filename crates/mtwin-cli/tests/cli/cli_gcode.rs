@@ -56,12 +56,22 @@ fn interpolate_writes_equally_spaced_samples_on_the_line() {
     let doc: mtwin::gcode::GcodeInterpolateDoc =
         serde_json::from_str(&stdout(&o)).expect("stdout is a GcodeInterpolateDoc");
     assert_eq!(serde_json::to_value(&doc).unwrap(), v);
-    assert_eq!((doc.samples, doc.out.as_str()), (rows.len() as u64, "cmd.csv"));
+    assert_eq!(
+        (doc.samples, doc.out.as_str()),
+        (rows.len() as u64, "cmd.csv")
+    );
     let human = mtwin(
         dir.path(),
         &[
-            "gcode", "interpolate", "--machine", &example("ac-trunnion.toml"), "line.nc", "--ts",
-            "0.01", "--out", "cmd.csv",
+            "gcode",
+            "interpolate",
+            "--machine",
+            &example("ac-trunnion.toml"),
+            "line.nc",
+            "--ts",
+            "0.01",
+            "--out",
+            "cmd.csv",
         ],
     );
     assert_eq!(human.status.code(), Some(0), "{}", stderr(&human));
@@ -144,7 +154,13 @@ fn stats_reports_travel_violations() {
     assert_eq!(doc.unreachable_lines.as_deref(), Some(&[][..]));
     let human = mtwin(
         dir.path(),
-        &["gcode", "stats", "far.nc", "--machine", &example("ac-trunnion.toml")],
+        &[
+            "gcode",
+            "stats",
+            "far.nc",
+            "--machine",
+            &example("ac-trunnion.toml"),
+        ],
     );
     assert_eq!(human.status.code(), Some(0), "{}", stderr(&human));
     assert_eq!(stdout(&human), doc.to_string());

@@ -137,7 +137,14 @@ fn fit_then_predict_matches_the_true_drift_of_a_new_programme() {
     let human = mtwin(
         dir.path(),
         &[
-            "thermal", "fit", "--data", "train.csv", "--max-order", "3", "--out", "thermal.toml",
+            "thermal",
+            "fit",
+            "--data",
+            "train.csv",
+            "--max-order",
+            "3",
+            "--out",
+            "thermal.toml",
         ],
     );
     assert_eq!(human.status.code(), Some(0), "{}", stderr(&human));
@@ -207,7 +214,10 @@ fn fit_then_predict_matches_the_true_drift_of_a_new_programme() {
     let doc: mtwin::methods::thermal::ThermalPredictDoc =
         serde_json::from_str(&stdout(&o)).expect("stdout is a ThermalPredictDoc");
     assert_eq!(serde_json::to_value(&doc).unwrap(), v);
-    assert_eq!((doc.samples, doc.out.as_str()), (speeds.len(), "drift2.csv"));
+    assert_eq!(
+        (doc.samples, doc.out.as_str()),
+        (speeds.len(), "drift2.csv")
+    );
     let last = read_rows(&dir.path().join("drift2.csv"), &["drift_mm"]);
     assert_eq!(doc.heights[0].final_drift_mm, last[last.len() - 1][0]);
     let rows = read_rows(&dir.path().join("drift2.csv"), &["drift_mm"]);

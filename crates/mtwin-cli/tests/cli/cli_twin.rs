@@ -164,7 +164,14 @@ fn only_modes_separate_the_sources() {
     let o = mtwin(
         dir.path(),
         &[
-            "twin", "predict", "--machine", &m, "--commands", "cmd.csv", "--out", "e.csv",
+            "twin",
+            "predict",
+            "--machine",
+            &m,
+            "--commands",
+            "cmd.csv",
+            "--out",
+            "e.csv",
             "--breakdown",
         ],
     );

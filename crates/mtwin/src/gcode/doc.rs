@@ -312,8 +312,10 @@ mod tests {
         // 10 mm at 600 mm/min is 1 s without acceleration limits; limits only add.
         let program = "G0 X0 Y0 Z0\nG1 X10 F600\nM2\n";
         let ts = 0.01;
-        let s = interpolate(program.as_bytes(), &m, &InterpolateOptions::new(ts), |_| Ok(()))
-            .unwrap();
+        let s = interpolate(program.as_bytes(), &m, &InterpolateOptions::new(ts), |_| {
+            Ok(())
+        })
+        .unwrap();
         let d = GcodeInterpolateDoc::new(&s, ts, "cmd.csv");
         assert!(d.duration_s >= 1.0, "{}", d.duration_s);
         assert_eq!(d.moves, s.moves);

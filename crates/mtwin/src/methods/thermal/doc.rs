@@ -386,8 +386,7 @@ impl ThermalPredictDoc {
             .iter()
             .map(|&z| {
                 let series = p.rows.iter().filter(|r| r[1] == z).map(|r| r[2]);
-                let (max_abs, last) =
-                    series.fold((0.0f64, 0.0), |(m, _), d| (m.max(d.abs()), d));
+                let (max_abs, last) = series.fold((0.0f64, 0.0), |(m, _), d| (m.max(d.abs()), d));
                 PredictedHeightDoc {
                     final_drift_mm: last,
                     max_abs_drift_mm: max_abs,
@@ -477,25 +476,57 @@ mod fit_predict_tests {
         }
         // The JSON keys of today's output.
         let v = serde_json::to_value(&d).unwrap();
-        let keys = |v: &serde_json::Value| v.as_object().unwrap().keys().cloned().collect::<Vec<_>>();
+        let keys =
+            |v: &serde_json::Value| v.as_object().unwrap().keys().cloned().collect::<Vec<_>>();
         assert_eq!(
             keys(&v),
-            ["heights", "inputs", "out", "period_min", "plots", "runs", "speed_model", "warnings"]
+            [
+                "heights",
+                "inputs",
+                "out",
+                "period_min",
+                "plots",
+                "runs",
+                "speed_model",
+                "warnings"
+            ]
         );
         assert!(v["speed_model"].is_null());
         assert_eq!(
             keys(&v["heights"][0]),
             [
-                "a", "a_std", "aic", "b", "b_std", "fpe", "grid", "nk", "one_step_rms_mm",
-                "orders", "params", "samples", "simulation_rms_mm", "spectral_radius", "stable",
+                "a",
+                "a_std",
+                "aic",
+                "b",
+                "b_std",
+                "fpe",
+                "grid",
+                "nk",
+                "one_step_rms_mm",
+                "orders",
+                "params",
+                "samples",
+                "simulation_rms_mm",
+                "spectral_radius",
+                "stable",
                 "z_mm"
             ]
         );
         assert_eq!(
             keys(&v["heights"][0]["grid"][0]),
             [
-                "aic", "chosen", "fpe", "na", "nb", "nk", "one_step_rms", "params", "samples",
-                "simulation_rms", "stable"
+                "aic",
+                "chosen",
+                "fpe",
+                "na",
+                "nb",
+                "nk",
+                "one_step_rms",
+                "params",
+                "samples",
+                "simulation_rms",
+                "stable"
             ]
         );
         let back: ThermalFitDoc =
@@ -503,12 +534,22 @@ mod fit_predict_tests {
         assert_eq!(back, d);
         let text = d.to_string();
         let lines: Vec<&str> = text.lines().collect();
-        assert_eq!(lines[0], "2 height(s), 2 run(s), sample period 10 min → thermal.toml");
+        assert_eq!(
+            lines[0],
+            "2 height(s), 2 run(s), sample period 10 min → thermal.toml"
+        );
         assert_eq!(lines[1], format!("inputs: speed_rpm/{}", d.inputs[0].scale));
         // Per height: a blank line, the summary, the grid header and six rows.
         assert_eq!(lines.len(), 2 + 2 * 9);
-        assert!(lines[3].starts_with("z = -300 mm: orders na="), "{}", lines[3]);
-        assert_eq!(lines[5..11].iter().filter(|l| l.starts_with('*')).count(), 1);
+        assert!(
+            lines[3].starts_with("z = -300 mm: orders na="),
+            "{}",
+            lines[3]
+        );
+        assert_eq!(
+            lines[5..11].iter().filter(|l| l.starts_with('*')).count(),
+            1
+        );
     }
 
     #[test]
@@ -541,8 +582,15 @@ mod fit_predict_tests {
             let e = truth.drift(&speeds, z);
             let max_abs = e.iter().fold(0.0f64, |m, d| m.max(d.abs()));
             assert_eq!(h.z_mm, z);
-            assert!((h.max_abs_drift_mm - max_abs).abs() < 1e-7, "{h:?} vs {max_abs}");
-            assert!((h.final_drift_mm - e[12]).abs() < 1e-7, "{h:?} vs {}", e[12]);
+            assert!(
+                (h.max_abs_drift_mm - max_abs).abs() < 1e-7,
+                "{h:?} vs {max_abs}"
+            );
+            assert!(
+                (h.final_drift_mm - e[12]).abs() < 1e-7,
+                "{h:?} vs {}",
+                e[12]
+            );
             want.push_str(&format!(
                 "z = {z} mm: largest |drift| {:.2} µm, final drift {:.2} µm\n",
                 max_abs * 1e3,

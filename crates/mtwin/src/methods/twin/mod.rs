@@ -22,9 +22,7 @@ pub mod plot;
 mod tests;
 
 pub use commands::{predict_csv, predict_gcode};
-pub use doc::{
-    BySourceDoc, StretchDoc, TwinBreakdownDoc, TwinErrorsDoc, TwinPredictDoc, dominant,
-};
+pub use doc::{BySourceDoc, StretchDoc, TwinBreakdownDoc, TwinErrorsDoc, TwinPredictDoc, dominant};
 pub use nearest::{CommandPath, Nearest, angle_between};
 pub use pipeline::{At, Bin, Predictor, Progress, Sources, Twin, TwinSample, TwinSummary};
 

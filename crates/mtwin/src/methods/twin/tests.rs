@@ -514,7 +514,11 @@ fn the_predict_document_of_a_lagged_corner_round_trips_with_its_breakdown() {
     assert_eq!((d.samples, d.sources.as_str()), (4000, "all"));
     assert!((d.duration_s - 3.999).abs() < 1e-12, "{}", d.duration_s);
     // Path: 200 mm along X then 199.9 mm along Y.
-    assert!((d.path_length_mm - 399.9).abs() < 1e-9, "{}", d.path_length_mm);
+    assert!(
+        (d.path_length_mm - 399.9).abs() < 1e-9,
+        "{}",
+        d.path_length_mm
+    );
     // The closed form of the corner cut (see the test named above).
     let vtau = c * p / (1.0 - p);
     let expected = (0..2000)
@@ -523,7 +527,11 @@ fn the_predict_document_of_a_lagged_corner_round_trips_with_its_breakdown() {
             (vtau * pm).min(c * m as f64 - vtau * (1.0 - pm))
         })
         .fold(0.0, f64::max);
-    assert!((d.tip_error_max - expected).abs() < 1e-9, "{}", d.tip_error_max);
+    assert!(
+        (d.tip_error_max - expected).abs() < 1e-9,
+        "{}",
+        d.tip_error_max
+    );
     let b = d.breakdown.as_ref().unwrap();
     assert_eq!(b.dominant, "servo");
     assert!(b.geometry.tip_error_max < 1e-12, "{:?}", b.geometry);
@@ -536,7 +544,9 @@ fn the_predict_document_of_a_lagged_corner_round_trips_with_its_breakdown() {
     assert!(b.stretches.iter().all(|s| s.dominant == "servo"));
     let text = d.to_string();
     assert!(
-        text.starts_with("4000 samples, 3.999 s, command path 399.900 mm (servo + geometry) → pred.csv\n"),
+        text.starts_with(
+            "4000 samples, 3.999 s, command path 399.900 mm (servo + geometry) → pred.csv\n"
+        ),
         "{text}"
     );
     assert!(text.contains("\n  dominant overall: servo\n"), "{text}");
