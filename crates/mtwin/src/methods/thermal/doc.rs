@@ -577,7 +577,7 @@ mod fit_predict_tests {
         let d = ThermalPredictDoc::new(&p, &heights, "drift.csv", vec![]);
         assert_eq!(d.samples, speeds.len());
         let truth = TruthMachine::demo();
-        let mut want = format!("13 sample time(s) × 2 height(s) → drift.csv\n");
+        let mut want = "13 sample time(s) × 2 height(s) → drift.csv\n".to_string();
         for (h, &z) in d.heights.iter().zip(&heights) {
             let e = truth.drift(&speeds, z);
             let max_abs = e.iter().fold(0.0f64, |m, d| m.max(d.abs()));
