@@ -10,10 +10,9 @@ use mtwin::gcode::{
     TravelCheck,
 };
 use mtwin::io::write_csv_row;
-use serde_json::json;
 
 use super::common::{DialectArgs, load_machine};
-use crate::output::{Format, print_json, warn};
+use crate::output::{Format, warn};
 
 #[derive(Debug, clap::Subcommand)]
 pub enum Command {
@@ -190,24 +189,8 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
             s.transitions
         ));
     }
-    match a.format {
-        Format::Json => print_json(&json!({
-            "out": a.out.display().to_string(), "samples": s.samples, "ts": a.ts,
-            "duration_s": s.duration, "moves": s.moves, "transitions": s.transitions,
-            "dwell_s": s.dwell_time,
-        })),
-        Format::Human => {
-            println!(
-                "{} samples at {} s ({} moves, {:.3} s) → {}",
-                s.samples,
-                a.ts,
-                s.moves,
-                s.duration,
-                a.out.display()
-            );
-            Ok(())
-        }
-    }
+    let doc = gcode::GcodeInterpolateDoc::new(&s, a.ts, &a.out.display().to_string());
+    crate::output::print_doc(&doc, a.format)
 }
 
 fn stats(a: StatsArgs) -> anyhow::Result<()> {
@@ -238,20 +221,13 @@ fn stats(a: StatsArgs) -> anyhow::Result<()> {
             &e,
         )
     })?;
-    let ranges: Vec<_> = Axis::ALL
-        .iter()
-        .filter(|&&ax| match &machine {
-            Some(m) => m.axis_index(&char::from(ax.letter()).to_string()).is_some(),
-            None => ax.index() < 3 || st.work_range[ax.index()].is_some_and(|r| r.max > r.min),
-        })
-        .filter_map(|&ax| {
-            st.work_range[ax.index()].map(|r| {
-                let mr = st.machine_range[ax.index()].unwrap_or(r);
-                (char::from(ax.letter()).to_string(), r, mr)
-            })
-        })
-        .collect();
-    print_stats(&a, &st, &ranges, check.as_ref())?;
+    let doc = gcode::GcodeStatsDoc::new(
+        &a.program.display().to_string(),
+        &st,
+        machine.as_ref(),
+        check.as_ref(),
+    );
+    crate::output::print_doc(&doc, a.format)?;
     if let Some(c) = check
         .as_ref()
         .filter(|c| a.strict && (c.count > 0 || !c.unreachable.is_empty()))
@@ -264,87 +240,4 @@ fn stats(a: StatsArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
-}
-
-/// Prints the statistics and the travel check in the chosen format.
-fn print_stats(
-    a: &StatsArgs,
-    st: &gcode::ProgramStats,
-    ranges: &[(String, gcode::AxisRange, gcode::AxisRange)],
-    check: Option<&TravelCheck>,
-) -> anyhow::Result<()> {
-    match a.format {
-        Format::Json => {
-            let axes: serde_json::Map<_, _> = ranges
-                .iter()
-                .map(|(n, r, mr)| {
-                    (
-                        n.clone(),
-                        json!({"work": [r.min, r.max], "machine": [mr.min, mr.max]}),
-                    )
-                })
-                .collect();
-            let mut v = json!({
-                "blocks": st.blocks, "motion_blocks": st.motion_blocks,
-                "rapid_moves": st.rapid_moves, "linear_moves": st.linear_moves, "arc_moves": st.arc_moves,
-                "feed_length_mm": st.feed_length, "rapid_length_mm": st.rapid_length,
-                "feed_time_s": st.feed_time, "rapid_time_s": st.rapid_time, "dwell_time_s": st.dwell_time,
-                "total_time_s": st.total_time(), "axes": axes,
-            });
-            if let Some(c) = check {
-                v["travel_violations"] = json!(c.count);
-                v["violations"] = c
-                    .violations
-                    .iter()
-                    .map(|x| json!({"line": x.line, "axis": x.axis, "value": x.value, "travel": x.travel}))
-                    .collect();
-                v["unreachable_lines"] = json!(c.unreachable);
-            }
-            print_json(&v)
-        }
-        Format::Human => {
-            println!("{}", a.program.display());
-            println!(
-                "blocks {} ({} with motion): {} rapid, {} linear, {} arc moves",
-                st.blocks, st.motion_blocks, st.rapid_moves, st.linear_moves, st.arc_moves
-            );
-            println!(
-                "path: feed {:.3} mm, rapid {:.3} mm; estimated time {:.3} s (feed {:.3}, rapid {:.3}, dwell {:.3}; no acceleration)",
-                st.feed_length,
-                st.rapid_length,
-                st.total_time(),
-                st.feed_time,
-                st.rapid_time,
-                st.dwell_time
-            );
-            for (n, r, mr) in ranges {
-                println!(
-                    "  {n}: work [{}, {}], machine [{}, {}]",
-                    r.min, r.max, mr.min, mr.max
-                );
-            }
-            if let Some(c) = check {
-                if c.count == 0 && c.unreachable.is_empty() {
-                    println!("travel: every move end is within the machine travels");
-                } else {
-                    for v in c.violations.iter().take(10) {
-                        println!(
-                            "{}:{}: axis {} at {} outside its travel [{}, {}]",
-                            a.program.display(),
-                            v.line,
-                            v.axis,
-                            v.value,
-                            v.travel[0],
-                            v.travel[1]
-                        );
-                    }
-                    println!("travel: {} violation(s)", c.count);
-                    for l in c.unreachable.iter().take(10) {
-                        println!("{}:{}: tool tip not reachable", a.program.display(), l);
-                    }
-                }
-            }
-            Ok(())
-        }
-    }
 }

@@ -166,52 +166,20 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
     }
     let velocity = a.feed / 60.0;
     let following = fit.servo.following_error(velocity).ok();
-    let orders = &fit.selection.table[fit.selection.best].orders;
-    match a.format {
-        Format::Json => {
-            let doc = ServoFitDoc {
-                out: Some(a.out.display().to_string()),
-                feed_mm_min: Some(a.feed),
-                following_error_at_feed: following,
-                ..ServoFitDoc::new(&fit)
-            };
-            println!("{}", serde_json::to_string_pretty(&doc)?);
-            Ok(())
-        }
-        Format::Human => {
-            println!(
-                "{} samples at ts = {} s → {}",
-                fit.selection.fit.stats.samples,
-                fmt_f64(fit.servo.ts()),
-                a.out.display()
-            );
-            println!("orders: {orders}");
-            println!(
-                "simulation RMS (feedback − simulated): {:.3} µm",
-                fit.simulation_rms * 1e3
-            );
-            match fit.bandwidth_hz {
-                Some(bw) => println!("bandwidth (−3 dB): {bw:.2} Hz"),
-                None => println!("bandwidth (−3 dB): above the Nyquist frequency"),
-            }
-            println!("static gain: {:.6}", fit.dc_gain);
-            match following {
-                Some(e) => println!(
-                    "following error at F{} mm/min: {:.2} µm (velocity lag {:.3} ms)",
-                    fmt_f64(a.feed),
-                    e * 1e3,
-                    e / velocity * 1e3
-                ),
-                None => println!("following error: undefined (no static gain)"),
-            }
-            print!("\n{}", fit.selection.table_text());
-            note(format!(
-                "copy the keys of {} under the axis' [axes.servo] table of the machine model",
-                a.out.display()
-            ));
-            Ok(())
-        }
+    let doc = ServoFitDoc {
+        out: Some(a.out.display().to_string()),
+        feed_mm_min: Some(a.feed),
+        following_error_at_feed: following,
+        ..ServoFitDoc::new(&fit)
+    };
+    crate::output::print_doc(&doc, a.format)?;
+    if a.format == Format::Human {
+        note(format!(
+            "copy the keys of {} under the axis' [axes.servo] table of the machine model",
+            a.out.display()
+        ));
     }
+    Ok(())
 }
 
 fn simulate(a: SimulateArgs) -> anyhow::Result<()> {

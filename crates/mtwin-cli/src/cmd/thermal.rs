@@ -314,57 +314,15 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
     for w in &fit.warnings {
         warn(w);
     }
-    match a.format {
-        Format::Json => {
-            let mut v = fit.to_json();
-            v["out"] = json!(a.out.display().to_string());
-            v["plots"] = json!(
-                plots
-                    .iter()
-                    .map(|p| p.display().to_string())
-                    .collect::<Vec<_>>()
-            );
-            print_json(&v)
-        }
-        Format::Human => {
-            println!(
-                "{} height(s), {} run(s), sample period {} min → {}",
-                fit.model.heights().len(),
-                fit.runs,
-                fit.model.period_min(),
-                a.out.display()
-            );
-            let inputs: Vec<String> = fit
-                .model
-                .inputs()
-                .iter()
-                .map(|c| match c.power {
-                    1 => format!("{}/{}", c.name, c.scale),
-                    p => format!("({}/{})^{p}", c.name, c.scale),
-                })
-                .collect();
-            println!("inputs: {}", inputs.join(", "));
-            if let Some(c) = &fit.speed_model {
-                println!("{}", c.summary());
-            }
-            for (h, r) in fit.model.heights().iter().zip(&fit.heights) {
-                let s = &r.selection.fit.stats;
-                println!(
-                    "\nz = {} mm: orders {}, one-step RMS {:.2} µm, simulation RMS {:.2} µm, spectral radius {:.4}",
-                    h.z_mm,
-                    h.model.orders(),
-                    s.one_step_rms * 1e3,
-                    s.simulation_rms * 1e3,
-                    s.spectral_radius
-                );
-                print!("{}", r.selection.table_text());
-            }
-            for p in &plots {
-                note(format!("plot written: {}", p.display()));
-            }
-            Ok(())
+    let plots: Vec<String> = plots.iter().map(|p| p.display().to_string()).collect();
+    let doc = thermal::ThermalFitDoc::new(&fit, &a.out.display().to_string(), &plots);
+    crate::output::print_doc(&doc, a.format)?;
+    if a.format == Format::Human {
+        for p in &plots {
+            note(format!("plot written: {p}"));
         }
     }
+    Ok(())
 }
 
 fn predict(a: PredictArgs) -> anyhow::Result<()> {
@@ -394,40 +352,8 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
     for w in &warnings {
         warn(w);
     }
-    let per_height: Vec<(f64, f64, f64)> = heights
-        .iter()
-        .map(|&z| {
-            let series = p.rows.iter().filter(|r| r[1] == z).map(|r| r[2]);
-            let (max_abs, last) = series.fold((0.0f64, 0.0), |(m, _), d| (m.max(d.abs()), d));
-            (z, max_abs, last)
-        })
-        .collect();
-    let times = p.rows.len() / heights.len();
-    match a.format {
-        Format::Json => print_json(&json!({
-            "samples": times,
-            "out": a.out.display().to_string(),
-            "heights": per_height.iter().map(|(z, m, l)| json!({
-                "z_mm": z, "max_abs_drift_mm": m, "final_drift_mm": l,
-            })).collect::<Vec<_>>(),
-            "warnings": warnings,
-        })),
-        Format::Human => {
-            println!(
-                "{times} sample time(s) × {} height(s) → {}",
-                heights.len(),
-                a.out.display()
-            );
-            for (z, m, l) in per_height {
-                println!(
-                    "z = {z} mm: largest |drift| {:.2} µm, final drift {:.2} µm",
-                    m * 1e3,
-                    l * 1e3
-                );
-            }
-            Ok(())
-        }
-    }
+    let doc = thermal::ThermalPredictDoc::new(&p, &heights, &a.out.display().to_string(), warnings);
+    crate::output::print_doc(&doc, a.format)
 }
 
 fn simulate(a: SimulateArgs) -> anyhow::Result<()> {

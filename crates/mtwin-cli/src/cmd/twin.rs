@@ -4,7 +4,7 @@
 //! (rad) against the exact nearest point of the command path, per sample, in
 //! PRED.csv.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Context;
 use mtwin::gcode::InterpolateOptions;
@@ -13,12 +13,11 @@ use mtwin::methods::twin::{
     self, Progress, Sources, Twin, TwinError, TwinSample, TwinSummary, plot::PlotCollector,
 };
 use mtwin::model::Machine;
-use serde_json::{Value, json};
 
 use super::common::DialectArgs;
 use super::common::load_machine;
 use super::gcode::{interp_options, located, open};
-use crate::output::{Format, print_json, progress};
+use crate::output::{Format, print_doc, progress};
 
 #[derive(Debug, clap::Subcommand)]
 pub enum Command {
@@ -183,11 +182,10 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
         Ok(())
     })?;
     let s = summary.context("the twin produced no summary")?;
-    let parts = if a.breakdown {
-        Some([
-            run_twin(&a, &machine, Sources::Servo, |_| Ok(()))?,
-            run_twin(&a, &machine, Sources::Geometry, |_| Ok(()))?,
-        ])
+    let breakdown = if a.breakdown {
+        let servo = run_twin(&a, &machine, Sources::Servo, |_| Ok(()))?;
+        let geometry = run_twin(&a, &machine, Sources::Geometry, |_| Ok(()))?;
+        Some(twin::TwinBreakdownDoc::new(&s, &servo, &geometry))
     } else {
         None
     };
@@ -206,147 +204,7 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
         }
     }
     out.commit()?;
-    match a.format {
-        Format::Json => {
-            let mut v = summary_json(&s);
-            v["out"] = json!(a.out.display().to_string());
-            v["sources"] = json!(s.sources.as_str());
-            if let Some([sv, ge]) = &parts {
-                v["breakdown"] = breakdown_json(&s, sv, ge);
-            }
-            if !plots.is_empty() {
-                v["plots"] = plots
-                    .iter()
-                    .map(|p| json!(p.display().to_string()))
-                    .collect();
-            }
-            print_json(&v)
-        }
-        Format::Human => {
-            print_human(&s, &a.out);
-            if let Some([sv, ge]) = &parts {
-                print_breakdown(&s, sv, ge);
-            }
-            for p in &plots {
-                println!("plot → {}", p.display());
-            }
-            Ok(())
-        }
-    }
-}
-
-fn summary_json(s: &TwinSummary) -> Value {
-    json!({
-        "samples": s.samples,
-        "tip_error_max": s.tip_error_max,
-        "tip_error_rms": s.tip_error_rms,
-        "axis_error_max": s.axis_error_max,
-        "axis_error_rms": s.axis_error_rms,
-        "tip_error_max_t_s": s.tip_error_max_at.t,
-        "tip_error_max_path_mm": s.tip_error_max_at.path_length,
-        "axis_error_max_t_s": s.axis_error_max_at.t,
-        "axis_error_max_path_mm": s.axis_error_max_at.path_length,
-        "duration_s": s.t[1] - s.t[0],
-        "path_length_mm": s.path_length,
-    })
-}
-
-/// The source whose tool-tip RMS is larger in a stretch.
-fn dominant(servo: f64, geometry: f64) -> &'static str {
-    if servo >= geometry {
-        "servo"
-    } else {
-        "geometry"
-    }
-}
-
-fn breakdown_json(all: &TwinSummary, sv: &TwinSummary, ge: &TwinSummary) -> Value {
-    let core = |s: &TwinSummary| {
-        json!({"tip_error_max": s.tip_error_max, "tip_error_rms": s.tip_error_rms,
-               "axis_error_max": s.axis_error_max, "axis_error_rms": s.axis_error_rms})
-    };
-    let bins: Vec<Value> = all
-        .bins
-        .iter()
-        .zip(&sv.bins)
-        .zip(&ge.bins)
-        .map(|((b, s), g)| {
-            json!({
-                "t_s": b.t, "path_mm": b.path_length,
-                "tip_error_rms": {"all": b.tip_error_rms, "servo": s.tip_error_rms, "geometry": g.tip_error_rms},
-                "tip_error_max": {"all": b.tip_error_max, "servo": s.tip_error_max, "geometry": g.tip_error_max},
-                "dominant": dominant(s.tip_error_rms, g.tip_error_rms),
-            })
-        })
-        .collect();
-    json!({
-        "all": core(all), "servo": core(sv), "geometry": core(ge),
-        "dominant": dominant(sv.tip_error_rms, ge.tip_error_rms),
-        "stretches": bins,
-    })
-}
-
-fn print_human(s: &TwinSummary, out: &Path) {
-    let what = match s.sources {
-        Sources::All => "servo + geometry",
-        Sources::Servo => "servo only",
-        Sources::Geometry => "geometry only",
-    };
-    println!(
-        "{} samples, {:.3} s, command path {:.3} mm ({what}) → {}",
-        s.samples,
-        s.t[1] - s.t[0],
-        s.path_length,
-        out.display()
-    );
-    println!(
-        "tool-tip error ε_p:  max {:.3} µm at t = {:.3} s (path {:.3} mm), RMS {:.3} µm",
-        s.tip_error_max * 1e3,
-        s.tip_error_max_at.t,
-        s.tip_error_max_at.path_length,
-        s.tip_error_rms * 1e3
-    );
-    println!(
-        "tool-axis error ε_o: max {:.3} µrad at t = {:.3} s (path {:.3} mm), RMS {:.3} µrad",
-        s.axis_error_max * 1e6,
-        s.axis_error_max_at.t,
-        s.axis_error_max_at.path_length,
-        s.axis_error_rms * 1e6
-    );
-}
-
-fn print_breakdown(all: &TwinSummary, sv: &TwinSummary, ge: &TwinSummary) {
-    println!("\nbreakdown (tool-tip error ε_p in µm, tool-axis error ε_o in µrad):");
-    println!(
-        "  {:<10} {:>12} {:>12} {:>12}",
-        "source", "ε_p max", "ε_p RMS", "ε_o max"
-    );
-    for (n, s) in [("all", all), ("servo", sv), ("geometry", ge)] {
-        println!(
-            "  {:<10} {:>12.3} {:>12.3} {:>12.3}",
-            n,
-            s.tip_error_max * 1e3,
-            s.tip_error_rms * 1e3,
-            s.axis_error_max * 1e6
-        );
-    }
-    println!(
-        "  dominant overall: {}",
-        dominant(sv.tip_error_rms, ge.tip_error_rms)
-    );
-    println!(
-        "\n  {:>21} {:>12} {:>12} {:>12}  dominant",
-        "path, mm", "all RMS", "servo RMS", "geom. RMS"
-    );
-    for ((b, s), g) in all.bins.iter().zip(&sv.bins).zip(&ge.bins) {
-        println!(
-            "  {:>10.3}–{:<10.3} {:>12.3} {:>12.3} {:>12.3}  {}",
-            b.path_length[0],
-            b.path_length[1],
-            b.tip_error_rms * 1e3,
-            s.tip_error_rms * 1e3,
-            g.tip_error_rms * 1e3,
-            dominant(s.tip_error_rms, g.tip_error_rms)
-        );
-    }
+    let plots: Vec<String> = plots.iter().map(|p| p.display().to_string()).collect();
+    let doc = twin::TwinPredictDoc::new(&s, &a.out.display().to_string(), breakdown, &plots);
+    print_doc(&doc, a.format)
 }

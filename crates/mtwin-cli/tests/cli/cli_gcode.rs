@@ -52,6 +52,30 @@ fn interpolate_writes_equally_spaced_samples_on_the_line() {
     let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
     let d = v["duration_s"].as_f64().unwrap();
     assert!((d - (5.0 + 10.0 / (5000.0 * 1.25))).abs() < 1e-9, "{d}");
+    // The JSON is the library's `GcodeInterpolateDoc`, whose text is the human output.
+    let doc: mtwin::gcode::GcodeInterpolateDoc =
+        serde_json::from_str(&stdout(&o)).expect("stdout is a GcodeInterpolateDoc");
+    assert_eq!(serde_json::to_value(&doc).unwrap(), v);
+    assert_eq!(
+        (doc.samples, doc.out.as_str()),
+        (rows.len() as u64, "cmd.csv")
+    );
+    let human = mtwin(
+        dir.path(),
+        &[
+            "gcode",
+            "interpolate",
+            "--machine",
+            &example("ac-trunnion.toml"),
+            "line.nc",
+            "--ts",
+            "0.01",
+            "--out",
+            "cmd.csv",
+        ],
+    );
+    assert_eq!(human.status.code(), Some(0), "{}", stderr(&human));
+    assert_eq!(stdout(&human), doc.to_string());
 }
 
 #[test]
@@ -122,6 +146,24 @@ fn stats_reports_travel_violations() {
     // 10 + hypot(390, 30) + hypot(400, 30) mm.
     let len = 10.0 + 390f64.hypot(30.0) + 400f64.hypot(30.0);
     assert!((v["feed_length_mm"].as_f64().unwrap() - len).abs() < 1e-9);
+    // The JSON is the library's `GcodeStatsDoc`, whose text is the human output.
+    let doc: mtwin::gcode::GcodeStatsDoc =
+        serde_json::from_str(&stdout(&o)).expect("stdout is a GcodeStatsDoc");
+    assert_eq!(serde_json::to_value(&doc).unwrap(), v);
+    assert_eq!(doc.program, "far.nc");
+    assert_eq!(doc.unreachable_lines.as_deref(), Some(&[][..]));
+    let human = mtwin(
+        dir.path(),
+        &[
+            "gcode",
+            "stats",
+            "far.nc",
+            "--machine",
+            &example("ac-trunnion.toml"),
+        ],
+    );
+    assert_eq!(human.status.code(), Some(0), "{}", stderr(&human));
+    assert_eq!(stdout(&human), doc.to_string());
 
     // --strict: the same report, then exit code 1 naming the count.
     let strict = |prog: &str| {

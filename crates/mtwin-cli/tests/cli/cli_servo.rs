@@ -231,9 +231,21 @@ fn fitted_servo_reproduces_a_held_out_command_within_1_um() {
     assert!(lag_rms > 0.05, "{lag_rms}");
 
     // The human summary names the orders, RMS, bandwidth and following error.
+    // It is the text of the same fit's document.
     let o = mtwin(
         p,
-        &["servo", "fit", "--data", "log.csv", "--out", "servo2.toml"],
+        &[
+            "servo",
+            "fit",
+            "--data",
+            "log.csv",
+            "--max-order",
+            "3",
+            "--feed",
+            "3000",
+            "--out",
+            "servo2.toml",
+        ],
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let s = stdout(&o);
@@ -241,10 +253,15 @@ fn fitted_servo_reproduces_a_held_out_command_within_1_um() {
         "orders:",
         "simulation RMS",
         "bandwidth",
-        "following error at F1000 mm/min",
+        "following error at F3000 mm/min",
     ] {
         assert!(s.contains(word), "`{word}` in:\n{s}");
     }
+    let d2 = mtwin::sysid::ServoFitDoc {
+        out: Some("servo2.toml".into()),
+        ..d
+    };
+    assert_eq!(s, d2.to_string());
 }
 
 #[test]

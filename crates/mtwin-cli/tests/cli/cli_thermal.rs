@@ -123,6 +123,32 @@ fn fit_then_predict_matches_the_true_drift_of_a_new_programme() {
         assert!(h["simulation_rms_mm"].as_f64().unwrap() < 0.0015, "{h}");
         assert_eq!(h["stable"], true);
     }
+    // The same stdout is the library's `ThermalFitDoc`, whose text is the human output.
+    let doc: mtwin::methods::thermal::ThermalFitDoc =
+        serde_json::from_str(&stdout(&o)).expect("stdout is a ThermalFitDoc");
+    assert_eq!(serde_json::to_value(&doc).unwrap(), v);
+    assert_eq!(doc.out, "thermal.toml");
+    assert!(doc.plots.is_empty());
+    for h in &doc.heights {
+        assert_eq!(h.grid.iter().filter(|r| r.chosen).count(), 1);
+        // na 1..3 × nb 0..3.
+        assert_eq!(h.grid.len(), 3 * 4);
+    }
+    let human = mtwin(
+        dir.path(),
+        &[
+            "thermal",
+            "fit",
+            "--data",
+            "train.csv",
+            "--max-order",
+            "3",
+            "--out",
+            "thermal.toml",
+        ],
+    );
+    assert_eq!(human.status.code(), Some(0), "{}", stderr(&human));
+    assert_eq!(stdout(&human), doc.to_string());
 
     let o = mtwin(
         dir.path(),
@@ -185,6 +211,15 @@ fn fit_then_predict_matches_the_true_drift_of_a_new_programme() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
     assert_eq!(v["samples"], speeds.len());
+    let doc: mtwin::methods::thermal::ThermalPredictDoc =
+        serde_json::from_str(&stdout(&o)).expect("stdout is a ThermalPredictDoc");
+    assert_eq!(serde_json::to_value(&doc).unwrap(), v);
+    assert_eq!(
+        (doc.samples, doc.out.as_str()),
+        (speeds.len(), "drift2.csv")
+    );
+    let last = read_rows(&dir.path().join("drift2.csv"), &["drift_mm"]);
+    assert_eq!(doc.heights[0].final_drift_mm, last[last.len() - 1][0]);
     let rows = read_rows(&dir.path().join("drift2.csv"), &["drift_mm"]);
     let max_abs = rows.iter().fold(0.0f64, |m, r| m.max(r[0].abs()));
     assert_eq!(

@@ -153,6 +153,34 @@ fn only_modes_separate_the_sources() {
     assert_eq!(bd["all"]["tip_error_max"], all["tip_error_max"]);
     assert_eq!(bd["stretches"].as_array().unwrap().len(), 10);
     assert!(["servo", "geometry"].contains(&bd["dominant"].as_str().unwrap()));
+    // The JSON is the library's `TwinPredictDoc`, whose text is the human output.
+    let doc: mtwin::methods::twin::TwinPredictDoc =
+        serde_json::from_value(all.clone()).expect("stdout is a TwinPredictDoc");
+    assert_eq!(serde_json::to_value(&doc).unwrap(), all);
+    let b = doc.breakdown.as_ref().unwrap();
+    assert_eq!(b.servo.tip_error_max, s["tip_error_max"].as_f64().unwrap());
+    assert!(doc.plots.is_empty() && all.get("plots").is_none());
+    let m = example("ac-trunnion-twin.toml");
+    let o = mtwin(
+        dir.path(),
+        &[
+            "twin",
+            "predict",
+            "--machine",
+            &m,
+            "--commands",
+            "cmd.csv",
+            "--out",
+            "e.csv",
+            "--breakdown",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stdout(&o), doc.to_string());
+    // Without --breakdown the key is absent and the document has none.
+    let doc: mtwin::methods::twin::TwinPredictDoc = serde_json::from_value(s.clone()).unwrap();
+    assert!(doc.breakdown.is_none() && s.get("breakdown").is_none());
+    assert_eq!(doc.sources, "servo");
 }
 
 /// Runs the twin on a bad command file `name` (text `text`): exit 1, the stderr must hold

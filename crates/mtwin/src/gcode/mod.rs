@@ -41,6 +41,7 @@
 mod arc;
 mod axes;
 mod dialect;
+pub mod doc;
 mod error;
 mod event;
 mod expr;
@@ -58,6 +59,7 @@ mod travel;
 
 pub use axes::{Axes, Axis, AxisLetterError, AxisMask};
 pub use dialect::Dialect;
+pub use doc::{AxisRangeDoc, GcodeInterpolateDoc, GcodeStatsDoc, TravelViolationDoc};
 pub use error::{GcodeError, Location};
 pub use event::{
     ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, Plane, Programmed, SourcePos,

@@ -34,7 +34,9 @@ mod servo_fit;
 pub use arx::{Arx, ArxOrders, ArxStepper, InputOrder, Stability};
 pub use error::SysidError;
 pub use fit::{ArxFit, FitStats, Run, Start, fit_arx};
-pub use order::{Criterion, GridRow, InputGrid, OrderGrid, OrderSelection, select_orders};
+pub use order::{
+    Criterion, GridRow, GridRowDoc, InputGrid, OrderGrid, OrderSelection, grid_text, select_orders,
+};
 pub use output_error::{
     OutputErrorFit, OutputErrorModel, fit_output_error, select_orders_output_error,
 };

@@ -1,7 +1,6 @@
 use std::ops::RangeInclusive;
 
 use rayon::prelude::*;
-use serde_json::json;
 
 use super::{ArxFit, ArxOrders, FitStats, InputOrder, Run, Start, SysidError, fit_arx};
 
@@ -145,63 +144,122 @@ impl OrderSelection {
     /// The grid table as JSON: one object per structure with its orders and
     /// either its statistics or its `error`; the chosen one has `"chosen": true`.
     pub fn table_json(&self) -> serde_json::Value {
-        let rows: Vec<serde_json::Value> = self
-            .table
+        serde_json::to_value(self.table_doc()).expect("grid rows serialise")
+    }
+
+    /// The grid table as typed rows ([`GridRowDoc`]), in grid order.
+    pub fn table_doc(&self) -> Vec<GridRowDoc> {
+        self.table
             .iter()
             .enumerate()
             .map(|(i, r)| {
-                let mut v = r.orders.to_json();
-                let obj = v.as_object_mut().expect("orders are an object");
-                match &r.outcome {
-                    Ok(s) => {
-                        obj.insert("samples".into(), json!(s.samples));
-                        obj.insert("params".into(), json!(s.params));
-                        obj.insert("fpe".into(), json!(s.fpe));
-                        obj.insert("aic".into(), json!(s.aic));
-                        obj.insert("one_step_rms".into(), json!(s.one_step_rms));
-                        obj.insert("simulation_rms".into(), json!(s.simulation_rms));
-                        obj.insert("stable".into(), json!(r.is_stable_fit()));
-                    }
-                    Err(e) => {
-                        obj.insert("error".into(), json!(e.to_string()));
-                    }
+                let s = r.outcome.as_ref().ok();
+                GridRowDoc {
+                    aic: s.map(|s| s.aic),
+                    chosen: i == self.best,
+                    error: r.outcome.as_ref().err().map(|e| e.to_string()),
+                    fpe: s.map(|s| s.fpe),
+                    na: r.orders.na,
+                    nb: r.orders.inputs.iter().map(|o| o.nb).collect(),
+                    nk: r.orders.inputs.iter().map(|o| o.nk).collect(),
+                    one_step_rms: s.map(|s| s.one_step_rms),
+                    params: s.map(|s| s.params),
+                    samples: s.map(|s| s.samples),
+                    simulation_rms: s.map(|s| s.simulation_rms),
+                    stable: s.map(|_| r.is_stable_fit()),
                 }
-                obj.insert("chosen".into(), json!(i == self.best));
-                v
             })
-            .collect();
-        serde_json::Value::Array(rows)
+            .collect()
     }
 
     /// The grid table as aligned text, the chosen row marked `*`; RMS values
     /// in the data's unit.
     pub fn table_text(&self) -> String {
-        let mut out = format!(
-            "  {:<28} {:>6} {:>3} {:>12} {:>10} {:>12} {:>12} {:>6}\n",
-            "orders", "N", "d", "FPE", "AIC", "one-step RMS", "sim RMS", "stable"
-        );
-        for (i, r) in self.table.iter().enumerate() {
-            let mark = if i == self.best { '*' } else { ' ' };
-            match &r.outcome {
-                Ok(s) => out.push_str(&format!(
-                    "{mark} {:<28} {:>6} {:>3} {:>12.4e} {:>10.1} {:>12.4e} {:>12.4e} {:>6}\n",
-                    r.orders.to_string(),
-                    s.samples,
-                    s.params,
-                    s.fpe,
-                    s.aic,
-                    s.one_step_rms,
-                    s.simulation_rms,
-                    if r.is_stable_fit() { "yes" } else { "NO" }
-                )),
-                Err(e) => out.push_str(&format!(
-                    "{mark} {:<28} not fitted: {e}\n",
-                    r.orders.to_string()
-                )),
-            }
-        }
-        out
+        grid_text(&self.table_doc())
     }
+}
+
+/// One structure of an order search as a document: its orders, then either
+/// its fit statistics or the `error` that stopped its fit. Fields are in
+/// alphabetical order (the order of the JSON keys).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct GridRowDoc {
+    /// Akaike's information criterion.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub aic: Option<f64>,
+    /// Whether this structure was chosen.
+    pub chosen: bool,
+    /// Why the structure could not be fitted.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// Final prediction error (data unit²).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fpe: Option<f64>,
+    /// Number of `a` coefficients after `a_0 = 1`.
+    pub na: usize,
+    /// Highest `b` index, per input.
+    pub nb: Vec<usize>,
+    /// Input delay (samples), per input.
+    pub nk: Vec<usize>,
+    /// One-step-ahead prediction RMS (data unit).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub one_step_rms: Option<f64>,
+    /// Free parameters.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub params: Option<usize>,
+    /// Regression rows used.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub samples: Option<usize>,
+    /// Simulation RMS (data unit).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub simulation_rms: Option<f64>,
+    /// Whether the fitted model is stable.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stable: Option<bool>,
+}
+
+impl GridRowDoc {
+    /// The orders of the row.
+    pub fn orders(&self) -> ArxOrders {
+        super::OrdersDoc {
+            na: self.na,
+            nb: self.nb.clone(),
+            nk: self.nk.clone(),
+        }
+        .orders()
+    }
+}
+
+/// The grid rows as aligned text (as [`OrderSelection::table_text`]).
+pub fn grid_text(rows: &[GridRowDoc]) -> String {
+    let mut out = format!(
+        "  {:<28} {:>6} {:>3} {:>12} {:>10} {:>12} {:>12} {:>6}\n",
+        "orders", "N", "d", "FPE", "AIC", "one-step RMS", "sim RMS", "stable"
+    );
+    for r in rows {
+        let mark = if r.chosen { '*' } else { ' ' };
+        let orders = r.orders().to_string();
+        match (
+            r.samples,
+            r.params,
+            r.fpe,
+            r.aic,
+            r.one_step_rms,
+            r.simulation_rms,
+        ) {
+            (Some(n), Some(d), Some(fpe), Some(aic), Some(one), Some(sim)) => {
+                out.push_str(&format!(
+                    "{mark} {orders:<28} {n:>6} {d:>3} {fpe:>12.4e} {aic:>10.1} {one:>12.4e} {sim:>12.4e} {:>6}\n",
+                    if r.stable == Some(true) { "yes" } else { "NO" }
+                ))
+            }
+            _ => out.push_str(&format!(
+                "{mark} {orders:<28} not fitted: {}\n",
+                r.error.as_deref().unwrap_or("no statistics")
+            )),
+        }
+    }
+    out
 }
 
 fn best_index(table: &[GridRow], criterion: Criterion) -> Option<usize> {

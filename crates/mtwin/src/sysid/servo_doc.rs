@@ -16,6 +16,31 @@ pub struct OrdersDoc {
     pub nk: Vec<usize>,
 }
 
+impl From<&super::ArxOrders> for OrdersDoc {
+    fn from(o: &super::ArxOrders) -> Self {
+        OrdersDoc {
+            na: o.na,
+            nb: o.inputs.iter().map(|i| i.nb).collect(),
+            nk: o.inputs.iter().map(|i| i.nk).collect(),
+        }
+    }
+}
+
+impl OrdersDoc {
+    /// The orders as [`super::ArxOrders`] (for their `na=… nb=… nk=…` text).
+    pub fn orders(&self) -> super::ArxOrders {
+        super::ArxOrders {
+            na: self.na,
+            inputs: self
+                .nb
+                .iter()
+                .zip(&self.nk)
+                .map(|(&nb, &nk)| super::InputOrder { nb, nk })
+                .collect(),
+        }
+    }
+}
+
 /// An identified servo transfer function, command → encoder position,
 /// `y(k) = −Σ a_i·y(k−i) + Σ b_j·u(k−j−nk)`, with its fit statistics.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -41,7 +66,7 @@ pub struct ServoFitDoc {
     /// Following error at the largest velocity of the log (mm).
     pub following_error_at_max_velocity: Option<f64>,
     /// Every structure tried, with its criterion (rows of the order grid).
-    pub grid: serde_json::Value,
+    pub grid: Vec<super::GridRowDoc>,
     /// Largest velocity in the log (log unit per s).
     pub max_velocity: f64,
     /// Input delay of the chosen model (samples).
@@ -83,7 +108,7 @@ impl ServoFitDoc {
             feed_mm_min: None,
             following_error_at_feed: None,
             following_error_at_max_velocity: fit.following_error_at_max_velocity,
-            grid: fit.selection.table_json(),
+            grid: fit.selection.table_doc(),
             max_velocity: fit.max_velocity,
             nk: fit.servo.nk(),
             one_step_rms: fit.selection.fit.stats.one_step_rms,
@@ -101,6 +126,47 @@ impl ServoFitDoc {
             velocity_lag_s: fit.velocity_lag_s,
             warnings: fit.warnings(),
         }
+    }
+}
+
+/// The summary (µm, Hz, ms), the following error at the feed when one was
+/// given, then the order grid. The warnings go to stderr.
+impl std::fmt::Display for ServoFitDoc {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} samples at ts = {} s",
+            self.samples,
+            crate::io::fmt_f64(self.ts)
+        )?;
+        match &self.out {
+            Some(out) => writeln!(f, " → {out}")?,
+            None => writeln!(f)?,
+        }
+        writeln!(f, "orders: {}", self.orders.orders())?;
+        writeln!(
+            f,
+            "simulation RMS (feedback − simulated): {:.3} µm",
+            self.simulation_rms * 1e3
+        )?;
+        match self.bandwidth_hz {
+            Some(bw) => writeln!(f, "bandwidth (−3 dB): {bw:.2} Hz")?,
+            None => writeln!(f, "bandwidth (−3 dB): above the Nyquist frequency")?,
+        }
+        writeln!(f, "static gain: {:.6}", self.dc_gain)?;
+        if let Some(feed) = self.feed_mm_min {
+            match self.following_error_at_feed {
+                Some(e) => writeln!(
+                    f,
+                    "following error at F{} mm/min: {:.2} µm (velocity lag {:.3} ms)",
+                    crate::io::fmt_f64(feed),
+                    e * 1e3,
+                    e / (feed / 60.0) * 1e3
+                )?,
+                None => writeln!(f, "following error: undefined (no static gain)")?,
+            }
+        }
+        write!(f, "\n{}", super::grid_text(&self.grid))
     }
 }
 

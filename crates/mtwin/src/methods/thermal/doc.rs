@@ -1,9 +1,12 @@
-//! `mtwin thermal simulate --format json` as a typed document
-//! ([`ThermalSimulateDoc`]).
+//! `mtwin thermal fit`, `predict`, `simulate` and `compensate` results as
+//! typed documents ([`ThermalFitDoc`], [`ThermalPredictDoc`],
+//! [`ThermalSimulateDoc`], [`ThermalCompensateDoc`]): serialised for
+//! `--format json`, displayed for people.
 
 use serde::{Deserialize, Serialize};
 
-use super::SimulatedData;
+use super::{Prediction, SimulatedData, SpeedModelChoice, ThermalFit};
+use crate::sysid::{GridRowDoc, OrdersDoc, grid_text};
 
 /// `mtwin thermal simulate`: the synthetic training data written.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -145,5 +148,458 @@ mod compensate_tests {
             d.to_string(),
             "10 blocks, estimated 4.0 min → p.ngc\n3 of 4 Z blocks changed, largest correction 12.50 µm, changes from 1.0 to 2.5 min\n"
         );
+    }
+}
+
+/// One input channel of a thermal model: the model sees `(value / scale)^power`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct InputChannelDoc {
+    /// Column name (`speed_rpm` for the spindle speed).
+    pub name: String,
+    /// Power of the scaled value (1: linear).
+    pub power: u32,
+    /// Scale (the unit of the column).
+    pub scale: f64,
+}
+
+/// The held-out comparison of the linear and quadratic speed models.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SpeedModelDoc {
+    /// `linear` or `quadratic`.
+    pub chosen: String,
+    /// Held-out runs.
+    pub folds: usize,
+    /// Held-out RMS of the linear model (mm).
+    pub linear_rms_mm: f64,
+    /// Held-out RMS of the quadratic model (mm); `None` when it could not be fitted on every fold.
+    pub quadratic_rms_mm: Option<f64>,
+}
+
+impl From<&SpeedModelChoice> for SpeedModelDoc {
+    fn from(c: &SpeedModelChoice) -> Self {
+        SpeedModelDoc {
+            chosen: if c.quadratic { "quadratic" } else { "linear" }.into(),
+            folds: c.folds,
+            linear_rms_mm: c.linear_rms_mm,
+            quadratic_rms_mm: c.quadratic_rms_mm,
+        }
+    }
+}
+
+impl SpeedModelDoc {
+    /// The comparison it records.
+    pub fn choice(&self) -> SpeedModelChoice {
+        SpeedModelChoice {
+            folds: self.folds,
+            linear_rms_mm: self.linear_rms_mm,
+            quadratic_rms_mm: self.quadratic_rms_mm,
+            quadratic: self.chosen == "quadratic",
+        }
+    }
+}
+
+/// The drift model of one measured height: `a` (with `a[0] = 1`) and, per
+/// input, `b` after a delay of `nk` samples, with standard uncertainties and
+/// fit statistics (drift in mm).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ThermalHeightDoc {
+    /// Denominator coefficients, `a[0] = 1`.
+    pub a: Vec<f64>,
+    /// Standard uncertainties of `a[1..]`.
+    pub a_std: Vec<f64>,
+    /// Akaike's information criterion.
+    pub aic: f64,
+    /// Numerator coefficients, per input.
+    pub b: Vec<Vec<f64>>,
+    /// Standard uncertainties of `b`, per input.
+    pub b_std: Vec<Vec<f64>>,
+    /// Final prediction error (mm²).
+    pub fpe: f64,
+    /// Every structure tried.
+    pub grid: Vec<GridRowDoc>,
+    /// Input delays (samples), per input.
+    pub nk: Vec<usize>,
+    /// One-step-ahead prediction RMS (mm).
+    pub one_step_rms_mm: f64,
+    /// The chosen orders.
+    pub orders: OrdersDoc,
+    /// Free parameters.
+    pub params: usize,
+    /// Regression rows.
+    pub samples: usize,
+    /// Simulation RMS from cold (mm).
+    pub simulation_rms_mm: f64,
+    /// Largest pole modulus.
+    pub spectral_radius: f64,
+    /// All poles inside the unit circle.
+    pub stable: bool,
+    /// The height (mm).
+    pub z_mm: f64,
+}
+
+/// `mtwin thermal fit`: the fitted drift model and how its orders were chosen.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ThermalFitDoc {
+    /// One model per height, ascending.
+    pub heights: Vec<ThermalHeightDoc>,
+    /// The input channels.
+    pub inputs: Vec<InputChannelDoc>,
+    /// The model file written.
+    pub out: String,
+    /// Sample period (min).
+    pub period_min: f64,
+    /// Plot files written.
+    pub plots: Vec<String>,
+    /// Runs in the data.
+    pub runs: usize,
+    /// The speed-model comparison, when `auto` chose.
+    pub speed_model: Option<SpeedModelDoc>,
+    /// Reservations about the model.
+    pub warnings: Vec<String>,
+}
+
+impl ThermalFitDoc {
+    /// The document of `fit`, written to `out`, with the plot files `plots`.
+    pub fn new(fit: &ThermalFit, out: &str, plots: &[String]) -> Self {
+        let heights = fit
+            .model
+            .heights()
+            .iter()
+            .zip(&fit.heights)
+            .map(|(h, r)| {
+                let m = &h.model;
+                let n = m.n_inputs();
+                let f = &r.selection.fit;
+                let s = &f.stats;
+                ThermalHeightDoc {
+                    a: m.a().to_vec(),
+                    a_std: f.std_a(),
+                    aic: s.aic,
+                    b: (0..n).map(|i| m.b(i).to_vec()).collect(),
+                    b_std: (0..n).map(|i| f.std_b(i)).collect(),
+                    fpe: s.fpe,
+                    grid: r.selection.table_doc(),
+                    nk: (0..n).map(|i| m.nk(i)).collect(),
+                    one_step_rms_mm: s.one_step_rms,
+                    orders: OrdersDoc::from(&m.orders()),
+                    params: s.params,
+                    samples: s.samples,
+                    simulation_rms_mm: s.simulation_rms,
+                    spectral_radius: s.spectral_radius,
+                    stable: m.stability().is_stable(),
+                    z_mm: h.z_mm,
+                }
+            })
+            .collect();
+        ThermalFitDoc {
+            heights,
+            inputs: fit
+                .model
+                .inputs()
+                .iter()
+                .map(|c| InputChannelDoc {
+                    name: c.name.clone(),
+                    power: c.power,
+                    scale: c.scale,
+                })
+                .collect(),
+            out: out.to_string(),
+            period_min: fit.model.period_min(),
+            plots: plots.to_vec(),
+            runs: fit.runs,
+            speed_model: fit.speed_model.as_ref().map(SpeedModelDoc::from),
+            warnings: fit.warnings.clone(),
+        }
+    }
+}
+
+/// The summary, the inputs, the speed-model choice, then per height its
+/// chosen orders and statistics (µm) followed by the order grid. The
+/// warnings go to stderr.
+impl std::fmt::Display for ThermalFitDoc {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "{} height(s), {} run(s), sample period {} min → {}",
+            self.heights.len(),
+            self.runs,
+            self.period_min,
+            self.out
+        )?;
+        let inputs: Vec<String> = self
+            .inputs
+            .iter()
+            .map(|c| match c.power {
+                1 => format!("{}/{}", c.name, c.scale),
+                p => format!("({}/{})^{p}", c.name, c.scale),
+            })
+            .collect();
+        writeln!(f, "inputs: {}", inputs.join(", "))?;
+        if let Some(c) = &self.speed_model {
+            writeln!(f, "{}", c.choice().summary())?;
+        }
+        for h in &self.heights {
+            writeln!(
+                f,
+                "\nz = {} mm: orders {}, one-step RMS {:.2} µm, simulation RMS {:.2} µm, spectral radius {:.4}",
+                h.z_mm,
+                h.orders.orders(),
+                h.one_step_rms_mm * 1e3,
+                h.simulation_rms_mm * 1e3,
+                h.spectral_radius
+            )?;
+            write!(f, "{}", grid_text(&h.grid))?;
+        }
+        Ok(())
+    }
+}
+
+/// The predicted drift at one height.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PredictedHeightDoc {
+    /// Drift at the last sample time (mm).
+    pub final_drift_mm: f64,
+    /// Largest |drift| (mm).
+    pub max_abs_drift_mm: f64,
+    /// The height (mm).
+    pub z_mm: f64,
+}
+
+/// `mtwin thermal predict`: the drift predicted for a speed programme.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ThermalPredictDoc {
+    /// One summary per requested height, in the order requested.
+    pub heights: Vec<PredictedHeightDoc>,
+    /// The `DRIFT.csv` written.
+    pub out: String,
+    /// Sample times per height.
+    pub samples: usize,
+    /// Heights outside the measured range, …
+    pub warnings: Vec<String>,
+}
+
+impl ThermalPredictDoc {
+    /// The document of prediction `p` at `heights` (as asked of
+    /// [`super::predict`]), written to `out`, with its `warnings`.
+    pub fn new(p: &Prediction, heights: &[f64], out: &str, warnings: Vec<String>) -> Self {
+        let heights_doc = heights
+            .iter()
+            .map(|&z| {
+                let series = p.rows.iter().filter(|r| r[1] == z).map(|r| r[2]);
+                let (max_abs, last) = series.fold((0.0f64, 0.0), |(m, _), d| (m.max(d.abs()), d));
+                PredictedHeightDoc {
+                    final_drift_mm: last,
+                    max_abs_drift_mm: max_abs,
+                    z_mm: z,
+                }
+            })
+            .collect();
+        ThermalPredictDoc {
+            heights: heights_doc,
+            out: out.to_string(),
+            samples: p.rows.len() / heights.len().max(1),
+            warnings,
+        }
+    }
+}
+
+/// One line of counts, then per height its largest and final drift (µm).
+/// The warnings go to stderr.
+impl std::fmt::Display for ThermalPredictDoc {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "{} sample time(s) × {} height(s) → {}",
+            self.samples,
+            self.heights.len(),
+            self.out
+        )?;
+        for h in &self.heights {
+            writeln!(
+                f,
+                "z = {} mm: largest |drift| {:.2} µm, final drift {:.2} µm",
+                h.z_mm,
+                h.max_abs_drift_mm * 1e3,
+                h.final_drift_mm * 1e3
+            )?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod fit_predict_tests {
+    use super::super::{
+        Programme, ThermalFitOptions, TruthMachine, fit, predict, training_from_table,
+    };
+    use super::*;
+
+    fn small_fit() -> ThermalFit {
+        let m = TruthMachine::demo();
+        let runs = [
+            ("a", [vec![4000.0; 12], vec![0.0; 6]].concat()),
+            ("b", [vec![8000.0; 8], vec![2000.0; 10]].concat()),
+        ];
+        let csv = m.training_csv(&runs, &[-300.0, -100.0], 0.0, 1);
+        let table =
+            crate::io::Table::from_reader(std::path::Path::new("train.csv"), csv.as_bytes())
+                .unwrap();
+        let data = training_from_table(&table, &[]).unwrap();
+        let options = ThermalFitOptions {
+            max_order: 2,
+            ..ThermalFitOptions::default()
+        };
+        fit(&data, &options).unwrap()
+    }
+
+    #[test]
+    fn the_fit_document_carries_the_grid_and_round_trips() {
+        let fit = small_fit();
+        let d = ThermalFitDoc::new(&fit, "thermal.toml", &["plots/drift_z-300.svg".into()]);
+        // Noise-free data of two first-order lags: na = 2, nb = 1 reproduces them.
+        assert_eq!((d.runs, d.heights.len(), d.period_min), (2, 2, 10.0));
+        assert_eq!(d.heights[0].z_mm, -300.0);
+        for h in &d.heights {
+            // na ∈ 1..=2 × nb ∈ 0..=2, one of them chosen: the one of `orders`.
+            assert_eq!(h.grid.len(), 6);
+            let chosen: Vec<&GridRowDoc> = h.grid.iter().filter(|r| r.chosen).collect();
+            assert_eq!(chosen.len(), 1);
+            assert_eq!(
+                (chosen[0].na, &chosen[0].nb, &chosen[0].nk),
+                (h.orders.na, &h.orders.nb, &h.orders.nk)
+            );
+            assert!(h.orders.na >= 2 && h.orders.nb[0] >= 1, "{:?}", h.orders);
+            assert!(h.simulation_rms_mm < 1e-6, "{}", h.simulation_rms_mm);
+            assert_eq!(h.a[0], 1.0);
+            assert_eq!(h.a_std.len(), h.a.len() - 1);
+            assert!(h.stable && h.spectral_radius < 1.0);
+        }
+        // The JSON keys of today's output.
+        let v = serde_json::to_value(&d).unwrap();
+        let keys =
+            |v: &serde_json::Value| v.as_object().unwrap().keys().cloned().collect::<Vec<_>>();
+        assert_eq!(
+            keys(&v),
+            [
+                "heights",
+                "inputs",
+                "out",
+                "period_min",
+                "plots",
+                "runs",
+                "speed_model",
+                "warnings"
+            ]
+        );
+        assert!(v["speed_model"].is_null());
+        assert_eq!(
+            keys(&v["heights"][0]),
+            [
+                "a",
+                "a_std",
+                "aic",
+                "b",
+                "b_std",
+                "fpe",
+                "grid",
+                "nk",
+                "one_step_rms_mm",
+                "orders",
+                "params",
+                "samples",
+                "simulation_rms_mm",
+                "spectral_radius",
+                "stable",
+                "z_mm"
+            ]
+        );
+        assert_eq!(
+            keys(&v["heights"][0]["grid"][0]),
+            [
+                "aic",
+                "chosen",
+                "fpe",
+                "na",
+                "nb",
+                "nk",
+                "one_step_rms",
+                "params",
+                "samples",
+                "simulation_rms",
+                "stable"
+            ]
+        );
+        let back: ThermalFitDoc =
+            serde_json::from_str(&serde_json::to_string_pretty(&d).unwrap()).unwrap();
+        assert_eq!(back, d);
+        let text = d.to_string();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(
+            lines[0],
+            "2 height(s), 2 run(s), sample period 10 min → thermal.toml"
+        );
+        assert_eq!(lines[1], format!("inputs: speed_rpm/{}", d.inputs[0].scale));
+        // Per height: a blank line, the summary, the grid header and six rows.
+        assert_eq!(lines.len(), 2 + 2 * 9);
+        assert!(
+            lines[3].starts_with("z = -300 mm: orders na="),
+            "{}",
+            lines[3]
+        );
+        assert_eq!(
+            lines[5..11].iter().filter(|l| l.starts_with('*')).count(),
+            1
+        );
+    }
+
+    #[test]
+    fn the_speed_model_choice_survives_the_document() {
+        let c = SpeedModelChoice {
+            folds: 3,
+            linear_rms_mm: 0.002,
+            quadratic_rms_mm: None,
+            quadratic: false,
+        };
+        let d = SpeedModelDoc::from(&c);
+        assert_eq!(d.chosen, "linear");
+        assert_eq!(d.choice(), c);
+        let v = serde_json::to_value(&d).unwrap();
+        assert!(v["quadratic_rms_mm"].is_null());
+        assert_eq!(serde_json::from_value::<SpeedModelDoc>(v).unwrap(), d);
+    }
+
+    #[test]
+    fn the_predict_document_summarises_the_drift_of_the_truth() {
+        let fit = small_fit();
+        let speeds = [vec![6000.0; 9], vec![0.0; 4]].concat();
+        let heights = [-100.0, -300.0];
+        let p = predict(&fit.model, &Programme::speeds(&speeds), &heights);
+        let d = ThermalPredictDoc::new(&p, &heights, "drift.csv", vec![]);
+        assert_eq!(d.samples, speeds.len());
+        let truth = TruthMachine::demo();
+        let mut want = "13 sample time(s) × 2 height(s) → drift.csv\n".to_string();
+        for (h, &z) in d.heights.iter().zip(&heights) {
+            let e = truth.drift(&speeds, z);
+            let max_abs = e.iter().fold(0.0f64, |m, d| m.max(d.abs()));
+            assert_eq!(h.z_mm, z);
+            assert!(
+                (h.max_abs_drift_mm - max_abs).abs() < 1e-7,
+                "{h:?} vs {max_abs}"
+            );
+            assert!(
+                (h.final_drift_mm - e[12]).abs() < 1e-7,
+                "{h:?} vs {}",
+                e[12]
+            );
+            want.push_str(&format!(
+                "z = {z} mm: largest |drift| {:.2} µm, final drift {:.2} µm\n",
+                max_abs * 1e3,
+                e[12] * 1e3
+            ));
+        }
+        assert_eq!(d.to_string(), want);
+        let back: ThermalPredictDoc =
+            serde_json::from_str(&serde_json::to_string_pretty(&d).unwrap()).unwrap();
+        assert_eq!(back, d);
     }
 }

@@ -34,7 +34,10 @@ pub use compensate::{
     compensate,
 };
 pub use data::{TrainingData, read_training, training_from_table};
-pub use doc::{ThermalCompensateDoc, ThermalSimulateDoc};
+pub use doc::{
+    InputChannelDoc, PredictedHeightDoc, SpeedModelDoc, ThermalCompensateDoc, ThermalFitDoc,
+    ThermalHeightDoc, ThermalPredictDoc, ThermalSimulateDoc,
+};
 pub use file::{model_from_toml_str, read_model};
 pub use model::{
     Drift, HeightModel, HeightRange, HeightStats, InputChannel, ThermalModel, ThermalPredictor,

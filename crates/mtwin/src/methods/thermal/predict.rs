@@ -7,7 +7,6 @@ use std::path::Path;
 
 use rand::{SeedableRng, rngs::StdRng};
 use rand_distr::{Distribution, Normal};
-use serde_json::json;
 
 use super::ThermalError;
 use super::data::{TrainingData, read_training};
@@ -284,44 +283,12 @@ impl ThermalFit {
     /// `fpe` (mm²), `aic`, `one_step_rms_mm`, `simulation_rms_mm`, `stable`,
     /// `spectral_radius` and the whole order `grid`; then the `warnings`.
     pub fn to_json(&self) -> serde_json::Value {
-        let heights: Vec<serde_json::Value> = self
-            .model
-            .heights()
-            .iter()
-            .zip(&self.heights)
-            .map(|(h, r)| {
-                let m = &h.model;
-                let n = m.n_inputs();
-                let s = &r.selection.fit.stats;
-                let fit = &r.selection.fit;
-                json!({
-                    "z_mm": h.z_mm,
-                    "orders": m.orders().to_json(),
-                    "a": m.a(),
-                    "b": (0..n).map(|i| m.b(i).to_vec()).collect::<Vec<_>>(),
-                    "nk": (0..n).map(|i| m.nk(i)).collect::<Vec<_>>(),
-                    "a_std": fit.std_a(),
-                    "b_std": (0..n).map(|i| fit.std_b(i)).collect::<Vec<_>>(),
-                    "samples": s.samples,
-                    "params": s.params,
-                    "fpe": s.fpe,
-                    "aic": s.aic,
-                    "one_step_rms_mm": s.one_step_rms,
-                    "simulation_rms_mm": s.simulation_rms,
-                    "stable": m.stability().is_stable(),
-                    "spectral_radius": s.spectral_radius,
-                    "grid": r.selection.table_json(),
-                })
-            })
-            .collect();
-        json!({
-            "period_min": self.model.period_min(),
-            "runs": self.runs,
-            "inputs": self.model.inputs().iter().map(|c| json!({"name": c.name, "scale": c.scale, "power": c.power})).collect::<Vec<_>>(),
-            "speed_model": self.speed_model.as_ref().map(SpeedModelChoice::to_json),
-            "heights": heights,
-            "warnings": self.warnings,
-        })
+        let mut v = serde_json::to_value(super::ThermalFitDoc::new(self, "", &[]))
+            .expect("the fit document serialises");
+        let obj = v.as_object_mut().expect("the document is an object");
+        obj.remove("out");
+        obj.remove("plots");
+        v
     }
 }
 

@@ -13,6 +13,7 @@
 //! rows are streamed to the caller.
 
 pub mod commands;
+pub mod doc;
 pub mod nearest;
 pub mod pipeline;
 pub mod plot;
@@ -21,6 +22,7 @@ pub mod plot;
 mod tests;
 
 pub use commands::{predict_csv, predict_gcode};
+pub use doc::{BySourceDoc, StretchDoc, TwinBreakdownDoc, TwinErrorsDoc, TwinPredictDoc, dominant};
 pub use nearest::{CommandPath, Nearest, angle_between};
 pub use pipeline::{At, Bin, Predictor, Progress, Sources, Twin, TwinSample, TwinSummary};
 

@@ -479,3 +479,86 @@ fn progress_reaches_the_total_and_rows_come_in_order() {
         "{e}"
     );
 }
+
+#[test]
+fn the_predict_document_of_a_lagged_corner_round_trips_with_its_breakdown() {
+    // The L of `servo_lag_stays_on_a_straight_line_and_cuts_a_corner_by_the_closed_form`
+    // on a machine without geometric errors: servo alone = all, geometry alone = 0.
+    let p: f64 = 0.95;
+    let c = 0.1;
+    let kc = 2000;
+    let qs: Vec<f64> = (0..4000)
+        .flat_map(|k| {
+            if k <= kc {
+                [c * k as f64, 0.0, 0.0]
+            } else {
+                [c * kc as f64, c * (k - kc) as f64, 0.0]
+            }
+        })
+        .collect();
+    let m = lagged_xyz(p);
+    let run = |s| {
+        Twin::new(&m, s)
+            .unwrap()
+            .predict_slice(0.0, 0.001, &qs)
+            .unwrap()
+            .1
+    };
+    let (all, servo, geometry) = (
+        run(Sources::All),
+        run(Sources::Servo),
+        run(Sources::Geometry),
+    );
+    let b = TwinBreakdownDoc::new(&all, &servo, &geometry);
+    let d = TwinPredictDoc::new(&all, "pred.csv", Some(b), &["plots/path.svg".into()]);
+    assert_eq!((d.samples, d.sources.as_str()), (4000, "all"));
+    assert!((d.duration_s - 3.999).abs() < 1e-12, "{}", d.duration_s);
+    // Path: 200 mm along X then 199.9 mm along Y.
+    assert!(
+        (d.path_length_mm - 399.9).abs() < 1e-9,
+        "{}",
+        d.path_length_mm
+    );
+    // The closed form of the corner cut (see the test named above).
+    let vtau = c * p / (1.0 - p);
+    let expected = (0..2000)
+        .map(|m| {
+            let pm = p.powi(m);
+            (vtau * pm).min(c * m as f64 - vtau * (1.0 - pm))
+        })
+        .fold(0.0, f64::max);
+    assert!(
+        (d.tip_error_max - expected).abs() < 1e-9,
+        "{}",
+        d.tip_error_max
+    );
+    let b = d.breakdown.as_ref().unwrap();
+    assert_eq!(b.dominant, "servo");
+    assert!(b.geometry.tip_error_max < 1e-12, "{:?}", b.geometry);
+    assert!((b.servo.tip_error_max - b.all.tip_error_max).abs() < 1e-12);
+    assert!((b.servo.tip_error_rms - b.all.tip_error_rms).abs() < 1e-12);
+    assert_eq!(b.stretches.len(), 10);
+    // Before the corner the lagging tip stays on the path; the stretch of the corner
+    // holds the largest error.
+    assert!(b.stretches[0].tip_error_max.all < 1e-12);
+    assert!(b.stretches.iter().all(|s| s.dominant == "servo"));
+    let text = d.to_string();
+    assert!(
+        text.starts_with(
+            "4000 samples, 3.999 s, command path 399.900 mm (servo + geometry) → pred.csv\n"
+        ),
+        "{text}"
+    );
+    assert!(text.contains("\n  dominant overall: servo\n"), "{text}");
+    assert!(text.ends_with("plot → plots/path.svg\n"), "{text}");
+    // One line per stretch after the stretch header.
+    let after = text.split("dominant\n").nth(1).unwrap();
+    assert_eq!(after.lines().count(), 10 + 1);
+    let back: TwinPredictDoc =
+        serde_json::from_str(&serde_json::to_string_pretty(&d).unwrap()).unwrap();
+    assert_eq!(back, d);
+    // Without breakdown and plots those keys are absent.
+    let v = serde_json::to_value(TwinPredictDoc::new(&servo, "p.csv", None, &[])).unwrap();
+    assert!(v.get("breakdown").is_none() && v.get("plots").is_none());
+    assert_eq!(v["sources"], "servo");
+}
