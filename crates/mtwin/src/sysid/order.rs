@@ -154,18 +154,21 @@ impl OrderSelection {
             .enumerate()
             .map(|(i, r)| {
                 let s = r.outcome.as_ref().ok();
+                // JSON has no NaN or infinity: a statistic that is not finite
+                // (the simulation of an unstable model diverges) is absent.
+                let finite = |x: f64| x.is_finite().then_some(x);
                 GridRowDoc {
-                    aic: s.map(|s| s.aic),
+                    aic: s.and_then(|s| finite(s.aic)),
                     chosen: i == self.best,
                     error: r.outcome.as_ref().err().map(|e| e.to_string()),
-                    fpe: s.map(|s| s.fpe),
+                    fpe: s.and_then(|s| finite(s.fpe)),
                     na: r.orders.na,
                     nb: r.orders.inputs.iter().map(|o| o.nb).collect(),
                     nk: r.orders.inputs.iter().map(|o| o.nk).collect(),
-                    one_step_rms: s.map(|s| s.one_step_rms),
+                    one_step_rms: s.and_then(|s| finite(s.one_step_rms)),
                     params: s.map(|s| s.params),
                     samples: s.map(|s| s.samples),
-                    simulation_rms: s.map(|s| s.simulation_rms),
+                    simulation_rms: s.and_then(|s| finite(s.simulation_rms)),
                     stable: s.map(|_| r.is_stable_fit()),
                 }
             })
@@ -210,7 +213,7 @@ pub struct GridRowDoc {
     /// Regression rows used.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub samples: Option<usize>,
-    /// Simulation RMS (data unit).
+    /// Simulation RMS (data unit); absent when the simulation diverges.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub simulation_rms: Option<f64>,
     /// Whether the fitted model is stable.
@@ -239,20 +242,17 @@ pub fn grid_text(rows: &[GridRowDoc]) -> String {
     for r in rows {
         let mark = if r.chosen { '*' } else { ' ' };
         let orders = r.orders().to_string();
-        match (
-            r.samples,
-            r.params,
-            r.fpe,
-            r.aic,
-            r.one_step_rms,
-            r.simulation_rms,
-        ) {
-            (Some(n), Some(d), Some(fpe), Some(aic), Some(one), Some(sim)) => {
-                out.push_str(&format!(
-                    "{mark} {orders:<28} {n:>6} {d:>3} {fpe:>12.4e} {aic:>10.1} {one:>12.4e} {sim:>12.4e} {:>6}\n",
-                    if r.stable == Some(true) { "yes" } else { "NO" }
-                ))
-            }
+        let num = |x: Option<f64>| x.map_or_else(|| "-".to_string(), |x| format!("{x:.4e}"));
+        match (r.samples, r.params) {
+            (Some(n), Some(d)) => out.push_str(&format!(
+                "{mark} {orders:<28} {n:>6} {d:>3} {:>12} {:>10} {:>12} {:>12} {:>6}\n",
+                num(r.fpe),
+                r.aic.map_or_else(|| "-".to_string(), |x| format!("{x:.1}")),
+                num(r.one_step_rms),
+                r.simulation_rms
+                    .map_or_else(|| "diverges".to_string(), |x| format!("{x:.4e}")),
+                if r.stable == Some(true) { "yes" } else { "NO" }
+            )),
             _ => out.push_str(&format!(
                 "{mark} {orders:<28} not fitted: {}\n",
                 r.error.as_deref().unwrap_or("no statistics")
