@@ -139,6 +139,36 @@ pub(super) fn interp_options(
     Ok(o)
 }
 
+/// The number of samples the whole program implies (its estimated duration
+/// over `--ts`) checked against the bound before any sample is made; the
+/// interpolator checks each move against the same bound as it goes. A program
+/// that cannot be timed is left to the interpolator, which reports where.
+fn check_sample_count(
+    a: &InterpolateArgs,
+    m: &mtwin::model::Machine,
+    opts: &InterpolateOptions,
+) -> anyhow::Result<()> {
+    if !(a.ts.is_finite() && a.ts > 0.0) {
+        return Ok(());
+    }
+    let mut so = StatsOptions::default();
+    so.interp = opts.interp.clone();
+    so.rapid_feed = m.rapid_feed;
+    let f =
+        File::open(&a.program).with_context(|| format!("cannot read {}", a.program.display()))?;
+    if let Ok(st) = gcode::stats(BufReader::new(f), &so) {
+        let samples = (st.total_time() / a.ts).ceil() + 1.0;
+        mtwin::limits::check(
+            "the number of samples (estimated program duration / --ts)",
+            samples,
+            opts.max_samples,
+            "give a larger --ts or interpolate a shorter program",
+        )
+        .map_err(|e| anyhow::anyhow!("{}: {e}", a.program.display()))?;
+    }
+    Ok(())
+}
+
 fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
     let mut out = mtwin::io::Outputs::plan()
         .input(&a.machine)
@@ -150,6 +180,7 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
     opts.interp = interp_options(&a.offsets, &a.dialect)?;
     opts.force_tcp = a.tcp;
     opts.check_travel = !a.no_travel_check;
+    check_sample_count(&a, &m, &opts)?;
     let (input, bar) = crate::output::open_with_progress(&a.program, "interpolate")?;
     let mut failure: Option<InterpolateError> = None;
     let mut summary = None;

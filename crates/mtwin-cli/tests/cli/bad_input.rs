@@ -497,7 +497,27 @@ fn cases() -> Vec<Case> {
                 "o.csv",
             ],
             outputs: &["o.csv"],
-            expect: Refused(&["a.ngc:1", "samples", "limit"]),
+            expect: Refused(&["a.ngc", "number of samples", "--ts", "limit"]),
+        },
+        // Two moves of 6 M samples each (6000 s at 1 ms): each within the
+        // per-move bound, together above it — refused before any sample.
+        Case {
+            category: "hang/resource",
+            files: &[("a.ngc", b"G1 X100 F1\nG1 X0 F1\n")],
+            setup: &[],
+            args: &[
+                "gcode",
+                "interpolate",
+                "--machine",
+                "@M:ac-trunnion.toml",
+                "a.ngc",
+                "--ts",
+                "0.001",
+                "--out",
+                "o.csv",
+            ],
+            outputs: &["o.csv"],
+            expect: Refused(&["a.ngc", "estimated program duration", "limit"]),
         },
         Case {
             category: "panic",
