@@ -44,6 +44,11 @@ pub const MAX_TRACKER_CANDIDATES: u64 = 100_000;
 /// a minute on one core.
 pub const MAX_TRACKER_WORK: u64 = 200_000_000;
 
+/// Most blocks one G-code program may execute, loops and subroutine calls
+/// counted each time they run (about a minute of interpretation): a program
+/// whose loop never ends stops with an error instead of running forever.
+pub const MAX_EXECUTED_BLOCKS: u64 = 100_000_000;
+
 /// A size or value a user gave that is beyond a bound: names what was given
 /// (`what`, e.g. "the number of levels"), the value and the bound. The CLI
 /// names the option.

@@ -45,6 +45,15 @@ pub enum GcodeError {
     /// Reading or writing the program failed.
     #[error("I/O error: {0}")]
     Io(#[from] io::Error),
+    /// An error in a subroutine file the program called (its location is
+    /// in that file).
+    #[error("{error}")]
+    InFile {
+        /// The subroutine file.
+        path: std::path::PathBuf,
+        /// The error, located in `path`.
+        error: Box<GcodeError>,
+    },
 }
 
 impl GcodeError {
@@ -55,6 +64,15 @@ impl GcodeError {
             | GcodeError::Unsupported { at, .. }
             | GcodeError::Invalid { at, .. } => Some(*at),
             GcodeError::Edit(_) | GcodeError::Io(_) => None,
+            GcodeError::InFile { error, .. } => error.location(),
+        }
+    }
+
+    /// The subroutine file the error is in, when it is not in the program.
+    pub fn file(&self) -> Option<&std::path::Path> {
+        match self {
+            GcodeError::InFile { path, .. } => Some(path),
+            _ => None,
         }
     }
 

@@ -12,8 +12,12 @@ pub struct SourcePos {
     /// 1-based line number.
     pub line: u64,
     /// 0-based index of the block among the blocks given to the interpreter
-    /// (one block per line, so `line - 1` when every line was given).
+    /// (one block per line, so `line - 1` when every line was given; each
+    /// run of a block in a loop or subroutine counts).
     pub block: u64,
+    /// The file: 0 the program, n ≥ 1 the n-th subroutine file read
+    /// (`RunSummary::files`).
+    pub file: u32,
 }
 
 /// Length units of the program text.

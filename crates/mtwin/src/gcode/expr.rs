@@ -1,25 +1,54 @@
-//! Constant RS-274/NGC expressions: `[1 + 2 * 3]`, `sqrt[2]`,
-//! `atan[1]/[1]`, with LinuxCNC's operators and precedence (`**`; `*` `/`
-//! `MOD`; `+` `-`; `EQ` `NE` `GT` `GE` `LT` `LE`; `AND` `OR` `XOR`) and its
-//! trigonometric functions in degrees. Parameters (`#..`) and `EXISTS` are
-//! not evaluated: they are reported as such.
+//! RS-274/NGC expressions as LinuxCNC 2.9 evaluates them (its G-code manual,
+//! chapter "Expressions"): `[1 + 2 * 3]`, `sqrt[2]`, `atan[1]/[1]`, with its
+//! operators and precedence (`**`; `*` `/` `MOD`; `+` `-`; `EQ` `NE` `GT`
+//! `GE` `LT` `LE`; `AND` `OR` `XOR`), its functions (trigonometric ones in
+//! degrees), parameters `#5`, `#<name>`, `#<_global>`, indirection `#[..]`
+//! and `##5`, and `EXISTS[#<name>]`.
+
+use super::parameters::{ParamError, Parameters, normalise_name};
 
 /// Why an expression has no value.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum ExprError {
-    /// It refers to a parameter (not supported).
-    Parameter,
+    /// A parameter cannot be read (undefined named one, number out of range).
+    Param(ParamError),
     /// It is malformed or its value is undefined (division by zero, ...).
     Invalid(String),
 }
 
-/// Value of a word value text that is an expression, a function call or a
-/// signed one (the lexer guarantees balanced brackets).
-pub(crate) fn eval(text: &[u8]) -> Result<f64, ExprError> {
-    if text.contains(&b'#') {
-        return Err(ExprError::Parameter);
+impl From<ParamError> for ExprError {
+    fn from(e: ParamError) -> Self {
+        ExprError::Param(e)
     }
-    let mut p = Parser { b: text, i: 0 };
+}
+
+impl std::fmt::Display for ExprError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ExprError::Param(e) => e.fmt(f),
+            ExprError::Invalid(m) => f.write_str(m),
+        }
+    }
+}
+
+/// Where an assignment writes.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum Target {
+    /// `#n`.
+    Numbered(u32),
+    /// `#<name>` (normalised).
+    Named(String),
+}
+
+/// Value of a word value text (a number, an expression, a function call, a
+/// parameter, any of them signed) with parameters read from `params` (the
+/// lexer guarantees balanced brackets).
+pub(crate) fn eval(text: &[u8], params: &Parameters) -> Result<f64, ExprError> {
+    let mut p = Parser {
+        b: text,
+        i: 0,
+        params,
+    };
     let v = p.operand()?;
     p.skip();
     if p.i != p.b.len() {
@@ -112,12 +141,100 @@ impl Op {
     }
 }
 
+/// The target and value of an assignment text `#.. = value`, both read with
+/// the parameter values before the line (LinuxCNC applies a line's
+/// assignments after reading the whole line).
+pub(crate) fn assignment(text: &[u8], params: &Parameters) -> Result<(Target, f64), ExprError> {
+    let mut p = Parser {
+        b: text,
+        i: 0,
+        params,
+    };
+    p.expect(b'#')?;
+    let target = p.reference()?;
+    p.expect(b'=')?;
+    let v = p.operand()?;
+    p.skip();
+    if p.i != p.b.len() {
+        return Err(ExprError::Invalid(format!(
+            "unexpected text after the value at byte {}",
+            p.i + 1
+        )));
+    }
+    Ok((target, finite(v)?))
+}
+
+/// The value of a sequence of `[expr]` arguments (O-word call arguments),
+/// with the rest of the text (comments) after them ignored by the caller:
+/// returns the values and the byte offset after the last one.
+pub(crate) fn bracket_list(
+    text: &[u8],
+    params: &Parameters,
+) -> Result<(Vec<f64>, usize), ExprError> {
+    let mut p = Parser {
+        b: text,
+        i: 0,
+        params,
+    };
+    let mut out = Vec::new();
+    while p.peek() == Some(b'[') {
+        out.push(finite(p.bracketed()?)?);
+    }
+    p.skip();
+    Ok((out, p.i))
+}
+
 struct Parser<'a> {
     b: &'a [u8],
     i: usize,
+    params: &'a Parameters,
 }
 
 impl Parser<'_> {
+    /// What follows a `#`: `n`, `<name>`, `[expr]` or `#..` (indirection).
+    fn reference(&mut self) -> Result<Target, ExprError> {
+        match self.peek() {
+            Some(b'<') => {
+                let start = self.i + 1;
+                let Some(k) = self.b[start..].iter().position(|&c| c == b'>') else {
+                    return Err(ExprError::Invalid("'<' is not closed by '>'".into()));
+                };
+                let raw = String::from_utf8_lossy(&self.b[start..start + k]);
+                self.i = start + k + 1;
+                let name = normalise_name(&raw);
+                if name.is_empty() {
+                    return Err(ExprError::Invalid("empty parameter name".into()));
+                }
+                Ok(Target::Named(name))
+            }
+            Some(b'[') => {
+                let n = self.bracketed()?;
+                Ok(Target::Numbered(Parameters::index(n)?))
+            }
+            Some(b'#') => {
+                self.i += 1;
+                let t = self.reference()?;
+                let n = self.read(&t)?;
+                Ok(Target::Numbered(Parameters::index(n)?))
+            }
+            Some(b'0'..=b'9' | b'.') => {
+                let n = self.number()?;
+                Ok(Target::Numbered(Parameters::index(n)?))
+            }
+            _ => Err(ExprError::Invalid(format!(
+                "'#' must be followed by a parameter number or <name> at byte {}",
+                self.i + 1
+            ))),
+        }
+    }
+
+    fn read(&self, t: &Target) -> Result<f64, ExprError> {
+        Ok(match t {
+            Target::Numbered(n) => self.params.get(*n),
+            Target::Named(name) => self.params.get_named(name)?,
+        })
+    }
+
     fn skip(&mut self) {
         while self
             .b
@@ -223,6 +340,11 @@ impl Parser<'_> {
                 self.operand()
             }
             Some(b'[') => self.bracketed(),
+            Some(b'#') => {
+                self.i += 1;
+                let t = self.reference()?;
+                self.read(&t)
+            }
             Some(b'0'..=b'9' | b'.') => self.number(),
             Some(c) if c.is_ascii_alphabetic() => self.function(),
             _ => Err(ExprError::Invalid(format!(
@@ -253,7 +375,17 @@ impl Parser<'_> {
         }
         let name = self.b[start..self.i].to_ascii_uppercase();
         if name == b"EXISTS" {
-            return Err(ExprError::Parameter);
+            // EXISTS[#<name>]: whether a named parameter is defined.
+            self.expect(b'[')?;
+            self.expect(b'#')?;
+            let t = self.reference()?;
+            self.expect(b']')?;
+            return match t {
+                Target::Named(n) => Ok(if self.params.exists(&n) { 1.0 } else { 0.0 }),
+                Target::Numbered(_) => Err(ExprError::Invalid(
+                    "EXISTS takes a named parameter: EXISTS[#<name>]".into(),
+                )),
+            };
         }
         let x = self.bracketed()?;
         let deg = |r: f64| r.to_degrees();
@@ -317,7 +449,11 @@ mod tests {
     use super::*;
 
     fn ev(s: &str) -> f64 {
-        eval(s.as_bytes()).unwrap()
+        eval(s.as_bytes(), &Parameters::new()).unwrap()
+    }
+
+    fn ev_with(s: &str, p: &Parameters) -> Result<f64, ExprError> {
+        eval(s.as_bytes(), p)
     }
 
     #[test]
@@ -347,10 +483,85 @@ mod tests {
 
     #[test]
     fn errors() {
-        assert_eq!(eval(b"[#1 + 2]"), Err(ExprError::Parameter));
-        assert_eq!(eval(b"EXISTS[1]"), Err(ExprError::Parameter));
-        assert!(matches!(eval(b"[1/0]"), Err(ExprError::Invalid(_))));
-        assert!(matches!(eval(b"sqrt[-1]"), Err(ExprError::Invalid(_))));
-        assert!(matches!(eval(b"[1 +]"), Err(ExprError::Invalid(_))));
+        let p = Parameters::new();
+        assert!(matches!(
+            ev_with("[#<nope> + 2]", &p),
+            Err(ExprError::Param(_))
+        ));
+        assert!(matches!(
+            ev_with("EXISTS[1]", &p),
+            Err(ExprError::Invalid(_))
+        ));
+        assert!(matches!(ev_with("[#5602]", &p), Err(ExprError::Param(_))));
+        assert!(matches!(ev_with("[1/0]", &p), Err(ExprError::Invalid(_))));
+        assert!(matches!(
+            ev_with("sqrt[-1]", &p),
+            Err(ExprError::Invalid(_))
+        ));
+        assert!(matches!(ev_with("[1 +]", &p), Err(ExprError::Invalid(_))));
+        assert!(matches!(
+            ev_with("[-8 ** 0.5]", &p),
+            Err(ExprError::Invalid(_))
+        ));
+    }
+
+    #[test]
+    fn parameters_indirection_and_exists() {
+        let mut p = Parameters::new();
+        p.set(1, 3.0).unwrap();
+        p.set(3, 7.5).unwrap();
+        p.set(10, 2.0).unwrap();
+        p.set_named("depth", -1.25).unwrap();
+        p.set_named("_safe", 5.0).unwrap();
+        assert_eq!(ev_with("#1", &p), Ok(3.0));
+        assert_eq!(ev_with("-#1", &p), Ok(-3.0));
+        assert_eq!(ev_with("##1", &p), Ok(7.5), "#[#1] = #3");
+        assert_eq!(ev_with("#[#1]", &p), Ok(7.5));
+        assert_eq!(ev_with("#[1 + 2]", &p), Ok(7.5));
+        assert_eq!(ev_with("[#1 * #10 ** 2]", &p), Ok(12.0), "3 * 2^2");
+        assert_eq!(ev_with("#<Depth>", &p), Ok(-1.25));
+        assert_eq!(ev_with("#< d e p t h >", &p), Ok(-1.25));
+        assert_eq!(ev_with("[#<_safe> - #<depth>]", &p), Ok(6.25));
+        assert_eq!(ev_with("EXISTS[#<_safe>]", &p), Ok(1.0));
+        assert_eq!(ev_with("exists[#<_other>]", &p), Ok(0.0));
+        assert_eq!(
+            ev_with("[#2]", &p),
+            Ok(0.0),
+            "an unset numbered parameter reads 0"
+        );
+        assert_eq!(ev_with("[#3 GT #1 AND #1 LT 4]", &p), Ok(1.0));
+        assert_eq!(ev_with("round[#3]", &p), Ok(8.0));
+        assert_eq!(ev_with("abs[-#3]", &p), Ok(7.5));
+        assert_eq!(ev_with("[2 XOR 0]", &p), Ok(1.0));
+        assert_eq!(ev_with("[5 NE 5]", &p), Ok(0.0));
+        assert_eq!(ev_with("[5 LE 5]", &p), Ok(1.0));
+        assert!((ev_with("acos[0.5]", &p).unwrap() - 60.0).abs() < 1e-12);
+        assert!((ev_with("asin[1]", &p).unwrap() - 90.0).abs() < 1e-12);
+        assert!((ev_with("tan[45]", &p).unwrap() - 1.0).abs() < 1e-12);
+        assert!((ev_with("exp[1]", &p).unwrap() - std::f64::consts::E).abs() < 1e-15);
+        assert!((ev_with("ln[exp[2]]", &p).unwrap() - 2.0).abs() < 1e-15);
+        assert!((ev_with("cos[60]", &p).unwrap() - 0.5).abs() < 1e-15);
+    }
+
+    #[test]
+    fn assignments_read_old_values() {
+        let mut p = Parameters::new();
+        p.set(1, 4.0).unwrap();
+        assert_eq!(
+            assignment(b"#2 = [#1 * 2]", &p),
+            Ok((Target::Numbered(2), 8.0))
+        );
+        assert_eq!(
+            assignment(b"#[#1 + 1] = -#1", &p),
+            Ok((Target::Numbered(5), -4.0))
+        );
+        assert_eq!(
+            assignment(b"#<My Var>=1.5", &p),
+            Ok((Target::Named("myvar".into()), 1.5))
+        );
+        assert!(assignment(b"#0 = 1", &p).is_err());
+        let (v, end) = bracket_list(b" [1] [#1+1] (c)", &p).unwrap();
+        assert_eq!(v, vec![1.0, 5.0]);
+        assert_eq!(&b" [1] [#1+1] (c)"[end..], b"(c)");
     }
 }

@@ -21,7 +21,9 @@ use super::event::{
     ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, Plane, Programmed, SourcePos,
     SpindleState, Units,
 };
-use super::expr::{self, ExprError};
+use super::expr::{self, ExprError, Target};
+use super::parameters::Parameters;
+use super::program_flow::ProgramOptions;
 use super::syntax::{Block, Item, Value, Word};
 
 /// Tool number → tool length offset along Z, mm (the caller's tool table).
@@ -65,6 +67,8 @@ pub struct InterpOptions {
     pub initial_machine_position: Axes,
     /// What to do with M-codes this interpreter does not know.
     pub unknown_m: UnknownMCode,
+    /// Parameters at start (var file), subroutine search path, bounds.
+    pub program: ProgramOptions,
 }
 
 impl Default for InterpOptions {
@@ -81,6 +85,7 @@ impl Default for InterpOptions {
             initial_units: Units::Millimetre,
             initial_machine_position: Axes::ZERO,
             unknown_m: UnknownMCode::Reject,
+            program: ProgramOptions::default(),
         }
     }
 }
@@ -226,12 +231,15 @@ pub struct Interpreter {
     block_index: u64,
     ended: bool,
     words: BlockWords,
+    params: Parameters,
+    assignments: Vec<(Target, f64, usize)>,
 }
 
 impl Interpreter {
     /// A fresh interpreter in the start-up state (G17 G21 G90 G91.1 G94 G54,
     /// no motion mode, feed 0, spindle stopped, TCP per options).
     pub fn new(opts: InterpOptions) -> Self {
+        let opts_params = opts.program.parameters.clone();
         let offset = opts.work_offsets[0];
         let state = ModalState {
             units: opts.initial_units,
@@ -258,12 +266,24 @@ impl Interpreter {
             block_index: 0,
             ended: false,
             words: BlockWords::default(),
+            params: (*opts_params).clone(),
+            assignments: Vec::new(),
         }
     }
 
     /// The modal state after the blocks executed so far.
     pub fn state(&self) -> &ModalState {
         &self.state
+    }
+
+    /// The parameters (numbered, named) after the blocks executed so far.
+    pub fn parameters(&self) -> &Parameters {
+        &self.params
+    }
+
+    /// The parameters, for program flow (subroutine arguments, returns).
+    pub fn parameters_mut(&mut self) -> &mut Parameters {
+        &mut self.params
     }
 
     /// Whether M2/M30 was executed (later blocks are then ignored).
@@ -277,12 +297,22 @@ impl Interpreter {
         let at = SourcePos {
             line: block.line(),
             block: self.block_index,
+            file: 0,
         };
         self.block_index += 1;
         if self.ended || (self.opts.skip_deleted_blocks && block.is_block_delete()) {
             return Ok(());
         }
         self.collect(block)?;
+        // LinuxCNC sets a line's parameters after reading the whole line (every
+        // value on it read the old ones) and before executing it.
+        for (target, value, column) in self.assignments.drain(..) {
+            let r = match target {
+                Target::Numbered(n) => self.params.set(n, value),
+                Target::Named(name) => self.params.set_named(&name, value),
+            };
+            r.map_err(|e| GcodeError::invalid(block.line(), column, e.to_string()))?;
+        }
         let mut w = std::mem::take(&mut self.words);
         let r = self.run(block, &mut w, at, out);
         self.words = w;
@@ -295,9 +325,10 @@ impl Interpreter {
         w.g.clear();
         w.m.clear();
         w.letters = [Letter::default(); 26];
+        self.assignments.clear();
         for item in block.items() {
             match item {
-                Item::Word(word) => collect_word(block, word, w)?,
+                Item::Word(word) => collect_word(block, word, w, &self.params)?,
                 Item::OWord { span } => {
                     return Err(GcodeError::unsupported(
                         line,
@@ -306,11 +337,15 @@ impl Interpreter {
                     ));
                 }
                 Item::Assignment { span } => {
-                    return Err(GcodeError::unsupported(
-                        line,
-                        span.start + 1,
-                        "parameter assignment",
-                    ));
+                    let text = &block.text()[span.start..span.end];
+                    let (target, value) = expr::assignment(text, &self.params).map_err(|e| {
+                        GcodeError::invalid(
+                            line,
+                            span.start + 1,
+                            format!("{e} in {}", String::from_utf8_lossy(text)),
+                        )
+                    })?;
+                    self.assignments.push((target, value, span.start + 1));
                 }
                 Item::Percent { .. } if block.words().next().is_some() => {
                     return Err(GcodeError::invalid(line, 0, "words on a '%' line"));
@@ -1069,34 +1104,27 @@ fn g_name(code: u32) -> String {
     }
 }
 
-fn collect_word(block: &Block, word: &Word, w: &mut BlockWords) -> Result<(), GcodeError> {
+fn collect_word(
+    block: &Block,
+    word: &Word,
+    w: &mut BlockWords,
+    params: &Parameters,
+) -> Result<(), GcodeError> {
     let line = block.line();
     let col = word.at + 1;
     let value = match word.value {
         Value::Number(v) => v,
-        Value::Expression => match expr::eval(block.value_text(word).as_bytes()) {
-            Ok(v) => v,
-            Err(ExprError::Parameter) => {
-                return Err(GcodeError::unsupported(
-                    line,
-                    word.span.start + 1,
-                    format!("expression with parameters {}", block.value_text(word)),
-                ));
+        Value::Expression | Value::Parameter => {
+            match expr::eval(block.value_text(word).as_bytes(), params) {
+                Ok(v) => v,
+                Err(e @ (ExprError::Param(_) | ExprError::Invalid(_))) => {
+                    return Err(GcodeError::invalid(
+                        line,
+                        word.span.start + 1,
+                        format!("{e} in {}", block.value_text(word)),
+                    ));
+                }
             }
-            Err(ExprError::Invalid(m)) => {
-                return Err(GcodeError::invalid(
-                    line,
-                    word.span.start + 1,
-                    format!("{m} in {}", block.value_text(word)),
-                ));
-            }
-        },
-        Value::Parameter => {
-            return Err(GcodeError::unsupported(
-                line,
-                word.span.start + 1,
-                format!("parameter {}", block.value_text(word)),
-            ));
         }
     };
     match word.letter {
@@ -1361,8 +1389,22 @@ mod tests {
             Some(&EventKind::ProgramEnd),
             "nothing after M30"
         );
-        assert_eq!(ev[0].at, SourcePos { line: 1, block: 0 });
-        assert_eq!(ev.last().unwrap().at, SourcePos { line: 8, block: 7 });
+        assert_eq!(
+            ev[0].at,
+            SourcePos {
+                line: 1,
+                block: 0,
+                file: 0
+            }
+        );
+        assert_eq!(
+            ev.last().unwrap().at,
+            SourcePos {
+                line: 8,
+                block: 7,
+                file: 0
+            }
+        );
     }
 
     #[test]

@@ -48,8 +48,7 @@ use super::error::GcodeError;
 use super::event::{ArcMove, Event, EventKind, Feed, Linear};
 use super::interp::{InterpOptions, Interpreter};
 use super::profile::Trapezoid;
-use super::stream::BlockReader;
-use super::syntax::Block;
+use super::program_flow::{Step, run_program};
 use super::timing::{self, lerp};
 use crate::kinematics::{IkError, IkOptions, IkTarget, Kinematics};
 use crate::model::{AxisKind, Machine};
@@ -733,17 +732,20 @@ where
     F: FnMut(&Sample<'_>) -> io::Result<()>,
 {
     let mut ip = Interpolator::new(machine, opts)?;
-    let mut interp = Interpreter::new(ip.options().interp.clone());
-    let mut reader = BlockReader::new(input);
-    let mut block = Block::default();
-    let mut events = Vec::new();
-    while reader.read_block(&mut block)? {
-        events.clear();
-        interp.execute(&block, &mut events)?;
-        for e in &events {
-            ip.push(e, &mut sink)?;
-        }
-    }
+    let iopts = ip.options().interp.clone();
+    let mut interp = Interpreter::new(iopts.clone());
+    run_program(
+        input,
+        &mut interp,
+        &iopts.program,
+        iopts.dialect,
+        |step: &Step<'_>| -> Result<(), InterpolateError> {
+            for e in step.events {
+                ip.push(e, &mut sink)?;
+            }
+            Ok(())
+        },
+    )?;
     ip.finish(&mut sink)
 }
 

@@ -48,7 +48,9 @@ mod expr;
 mod interp;
 mod interpolate;
 mod lexer;
+pub mod parameters;
 mod profile;
+pub mod program_flow;
 #[warn(missing_docs)]
 mod stats;
 mod stream;
@@ -56,6 +58,7 @@ mod syntax;
 #[warn(missing_docs)]
 pub mod timing;
 mod travel;
+pub mod var_file;
 
 pub use axes::{Axes, Axis, AxisLetterError, AxisMask};
 pub use dialect::Dialect;
@@ -69,27 +72,30 @@ pub use interp::{InterpOptions, Interpreter, ModalState, MotionMode, ToolTable, 
 pub use interpolate::{
     InterpolateError, InterpolateOptions, InterpolationSummary, Interpolator, Sample, interpolate,
 };
+pub use parameters::Parameters;
 pub use profile::Trapezoid;
+pub use program_flow::{
+    Message, MessageKind, MessageSink, ProgramOptions, RunSummary, Step, run_program,
+};
 pub use stats::{AxisRange, MotionObserver, ProgramStats, StatsOptions, stats, stats_with};
 pub use stream::{BlockReader, BlockWriter, Program};
 pub use syntax::{Block, CommentKind, Item, LineEnd, NumberFormat, Span, Value, Word};
 pub use travel::{TravelCheck, TravelViolation};
+pub use var_file::{read_var_file, write_var_file};
 
-/// Interprets a whole program from `input`, streaming, calling `sink` with
-/// each block and the events it produced (possibly none).
+/// Interprets a whole program from `input` (streaming, or held in memory
+/// from its first O-word line on: see [`program_flow`]), calling `sink`
+/// with each executed block and the events it produced (possibly none).
 pub fn interpret<R, F>(input: R, opts: InterpOptions, mut sink: F) -> Result<(), GcodeError>
 where
     R: std::io::BufRead,
     F: FnMut(&Block, &[Event]) -> Result<(), GcodeError>,
 {
-    let mut reader = BlockReader::new(input);
+    let program = opts.program.clone();
+    let dialect = opts.dialect;
     let mut interp = Interpreter::new(opts);
-    let mut block = Block::default();
-    let mut events = Vec::new();
-    while reader.read_block(&mut block)? {
-        events.clear();
-        interp.execute(&block, &mut events)?;
-        sink(&block, &events)?;
-    }
+    run_program(input, &mut interp, &program, dialect, |step: &Step<'_>| {
+        sink(step.block, step.events)
+    })?;
     Ok(())
 }

@@ -12,7 +12,7 @@ use super::axes::{Axes, Axis};
 use super::error::GcodeError;
 use super::event::{ArcMove, Event, EventKind, Feed, Linear};
 use super::interp::{InterpOptions, Interpreter};
-use super::stream::BlockReader;
+use super::program_flow::{Step, run_program};
 use super::syntax::Block;
 use super::timing;
 
@@ -213,26 +213,28 @@ pub fn stats_with<R: BufRead>(
     opts: &StatsOptions,
     observer: &mut dyn MotionObserver,
 ) -> Result<ProgramStats, GcodeError> {
-    let mut reader = BlockReader::new(input);
     let mut interp = Interpreter::new(opts.interp.clone());
-    let mut block = Block::default();
-    let mut events = Vec::new();
     let mut st = ProgramStats::default();
-    while reader.read_block(&mut block)? {
-        st.blocks += 1;
-        events.clear();
-        interp.execute(&block, &mut events)?;
-        let mut moved = false;
-        for e in &events {
-            moved |= matches!(
-                e.kind,
-                EventKind::Traverse(_) | EventKind::Feed(_) | EventKind::Arc(_)
-            );
-            st.add(e, opts)?;
-            observer.observe(&block, e)?;
-        }
-        st.motion_blocks += u64::from(moved);
-    }
+    run_program(
+        input,
+        &mut interp,
+        &opts.interp.program,
+        opts.interp.dialect,
+        |step: &Step<'_>| -> Result<(), GcodeError> {
+            st.blocks += 1;
+            let mut moved = false;
+            for e in step.events {
+                moved |= matches!(
+                    e.kind,
+                    EventKind::Traverse(_) | EventKind::Feed(_) | EventKind::Arc(_)
+                );
+                st.add(e, opts)?;
+                observer.observe(step.block, e)?;
+            }
+            st.motion_blocks += u64::from(moved);
+            Ok(())
+        },
+    )?;
     Ok(st)
 }
 

@@ -1,0 +1,268 @@
+//! The parameter store of RS-274/NGC as LinuxCNC 2.9 keeps it (its G-code
+//! manual, chapter "Parameters"):
+//!
+//! * numbered parameters `#1` … `#5601` (LinuxCNC's `RS274NGC_MAX_PARAMETERS`
+//!   is 5602, exclusive); an unset one reads 0. `#1`–`#30` carry subroutine
+//!   arguments and are saved and restored around every call. `#5161`–`#5390`
+//!   (G28/G30 homes, G92 offsets, the nine work coordinate systems) are the
+//!   persistent ones LinuxCNC keeps in its var file (see [`super::var_file`]).
+//! * named local parameters `#<name>`: local to the subroutine call (or to the
+//!   main program) that set them; reading one that was never set is an error.
+//! * named global parameters `#<_name>` (leading underscore): visible
+//!   everywhere. `#<_value>` and `#<_value_returned>` are set by `return` /
+//!   `endsub` (LinuxCNC 2.9). The predefined read-only globals `#<_vmajor>`
+//!   (2) and `#<_vminor>` (9) are provided; LinuxCNC's other predefined
+//!   state parameters (`#<_x>`, `#<_line>`, ...) are not, and reading one is
+//!   the "not defined" error.
+//!
+//! Names are read as LinuxCNC reads them: case-insensitive, spaces and tabs
+//! inside `<>` removed.
+
+use std::collections::{BTreeSet, HashMap};
+
+/// Exclusive upper bound of numbered parameters (LinuxCNC
+/// `RS274NGC_MAX_PARAMETERS`): valid numbers are 1 … 5601.
+pub const MAX_NUMBERED: u32 = 5602;
+
+/// The numbered parameters LinuxCNC writes to its var file even when the file
+/// did not list them: G28 home (5161–5169), G30 home (5181–5189), G92 offsets
+/// and their enable flag (5210–5219), the selected coordinate system (5220)
+/// and the nine coordinate systems (5221–5390, 20 apart).
+pub fn is_required_persistent(n: u32) -> bool {
+    matches!(n, 5161..=5169 | 5181..=5189 | 5210..=5219 | 5220)
+        || ((5221..=5390).contains(&n) && (n - 5221) % 20 < 9)
+}
+
+/// Number of subroutine argument parameters (`#1`–`#30`).
+pub const SUB_ARGS: usize = 30;
+
+/// Why a parameter cannot be read or written (LinuxCNC's wording).
+#[derive(Debug, Clone, PartialEq)]
+pub enum ParamError {
+    /// A numbered parameter outside 1 … 5601.
+    OutOfRange(f64),
+    /// A parameter number that is not an integer.
+    NotInteger(f64),
+    /// A named parameter read before it was set.
+    Undefined(String),
+    /// A write to a read-only parameter.
+    ReadOnly(String),
+}
+
+impl std::fmt::Display for ParamError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ParamError::OutOfRange(n) => write!(
+                f,
+                "Parameter number out of range: #{n} (valid: 1 to {})",
+                MAX_NUMBERED - 1
+            ),
+            ParamError::NotInteger(n) => write!(f, "Parameter number is not an integer: #{n}"),
+            ParamError::Undefined(name) => write!(f, "Named parameter #<{name}> not defined"),
+            ParamError::ReadOnly(name) => {
+                write!(f, "Cannot assign to read-only parameter #<{name}>")
+            }
+        }
+    }
+}
+
+/// The normalised form of a parameter name: lower case, blanks removed.
+pub fn normalise_name(raw: &str) -> String {
+    raw.chars()
+        .filter(|c| !matches!(c, ' ' | '\t'))
+        .flat_map(char::to_lowercase)
+        .collect()
+}
+
+/// Read-only predefined globals and their values.
+const PREDEFINED: [(&str, f64); 2] = [("_vmajor", 2.0), ("_vminor", 9.0)];
+
+/// Numbered, named local and named global parameters (values in program
+/// units where they are lengths, as LinuxCNC keeps them).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Parameters {
+    numbered: Vec<f64>,
+    globals: HashMap<String, f64>,
+    /// Locals of the main program (index 0) and of each active call.
+    locals: Vec<HashMap<String, f64>>,
+    /// Numbers listed in the var file read at start: written back with the
+    /// required persistent ones (LinuxCNC keeps every parameter its var file
+    /// lists).
+    listed: BTreeSet<u32>,
+}
+
+impl Default for Parameters {
+    fn default() -> Self {
+        Parameters {
+            numbered: vec![0.0; MAX_NUMBERED as usize],
+            globals: HashMap::new(),
+            locals: vec![HashMap::new()],
+            listed: BTreeSet::new(),
+        }
+    }
+}
+
+impl Parameters {
+    /// All numbered parameters 0, no named ones.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The index of a numbered parameter given as a value (LinuxCNC accepts
+    /// a number within 0.0001 of an integer).
+    pub fn index(n: f64) -> Result<u32, ParamError> {
+        let r = n.round();
+        if (n - r).abs() > 1e-4 {
+            return Err(ParamError::NotInteger(n));
+        }
+        if !(1.0..f64::from(MAX_NUMBERED)).contains(&r) {
+            return Err(ParamError::OutOfRange(n));
+        }
+        Ok(r as u32)
+    }
+
+    /// Value of numbered parameter `n` (1 … 5601).
+    pub fn get(&self, n: u32) -> f64 {
+        self.numbered.get(n as usize).copied().unwrap_or(0.0)
+    }
+
+    /// Sets numbered parameter `n`; `n` outside 1 … 5601 is an error.
+    pub fn set(&mut self, n: u32, value: f64) -> Result<(), ParamError> {
+        if n == 0 || n >= MAX_NUMBERED {
+            return Err(ParamError::OutOfRange(f64::from(n)));
+        }
+        self.numbered[n as usize] = value;
+        Ok(())
+    }
+
+    /// Value of a named parameter (name already normalised).
+    pub fn get_named(&self, name: &str) -> Result<f64, ParamError> {
+        if let Some(&(_, v)) = PREDEFINED.iter().find(|(n, _)| *n == name) {
+            return Ok(v);
+        }
+        let found = if name.starts_with('_') {
+            self.globals.get(name)
+        } else {
+            self.locals.last().and_then(|l| l.get(name))
+        };
+        found
+            .copied()
+            .ok_or_else(|| ParamError::Undefined(name.to_string()))
+    }
+
+    /// Whether a named parameter (name already normalised) is defined
+    /// (`EXISTS[#<name>]`).
+    pub fn exists(&self, name: &str) -> bool {
+        self.get_named(name).is_ok()
+    }
+
+    /// Sets a named parameter (name already normalised): a global when it
+    /// starts with `_`, else a local of the current call.
+    pub fn set_named(&mut self, name: &str, value: f64) -> Result<(), ParamError> {
+        if PREDEFINED.iter().any(|(n, _)| *n == name) {
+            return Err(ParamError::ReadOnly(name.to_string()));
+        }
+        if name.starts_with('_') {
+            self.globals.insert(name.to_string(), value);
+        } else if let Some(l) = self.locals.last_mut() {
+            l.insert(name.to_string(), value);
+        }
+        Ok(())
+    }
+
+    /// Enters a subroutine: saves `#1`–`#30` (returned), sets them to
+    /// `args` (missing ones 0) and opens a fresh local scope.
+    pub fn enter_call(&mut self, args: &[f64]) -> [f64; SUB_ARGS] {
+        let mut saved = [0.0; SUB_ARGS];
+        saved.copy_from_slice(&self.numbered[1..=SUB_ARGS]);
+        for (k, slot) in self.numbered[1..=SUB_ARGS].iter_mut().enumerate() {
+            *slot = args.get(k).copied().unwrap_or(0.0);
+        }
+        self.locals.push(HashMap::new());
+        saved
+    }
+
+    /// Leaves a subroutine: restores `#1`–`#30` and drops its locals.
+    pub fn leave_call(&mut self, saved: &[f64; SUB_ARGS]) {
+        self.numbered[1..=SUB_ARGS].copy_from_slice(saved);
+        if self.locals.len() > 1 {
+            self.locals.pop();
+        }
+    }
+
+    /// Marks `n` as listed in the var file (written back).
+    pub(crate) fn mark_listed(&mut self, n: u32) {
+        self.listed.insert(n);
+    }
+
+    /// The numbers a var file written now holds: those the read file listed
+    /// and every required persistent one, ascending.
+    pub fn persistent_numbers(&self) -> Vec<u32> {
+        let mut all: BTreeSet<u32> = self.listed.clone();
+        all.extend((1..MAX_NUMBERED).filter(|&n| is_required_persistent(n)));
+        all.into_iter().collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbered_range_and_integer_rule() {
+        assert_eq!(Parameters::index(5601.0), Ok(5601));
+        assert_eq!(Parameters::index(1.00001), Ok(1));
+        assert!(matches!(
+            Parameters::index(5602.0),
+            Err(ParamError::OutOfRange(_))
+        ));
+        assert!(matches!(
+            Parameters::index(0.0),
+            Err(ParamError::OutOfRange(_))
+        ));
+        assert!(matches!(
+            Parameters::index(1.5),
+            Err(ParamError::NotInteger(_))
+        ));
+        let mut p = Parameters::new();
+        assert_eq!(p.get(31), 0.0);
+        p.set(31, 2.5).unwrap();
+        assert_eq!(p.get(31), 2.5);
+        assert!(p.set(5602, 1.0).is_err());
+    }
+
+    #[test]
+    fn names_scopes_and_calls() {
+        let mut p = Parameters::new();
+        assert_eq!(normalise_name("My Depth"), "mydepth");
+        p.set_named("depth", 1.0).unwrap();
+        p.set_named("_g", 7.0).unwrap();
+        p.set(1, 11.0).unwrap();
+        p.set(31, 31.0).unwrap();
+        let saved = p.enter_call(&[5.0, 6.0]);
+        assert_eq!((p.get(1), p.get(2), p.get(3)), (5.0, 6.0, 0.0));
+        assert!(
+            matches!(p.get_named("depth"), Err(ParamError::Undefined(_))),
+            "locals of the caller are not visible"
+        );
+        assert_eq!(p.get_named("_g"), Ok(7.0));
+        p.set_named("depth", 2.0).unwrap();
+        p.leave_call(&saved);
+        assert_eq!(p.get(1), 11.0);
+        assert_eq!(p.get(31), 31.0);
+        assert_eq!(p.get_named("depth"), Ok(1.0));
+        assert_eq!(p.get_named("_vmajor"), Ok(2.0));
+        assert!(p.set_named("_vmajor", 3.0).is_err());
+        assert!(p.exists("_g") && !p.exists("_h"));
+    }
+
+    #[test]
+    fn required_persistent_set() {
+        let n: Vec<u32> = Parameters::new().persistent_numbers();
+        // 9 + 9 + 10 + 1 + 9 systems × 9 axes.
+        assert_eq!(n.len(), 9 + 9 + 10 + 1 + 81);
+        assert_eq!(n.first(), Some(&5161));
+        assert_eq!(n.last(), Some(&5389));
+        assert!(n.contains(&5221) && n.contains(&5229) && !n.contains(&5230));
+    }
+}

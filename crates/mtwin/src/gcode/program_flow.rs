@@ -1,0 +1,1292 @@
+//! Program flow: the one driver every command uses to run a program through
+//! the [`Interpreter`], with LinuxCNC 2.9's O-word statements (its G-code
+//! manual, chapter "O Codes") and, in the Fanuc dialect, M98/M99
+//! subprograms.
+//!
+//! * A program without O-words (and, in the Fanuc dialect, without M98 and
+//!   subprogram `O` lines) streams line by line: a 1 GB program is never
+//!   held in memory.
+//! * At the first such line the rest of the program is read into memory and
+//!   run with a program counter, a call stack and a loop stack: `sub` /
+//!   `endsub` / `call` (arguments into `#1`–`#30`, saved and restored around
+//!   the call), `return` (a value into `#<_value>`, `#<_value_returned>`),
+//!   `if` / `elseif` / `else` / `endif`, `while` / `endwhile`, `do` /
+//!   `while`, `repeat` / `endrepeat`, `break`, `continue`. A subroutine not
+//!   defined in the program is read from `NAME.ngc` in the first directory of
+//!   [`ProgramOptions::subroutine_path`] that has it (LinuxCNC's
+//!   `SUBROUTINE_PATH`); its events carry the file's number
+//!   ([`SourcePos::file`], see [`RunSummary::files`]).
+//! * Fanuc: an `O1234` line starts a subprogram ending at `M99`; `M98 P1234
+//!   L3` calls it three times (the `P` form with the repeat count in front
+//!   of four program digits is not read). `M99` in the main program (endless
+//!   repeat) is refused.
+//! * `(DEBUG,…)` and `(PRINT,…)` comments go to [`ProgramOptions::messages`]
+//!   with `#n` / `#<name>` replaced by their values (six decimals, as
+//!   LinuxCNC prints them; an undefined name prints `######`).
+//! * Every executed block counts against [`ProgramOptions::max_blocks`]; a
+//!   program that runs longer (an endless loop) stops with an error naming
+//!   the line. Subroutine calls nest at most [`MAX_CALL_DEPTH`] deep.
+
+use std::collections::HashMap;
+use std::fmt;
+use std::io::BufRead;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use super::dialect::Dialect;
+use super::error::{GcodeError, Location};
+use super::event::Event;
+use super::expr;
+use super::interp::Interpreter;
+use super::parameters::{Parameters, normalise_name};
+use super::stream::BlockReader;
+use super::syntax::{Block, CommentKind, Item, Value};
+
+/// Deepest nesting of subroutine calls (LinuxCNC: 10 levels).
+pub const MAX_CALL_DEPTH: usize = 10;
+
+/// Default bound on the number of blocks one program may execute
+/// ([`ProgramOptions::max_blocks`]): about a minute of interpretation.
+pub const DEFAULT_MAX_BLOCKS: u64 = crate::limits::MAX_EXECUTED_BLOCKS;
+
+/// A `(DEBUG,…)` or `(PRINT,…)` message.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Message {
+    /// `DEBUG` or `PRINT`.
+    pub kind: MessageKind,
+    /// The text after the comma, parameters replaced by their values.
+    pub text: String,
+    /// The file (`None`: the program itself) and line it comes from.
+    pub file: Option<PathBuf>,
+    /// 1-based line.
+    pub line: u64,
+}
+
+/// Which comment produced a [`Message`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MessageKind {
+    /// `(DEBUG,…)`: an operator message in LinuxCNC.
+    Debug,
+    /// `(PRINT,…)`: printed on LinuxCNC's standard error.
+    Print,
+}
+
+/// Where messages go: a callback (the CLI prints them on stderr), or nowhere.
+#[derive(Clone, Default)]
+pub struct MessageSink(Option<Arc<dyn Fn(&Message) + Send + Sync>>);
+
+impl MessageSink {
+    /// A sink calling `f` with every message.
+    pub fn new(f: impl Fn(&Message) + Send + Sync + 'static) -> Self {
+        MessageSink(Some(Arc::new(f)))
+    }
+
+    fn send(&self, m: &Message) {
+        if let Some(f) = &self.0 {
+            f(m);
+        }
+    }
+}
+
+/// Two sinks are equal when they are the same callback (or both none).
+impl PartialEq for MessageSink {
+    fn eq(&self, other: &Self) -> bool {
+        match (&self.0, &other.0) {
+            (None, None) => true,
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+            _ => false,
+        }
+    }
+}
+
+impl fmt::Debug for MessageSink {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(if self.0.is_some() {
+            "MessageSink(callback)"
+        } else {
+            "MessageSink(none)"
+        })
+    }
+}
+
+/// Program-level settings: parameters at start, subroutine search path,
+/// bounds, where messages go.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProgramOptions {
+    /// Parameters at program start (e.g. read from a var file).
+    pub parameters: Arc<Parameters>,
+    /// Directories searched, in order, for `NAME.ngc` of a called
+    /// subroutine the program does not define.
+    pub subroutine_path: Vec<PathBuf>,
+    /// Most blocks one program may execute (loops included).
+    pub max_blocks: u64,
+    /// `(DEBUG,…)` / `(PRINT,…)` messages.
+    pub messages: MessageSink,
+}
+
+impl Default for ProgramOptions {
+    fn default() -> Self {
+        ProgramOptions {
+            parameters: Arc::new(Parameters::new()),
+            subroutine_path: Vec::new(),
+            max_blocks: DEFAULT_MAX_BLOCKS,
+            messages: MessageSink::default(),
+        }
+    }
+}
+
+/// One executed block as the driver hands it to its caller.
+#[derive(Debug)]
+pub struct Step<'a> {
+    /// The block (its line is [`Block::line`] in file [`Step::file`]).
+    pub block: &'a Block,
+    /// The events it produced (none for O-word lines).
+    pub events: &'a [Event],
+    /// The interpreter after the block.
+    pub interp: &'a Interpreter,
+    /// 0: the program; n ≥ 1: `RunSummary::files[n - 1]`.
+    pub file: u32,
+    /// Whether the block runs from the held program (O-word flow) rather
+    /// than streaming; such a block may run several times.
+    pub held: bool,
+}
+
+/// What a run leaves besides the steps.
+#[derive(Debug, Default)]
+pub struct RunSummary {
+    /// The lines of the program from the first O-word (or M98) line on, held
+    /// in memory to run them (empty for a streamed program), in source order.
+    pub held: Vec<Block>,
+    /// Subroutine files read, in the order of their file number (1, 2, ...).
+    pub files: Vec<PathBuf>,
+    /// Blocks executed (each run of a block counts).
+    pub executed: u64,
+}
+
+/// Runs the program read from `input` on `interp`, calling `sink` with every
+/// executed block.
+pub fn run_program<R, E, F>(
+    input: R,
+    interp: &mut Interpreter,
+    opts: &ProgramOptions,
+    dialect: Dialect,
+    mut sink: F,
+) -> Result<RunSummary, E>
+where
+    R: BufRead,
+    E: From<GcodeError>,
+    F: FnMut(&Step<'_>) -> Result<(), E>,
+{
+    let mut reader = BlockReader::new(input);
+    let mut block = Block::default();
+    let mut events = Vec::new();
+    let mut summary = RunSummary::default();
+    let fanuc = matches!(dialect, Dialect::Fanuc { .. });
+    // Fanuc: the program-number line at the top (before any word) is a name.
+    let mut seen_words = false;
+    while reader.read_block(&mut block)? {
+        let trigger = if fanuc {
+            let oline = block
+                .items()
+                .iter()
+                .any(|i| matches!(i, Item::OWord { .. }));
+            let t = (oline && seen_words) || has_m(&block, 98, interp.parameters());
+            seen_words |= block.words().next().is_some();
+            t
+        } else {
+            block
+                .items()
+                .iter()
+                .any(|i| matches!(i, Item::OWord { .. }))
+        };
+        if trigger && !interp.ended() {
+            let mut held = vec![std::mem::take(&mut block)];
+            while reader.read_block(&mut block)? {
+                held.push(std::mem::take(&mut block));
+            }
+            let mut flow = Flow {
+                codes: vec![Code::new(held, 0, fanuc)?],
+                files: Vec::new(),
+                opts,
+                fanuc,
+                executed: summary.executed,
+                entering_elseif: false,
+            };
+            flow.run(interp, &mut sink)?;
+            summary.executed = flow.executed;
+            summary.files = flow.files;
+            summary.held = flow.codes.swap_remove(0).blocks;
+            return Ok(summary);
+        }
+        if fanuc
+            && !interp.ended()
+            && block
+                .items()
+                .iter()
+                .any(|i| matches!(i, Item::OWord { .. }))
+        {
+            // The program number at the top: nothing to execute.
+            summary.executed += 1;
+            sink(&Step {
+                block: &block,
+                events: &[],
+                interp,
+                file: 0,
+                held: false,
+            })?;
+            continue;
+        }
+        summary.executed += 1;
+        events.clear();
+        if !interp.ended() {
+            messages(&block, interp.parameters(), opts, None);
+        }
+        interp.execute(&block, &mut events)?;
+        sink(&Step {
+            block: &block,
+            events: &events,
+            interp,
+            file: 0,
+            held: false,
+        })?;
+    }
+    Ok(summary)
+}
+
+/// Whether the block has an `M<code>` word.
+fn has_m(block: &Block, code: u32, params: &Parameters) -> bool {
+    block.words().any(|w| {
+        w.letter == b'M'
+            && word_value(block, w, params).is_ok_and(|v| (v - f64::from(code)).abs() < 1e-9)
+    })
+}
+
+fn word_value(block: &Block, w: &super::syntax::Word, params: &Parameters) -> Result<f64, String> {
+    match w.value {
+        Value::Number(v) => Ok(v),
+        Value::Expression | Value::Parameter => {
+            expr::eval(block.value_text(w).as_bytes(), params).map_err(|e| e.to_string())
+        }
+    }
+}
+
+/// Sends the `(DEBUG,…)` / `(PRINT,…)` comments of a block.
+fn messages(block: &Block, params: &Parameters, opts: &ProgramOptions, file: Option<&PathBuf>) {
+    for item in block.items() {
+        let Item::Comment {
+            kind: CommentKind::Paren,
+            span,
+        } = item
+        else {
+            continue;
+        };
+        let inner = &block.text()[span.start + 1..span.end - 1];
+        let s = String::from_utf8_lossy(inner);
+        let trimmed = s.trim_start();
+        let upper = trimmed.get(..6).map(str::to_ascii_uppercase);
+        let kind = match upper.as_deref() {
+            Some("DEBUG,") => MessageKind::Debug,
+            Some("PRINT,") => MessageKind::Print,
+            _ => continue,
+        };
+        opts.messages.send(&Message {
+            kind,
+            text: substitute(&trimmed[6..], params),
+            file: file.cloned(),
+            line: block.line(),
+        });
+    }
+}
+
+/// The text with `#n` and `#<name>` replaced by their values.
+pub(crate) fn substitute(text: &str, params: &Parameters) -> String {
+    let b = text.as_bytes();
+    let mut out = String::new();
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'#' {
+            if b.get(i + 1) == Some(&b'<') {
+                if let Some(k) = b[i + 2..].iter().position(|&c| c == b'>') {
+                    let name = normalise_name(&text[i + 2..i + 2 + k]);
+                    match params.get_named(&name) {
+                        Ok(v) => out.push_str(&format!("{v:.6}")),
+                        Err(_) => out.push_str("######"),
+                    }
+                    i += k + 3;
+                    continue;
+                }
+            } else {
+                let digits = b[i + 1..].iter().take_while(|c| c.is_ascii_digit()).count();
+                if digits > 0 {
+                    let n: f64 = text[i + 1..i + 1 + digits].parse().unwrap_or(0.0);
+                    match Parameters::index(n) {
+                        Ok(n) => out.push_str(&format!("{:.6}", params.get(n))),
+                        Err(_) => out.push_str("######"),
+                    }
+                    i += digits + 1;
+                    continue;
+                }
+            }
+        }
+        let ch = text[i..].chars().next().unwrap_or(' ');
+        out.push(ch);
+        i += ch.len_utf8();
+    }
+    out
+}
+
+/// O-word statement kinds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Sub,
+    EndSub,
+    Call,
+    Return,
+    If,
+    ElseIf,
+    Else,
+    EndIf,
+    While,
+    EndWhile,
+    Do,
+    DoWhile,
+    Repeat,
+    EndRepeat,
+    Break,
+    Continue,
+    /// Fanuc `O1234`: start of a subprogram (or the main program's name).
+    Program,
+}
+
+const KEYWORDS: [(&str, Kind); 16] = [
+    ("endsub", Kind::EndSub),
+    ("endif", Kind::EndIf),
+    ("endwhile", Kind::EndWhile),
+    ("endrepeat", Kind::EndRepeat),
+    ("elseif", Kind::ElseIf),
+    ("else", Kind::Else),
+    ("sub", Kind::Sub),
+    ("call", Kind::Call),
+    ("return", Kind::Return),
+    ("if", Kind::If),
+    ("while", Kind::While),
+    ("do", Kind::Do),
+    ("repeat", Kind::Repeat),
+    ("break", Kind::Break),
+    ("continue", Kind::Continue),
+    ("", Kind::Program),
+];
+
+/// One parsed O-word line.
+#[derive(Debug, Clone)]
+struct Stmt {
+    label: String,
+    kind: Kind,
+    /// Byte offset in the block text of what follows the keyword.
+    rest: usize,
+    /// 1-based column of the `O`.
+    column: usize,
+    /// Linked statements: for if/elseif/else the next branch and the endif;
+    /// for loops their start and end; for sub its endsub; for break and
+    /// continue the loop's start and end; for a Fanuc program its M99.
+    a: usize,
+    b: usize,
+}
+
+/// One file's blocks with their statements and links.
+#[derive(Debug)]
+struct Code {
+    blocks: Vec<Block>,
+    stmts: Vec<Option<Stmt>>,
+    subs: HashMap<String, usize>,
+    file: u32,
+}
+
+fn err_at(file: u32, files: &[PathBuf], e: GcodeError) -> GcodeError {
+    match file.checked_sub(1).and_then(|k| files.get(k as usize)) {
+        Some(p) => GcodeError::InFile {
+            path: p.clone(),
+            error: Box::new(e),
+        },
+        None => e,
+    }
+}
+
+impl Code {
+    fn new(blocks: Vec<Block>, file: u32, fanuc: bool) -> Result<Code, GcodeError> {
+        let mut stmts: Vec<Option<Stmt>> = Vec::with_capacity(blocks.len());
+        for b in &blocks {
+            stmts.push(parse_stmt(b, fanuc)?);
+        }
+        let mut code = Code {
+            blocks,
+            stmts,
+            subs: HashMap::new(),
+            file,
+        };
+        code.link(fanuc)?;
+        Ok(code)
+    }
+
+    fn err(&self, idx: usize, column: usize, msg: impl Into<String>) -> GcodeError {
+        GcodeError::invalid(self.blocks[idx].line(), column, msg)
+    }
+
+    /// Matches every opening statement with its closing ones by label.
+    fn link(&mut self, fanuc: bool) -> Result<(), GcodeError> {
+        // Open constructs: (statement index, kind, label).
+        let mut open: Vec<usize> = Vec::new();
+        let mut seen_words = false;
+        for i in 0..self.stmts.len() {
+            let Some(st) = self.stmts[i].clone() else {
+                seen_words |= self.blocks[i].words().next().is_some();
+                continue;
+            };
+            let col = st.column;
+            let top_matches = |open: &Vec<usize>, stmts: &Vec<Option<Stmt>>, kinds: &[Kind]| {
+                open.last()
+                    .and_then(|&j| stmts[j].as_ref())
+                    .is_some_and(|o| o.label == st.label && kinds.contains(&o.kind))
+            };
+            match st.kind {
+                Kind::Program => {
+                    if !fanuc {
+                        return Err(self.err(
+                            i,
+                            col,
+                            format!(
+                                "O-word o{} without a statement (sub, call, if, while, ...)",
+                                st.label
+                            ),
+                        ));
+                    }
+                    if !seen_words {
+                        // The main program's name: nothing to skip.
+                        self.set(i, usize::MAX, usize::MAX);
+                        continue;
+                    }
+                    let end = (i + 1..self.blocks.len())
+                        .find(|&k| {
+                            self.blocks[k]
+                                .words()
+                                .any(|w| w.letter == b'M' && w.number() == Some(99.0))
+                        })
+                        .ok_or_else(|| {
+                            self.err(i, col, format!("subprogram O{} has no M99", st.label))
+                        })?;
+                    self.set(i, end, end);
+                    self.subs.insert(st.label.clone(), i);
+                }
+                Kind::Sub => {
+                    if open.iter().any(|&j| self.kind(j) == Kind::Sub) {
+                        return Err(self.err(i, col, "subroutine definition inside a subroutine"));
+                    }
+                    open.push(i);
+                }
+                Kind::EndSub => {
+                    if !top_matches(&open, &self.stmts, &[Kind::Sub]) {
+                        return Err(self.err(
+                            i,
+                            col,
+                            format!("o{} endsub without a matching o{} sub", st.label, st.label),
+                        ));
+                    }
+                    let s = open.pop().unwrap_or(i);
+                    self.set(s, i, i);
+                    if self.subs.insert(st.label.clone(), s).is_some() {
+                        return Err(self.err(
+                            s,
+                            col,
+                            format!("subroutine o{} defined twice", st.label),
+                        ));
+                    }
+                }
+                Kind::While if top_matches(&open, &self.stmts, &[Kind::Do]) => {
+                    // `o1 while` closing `o1 do`.
+                    let d = open.pop().unwrap_or(i);
+                    if let Some(s) = self.stmts[i].as_mut() {
+                        s.kind = Kind::DoWhile;
+                    }
+                    self.set(d, d, i);
+                    self.set(i, d, i);
+                }
+                Kind::If | Kind::While | Kind::Do | Kind::Repeat => open.push(i),
+                Kind::ElseIf | Kind::Else | Kind::EndIf => {
+                    if !top_matches(&open, &self.stmts, &[Kind::If, Kind::ElseIf, Kind::Else]) {
+                        let kw = keyword(st.kind);
+                        return Err(self.err(
+                            i,
+                            col,
+                            format!("o{} {kw} without a matching o{} if", st.label, st.label),
+                        ));
+                    }
+                    let prev = open.pop().unwrap_or(i);
+                    if self.kind(prev) == Kind::Else && st.kind != Kind::EndIf {
+                        return Err(self.err(
+                            i,
+                            col,
+                            format!(
+                                "o{} {} after o{} else",
+                                st.label,
+                                keyword(st.kind),
+                                st.label
+                            ),
+                        ));
+                    }
+                    self.set_a(prev, i);
+                    if st.kind == Kind::EndIf {
+                        // Every branch of the chain learns where the endif is.
+                        let mut k = self.if_start(prev);
+                        loop {
+                            let next = self.stmts[k].as_ref().map_or(i, |s| s.a);
+                            self.set_b(k, i);
+                            if next == i {
+                                break;
+                            }
+                            k = next;
+                        }
+                    } else {
+                        self.set_b(i, prev);
+                        open.push(i);
+                    }
+                }
+                Kind::EndWhile | Kind::EndRepeat => {
+                    let want = if st.kind == Kind::EndWhile {
+                        Kind::While
+                    } else {
+                        Kind::Repeat
+                    };
+                    if !top_matches(&open, &self.stmts, &[want]) {
+                        let kw = keyword(st.kind);
+                        return Err(self.err(
+                            i,
+                            col,
+                            format!(
+                                "o{} {kw} without a matching o{} {}",
+                                st.label,
+                                st.label,
+                                keyword(want)
+                            ),
+                        ));
+                    }
+                    let s = open.pop().unwrap_or(i);
+                    self.set(s, s, i);
+                    self.set(i, s, i);
+                }
+                Kind::Break | Kind::Continue => {
+                    let Some(&j) = open.iter().rev().find(|&&j| {
+                        self.stmts[j].as_ref().is_some_and(|o| {
+                            o.label == st.label
+                                && matches!(o.kind, Kind::While | Kind::Do | Kind::Repeat)
+                        })
+                    }) else {
+                        return Err(self.err(
+                            i,
+                            col,
+                            format!(
+                                "o{} {} outside a loop o{}",
+                                st.label,
+                                keyword(st.kind),
+                                st.label
+                            ),
+                        ));
+                    };
+                    // Linked once the loop closes.
+                    self.set(i, j, usize::MAX);
+                }
+                Kind::Call | Kind::Return | Kind::DoWhile => {}
+            }
+        }
+        if let Some(&j) = open.last() {
+            let st = self.stmts[j].as_ref().map_or(String::new(), |s| {
+                format!("o{} {}", s.label, keyword(s.kind))
+            });
+            return Err(self.err(
+                j,
+                self.stmts[j].as_ref().map_or(0, |s| s.column),
+                format!("{st} is not closed"),
+            ));
+        }
+        // Break/continue: the end of their loop.
+        for i in 0..self.stmts.len() {
+            if matches!(self.kind_opt(i), Some(Kind::Break | Kind::Continue)) {
+                let start = self.stmts[i].as_ref().map_or(0, |s| s.a);
+                let end = self.stmts[start].as_ref().map_or(0, |s| s.b);
+                self.set_b(i, end);
+            }
+        }
+        Ok(())
+    }
+
+    fn kind(&self, i: usize) -> Kind {
+        self.kind_opt(i).unwrap_or(Kind::Program)
+    }
+
+    fn kind_opt(&self, i: usize) -> Option<Kind> {
+        self.stmts[i].as_ref().map(|s| s.kind)
+    }
+
+    fn if_start(&self, mut k: usize) -> usize {
+        while matches!(self.kind_opt(k), Some(Kind::ElseIf | Kind::Else)) {
+            k = self.stmts[k].as_ref().map_or(k, |s| s.b);
+        }
+        k
+    }
+
+    fn set(&mut self, i: usize, a: usize, b: usize) {
+        if let Some(s) = self.stmts[i].as_mut() {
+            s.a = a;
+            s.b = b;
+        }
+    }
+
+    fn set_a(&mut self, i: usize, a: usize) {
+        if let Some(s) = self.stmts[i].as_mut() {
+            s.a = a;
+        }
+    }
+
+    fn set_b(&mut self, i: usize, b: usize) {
+        if let Some(s) = self.stmts[i].as_mut() {
+            s.b = b;
+        }
+    }
+}
+
+fn keyword(k: Kind) -> &'static str {
+    match k {
+        Kind::DoWhile => "while",
+        _ => KEYWORDS
+            .iter()
+            .find(|(_, kk)| *kk == k)
+            .map_or("", |(w, _)| w),
+    }
+}
+
+/// Parses the O-word statement of a block, if it has one.
+fn parse_stmt(block: &Block, fanuc: bool) -> Result<Option<Stmt>, GcodeError> {
+    let Some(span) = block.items().iter().find_map(|i| match i {
+        Item::OWord { span } => Some(*span),
+        _ => None,
+    }) else {
+        return Ok(None);
+    };
+    let line = block.line();
+    if block.words().any(|w| w.letter != b'N') {
+        return Err(GcodeError::invalid(
+            line,
+            span.start + 1,
+            "an O-word statement cannot share its line with other words",
+        ));
+    }
+    let text = block.text();
+    let mut i = span.start + 1;
+    let skip = |i: &mut usize| {
+        while text.get(*i).is_some_and(|c| matches!(c, b' ' | b'\t')) {
+            *i += 1;
+        }
+    };
+    skip(&mut i);
+    let label = match text.get(i) {
+        Some(b'<') => {
+            let Some(k) = text[i..span.end].iter().position(|&c| c == b'>') else {
+                return Err(GcodeError::syntax(
+                    line,
+                    i + 1,
+                    "O-word name '<' is not closed by '>'",
+                ));
+            };
+            let name = normalise_name(&String::from_utf8_lossy(&text[i + 1..i + k]));
+            i += k + 1;
+            name
+        }
+        Some(c) if c.is_ascii_digit() => {
+            let s = i;
+            while text
+                .get(i)
+                .is_some_and(|c| c.is_ascii_digit() || matches!(c, b' ' | b'\t'))
+            {
+                i += 1;
+            }
+            let digits: String = String::from_utf8_lossy(&text[s..i])
+                .chars()
+                .filter(char::is_ascii_digit)
+                .collect();
+            // o0100 and o100 are one label (LinuxCNC reads an integer).
+            let trimmed = digits.trim_start_matches('0');
+            if trimmed.is_empty() {
+                "0".to_string()
+            } else {
+                trimmed.to_string()
+            }
+        }
+        _ => {
+            return Err(GcodeError::syntax(
+                line,
+                i + 1,
+                "an O-word needs a number or a <name>",
+            ));
+        }
+    };
+    skip(&mut i);
+    let kw_start = i;
+    while text.get(i).is_some_and(u8::is_ascii_alphabetic) {
+        i += 1;
+    }
+    let kw = text[kw_start..i].to_ascii_lowercase();
+    let kind = KEYWORDS
+        .iter()
+        .find(|(w, _)| w.as_bytes() == kw.as_slice())
+        .map(|(_, k)| *k);
+    let Some(kind) = kind else {
+        return Err(GcodeError::syntax(
+            line,
+            kw_start + 1,
+            format!(
+                "unknown O-word statement '{}'",
+                String::from_utf8_lossy(&kw)
+            ),
+        ));
+    };
+    if kind == Kind::Program && !fanuc {
+        return Err(GcodeError::syntax(
+            line,
+            kw_start + 1,
+            "an O-word needs a statement (sub, endsub, call, return, if, elseif, else, endif, while, endwhile, do, repeat, endrepeat, break, continue)",
+        ));
+    }
+    Ok(Some(Stmt {
+        label,
+        kind,
+        rest: i,
+        column: span.start + 1,
+        a: usize::MAX,
+        b: usize::MAX,
+    }))
+}
+
+struct Frame {
+    code: usize,
+    ret: usize,
+    ret_code: usize,
+    saved: Option<[f64; super::parameters::SUB_ARGS]>,
+    loops_base: usize,
+    /// Fanuc M98 L: runs left after this one, and where the body starts.
+    repeat: u64,
+    start: usize,
+}
+
+struct Loop {
+    code: usize,
+    start: usize,
+    remaining: u64,
+}
+
+struct Flow<'a> {
+    codes: Vec<Code>,
+    files: Vec<PathBuf>,
+    opts: &'a ProgramOptions,
+    fanuc: bool,
+    executed: u64,
+    /// The next statement is an `elseif` reached because the branch before
+    /// it was not taken (evaluate it) rather than after a taken branch.
+    entering_elseif: bool,
+}
+
+impl Flow<'_> {
+    fn run<E, F>(&mut self, interp: &mut Interpreter, sink: &mut F) -> Result<(), E>
+    where
+        E: From<GcodeError>,
+        F: FnMut(&Step<'_>) -> Result<(), E>,
+    {
+        let mut frames: Vec<Frame> = Vec::new();
+        let mut loops: Vec<Loop> = Vec::new();
+        let mut events = Vec::new();
+        let (mut c, mut pc) = (0usize, 0usize);
+        while !interp.ended() {
+            let Some(block) = self.codes[c].blocks.get(pc) else {
+                if frames.is_empty() {
+                    return Ok(());
+                }
+                let file = self.codes[c].file;
+                let line = self.codes[c].blocks.last().map_or(0, Block::line);
+                return Err(err_at(
+                    file,
+                    &self.files,
+                    GcodeError::invalid(line, 0, "the file ended inside a subroutine (no endsub)"),
+                )
+                .into());
+            };
+            self.executed += 1;
+            if self.executed > self.opts.max_blocks {
+                let e = GcodeError::invalid(
+                    block.line(),
+                    0,
+                    format!(
+                        "more than {} blocks executed: an endless loop? (the bound is the maximum number of executed blocks)",
+                        self.opts.max_blocks
+                    ),
+                );
+                return Err(err_at(self.codes[c].file, &self.files, e).into());
+            }
+            let file = self.codes[c].file;
+            let fail = |files: &[PathBuf], e: GcodeError| -> E { err_at(file, files, e).into() };
+            let line = block.line();
+            let Some(st) = self.codes[c].stmts[pc].clone() else {
+                // An ordinary block (or Fanuc M98/M99).
+                if self.fanuc && !interp.ended() {
+                    if let Some((call, col)) = self
+                        .fanuc_call(block, interp.parameters())
+                        .map_err(|e| fail(&self.files, e))?
+                    {
+                        sink(&Step {
+                            block,
+                            events: &[],
+                            interp,
+                            file,
+                            held: true,
+                        })?;
+                        match call {
+                            FanucCall::M98(prog, count) => {
+                                let Some(&start) = self.codes[0].subs.get(&prog) else {
+                                    return Err(fail(
+                                        &self.files,
+                                        GcodeError::invalid(
+                                            line,
+                                            col,
+                                            format!("M98: no subprogram O{prog} in the program"),
+                                        ),
+                                    ));
+                                };
+                                if frames.len() >= MAX_CALL_DEPTH {
+                                    return Err(fail(
+                                        &self.files,
+                                        GcodeError::invalid(
+                                            line,
+                                            col,
+                                            format!(
+                                                "subprogram calls nested deeper than {MAX_CALL_DEPTH}"
+                                            ),
+                                        ),
+                                    ));
+                                }
+                                if count == 0 {
+                                    pc += 1;
+                                    continue;
+                                }
+                                frames.push(Frame {
+                                    code: 0,
+                                    ret: pc + 1,
+                                    ret_code: c,
+                                    saved: None,
+                                    loops_base: loops.len(),
+                                    repeat: count - 1,
+                                    start: start + 1,
+                                });
+                                c = 0;
+                                pc = start + 1;
+                            }
+                            FanucCall::M99 => {
+                                let Some(f) = frames.last_mut() else {
+                                    return Err(fail(
+                                        &self.files,
+                                        GcodeError::unsupported(
+                                            line,
+                                            col,
+                                            "M99 in the main program (an endless repeat of the program)",
+                                        ),
+                                    ));
+                                };
+                                if f.repeat > 0 {
+                                    f.repeat -= 1;
+                                    pc = f.start;
+                                    c = f.code;
+                                } else {
+                                    let f = frames.pop().unwrap_or(Frame {
+                                        code: 0,
+                                        ret: usize::MAX,
+                                        ret_code: 0,
+                                        saved: None,
+                                        loops_base: 0,
+                                        repeat: 0,
+                                        start: 0,
+                                    });
+                                    loops.truncate(f.loops_base);
+                                    c = f.ret_code;
+                                    pc = f.ret;
+                                }
+                            }
+                        }
+                        continue;
+                    }
+                }
+                events.clear();
+                let path = file
+                    .checked_sub(1)
+                    .and_then(|k| self.files.get(k as usize))
+                    .cloned();
+                messages(block, interp.parameters(), self.opts, path.as_ref());
+                interp
+                    .execute(block, &mut events)
+                    .map_err(|e| fail(&self.files, e))?;
+                for e in &mut events {
+                    e.at.file = file;
+                }
+                sink(&Step {
+                    block,
+                    events: &events,
+                    interp,
+                    file,
+                    held: true,
+                })?;
+                pc += 1;
+                continue;
+            };
+            sink(&Step {
+                block,
+                events: &[],
+                interp,
+                file,
+                held: true,
+            })?;
+            let rest = &block.text()[st.rest..];
+            let col = st.column;
+            let params = interp.parameters();
+            let args = |what: &str| -> Result<Vec<f64>, GcodeError> {
+                let (v, end) = expr::bracket_list(rest, params)
+                    .map_err(|e| GcodeError::invalid(line, st.rest + 1, e.to_string()))?;
+                let tail = &rest[end..];
+                if !tail.is_empty() && !matches!(tail[0], b'(' | b';') {
+                    return Err(GcodeError::syntax(
+                        line,
+                        st.rest + end + 1,
+                        format!("unexpected text after the {what} arguments"),
+                    ));
+                }
+                Ok(v)
+            };
+            let cond = |what: &str| -> Result<bool, GcodeError> {
+                let v = args(what)?;
+                match v.as_slice() {
+                    [x] => Ok(*x != 0.0),
+                    _ => Err(GcodeError::invalid(
+                        line,
+                        st.rest + 1,
+                        format!("o{} {what} needs one [condition]", st.label),
+                    )),
+                }
+            };
+            match st.kind {
+                Kind::Sub => pc = st.a + 1,
+                Kind::Program => {
+                    pc = if st.a == usize::MAX { pc + 1 } else { st.a + 1 };
+                }
+                Kind::EndSub | Kind::Return => {
+                    let v = args(keyword(st.kind)).map_err(|e| fail(&self.files, e))?;
+                    let Some(f) = frames.pop() else {
+                        return Err(fail(
+                            &self.files,
+                            GcodeError::invalid(
+                                line,
+                                col,
+                                format!(
+                                    "o{} {} outside a subroutine call",
+                                    st.label,
+                                    keyword(st.kind)
+                                ),
+                            ),
+                        ));
+                    };
+                    let p = interp.parameters_mut();
+                    if let Some(saved) = &f.saved {
+                        p.leave_call(saved);
+                    }
+                    let _ = p.set_named("_value_returned", if v.is_empty() { 0.0 } else { 1.0 });
+                    if let Some(x) = v.first() {
+                        let _ = p.set_named("_value", *x);
+                    }
+                    loops.truncate(f.loops_base);
+                    c = f.ret_code;
+                    pc = f.ret;
+                }
+                Kind::Call => {
+                    let v = args("call").map_err(|e| fail(&self.files, e))?;
+                    if frames.len() >= MAX_CALL_DEPTH {
+                        return Err(fail(
+                            &self.files,
+                            GcodeError::invalid(
+                                line,
+                                col,
+                                format!(
+                                    "Too many nested levels of subroutine calls: o{} call at a depth of {MAX_CALL_DEPTH}",
+                                    st.label
+                                ),
+                            ),
+                        ));
+                    }
+                    let (tc, start) = self
+                        .find_sub(c, &st.label)
+                        .map_err(|m| fail(&self.files, GcodeError::invalid(line, col, m)))?;
+                    let saved = interp.parameters_mut().enter_call(&v);
+                    let _ = interp.parameters_mut().set_named("_value_returned", 0.0);
+                    frames.push(Frame {
+                        code: tc,
+                        ret: pc + 1,
+                        ret_code: c,
+                        saved: Some(saved),
+                        loops_base: loops.len(),
+                        repeat: 0,
+                        start: start + 1,
+                    });
+                    c = tc;
+                    pc = start + 1;
+                }
+                Kind::If | Kind::ElseIf => {
+                    if st.kind == Kind::ElseIf && !self.entering_elseif {
+                        // Reached after a taken branch: skip to endif.
+                        pc = st.b + 1;
+                        continue;
+                    }
+                    self.entering_elseif = false;
+                    if cond(keyword(st.kind)).map_err(|e| fail(&self.files, e))? {
+                        pc += 1;
+                    } else {
+                        let next = st.a;
+                        match self.codes[c].kind_opt(next) {
+                            Some(Kind::ElseIf) => {
+                                self.entering_elseif = true;
+                                pc = next;
+                            }
+                            _ => pc = next + 1,
+                        }
+                    }
+                }
+                Kind::Else => pc = st.b + 1,
+                Kind::EndIf => pc += 1,
+                Kind::While => {
+                    let on_top = loops.last().is_some_and(|l| l.code == c && l.start == pc);
+                    if cond("while").map_err(|e| fail(&self.files, e))? {
+                        if !on_top {
+                            loops.push(Loop {
+                                code: c,
+                                start: pc,
+                                remaining: 0,
+                            });
+                        }
+                        pc += 1;
+                    } else {
+                        if on_top {
+                            loops.pop();
+                        }
+                        pc = st.b + 1;
+                    }
+                }
+                Kind::EndWhile => pc = st.a,
+                Kind::Do => {
+                    if !loops.last().is_some_and(|l| l.code == c && l.start == pc) {
+                        loops.push(Loop {
+                            code: c,
+                            start: pc,
+                            remaining: 0,
+                        });
+                    }
+                    pc += 1;
+                }
+                Kind::DoWhile => {
+                    if cond("while").map_err(|e| fail(&self.files, e))? {
+                        pc = st.a + 1;
+                    } else {
+                        if loops.last().is_some_and(|l| l.code == c && l.start == st.a) {
+                            loops.pop();
+                        }
+                        pc += 1;
+                    }
+                }
+                Kind::Repeat => {
+                    let v = args("repeat").map_err(|e| fail(&self.files, e))?;
+                    let [n] = v.as_slice() else {
+                        return Err(fail(
+                            &self.files,
+                            GcodeError::invalid(
+                                line,
+                                st.rest + 1,
+                                format!("o{} repeat needs one [count]", st.label),
+                            ),
+                        ));
+                    };
+                    // LinuxCNC counts with the integer part.
+                    let n = n.trunc();
+                    if n >= 1.0 {
+                        loops.push(Loop {
+                            code: c,
+                            start: pc,
+                            remaining: n.min(u64::MAX as f64) as u64,
+                        });
+                        pc += 1;
+                    } else {
+                        pc = st.b + 1;
+                    }
+                }
+                Kind::EndRepeat => {
+                    let top = loops.last_mut().filter(|l| l.code == c && l.start == st.a);
+                    match top {
+                        Some(l) if l.remaining > 1 => {
+                            l.remaining -= 1;
+                            pc = st.a + 1;
+                        }
+                        _ => {
+                            loops.pop();
+                            pc += 1;
+                        }
+                    }
+                }
+                Kind::Break | Kind::Continue => {
+                    let start = st.a;
+                    let Some(k) = loops.iter().rposition(|l| l.code == c && l.start == start)
+                    else {
+                        return Err(fail(
+                            &self.files,
+                            GcodeError::invalid(
+                                line,
+                                col,
+                                format!("o{} {} outside its loop", st.label, keyword(st.kind)),
+                            ),
+                        ));
+                    };
+                    let start_kind = self.codes[c].kind(start);
+                    if st.kind == Kind::Break {
+                        loops.truncate(k);
+                        pc = st.b + 1;
+                    } else {
+                        loops.truncate(k + 1);
+                        pc = match start_kind {
+                            Kind::While => start,
+                            // do: the closing while decides; repeat: endrepeat counts.
+                            _ => st.b,
+                        };
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn fanuc_call(
+        &self,
+        block: &Block,
+        params: &Parameters,
+    ) -> Result<Option<(FanucCall, usize)>, GcodeError> {
+        let line = block.line();
+        let mut m = None;
+        for w in block.words().filter(|w| w.letter == b'M') {
+            let v =
+                word_value(block, w, params).map_err(|e| GcodeError::invalid(line, w.at + 1, e))?;
+            if v == 98.0 || v == 99.0 {
+                m = Some((v as u32, w.at + 1));
+            }
+        }
+        let Some((code, col)) = m else {
+            return Ok(None);
+        };
+        if let Some(w) = block
+            .words()
+            .find(|w| !matches!(w.letter, b'N' | b'M' | b'P' | b'L'))
+        {
+            return Err(GcodeError::unsupported(
+                line,
+                w.at + 1,
+                format!("M{code} with other words on its line"),
+            ));
+        }
+        if block.words().filter(|w| w.letter == b'M').count() > 1 {
+            return Err(GcodeError::unsupported(
+                line,
+                col,
+                format!("M{code} with other M-codes on its line"),
+            ));
+        }
+        if code == 99 {
+            return Ok(Some((FanucCall::M99, col)));
+        }
+        let value = |l: u8| -> Result<Option<f64>, GcodeError> {
+            match block.words().find(|w| w.letter == l) {
+                Some(w) => word_value(block, w, params)
+                    .map(Some)
+                    .map_err(|e| GcodeError::invalid(line, w.at + 1, e)),
+                None => Ok(None),
+            }
+        };
+        let Some(p) = value(b'P')? else {
+            return Err(GcodeError::invalid(
+                line,
+                col,
+                "M98 needs P (the subprogram number)",
+            ));
+        };
+        let count = value(b'L')?.unwrap_or(1.0);
+        if p < 0.0 || p.fract() != 0.0 || count < 0.0 || count.fract() != 0.0 {
+            return Err(GcodeError::invalid(
+                line,
+                col,
+                "M98 P and L must be non-negative integers",
+            ));
+        }
+        Ok(Some((
+            FanucCall::M98(format!("{}", p as u64), count as u64),
+            col,
+        )))
+    }
+
+    /// The code and statement index of subroutine `label`: the program's own
+    /// definitions first, then the calling file's, then `label.ngc` on the
+    /// search path (read once).
+    fn find_sub(&mut self, from: usize, label: &str) -> Result<(usize, usize), String> {
+        if let Some(&s) = self.codes[0].subs.get(label) {
+            return Ok((0, s));
+        }
+        if let Some(&s) = self.codes[from].subs.get(label) {
+            return Ok((from, s));
+        }
+        if let Some(k) = (1..self.codes.len()).find(|&k| self.codes[k].subs.contains_key(label)) {
+            return Ok((k, self.codes[k].subs[label]));
+        }
+        let name = format!("{label}.ngc");
+        let Some(path) = self
+            .opts
+            .subroutine_path
+            .iter()
+            .map(|d| d.join(&name))
+            .find(|p| p.is_file())
+        else {
+            return Err(format!(
+                "Unable to open file {name}: subroutine o<{label}> is not defined in the program and no directory of the subroutine path has {name}"
+            ));
+        };
+        let file = self.files.len() as u32 + 1;
+        self.files.push(path.clone());
+        let bytes =
+            std::fs::read(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        let blocks = BlockReader::new(&bytes[..])
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| format!("{}:{}", path.display(), located_text(&e)))?;
+        let code = Code::new(blocks, file, self.fanuc)
+            .map_err(|e| format!("{}:{}", path.display(), located_text(&e)))?;
+        let Some(&s) = code.subs.get(label) else {
+            return Err(format!("{} does not define o<{label}> sub", path.display()));
+        };
+        self.codes.push(code);
+        Ok((self.codes.len() - 1, s))
+    }
+}
+
+fn located_text(e: &GcodeError) -> String {
+    match e.location() {
+        Some(Location { line, column }) => format!("{line}:{}: {e}", column.max(1)),
+        None => format!(" {e}"),
+    }
+}
+
+enum FanucCall {
+    M98(String, u64),
+    M99,
+}
