@@ -1416,7 +1416,6 @@ mod tests {
             ("X1\n", 1, false),                // no motion mode
             ("G0 G1 X1\n", 1, false),          // one modal group twice
             ("G0 X1 X2\n", 1, false),          // two X words
-            ("G0 X#1\n", 1, true),             // parameter
             ("o100 sub\n", 1, true),
             ("G1 X1 I2 F1\n", 1, false),    // I without arc
             ("G2 X1 F1\n", 1, false),       // no IJKR

@@ -190,7 +190,9 @@ where
                 .items()
                 .iter()
                 .any(|i| matches!(i, Item::OWord { .. }));
-            let t = (oline && seen_words) || has_m(&block, 98, interp.parameters());
+            let t = (oline && seen_words)
+                || has_m(&block, 98, interp.parameters())
+                || has_m(&block, 99, interp.parameters());
             seen_words |= block.words().next().is_some();
             t
         } else {
@@ -1289,4 +1291,258 @@ fn located_text(e: &GcodeError) -> String {
 enum FanucCall {
     M98(String, u64),
     M99,
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Mutex;
+
+    use super::*;
+    use crate::gcode::{Axis, Dialect, EventKind, InterpOptions, interpret};
+
+    /// Ends (X, Y, Z) and lines of the moves of a program.
+    fn moves_with(src: &str, opts: InterpOptions) -> Result<Vec<([f64; 3], u64)>, GcodeError> {
+        let mut out = Vec::new();
+        interpret(src.as_bytes(), opts, |_, events| {
+            for e in events {
+                if let EventKind::Traverse(m) | EventKind::Feed(m) = e.kind {
+                    out.push(([m.to[Axis::X], m.to[Axis::Y], m.to[Axis::Z]], e.at.line));
+                }
+            }
+            Ok(())
+        })?;
+        Ok(out)
+    }
+
+    fn xs(src: &str) -> Vec<f64> {
+        moves_with(src, InterpOptions::default())
+            .unwrap()
+            .iter()
+            .map(|(p, _)| p[0])
+            .collect()
+    }
+
+    fn err(src: &str) -> GcodeError {
+        moves_with(src, InterpOptions::default()).unwrap_err()
+    }
+
+    #[test]
+    fn assignments_take_effect_after_the_line() {
+        // LinuxCNC: #1=1 #2=#1 on one line reads the old #1 (5, not 1); the
+        // move of the line reads the old values too.
+        assert_eq!(
+            xs("#1=5\n#1=1 #2=#1 G0 X#1\nG0 X#2\nG0 X#1\n"),
+            vec![5.0, 5.0, 1.0]
+        );
+        assert_eq!(xs("#<a>=2\n#<_b>=[#<a>*3]\nG0 X[#<_b>+#<a>]\n"), vec![8.0]);
+        assert_eq!(xs("#5=3\n#[#5+1]=7\nG0 X##5 Y#4\n"), vec![0.0]);
+        let e = err("G0 X#<undefined>\n");
+        assert!(e.to_string().contains("#<undefined> not defined"), "{e}");
+        assert_eq!(e.location().unwrap().line, 1);
+    }
+
+    #[test]
+    fn subroutine_with_arguments_and_return_value() {
+        let src = "o<sq> sub\n#<r> = [#1 * #1]\nG0 X#<r> Y#2\no<sq> return [#<r> + 1]\no<sq> endsub\n\
+                   #1 = 9\no<sq> call [3] [4]\nG0 X#<_value> Y#1 Z#<_value_returned>\nM2\n";
+        let m = moves_with(src, InterpOptions::default()).unwrap();
+        // Inside: X = 3² = 9, Y = 4 (line 3); after: _value = 10, #1 restored to 9.
+        assert_eq!(m, vec![([9.0, 4.0, 0.0], 3), ([10.0, 9.0, 1.0], 8)]);
+    }
+
+    #[test]
+    fn if_elseif_else() {
+        let prog = |v: f64| {
+            format!(
+                "#1={v}\no1 if [#1 LT 0]\nG0 X-1\no1 elseif [#1 EQ 0]\nG0 X0\no1 elseif [#1 LT 10]\nG0 X1\no1 else\nG0 X2\no1 endif\nG0 Y1\n"
+            )
+        };
+        for (v, x) in [(-5.0, -1.0), (0.0, 0.0), (5.0, 1.0), (50.0, 2.0)] {
+            assert_eq!(xs(&prog(v)), vec![x, x], "#1 = {v}");
+        }
+    }
+
+    #[test]
+    fn loops_count_and_nest() {
+        // while: 0, 1, 2, 3, 4.
+        let w = "#1=0\no1 while [#1 LT 5]\nG0 X#1\n#1=[#1+1]\no1 endwhile\n";
+        assert_eq!(xs(w), vec![0.0, 1.0, 2.0, 3.0, 4.0]);
+        // do-while runs its body once even when the condition is false.
+        assert_eq!(
+            xs("#1=10\no2 do\nG0 X#1\n#1=[#1+1]\no2 while [#1 LT 3]\n"),
+            vec![10.0]
+        );
+        // repeat 3 of repeat 2: 6 moves, X = 10·i + j.
+        let r = "#1=0\no3 repeat [3]\n#2=0\no4 repeat [2]\nG0 X[#1*10+#2]\n#2=[#2+1]\no4 endrepeat\n#1=[#1+1]\no3 endrepeat\n";
+        assert_eq!(xs(r), vec![0.0, 1.0, 10.0, 11.0, 20.0, 21.0]);
+        assert_eq!(xs("o5 repeat [0]\nG0 X1\no5 endrepeat\nG0 X2\n"), vec![2.0]);
+    }
+
+    #[test]
+    fn break_and_continue() {
+        // Skip 2, stop after 4.
+        let src = "#1=0\no1 while [1]\n#1=[#1+1]\no2 if [#1 EQ 2]\no1 continue\no2 endif\n\
+                   o3 if [#1 GT 4]\no1 break\no3 endif\nG0 X#1\no1 endwhile\nG0 Y9\n";
+        assert_eq!(xs(src), vec![1.0, 3.0, 4.0, 4.0]);
+        // continue in repeat counts the iteration.
+        let r = "#1=0\no1 repeat [4]\n#1=[#1+1]\no2 if [#1 MOD 2 EQ 0]\no1 continue\no2 endif\nG0 X#1\no1 endrepeat\n";
+        assert_eq!(xs(r), vec![1.0, 3.0]);
+        // break in do.
+        let d =
+            "#1=0\no1 do\n#1=[#1+1]\no2 if [#1 EQ 3]\no1 break\no2 endif\nG0 X#1\no1 while [1]\n";
+        assert_eq!(xs(d), vec![1.0, 2.0]);
+    }
+
+    #[test]
+    fn recursion_depth_and_endless_loop_are_errors() {
+        let rec = "o<r> sub\no<r> call\no<r> endsub\no<r> call\nM2\n";
+        let e = err(rec);
+        assert!(e.to_string().contains("nested"), "{e}");
+        assert_eq!(e.location().unwrap().line, 2);
+        // Recursion that stops: factorial of 5 by recursion = 120.
+        let fact = "o<f> sub\no1 if [#1 LE 1]\no<f> return [1]\no1 endif\no<f> call [#1-1]\no<f> return [#1 * #<_value>]\no<f> endsub\no<f> call [5]\nG0 X#<_value>\n";
+        assert_eq!(xs(fact), vec![120.0]);
+        let mut opts = InterpOptions::default();
+        opts.program.max_blocks = 1000;
+        let e = moves_with("o1 while [1]\nG0 X1\no1 endwhile\n", opts).unwrap_err();
+        assert!(e.to_string().contains("more than 1000 blocks"), "{e}");
+    }
+
+    #[test]
+    fn bad_structure_names_the_line() {
+        for (src, line, what) in [
+            ("G0 X1\no1 endwhile\n", 2, "without a matching"),
+            ("o<a> sub\nG0 X1\n", 1, "not closed"),
+            ("o1 if [1]\no1 endwhile\n", 2, "without a matching"),
+            ("o<nope> call\n", 1, "Unable to open file nope.ngc"),
+            ("o2 break\n", 1, "outside a loop"),
+            ("o1 frob\n", 1, "unknown O-word statement"),
+            ("o1 return\n", 1, "outside a subroutine"),
+            ("o1 if\no1 endif\n", 1, "needs one [condition]"),
+        ] {
+            let e = err(src);
+            assert!(e.to_string().contains(what), "{src:?}: {e}");
+            assert_eq!(e.location().unwrap().line, line, "{src:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn external_subroutine_file_on_the_path() {
+        let dir = std::env::temp_dir().join(format!("mtwin-flow-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(
+            dir.join("probe.ngc"),
+            "(a file subroutine)\no<probe> sub\nG0 X[#1*2]\no<probe> endsub\nM2\n",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.join("bad.ngc"),
+            "o<bad> sub\nG0 X#<zz>\no<bad> endsub\n",
+        )
+        .unwrap();
+        let mut opts = InterpOptions::default();
+        opts.program.subroutine_path = vec![dir.join("missing"), dir.clone()];
+        let mut files = Vec::new();
+        interpret(
+            "o<Probe> call [4]\nG0 Y1\n".as_bytes(),
+            opts.clone(),
+            |_, events| {
+                for e in events {
+                    if let EventKind::Traverse(m) = e.kind {
+                        files.push((e.at.file, e.at.line, m.to[Axis::X]));
+                    }
+                }
+                Ok(())
+            },
+        )
+        .unwrap();
+        assert_eq!(files, vec![(1, 3, 8.0), (0, 2, 8.0)]);
+        let e = moves_with("o<bad> call\n", opts).unwrap_err();
+        assert_eq!(e.file(), Some(dir.join("bad.ngc").as_path()));
+        assert_eq!(e.location().unwrap().line, 2);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn fanuc_m98_m99() {
+        let mut opts = InterpOptions::default();
+        opts.dialect = Dialect::Fanuc {
+            decimal_point_programming: true,
+        };
+        // Main: three runs of O1000 (incremental X+2 each), then one of O2000.
+        let src = "%\nO0001 (MAIN)\nG21 G91\nM98 P1000 L3\nM98 P2000\nG90\nM30\nO1000\nG0 X2.\nM99\nO2000\nG0 Y5.\nM99\n%\n";
+        let m = moves_with(src, opts.clone()).unwrap();
+        let ends: Vec<[f64; 3]> = m.iter().map(|(p, _)| *p).collect();
+        assert_eq!(
+            ends,
+            vec![
+                [2.0, 0.0, 0.0],
+                [4.0, 0.0, 0.0],
+                [6.0, 0.0, 0.0],
+                [6.0, 5.0, 0.0]
+            ]
+        );
+        assert_eq!(m[0].1, 9);
+        let e = moves_with("G0 X1\nM99\n", opts.clone()).unwrap_err();
+        assert!(e.to_string().contains("M99 in the main program"), "{e}");
+        let e = moves_with("M98 P7\nM30\n", opts).unwrap_err();
+        assert!(e.to_string().contains("no subprogram O7"), "{e}");
+    }
+
+    #[test]
+    fn debug_and_print_messages_substitute_parameters() {
+        let got: Arc<Mutex<Vec<(MessageKind, String, u64)>>> = Arc::default();
+        let sink = got.clone();
+        let mut opts = InterpOptions::default();
+        opts.program.messages = MessageSink::new(move |m: &Message| {
+            sink.lock().unwrap().push((m.kind, m.text.clone(), m.line));
+        });
+        let src = "#1=2.5\n#<d>=-1\n(debug, one=#1 d=#<d> u=#<u>)\no1 repeat [2]\n(PRINT,#1)\no1 endrepeat\n(MSG, not this)\n";
+        moves_with(src, opts).unwrap();
+        let got = got.lock().unwrap().clone();
+        assert_eq!(
+            got,
+            vec![
+                (
+                    MessageKind::Debug,
+                    " one=2.500000 d=-1.000000 u=######".to_string(),
+                    3
+                ),
+                (MessageKind::Print, "2.500000".to_string(), 5),
+                (MessageKind::Print, "2.500000".to_string(), 5),
+            ]
+        );
+    }
+
+    #[test]
+    fn plain_programs_stream_and_flow_programs_are_held_from_the_first_o_word() {
+        let src = "G0 X1\nG0 X2\no1 repeat [2]\nG0 X3\no1 endrepeat\n";
+        let mut interp = Interpreter::new(InterpOptions::default());
+        let mut held_flags = Vec::new();
+        let s = run_program(
+            src.as_bytes(),
+            &mut interp,
+            &ProgramOptions::default(),
+            Dialect::LinuxCnc,
+            |st: &Step<'_>| -> Result<(), GcodeError> {
+                held_flags.push((st.block.line(), st.held));
+                Ok(())
+            },
+        )
+        .unwrap();
+        assert_eq!(s.held.len(), 3, "lines 3 to 5 are held");
+        assert_eq!(s.held[0].line(), 3);
+        assert_eq!(s.executed, 2 + 1 + 2 * 2);
+        assert_eq!(held_flags[..3], [(1, false), (2, false), (3, true)]);
+        let mut interp = Interpreter::new(InterpOptions::default());
+        let s = run_program(
+            "G0 X1\n".as_bytes(),
+            &mut interp,
+            &ProgramOptions::default(),
+            Dialect::LinuxCnc,
+            |_: &Step<'_>| -> Result<(), GcodeError> { Ok(()) },
+        )
+        .unwrap();
+        assert!(s.held.is_empty());
+    }
 }
