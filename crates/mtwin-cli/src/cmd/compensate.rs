@@ -62,7 +62,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let mut opts = CompensateOptions::default();
     opts.tol = a.tol;
     opts.max_correction = a.max_correction;
-    opts.interp = super::gcode::interp_options(&a.offsets, &a.dialect)?;
+    opts.interp = super::gcode::interp_options(&a.offsets, &a.dialect, &a.program)?;
     opts.interp.tcp_at_start = a.tcp;
     let comp =
         Compensator::new(&m, opts).map_err(|e| anyhow::anyhow!("{}: {e}", a.machine.display()))?;
@@ -75,6 +75,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     bar.finish_and_clear();
     written.map_err(|e| match e {
         CompensateError::Io(e) => anyhow::anyhow!("cannot write {}: {e}", a.out.display()),
+        CompensateError::Gcode(e) => super::common::located_error(&a.program, &e),
         e => anyhow::anyhow!("{}: {e}", a.program.display()),
     })?;
     out.commit()?;

@@ -11,7 +11,7 @@ use mtwin::gcode::{
 };
 use mtwin::io::write_csv_row;
 
-use super::common::{DialectArgs, load_machine};
+use super::common::{DialectArgs, load_machine, located_error};
 use crate::output::{Format, warn};
 
 #[derive(Debug, clap::Subcommand)]
@@ -128,14 +128,17 @@ pub(super) fn located(
     }
 }
 
-/// Interpreter options from `--offset` items and the dialect arguments.
+/// Interpreter options from `--offset` items and the dialect arguments
+/// (var file, subroutine path) for the program at `program`.
 pub(super) fn interp_options(
     offsets: &[String],
     dialect: &DialectArgs,
+    program: &Path,
 ) -> anyhow::Result<InterpOptions> {
     let mut o = InterpOptions::default();
     o.work_offsets[0] = parse_offsets(offsets)?;
     o.dialect = dialect.dialect();
+    o.program = dialect.program_options(program)?;
     Ok(o)
 }
 
@@ -177,7 +180,7 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
         .begin()?;
     let m = load_machine(&a.machine)?;
     let mut opts = InterpolateOptions::new(a.ts);
-    opts.interp = interp_options(&a.offsets, &a.dialect)?;
+    opts.interp = interp_options(&a.offsets, &a.dialect, &a.program)?;
     opts.force_tcp = a.tcp;
     opts.check_travel = !a.no_travel_check;
     check_sample_count(&a, &m, &opts)?;
@@ -227,7 +230,7 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
 fn stats(a: StatsArgs) -> anyhow::Result<()> {
     let machine = a.machine.as_deref().map(load_machine).transpose()?;
     let mut opts = StatsOptions::default();
-    opts.interp = interp_options(&a.offsets, &a.dialect)?;
+    opts.interp = interp_options(&a.offsets, &a.dialect, &a.program)?;
     if let Some(m) = &machine {
         opts.rapid_feed = m.rapid_feed;
     }
@@ -243,15 +246,7 @@ fn stats(a: StatsArgs) -> anyhow::Result<()> {
         None => gcode::stats(input, &opts),
     };
     bar.finish_and_clear();
-    let st = st.map_err(|e| {
-        let loc = e.location();
-        located(
-            &a.program,
-            loc.map(|l| l.line),
-            loc.map_or(0, |l| l.column),
-            &e,
-        )
-    })?;
+    let st = st.map_err(|e| located_error(&a.program, &e))?;
     let doc = gcode::GcodeStatsDoc::new(
         &a.program.display().to_string(),
         &st,

@@ -62,6 +62,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .with_context(|| format!("cannot read {}", a.program.display()))?;
     let mut options = CompensateOptions::default();
     options.dialect = a.dialect.dialect();
+    options.program = a.dialect.program_options(&a.program)?;
     options.rapid_feed = a.rapid;
     options.allow_unstable = a.allow_unstable;
     options.update = if a.continuous {
@@ -74,10 +75,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let c = compensate(&model, &bytes, &options).map_err(|e| {
         let file = a.program.display();
         match &e {
-            CompensateError::Gcode(g) => match g.location() {
-                Some(at) => anyhow::anyhow!("{file}:{}: {e}", at.line),
-                None => anyhow::anyhow!("{file}: {e}"),
-            },
+            CompensateError::Gcode(g) => super::common::located_error(&a.program, g),
             CompensateError::Unsafe { line, .. } | CompensateError::Diverges { line, .. } => {
                 anyhow::anyhow!("{file}:{line}: {e}")
             }

@@ -113,7 +113,7 @@ fn run_twin(
             .as_deref()
             .context("--commands or --gcode is needed")?;
         let mut opts = InterpolateOptions::new(a.ts);
-        opts.interp = interp_options(&a.offsets, &a.dialect)?;
+        opts.interp = interp_options(&a.offsets, &a.dialect, path)?;
         opts.interp.tcp_at_start = a.tcp;
         opts.check_travel = !a.no_travel_check;
         twin::predict_gcode(&twin, machine, open(path)?, &opts, sink, &mut hook)

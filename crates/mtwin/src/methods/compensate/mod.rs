@@ -22,14 +22,16 @@ mod path;
 
 pub use doc::CompensateDoc;
 
+use std::collections::HashMap;
 use std::io::{BufRead, Write};
 
 use nalgebra::Vector3;
 
+use crate::gcode::program_flow::{Step, run_program};
 use crate::gcode::timing::lerp;
 use crate::gcode::{
-    Axes, Axis, AxisLetterError, Block, BlockReader, BlockWriter, Dialect, DistanceMode, EventKind,
-    Feed, GcodeError, InterpOptions, Interpreter, Item, NumberFormat, Programmed, Value,
+    Axes, Axis, AxisLetterError, Block, BlockWriter, Dialect, DistanceMode, EventKind, Feed,
+    GcodeError, InterpOptions, Interpreter, Item, NumberFormat, Programmed, Value,
 };
 use crate::kinematics::{IkError, IkJacobian, IkOptions, IkTarget, Kinematics};
 use crate::model::{AxisKind, Machine};
@@ -236,7 +238,6 @@ impl Compensator {
         input: R,
         output: W,
     ) -> Result<Summary, CompensateError> {
-        let mut reader = BlockReader::new(input);
         let mut writer = BlockWriter::new(output);
         let mut interp = Interpreter::new(self.opts.interp.clone());
         let mut run = RunState {
@@ -246,76 +247,137 @@ impl Compensator {
             lost_arc: None,
             summary: Summary::default(),
         };
-        let mut block = Block::default();
-        let mut events = Vec::new();
         let mut inserted = Vec::new();
-        while reader.read_block(&mut block)? {
-            run.summary.blocks += 1;
-            events.clear();
-            interp.execute(&block, &mut events)?;
-            inserted.clear();
-            let before = block.text().len();
-            let mut changed = false;
-            for ev in &events {
-                let line = ev.at.line;
-                match ev.kind {
-                    EventKind::Traverse(m) | EventKind::Feed(m) => {
-                        let split = matches!(ev.kind, EventKind::Feed(_));
-                        let mv = Move {
-                            path: NominalPath::line(&m),
-                            tcp: m.tcp,
-                            words: m.words,
-                            offset: m.offset,
-                            feed: m.feed,
-                            line,
-                        };
-                        changed |= self.do_move(&mv, split, &mut block, &mut inserted, &mut run)?;
+        // Lines of the held part (O-word flow) as every run of them left them:
+        // a line that runs several times must come out the same each time.
+        let mut held: HashMap<u64, (Block, Vec<Block>)> = HashMap::new();
+        let flow = run_program(
+            input,
+            &mut interp,
+            &self.opts.interp.program,
+            self.opts.interp.dialect,
+            |step: &Step<'_>| -> Result<(), CompensateError> {
+                run.summary.blocks += 1;
+                let mut block = step.block.clone();
+                inserted.clear();
+                let changed = self.edit_block(
+                    step.events,
+                    step.interp,
+                    &mut block,
+                    &mut inserted,
+                    &mut run,
+                )?;
+                if !step.held {
+                    if changed {
+                        run.summary.blocks_changed += 1;
                     }
-                    EventKind::Arc(a) => {
-                        let mv = Move {
-                            path: NominalPath::arc(&a),
-                            tcp: a.tcp,
-                            words: a.words,
-                            offset: a.offset,
-                            feed: a.feed,
-                            line,
-                        };
-                        let arc_code = if a.turns > 0 { 3 } else { 2 };
-                        if run.lost_arc.is_some() && motion_word(&block).is_none() {
-                            prepend(&mut block, &format!("G{arc_code} "))?;
-                            run.summary.notes.push(format!(
-                                "line {line}: G{arc_code} written again (the previous arc became lines)"
-                            ));
-                            changed = true;
-                        }
-                        let arc_distance = interp.state().arc_distance;
-                        changed |= self.do_arc(
-                            &mv,
-                            arc_code,
-                            arc_distance,
-                            &mut block,
-                            &mut inserted,
-                            &mut run,
-                        )?;
+                    writer.write_block(&block)?;
+                    for b in &inserted {
+                        writer.write_block(b)?;
                     }
-                    _ => {}
+                    return Ok(());
                 }
-            }
-            if motion_word(&block).is_some()
-                && !events.iter().any(|e| matches!(e.kind, EventKind::Arc(_)))
-            {
-                run.lost_arc = None;
-            }
-            if changed || block.text().len() != before {
-                run.summary.blocks_changed += 1;
-            }
-            writer.write_block(&block)?;
-            for b in &inserted {
-                writer.write_block(b)?;
+                let line = block.line();
+                if step.file != 0 {
+                    if changed {
+                        return Err(GcodeError::unsupported(
+                            line,
+                            1,
+                            "a correction inside a subroutine file (only the program is rewritten; copy the subroutine into the program)",
+                        )
+                        .into());
+                    }
+                    return Ok(());
+                }
+                match held.get(&line) {
+                    Some((b, ins)) if b.text() != block.text() || *ins != inserted => {
+                        return Err(GcodeError::unsupported(
+                            line,
+                            1,
+                            "corrections of a line that runs more than once (a loop or subroutine) differ between its runs; one rewritten line cannot hold them (write the program without loops and subroutines)",
+                        )
+                        .into());
+                    }
+                    Some(_) => {}
+                    None => {
+                        held.insert(line, (block, inserted.clone()));
+                    }
+                }
+                Ok(())
+            },
+        )?;
+        for block in &flow.held {
+            match held.get(&block.line()) {
+                Some((b, ins)) if b.text() != block.text() || !ins.is_empty() => {
+                    run.summary.blocks_changed += 1;
+                    writer.write_block(b)?;
+                    for i in ins {
+                        writer.write_block(i)?;
+                    }
+                }
+                _ => writer.write_block(block)?,
             }
         }
         writer.into_inner()?;
         Ok(run.summary)
+    }
+
+    /// Corrects the moves of one executed block in `block` (a copy of it),
+    /// appending split-off blocks to `inserted`; whether the block changed.
+    fn edit_block(
+        &self,
+        events: &[crate::gcode::Event],
+        interp: &Interpreter,
+        block: &mut Block,
+        inserted: &mut Vec<Block>,
+        run: &mut RunState,
+    ) -> Result<bool, CompensateError> {
+        let before = block.text().len();
+        let mut changed = false;
+        for ev in events {
+            let line = ev.at.line;
+            match ev.kind {
+                EventKind::Traverse(m) | EventKind::Feed(m) => {
+                    let split = matches!(ev.kind, EventKind::Feed(_));
+                    let mv = Move {
+                        path: NominalPath::line(&m),
+                        tcp: m.tcp,
+                        words: m.words,
+                        offset: m.offset,
+                        feed: m.feed,
+                        line,
+                    };
+                    changed |= self.do_move(&mv, split, block, inserted, run)?;
+                }
+                EventKind::Arc(a) => {
+                    let mv = Move {
+                        path: NominalPath::arc(&a),
+                        tcp: a.tcp,
+                        words: a.words,
+                        offset: a.offset,
+                        feed: a.feed,
+                        line,
+                    };
+                    let arc_code = if a.turns > 0 { 3 } else { 2 };
+                    if run.lost_arc.is_some() && motion_word(block).is_none() {
+                        prepend(block, &format!("G{arc_code} "))?;
+                        run.summary.notes.push(format!(
+                            "line {line}: G{arc_code} written again (the previous arc became lines)"
+                        ));
+                        changed = true;
+                    }
+                    let arc_distance = interp.state().arc_distance;
+                    changed |= self.do_arc(&mv, arc_code, arc_distance, block, inserted, run)?;
+                }
+                _ => {}
+            }
+        }
+        if motion_word(block).is_some()
+            && !events.iter().any(|e| matches!(e.kind, EventKind::Arc(_)))
+        {
+            run.lost_arc = None;
+        }
+        Ok(changed || block.text().len() != before)
     }
 
     /// Machine axis positions of program coordinates `p` (plain program).

@@ -77,6 +77,10 @@ pub struct CompensateOptions {
     /// grows without bound, so a long program would be corrected by
     /// meaningless amounts.
     pub allow_unstable: bool,
+    /// Parameters at start (var file) and program bounds. O-word flow
+    /// (subroutines, loops) is refused: each line is rewritten once with the
+    /// correction of its one run.
+    pub program: crate::gcode::ProgramOptions,
 }
 
 impl Default for CompensateOptions {
@@ -87,6 +91,7 @@ impl Default for CompensateOptions {
             rapid_feed: crate::model::DEFAULT_RAPID_FEED,
             update: CorrectionUpdate::Periodic { period_min: 10.0 },
             allow_unstable: false,
+            program: crate::gcode::ProgramOptions::default(),
         }
     }
 }
@@ -309,6 +314,7 @@ pub fn compensate(
     let stats_opts = StatsOptions {
         interp: InterpOptions {
             dialect: options.dialect,
+            program: options.program.clone(),
             ..InterpOptions::default()
         },
         rapid_feed: options.rapid_feed,
