@@ -40,6 +40,7 @@
 
 mod arc;
 mod axes;
+mod codes;
 mod dialect;
 pub mod doc;
 mod error;
@@ -58,6 +59,7 @@ pub mod timing;
 mod travel;
 
 pub use axes::{Axes, Axis, AxisLetterError, AxisMask};
+pub use codes::{GCode, ModalGroup};
 pub use dialect::Dialect;
 pub use doc::{AxisRangeDoc, GcodeInterpolateDoc, GcodeStatsDoc, TravelViolationDoc};
 pub use error::{GcodeError, Location};
