@@ -1,27 +1,33 @@
 //! The modal interpreter: blocks in, canonical [`Event`]s out, following
-//! LinuxCNC's RS-274/NGC reading for the motion subset it supports.
+//! LinuxCNC's RS-274/NGC reading for the part of the language it supports.
 //!
-//! Order of execution within a block (LinuxCNC's): feed mode, feed rate,
-//! spindle speed, tool select/change, spindle direction, TCP M-codes, dwell,
-//! plane, units, cutter compensation off, tool length offset, coordinate
-//! system, path control, distance modes, motion, program end.
+//! [`Interpreter::execute`] reads and checks a block (every word's value,
+//! one code per modal group, no word that nothing reads), then runs one
+//! step per kind of code in LinuxCNC's order of execution (its
+//! `execute_block`, `convert_m` and `convert_g`): feed mode, feed rate,
+//! spindle speed, tool select, tool change, spindle direction, TCP
+//! M-codes, dwell, plane, length units, cutter compensation, tool length
+//! offset, coordinate system, path control, distance mode, arc distance
+//! mode, retract mode, the non-modal codes, motion, and last the stops
+//! (M0, M1, M2, M30, M60).
 //!
 //! Constant expressions (`[1+2]`, `sqrt[2]`) are evaluated. Anything
-//! outside the subset (O-words, parameters, canned cycles, G10/G28/G92,
-//! cutter compensation, ...) is an
+//! outside the supported language (O-words, parameters, canned cycles,
+//! G10/G28/G92, cutter compensation, ...) is an
 //! [`GcodeError::Unsupported`] error naming the line: never skipped.
 
 use std::collections::BTreeMap;
 
 use super::arc::{self, ArcError};
 use super::axes::{Axes, Axis, AxisMask};
+use super::codes::{GCode, ModalGroup};
 use super::dialect::{Dialect, DwellWord};
 use super::error::GcodeError;
 use super::event::{
     ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, Plane, Programmed, SourcePos,
     SpindleState, Units,
 };
-use super::expr::{self, ExprError, Target};
+use super::expr::{self, Target};
 use super::parameters::Parameters;
 use super::program_flow::ProgramOptions;
 use super::syntax::{Block, Item, Value, Word};
@@ -39,8 +45,12 @@ pub enum UnknownMCode {
     Ignore,
 }
 
-/// Interpreter settings given by the caller.
+/// Interpreter settings given by the caller. Build it from
+/// [`InterpOptions::default`] and change the fields you need
+/// (`InterpOptions { dialect, ..InterpOptions::default() }` inside this
+/// crate; field assignment on a default value outside it).
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct InterpOptions {
     /// Controller dialect.
     pub dialect: Dialect,
@@ -136,64 +146,6 @@ pub struct ModalState {
     pub offset: Axes,
 }
 
-/// Modal groups of the supported G-codes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Group {
-    NonModal,
-    Motion,
-    Plane,
-    Distance,
-    ArcDistance,
-    FeedMode,
-    Units,
-    CutterComp,
-    ToolLength,
-    Retract,
-    CoordSystem,
-    PathControl,
-    SpindleMode,
-}
-
-/// A supported G-code, in tenths (G43.4 = 434).
-fn g_group(code: u32) -> Option<Group> {
-    Some(match code {
-        40 | 530 => Group::NonModal,
-        // Probing (LinuxCNC G38.2–G38.5, Fanuc G31 skip) reads as a straight
-        // feed move to its end point: the path and time if nothing is touched.
-        0 | 10 | 20 | 30 | 800 | 310 | 382..=385 => Group::Motion,
-        170 | 180 | 190 => Group::Plane,
-        900 | 910 => Group::Distance,
-        901 | 911 => Group::ArcDistance,
-        930 | 940 | 950 => Group::FeedMode,
-        200 | 210 => Group::Units,
-        400 => Group::CutterComp,
-        430 | 434 | 490 => Group::ToolLength,
-        980 | 990 => Group::Retract,
-        540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => Group::CoordSystem,
-        610 | 611 | 640 => Group::PathControl,
-        970 => Group::SpindleMode,
-        _ => return None,
-    })
-}
-
-/// Why a known G-code is not supported.
-fn g_unsupported(code: u32) -> &'static str {
-    match code {
-        100..=102 => "setting offsets",
-        280 | 281 | 300 | 301 => "return to home position",
-        920 | 921 | 922 | 923 | 520 => "axis offsets",
-        410 | 411 | 420 | 421 => "cutter radius compensation",
-        330 | 331 | 760 => "spindle-synchronised motion",
-        730 | 740 | 810..=890 => "canned cycle",
-        700..=720 => "lathe cycle",
-        50 | 51 | 52 | 53 | 55 | 61 | 62 | 63 => "spline / NURBS motion",
-        431 | 432 => "dynamic tool length offset",
-        960 => "constant surface speed",
-        70 | 80 => "lathe diameter/radius mode",
-        _ => "G-code",
-    }
-}
-
 /// M-codes accepted without a motion meaning.
 fn m_ignored(code: u32) -> bool {
     matches!(code, 0 | 1 | 6 | 7 | 8 | 9 | 19 | 48..=53 | 60 | 61..=68 | 70..=73)
@@ -210,7 +162,7 @@ struct Letter {
 /// Words of one block, sorted by letter.
 #[derive(Debug, Default)]
 struct BlockWords {
-    g: Vec<(u32, usize)>,
+    g: Vec<(GCode, usize)>,
     m: Vec<(u32, usize)>,
     letters: [Letter; 26],
 }
@@ -219,6 +171,102 @@ impl BlockWords {
     fn get(&self, l: u8) -> Option<&Letter> {
         let x = &self.letters[usize::from(l - b'A')];
         x.present.then_some(x)
+    }
+
+    fn has_m(&self, codes: &[u32]) -> bool {
+        self.m.iter().any(|(c, _)| codes.contains(c))
+    }
+}
+
+/// A code and the 1-based column of its word.
+type At<T> = (T, usize);
+
+/// The codes of one block, one per modal group, after reading and checking.
+#[derive(Debug, Default, Clone, Copy)]
+struct Codes {
+    non_modal: Option<At<GCode>>,
+    motion: Option<At<GCode>>,
+    plane: Option<At<GCode>>,
+    distance: Option<At<GCode>>,
+    arc_distance: Option<At<GCode>>,
+    feed_mode: Option<At<GCode>>,
+    units: Option<At<GCode>>,
+    cutter_comp: Option<At<GCode>>,
+    tool_length: Option<At<GCode>>,
+    retract: Option<At<GCode>>,
+    coord_system: Option<At<GCode>>,
+    path_control: Option<At<GCode>>,
+    spindle_mode: Option<At<GCode>>,
+    lathe_diameter: Option<At<GCode>>,
+    g92_applied: Option<At<GCode>>,
+    cycle_cancel: Option<At<GCode>>,
+    /// M0, M1, M2, M30, M60.
+    m_stop: Option<At<u32>>,
+    /// M3, M4, M5.
+    m_spindle: Option<At<u32>>,
+    /// The configured TCP on/off M-codes.
+    m_tcp: Option<At<u32>>,
+    /// M6.
+    m_tool_change: bool,
+}
+
+impl Codes {
+    fn slot(&mut self, group: ModalGroup) -> &mut Option<At<GCode>> {
+        match group {
+            ModalGroup::NonModal => &mut self.non_modal,
+            ModalGroup::Motion => &mut self.motion,
+            ModalGroup::Plane => &mut self.plane,
+            ModalGroup::Distance => &mut self.distance,
+            ModalGroup::ArcDistance => &mut self.arc_distance,
+            ModalGroup::FeedMode => &mut self.feed_mode,
+            ModalGroup::Units => &mut self.units,
+            ModalGroup::CutterComp => &mut self.cutter_comp,
+            ModalGroup::ToolLength => &mut self.tool_length,
+            ModalGroup::Retract => &mut self.retract,
+            ModalGroup::CoordSystem => &mut self.coord_system,
+            ModalGroup::PathControl => &mut self.path_control,
+            ModalGroup::SpindleMode => &mut self.spindle_mode,
+            ModalGroup::LatheDiameter => &mut self.lathe_diameter,
+            ModalGroup::G92Applied => &mut self.g92_applied,
+            ModalGroup::CycleCancel => &mut self.cycle_cancel,
+        }
+    }
+
+    /// Whether the block has `code`.
+    fn has(&self, code: GCode) -> bool {
+        [
+            self.non_modal,
+            self.motion,
+            self.plane,
+            self.distance,
+            self.arc_distance,
+            self.feed_mode,
+            self.units,
+            self.cutter_comp,
+            self.tool_length,
+            self.retract,
+            self.coord_system,
+            self.path_control,
+            self.spindle_mode,
+            self.lathe_diameter,
+            self.g92_applied,
+            self.cycle_cancel,
+        ]
+        .iter()
+        .any(|s| s.is_some_and(|(c, _)| c == code))
+    }
+
+    /// The block's motion code other than G80 (the block moves, or sets a
+    /// motion mode).
+    fn explicit_motion(&self) -> Option<At<GCode>> {
+        self.motion.filter(|(c, _)| *c != GCode::G80)
+    }
+
+    /// The non-modal G53, if the block has it.
+    fn g53(&self) -> Option<usize> {
+        self.non_modal
+            .filter(|(c, _)| *c == GCode::G53)
+            .map(|(_, col)| col)
     }
 }
 
@@ -233,6 +281,23 @@ pub struct Interpreter {
     words: BlockWords,
     params: Parameters,
     assignments: Vec<(Target, f64, usize)>,
+}
+
+/// What every step of a block needs: its line, its position and its events.
+struct Step<'a> {
+    line: u64,
+    at: SourcePos,
+    out: &'a mut Vec<Event>,
+}
+
+impl Step<'_> {
+    fn emit(&mut self, kind: EventKind) {
+        self.out.push(Event { at: self.at, kind });
+    }
+
+    fn invalid(&self, column: usize, message: impl Into<String>) -> GcodeError {
+        GcodeError::invalid(self.line, column, message)
+    }
 }
 
 impl Interpreter {
@@ -313,12 +378,18 @@ impl Interpreter {
             };
             r.map_err(|e| GcodeError::invalid(block.line(), column, e.to_string()))?;
         }
-        let mut w = std::mem::take(&mut self.words);
-        let r = self.run(block, &mut w, at, out);
+        let w = std::mem::take(&mut self.words);
+        let mut step = Step {
+            line: block.line(),
+            at,
+            out,
+        };
+        let r = self.run(block, &w, &mut step);
         self.words = w;
         r
     }
 
+    /// Reads the words of a block: their values, one per letter.
     fn collect(&mut self, block: &Block) -> Result<(), GcodeError> {
         let line = block.line();
         let w = &mut self.words;
@@ -356,65 +427,81 @@ impl Interpreter {
         Ok(())
     }
 
-    fn run(
-        &mut self,
-        block: &Block,
-        w: &mut BlockWords,
-        at: SourcePos,
-        out: &mut Vec<Event>,
-    ) -> Result<(), GcodeError> {
-        let line = block.line();
-        let invalid = |column: usize, m: String| GcodeError::invalid(line, column, m);
+    /// One block: read and check, then each step in LinuxCNC's order.
+    fn run(&mut self, block: &Block, w: &BlockWords, s: &mut Step) -> Result<(), GcodeError> {
+        let codes = self.read_codes(w, s.line)?;
+        self.check_words(block, w, &codes, s.line)?;
+        self.set_feed_mode(&codes, s);
+        self.set_feed_rate(w, s)?;
+        self.set_spindle_speed(w, s)?;
+        self.select_tool(w, s)?;
+        self.change_tool(&codes);
+        self.set_spindle_direction(&codes, s);
+        self.switch_tcp_by_m_code(&codes, s);
+        self.dwell(w, &codes, s)?;
+        self.set_plane(&codes);
+        self.set_length_units(&codes, s);
+        // Cutter radius compensation: only G40 (off) is accepted, and it is
+        // always off.
+        self.set_tool_length_offset(w, &codes, s)?;
+        self.select_coordinate_system(&codes, s);
+        // Path control (G61, G61.1, G64) and retract mode (G98, G99) change
+        // no motion this interpreter produces.
+        self.set_distance_mode(&codes);
+        self.set_arc_distance_mode(&codes);
+        self.check_g53(w, &codes, s)?;
+        self.motion(w, &codes, s)?;
+        self.stop(&codes, s);
+        Ok(())
+    }
 
-        // Modal groups of G-codes.
-        let mut groups: Vec<(Group, u32, usize)> = Vec::with_capacity(w.g.len());
+    /// Reads the G- and M-codes of a block into their modal groups,
+    /// refusing unknown and unsupported codes and two codes of one group
+    /// (LinuxCNC's `read_g`: G80 may share the line with another motion
+    /// code, which wins).
+    fn read_codes(&self, w: &BlockWords, line: u64) -> Result<Codes, GcodeError> {
+        let dialect = self.opts.dialect;
+        let mut codes = Codes::default();
         for &(code, col) in &w.g {
-            let Some(group) = g_group(code) else {
+            if let Some(why) = code.unsupported() {
+                return Err(GcodeError::unsupported(line, col, format!("{why} {code}")));
+            }
+            let group = code.group(dialect);
+            if group == ModalGroup::ArcDistance && !dialect.has_arc_distance_modes() {
                 return Err(GcodeError::unsupported(
                     line,
                     col,
-                    format!("{} {}", g_unsupported(code), g_name(code)),
-                ));
-            };
-            if let Some(&(_, other, _)) = groups.iter().find(|(g, _, _)| *g == group) {
-                return Err(invalid(
-                    col,
-                    format!(
-                        "two G-codes of one modal group: {} and {}",
-                        g_name(other),
-                        g_name(code)
-                    ),
+                    format!("{code} in this dialect"),
                 ));
             }
-            if !self.opts.dialect.has_arc_distance_modes() && group == Group::ArcDistance {
-                return Err(GcodeError::unsupported(
-                    line,
-                    col,
-                    format!("{} in this dialect", g_name(code)),
-                ));
+            let slot = codes.slot(group);
+            match *slot {
+                None => *slot = Some((code, col)),
+                Some((other, _)) => {
+                    if group == ModalGroup::Motion && code == GCode::G80 {
+                        // G80 beside another motion code is ignored.
+                    } else if group == ModalGroup::Motion && other == GCode::G80 {
+                        *slot = Some((code, col));
+                    } else {
+                        return Err(GcodeError::invalid(
+                            line,
+                            col,
+                            format!("two G-codes of one modal group: {other} and {code}"),
+                        ));
+                    }
+                }
             }
-            groups.push((group, code, col));
         }
-        let g_of = |group: Group| {
-            groups
-                .iter()
-                .find(|(g, _, _)| *g == group)
-                .map(|&(_, c, col)| (c, col))
-        };
-        let has_g = |code: u32| groups.iter().any(|&(_, c, _)| c == code);
-
         // M-codes: at most one per modal group.
-        let mut m_stop = None;
-        let mut m_spindle = None;
-        let mut m_tcp = None;
-        let mut m_toolchange = false;
         for &(code, col) in &w.m {
             let slot = match code {
-                0 | 1 | 2 | 30 | 60 => &mut m_stop,
-                3..=5 => &mut m_spindle,
-                c if Some(c) == self.opts.tcp_on_m || Some(c) == self.opts.tcp_off_m => &mut m_tcp,
+                0 | 1 | 2 | 30 | 60 => &mut codes.m_stop,
+                3..=5 => &mut codes.m_spindle,
+                c if Some(c) == self.opts.tcp_on_m || Some(c) == self.opts.tcp_off_m => {
+                    &mut codes.m_tcp
+                }
                 6 => {
-                    m_toolchange = true;
+                    codes.m_tool_change = true;
                     continue;
                 }
                 c if m_ignored(c) => continue,
@@ -437,344 +524,114 @@ impl Interpreter {
                 },
             };
             if let Some((other, _)) = *slot {
-                return Err(invalid(
+                return Err(GcodeError::invalid(
+                    line,
                     col,
                     format!("two M-codes of one modal group: M{other} and M{code}"),
                 ));
             }
             *slot = Some((code, col));
         }
-
-        let letter = |l: u8| w.get(l).copied();
-        let dialect = self.opts.dialect;
-
-        // 1-2. Feed mode and feed rate.
-        if let Some((code, _)) = g_of(Group::FeedMode) {
-            let mode = match code {
-                930 => FeedMode::InverseTime,
-                940 => FeedMode::UnitsPerMinute,
-                _ => FeedMode::UnitsPerRevolution,
-            };
-            if mode != self.state.feed_mode && mode == FeedMode::InverseTime {
-                self.state.feed = 0.0;
-            }
-            self.state.feed_mode = mode;
-            out.push(Event {
-                at,
-                kind: EventKind::FeedMode(mode),
-            });
-        }
-        if let Some(f) = letter(b'F') {
-            if f.value < 0.0 {
-                return Err(invalid(f.column, "negative F word".into()));
-            }
-            let scale = match self.state.feed_mode {
-                FeedMode::InverseTime => 1.0,
-                _ => self.state.units.mm_per_unit(),
-            };
-            self.state.feed = f.value * scale;
-            out.push(Event {
-                at,
-                kind: EventKind::FeedRate(self.state.feed),
-            });
-        }
-        // 3. Spindle speed.
-        if let Some(s) = letter(b'S') {
-            if s.value < 0.0 {
-                return Err(invalid(s.column, "negative spindle speed".into()));
-            }
-            self.state.spindle_rpm = s.value;
-            out.push(Event {
-                at,
-                kind: EventKind::SpindleSpeed { rpm: s.value },
-            });
-        }
-        // 4. Tool select and change.
-        if let Some(t) = letter(b'T') {
-            self.state.selected_tool = nonneg_int(t, line, "T")?;
-        }
-        if m_toolchange {
-            self.state.tool = self.state.selected_tool;
-        }
-        // 5. Spindle direction.
-        if let Some((code, _)) = m_spindle {
-            let dir = match code {
-                3 => SpindleState::Clockwise,
-                4 => SpindleState::CounterClockwise,
-                _ => SpindleState::Stopped,
-            };
-            self.state.spindle = dir;
-            out.push(Event {
-                at,
-                kind: EventKind::Spindle(dir),
-            });
-        }
-        // 6. TCP by M-code (kinematics switch remaps).
-        if let Some((code, _)) = m_tcp {
-            let on = Some(code) == self.opts.tcp_on_m;
-            self.state.tcp = on;
-            self.tcp_from_g43_4 = false;
-            out.push(Event {
-                at,
-                kind: EventKind::Tcp(on),
-            });
-        }
-        // 7. Dwell.
-        let dwell = has_g(40);
-        if dwell {
-            let seconds = self.dwell_seconds(w, line)?;
-            out.push(Event {
-                at,
-                kind: EventKind::Dwell { seconds },
-            });
-        }
-        // 8. Plane.
-        if let Some((code, _)) = g_of(Group::Plane) {
-            self.state.plane = match code {
-                170 => Plane::Xy,
-                180 => Plane::Zx,
-                _ => Plane::Yz,
-            };
-        }
-        // 9. Units.
-        if let Some((code, _)) = g_of(Group::Units) {
-            self.state.units = if code == 200 {
-                Units::Inch
-            } else {
-                Units::Millimetre
-            };
-            out.push(Event {
-                at,
-                kind: EventKind::Units(self.state.units),
-            });
-        }
-        // 10. Tool length offset and TCP by G43.4/G49.
-        if let Some((code, col)) = g_of(Group::ToolLength) {
-            let length = match code {
-                490 => 0.0,
-                _ => {
-                    let tool = match letter(b'H') {
-                        Some(h) => nonneg_int(h, line, "H")?,
-                        None => self.state.tool,
-                    };
-                    if tool == 0 {
-                        0.0
-                    } else {
-                        *self.opts.tools.get(&tool).ok_or_else(|| {
-                            invalid(col, format!("tool {tool} is not in the tool table"))
-                        })?
-                    }
-                }
-            };
-            self.set_tool_length(length);
-            out.push(Event {
-                at,
-                kind: EventKind::ToolLengthOffset { length },
-            });
-            let tcp = match code {
-                434 => Some(true),
-                490 if self.tcp_from_g43_4 => Some(false),
-                _ => None,
-            };
-            if let Some(on) = tcp {
-                self.state.tcp = on;
-                self.tcp_from_g43_4 = on;
-                out.push(Event {
-                    at,
-                    kind: EventKind::Tcp(on),
-                });
-            }
-        }
-        // 11. Coordinate system.
-        if let Some((code, _)) = g_of(Group::CoordSystem) {
-            let system: u8 = match code {
-                540 => 1,
-                550 => 2,
-                560 => 3,
-                570 => 4,
-                580 => 5,
-                590 => 6,
-                591 => 7,
-                592 => 8,
-                _ => 9,
-            };
-            self.state.work_system = system;
-            let offset = self.opts.work_offsets[usize::from(system - 1)];
-            self.set_offsets(offset, self.state.tool_length);
-            out.push(Event {
-                at,
-                kind: EventKind::WorkOffset { system, offset },
-            });
-        }
-        // 12. Distance modes.
-        if let Some((code, _)) = g_of(Group::Distance) {
-            self.state.distance = if code == 900 {
-                DistanceMode::Absolute
-            } else {
-                DistanceMode::Incremental
-            };
-        }
-        if let Some((code, _)) = g_of(Group::ArcDistance) {
-            self.state.arc_distance = if code == 901 {
-                DistanceMode::Absolute
-            } else {
-                DistanceMode::Incremental
-            };
-        }
-        // 13. Motion.
-        let motion_code = g_of(Group::Motion);
-        if let Some((800, _)) = motion_code {
-            self.state.motion = None;
-        } else if let Some((code, _)) = motion_code {
-            self.state.motion = Some(match code {
-                0 => MotionMode::Rapid,
-                10 | 310 | 382..=385 => MotionMode::Linear,
-                20 => MotionMode::ArcClockwise,
-                _ => MotionMode::ArcCounterClockwise,
-            });
-        }
-        let mut axes = AxisMask::EMPTY;
-        let mut target = [0.0; 9];
-        for axis in Axis::ALL {
-            if let Some(a) = letter(axis.letter()) {
-                if dwell && dialect != Dialect::LinuxCnc && axis == Axis::X {
-                    continue; // Fanuc G4 X: the dwell time.
-                }
-                axes.insert(axis);
-                let v = dialect.dimension(
-                    a.value,
-                    a.has_point,
-                    self.state.units == Units::Inch,
-                    axis.is_rotary(),
-                );
-                target[axis.index()] = if axis.is_rotary() {
-                    v
-                } else {
-                    v * self.state.units.mm_per_unit()
-                };
-            }
-        }
-        if let Some((code @ (310 | 382..=385), col)) = motion_code
-            && axes.is_empty()
+        if let Some((code, col)) = codes.motion
+            && code.is_probe()
+            && !Axis::ALL.iter().any(|a| w.get(a.letter()).is_some())
         {
-            let name = if code == 310 { "G31" } else { "G38.x" };
-            return Err(invalid(col, format!("probing {name} without axis words")));
+            let name = if code == GCode::G31 { "G31" } else { "G38.x" };
+            return Err(GcodeError::invalid(
+                line,
+                col,
+                format!("probing {name} without axis words"),
+            ));
         }
-        let g53 = g_of(Group::NonModal).filter(|(c, _)| *c == 530);
-        let explicit_motion = motion_code.is_some_and(|(c, _)| c != 800);
-        if let Some((_, col)) = g53 {
-            if axes.is_empty() {
-                return Err(invalid(col, "G53 without axis words".into()));
-            }
-            if !matches!(
-                self.state.motion,
-                Some(MotionMode::Rapid | MotionMode::Linear)
-            ) {
-                return Err(invalid(col, "G53 needs G0 or G1".into()));
-            }
+        Ok(codes)
+    }
+
+    /// The motion mode the block's axis words will use: its own motion
+    /// code, else the modal one.
+    fn motion_to_be(&self, codes: &Codes) -> Option<MotionMode> {
+        match codes.motion {
+            Some((GCode::G80, _)) => None,
+            Some((code, _)) => Some(motion_mode(code)),
+            None => self.state.motion,
         }
-        if !axes.is_empty() || explicit_motion {
-            match self.state.motion {
-                None if !axes.is_empty() => {
-                    return Err(invalid(
-                        0,
-                        "axis words without a motion mode (G0, G1, G2 or G3)".into(),
-                    ));
-                }
-                None => {}
-                Some(mode) => {
-                    self.motion(mode, w, axes, target, g53.map(|(_, c)| c), line, at, out)?
-                }
-            }
-        }
-        // I J K without an arc.
-        let arc_now = axes_or_motion(&axes, motion_code)
+    }
+
+    /// Refuses words that no code of the block reads, as LinuxCNC's
+    /// `check_other_codes` does: I J K without an arc, R outside arcs, G64
+    /// and M19, and D, E, H, L, P, Q ("E word with no G76, M66, M67 or M68
+    /// to use it", ...): a word nothing reads is a typing error, never
+    /// silently dropped. Only the codes this interpreter accepts are listed.
+    fn check_words(
+        &self,
+        block: &Block,
+        w: &BlockWords,
+        codes: &Codes,
+        line: u64,
+    ) -> Result<(), GcodeError> {
+        let any_axis = Axis::ALL.iter().any(|a| w.get(a.letter()).is_some());
+        let arc_now = (any_axis || codes.explicit_motion().is_some())
             && matches!(
-                self.state.motion,
+                self.motion_to_be(codes),
                 Some(MotionMode::ArcClockwise | MotionMode::ArcCounterClockwise)
             );
-        if let Some(r) = letter(b'R') {
+        if let Some(r) = w.get(b'R') {
             // R is read by G2/G3, G64 (blend tolerance) and M19 (orientation).
-            let g64 = has_g(640);
-            let m19 = w.m.iter().any(|&(c, _)| c == 19);
+            let g64 = codes.has(GCode::G64);
+            let m19 = w.has_m(&[19]);
             if g64 && m19 {
-                return Err(invalid(
+                return Err(GcodeError::invalid(
+                    line,
                     r.column,
-                    "R word is ambiguous on a line with both G64 and M19 - use separate lines"
-                        .into(),
+                    "R word is ambiguous on a line with both G64 and M19 - use separate lines",
                 ));
             }
             if !(arc_now || g64 || m19) {
-                return Err(invalid(
+                return Err(GcodeError::invalid(
+                    line,
                     r.column,
-                    "R word with no g code that uses it".into(),
+                    "R word with no g code that uses it",
                 ));
             }
         }
         if !arc_now {
             for l in [b'I', b'J', b'K'] {
-                if let Some(x) = letter(l) {
-                    return Err(invalid(
+                if let Some(x) = w.get(l) {
+                    return Err(GcodeError::invalid(
+                        line,
                         x.column,
                         format!("{} word with no G2 or G3 to use it", l as char),
                     ));
                 }
             }
         }
-        self.check_word_use(block, w, &has_g, arc_now, line)?;
-        // 14. Program end.
-        if let Some((2 | 30, _)) = m_stop {
-            self.ended = true;
-            out.push(Event {
-                at,
-                kind: EventKind::ProgramEnd,
-            });
-        }
-        Ok(())
-    }
-
-    /// Refuses D, E, H, L, P and Q words that no code of the block reads, as
-    /// LinuxCNC does ("E word with no G76, M66, M67 or M68 to use it", ...):
-    /// a word nothing reads is a typing error, never silently dropped. Only
-    /// the codes this interpreter accepts are listed (canned cycles, G10 and
-    /// cutter compensation are refused before this check).
-    fn check_word_use(
-        &self,
-        block: &Block,
-        w: &BlockWords,
-        has_g: &dyn Fn(u32) -> bool,
-        arc_now: bool,
-        line: u64,
-    ) -> Result<(), GcodeError> {
-        let has_m = |codes: &[u32]| w.m.iter().any(|(c, _)| codes.contains(c));
         let checks: [(u8, bool, &str); 6] = [
             (b'D', false, "D word with no G41, G42 or G96 to use it"),
             (
                 b'E',
-                has_m(&[66, 67, 68]),
+                w.has_m(&[66, 67, 68]),
                 "E word with no G76, M66, M67 or M68 to use it",
             ),
             (
                 b'H',
-                has_g(430) || has_g(434),
+                codes.has(GCode::G43) || codes.has(GCode::G43_4),
                 "H word with no G43 to use it",
             ),
             (
                 b'L',
-                has_m(&[66]),
+                w.has_m(&[66]),
                 "L word with no G10, cutter compensation, canned cycle or M66 to use it",
             ),
             (
                 b'P',
-                has_g(40)
-                    || has_g(640)
+                codes.has(GCode::G4)
+                    || codes.has(GCode::G64)
                     || arc_now
-                    || has_m(&[19, 50, 51, 52, 53, 62, 63, 64, 65, 66]),
+                    || w.has_m(&[19, 50, 51, 52, 53, 62, 63, 64, 65, 66]),
                 "P word with no G2, G3, G4, G64, M19, M50-M53 or M62-M66 to use it",
             ),
             (
                 b'Q',
-                has_g(640) || has_m(&[19, 61, 66, 67, 68]),
+                codes.has(GCode::G64) || w.has_m(&[19, 61, 66, 67, 68]),
                 "Q word with no G64, M19, M61, M66, M67, M68 or canned cycle to use it",
             ),
         ];
@@ -800,7 +657,98 @@ impl Interpreter {
         Ok(())
     }
 
-    fn dwell_seconds(&self, w: &BlockWords, line: u64) -> Result<f64, GcodeError> {
+    /// G93, G94, G95. Entering inverse time clears the feed rate.
+    fn set_feed_mode(&mut self, codes: &Codes, s: &mut Step) {
+        let Some((code, _)) = codes.feed_mode else {
+            return;
+        };
+        let mode = match code {
+            GCode::G93 => FeedMode::InverseTime,
+            GCode::G94 => FeedMode::UnitsPerMinute,
+            _ => FeedMode::UnitsPerRevolution,
+        };
+        if mode != self.state.feed_mode && mode == FeedMode::InverseTime {
+            self.state.feed = 0.0;
+        }
+        self.state.feed_mode = mode;
+        s.emit(EventKind::FeedMode(mode));
+    }
+
+    /// F, in canonical units (mm/min, 1/min, mm/rev).
+    fn set_feed_rate(&mut self, w: &BlockWords, s: &mut Step) -> Result<(), GcodeError> {
+        let Some(f) = w.get(b'F') else {
+            return Ok(());
+        };
+        if f.value < 0.0 {
+            return Err(s.invalid(f.column, "negative F word"));
+        }
+        let scale = match self.state.feed_mode {
+            FeedMode::InverseTime => 1.0,
+            _ => self.state.units.mm_per_unit(),
+        };
+        self.state.feed = f.value * scale;
+        s.emit(EventKind::FeedRate(self.state.feed));
+        Ok(())
+    }
+
+    /// S, rev/min.
+    fn set_spindle_speed(&mut self, w: &BlockWords, s: &mut Step) -> Result<(), GcodeError> {
+        let Some(sw) = w.get(b'S') else {
+            return Ok(());
+        };
+        if sw.value < 0.0 {
+            return Err(s.invalid(sw.column, "negative spindle speed"));
+        }
+        self.state.spindle_rpm = sw.value;
+        s.emit(EventKind::SpindleSpeed { rpm: sw.value });
+        Ok(())
+    }
+
+    /// T: the tool the next M6 loads.
+    fn select_tool(&mut self, w: &BlockWords, s: &Step) -> Result<(), GcodeError> {
+        if let Some(t) = w.get(b'T') {
+            self.state.selected_tool = nonneg_int(*t, s.line, "T")?;
+        }
+        Ok(())
+    }
+
+    /// M6: the selected tool goes into the spindle.
+    fn change_tool(&mut self, codes: &Codes) {
+        if codes.m_tool_change {
+            self.state.tool = self.state.selected_tool;
+        }
+    }
+
+    /// M3, M4, M5.
+    fn set_spindle_direction(&mut self, codes: &Codes, s: &mut Step) {
+        let Some((code, _)) = codes.m_spindle else {
+            return;
+        };
+        let dir = match code {
+            3 => SpindleState::Clockwise,
+            4 => SpindleState::CounterClockwise,
+            _ => SpindleState::Stopped,
+        };
+        self.state.spindle = dir;
+        s.emit(EventKind::Spindle(dir));
+    }
+
+    /// The configured TCP M-codes (kinematics switch remaps).
+    fn switch_tcp_by_m_code(&mut self, codes: &Codes, s: &mut Step) {
+        let Some((code, _)) = codes.m_tcp else {
+            return;
+        };
+        let on = Some(code) == self.opts.tcp_on_m;
+        self.state.tcp = on;
+        self.tcp_from_g43_4 = false;
+        s.emit(EventKind::Tcp(on));
+    }
+
+    /// G4.
+    fn dwell(&mut self, w: &BlockWords, codes: &Codes, s: &mut Step) -> Result<(), GcodeError> {
+        if !codes.has(GCode::G4) {
+            return Ok(());
+        }
         let (word, value) = match self.opts.dialect {
             Dialect::LinuxCnc => (DwellWord::PSeconds, w.get(b'P')),
             Dialect::Fanuc { .. } => match (w.get(b'X').or(w.get(b'U')), w.get(b'P')) {
@@ -808,17 +756,139 @@ impl Interpreter {
                 (None, p) => (DwellWord::PMilliseconds, p),
             },
         };
-        let v = value.ok_or_else(|| GcodeError::invalid(line, 0, "dwell time missing with G4"))?;
+        let v = value.ok_or_else(|| s.invalid(0, "dwell time missing with G4"))?;
         if v.value < 0.0 {
-            return Err(GcodeError::invalid(line, v.column, "negative dwell time"));
+            return Err(s.invalid(v.column, "negative dwell time"));
         }
-        Ok(word.seconds(v.value))
+        s.emit(EventKind::Dwell {
+            seconds: word.seconds(v.value),
+        });
+        Ok(())
     }
 
-    fn set_tool_length(&mut self, length: f64) {
+    /// G17, G18, G19.
+    fn set_plane(&mut self, codes: &Codes) {
+        if let Some((code, _)) = codes.plane {
+            self.state.plane = match code {
+                GCode::G17 => Plane::Xy,
+                GCode::G18 => Plane::Zx,
+                _ => Plane::Yz,
+            };
+        }
+    }
+
+    /// G20, G21.
+    fn set_length_units(&mut self, codes: &Codes, s: &mut Step) {
+        if let Some((code, _)) = codes.units {
+            self.state.units = if code == GCode::G20 {
+                Units::Inch
+            } else {
+                Units::Millimetre
+            };
+            s.emit(EventKind::Units(self.state.units));
+        }
+    }
+
+    /// G43 (H defaults to the tool in the spindle), G43.4 (TCP), G49.
+    fn set_tool_length_offset(
+        &mut self,
+        w: &BlockWords,
+        codes: &Codes,
+        s: &mut Step,
+    ) -> Result<(), GcodeError> {
+        let Some((code, col)) = codes.tool_length else {
+            return Ok(());
+        };
+        let length = match code {
+            GCode::G49 => 0.0,
+            _ => {
+                let tool = match w.get(b'H') {
+                    Some(h) => nonneg_int(*h, s.line, "H")?,
+                    None => self.state.tool,
+                };
+                if tool == 0 {
+                    0.0
+                } else {
+                    *self.opts.tools.get(&tool).ok_or_else(|| {
+                        s.invalid(col, format!("tool {tool} is not in the tool table"))
+                    })?
+                }
+            }
+        };
         self.state.tool_length = length;
         let work = self.opts.work_offsets[usize::from(self.state.work_system - 1)];
         self.set_offsets(work, length);
+        s.emit(EventKind::ToolLengthOffset { length });
+        let tcp = match code {
+            GCode::G43_4 => Some(true),
+            GCode::G49 if self.tcp_from_g43_4 => Some(false),
+            _ => None,
+        };
+        if let Some(on) = tcp {
+            self.state.tcp = on;
+            self.tcp_from_g43_4 = on;
+            s.emit(EventKind::Tcp(on));
+        }
+        Ok(())
+    }
+
+    /// G54 ... G59.3.
+    fn select_coordinate_system(&mut self, codes: &Codes, s: &mut Step) {
+        let Some((code, _)) = codes.coord_system else {
+            return;
+        };
+        let system: u8 = match code {
+            GCode::G54 => 1,
+            GCode::G55 => 2,
+            GCode::G56 => 3,
+            GCode::G57 => 4,
+            GCode::G58 => 5,
+            GCode::G59 => 6,
+            GCode::G59_1 => 7,
+            GCode::G59_2 => 8,
+            _ => 9,
+        };
+        self.state.work_system = system;
+        let offset = self.opts.work_offsets[usize::from(system - 1)];
+        self.set_offsets(offset, self.state.tool_length);
+        s.emit(EventKind::WorkOffset { system, offset });
+    }
+
+    /// G90, G91.
+    fn set_distance_mode(&mut self, codes: &Codes) {
+        if let Some((code, _)) = codes.distance {
+            self.state.distance = if code == GCode::G90 {
+                DistanceMode::Absolute
+            } else {
+                DistanceMode::Incremental
+            };
+        }
+    }
+
+    /// G90.1, G91.1.
+    fn set_arc_distance_mode(&mut self, codes: &Codes) {
+        if let Some((code, _)) = codes.arc_distance {
+            self.state.arc_distance = if code == GCode::G90_1 {
+                DistanceMode::Absolute
+            } else {
+                DistanceMode::Incremental
+            };
+        }
+    }
+
+    /// G53 (non-modal): needs axis words and a straight motion mode.
+    fn check_g53(&self, w: &BlockWords, codes: &Codes, s: &Step) -> Result<(), GcodeError> {
+        let Some(col) = codes.g53() else {
+            return Ok(());
+        };
+        if self.axis_words(w, codes).0.is_empty() {
+            return Err(s.invalid(col, "G53 without axis words"));
+        }
+        let mode = self.motion_to_be(codes);
+        if !matches!(mode, Some(MotionMode::Rapid | MotionMode::Linear)) {
+            return Err(s.invalid(col, "G53 needs G0 or G1"));
+        }
+        Ok(())
     }
 
     /// Changes the offsets keeping the machine position.
@@ -830,31 +900,76 @@ impl Interpreter {
         self.state.position = machine.sub(&offset);
     }
 
-    #[allow(clippy::too_many_arguments)]
-    fn motion(
+    /// The axis words of a block in canonical units (mm, degree).
+    fn axis_words(&self, w: &BlockWords, codes: &Codes) -> (AxisMask, [f64; 9]) {
+        let dialect = self.opts.dialect;
+        let dwell = codes.has(GCode::G4);
+        let mut axes = AxisMask::EMPTY;
+        let mut target = [0.0; 9];
+        for axis in Axis::ALL {
+            if let Some(a) = w.get(axis.letter()) {
+                if dwell && dialect != Dialect::LinuxCnc && axis == Axis::X {
+                    continue; // Fanuc G4 X: the dwell time.
+                }
+                axes.insert(axis);
+                let v = dialect.dimension(
+                    a.value,
+                    a.has_point,
+                    self.state.units == Units::Inch,
+                    axis.is_rotary(),
+                );
+                target[axis.index()] = if axis.is_rotary() {
+                    v
+                } else {
+                    v * self.state.units.mm_per_unit()
+                };
+            }
+        }
+        (axes, target)
+    }
+
+    /// Group 1: sets the motion mode (G80 clears it) and moves to the axis
+    /// words.
+    fn motion(&mut self, w: &BlockWords, codes: &Codes, s: &mut Step) -> Result<(), GcodeError> {
+        match codes.motion {
+            Some((GCode::G80, _)) => self.state.motion = None,
+            Some((code, _)) => self.state.motion = Some(motion_mode(code)),
+            None => {}
+        }
+        let (axes, target) = self.axis_words(w, codes);
+        let g53 = codes.g53();
+        if axes.is_empty() && codes.explicit_motion().is_none() {
+            return Ok(());
+        }
+        match self.state.motion {
+            None if !axes.is_empty() => {
+                Err(s.invalid(0, "axis words without a motion mode (G0, G1, G2 or G3)"))
+            }
+            None => Ok(()),
+            Some(mode) => self.move_to(mode, w, axes, target, g53, s),
+        }
+    }
+
+    /// One move of `mode` to the axis words.
+    fn move_to(
         &mut self,
         mode: MotionMode,
         w: &BlockWords,
         axes: AxisMask,
         target: [f64; 9],
         g53: Option<usize>,
-        line: u64,
-        at: SourcePos,
-        out: &mut Vec<Event>,
+        s: &mut Step,
     ) -> Result<(), GcodeError> {
+        let line = s.line;
         let st = &self.state;
         let from = st.position;
         let mut to = from;
         if let Some(col) = g53 {
             if !matches!(mode, MotionMode::Rapid | MotionMode::Linear) {
-                return Err(GcodeError::invalid(line, col, "G53 needs G0 or G1"));
+                return Err(s.invalid(col, "G53 needs G0 or G1"));
             }
             if st.distance == DistanceMode::Incremental {
-                return Err(GcodeError::invalid(
-                    line,
-                    col,
-                    "G53 is not allowed with G91",
-                ));
+                return Err(s.invalid(col, "G53 is not allowed with G91"));
             }
         }
         for axis in axes.iter() {
@@ -877,52 +992,17 @@ impl Interpreter {
             distance: st.distance,
             units: st.units,
         };
-        let feed = || -> Result<Feed, GcodeError> {
-            match st.feed_mode {
-                FeedMode::UnitsPerMinute => {
-                    if st.feed <= 0.0 {
-                        return Err(GcodeError::invalid(
-                            line,
-                            0,
-                            "Cannot do G1, G2 or G3 with zero feed rate",
-                        ));
-                    }
-                    Ok(Feed::PerMinute(st.feed))
-                }
-                FeedMode::InverseTime => {
-                    if w.get(b'F').is_none() {
-                        return Err(GcodeError::invalid(
-                            line,
-                            0,
-                            "F word missing with inverse time G1, G2 or G3 move",
-                        ));
-                    }
-                    if st.feed <= 0.0 {
-                        return Err(GcodeError::invalid(line, 0, "zero inverse-time feed rate"));
-                    }
-                    Ok(Feed::InverseTime(st.feed))
-                }
-                FeedMode::UnitsPerRevolution => {
-                    if st.feed <= 0.0 {
-                        return Err(GcodeError::invalid(
-                            line,
-                            0,
-                            "Cannot do G1, G2 or G3 with zero feed per revolution",
-                        ));
-                    }
-                    Ok(Feed::PerRevolution {
-                        mm_per_rev: st.feed,
-                        rpm: st.spindle_rpm,
-                    })
-                }
-            }
-        };
         let kind = match mode {
             MotionMode::Rapid | MotionMode::Linear => {
                 if axes.is_empty() {
                     return Ok(());
                 }
-                let lin = |feed| Linear {
+                let feed = if mode == MotionMode::Rapid {
+                    Feed::Rapid
+                } else {
+                    self.feed(w, line)?
+                };
+                let lin = Linear {
                     from,
                     to,
                     offset: st.offset,
@@ -931,20 +1011,16 @@ impl Interpreter {
                     words,
                 };
                 if mode == MotionMode::Rapid {
-                    EventKind::Traverse(lin(Feed::Rapid))
+                    EventKind::Traverse(lin)
                 } else {
-                    EventKind::Feed(lin(feed()?))
+                    EventKind::Feed(lin)
                 }
             }
             MotionMode::ArcClockwise | MotionMode::ArcCounterClockwise => {
                 if axes.is_empty() {
-                    return Err(GcodeError::invalid(
-                        line,
-                        0,
-                        "All axes missing with motion code",
-                    ));
+                    return Err(s.invalid(0, "All axes missing with motion code"));
                 }
-                let feed = feed()?;
+                let feed = self.feed(w, line)?;
                 let ccw = mode == MotionMode::ArcCounterClockwise;
                 let (center, turns) = self.arc_center(w, &from, &to, ccw, line)?;
                 let st = &self.state;
@@ -962,8 +1038,59 @@ impl Interpreter {
             }
         };
         self.state.position = to;
-        out.push(Event { at, kind });
+        s.emit(kind);
         Ok(())
+    }
+
+    /// The feed of a G1, G2 or G3 move in the current feed mode.
+    fn feed(&self, w: &BlockWords, line: u64) -> Result<Feed, GcodeError> {
+        let st = &self.state;
+        match st.feed_mode {
+            FeedMode::UnitsPerMinute => {
+                if st.feed <= 0.0 {
+                    return Err(GcodeError::invalid(
+                        line,
+                        0,
+                        "Cannot do G1, G2 or G3 with zero feed rate",
+                    ));
+                }
+                Ok(Feed::PerMinute(st.feed))
+            }
+            FeedMode::InverseTime => {
+                if w.get(b'F').is_none() {
+                    return Err(GcodeError::invalid(
+                        line,
+                        0,
+                        "F word missing with inverse time G1, G2 or G3 move",
+                    ));
+                }
+                if st.feed <= 0.0 {
+                    return Err(GcodeError::invalid(line, 0, "zero inverse-time feed rate"));
+                }
+                Ok(Feed::InverseTime(st.feed))
+            }
+            FeedMode::UnitsPerRevolution => {
+                if st.feed <= 0.0 {
+                    return Err(GcodeError::invalid(
+                        line,
+                        0,
+                        "Cannot do G1, G2 or G3 with zero feed per revolution",
+                    ));
+                }
+                Ok(Feed::PerRevolution {
+                    mm_per_rev: st.feed,
+                    rpm: st.spindle_rpm,
+                })
+            }
+        }
+    }
+
+    /// M2, M30: end of program (M0, M1, M60 do not change the motion).
+    fn stop(&mut self, codes: &Codes, s: &mut Step) {
+        if let Some((2 | 30, _)) = codes.m_stop {
+            self.ended = true;
+            s.emit(EventKind::ProgramEnd);
+        }
     }
 
     /// Centre (work X Y Z) and signed turns of a G2/G3 block.
@@ -1061,8 +1188,15 @@ impl Interpreter {
     }
 }
 
-fn axes_or_motion(axes: &AxisMask, motion: Option<(u32, usize)>) -> bool {
-    !axes.is_empty() || motion.is_some_and(|(c, _)| c != 800)
+/// The motion mode a group-1 code sets (G80 excluded).
+fn motion_mode(code: GCode) -> MotionMode {
+    match code {
+        GCode::G0 => MotionMode::Rapid,
+        GCode::G2 => MotionMode::ArcClockwise,
+        GCode::G3 => MotionMode::ArcCounterClockwise,
+        // G1 and the probing moves.
+        _ => MotionMode::Linear,
+    }
 }
 
 /// LinuxCNC's `unwrap_rotary`: absolute target of a wrapped rotary axis,
@@ -1096,14 +1230,25 @@ fn nonneg_int(l: Letter, line: u64, name: &str) -> Result<u32, GcodeError> {
     Ok(l.value as u32)
 }
 
-fn g_name(code: u32) -> String {
-    if code.is_multiple_of(10) {
-        format!("G{}", code / 10)
-    } else {
-        format!("G{}.{}", code / 10, code % 10)
+/// The value of a word: its number, or its expression (parameters
+/// included) evaluated.
+fn word_value(block: &Block, word: &Word, params: &Parameters) -> Result<f64, GcodeError> {
+    match word.value {
+        Value::Number(v) => Ok(v),
+        Value::Expression | Value::Parameter => {
+            expr::eval(block.value_text(word).as_bytes(), params).map_err(|e| {
+                GcodeError::invalid(
+                    block.line(),
+                    word.span.start + 1,
+                    format!("{e} in {}", block.value_text(word)),
+                )
+            })
+        }
     }
 }
 
+/// Files one word of a block: G- and M-codes in order, every other letter
+/// at most once.
 fn collect_word(
     block: &Block,
     word: &Word,
@@ -1112,32 +1257,13 @@ fn collect_word(
 ) -> Result<(), GcodeError> {
     let line = block.line();
     let col = word.at + 1;
-    let value = match word.value {
-        Value::Number(v) => v,
-        Value::Expression | Value::Parameter => {
-            match expr::eval(block.value_text(word).as_bytes(), params) {
-                Ok(v) => v,
-                Err(e @ (ExprError::Param(_) | ExprError::Invalid(_))) => {
-                    return Err(GcodeError::invalid(
-                        line,
-                        word.span.start + 1,
-                        format!("{e} in {}", block.value_text(word)),
-                    ));
-                }
-            }
-        }
-    };
+    let value = word_value(block, word, params)?;
     match word.letter {
         b'G' => {
-            let tenths = value * 10.0;
-            if (tenths - tenths.round()).abs() > 1e-6 || !(0.0..=9999.0).contains(&tenths) {
-                return Err(GcodeError::unsupported(
-                    line,
-                    col,
-                    format!("G-code G{}", block.value_text(word)),
-                ));
-            }
-            w.g.push((tenths.round() as u32, col));
+            let code = GCode::from_value(value).ok_or_else(|| {
+                GcodeError::unsupported(line, col, format!("G-code G{}", block.value_text(word)))
+            })?;
+            w.g.push((code, col));
         }
         b'M' => {
             if value.fract() != 0.0 || !(0.0..=9999.0).contains(&value) {

@@ -40,6 +40,7 @@
 
 mod arc;
 mod axes;
+mod codes;
 mod dialect;
 pub mod doc;
 mod error;
@@ -61,6 +62,7 @@ mod travel;
 pub mod var_file;
 
 pub use axes::{Axes, Axis, AxisLetterError, AxisMask};
+pub use codes::{GCode, ModalGroup};
 pub use dialect::Dialect;
 pub use doc::{AxisRangeDoc, GcodeInterpolateDoc, GcodeStatsDoc, TravelViolationDoc};
 pub use error::{GcodeError, Location};

@@ -236,11 +236,9 @@ fn our_motion(program: &[u8]) -> Result<Vec<Call>, (Vec<Call>, GcodeError)> {
     // The tool lengths LinuxCNC's test tool table gives (USE_TOOL_LENGTH_OFFSET
     // in the traces of g72-facing, in mm, and g76, 0.7 in).
     let tools = [(2, 2.54), (4, 0.7 * 25.4)].into_iter().collect();
-    let opts = InterpOptions {
-        unknown_m: UnknownMCode::Reject,
-        tools,
-        ..InterpOptions::default()
-    };
+    let mut opts = InterpOptions::default();
+    opts.unknown_m = UnknownMCode::Reject;
+    opts.tools = tools;
     let mut calls = Vec::new();
     let result = gcode::interpret(program, opts, |_, events| {
         for e in events {
