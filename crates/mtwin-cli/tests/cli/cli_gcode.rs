@@ -240,3 +240,133 @@ fn fanuc_dialect_reads_numbers_without_a_point_in_least_increments() {
     let linuxcnc = stats(&[]);
     assert!((linuxcnc["dwell_time_s"].as_f64().unwrap() - 1500.0).abs() < 1e-9);
 }
+
+/// Parameters, subroutines, loops and the var file through `gcode stats`.
+mod program_flow {
+    use super::*;
+
+    /// A 10 mm square cut at three depths by a subroutine called from a loop.
+    const SQUARES: &str = "G21 G90 G94\n\
+o<square> sub (#1 side, #2 depth)\n\
+G1 Z#2 F600\n\
+G1 X#1\n\
+G1 Y#1\n\
+G1 X0\n\
+G1 Y0\n\
+o<square> endsub\n\
+G0 X0 Y0 Z5\n\
+#<z> = -1\n\
+o1 repeat [3]\n\
+o<square> call [10] [#<z>]\n\
+#<z> = [#<z> - 1]\n\
+o1 endrepeat\n\
+G0 Z5\n\
+(PRINT, last z=#<z>)\n\
+M2\n";
+
+    fn stats_json(dir: &std::path::Path, args: &[&str]) -> serde_json::Value {
+        let mut all = vec!["gcode", "stats", "--format", "json"];
+        all.extend_from_slice(args);
+        let o = mtwin(dir, &all);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        serde_json::from_str(&stdout(&o)).unwrap()
+    }
+
+    #[test]
+    fn stats_runs_a_subroutine_called_from_a_loop() {
+        let dir = tempfile::tempdir().unwrap();
+        write(dir.path(), "squares.ngc", SQUARES);
+        let o = mtwin(
+            dir.path(),
+            &["gcode", "stats", "--format", "json", "squares.ngc"],
+        );
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+        // Rapids: Z0 → 5 and -3 → 5. Feeds: 5 → -1, -1 → -2, -2 → -3 down,
+        // and three 40 mm squares.
+        assert_eq!(v["rapid_moves"], 2);
+        assert_eq!(v["linear_moves"], 15);
+        assert!((v["rapid_length_mm"].as_f64().unwrap() - 13.0).abs() < 1e-9);
+        assert!((v["feed_length_mm"].as_f64().unwrap() - 128.0).abs() < 1e-9);
+        assert!((v["feed_time_s"].as_f64().unwrap() - 128.0 / 10.0).abs() < 1e-9);
+        assert_eq!(v["axes"]["Z"]["work"], serde_json::json!([-3.0, 5.0]));
+        assert_eq!(v["axes"]["X"]["work"], serde_json::json!([0.0, 10.0]));
+        assert!(
+            stderr(&o).contains("squares.ngc:16: PRINT:  last z=-4.000000"),
+            "{}",
+            stderr(&o)
+        );
+    }
+
+    #[test]
+    fn var_file_and_subroutine_path() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir(dir.path().join("subs")).unwrap();
+        write(dir.path(), "p.var", "31\t2.500000\n5161\t0.000000\n");
+        write(
+            dir.path(),
+            "subs/up.ngc",
+            "o<up> sub\nG0 Z[#1 + #31]\no<up> endsub\n",
+        );
+        write(dir.path(), "p.ngc", "G0 X#31\no<up> call [1]\nM2\n");
+        let v = stats_json(
+            dir.path(),
+            &["p.ngc", "--var-file", "p.var", "--subroutine-path", "subs"],
+        );
+        assert_eq!(v["axes"]["X"]["work"], serde_json::json!([0.0, 2.5]));
+        assert_eq!(v["axes"]["Z"]["work"], serde_json::json!([0.0, 3.5]));
+        // The var file is read, never written.
+        assert_eq!(
+            std::fs::read_to_string(dir.path().join("p.var")).unwrap(),
+            "31\t2.500000\n5161\t0.000000\n"
+        );
+        // Without the path the subroutine is unknown.
+        let o = mtwin(
+            dir.path(),
+            &["gcode", "stats", "p.ngc", "--var-file", "p.var"],
+        );
+        assert_eq!(o.status.code(), Some(1));
+        assert!(stderr(&o).contains("p.ngc:2:1: "), "{}", stderr(&o));
+        assert!(stderr(&o).contains("up.ngc"), "{}", stderr(&o));
+    }
+
+    #[test]
+    fn bad_flow_is_located() {
+        let dir = tempfile::tempdir().unwrap();
+        for (name, text, at, what) in [
+            (
+                "unclosed.ngc",
+                "G0 X1\no<a> sub\nG0 X2\n",
+                "unclosed.ngc:2:1: ",
+                "not closed",
+            ),
+            (
+                "endwhile.ngc",
+                "G0 X1\n  o7 endwhile\n",
+                "endwhile.ngc:2:3: ",
+                "without a matching",
+            ),
+            (
+                "undefined.ngc",
+                "G0 X#<nope>\n",
+                "undefined.ngc:1:5: ",
+                "#<nope> not defined",
+            ),
+            (
+                "endless.ngc",
+                "o1 while [1]\nG0 X1\no1 endwhile\n",
+                "endless.ngc:",
+                "more than 1000 blocks",
+            ),
+        ] {
+            write(dir.path(), name, text);
+            let o = mtwin(
+                dir.path(),
+                &["gcode", "stats", name, "--max-blocks", "1000"],
+            );
+            assert_eq!(o.status.code(), Some(1), "{name}");
+            let e = stderr(&o);
+            assert!(e.contains(at) && e.contains(what), "{name}: {e}");
+        }
+    }
+}

@@ -481,3 +481,59 @@ fn first_feed_move_from_the_start_position_is_explained_not_refused() {
         s.notes
     );
 }
+
+/// A program with parameters, a subroutine called twice with different
+/// values and a loop.
+const FLOW: &str = "G21 G90 G94\r\n\
+#<z> = -50 (depth)\r\n\
+o<pass> sub\r\n\
+G1 X[#1] Y20 Z#<_z> F1000 (the varying line)\r\n\
+o<pass> endsub\r\n\
+#<_z> = #<z>\r\n\
+G0 X10 Y20 Z#<z> A10 C0 (start)\r\n\
+o1 repeat [2]\r\n\
+G1 X20 Y20 Z-50 F1000 (loop 1)\r\n\
+G1 X10 (loop 2)\r\n\
+o1 endrepeat\r\n\
+o<pass> call [40]\r\n\
+o<pass> call [60]\r\n\
+M30\r\n";
+
+#[test]
+fn flow_programs_round_trip_and_varying_corrections_are_refused() {
+    let m = example("ac-trunnion.toml");
+    let (out, s) = run(&m, FLOW.as_bytes(), &CompensateOptions::default());
+    assert_eq!(String::from_utf8(out).unwrap(), FLOW);
+    assert_eq!(s.blocks_changed, 0);
+    // With errors: the loop's lines run twice with the same values (kept
+    // and corrected once), the subroutine's line runs with X40 and X60,
+    // which one rewritten line cannot hold.
+    let e = example("ac-trunnion-with-errors.toml");
+    let opts = CompensateOptions {
+        max_correction: 2.0,
+        ..CompensateOptions::default()
+    };
+    let mut out = Vec::new();
+    let err = compensate(&e, FLOW.as_bytes(), &mut out, &opts).unwrap_err();
+    match &err {
+        CompensateError::Gcode(g) => {
+            assert_eq!(g.location().map(|l| l.line), Some(4), "{err}");
+            assert!(g.to_string().contains("runs more than once"), "{err}");
+        }
+        other => panic!("{other}"),
+    }
+    // Without the second call every line runs with one set of values: the
+    // output is the program with the loop and subroutine lines corrected in
+    // place, and it reaches the nominal path on the actual machine.
+    let once = FLOW.replace("o<pass> call [60]\r\n", "");
+    let (out, s) = run(&e, once.as_bytes(), &opts);
+    assert!(s.blocks_changed >= 3, "{s:?}");
+    let text = String::from_utf8(out.clone()).unwrap();
+    assert_eq!(
+        text.lines().count(),
+        once.lines().count() + s.blocks_inserted as usize
+    );
+    assert!(text.contains("o1 repeat [2]") && text.contains("o<pass> sub"));
+    let (end, _, _) = check(&e, once.as_bytes(), &out, &opts.interp);
+    assert!(end <= opts.tol + ROUNDING, "end deviation {end}");
+}
