@@ -90,9 +90,10 @@ pub fn run(c: Command) -> anyhow::Result<()> {
     }
 }
 
-/// Parses `AXIS=VALUE` offsets into a G54 offset.
-fn parse_offsets(items: &[String]) -> anyhow::Result<Axes> {
-    let mut off = Axes::ZERO;
+/// Parses `AXIS=VALUE` offsets into a G54 offset: the given axes set on
+/// `base`.
+fn parse_offsets(items: &[String], base: Axes) -> anyhow::Result<Axes> {
+    let mut off = base;
     for item in items {
         let Some((name, value)) = item.split_once('=') else {
             bail!("--offset `{item}` is not AXIS=VALUE");
@@ -129,16 +130,22 @@ pub(super) fn located(
 }
 
 /// Interpreter options from `--offset` items and the dialect arguments
-/// (var file, subroutine path) for the program at `program`.
+/// (var file, subroutine path) for the program at `program`. With a var
+/// file the nine work offsets are its 5221… parameters; `--offset` sets
+/// the G54 axes it names on top.
 pub(super) fn interp_options(
     offsets: &[String],
     dialect: &DialectArgs,
     program: &Path,
 ) -> anyhow::Result<InterpOptions> {
     let mut o = InterpOptions::default();
-    o.work_offsets[0] = parse_offsets(offsets)?;
     o.dialect = dialect.dialect();
     o.program = dialect.program_options(program)?;
+    if dialect.var_file.is_some() {
+        // LinuxCNC starts with the coordinate systems of its var file.
+        o.work_offsets = o.program.parameters.work_offsets();
+    }
+    o.work_offsets[0] = parse_offsets(offsets, o.work_offsets[0])?;
     Ok(o)
 }
 

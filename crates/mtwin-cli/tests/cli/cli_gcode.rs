@@ -302,7 +302,12 @@ M2\n";
     fn var_file_and_subroutine_path() {
         let dir = tempfile::tempdir().unwrap();
         std::fs::create_dir(dir.path().join("subs")).unwrap();
-        write(dir.path(), "p.var", "31\t2.500000\n5161\t0.000000\n");
+        // #31 and the G54 X offset (5221).
+        write(
+            dir.path(),
+            "p.var",
+            "31\t2.500000\n5161\t0.000000\n5221\t100.000000\n",
+        );
         write(
             dir.path(),
             "subs/up.ngc",
@@ -313,12 +318,15 @@ M2\n";
             dir.path(),
             &["p.ngc", "--var-file", "p.var", "--subroutine-path", "subs"],
         );
-        assert_eq!(v["axes"]["X"]["work"], serde_json::json!([0.0, 2.5]));
-        assert_eq!(v["axes"]["Z"]["work"], serde_json::json!([0.0, 3.5]));
+        // From machine X 0 (work X -100) to work X 2.5 (machine 102.5), then
+        // Z up by 1 + 2.5.
+        assert!((v["rapid_length_mm"].as_f64().unwrap() - (102.5 + 3.5)).abs() < 1e-9);
+        assert_eq!(v["axes"]["X"]["machine"][1], 102.5);
+        assert_eq!(v["axes"]["Z"]["work"][1], 3.5);
         // The var file is read, never written.
         assert_eq!(
             std::fs::read_to_string(dir.path().join("p.var")).unwrap(),
-            "31\t2.500000\n5161\t0.000000\n"
+            "31\t2.500000\n5161\t0.000000\n5221\t100.000000\n"
         );
         // Without the path the subroutine is unknown.
         let o = mtwin(

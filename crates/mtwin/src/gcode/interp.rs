@@ -11,8 +11,11 @@
 //! mode, retract mode, the non-modal codes, motion, and last the stops
 //! (M0, M1, M2, M30, M60).
 //!
-//! Constant expressions (`[1+2]`, `sqrt[2]`) are evaluated. Anything
-//! outside the supported language (O-words, parameters, canned cycles,
+//! Expressions and parameters are evaluated ([`Parameters`]); a line's
+//! assignments take effect after the whole line is read, before its codes
+//! run. O-word lines are program flow, run by
+//! [`run_program`](super::program_flow::run_program), not here. Anything
+//! else outside the supported language (canned cycles,
 //! G10/G28/G92, cutter compensation, ...) is an
 //! [`GcodeError::Unsupported`] error naming the line: never skipped.
 

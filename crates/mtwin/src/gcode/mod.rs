@@ -10,11 +10,17 @@
 //! * [`Interpreter`]: blocks in, canonical [`Event`]s out (mm, degree,
 //!   mm/min, s), each with its [`SourcePos`] and what the block wrote
 //!   ([`Programmed`]) so that a rewriter can change exactly the word behind a
-//!   coordinate. Constant expressions (`[1+2]`, `sqrt[2]`) are evaluated;
-//!   everything outside the subset (O-words, parameters, canned cycles,
-//!   G10/G28/G92, cutter compensation, ...) is an
-//!   [`GcodeError::Unsupported`] error naming the line. Dialects:
-//!   [`Dialect`] (LinuxCNC, Fanuc).
+//!   coordinate. Expressions and parameters ([`Parameters`]: numbered,
+//!   named local and global, read from a LinuxCNC var file with
+//!   [`read_var_file`]) are evaluated as LinuxCNC does; everything outside
+//!   the supported language is an [`GcodeError::Unsupported`] error naming
+//!   the line. Dialects: [`Dialect`] (LinuxCNC, Fanuc).
+//! * [`run_program`] ([`program_flow`]): the one driver every command uses:
+//!   O-word subroutines and loops, external subroutine files, Fanuc
+//!   M98/M99, `(DEBUG,…)`/`(PRINT,…)` messages; a program without O-words
+//!   streams, one with them is held in memory from its first O-word line.
+//!   `compensate` keeps the program's structure and refuses a line whose
+//!   runs need different corrections (see docs/gcode.md).
 //! * [`stats`]: counts, path lengths, axis travel and ranges, estimated time.
 //! * [`interpolate`] / [`Interpolator`]: axis command samples at a fixed
 //!   period along a program on a machine model (feeds, G93, rapids, dwells,

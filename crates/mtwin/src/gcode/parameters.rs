@@ -190,6 +190,19 @@ impl Parameters {
         }
     }
 
+    /// The nine work coordinate systems G54 … G59.3 as the parameters hold
+    /// them (5221 + 20·k + axis, axes in the order X Y Z A B C U V W), in the
+    /// var file's length units (mm for mtwin's machines) and degrees.
+    pub fn work_offsets(&self) -> [crate::gcode::Axes; 9] {
+        let mut out = [crate::gcode::Axes::ZERO; 9];
+        for (k, o) in out.iter_mut().enumerate() {
+            for (j, axis) in crate::gcode::Axis::ALL.into_iter().enumerate() {
+                o[axis] = self.get(5221 + 20 * k as u32 + j as u32);
+            }
+        }
+        out
+    }
+
     /// Marks `n` as listed in the var file (written back).
     pub(crate) fn mark_listed(&mut self, n: u32) {
         self.listed.insert(n);
@@ -254,6 +267,21 @@ mod tests {
         assert_eq!(p.get_named("_vmajor"), Ok(2.0));
         assert!(p.set_named("_vmajor", 3.0).is_err());
         assert!(p.exists("_g") && !p.exists("_h"));
+    }
+
+    #[test]
+    fn work_offsets_come_from_5221_on() {
+        let mut p = Parameters::new();
+        p.set(5221, 1.0).unwrap(); // G54 X
+        p.set(5243, -2.0).unwrap(); // G55 Z
+        p.set(5386, 90.0).unwrap(); // G59.3 C
+        let w = p.work_offsets();
+        use crate::gcode::Axis;
+        assert_eq!(
+            (w[0][Axis::X], w[1][Axis::Z], w[8][Axis::C]),
+            (1.0, -2.0, 90.0)
+        );
+        assert_eq!(w[0][Axis::Y], 0.0);
     }
 
     #[test]
