@@ -73,7 +73,10 @@ pub enum MessageKind {
 
 /// Where messages go: a callback (the CLI prints them on stderr), or nowhere.
 #[derive(Clone, Default)]
-pub struct MessageSink(Option<Arc<dyn Fn(&Message) + Send + Sync>>);
+pub struct MessageSink(Option<Arc<MessageFn>>);
+
+/// The callback type of a [`MessageSink`].
+pub type MessageFn = dyn Fn(&Message) + Send + Sync;
 
 impl MessageSink {
     /// A sink calling `f` with every message.
@@ -836,10 +839,12 @@ impl Flow<'_> {
             let line = block.line();
             let Some(st) = self.codes[c].stmts[pc].clone() else {
                 // An ordinary block (or Fanuc M98/M99).
-                if self.fanuc && !interp.ended() {
-                    if let Some((call, col)) = self
+                if self.fanuc
+                    && !interp.ended()
+                    && let Some((call, col)) = self
                         .fanuc_call(block, interp.parameters())
                         .map_err(|e| fail(&self.files, e))?
+                {
                     {
                         sink(&Step {
                             block,
@@ -1465,9 +1470,11 @@ mod tests {
 
     #[test]
     fn fanuc_m98_m99() {
-        let mut opts = InterpOptions::default();
-        opts.dialect = Dialect::Fanuc {
-            decimal_point_programming: true,
+        let opts = InterpOptions {
+            dialect: Dialect::Fanuc {
+                decimal_point_programming: true,
+            },
+            ..InterpOptions::default()
         };
         // Main: three runs of O1000 (incremental X+2 each), then one of O2000.
         let src = "%\nO0001 (MAIN)\nG21 G91\nM98 P1000 L3\nM98 P2000\nG90\nM30\nO1000\nG0 X2.\nM99\nO2000\nG0 Y5.\nM99\n%\n";

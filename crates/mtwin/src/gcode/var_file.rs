@@ -96,7 +96,7 @@ mod tests {
         assert_eq!(lines[0], "6\t3.000000");
         assert!(lines.contains(&"5221\t-10.250000"));
         assert!(lines.contains(&"5400\t2.000000"));
-        assert!(lines.contains(&"5390\t0.000000") == false);
+        assert!(!lines.contains(&"5390\t0.000000"));
         // Reading what was written gives the same store values.
         let q = read_var_file(written.as_bytes()).unwrap();
         for n in 1..MAX_NUMBERED {
