@@ -45,12 +45,18 @@ pub const MAX_TRACKER_CANDIDATES: u64 = 100_000;
 pub const MAX_TRACKER_WORK: u64 = 200_000_000;
 
 /// A size or value a user gave that is beyond a bound: names what was given
-/// (`what`, e.g. "the number of levels"), the value and the bound. The CLI
-/// names the option.
+/// (`what`, e.g. "the number of levels"), the value and the bound. When the
+/// value comes from fields of a library options struct, `fields` names them
+/// (e.g. `["max_order", "max_delay"]` of `ServoFitOptions`) so a front end
+/// can name its own spelling of each through [`LimitError::naming`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct LimitError {
     /// What was asked for, in words.
     pub what: String,
+    /// The options fields (Rust names in the library's options) whose values
+    /// set `value`: one for a plain option, several for a product of options;
+    /// empty when the value does not come from options (a file, a program).
+    pub fields: &'static [&'static str],
     /// The value asked for (or implied by the options).
     pub value: f64,
     /// The bound it exceeds.
@@ -74,14 +80,49 @@ impl fmt::Display for LimitError {
 
 impl std::error::Error for LimitError {}
 
+impl LimitError {
+    /// The same error with `what` spelled as the caller's names of the
+    /// option fields: `names` maps each field of [`LimitError::fields`] to
+    /// its spelling (a CLI flag such as `--max-order`). One field becomes its
+    /// name (`--max-order is 10000, …`); several keep the words and add their
+    /// names joined by ` × ` (`the number of structures (--max-order ×
+    /// --max-delay) is …`). A field missing from `names` keeps `what` as is.
+    pub fn naming(mut self, names: &[(&str, &str)]) -> LimitError {
+        let spelled: Option<Vec<&str>> = self
+            .fields
+            .iter()
+            .map(|f| names.iter().find(|(k, _)| k == f).map(|(_, v)| *v))
+            .collect();
+        match spelled.as_deref() {
+            None | Some([]) => {}
+            Some([one]) => self.what = (*one).to_string(),
+            Some(many) => self.what = format!("{} ({})", self.what, many.join(" × ")),
+        }
+        self
+    }
+}
+
 /// Checks that `value` (a count or size, may be non-integral when implied by
 /// a division) is at most `bound`; a non-finite value is beyond every bound.
 pub fn check(what: &str, value: f64, bound: u64, why: &'static str) -> Result<(), LimitError> {
+    check_fields(&[], what, value, bound, why)
+}
+
+/// [`check`] of a value set by the options fields `fields` (Rust names of
+/// the fields of a library options struct, see [`LimitError::fields`]).
+pub fn check_fields(
+    fields: &'static [&'static str],
+    what: &str,
+    value: f64,
+    bound: u64,
+    why: &'static str,
+) -> Result<(), LimitError> {
     if value.is_finite() && value <= bound as f64 {
         Ok(())
     } else {
         Err(LimitError {
             what: what.to_string(),
+            fields,
             value,
             bound: bound as f64,
             why,
@@ -138,6 +179,33 @@ mod tests {
         );
         assert!(check("n", f64::INFINITY, 10, "").is_err());
         assert!(check("n", f64::NAN, 10, "").is_err());
+    }
+
+    #[test]
+    fn naming_spells_the_fields_by_the_callers_table() {
+        let names = [("max_order", "--max-order"), ("max_delay", "--max-delay")];
+        let one = check_fields(&["max_order"], "the largest order", 30.0, 20, "why").unwrap_err();
+        assert_eq!(
+            one.naming(&names).to_string(),
+            "--max-order is 30, above the limit of 20: why"
+        );
+        let two = check_fields(
+            &["max_order", "max_delay"],
+            "the structures",
+            3e5,
+            100_000,
+            "w",
+        )
+        .unwrap_err();
+        assert_eq!(
+            two.naming(&names).to_string(),
+            "the structures (--max-order × --max-delay) is 300000, above the limit of 100000: w"
+        );
+        // A field the table does not know, or no field: the words stay.
+        let other = check_fields(&["select"], "the selection", 30.0, 20, "w").unwrap_err();
+        assert_eq!(other.clone().naming(&names), other);
+        let plain = check("the levels", 30.0, 20, "w").unwrap_err();
+        assert_eq!(plain.clone().naming(&names), plain);
     }
 }
 

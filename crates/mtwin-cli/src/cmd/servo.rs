@@ -130,6 +130,9 @@ pub fn run(c: Command) -> anyhow::Result<()> {
     }
 }
 
+/// The flag of each field of `ServoFitOptions` that `servo fit` sets.
+const FIT_FLAGS: &[(&str, &str)] = &[("max_order", "--max-order"), ("max_delay", "--max-delay")];
+
 fn fit(a: FitArgs) -> anyhow::Result<()> {
     if !(a.feed.is_finite() && a.feed > 0.0) {
         anyhow::bail!(
@@ -141,14 +144,7 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
     options.max_order = a.max_order;
     options.max_delay = a.max_delay;
     options.validate().map_err(|e| match e {
-        sysid::SysidError::Limit(mut l) => {
-            l.what = match l.what.as_str() {
-                "the largest order" => "--max-order".into(),
-                "the largest delay" => "--max-delay".into(),
-                _ => format!("{} (--max-order × --max-delay)", l.what),
-            };
-            anyhow::anyhow!("{l}")
-        }
+        sysid::SysidError::Limit(l) => anyhow::anyhow!("{}", l.naming(FIT_FLAGS)),
         other => anyhow::anyhow!("--max-order: {other}"),
     })?;
     let mut out = Outputs::plan().input(&a.data).output(&a.out).begin()?;

@@ -341,6 +341,9 @@ pub fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
     print_doc(&TrackerValidateDoc::from(&v), a.format)
 }
 
+/// The flag of each argument of `tracker::plan::plan` that `tracker plan` sets.
+const PLAN_FLAGS: &[(&str, &str)] = &[("candidates", "--candidates"), ("select", "--select")];
+
 pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
     let PlanCommand::Tracker(a) = c;
     if !(a.noise.is_finite() && a.noise > 0.0) {
@@ -356,13 +359,9 @@ pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
             a.select
         );
     }
-    mtwin::methods::tracker::plan::check_plan_size(a.candidates, a.select).map_err(|mut e| {
-        e.what = match e.what.as_str() {
-            "the number of candidates" => "--candidates".into(),
-            _ => "--candidates × --select".into(),
-        };
-        anyhow::anyhow!("{e}")
-    })?;
+    mtwin::methods::tracker::plan::check_plan_size(a.candidates, a.select)
+        .map_err(|e| anyhow::anyhow!("{}", e.naming(PLAN_FLAGS)))?;
+
     let mut out = Outputs::plan()
         .input(&a.machine)
         .output(&a.out_csv)

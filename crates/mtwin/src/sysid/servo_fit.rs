@@ -127,13 +127,15 @@ impl ServoFitOptions {
                 "the largest order must be at least 1 (a servo has at least one pole)".into(),
             ));
         }
-        limits::check(
+        limits::check_fields(
+            &["max_order"],
             "the largest order",
             self.max_order as f64,
             limits::MAX_MODEL_ORDER,
             "a servo axis needs a few poles; use a smaller order",
         )?;
-        limits::check(
+        limits::check_fields(
+            &["max_delay"],
             "the largest delay",
             self.max_delay as f64,
             limits::MAX_DELAY_SAMPLES,
@@ -141,7 +143,8 @@ impl ServoFitOptions {
         )?;
         let n =
             self.max_order as f64 * (self.max_order as f64 + 1.0) * (self.max_delay as f64 + 1.0);
-        limits::check(
+        limits::check_fields(
+            &["max_order", "max_delay"],
             "the number of structures to fit (orders × delays)",
             n,
             limits::MAX_FIT_CANDIDATES,

@@ -167,15 +167,19 @@ pub struct Plan {
 /// Checks the size of a plan before any work: at most
 /// [`crate::limits::MAX_TRACKER_CANDIDATES`] candidates, and the selection
 /// work (`candidates × select`, each step of the D-optimal selection scores
-/// every candidate) at most [`crate::limits::MAX_TRACKER_WORK`].
+/// every candidate) at most [`crate::limits::MAX_TRACKER_WORK`]. The
+/// error's [`fields`](crate::limits::LimitError::fields) are `candidates` and
+/// `select`, the names of the arguments of [`plan`].
 pub fn check_plan_size(candidates: usize, select: usize) -> Result<(), crate::limits::LimitError> {
-    crate::limits::check(
+    crate::limits::check_fields(
+        &["candidates"],
         "the number of candidates",
         candidates as f64,
         crate::limits::MAX_TRACKER_CANDIDATES,
         "every candidate holds a Jacobian; use fewer candidates",
     )?;
-    crate::limits::check(
+    crate::limits::check_fields(
+        &["candidates", "select"],
         "candidates × selected poses",
         candidates as f64 * select as f64,
         crate::limits::MAX_TRACKER_WORK,
