@@ -146,9 +146,33 @@ pub fn fmt_message_number(x: f64) -> String {
     }
 }
 
+/// [`fmt_message_number`] at a fixed number of decimals, for messages that
+/// round (`12.81 µm`): `{:.decimals$}` while the magnitude is below 1e9,
+/// otherwise the scientific form with `decimals` digits after the point (so
+/// 1e308 at one decimal is `1.0e308`, not 311 characters).
+pub fn fmt_message_fixed(x: f64, decimals: usize) -> String {
+    if x.is_finite() && x.abs() < 1e9 {
+        format!("{x:.decimals$}")
+    } else if x.is_finite() {
+        format!("{x:.decimals$e}")
+    } else {
+        crate::io::fmt_f64(x)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fixed_message_numbers_are_short() {
+        assert_eq!(fmt_message_fixed(12.814, 2), "12.81");
+        assert_eq!(fmt_message_fixed(-0.26, 1), "-0.3");
+        assert_eq!(fmt_message_fixed(1e308, 1), "1.0e308");
+        assert_eq!(fmt_message_fixed(-3.25e12, 2), "-3.25e12");
+        assert_eq!(fmt_message_fixed(f64::INFINITY, 1), "inf");
+        assert!(fmt_message_fixed(f64::MAX, 6).len() < 20);
+    }
 
     #[test]
     fn message_numbers_are_short_and_round_trip() {

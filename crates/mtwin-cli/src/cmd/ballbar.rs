@@ -433,7 +433,7 @@ fn run_simulate(a: SimulateArgs) -> anyhow::Result<()> {
     if !(a.noise >= 0.0 && a.noise.is_finite()) {
         bail!(
             "--noise {} must be a non-negative standard deviation in mm",
-            a.noise
+            mtwin::limits::fmt_message_number(a.noise)
         );
     }
     let mut specs = Vec::new();

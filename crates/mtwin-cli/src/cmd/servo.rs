@@ -227,7 +227,7 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
     note(format!(
         "{} samples (noise {} mm, seed {}) → {}",
         rows.len(),
-        a.noise,
+        mtwin::limits::fmt_message_number(a.noise),
         a.seed,
         a.out.display()
     ));

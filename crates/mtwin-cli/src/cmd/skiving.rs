@@ -213,12 +213,12 @@ fn setup_error(a: SetupErrorArgs) -> anyhow::Result<()> {
     }
     for &i in &inconsistent {
         warn(format!(
-            "{}:{}: touch {} is inconsistent with the others (residual {:.2} µm, {:.1} times its expected size)",
+            "{}:{}: touch {} is inconsistent with the others (residual {} µm, {} times its expected size)",
             a.data.display(),
             t.line(i),
             i + 1,
-            s.residuals[i] * 1e3,
-            s.standardized[i].unwrap_or(f64::NAN).abs()
+            mtwin::limits::fmt_message_fixed(s.residuals[i] * 1e3, 2),
+            mtwin::limits::fmt_message_fixed(s.standardized[i].unwrap_or(f64::NAN).abs(), 1)
         ));
     }
     if s.flags

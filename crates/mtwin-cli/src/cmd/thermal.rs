@@ -373,7 +373,7 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
         "{} rows ({} height(s), noise {} mm, seed {}) → {}",
         data.rows.len(),
         heights.len(),
-        a.noise,
+        mtwin::limits::fmt_message_number(a.noise),
         a.seed,
         a.out.display()
     ));

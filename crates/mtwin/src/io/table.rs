@@ -278,7 +278,8 @@ pub(super) fn parse_number(
             line,
             index + 1,
             format!(
-                "column `{name}` holds `{s}`, beyond the largest magnitude accepted ({}): no quantity in these files is that large",
+                "column `{name}` holds {}, beyond the largest magnitude accepted ({}): no quantity in these files is that large",
+                crate::limits::fmt_message_number(v),
                 crate::limits::fmt_message_number(crate::limits::MAX_ABS_VALUE)
             ),
         )),

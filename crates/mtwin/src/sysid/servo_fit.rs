@@ -185,8 +185,8 @@ impl ServoFit {
         let mut w: Vec<String> = self.stability.warning().into_iter().collect();
         if (self.dc_gain - 1.0).abs() > 0.01 {
             w.push(format!(
-                "the static gain is {:.4}, not 1: the axis would not reach a held command",
-                self.dc_gain
+                "the static gain is {}, not 1: the axis would not reach a held command",
+                limits::fmt_message_fixed(self.dc_gain, 4)
             ));
         }
         w
@@ -365,7 +365,9 @@ pub(crate) fn read_servo_table(
     let a = r.required(t, "a", what, at.clone()).and_then(|i| {
         let a = r.numbers(i, &format!("`a` of {what}"))?;
         if a.first() != Some(&1.0) {
-            let a0 = a.first().map_or("nothing".to_string(), f64::to_string);
+            let a0 = a
+                .first()
+                .map_or("nothing".to_string(), |&x| limits::fmt_message_number(x));
             r.error(
                 i.span(),
                 format!("`a` of {what} must start with a_0 = 1, not {a0}"),

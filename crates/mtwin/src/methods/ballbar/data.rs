@@ -83,7 +83,8 @@ impl ModeData {
                     lines[b],
                     format!(
                         "angle {}° appears twice (also on line {}); give one reading per angle",
-                        self.angles_deg[b], lines[a]
+                        crate::limits::fmt_message_number(self.angles_deg[b]),
+                        lines[a]
                     ),
                 ));
             }
@@ -93,7 +94,10 @@ impl ModeData {
                 diags.push(Diagnostic::at_line(
                     path,
                     lines[i],
-                    format!("length_mm is {l}, but a bar reading is a positive length"),
+                    format!(
+                        "length_mm is {}, but a bar reading is a positive length",
+                        crate::limits::fmt_message_number(l)
+                    ),
                 ));
             }
         }

@@ -33,13 +33,19 @@ pub const RESIDUAL_IMBALANCE: f64 = 3.0;
 pub enum BallbarIdentifyError {
     #[error("no mode data given; at least one of the four modes is needed")]
     NoModes,
-    #[error("{what} is {value} mm; it must be a positive finite length")]
+    #[error("{what} is {} mm; it must be a positive finite length", crate::limits::fmt_message_number(*.value))]
     BadRig { what: &'static str, value: f64 },
-    #[error("the set-up error ({ex}, {ey}) mm is not finite")]
+    #[error("the set-up error ({}, {}) mm is not finite", crate::limits::fmt_message_number(*.ex), crate::limits::fmt_message_number(*.ey))]
     BadSetup { ex: f64, ey: f64 },
     #[error(transparent)]
     Machine(#[from] TrunnionError),
-    #[error("{mode}: the angles {lo}°..{hi}° lie outside the travel of {axis} ([{tlo}, {thi}]°)")]
+    #[error(
+        "{mode}: the angles {}°..{}° lie outside the travel of {axis} ([{}, {}]°)",
+        crate::limits::fmt_message_number(*.lo),
+        crate::limits::fmt_message_number(*.hi),
+        crate::limits::fmt_message_number(*.tlo),
+        crate::limits::fmt_message_number(*.thi)
+    )]
     OutOfTravel {
         mode: &'static str,
         axis: &'static str,

@@ -40,7 +40,12 @@ pub enum ProgramError {
     Machine(#[from] TrunnionError),
     #[error("the machine has no linear axis named {0}")]
     MissingLinear(&'static str),
-    #[error("{axis} = {value} is outside its travel [{lo}, {hi}]")]
+    #[error(
+        "{axis} = {} is outside its travel [{}, {}]",
+        crate::limits::fmt_message_number(*.value),
+        crate::limits::fmt_message_number(*.lo),
+        crate::limits::fmt_message_number(*.hi)
+    )]
     OutOfTravel {
         axis: String,
         value: f64,
@@ -49,7 +54,11 @@ pub enum ProgramError {
     },
     #[error("the angle list must contain 0° (the bar is set there)")]
     NoZero,
-    #[error("the dwell ({dwell} s) and feed ({feed} deg/min) must be positive")]
+    #[error(
+        "the dwell ({} s) and feed ({} deg/min) must be positive",
+        crate::limits::fmt_message_number(*.dwell),
+        crate::limits::fmt_message_number(*.feed)
+    )]
     BadTiming { dwell: f64, feed: f64 },
 }
 

@@ -34,16 +34,20 @@ pub struct SetupErrorInput {
 /// Why readings give no set-up error.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SetupErrorProblem {
-    #[error("{what} is {value}, but it must be a positive finite length in mm")]
+    #[error("{what} is {}, but it must be a positive finite length in mm", crate::limits::fmt_message_number(*.value))]
     NotALength { what: &'static str, value: f64 },
-    #[error("theta2 is {0}, which is not a finite angle")]
+    #[error("theta2 is {}, which is not a finite angle", crate::limits::fmt_message_number(*.0))]
     BadAngle(f64),
-    #[error("Lmax ({lmax} mm) is smaller than Lmin ({lmin} mm)")]
+    #[error("Lmax ({} mm) is smaller than Lmin ({} mm)", crate::limits::fmt_message_number(*.lmax), crate::limits::fmt_message_number(*.lmin))]
     MaxBelowMin { lmax: f64, lmin: f64 },
     #[error(
-        "the readings describe no triangle: cos φ = {cos_phi:.6} is outside [−1, 1] \
-         (L = {length} mm, Lmax = {lmax} mm, Lmin = {lmin} mm); check that L was read at 0° \
-         and Lmax/Lmin over a full spindle turn"
+        "the readings describe no triangle: cos φ = {} is outside [−1, 1] \
+         (L = {} mm, Lmax = {} mm, Lmin = {} mm); check that L was read at 0° \
+         and Lmax/Lmin over a full spindle turn",
+        crate::limits::fmt_message_fixed(*.cos_phi, 6),
+        crate::limits::fmt_message_number(*.length),
+        crate::limits::fmt_message_number(*.lmax),
+        crate::limits::fmt_message_number(*.lmin)
     )]
     NoTriangle {
         cos_phi: f64,

@@ -113,7 +113,9 @@ pub enum CompensateError {
     },
     /// A correction is above the limit.
     #[error(
-        "line {line}: the correction of {correction_um:.1} µm exceeds the limit of {limit_um:.1} µm (--max-correction)"
+        "line {line}: the correction of {} µm exceeds the limit of {} µm (--max-correction)",
+        crate::limits::fmt_message_fixed(*.correction_um, 1),
+        crate::limits::fmt_message_fixed(*.limit_um, 1)
     )]
     TooLarge {
         line: u64,
@@ -122,7 +124,8 @@ pub enum CompensateError {
     },
     /// Splitting did not bring the path within tolerance.
     #[error(
-        "line {line}: the compensated path still deviates by {deviation_um:.2} µm after {MAX_DEPTH} halvings"
+        "line {line}: the compensated path still deviates by {} µm after {MAX_DEPTH} halvings",
+        crate::limits::fmt_message_fixed(*.deviation_um, 2)
     )]
     NoConvergence { line: u64, deviation_um: f64 },
     /// The machine's axes are not one G-code axis letter each.

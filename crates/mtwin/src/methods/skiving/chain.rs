@@ -28,9 +28,9 @@ pub struct Geometry {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum GeometryError {
-    #[error("{name} = {value} is not a finite number")]
+    #[error("{name} = {} is not a finite number", crate::limits::fmt_message_number(*.value))]
     NotFinite { name: &'static str, value: f64 },
-    #[error("{name} = {value} mm must be positive")]
+    #[error("{name} = {} mm must be positive", crate::limits::fmt_message_number(*.value))]
     NotPositive { name: &'static str, value: f64 },
 }
 

@@ -140,7 +140,7 @@ pub enum SkivingIdentifyError {
     TooFewTouches(usize),
     #[error("the touches do not determine {}; add touches at another table angle or y position", .0.join(", "))]
     NotIdentifiable(Vec<String>),
-    #[error("the noise sigma {0} mm must be a positive finite number")]
+    #[error("the noise sigma {} mm must be a positive finite number", crate::limits::fmt_message_number(*.0))]
     Noise(f64),
     #[error("the least-squares solution did not converge: {0}")]
     NotConverged(String),

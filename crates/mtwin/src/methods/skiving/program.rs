@@ -62,17 +62,23 @@ pub struct Plan {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum PlanError {
-    #[error("x = {x} mm puts the tool beside the workpiece (|x| must be below rg = {rg} mm)")]
+    #[error(
+        "x = {} mm puts the tool beside the workpiece (|x| must be below rg = {} mm)",
+        crate::limits::fmt_message_number(*.x),
+        crate::limits::fmt_message_number(*.rg)
+    )]
     XOutside { x: f64, rg: f64 },
     #[error(
-        "the face offset {0} mm must be positive and leave the tool over the top face (below rg + rt = {1} mm)"
+        "the face offset {} mm must be positive and leave the tool over the top face (below rg + rt = {} mm)",
+        crate::limits::fmt_message_number(*.0),
+        crate::limits::fmt_message_number(*.1)
     )]
     FaceOffset(f64, f64),
-    #[error("the side depth {0} mm must be positive")]
+    #[error("the side depth {} mm must be positive", crate::limits::fmt_message_number(*.0))]
     SideDepth(f64),
-    #[error("{name} = {value} must be a positive finite number")]
+    #[error("{name} = {} must be a positive finite number", crate::limits::fmt_message_number(*.value))]
     NotPositive { name: &'static str, value: f64 },
-    #[error("{name} = {value} is not a finite number")]
+    #[error("{name} = {} is not a finite number", crate::limits::fmt_message_number(*.value))]
     NotFinite { name: &'static str, value: f64 },
 }
 

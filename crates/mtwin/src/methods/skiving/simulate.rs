@@ -32,7 +32,7 @@ pub enum SimulateError {
     Grazing { touch: usize },
     #[error("touch {touch}: no contact found along the probe axis")]
     NoContact { touch: usize },
-    #[error("the noise sigma {0} mm must be finite and not negative")]
+    #[error("the noise sigma {} mm must be finite and not negative", crate::limits::fmt_message_number(*.0))]
     Noise(f64),
 }
 

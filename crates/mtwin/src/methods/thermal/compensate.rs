@@ -116,7 +116,8 @@ pub enum CompensateError {
     Options(String),
     /// The model is unstable at some height and `allow_unstable` is off.
     #[error(
-        "the thermal model at z = {z_mm} mm: {reason}; refusing to compensate with it (allow it explicitly to go on)"
+        "the thermal model at z = {} mm: {reason}; refusing to compensate with it (allow it explicitly to go on)",
+        crate::limits::fmt_message_number(*.z_mm)
     )]
     Unstable {
         /// The height of the unstable ARX model, mm.
@@ -137,7 +138,8 @@ pub enum CompensateError {
     },
     /// The estimated duration is beyond what a drift prediction can cover.
     #[error(
-        "the program's estimated duration ({duration_min} min) exceeds {MAX_DURATION_MIN} min: check its feeds and dwells"
+        "the program's estimated duration ({} min) exceeds {MAX_DURATION_MIN} min: check its feeds and dwells",
+        crate::limits::fmt_message_number(*.duration_min)
     )]
     TooLong {
         /// Estimated duration, min.

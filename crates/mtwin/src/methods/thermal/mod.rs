@@ -63,7 +63,7 @@ pub enum ThermalError {
     #[error("{0}")]
     Input(#[from] Diagnostics),
     /// The model of one height could not be identified.
-    #[error("the drift at z = {z_mm} mm could not be modelled: {source}")]
+    #[error("the drift at z = {} mm could not be modelled: {source}", crate::limits::fmt_message_number(*.z_mm))]
     Fit {
         /// The height, mm.
         z_mm: f64,

@@ -81,8 +81,9 @@ pub fn read_programme(path: &Path, model: &ThermalModel) -> Result<Programme, Di
             diags.push(table.row_error(
                 r,
                 format!(
-                    "time {} min is not on the model's sample grid (t = k x {period} min, k >= 0)",
-                    v[0]
+                    "time {} min is not on the model's sample grid (t = k x {} min, k >= 0)",
+                    crate::limits::fmt_message_number(v[0]),
+                    crate::limits::fmt_message_number(period)
                 ),
             ));
             continue;
@@ -97,9 +98,10 @@ pub fn read_programme(path: &Path, model: &ThermalModel) -> Result<Programme, Di
                 diags.push(table.row_error(
                     r,
                     format!(
-                        "time {} min does not follow the previous sample ({} min) by one period of {period} min",
-                        v[0],
-                        p as f64 * period
+                        "time {} min does not follow the previous sample ({} min) by one period of {} min",
+                        crate::limits::fmt_message_number(v[0]),
+                        crate::limits::fmt_message_number(p as f64 * period),
+                        crate::limits::fmt_message_number(period)
                     ),
                 ));
             }
@@ -332,7 +334,7 @@ pub(super) fn fit_with(
                 format!(
                     "z = {} mm has {} samples, but models up to order {} have up to {} parameters and \
                      need at least {needed} samples (measure longer, add runs or lower --max-order)",
-                    h.z_mm,
+                    crate::limits::fmt_message_number(h.z_mm),
                     h.samples(),
                     options.max_order,
                     grid.max_params()
@@ -389,7 +391,10 @@ pub(super) fn fit_with(
             select_orders(&runs, &grid, options.criterion, Start::AtRest).map_err(fail)?;
         let fit = &selection.fit;
         if let Some(w) = fit.model.stability().warning() {
-            warnings.push(format!("z = {} mm: {w}", h.z_mm));
+            warnings.push(format!(
+                "z = {} mm: {w}",
+                crate::limits::fmt_message_number(h.z_mm)
+            ));
         }
         let stats = HeightStats {
             samples: fit.stats.samples,

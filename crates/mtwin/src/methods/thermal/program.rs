@@ -112,8 +112,10 @@ pub enum ThermalProgramError {
     Setting(String),
     /// A probing pass does not fit in a sample period.
     #[error(
-        "one probing pass takes {pass_s:.1} s, not shorter than the sample period {period_s:.1} s: \
-         fewer balls, a faster probing feed or a longer period"
+        "one probing pass takes {} s, not shorter than the sample period {} s: \
+         fewer balls, a faster probing feed or a longer period",
+        crate::limits::fmt_message_fixed(*.pass_s, 1),
+        crate::limits::fmt_message_fixed(*.period_s, 1)
     )]
     PassTooLong {
         /// Pass duration, s.

@@ -47,7 +47,12 @@ pub enum TrackerIdentifyError {
     },
     #[error("point {point} holds a value that is not a finite number")]
     NonFinite { point: usize },
-    #[error("point {point}: axis {axis} at {value} is outside its travel [{lo}, {hi}]")]
+    #[error(
+        "point {point}: axis {axis} at {} is outside its travel [{}, {}]",
+        crate::limits::fmt_message_number(*.value),
+        crate::limits::fmt_message_number(*.lo),
+        crate::limits::fmt_message_number(*.hi)
+    )]
     OutOfTravel {
         point: usize,
         axis: String,

@@ -41,11 +41,13 @@ pub enum TwinError {
     #[error(transparent)]
     Program(InterpolateError),
     /// The command period is not a positive number.
-    #[error("the command period must be a positive number of seconds, not {0}")]
+    #[error("the command period must be a positive number of seconds, not {}", crate::limits::fmt_message_number(*.0))]
     Period(f64),
     /// A servo model runs at another period than the commands.
     #[error(
-        "axis {axis}: its servo model runs at ts = {servo} s but the commands come every {commands} s; identify the servo at the command period"
+        "axis {axis}: its servo model runs at ts = {} s but the commands come every {} s; identify the servo at the command period",
+        crate::limits::fmt_message_number(*.servo),
+        crate::limits::fmt_message_number(*.commands)
     )]
     ServoPeriod {
         /// Axis name.
