@@ -13,6 +13,15 @@ use std::fmt;
 /// data set stay far from `f64` overflow (1e308).
 pub const MAX_ABS_VALUE: f64 = 1e15;
 
+/// Largest magnitude of a time in a time column (`t_s`, `t_min`, see
+/// [`crate::io::columns::TIME`]): wider than [`MAX_ABS_VALUE`] so that a raw
+/// epoch timestamp reads — in µs (1.7e15) or ns (1.7e18, up to the year
+/// 2286). Times are used through their differences (sample period,
+/// sampling checks), so the magnitude does not reach a square or a sum of
+/// squares. The value is read in the column's unit as written (a `t_s`
+/// column of epoch nanoseconds gives a sample period in nanoseconds).
+pub const MAX_ABS_TIME: f64 = 1e19;
+
 /// Largest magnitude of an error function (mm or rad) or of its derivative
 /// (per mm or per degree) anywhere over its axis travel.
 pub const MAX_ERROR_VALUE: f64 = 1e6;

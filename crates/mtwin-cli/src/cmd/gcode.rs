@@ -185,7 +185,7 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
     let mut failure: Option<InterpolateError> = None;
     let mut summary = None;
     let written = out.write_with(&a.out, |w| -> std::io::Result<()> {
-        let mut header = vec!["t_s".to_string()];
+        let mut header = vec![mtwin::io::columns::T_S.to_string()];
         header.extend(m.axis_names().iter().map(|s| s.to_string()));
         writeln!(w, "{}", header.join(","))?;
         let mut row = Vec::with_capacity(m.n_axes() + 1);

@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use mtwin::io::{Outputs, Table, fmt_f64, write_csv_row};
+use mtwin::io::{Outputs, Table, columns, fmt_f64, write_csv_row};
 use mtwin::sysid::{self, ServoExcitationDoc, ServoFitDoc, ServoFitOptions, ServoSimulateDoc};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
@@ -200,8 +200,8 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
         );
     }
     let table = load_table(&a.commands)?;
-    let column = a.axis.as_deref().unwrap_or("command_mm");
-    let rows = table.number_rows(&["t_s", column]).map_err(diag)?;
+    let column = a.axis.as_deref().unwrap_or(columns::SERVO_COMMAND);
+    let rows = table.number_rows(&[columns::T_S, column]).map_err(diag)?;
     check_grid(&table, &rows, servo.ts())?;
     let commands: Vec<f64> = rows.iter().map(|r| r[1]).collect();
     let feedback = servo.simulate(&commands);
@@ -216,7 +216,7 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
     let noise = Normal::new(0.0, a.noise).context("the noise level")?;
     let mut rng = rand::rngs::StdRng::seed_from_u64(a.seed);
     out.write_with(&a.out, |w| -> std::io::Result<()> {
-        w.write_all(b"t_s,command_mm,feedback_mm\n")?;
+        w.write_all(format!("{}\n", columns::header(&columns::SERVO_LOG)).as_bytes())?;
         for (r, y) in rows.iter().zip(&feedback) {
             write_csv_row(w, &[r[0], r[1], y + noise.sample(&mut rng)])?;
         }

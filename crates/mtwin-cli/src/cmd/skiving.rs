@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use mtwin::io::{Outputs, fmt_f64};
+use mtwin::io::{Outputs, columns, fmt_f64};
 use mtwin::methods::skiving::closed_form::{self, STANDARD_FORMULAS};
 use mtwin::methods::skiving::doc::{SkivingProgramDoc, SkivingSetupDoc, SkivingSimulateDoc};
 use mtwin::methods::skiving::program::{self, Dialect, Motion, Plan};
@@ -371,7 +371,12 @@ fn simulate_touches(a: SimulateArgs) -> anyhow::Result<()> {
         touches.extend(simulate(&plan, &g, &truth, noise).context("cannot simulate the touches")?);
     }
     out.write_with(&a.out, |w| -> std::io::Result<()> {
-        writeln!(w, "x,y,z,a,b,c,point,contact")?;
+        writeln!(
+            w,
+            "{},{}",
+            columns::header(&columns::SKIVING_TOUCH_POSITION),
+            columns::header(&columns::SKIVING_TOUCH_LABELS)
+        )?;
         for t in &touches {
             let q = t.at;
             let nums = [q.x, q.y, q.z, q.a, q.b, q.c].map(fmt_f64).join(",");

@@ -198,7 +198,9 @@ pub struct CompensateArgs {
 /// Axis positions and measured x,y,z of every row.
 fn read_points(t: &Table, m: &Machine) -> anyhow::Result<Vec<TrackerPoint>> {
     let poses = read_poses(t, m, true).map_err(diag)?;
-    let xyz = t.number_rows(&["x", "y", "z"]).map_err(diag)?;
+    let xyz = t
+        .number_rows(&mtwin::io::columns::TRACKER_MEASURED)
+        .map_err(diag)?;
     Ok(poses
         .into_iter()
         .zip(xyz)
@@ -410,7 +412,13 @@ pub fn run_simulate(c: SimulateCommand) -> anyhow::Result<()> {
             r
         })
         .collect();
-    write_points(&mut out, &a.out, &m, &rows, &["x", "y", "z"])?;
+    write_points(
+        &mut out,
+        &a.out,
+        &m,
+        &rows,
+        &mtwin::io::columns::TRACKER_MEASURED,
+    )?;
     out.commit()?;
     let doc = TrackerSimulateDoc {
         noise: a.noise,
@@ -459,7 +467,7 @@ pub fn run_compensate(a: CompensateArgs) -> anyhow::Result<()> {
         &a.out,
         &m,
         &rows,
-        &["error_before", "error_after", "axis_error_after"],
+        &mtwin::io::columns::TRACKER_COMPENSATED,
     )?;
     out.commit()?;
     let doc = CompensatePointsDoc {

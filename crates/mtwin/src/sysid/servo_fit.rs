@@ -72,7 +72,7 @@ impl ServoLog {
 /// and evenly spaced; every problem is reported with its line.
 pub fn read_servo_log(path: &Path) -> Result<ServoLog, Diagnostics> {
     let table = Table::read(path)?;
-    let rows = table.number_rows(&["t_s", "command_mm", "feedback_mm"])?;
+    let rows = table.number_rows(&crate::io::columns::SERVO_LOG)?;
     if rows.len() < 2 {
         return Err(Diagnostic::whole(path, "the log needs at least two samples").into());
     }

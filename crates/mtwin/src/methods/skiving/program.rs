@@ -244,7 +244,12 @@ pub fn program(
     s.push_str("G21 G90 G94 G17\n");
     match dialect {
         Dialect::LinuxCnc => {
-            s.push_str("(LOGOPEN,skiving-touches.csv)\n(LOG,x,y,z,a,b,c,point,contact)\n")
+            use crate::io::columns::{SKIVING_TOUCH_LABELS, SKIVING_TOUCH_POSITION, header};
+            s.push_str(&format!(
+                "(LOGOPEN,skiving-touches.csv)\n(LOG,{},{})\n",
+                header(&SKIVING_TOUCH_POSITION),
+                header(&SKIVING_TOUCH_LABELS)
+            ))
         }
         Dialect::Fanuc => s.push_str("POPEN\n"),
     }

@@ -88,7 +88,8 @@ impl TruthMachine {
         let noise =
             Normal::new(0.0, noise_mm.max(0.0)).expect("a finite non-negative standard deviation");
         let mut rng = StdRng::seed_from_u64(seed);
-        let mut s = String::from("run,t_min,speed_rpm,z_mm,drift_mm\n");
+        use crate::io::columns::{DRIFT_MM, SPEED_RPM, T_MIN, Z_MM};
+        let mut s = format!("run,{T_MIN},{SPEED_RPM},{Z_MM},{DRIFT_MM}\n");
         for (label, speeds) in runs {
             let drifts: Vec<Vec<f64>> = heights.iter().map(|&z| self.drift(speeds, z)).collect();
             for (k, n) in speeds.iter().enumerate() {

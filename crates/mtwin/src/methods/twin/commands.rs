@@ -32,7 +32,7 @@ where
     F: FnMut(&TwinSample) -> io::Result<()>,
 {
     let mut rows = CsvRows::new(path, reader)?;
-    let mut names = vec!["t_s"];
+    let mut names = vec![crate::io::columns::T_S];
     names.extend(twin.axis_names().iter().map(String::as_str));
     let cols = rows.require(&names)?;
     let mut first = Vec::new();

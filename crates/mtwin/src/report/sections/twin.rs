@@ -10,7 +10,7 @@ use crate::report::svg::{Series, xy};
 
 /// The columns of `PRED.csv`, in order (docs/twin.md).
 pub const COLUMNS: [&str; 15] = [
-    "t_s",
+    crate::io::columns::T_S,
     "x_cmd",
     "y_cmd",
     "z_cmd",
