@@ -156,7 +156,7 @@ fn skiving_touch_off_reads_back_in_every_dialect() {
         clearance: 20.0,
         feed: 15.0,
     };
-    let (h, rt, rg, x) = (80.0, 40.0, 60.0, 3.3);
+    let (h, rt, rg, x): (f64, f64, f64, f64) = (80.0, 40.0, 60.0, 3.3);
     let f = rg / 2.0;
     let side_y = rt + (rg * rg - x * x).sqrt();
     let safe = -h + m.clearance;
