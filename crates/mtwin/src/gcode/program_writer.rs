@@ -166,7 +166,7 @@ const FANUC_DIGITS: usize = 8;
 
 /// Values from this magnitude on do not fit a Fanuc word in mm (8 digits
 /// at the least increment of 0.001 mm).
-const FANUC_LARGEST: f64 = 99_999.9995;
+const FANUC_LARGEST: f64 = 99_999.999_5;
 
 /// Letters of axis words, in the order of [`super::Axis`].
 const AXIS_LETTERS: &str = "XYZABCUVW";

@@ -319,10 +319,12 @@ mod tests {
     }
 
     fn time_of(text: &str, dialect: Dialect) -> f64 {
-        let mut o = StatsOptions::default();
-        o.interp = InterpOptions {
-            dialect,
-            ..InterpOptions::default()
+        let o = StatsOptions {
+            interp: InterpOptions {
+                dialect,
+                ..InterpOptions::default()
+            },
+            ..StatsOptions::default()
         };
         stats(text.as_bytes(), &o).unwrap().total_time()
     }
