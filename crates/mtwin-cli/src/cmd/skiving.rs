@@ -5,10 +5,11 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
+use mtwin::gcode::Dialect;
 use mtwin::io::{Outputs, columns, fmt_f64};
 use mtwin::methods::skiving::closed_form::{self, STANDARD_FORMULAS};
 use mtwin::methods::skiving::doc::{SkivingProgramDoc, SkivingSetupDoc, SkivingSimulateDoc};
-use mtwin::methods::skiving::program::{self, Dialect, Motion, Plan};
+use mtwin::methods::skiving::program::{self, Motion, Plan};
 use mtwin::methods::skiving::simulate::{Noise, simulate};
 use mtwin::methods::skiving::touch::{DEFAULT_PLAUSIBILITY_MM, read_touches};
 use mtwin::methods::skiving::{Geometry, Options, SetupError, Touch, UncertaintyBasis, identify};
@@ -324,7 +325,11 @@ fn write_program(a: ProgramArgs) -> anyhow::Result<()> {
     };
     let dialect = match a.dialect {
         DialectArg::Linuxcnc => Dialect::LinuxCnc,
-        DialectArg::Fanuc => Dialect::Fanuc,
+        // Every number is written with a decimal point: the program reads
+        // the same with and without decimal point programming.
+        DialectArg::Fanuc => Dialect::Fanuc {
+            decimal_point_programming: false,
+        },
     };
     let text = program::program(&a.plan.plan(&g), &g, &motion, dialect)
         .context("cannot write the touch-off program")?;

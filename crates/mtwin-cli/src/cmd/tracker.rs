@@ -376,7 +376,7 @@ pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
     spin.finish_and_clear();
     let p = p.context("cannot evaluate the chosen poses")?;
     write_points(&mut out, &a.out_csv, &m, &p.poses, &[])?;
-    let g = gcode(&m, &p.poses, 2000.0, 2.0);
+    let g = gcode(&m, &p.poses, 2000.0, 2.0).context("cannot write the pose program")?;
     out.write(&a.out_gcode, g.as_bytes())
         .with_context(|| format!("cannot write {}", a.out_gcode.display()))?;
     out.commit()?;

@@ -24,6 +24,9 @@
 //!   duration of a move at a feed, of a rapid, straight interpolation).
 //! * Machine travel checks during statistics plug in through
 //!   [`MotionObserver`].
+//! * [`ProgramWriter`]: the one writer of generated programs (numbers,
+//!   decimal points, dwell, probing, comments, start and end per
+//!   [`Dialect`]).
 //!
 //! ```
 //! use mtwin::gcode::{self, Block, StatsOptions};
@@ -50,6 +53,8 @@ mod interpolate;
 mod lexer;
 mod profile;
 #[warn(missing_docs)]
+mod program_writer;
+#[warn(missing_docs)]
 mod stats;
 mod stream;
 mod syntax;
@@ -70,6 +75,9 @@ pub use interpolate::{
     InterpolateError, InterpolateOptions, InterpolationSummary, Interpolator, Sample, interpolate,
 };
 pub use profile::Trapezoid;
+pub use program_writer::{
+    ArcDirection, BlockBuilder, ProgramEnd, ProgramWriter, WriteError, WriterOptions,
+};
 pub use stats::{AxisRange, MotionObserver, ProgramStats, StatsOptions, stats, stats_with};
 pub use stream::{BlockReader, BlockWriter, Program};
 pub use syntax::{Block, CommentKind, Item, LineEnd, NumberFormat, Span, Value, Word};

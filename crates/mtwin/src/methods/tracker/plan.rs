@@ -18,6 +18,7 @@ use super::model::{TrackerModel, TrackerPoint};
 use super::simulate::simulate;
 use crate::fit::FitReport;
 use crate::fit::{Model, problem::BlockLayout};
+use crate::gcode::{Axis, Dialect, ProgramEnd, ProgramWriter, WriteError};
 use crate::model::{Machine, ParameterSet};
 
 /// Ridge added to the scaled information matrix (columns have unit norm
@@ -206,19 +207,33 @@ pub fn plan(
     Ok(Plan { poses, expected })
 }
 
-/// The pose program: rapid-free linear moves to every pose with a dwell for
-/// the tracker reading, axis words by axis name (mm, degree).
-pub fn gcode(machine: &Machine, poses: &[Vec<f64>], feed: f64, dwell_s: f64) -> String {
-    let mut s = String::from("(mtwin tracker plan: measurement poses)\nG90 G21 G94\n");
+/// The pose program (LinuxCNC, written by [`ProgramWriter`]): rapid-free
+/// linear moves to every pose at `feed` with a dwell of `dwell_s` for the
+/// tracker reading, one axis word per machine axis in machine order (mm,
+/// degree). Fails if an axis name is not a G-code axis letter or a value
+/// cannot be written.
+pub fn gcode(
+    machine: &Machine,
+    poses: &[Vec<f64>],
+    feed: f64,
+    dwell_s: f64,
+) -> Result<String, WriteError> {
+    let letters: Vec<char> = Axis::of_machine(machine)?
+        .into_iter()
+        .map(|a| char::from(a.letter()))
+        .collect();
+    let mut w = ProgramWriter::new(Dialect::LinuxCnc);
+    w.start(None)?;
+    w.comment("mtwin tracker plan: measurement poses")?;
+    w.block().g(90).g(21).g(94).write()?;
     for (k, q) in poses.iter().enumerate() {
-        s.push_str(&format!("(POSE {})\nG01", k + 1));
-        for (a, v) in machine.axes.iter().zip(q) {
-            s.push_str(&format!(" {}{:.4}", a.name, v));
-        }
-        s.push_str(&format!(" F{feed}\nG04 P{dwell_s}\n"));
+        w.comment(&format!("POSE {}", k + 1))?;
+        let words: Vec<(char, f64)> = letters.iter().copied().zip(q.iter().copied()).collect();
+        w.linear(&words, Some(feed))?;
+        w.dwell(dwell_s)?;
     }
-    s.push_str("M30\n");
-    s
+    w.end(ProgramEnd::M30)?;
+    Ok(w.finish())
 }
 
 #[cfg(test)]
@@ -286,8 +301,11 @@ mod tests {
     #[test]
     fn gcode_lists_every_pose_with_a_dwell() {
         let m = afp();
-        let g = gcode(&m, &[vec![1.0, 2.0, -3.0, 4.0, 5.0, 6.0]], 3000.0, 2.0);
-        assert!(g.contains("G01 X1.0000 Y2.0000 Z-3.0000 B4.0000 A5.0000 C6.0000 F3000\nG04 P2\n"));
-        assert!(g.ends_with("M30\n"));
+        let g = gcode(&m, &[vec![1.0, 2.0, -3.25, 4.0, 5.0, 6.0]], 3000.0, 2.0).unwrap();
+        assert!(
+            g.contains("(POSE 1)\nG1 X1 Y2 Z-3.25 B4 A5 C6 F3000\nG4 P2\n"),
+            "{g}"
+        );
+        assert!(g.starts_with("%\n") && g.ends_with("M30\n%\n"), "{g}");
     }
 }
