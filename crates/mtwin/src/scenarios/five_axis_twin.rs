@@ -213,9 +213,9 @@ pub fn against_original(original: &[TwinRow], rows: &[TwinRow]) -> Vec<TwinRow> 
 }
 
 /// The source line (1-based) of `program`'s first feed move — the first
-/// `Feed` (G1) or `Arc` (G2/G3) event of the interpreter, whatever the
-/// block's spelling (`N10 G1`, `G1X5`, a modal continuation `X5` after
-/// `G1`) — or `None` when it has none.
+/// `Feed` (G1) event that moves an axis or `Arc` (G2/G3) event of the
+/// interpreter, whatever the block's spelling (`N10 G1`, `G1X5`, a modal
+/// continuation `X5` after `G1`) — or `None` when it has none.
 pub fn first_feed_line(
     program: &[u8],
     opts: &InterpOptions,
@@ -225,7 +225,11 @@ pub fn first_feed_line(
         if first.is_none() {
             first = events
                 .iter()
-                .find(|e| matches!(e.kind, EventKind::Feed(_) | EventKind::Arc(_)))
+                .find(|e| match &e.kind {
+                    EventKind::Feed(l) => l.from != l.to,
+                    EventKind::Arc(_) => true,
+                    _ => false,
+                })
                 .map(|e| e.at.line);
         }
         Ok(())
