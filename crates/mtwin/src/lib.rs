@@ -69,6 +69,8 @@ pub mod methods;
 pub mod model;
 pub mod report;
 #[warn(missing_docs)]
+pub mod scenarios;
+#[warn(missing_docs)]
 pub mod sysid;
 
 /// Re-export of the dense linear-algebra crate used in the public API (`Mat`, `Col`).

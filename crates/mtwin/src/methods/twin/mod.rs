@@ -12,6 +12,7 @@
 //! samples are spooled to a temporary file (56 bytes per sample on disk) and
 //! rows are streamed to the caller.
 
+pub mod breakdown;
 pub mod commands;
 pub mod doc;
 pub mod nearest;
@@ -21,6 +22,7 @@ pub mod plot;
 #[cfg(test)]
 mod tests;
 
+pub use breakdown::{Commands, breakdown, predict};
 pub use commands::{predict_csv, predict_gcode};
 pub use doc::{BySourceDoc, StretchDoc, TwinBreakdownDoc, TwinErrorsDoc, TwinPredictDoc, dominant};
 pub use nearest::{CommandPath, Nearest, angle_between};
@@ -79,6 +81,10 @@ pub enum TwinError {
     /// The temporary spool of actual samples failed.
     #[error("temporary spool file: {0}")]
     Spool(std::io::Error),
+    /// The input could not be opened or read again (a breakdown reads it
+    /// once per run).
+    #[error("cannot read the input: {0}")]
+    Read(std::io::Error),
     /// The caller's sink failed (writing the output).
     #[error("{0}")]
     Sink(std::io::Error),
