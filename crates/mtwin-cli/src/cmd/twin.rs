@@ -116,11 +116,14 @@ impl Bars {
 
 /// The input of `a`, as the library takes it: `opts` holds the interpolation
 /// settings of `--gcode`.
-fn commands<'a>(a: &'a PredictArgs, opts: &'a Option<InterpolateOptions>) -> Commands<'a> {
+fn commands<'a>(
+    a: &'a PredictArgs,
+    opts: &'a Option<InterpolateOptions>,
+) -> anyhow::Result<Commands<'a>> {
     match (&a.commands, opts) {
-        (Some(path), _) => Commands::Csv { path },
-        (None, Some(opts)) => Commands::Gcode { opts },
-        (None, None) => unreachable!("clap requires --commands or --gcode"),
+        (Some(path), _) => Ok(Commands::Csv { path }),
+        (None, Some(opts)) => Ok(Commands::Gcode { opts }),
+        (None, None) => anyhow::bail!("--commands or --gcode is needed"),
     }
 }
 
@@ -177,7 +180,7 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
-    let commands = commands(&a, &opts);
+    let commands = commands(&a, &opts)?;
     let path = input(&a)?;
     let mut bars = Bars { bar: None };
     let mut plot = a.plot.as_ref().map(|_| PlotCollector::new(2000));

@@ -30,10 +30,13 @@ pub struct Options {
 impl Default for Options {
     /// Tolerance 1 µm, corrections up to 2 mm, otherwise the defaults.
     fn default() -> Self {
-        let mut compensate = CompensateOptions::default();
-        compensate.tol = 0.001;
-        compensate.max_correction = 2.0;
-        Options { compensate }
+        Options {
+            compensate: CompensateOptions {
+                tol: 0.001,
+                max_correction: 2.0,
+                ..Default::default()
+            },
+        }
     }
 }
 
