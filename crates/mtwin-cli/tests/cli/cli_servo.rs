@@ -463,7 +463,7 @@ fn bad_input_exits_1_names_the_line_and_writes_nothing() {
 #[test]
 fn excitation_program_stays_inside_the_travel() {
     let dir = tempfile::tempdir().unwrap();
-    let o = mtwin(
+    let (d, _) = json_round_trip::<mtwin::sysid::ServoExcitationDoc>(
         dir.path(),
         &[
             "servo",
@@ -476,13 +476,8 @@ fn excitation_program_stays_inside_the_travel() {
             "3000",
             "--out",
             "exc.nc",
-            "--format",
-            "json",
         ],
     );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let d: mtwin::sysid::ServoExcitationDoc =
-        serde_json::from_str(&stdout(&o)).expect("stdout is a ServoExcitationDoc");
     assert_eq!((d.axis.as_str(), d.travel), ("X", [-100.0, 100.0]));
     let text = std::fs::read_to_string(dir.path().join("exc.nc")).unwrap();
     assert_eq!(d.lines, text.lines().count());
