@@ -13,6 +13,7 @@ mod cli_ballbar;
 mod cli_compensate;
 mod cli_gcode;
 mod cli_model;
+mod cli_positioning;
 mod cli_predict;
 mod cli_report;
 mod cli_servo;
