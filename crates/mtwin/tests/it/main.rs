@@ -9,6 +9,7 @@
 #[path = "../../src/test_support.rs"]
 mod shared;
 
+mod ballbar_circular;
 mod gcode_conformance;
 mod gcode_corpus;
 mod gcode_props;
