@@ -4,6 +4,7 @@ pub mod common;
 
 pub use common::diag as common_diag;
 mod ballbar;
+mod ballbar_circular;
 mod compensate;
 mod completions;
 mod demo;

@@ -10,6 +10,7 @@ mod shared;
 mod bad_input;
 mod browser;
 mod cli_ballbar;
+mod cli_ballbar_circular;
 mod cli_compensate;
 mod cli_gcode;
 mod cli_model;
