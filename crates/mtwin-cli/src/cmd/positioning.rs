@@ -71,7 +71,7 @@ pub struct EvaluateArgs {
     #[arg(long, default_value_t = 0.5)]
     min_dwell_s: f64,
     /// Largest |measured − target| of a dwell that reaches its target, mm.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.1)]
     reach_tol: f64,
     /// Output format.
     #[arg(long, value_enum, default_value_t)]

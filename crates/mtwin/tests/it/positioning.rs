@@ -300,3 +300,71 @@ fn bad_runs_are_clear_errors_with_file_line_column() {
         "{e}"
     );
 }
+
+#[test]
+fn rtx_capture_dwells_become_approaches() {
+    // 100 Hz capture: for each of 2 cycles, 0 → 10 → 20 → 20.5 → 20 → 10 → 0 → -0.5 → (next);
+    // each dwell 1 s at target + known deviation, moves 0.5 s linear.
+    let dev =
+        |t: f64, up: bool, c: usize| (if up { 0.002 } else { -0.003 }) + t * 1e-4 + c as f64 * 1e-4;
+    let mut x: Vec<f64> = Vec::new();
+    let mut at = 0.0_f64;
+    let mut go = |to: f64, hold: f64, x: &mut Vec<f64>| {
+        for k in 1..=50 {
+            x.push(at + (to - at) * k as f64 / 50.0);
+        }
+        x.extend(std::iter::repeat_n(to + hold, 100));
+        at = to + hold;
+    };
+    go(-0.5, 0.0, &mut x);
+    for c in 0..2 {
+        for t in [0.0, 10.0, 20.0] {
+            go(t, dev(t, true, c), &mut x);
+        }
+        go(20.5, 0.0, &mut x);
+        for t in [20.0, 10.0, 0.0] {
+            go(t, dev(t, false, c), &mut x);
+        }
+        go(-0.5, 0.0, &mut x);
+    }
+    let mut bytes =
+        b"HEADER::\r\nOwner: test\r\nSample rate: 100\r\nActual sample rate: 100\r\nData:\r\n"
+            .to_vec();
+    for v in &x {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    bytes.extend_from_slice(b"EOF::\r\n");
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("cap.rtx");
+    std::fs::write(&p, &bytes).unwrap();
+    let opts = Options {
+        format: InputFormat::Auto,
+        log: LogOptions {
+            targets_mm: Some(vec![0.0, 10.0, 20.0]),
+            ..LogOptions::default()
+        },
+    };
+    let doc = positioning::run(&p, &opts).unwrap();
+    assert_eq!((doc.targets, doc.cycles), (3, 2));
+    for (i, t) in [0.0, 10.0, 20.0].iter().enumerate() {
+        for c in 0..2 {
+            close(
+                doc.per_target[i].deviations_up_um[c],
+                dev(*t, true, c) * 1000.0,
+                1e-6,
+                "up",
+            );
+            close(
+                doc.per_target[i].deviations_down_um[c],
+                dev(*t, false, c) * 1000.0,
+                1e-6,
+                "down",
+            );
+        }
+    }
+    // no targets given: a clear error
+    let e = positioning::run(&p, &Options::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("give the target positions"), "{e}");
+}

@@ -359,7 +359,7 @@ pub fn circular(
         .clone()
         .pseudo_inverse(1e-12)
         .unwrap_or_else(|_| DMatrix::zeros(NCOL, NCOL));
-    let mut bad = vec![false; NCOL];
+    let mut bad = [false; NCOL];
     let mut groups: Vec<Vec<String>> = Vec::new();
     let smin = svd
         .singular_values

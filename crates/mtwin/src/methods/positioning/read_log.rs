@@ -61,7 +61,7 @@ impl Default for LogOptions {
             dwell_band_mm: 0.005,
             min_dwell_samples: 3,
             min_dwell_s: 0.5,
-            reach_tol_mm: 0.5,
+            reach_tol_mm: 0.1,
         }
     }
 }

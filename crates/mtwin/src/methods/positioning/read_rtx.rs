@@ -81,7 +81,7 @@ pub fn read_rtx(path: &Path) -> Result<RtxCapture, Diagnostics> {
             Diagnostic::whole(path, "the capture does not end with `EOF::` (truncated?)").into(),
         );
     };
-    if end < start || (end - start) % 8 != 0 {
+    if end < start || !(end - start).is_multiple_of(8) {
         return Err(Diagnostic::at(
             path,
             data_line,
