@@ -49,7 +49,8 @@ fn check_all(d: &CircularDoc, e: &CircularErrors) {
 
 #[test]
 fn each_diagnostic_alone_is_recovered() {
-    let cases: Vec<(&str, Box<dyn Fn(&mut CircularErrors)>)> = vec![
+    type Set = Box<dyn Fn(&mut CircularErrors)>;
+    let cases: Vec<(&str, Set)> = vec![
         ("backlash_x_um", Box::new(|e| e.backlash_x_um = 8.0)),
         ("backlash_y_um", Box::new(|e| e.backlash_y_um = -6.0)),
         ("lateral_play_x_um", Box::new(|e| e.lateral_play_x_um = 5.0)),
