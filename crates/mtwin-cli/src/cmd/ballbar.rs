@@ -43,6 +43,16 @@ pub enum Command {
         after_help = "Example:\n  mtwin ballbar simulate --machine examples/machines/ac-trunnion-with-errors.toml --ex -0.0403 --ey -0.0765 --noise 0.0003 --seed 1 --out data"
     )]
     Simulate(SimulateArgs),
+    /// ISO 230-4 circular test: G, H, F and the diagnosis (backlash, squareness, …) from cw/ccw traces.
+    #[command(
+        after_help = "Example:\n  mtwin ballbar circular --cw cw.csv --ccw ccw.csv --radius 150 --format json"
+    )]
+    Circular(super::ballbar_circular::CircularArgs),
+    /// Simulate cw/ccw circular-test traces with known errors and noise.
+    #[command(
+        after_help = "Example:\n  mtwin ballbar simulate-circular --out traces --radius 150 --backlash-x-um 8 --squareness-um-per-m 40 --noise 0.2"
+    )]
+    SimulateCircular(super::ballbar_circular::SimulateCircularArgs),
 }
 
 #[derive(Debug, clap::Args)]
@@ -274,6 +284,8 @@ pub fn run(c: Command) -> anyhow::Result<()> {
         Command::Sensitivity(a) => run_sensitivity(a),
         Command::Program(a) => run_program(a),
         Command::Simulate(a) => run_simulate(a),
+        Command::Circular(a) => super::ballbar_circular::run_circular(a),
+        Command::SimulateCircular(a) => super::ballbar_circular::run_simulate_circular(a),
     }
 }
 

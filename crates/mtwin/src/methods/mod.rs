@@ -4,6 +4,8 @@
 
 pub mod ballbar;
 pub mod compensate;
+#[warn(missing_docs)]
+pub mod positioning;
 pub mod skiving;
 pub mod testpiece;
 #[warn(missing_docs)]

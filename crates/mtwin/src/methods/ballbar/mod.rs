@@ -15,6 +15,10 @@
 //!
 //! Units: mm, rad for the errors, degrees for axis angles.
 
+#[warn(missing_docs)]
+pub mod circular;
+#[warn(missing_docs)]
+pub mod circular_sim;
 pub mod closed_form;
 pub mod data;
 pub mod doc;
