@@ -56,6 +56,7 @@ mod stream;
 mod syntax;
 #[warn(missing_docs)]
 pub mod timing;
+mod tool_table;
 mod travel;
 
 pub use axes::{Axes, Axis, AxisLetterError, AxisMask};
@@ -67,7 +68,7 @@ pub use event::{
     ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, Plane, Programmed, SourcePos,
     SpindleState, Units,
 };
-pub use interp::{InterpOptions, Interpreter, ModalState, MotionMode, ToolTable, UnknownMCode};
+pub use interp::{InterpOptions, Interpreter, ModalState, MotionMode, RetractMode, UnknownMCode};
 pub use interpolate::{
     InterpolateError, InterpolateOptions, InterpolationSummary, Interpolator, Sample, interpolate,
 };
@@ -75,6 +76,7 @@ pub use profile::Trapezoid;
 pub use stats::{AxisRange, MotionObserver, ProgramStats, StatsOptions, stats, stats_with};
 pub use stream::{BlockReader, BlockWriter, Program};
 pub use syntax::{Block, CommentKind, Item, LineEnd, NumberFormat, Span, Value, Word};
+pub use tool_table::{Tool, ToolTable, ToolTableError};
 pub use travel::{TravelCheck, TravelViolation};
 
 /// Interprets a whole program from `input`, streaming, calling `sink` with
@@ -88,7 +90,7 @@ where
     let mut interp = Interpreter::new(opts);
     let mut block = Block::default();
     let mut events = Vec::new();
-    while reader.read_block(&mut block)? {
+    while !interp.ended() && reader.read_block(&mut block)? {
         events.clear();
         interp.execute(&block, &mut events)?;
         sink(&block, &events)?;

@@ -40,6 +40,12 @@ impl<R: BufRead> BlockReader<R> {
         Ok(true)
     }
 
+    /// The input after the lines read so far (to copy what follows the end
+    /// of a program unread).
+    pub fn into_inner(self) -> R {
+        self.input
+    }
+
     /// Number of lines read so far.
     pub fn lines_read(&self) -> u64 {
         self.line
@@ -79,6 +85,12 @@ impl<W: Write> BlockWriter<W> {
     /// Writes one block and its line end.
     pub fn write_block(&mut self, block: &Block) -> Result<(), GcodeError> {
         block.write_to(&mut self.out)?;
+        Ok(())
+    }
+
+    /// Copies `input` as it is (the text after the end of a program).
+    pub fn copy_raw<R: std::io::Read>(&mut self, mut input: R) -> Result<(), GcodeError> {
+        std::io::copy(&mut input, &mut self.out)?;
         Ok(())
     }
 
