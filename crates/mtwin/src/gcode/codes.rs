@@ -346,7 +346,7 @@ impl GCode {
 impl fmt::Display for GCode {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let t = self.tenths();
-        if t % 10 == 0 {
+        if t.is_multiple_of(10) {
             write!(f, "G{}", t / 10)
         } else {
             write!(f, "G{}.{}", t / 10, t % 10)

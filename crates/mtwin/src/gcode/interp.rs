@@ -8,12 +8,13 @@
 //! spindle speed, tool select, tool change, spindle direction, TCP
 //! M-codes, dwell, plane, length units, cutter compensation, tool length
 //! offset, coordinate system, path control, distance mode, arc distance
-//! mode, retract mode, the non-modal codes, motion, and last the stops
+//! mode, retract mode, the non-modal codes (G10, G28, G30, G52, G92),
+//! G92.1/G92.2/G92.3, motion (canned cycles included), and last the stops
 //! (M0, M1, M2, M30, M60).
 //!
 //! Constant expressions (`[1+2]`, `sqrt[2]`) are evaluated. Anything
-//! outside the supported language (O-words, parameters, canned cycles,
-//! G10/G28/G92, cutter compensation, ...) is an
+//! outside the supported language (O-words, parameters, cutter
+//! compensation, G33/G76, splines, coordinate system rotation, ...) is an
 //! [`GcodeError::Unsupported`] error naming the line: never skipped.
 
 use super::arc::{self, ArcError};
@@ -2535,9 +2536,11 @@ mod tests {
         // G80 alone with axis words: no motion mode.
         assert!(run_with("G80 X1\n", InterpOptions::default()).is_err());
         // Fanuc: G80 has its own group; the line reads the same.
-        let mut fanuc = InterpOptions::default();
-        fanuc.dialect = Dialect::Fanuc {
-            decimal_point_programming: true,
+        let fanuc = InterpOptions {
+            dialect: Dialect::Fanuc {
+                decimal_point_programming: true,
+            },
+            ..Default::default()
         };
         let m = moves(&run_with("G0 G80 X1.\n", fanuc.clone()).unwrap());
         assert!(close(lin(&m[0]).to[Axis::X], 1.0));
@@ -2648,8 +2651,10 @@ mod tests {
 
     #[test]
     fn g10_l1_l10_l11_set_tool_entries() {
-        let mut opts = InterpOptions::default();
-        opts.tools = [(1, 10.0)].into_iter().collect();
+        let opts = InterpOptions {
+            tools: [(1, 10.0)].into_iter().collect(),
+            ..Default::default()
+        };
         let mut it = Interpreter::new(opts.clone());
         let mut ev = Vec::new();
         let src = "G10 L1 P1 Z25 R3\nT1 M6 G43\nG0 Z0\nG10 L10 P1 Z5\nG10 L11 P1 Z7\n";
@@ -2692,8 +2697,10 @@ mod tests {
 
     #[test]
     fn tool_table_g43_variants() {
-        let mut opts = InterpOptions::default();
-        opts.tools = ToolTable::parse("T1 P1 Z10\nT2 P2 Z20 X1\n", Units::Millimetre).unwrap();
+        let opts = InterpOptions {
+            tools: ToolTable::parse("T1 P1 Z10\nT2 P2 Z20 X1\n", Units::Millimetre).unwrap(),
+            ..Default::default()
+        };
         let ev = run_with(
             "T1 M6\nG43\nG0 Z0\nG43 H2\nG0 Z0\nG43.2 H1\nG0 Z0\nG43.1 Z3\nG0 Z0\nG43.2 Z1\nG0 Z0\nG49\nG0 Z0\n",
             opts.clone(),

@@ -114,6 +114,29 @@ impl Program {
         Program::read(bytes)
     }
 
+    /// Parses a program held in memory up to its end as `opts` interpret
+    /// it (M2, M30, the closing `%` of a program starting with `%`), as
+    /// LinuxCNC reads it: the bytes after the end are not parsed. Returns
+    /// the program and the length of the part read; `bytes[len..]` is the
+    /// text after the end.
+    pub fn parse_to_end(
+        bytes: &[u8],
+        opts: &super::InterpOptions,
+    ) -> Result<(Program, usize), GcodeError> {
+        let mut reader = BlockReader::new(bytes);
+        let mut interp = super::Interpreter::new(opts.clone());
+        let mut blocks = Vec::new();
+        let mut block = Block::default();
+        let mut events = Vec::new();
+        while !interp.ended() && reader.read_block(&mut block)? {
+            events.clear();
+            interp.execute(&block, &mut events)?;
+            blocks.push(block.clone());
+        }
+        let len = reader.bytes_read() as usize;
+        Ok((Program { blocks }, len))
+    }
+
     /// Reads a whole program from a reader.
     pub fn read<R: BufRead>(input: R) -> Result<Program, GcodeError> {
         let blocks = BlockReader::new(input).collect::<Result<Vec<_>, _>>()?;
