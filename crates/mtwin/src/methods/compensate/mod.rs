@@ -346,7 +346,14 @@ impl Compensator {
         }
         // After the end of the program (M2, M30, closing '%') the text is
         // copied unread, as LinuxCNC never reads it.
-        writer.copy_raw(reader.into_inner())?;
+        let mut trailer = Vec::new();
+        std::io::Read::read_to_end(&mut reader.into_inner(), &mut trailer)?;
+        // Its lines count as blocks of the file, as before reading stopped
+        // at the end.
+        run.summary.blocks += (trailer.iter().filter(|&&b| b == b'\n').count()
+            + usize::from(!trailer.is_empty() && !trailer.ends_with(b"\n")))
+            as u64;
+        writer.copy_raw(&trailer[..])?;
         writer.into_inner()?;
         Ok(run.summary)
     }

@@ -372,7 +372,11 @@ pub fn compensate(
         z_blocks: Vec::with_capacity(moves.len()),
         programme,
         duration_min,
-        blocks: prog.blocks.len() as u64,
+        // Lines after the program end count as blocks of the file, as
+        // before reading stopped there.
+        blocks: (prog.blocks.len()
+            + trailer.iter().filter(|&&b| b == b'\n').count()
+            + usize::from(!trailer.is_empty() && !trailer.ends_with(b"\n"))) as u64,
         spindle_used,
         notes: Vec::new(),
     };
