@@ -128,14 +128,15 @@ pub(super) fn located(
     }
 }
 
-/// Interpreter options from `--offset` items and the dialect arguments.
+/// Interpreter options from `--offset` items and the program-reading
+/// arguments (dialect, tool table, block delete).
 pub(super) fn interp_options(
     offsets: &[String],
     dialect: &DialectArgs,
 ) -> anyhow::Result<InterpOptions> {
     let mut o = InterpOptions::default();
     o.work_offsets[0] = parse_offsets(offsets)?;
-    o.dialect = dialect.dialect();
+    dialect.apply(&mut o)?;
     Ok(o)
 }
 

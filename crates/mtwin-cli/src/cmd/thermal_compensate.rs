@@ -62,6 +62,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .with_context(|| format!("cannot read {}", a.program.display()))?;
     let mut options = CompensateOptions::default();
     options.dialect = a.dialect.dialect();
+    options.tools = a.dialect.tools()?;
+    options.skip_deleted_blocks = a.dialect.skip_deleted_blocks();
     options.rapid_feed = a.rapid;
     options.allow_unstable = a.allow_unstable;
     options.update = if a.continuous {

@@ -216,3 +216,50 @@ fn fanuc_dialect_reads_numbers_without_a_point_in_least_increments() {
     let linuxcnc = stats(&[]);
     assert!((linuxcnc["dwell_time_s"].as_f64().unwrap() - 1500.0).abs() < 1e-9);
 }
+
+/// `--tool-table`: G43 H1 takes tool 1's Z from the table (machine Z =
+/// program Z + 12.5); a bad table line is `file:line:col`, exit 1.
+/// `--block-delete off` runs the `/` blocks.
+#[test]
+fn tool_table_and_block_delete_options() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "tools.tbl",
+        "; mill\nT1 P1 Z12.5 D6 ;end mill\n",
+    );
+    write(dir.path(), "bad.tbl", "T1 P1\nT2 P2 Zx\n");
+    write(
+        dir.path(),
+        "p.nc",
+        "T1 M6\nG43 H1\nG0 Z0\n/G1 X10 F600\nM30\nPost Process Timed at; 32 Min\n",
+    );
+    let stats = |extra: &[&str]| {
+        let mut args = vec!["gcode", "stats", "p.nc", "--format", "json"];
+        args.extend_from_slice(extra);
+        mtwin(dir.path(), &args)
+    };
+    // Without a table, tool 1 is unknown: refused with the line.
+    let o = stats(&[]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("p.nc:2:"), "{}", stderr(&o));
+    let o = stats(&["--tool-table", "tools.tbl"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(
+        v["feed_length_mm"].as_f64(),
+        Some(0.0),
+        "the / block is skipped"
+    );
+    let o = stats(&["--tool-table", "tools.tbl", "--block-delete", "off"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(v["feed_length_mm"].as_f64(), Some(10.0));
+    let o = stats(&["--tool-table", "bad.tbl"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("bad.tbl:2:7: Z needs a number"),
+        "{}",
+        stderr(&o)
+    );
+}

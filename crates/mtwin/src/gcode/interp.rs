@@ -1,20 +1,25 @@
 //! The modal interpreter: blocks in, canonical [`Event`]s out, following
-//! LinuxCNC's RS-274/NGC reading for the motion subset it supports.
+//! LinuxCNC's RS-274/NGC reading for the part of the language it supports.
 //!
-//! Order of execution within a block (LinuxCNC's): feed mode, feed rate,
-//! spindle speed, tool select/change, spindle direction, TCP M-codes, dwell,
-//! plane, units, cutter compensation off, tool length offset, coordinate
-//! system, path control, distance modes, motion, program end.
+//! [`Interpreter::execute`] reads and checks a block (every word's value,
+//! one code per modal group, no word that nothing reads), then runs one
+//! step per kind of code in LinuxCNC's order of execution (its
+//! `execute_block`, `convert_m` and `convert_g`): feed mode, feed rate,
+//! spindle speed, tool select, tool change, spindle direction, TCP
+//! M-codes, dwell, plane, length units, cutter compensation, tool length
+//! offset, coordinate system, path control, distance mode, arc distance
+//! mode, retract mode, the non-modal codes (G10, G28, G30, G52, G92),
+//! G92.1/G92.2/G92.3, motion (canned cycles included), and last the stops
+//! (M0, M1, M2, M30, M60).
 //!
 //! Constant expressions (`[1+2]`, `sqrt[2]`) are evaluated. Anything
-//! outside the subset (O-words, parameters, canned cycles, G10/G28/G92,
-//! cutter compensation, ...) is an
+//! outside the supported language (O-words, parameters, cutter
+//! compensation, G33/G76, splines, coordinate system rotation, ...) is an
 //! [`GcodeError::Unsupported`] error naming the line: never skipped.
-
-use std::collections::BTreeMap;
 
 use super::arc::{self, ArcError};
 use super::axes::{Axes, Axis, AxisMask};
+use super::codes::{GCode, ModalGroup};
 use super::dialect::{Dialect, DwellWord};
 use super::error::GcodeError;
 use super::event::{
@@ -23,9 +28,7 @@ use super::event::{
 };
 use super::expr::{self, ExprError};
 use super::syntax::{Block, Item, Value, Word};
-
-/// Tool number → tool length offset along Z, mm (the caller's tool table).
-pub type ToolTable = BTreeMap<u32, f64>;
+use super::tool_table::ToolTable;
 
 /// What unknown M-codes do.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -37,15 +40,21 @@ pub enum UnknownMCode {
     Ignore,
 }
 
-/// Interpreter settings given by the caller.
+/// Interpreter settings given by the caller. Build it from
+/// [`InterpOptions::default`] and change the fields you need
+/// (`InterpOptions { dialect, ..InterpOptions::default() }` inside this
+/// crate; field assignment on a default value outside it).
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct InterpOptions {
     /// Controller dialect.
     pub dialect: Dialect,
     /// Offsets of G54, G55, G56, G57, G58, G59, G59.1, G59.2, G59.3
     /// (machine coordinates of the work origin), mm and degree.
     pub work_offsets: [Axes; 9],
-    /// Tool table for G43 H / G43.4 H.
+    /// Tool table (LinuxCNC's `.tbl`, [`ToolTable::parse`]) for T, M6,
+    /// G43, G43.2, G43.4 and G10 L1/L10/L11 (which change the
+    /// interpreter's copy).
     pub tools: ToolTable,
     /// M-code that turns tool centre point control on (LinuxCNC remap in the
     /// corpus: M428); `None` for no such code.
@@ -87,11 +96,28 @@ impl Default for InterpOptions {
 
 /// Active motion mode (modal group 1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum MotionMode {
+    /// G0.
     Rapid,
+    /// G1 (and the probing moves).
     Linear,
+    /// G2.
     ArcClockwise,
+    /// G3.
     ArcCounterClockwise,
+    /// A canned cycle: G73, G74, G81 ... G89.
+    Cycle(GCode),
+}
+
+/// Where a canned cycle retracts to at the end of each repeat.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RetractMode {
+    /// G98: the level the tool was at before the cycle (if above R).
+    #[default]
+    InitialLevel,
+    /// G99: the R level.
+    RLevel,
 }
 
 /// The modal state between blocks.
@@ -127,66 +153,27 @@ pub struct ModalState {
     pub tcp: bool,
     /// Current position in work coordinates, mm/deg.
     pub position: Axes,
-    /// Work offset plus tool length offset (machine = position + offset).
+    /// Work offset plus G92 offset plus tool offset (machine = position +
+    /// offset).
     pub offset: Axes,
-}
-
-/// Modal groups of the supported G-codes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Group {
-    NonModal,
-    Motion,
-    Plane,
-    Distance,
-    ArcDistance,
-    FeedMode,
-    Units,
-    CutterComp,
-    ToolLength,
-    Retract,
-    CoordSystem,
-    PathControl,
-    SpindleMode,
-}
-
-/// A supported G-code, in tenths (G43.4 = 434).
-fn g_group(code: u32) -> Option<Group> {
-    Some(match code {
-        40 | 530 => Group::NonModal,
-        // Probing (LinuxCNC G38.2–G38.5, Fanuc G31 skip) reads as a straight
-        // feed move to its end point: the path and time if nothing is touched.
-        0 | 10 | 20 | 30 | 800 | 310 | 382..=385 => Group::Motion,
-        170 | 180 | 190 => Group::Plane,
-        900 | 910 => Group::Distance,
-        901 | 911 => Group::ArcDistance,
-        930 | 940 | 950 => Group::FeedMode,
-        200 | 210 => Group::Units,
-        400 => Group::CutterComp,
-        430 | 434 | 490 => Group::ToolLength,
-        980 | 990 => Group::Retract,
-        540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => Group::CoordSystem,
-        610 | 611 | 640 => Group::PathControl,
-        970 => Group::SpindleMode,
-        _ => return None,
-    })
-}
-
-/// Why a known G-code is not supported.
-fn g_unsupported(code: u32) -> &'static str {
-    match code {
-        100..=102 => "setting offsets",
-        280 | 281 | 300 | 301 => "return to home position",
-        920 | 921 | 922 | 923 | 520 => "axis offsets",
-        410 | 411 | 420 | 421 => "cutter radius compensation",
-        330 | 331 | 760 => "spindle-synchronised motion",
-        730 | 740 | 810..=890 => "canned cycle",
-        700..=720 => "lathe cycle",
-        50 | 51 | 52 | 53 | 55 | 61 | 62 | 63 => "spline / NURBS motion",
-        431 | 432 => "dynamic tool length offset",
-        960 => "constant surface speed",
-        70 | 80 => "lathe diameter/radius mode",
-        _ => "G-code",
-    }
+    /// Offsets of G54 ... G59.3 in force: the options' ones as changed by
+    /// G10 L2/L20 (parameters 5221 ... 5389), mm/deg.
+    pub work_offsets: [Axes; 9],
+    /// G92 axis offsets in force, mm/deg.
+    pub axis_offset: Axes,
+    /// The G92 offsets kept for G92.3 (parameters 5211–5219), mm/deg.
+    pub g92_saved: Axes,
+    /// Whether the G92 offsets are applied (parameter 5210).
+    pub g92_applied: bool,
+    /// G28 home position, machine coordinates (parameters 5161–5169), mm/deg.
+    pub g28_home: Axes,
+    /// G30 home position, machine coordinates (parameters 5181–5189), mm/deg.
+    pub g30_home: Axes,
+    /// Tool offset in force (G43, G43.1, G43.2), every axis, mm/deg;
+    /// `tool_length` is its Z.
+    pub tool_offset: Axes,
+    /// G98/G99.
+    pub retract: RetractMode,
 }
 
 /// M-codes accepted without a motion meaning.
@@ -205,7 +192,7 @@ struct Letter {
 /// Words of one block, sorted by letter.
 #[derive(Debug, Default)]
 struct BlockWords {
-    g: Vec<(u32, usize)>,
+    g: Vec<(GCode, usize)>,
     m: Vec<(u32, usize)>,
     letters: [Letter; 26],
 }
@@ -215,6 +202,102 @@ impl BlockWords {
         let x = &self.letters[usize::from(l - b'A')];
         x.present.then_some(x)
     }
+
+    fn has_m(&self, codes: &[u32]) -> bool {
+        self.m.iter().any(|(c, _)| codes.contains(c))
+    }
+}
+
+/// A code and the 1-based column of its word.
+type At<T> = (T, usize);
+
+/// The codes of one block, one per modal group, after reading and checking.
+#[derive(Debug, Default, Clone, Copy)]
+struct Codes {
+    non_modal: Option<At<GCode>>,
+    motion: Option<At<GCode>>,
+    plane: Option<At<GCode>>,
+    distance: Option<At<GCode>>,
+    arc_distance: Option<At<GCode>>,
+    feed_mode: Option<At<GCode>>,
+    units: Option<At<GCode>>,
+    cutter_comp: Option<At<GCode>>,
+    tool_length: Option<At<GCode>>,
+    retract: Option<At<GCode>>,
+    coord_system: Option<At<GCode>>,
+    path_control: Option<At<GCode>>,
+    spindle_mode: Option<At<GCode>>,
+    lathe_diameter: Option<At<GCode>>,
+    g92_applied: Option<At<GCode>>,
+    cycle_cancel: Option<At<GCode>>,
+    /// M0, M1, M2, M30, M60.
+    m_stop: Option<At<u32>>,
+    /// M3, M4, M5.
+    m_spindle: Option<At<u32>>,
+    /// The configured TCP on/off M-codes.
+    m_tcp: Option<At<u32>>,
+    /// M6.
+    m_tool_change: bool,
+}
+
+impl Codes {
+    fn slot(&mut self, group: ModalGroup) -> &mut Option<At<GCode>> {
+        match group {
+            ModalGroup::NonModal => &mut self.non_modal,
+            ModalGroup::Motion => &mut self.motion,
+            ModalGroup::Plane => &mut self.plane,
+            ModalGroup::Distance => &mut self.distance,
+            ModalGroup::ArcDistance => &mut self.arc_distance,
+            ModalGroup::FeedMode => &mut self.feed_mode,
+            ModalGroup::Units => &mut self.units,
+            ModalGroup::CutterComp => &mut self.cutter_comp,
+            ModalGroup::ToolLength => &mut self.tool_length,
+            ModalGroup::Retract => &mut self.retract,
+            ModalGroup::CoordSystem => &mut self.coord_system,
+            ModalGroup::PathControl => &mut self.path_control,
+            ModalGroup::SpindleMode => &mut self.spindle_mode,
+            ModalGroup::LatheDiameter => &mut self.lathe_diameter,
+            ModalGroup::G92Applied => &mut self.g92_applied,
+            ModalGroup::CycleCancel => &mut self.cycle_cancel,
+        }
+    }
+
+    /// Whether the block has `code`.
+    fn has(&self, code: GCode) -> bool {
+        [
+            self.non_modal,
+            self.motion,
+            self.plane,
+            self.distance,
+            self.arc_distance,
+            self.feed_mode,
+            self.units,
+            self.cutter_comp,
+            self.tool_length,
+            self.retract,
+            self.coord_system,
+            self.path_control,
+            self.spindle_mode,
+            self.lathe_diameter,
+            self.g92_applied,
+            self.cycle_cancel,
+        ]
+        .iter()
+        .any(|s| s.is_some_and(|(c, _)| c == code))
+    }
+
+    /// The block's motion code other than G80 (the block moves, or sets a
+    /// motion mode).
+    fn explicit_motion(&self) -> Option<At<GCode>> {
+        self.motion.filter(|(c, _)| *c != GCode::G80)
+    }
+
+    /// The non-modal G53, if the block has it.
+    fn g53(&self) -> Option<usize> {
+        self.non_modal
+            .filter(|(c, _)| *c == GCode::G53)
+            .map(|(_, col)| col)
+    }
 }
 
 /// The interpreter. Feed it blocks in order with [`Interpreter::execute`].
@@ -222,10 +305,59 @@ impl BlockWords {
 pub struct Interpreter {
     opts: InterpOptions,
     state: ModalState,
+    tools: ToolTable,
     tcp_from_g43_4: bool,
     block_index: u64,
     ended: bool,
+    percent: Percent,
+    cycle: CycleMemory,
     words: BlockWords,
+}
+
+/// Whether the program uses `%` lines (LinuxCNC: the first non-blank line
+/// is `%` alone; reading then stops at the next `%` line).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Percent {
+    BeforeFirstLine,
+    Used,
+    NotUsed,
+}
+
+/// What a canned cycle remembers for the next block of the same cycle
+/// (LinuxCNC's `cycle_*` settings), canonical units.
+#[derive(Debug, Clone, Copy, Default)]
+struct CycleMemory {
+    /// R level.
+    r: f64,
+    /// Bottom: the block's word of the plane's normal axis, canonical
+    /// (in G91 measured from R).
+    bottom: f64,
+    /// Dwell, s.
+    p: f64,
+    /// Peck, mm.
+    q: f64,
+    /// G87 offsets I J K.
+    ijk: [f64; 3],
+    /// The level before the first cycle of a series (LinuxCNC's
+    /// `cycle_il`), reset by any other motion.
+    initial_level: Option<f64>,
+}
+
+/// What every step of a block needs: its line, its position and its events.
+struct Step<'a> {
+    line: u64,
+    at: SourcePos,
+    out: &'a mut Vec<Event>,
+}
+
+impl Step<'_> {
+    fn emit(&mut self, kind: EventKind) {
+        self.out.push(Event { at: self.at, kind });
+    }
+
+    fn invalid(&self, column: usize, message: impl Into<String>) -> GcodeError {
+        GcodeError::invalid(self.line, column, message)
+    }
 }
 
 impl Interpreter {
@@ -250,13 +382,24 @@ impl Interpreter {
             tcp: opts.tcp_at_start,
             position: opts.initial_machine_position.sub(&offset),
             offset,
+            work_offsets: opts.work_offsets,
+            axis_offset: Axes::ZERO,
+            g92_saved: Axes::ZERO,
+            g92_applied: false,
+            g28_home: Axes::ZERO,
+            g30_home: Axes::ZERO,
+            tool_offset: Axes::ZERO,
+            retract: RetractMode::InitialLevel,
         };
         Interpreter {
+            tools: opts.tools.clone(),
             opts,
             state,
             tcp_from_g43_4: false,
             block_index: 0,
             ended: false,
+            percent: Percent::BeforeFirstLine,
+            cycle: CycleMemory::default(),
             words: BlockWords::default(),
         }
     }
@@ -266,9 +409,17 @@ impl Interpreter {
         &self.state
     }
 
-    /// Whether M2/M30 was executed (later blocks are then ignored).
+    /// Whether the program has ended: M2/M30 was executed, or the closing
+    /// `%` of a program that starts with `%` was read. Later blocks are
+    /// ignored; callers stop reading there (LinuxCNC reads no further, so
+    /// text after the end is never an error).
     pub fn ended(&self) -> bool {
         self.ended
+    }
+
+    /// The tool table as the program has changed it (G10 L1/L10/L11).
+    pub fn tools(&self) -> &ToolTable {
+        &self.tools
     }
 
     /// Executes one block, appending its events to `out`. On error the state
@@ -279,16 +430,35 @@ impl Interpreter {
             block: self.block_index,
         };
         self.block_index += 1;
-        if self.ended || (self.opts.skip_deleted_blocks && block.is_block_delete()) {
+        if self.ended {
+            return Ok(());
+        }
+        if self.percent == Percent::BeforeFirstLine && !block.text().trim_ascii().is_empty() {
+            if block.is_percent() && block.items().len() == 1 {
+                self.percent = Percent::Used;
+                return Ok(());
+            }
+            self.percent = Percent::NotUsed;
+        } else if self.percent == Percent::Used && block.is_percent() && block.items().len() == 1 {
+            self.ended = true;
+            return Ok(());
+        }
+        if self.opts.skip_deleted_blocks && block.is_block_delete() {
             return Ok(());
         }
         self.collect(block)?;
-        let mut w = std::mem::take(&mut self.words);
-        let r = self.run(block, &mut w, at, out);
+        let w = std::mem::take(&mut self.words);
+        let mut step = Step {
+            line: block.line(),
+            at,
+            out,
+        };
+        let r = self.run(block, &w, &mut step);
         self.words = w;
         r
     }
 
+    /// Reads the words of a block: their values, one per letter.
     fn collect(&mut self, block: &Block) -> Result<(), GcodeError> {
         let line = block.line();
         let w = &mut self.words;
@@ -321,65 +491,84 @@ impl Interpreter {
         Ok(())
     }
 
-    fn run(
-        &mut self,
-        block: &Block,
-        w: &mut BlockWords,
-        at: SourcePos,
-        out: &mut Vec<Event>,
-    ) -> Result<(), GcodeError> {
-        let line = block.line();
-        let invalid = |column: usize, m: String| GcodeError::invalid(line, column, m);
+    /// One block: read and check, then each step in LinuxCNC's order.
+    fn run(&mut self, block: &Block, w: &BlockWords, s: &mut Step) -> Result<(), GcodeError> {
+        let codes = self.read_codes(w, s.line)?;
+        self.check_words(block, w, &codes, s.line)?;
+        self.set_feed_mode(&codes, s);
+        self.set_feed_rate(w, s)?;
+        self.set_spindle_speed(w, s)?;
+        self.select_tool(w, s)?;
+        self.change_tool(&codes);
+        self.set_spindle_direction(&codes, s);
+        self.switch_tcp_by_m_code(&codes, s);
+        self.dwell(w, &codes, s)?;
+        self.set_plane(&codes);
+        self.set_length_units(&codes, s);
+        // Cutter radius compensation: only G40 (off) is accepted, and it is
+        // always off.
+        self.set_tool_length_offset(w, &codes, s)?;
+        self.select_coordinate_system(&codes, s);
+        // Path control (G61, G61.1, G64) changes no motion this interpreter
+        // produces.
+        self.set_distance_mode(&codes);
+        self.set_arc_distance_mode(&codes);
+        self.set_retract_mode(&codes);
+        self.non_modal(w, &codes, s)?;
+        self.set_g92_applied(&codes);
+        self.check_g53(w, &codes, s)?;
+        self.motion(w, &codes, s)?;
+        self.stop(&codes, s);
+        Ok(())
+    }
 
-        // Modal groups of G-codes.
-        let mut groups: Vec<(Group, u32, usize)> = Vec::with_capacity(w.g.len());
+    /// Reads the G- and M-codes of a block into their modal groups,
+    /// refusing unknown and unsupported codes and two codes of one group
+    /// (LinuxCNC's `read_g`: G80 may share the line with another motion
+    /// code, which wins).
+    fn read_codes(&self, w: &BlockWords, line: u64) -> Result<Codes, GcodeError> {
+        let dialect = self.opts.dialect;
+        let mut codes = Codes::default();
         for &(code, col) in &w.g {
-            let Some(group) = g_group(code) else {
+            if let Some(why) = code.unsupported() {
+                return Err(GcodeError::unsupported(line, col, format!("{why} {code}")));
+            }
+            let group = code.group(dialect);
+            if group == ModalGroup::ArcDistance && !dialect.has_arc_distance_modes() {
                 return Err(GcodeError::unsupported(
                     line,
                     col,
-                    format!("{} {}", g_unsupported(code), g_name(code)),
-                ));
-            };
-            if let Some(&(_, other, _)) = groups.iter().find(|(g, _, _)| *g == group) {
-                return Err(invalid(
-                    col,
-                    format!(
-                        "two G-codes of one modal group: {} and {}",
-                        g_name(other),
-                        g_name(code)
-                    ),
+                    format!("{code} in this dialect"),
                 ));
             }
-            if !self.opts.dialect.has_arc_distance_modes() && group == Group::ArcDistance {
-                return Err(GcodeError::unsupported(
-                    line,
-                    col,
-                    format!("{} in this dialect", g_name(code)),
-                ));
+            let slot = codes.slot(group);
+            match *slot {
+                None => *slot = Some((code, col)),
+                Some((other, _)) => {
+                    if group == ModalGroup::Motion && code == GCode::G80 {
+                        // G80 beside another motion code is ignored.
+                    } else if group == ModalGroup::Motion && other == GCode::G80 {
+                        *slot = Some((code, col));
+                    } else {
+                        return Err(GcodeError::invalid(
+                            line,
+                            col,
+                            format!("two G-codes of one modal group: {other} and {code}"),
+                        ));
+                    }
+                }
             }
-            groups.push((group, code, col));
         }
-        let g_of = |group: Group| {
-            groups
-                .iter()
-                .find(|(g, _, _)| *g == group)
-                .map(|&(_, c, col)| (c, col))
-        };
-        let has_g = |code: u32| groups.iter().any(|&(_, c, _)| c == code);
-
         // M-codes: at most one per modal group.
-        let mut m_stop = None;
-        let mut m_spindle = None;
-        let mut m_tcp = None;
-        let mut m_toolchange = false;
         for &(code, col) in &w.m {
             let slot = match code {
-                0 | 1 | 2 | 30 | 60 => &mut m_stop,
-                3..=5 => &mut m_spindle,
-                c if Some(c) == self.opts.tcp_on_m || Some(c) == self.opts.tcp_off_m => &mut m_tcp,
+                0 | 1 | 2 | 30 | 60 => &mut codes.m_stop,
+                3..=5 => &mut codes.m_spindle,
+                c if Some(c) == self.opts.tcp_on_m || Some(c) == self.opts.tcp_off_m => {
+                    &mut codes.m_tcp
+                }
                 6 => {
-                    m_toolchange = true;
+                    codes.m_tool_change = true;
                     continue;
                 }
                 c if m_ignored(c) => continue,
@@ -402,344 +591,167 @@ impl Interpreter {
                 },
             };
             if let Some((other, _)) = *slot {
-                return Err(invalid(
+                return Err(GcodeError::invalid(
+                    line,
                     col,
                     format!("two M-codes of one modal group: M{other} and M{code}"),
                 ));
             }
             *slot = Some((code, col));
         }
-
-        let letter = |l: u8| w.get(l).copied();
-        let dialect = self.opts.dialect;
-
-        // 1-2. Feed mode and feed rate.
-        if let Some((code, _)) = g_of(Group::FeedMode) {
-            let mode = match code {
-                930 => FeedMode::InverseTime,
-                940 => FeedMode::UnitsPerMinute,
-                _ => FeedMode::UnitsPerRevolution,
-            };
-            if mode != self.state.feed_mode && mode == FeedMode::InverseTime {
-                self.state.feed = 0.0;
-            }
-            self.state.feed_mode = mode;
-            out.push(Event {
-                at,
-                kind: EventKind::FeedMode(mode),
-            });
-        }
-        if let Some(f) = letter(b'F') {
-            if f.value < 0.0 {
-                return Err(invalid(f.column, "negative F word".into()));
-            }
-            let scale = match self.state.feed_mode {
-                FeedMode::InverseTime => 1.0,
-                _ => self.state.units.mm_per_unit(),
-            };
-            self.state.feed = f.value * scale;
-            out.push(Event {
-                at,
-                kind: EventKind::FeedRate(self.state.feed),
-            });
-        }
-        // 3. Spindle speed.
-        if let Some(s) = letter(b'S') {
-            if s.value < 0.0 {
-                return Err(invalid(s.column, "negative spindle speed".into()));
-            }
-            self.state.spindle_rpm = s.value;
-            out.push(Event {
-                at,
-                kind: EventKind::SpindleSpeed { rpm: s.value },
-            });
-        }
-        // 4. Tool select and change.
-        if let Some(t) = letter(b'T') {
-            self.state.selected_tool = nonneg_int(t, line, "T")?;
-        }
-        if m_toolchange {
-            self.state.tool = self.state.selected_tool;
-        }
-        // 5. Spindle direction.
-        if let Some((code, _)) = m_spindle {
-            let dir = match code {
-                3 => SpindleState::Clockwise,
-                4 => SpindleState::CounterClockwise,
-                _ => SpindleState::Stopped,
-            };
-            self.state.spindle = dir;
-            out.push(Event {
-                at,
-                kind: EventKind::Spindle(dir),
-            });
-        }
-        // 6. TCP by M-code (kinematics switch remaps).
-        if let Some((code, _)) = m_tcp {
-            let on = Some(code) == self.opts.tcp_on_m;
-            self.state.tcp = on;
-            self.tcp_from_g43_4 = false;
-            out.push(Event {
-                at,
-                kind: EventKind::Tcp(on),
-            });
-        }
-        // 7. Dwell.
-        let dwell = has_g(40);
-        if dwell {
-            let seconds = self.dwell_seconds(w, line)?;
-            out.push(Event {
-                at,
-                kind: EventKind::Dwell { seconds },
-            });
-        }
-        // 8. Plane.
-        if let Some((code, _)) = g_of(Group::Plane) {
-            self.state.plane = match code {
-                170 => Plane::Xy,
-                180 => Plane::Zx,
-                _ => Plane::Yz,
-            };
-        }
-        // 9. Units.
-        if let Some((code, _)) = g_of(Group::Units) {
-            self.state.units = if code == 200 {
-                Units::Inch
-            } else {
-                Units::Millimetre
-            };
-            out.push(Event {
-                at,
-                kind: EventKind::Units(self.state.units),
-            });
-        }
-        // 10. Tool length offset and TCP by G43.4/G49.
-        if let Some((code, col)) = g_of(Group::ToolLength) {
-            let length = match code {
-                490 => 0.0,
-                _ => {
-                    let tool = match letter(b'H') {
-                        Some(h) => nonneg_int(h, line, "H")?,
-                        None => self.state.tool,
-                    };
-                    if tool == 0 {
-                        0.0
-                    } else {
-                        *self.opts.tools.get(&tool).ok_or_else(|| {
-                            invalid(col, format!("tool {tool} is not in the tool table"))
-                        })?
-                    }
-                }
-            };
-            self.set_tool_length(length);
-            out.push(Event {
-                at,
-                kind: EventKind::ToolLengthOffset { length },
-            });
-            let tcp = match code {
-                434 => Some(true),
-                490 if self.tcp_from_g43_4 => Some(false),
-                _ => None,
-            };
-            if let Some(on) = tcp {
-                self.state.tcp = on;
-                self.tcp_from_g43_4 = on;
-                out.push(Event {
-                    at,
-                    kind: EventKind::Tcp(on),
-                });
-            }
-        }
-        // 11. Coordinate system.
-        if let Some((code, _)) = g_of(Group::CoordSystem) {
-            let system: u8 = match code {
-                540 => 1,
-                550 => 2,
-                560 => 3,
-                570 => 4,
-                580 => 5,
-                590 => 6,
-                591 => 7,
-                592 => 8,
-                _ => 9,
-            };
-            self.state.work_system = system;
-            let offset = self.opts.work_offsets[usize::from(system - 1)];
-            self.set_offsets(offset, self.state.tool_length);
-            out.push(Event {
-                at,
-                kind: EventKind::WorkOffset { system, offset },
-            });
-        }
-        // 12. Distance modes.
-        if let Some((code, _)) = g_of(Group::Distance) {
-            self.state.distance = if code == 900 {
-                DistanceMode::Absolute
-            } else {
-                DistanceMode::Incremental
-            };
-        }
-        if let Some((code, _)) = g_of(Group::ArcDistance) {
-            self.state.arc_distance = if code == 901 {
-                DistanceMode::Absolute
-            } else {
-                DistanceMode::Incremental
-            };
-        }
-        // 13. Motion.
-        let motion_code = g_of(Group::Motion);
-        if let Some((800, _)) = motion_code {
-            self.state.motion = None;
-        } else if let Some((code, _)) = motion_code {
-            self.state.motion = Some(match code {
-                0 => MotionMode::Rapid,
-                10 | 310 | 382..=385 => MotionMode::Linear,
-                20 => MotionMode::ArcClockwise,
-                _ => MotionMode::ArcCounterClockwise,
-            });
-        }
-        let mut axes = AxisMask::EMPTY;
-        let mut target = [0.0; 9];
-        for axis in Axis::ALL {
-            if let Some(a) = letter(axis.letter()) {
-                if dwell && dialect != Dialect::LinuxCnc && axis == Axis::X {
-                    continue; // Fanuc G4 X: the dwell time.
-                }
-                axes.insert(axis);
-                let v = dialect.dimension(
-                    a.value,
-                    a.has_point,
-                    self.state.units == Units::Inch,
-                    axis.is_rotary(),
-                );
-                target[axis.index()] = if axis.is_rotary() {
-                    v
-                } else {
-                    v * self.state.units.mm_per_unit()
-                };
-            }
-        }
-        if let Some((code @ (310 | 382..=385), col)) = motion_code
-            && axes.is_empty()
+        if let Some((code, col)) = codes.non_modal
+            && code.covets_axes()
         {
-            let name = if code == 310 { "G31" } else { "G38.x" };
-            return Err(invalid(col, format!("probing {name} without axis words")));
-        }
-        let g53 = g_of(Group::NonModal).filter(|(c, _)| *c == 530);
-        let explicit_motion = motion_code.is_some_and(|(c, _)| c != 800);
-        if let Some((_, col)) = g53 {
-            if axes.is_empty() {
-                return Err(invalid(col, "G53 without axis words".into()));
+            if let Some((motion, _)) = codes.explicit_motion() {
+                return Err(GcodeError::invalid(
+                    line,
+                    col,
+                    format!(
+                        "Cannot use two G codes that both use axis values: {code} and {motion}"
+                    ),
+                ));
             }
-            if !matches!(
-                self.state.motion,
-                Some(MotionMode::Rapid | MotionMode::Linear)
-            ) {
-                return Err(invalid(col, "G53 needs G0 or G1".into()));
-            }
-        }
-        if !axes.is_empty() || explicit_motion {
-            match self.state.motion {
-                None if !axes.is_empty() => {
-                    return Err(invalid(
-                        0,
-                        "axis words without a motion mode (G0, G1, G2 or G3)".into(),
-                    ));
-                }
-                None => {}
-                Some(mode) => {
-                    self.motion(mode, w, axes, target, g53.map(|(_, c)| c), line, at, out)?
-                }
+            let any_axis = Axis::ALL.iter().any(|a| w.get(a.letter()).is_some());
+            if !any_axis && matches!(code, GCode::G52 | GCode::G92) {
+                return Err(GcodeError::invalid(
+                    line,
+                    col,
+                    format!("All axes missing with {code}"),
+                ));
             }
         }
-        // I J K without an arc.
-        let arc_now = axes_or_motion(&axes, motion_code)
+        if let Some((code, col)) = codes.motion
+            && code.is_probe()
+            && !Axis::ALL.iter().any(|a| w.get(a.letter()).is_some())
+        {
+            let name = if code == GCode::G31 { "G31" } else { "G38.x" };
+            return Err(GcodeError::invalid(
+                line,
+                col,
+                format!("probing {name} without axis words"),
+            ));
+        }
+        Ok(codes)
+    }
+
+    /// Whether a non-motion code of the block reads its axis words (G10,
+    /// G28, G30, G52, G92, G43.1).
+    fn axes_consumed(&self, codes: &Codes) -> bool {
+        codes.non_modal.is_some_and(|(c, _)| c.covets_axes()) || codes.has(GCode::G43_1)
+    }
+
+    /// The motion mode the block's axis words will use: its own motion
+    /// code, else the modal one.
+    fn motion_to_be(&self, codes: &Codes) -> Option<MotionMode> {
+        if codes.motion.is_none() && self.axes_consumed(codes) {
+            return None;
+        }
+        match codes.motion {
+            Some((GCode::G80, _)) => None,
+            Some((code, _)) => Some(motion_mode(code)),
+            None => self.state.motion,
+        }
+    }
+
+    /// Refuses words that no code of the block reads, as LinuxCNC's
+    /// `check_other_codes` does: I J K without an arc, R outside arcs, G64
+    /// and M19, and D, E, H, L, P, Q ("E word with no G76, M66, M67 or M68
+    /// to use it", ...): a word nothing reads is a typing error, never
+    /// silently dropped. Only the codes this interpreter accepts are listed.
+    fn check_words(
+        &self,
+        block: &Block,
+        w: &BlockWords,
+        codes: &Codes,
+        line: u64,
+    ) -> Result<(), GcodeError> {
+        let any_axis = Axis::ALL.iter().any(|a| w.get(a.letter()).is_some());
+        let moving = any_axis || codes.explicit_motion().is_some();
+        let to_be = self.motion_to_be(codes);
+        let arc_now = moving
             && matches!(
-                self.state.motion,
+                to_be,
                 Some(MotionMode::ArcClockwise | MotionMode::ArcCounterClockwise)
             );
-        if let Some(r) = letter(b'R') {
+        let cycle_now = match to_be {
+            Some(MotionMode::Cycle(c)) if moving => Some(c),
+            _ => None,
+        };
+        let cycle_in = |cs: &[GCode]| cycle_now.is_some_and(|c| cs.contains(&c));
+        let g10 = codes.has(GCode::G10);
+        if let Some(r) = w.get(b'R') {
             // R is read by G2/G3, G64 (blend tolerance) and M19 (orientation).
-            let g64 = has_g(640);
-            let m19 = w.m.iter().any(|&(c, _)| c == 19);
+            let g64 = codes.has(GCode::G64);
+            let m19 = w.has_m(&[19]);
             if g64 && m19 {
-                return Err(invalid(
+                return Err(GcodeError::invalid(
+                    line,
                     r.column,
-                    "R word is ambiguous on a line with both G64 and M19 - use separate lines"
-                        .into(),
+                    "R word is ambiguous on a line with both G64 and M19 - use separate lines",
                 ));
             }
-            if !(arc_now || g64 || m19) {
-                return Err(invalid(
+            if !(arc_now || g64 || m19 || g10 || cycle_now.is_some()) {
+                return Err(GcodeError::invalid(
+                    line,
                     r.column,
-                    "R word with no g code that uses it".into(),
+                    "R word with no g code that uses it",
                 ));
             }
         }
-        if !arc_now {
+        if !arc_now && !cycle_in(&[GCode::G87]) {
             for l in [b'I', b'J', b'K'] {
-                if let Some(x) = letter(l) {
-                    return Err(invalid(
+                if l != b'K' && g10 {
+                    continue;
+                }
+                if let Some(x) = w.get(l) {
+                    return Err(GcodeError::invalid(
+                        line,
                         x.column,
                         format!("{} word with no G2 or G3 to use it", l as char),
                     ));
                 }
             }
         }
-        self.check_word_use(block, w, &has_g, arc_now, line)?;
-        // 14. Program end.
-        if let Some((2 | 30, _)) = m_stop {
-            self.ended = true;
-            out.push(Event {
-                at,
-                kind: EventKind::ProgramEnd,
-            });
-        }
-        Ok(())
-    }
-
-    /// Refuses D, E, H, L, P and Q words that no code of the block reads, as
-    /// LinuxCNC does ("E word with no G76, M66, M67 or M68 to use it", ...):
-    /// a word nothing reads is a typing error, never silently dropped. Only
-    /// the codes this interpreter accepts are listed (canned cycles, G10 and
-    /// cutter compensation are refused before this check).
-    fn check_word_use(
-        &self,
-        block: &Block,
-        w: &BlockWords,
-        has_g: &dyn Fn(u32) -> bool,
-        arc_now: bool,
-        line: u64,
-    ) -> Result<(), GcodeError> {
-        let has_m = |codes: &[u32]| w.m.iter().any(|(c, _)| codes.contains(c));
         let checks: [(u8, bool, &str); 6] = [
             (b'D', false, "D word with no G41, G42 or G96 to use it"),
             (
                 b'E',
-                has_m(&[66, 67, 68]),
+                w.has_m(&[66, 67, 68]),
                 "E word with no G76, M66, M67 or M68 to use it",
             ),
             (
                 b'H',
-                has_g(430) || has_g(434),
+                codes.has(GCode::G43) || codes.has(GCode::G43_2) || codes.has(GCode::G43_4),
                 "H word with no G43 to use it",
             ),
             (
                 b'L',
-                has_m(&[66]),
+                w.has_m(&[66]) || g10 || cycle_now.is_some(),
                 "L word with no G10, cutter compensation, canned cycle or M66 to use it",
             ),
             (
                 b'P',
-                has_g(40)
-                    || has_g(640)
+                codes.has(GCode::G4)
+                    || codes.has(GCode::G64)
                     || arc_now
-                    || has_m(&[19, 50, 51, 52, 53, 62, 63, 64, 65, 66]),
+                    || g10
+                    || cycle_in(&[
+                        GCode::G74,
+                        GCode::G82,
+                        GCode::G84,
+                        GCode::G86,
+                        GCode::G88,
+                        GCode::G89,
+                    ])
+                    || w.has_m(&[19, 50, 51, 52, 53, 62, 63, 64, 65, 66]),
                 "P word with no G2, G3, G4, G64, M19, M50-M53 or M62-M66 to use it",
             ),
             (
                 b'Q',
-                has_g(640) || has_m(&[19, 61, 66, 67, 68]),
+                codes.has(GCode::G64)
+                    || w.has_m(&[19, 61, 66, 67, 68])
+                    || g10
+                    || cycle_in(&[GCode::G73, GCode::G83]),
                 "Q word with no G64, M19, M61, M66, M67, M68 or canned cycle to use it",
             ),
         ];
@@ -765,7 +777,98 @@ impl Interpreter {
         Ok(())
     }
 
-    fn dwell_seconds(&self, w: &BlockWords, line: u64) -> Result<f64, GcodeError> {
+    /// G93, G94, G95. Entering inverse time clears the feed rate.
+    fn set_feed_mode(&mut self, codes: &Codes, s: &mut Step) {
+        let Some((code, _)) = codes.feed_mode else {
+            return;
+        };
+        let mode = match code {
+            GCode::G93 => FeedMode::InverseTime,
+            GCode::G94 => FeedMode::UnitsPerMinute,
+            _ => FeedMode::UnitsPerRevolution,
+        };
+        if mode != self.state.feed_mode && mode == FeedMode::InverseTime {
+            self.state.feed = 0.0;
+        }
+        self.state.feed_mode = mode;
+        s.emit(EventKind::FeedMode(mode));
+    }
+
+    /// F, in canonical units (mm/min, 1/min, mm/rev).
+    fn set_feed_rate(&mut self, w: &BlockWords, s: &mut Step) -> Result<(), GcodeError> {
+        let Some(f) = w.get(b'F') else {
+            return Ok(());
+        };
+        if f.value < 0.0 {
+            return Err(s.invalid(f.column, "negative F word"));
+        }
+        let scale = match self.state.feed_mode {
+            FeedMode::InverseTime => 1.0,
+            _ => self.state.units.mm_per_unit(),
+        };
+        self.state.feed = f.value * scale;
+        s.emit(EventKind::FeedRate(self.state.feed));
+        Ok(())
+    }
+
+    /// S, rev/min.
+    fn set_spindle_speed(&mut self, w: &BlockWords, s: &mut Step) -> Result<(), GcodeError> {
+        let Some(sw) = w.get(b'S') else {
+            return Ok(());
+        };
+        if sw.value < 0.0 {
+            return Err(s.invalid(sw.column, "negative spindle speed"));
+        }
+        self.state.spindle_rpm = sw.value;
+        s.emit(EventKind::SpindleSpeed { rpm: sw.value });
+        Ok(())
+    }
+
+    /// T: the tool the next M6 loads.
+    fn select_tool(&mut self, w: &BlockWords, s: &Step) -> Result<(), GcodeError> {
+        if let Some(t) = w.get(b'T') {
+            self.state.selected_tool = nonneg_int(*t, s.line, "T")?;
+        }
+        Ok(())
+    }
+
+    /// M6: the selected tool goes into the spindle.
+    fn change_tool(&mut self, codes: &Codes) {
+        if codes.m_tool_change {
+            self.state.tool = self.state.selected_tool;
+        }
+    }
+
+    /// M3, M4, M5.
+    fn set_spindle_direction(&mut self, codes: &Codes, s: &mut Step) {
+        let Some((code, _)) = codes.m_spindle else {
+            return;
+        };
+        let dir = match code {
+            3 => SpindleState::Clockwise,
+            4 => SpindleState::CounterClockwise,
+            _ => SpindleState::Stopped,
+        };
+        self.state.spindle = dir;
+        s.emit(EventKind::Spindle(dir));
+    }
+
+    /// The configured TCP M-codes (kinematics switch remaps).
+    fn switch_tcp_by_m_code(&mut self, codes: &Codes, s: &mut Step) {
+        let Some((code, _)) = codes.m_tcp else {
+            return;
+        };
+        let on = Some(code) == self.opts.tcp_on_m;
+        self.state.tcp = on;
+        self.tcp_from_g43_4 = false;
+        s.emit(EventKind::Tcp(on));
+    }
+
+    /// G4.
+    fn dwell(&mut self, w: &BlockWords, codes: &Codes, s: &mut Step) -> Result<(), GcodeError> {
+        if !codes.has(GCode::G4) {
+            return Ok(());
+        }
         let (word, value) = match self.opts.dialect {
             Dialect::LinuxCnc => (DwellWord::PSeconds, w.get(b'P')),
             Dialect::Fanuc { .. } => match (w.get(b'X').or(w.get(b'U')), w.get(b'P')) {
@@ -773,53 +876,935 @@ impl Interpreter {
                 (None, p) => (DwellWord::PMilliseconds, p),
             },
         };
-        let v = value.ok_or_else(|| GcodeError::invalid(line, 0, "dwell time missing with G4"))?;
+        let v = value.ok_or_else(|| s.invalid(0, "dwell time missing with G4"))?;
         if v.value < 0.0 {
-            return Err(GcodeError::invalid(line, v.column, "negative dwell time"));
+            return Err(s.invalid(v.column, "negative dwell time"));
         }
-        Ok(word.seconds(v.value))
+        s.emit(EventKind::Dwell {
+            seconds: word.seconds(v.value),
+        });
+        Ok(())
     }
 
-    fn set_tool_length(&mut self, length: f64) {
-        self.state.tool_length = length;
-        let work = self.opts.work_offsets[usize::from(self.state.work_system - 1)];
-        self.set_offsets(work, length);
+    /// G17, G18, G19.
+    fn set_plane(&mut self, codes: &Codes) {
+        if let Some((code, _)) = codes.plane {
+            self.state.plane = match code {
+                GCode::G17 => Plane::Xy,
+                GCode::G18 => Plane::Zx,
+                _ => Plane::Yz,
+            };
+        }
     }
 
-    /// Changes the offsets keeping the machine position.
-    fn set_offsets(&mut self, work: Axes, tool_length: f64) {
-        let machine = self.state.position.add(&self.state.offset);
-        let mut offset = work;
-        offset[Axis::Z] += tool_length;
-        self.state.offset = offset;
-        self.state.position = machine.sub(&offset);
+    /// G20, G21.
+    fn set_length_units(&mut self, codes: &Codes, s: &mut Step) {
+        if let Some((code, _)) = codes.units {
+            self.state.units = if code == GCode::G20 {
+                Units::Inch
+            } else {
+                Units::Millimetre
+            };
+            s.emit(EventKind::Units(self.state.units));
+        }
     }
 
+    /// G43 (H defaults to the tool in the spindle), G43.1 (dynamic: the
+    /// axis words), G43.2 (added: H's tool or the axis words), G43.4 (TCP),
+    /// G49.
+    fn set_tool_length_offset(
+        &mut self,
+        w: &BlockWords,
+        codes: &Codes,
+        s: &mut Step,
+    ) -> Result<(), GcodeError> {
+        let Some((code, col)) = codes.tool_length else {
+            return Ok(());
+        };
+        let table_offset = |this: &Self, tool: u32| -> Result<Axes, GcodeError> {
+            if tool == 0 {
+                return Ok(Axes::ZERO);
+            }
+            this.tools
+                .get(tool)
+                .map(|t| t.offset)
+                .ok_or_else(|| s.invalid(col, format!("tool {tool} is not in the tool table")))
+        };
+        let h = w
+            .get(b'H')
+            .map(|h| nonneg_int(*h, s.line, "H"))
+            .transpose()?;
+        let (axes, values) = self.axis_words(w, codes);
+        let offset = match code {
+            GCode::G49 => Axes::ZERO,
+            GCode::G43 | GCode::G43_4 => table_offset(self, h.unwrap_or(self.state.tool))?,
+            GCode::G43_1 => {
+                let mut o = self.state.tool_offset;
+                for a in axes.iter() {
+                    o[a] = values[a.index()];
+                }
+                o
+            }
+            _ => {
+                // G43.2
+                if h.is_some() && !axes.is_empty() {
+                    return Err(s.invalid(col, "G43.2: Can not have both H and axis words"));
+                }
+                let added = match h {
+                    Some(tool) => table_offset(self, tool)?,
+                    None if axes.is_empty() => {
+                        return Err(s.invalid(col, "G43.2: No axes specified and H word missing"));
+                    }
+                    None => {
+                        let mut o = Axes::ZERO;
+                        for a in axes.iter() {
+                            o[a] = values[a.index()];
+                        }
+                        o
+                    }
+                };
+                self.state.tool_offset.add(&added)
+            }
+        };
+        self.state.tool_offset = offset;
+        self.state.tool_length = offset[Axis::Z];
+        self.apply_offsets();
+        s.emit(EventKind::ToolLengthOffset {
+            length: offset[Axis::Z],
+        });
+        let tcp = match code {
+            GCode::G43_4 => Some(true),
+            GCode::G49 if self.tcp_from_g43_4 => Some(false),
+            _ => None,
+        };
+        if let Some(on) = tcp {
+            self.state.tcp = on;
+            self.tcp_from_g43_4 = on;
+            s.emit(EventKind::Tcp(on));
+        }
+        Ok(())
+    }
+
+    /// G54 ... G59.3.
+    fn select_coordinate_system(&mut self, codes: &Codes, s: &mut Step) {
+        let Some((code, _)) = codes.coord_system else {
+            return;
+        };
+        let system: u8 = match code {
+            GCode::G54 => 1,
+            GCode::G55 => 2,
+            GCode::G56 => 3,
+            GCode::G57 => 4,
+            GCode::G58 => 5,
+            GCode::G59 => 6,
+            GCode::G59_1 => 7,
+            GCode::G59_2 => 8,
+            _ => 9,
+        };
+        self.state.work_system = system;
+        let offset = self.state.work_offsets[usize::from(system - 1)];
+        self.apply_offsets();
+        s.emit(EventKind::WorkOffset { system, offset });
+    }
+
+    /// G90, G91.
+    fn set_distance_mode(&mut self, codes: &Codes) {
+        if let Some((code, _)) = codes.distance {
+            self.state.distance = if code == GCode::G90 {
+                DistanceMode::Absolute
+            } else {
+                DistanceMode::Incremental
+            };
+        }
+    }
+
+    /// G90.1, G91.1.
+    fn set_arc_distance_mode(&mut self, codes: &Codes) {
+        if let Some((code, _)) = codes.arc_distance {
+            self.state.arc_distance = if code == GCode::G90_1 {
+                DistanceMode::Absolute
+            } else {
+                DistanceMode::Incremental
+            };
+        }
+    }
+
+    /// G98, G99.
+    fn set_retract_mode(&mut self, codes: &Codes) {
+        if let Some((code, _)) = codes.retract {
+            self.state.retract = if code == GCode::G98 {
+                RetractMode::InitialLevel
+            } else {
+                RetractMode::RLevel
+            };
+        }
+    }
+
+    /// The non-modal codes of group 0 that change state or move: G10, G28,
+    /// G28.1, G30, G30.1, G52, G92 (G4 and G53 have their own steps).
+    fn non_modal(&mut self, w: &BlockWords, codes: &Codes, s: &mut Step) -> Result<(), GcodeError> {
+        let Some((code, col)) = codes.non_modal else {
+            return Ok(());
+        };
+        match code {
+            GCode::G10 => self.g10(w, codes, col, s),
+            GCode::G28 | GCode::G30 => self.go_home(code, w, codes, s),
+            GCode::G28_1 => {
+                self.state.g28_home = self.home_to_store();
+                Ok(())
+            }
+            GCode::G30_1 => {
+                self.state.g30_home = self.home_to_store();
+                Ok(())
+            }
+            GCode::G52 | GCode::G92 => {
+                let (axes, values) = self.axis_words(w, codes);
+                self.check_wrapped(w, axes, &values, s)?;
+                for a in axes.iter() {
+                    let v = values[a.index()];
+                    self.state.axis_offset[a] = if code == GCode::G92 {
+                        self.state.position[a] + self.state.axis_offset[a] - v
+                    } else {
+                        v
+                    };
+                }
+                self.apply_offsets();
+                self.state.g92_saved = self.state.axis_offset;
+                self.state.g92_applied = true;
+                Ok(())
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Refuses absolute values of wrapped rotary axes outside (−360, 360).
+    fn check_wrapped(
+        &self,
+        w: &BlockWords,
+        axes: AxisMask,
+        values: &[f64; 9],
+        s: &Step,
+    ) -> Result<(), GcodeError> {
+        for a in axes.iter() {
+            let v = values[a.index()];
+            if self.opts.wrapped_rotary.contains(a) && (v <= -360.0 || v >= 360.0) {
+                let col = w.get(a.letter()).map_or(0, |l| l.column);
+                return Err(s.invalid(
+                    col,
+                    format!("Invalid absolute position {v} for wrapped rotary axis {a:?}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The machine position G28.1/G30.1 store (wrapped rotary axes in
+    /// [0, 360)).
+    fn home_to_store(&self) -> Axes {
+        let mut m = self.state.position.add(&self.state.offset);
+        for a in self.opts.wrapped_rotary.iter() {
+            m[a] = m[a].rem_euclid(360.0);
+        }
+        m
+    }
+
+    /// G28, G30: a rapid to the axis words (the waypoint, in the current
+    /// frame and distance mode), then a rapid to the stored home position
+    /// on the axes named (all axes if none is named). Both moves are made
+    /// even when they have no length, as LinuxCNC's canonical calls are.
+    fn go_home(
+        &mut self,
+        code: GCode,
+        w: &BlockWords,
+        codes: &Codes,
+        s: &mut Step,
+    ) -> Result<(), GcodeError> {
+        let (axes, values) = self.axis_words(w, codes);
+        let from = self.state.position;
+        let mut waypoint = from;
+        for a in axes.iter() {
+            let v = values[a.index()];
+            waypoint[a] = match self.state.distance {
+                DistanceMode::Incremental => from[a] + v,
+                DistanceMode::Absolute if self.opts.wrapped_rotary.contains(a) => {
+                    unwrap_rotary(v, from[a])
+                        .map_err(|m| s.invalid(w.get(a.letter()).map_or(0, |l| l.column), m))?
+                }
+                DistanceMode::Absolute => v,
+            };
+        }
+        let mut words = self.programmed(axes, false);
+        words.expanded = true;
+        self.push_straight(true, waypoint, words, s)?;
+        let home = if code == GCode::G28 {
+            self.state.g28_home
+        } else {
+            self.state.g30_home
+        };
+        let home_work = home.sub(&self.state.offset);
+        let mut end = waypoint;
+        for a in Axis::ALL {
+            if axes.is_empty() || axes.contains(a) {
+                end[a] = home_work[a];
+            }
+        }
+        self.push_straight(true, end, self.programmed(AxisMask::EMPTY, true), s)
+    }
+
+    /// What the block wrote for a move, in the current modes.
+    fn programmed(&self, axes: AxisMask, expanded: bool) -> Programmed {
+        Programmed {
+            axes,
+            g53: false,
+            distance: self.state.distance,
+            units: self.state.units,
+            expanded,
+        }
+    }
+
+    /// A straight move from the current position to `to` (work
+    /// coordinates): a rapid, or a feed at the current feed (units per
+    /// minute or per revolution, as canned cycles feed).
+    fn push_straight(
+        &mut self,
+        rapid: bool,
+        to: Axes,
+        words: Programmed,
+        s: &mut Step,
+    ) -> Result<(), GcodeError> {
+        let st = &self.state;
+        let feed = if rapid {
+            Feed::Rapid
+        } else {
+            match st.feed_mode {
+                FeedMode::UnitsPerRevolution => Feed::PerRevolution {
+                    mm_per_rev: st.feed,
+                    rpm: st.spindle_rpm,
+                },
+                _ => Feed::PerMinute(st.feed),
+            }
+        };
+        let lin = Linear {
+            from: st.position,
+            to,
+            offset: st.offset,
+            feed,
+            tcp: st.tcp,
+            words,
+        };
+        self.state.position = to;
+        s.emit(if rapid {
+            EventKind::Traverse(lin)
+        } else {
+            EventKind::Feed(lin)
+        });
+        Ok(())
+    }
+
+    /// G10: L2 and L20 set the offset of a coordinate system (P1 ... P9,
+    /// P0 the active one), L1, L10 and L11 a tool table entry (P the tool).
+    fn g10(
+        &mut self,
+        w: &BlockWords,
+        codes: &Codes,
+        col: usize,
+        s: &mut Step,
+    ) -> Result<(), GcodeError> {
+        let l = w
+            .get(b'L')
+            .filter(|l| matches!(l.value, 1.0 | 2.0 | 10.0 | 11.0 | 20.0))
+            .ok_or_else(|| s.invalid(col, "Line with G10 does not have L1, L10, L11, L2, or L20"))?
+            .value as u32;
+        let p = w.get(b'P').map_or(0.0, |p| p.value);
+        let p_int = p.round();
+        if (p - p_int).abs() > 0.0002 {
+            return Err(s.invalid(col, "P value not an integer with G10"));
+        }
+        let (axes, values) = self.axis_words(w, codes);
+        let st = &self.state;
+        // The current position as it would read in `system` (LinuxCNC's
+        // find_current_in_system), without rotation.
+        let in_system = |system: usize, with_tool: bool| -> Axes {
+            let mut c = st
+                .position
+                .add(&st.axis_offset)
+                .add(&st.work_offsets[usize::from(st.work_system - 1)])
+                .sub(&st.work_offsets[system - 1]);
+            if st.g92_applied {
+                c = c.sub(&st.g92_saved);
+            }
+            if with_tool {
+                c = c.add(&st.tool_offset);
+            }
+            c
+        };
+        match l {
+            2 | 20 => {
+                if !(0.0..=9.0).contains(&p_int) {
+                    return Err(s.invalid(col, format!("P value out of range (0-9) with G10 L{l}")));
+                }
+                if w.get(b'I').is_some() || w.get(b'J').is_some() {
+                    return Err(s.invalid(col, "I J words not allowed with G10 L2"));
+                }
+                if let Some(r) = w.get(b'R') {
+                    if l == 20 {
+                        return Err(s.invalid(r.column, "R not allowed in G10 L20"));
+                    }
+                    if r.value != 0.0 {
+                        return Err(GcodeError::unsupported(
+                            s.line,
+                            r.column,
+                            "coordinate system rotation (G10 L2 R)",
+                        ));
+                    }
+                }
+                if l == 20 {
+                    self.check_wrapped(w, axes, &values, s)?;
+                }
+                let system = if p_int == 0.0 {
+                    usize::from(st.work_system)
+                } else {
+                    p_int as usize
+                };
+                let current = in_system(system, false);
+                let mut offset = st.work_offsets[system - 1];
+                for a in axes.iter() {
+                    let v = values[a.index()];
+                    offset[a] = if l == 20 {
+                        current[a] + offset[a] - v
+                    } else {
+                        v
+                    };
+                }
+                self.state.work_offsets[system - 1] = offset;
+                if system == usize::from(self.state.work_system) {
+                    self.apply_offsets();
+                    s.emit(EventKind::WorkOffset {
+                        system: system as u8,
+                        offset,
+                    });
+                }
+                Ok(())
+            }
+            _ => {
+                if p_int < 1.0 {
+                    return Err(s.invalid(col, format!("P value out of range with G10 L{l}")));
+                }
+                let tool = p_int as u32;
+                if axes.is_empty() && [b'R', b'Q', b'I', b'J'].iter().all(|&c| w.get(c).is_none()) {
+                    return Err(s.invalid(col, "G10 L1 without offsets has no effect"));
+                }
+                if self.tools.get(tool).is_none() {
+                    return Err(s.invalid(col, format!("tool {tool} is not in the tool table")));
+                }
+                let current = if l == 11 {
+                    let mut c = in_system(9, true);
+                    if st.g92_applied {
+                        c = c.add(&st.g92_saved);
+                    }
+                    c
+                } else {
+                    in_system(usize::from(st.work_system), true)
+                };
+                let scale = self.state.units.mm_per_unit();
+                let r = w.get(b'R').map(|r| r.value * scale);
+                let q = w.get(b'Q').map(|q| q.value);
+                let (i, j) = (w.get(b'I').map(|x| x.value), w.get(b'J').map(|x| x.value));
+                let entry = self.tools.entry(tool);
+                for a in axes.iter() {
+                    let v = values[a.index()];
+                    entry.offset[a] = if l == 1 { v } else { current[a] - v };
+                }
+                if let Some(r) = r {
+                    entry.diameter = (2.0 * r).abs();
+                }
+                if let Some(q) = q {
+                    if !(0.0..=9.0).contains(&q) || q.fract() != 0.0 {
+                        return Err(s.invalid(col, "Q (orientation) must be 0 to 9 with G10 L1"));
+                    }
+                    entry.orientation = q as u8;
+                }
+                if let Some(i) = i {
+                    entry.front_angle = i;
+                }
+                if let Some(j) = j {
+                    entry.back_angle = j;
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// G92.1 and G92.2 (axis offsets to zero; G92.1 also clears the kept
+    /// values), G92.3 (restore the kept values).
+    fn set_g92_applied(&mut self, codes: &Codes) {
+        let Some((code, _)) = codes.g92_applied else {
+            return;
+        };
+        if code == GCode::G92_3 {
+            self.state.axis_offset = self.state.g92_saved;
+            self.state.g92_applied = true;
+        } else {
+            self.state.axis_offset = Axes::ZERO;
+            self.state.g92_applied = false;
+            if code == GCode::G92_1 {
+                self.state.g92_saved = Axes::ZERO;
+            }
+        }
+        self.apply_offsets();
+    }
+
+    /// A canned cycle (G73, G74, G81 ... G89) in the active plane, as the
+    /// straight moves, dwells and spindle commands LinuxCNC's
+    /// `convert_cycle_*` produce, repeated L times (in G91 each repeat
+    /// moves by the in-plane words). `previous` is the motion mode before
+    /// the block: words a cycle remembers may be left out only when it is
+    /// the same cycle.
+    fn canned_cycle(
+        &mut self,
+        code: GCode,
+        previous: Option<MotionMode>,
+        w: &BlockWords,
+        axes: AxisMask,
+        target: [f64; 9],
+        s: &mut Step,
+    ) -> Result<(), GcodeError> {
+        let st = &self.state;
+        let same = previous == Some(MotionMode::Cycle(code));
+        if st.feed <= 0.0 {
+            return Err(s.invalid(0, "Cannot feed with zero feed rate"));
+        }
+        if st.feed_mode == FeedMode::InverseTime {
+            return Err(s.invalid(0, "Cannot use inverse time feed with canned cycles"));
+        }
+        let (p, q, n) = st.plane.axes();
+        let plane = match st.plane {
+            Plane::Xy => "XY",
+            Plane::Zx => "XZ",
+            Plane::Yz => "YZ",
+        };
+        for a in axes.iter() {
+            if a.is_rotary() || matches!(a, Axis::U | Axis::V | Axis::W) {
+                let col = w.get(a.letter()).map_or(0, |l| l.column);
+                return Err(s.invalid(
+                    col,
+                    format!("Cannot put {a:?} in a canned cycle in the {plane} plane"),
+                ));
+            }
+        }
+        let scale = st.units.mm_per_unit();
+        let r_word = match w.get(b'R') {
+            Some(r) => r.value * scale,
+            None if same => self.cycle.r,
+            None => {
+                return Err(s.invalid(0, "R clearance plane unspecified in canned cycle"));
+            }
+        };
+        let repeats = match w.get(b'L') {
+            None => 1,
+            Some(l) => {
+                let n = nonneg_int(*l, s.line, "L")?;
+                if n == 0 {
+                    return Err(s.invalid(l.column, "Cannot do zero repeats of canned cycle"));
+                }
+                n
+            }
+        };
+        if !same && !axes.contains(n) {
+            return Err(s.invalid(
+                0,
+                format!("{n:?} value unspecified in {plane} plane canned cycle"),
+            ));
+        }
+        let bottom_word = if axes.contains(n) {
+            target[n.index()]
+        } else {
+            self.cycle.bottom
+        };
+        let mut current_cc = st.position[n];
+        let mut old_cc = *self.cycle.initial_level.get_or_insert(current_cc);
+        let (mut aa, mut bb) = (st.position[p], st.position[q]);
+        let (mut da, mut db) = (0.0, 0.0);
+        let (r, cc) = match st.distance {
+            DistanceMode::Absolute => {
+                if axes.contains(p) {
+                    aa = target[p.index()];
+                }
+                if axes.contains(q) {
+                    bb = target[q.index()];
+                }
+                (r_word, bottom_word)
+            }
+            DistanceMode::Incremental => {
+                if axes.contains(p) {
+                    da = target[p.index()];
+                }
+                if axes.contains(q) {
+                    db = target[q.index()];
+                }
+                let r = r_word + old_cc;
+                (r, r + bottom_word)
+            }
+        };
+        if r < cc {
+            return Err(s.invalid(0, format!("R less than {n:?} in cycle in {plane} plane")));
+        }
+        // Cycle words, checked before any move.
+        let dwell = |this: &Self| -> Result<f64, GcodeError> {
+            match w.get(b'P') {
+                Some(pw) => Ok(pw.value),
+                None if same || matches!(code, GCode::G74 | GCode::G84) => Ok(this.cycle.p),
+                None => Err(s.invalid(0, format!("Dwell time P word missing with {code}"))),
+            }
+        };
+        let mut params = self.cycle;
+        match code {
+            GCode::G82 | GCode::G86 | GCode::G88 | GCode::G89 | GCode::G74 | GCode::G84 => {
+                params.p = dwell(self)?;
+            }
+            GCode::G73 | GCode::G83 => {
+                params.q = match w.get(b'Q') {
+                    Some(qw) => qw.value * scale,
+                    None if same => self.cycle.q,
+                    None => return Err(s.invalid(0, format!("Q word missing with {code}"))),
+                };
+                if params.q <= 0.0 {
+                    return Err(s.invalid(0, "Negative or zero Q value used"));
+                }
+            }
+            GCode::G87 => {
+                for (k, l) in [b'I', b'J', b'K'].into_iter().enumerate() {
+                    match w.get(l) {
+                        Some(x) => params.ijk[k] = x.value * scale,
+                        None if same => {}
+                        None => {
+                            return Err(
+                                s.invalid(0, format!("{} word missing with G87", l as char))
+                            );
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+        let spindle = self.state.spindle;
+        match (code, spindle) {
+            (
+                GCode::G84 | GCode::G74 | GCode::G86 | GCode::G87 | GCode::G88,
+                SpindleState::Stopped,
+            ) => {
+                return Err(s.invalid(0, format!("Spindle not turning in {code}")));
+            }
+            (GCode::G84, SpindleState::CounterClockwise) => {
+                return Err(s.invalid(0, "Spindle turning counterclockwise in G84"));
+            }
+            (GCode::G74, SpindleState::Clockwise) => {
+                return Err(s.invalid(0, "Spindle turning clockwise in G74"));
+            }
+            _ => {}
+        }
+        let words = self.programmed(axes, true);
+        let at = |this: &Self, a: f64, b: f64, c: f64| {
+            let mut to = this.state.position;
+            to[p] = a;
+            to[q] = b;
+            to[n] = c;
+            to
+        };
+        // Below the R level: straight up to it first.
+        if old_cc < r {
+            let to = at(self, self.state.position[p], self.state.position[q], r);
+            self.push_straight(true, to, words, s)?;
+            old_cc = r;
+            current_cc = old_cc;
+        }
+        let clear = match self.state.retract {
+            RetractMode::RLevel => r,
+            RetractMode::InitialLevel => old_cc,
+        };
+        for repeat in (1..=repeats).rev() {
+            aa += da;
+            bb += db;
+            if repeat == repeats && current_cc > r {
+                self.push_straight(true, at(self, aa, bb, current_cc), words, s)?;
+                self.push_straight(true, at(self, aa, bb, r), words, s)?;
+            } else {
+                self.push_straight(true, at(self, aa, bb, clear), words, s)?;
+                if clear > r {
+                    self.push_straight(true, at(self, aa, bb, r), words, s)?;
+                }
+            }
+            self.cycle_body(code, &params, [aa, bb], r, clear, cc, words, s)?;
+        }
+        let mut end = self.state.position;
+        end[p] = aa;
+        end[q] = bb;
+        end[n] = clear;
+        self.state.position = end;
+        self.cycle = CycleMemory {
+            r: r_word,
+            bottom: bottom_word,
+            initial_level: self.cycle.initial_level,
+            ..params
+        };
+        Ok(())
+    }
+
+    /// The moves of one repeat of a canned cycle at (`a`, `b`) in the plane,
+    /// from the R level `r` to the bottom `bottom` and back to `clear`.
     #[allow(clippy::too_many_arguments)]
-    fn motion(
+    fn cycle_body(
+        &mut self,
+        code: GCode,
+        params: &CycleMemory,
+        [a, b]: [f64; 2],
+        r: f64,
+        clear: f64,
+        bottom: f64,
+        words: Programmed,
+        s: &mut Step,
+    ) -> Result<(), GcodeError> {
+        let (p, q, n) = self.state.plane.axes();
+        let at = |this: &Self, x: f64, y: f64, z: f64| {
+            let mut to = this.state.position;
+            to[p] = x;
+            to[q] = y;
+            to[n] = z;
+            to
+        };
+        let feed = |this: &mut Self, z: f64, s: &mut Step| {
+            let to = at(this, a, b, z);
+            this.push_straight(false, to, words, s)
+        };
+        let rapid = |this: &mut Self, z: f64, s: &mut Step| {
+            let to = at(this, a, b, z);
+            this.push_straight(true, to, words, s)
+        };
+        let spindle = |this: &mut Self, dir: SpindleState, s: &mut Step| {
+            this.state.spindle = dir;
+            s.emit(EventKind::Spindle(dir));
+        };
+        let dir = self.state.spindle;
+        // G73/G83 back off 0.010 inch (0.254 mm) above the last depth.
+        const RAPID_DELTA: f64 = 0.254;
+        match code {
+            GCode::G81 => {
+                feed(self, bottom, s)?;
+                rapid(self, clear, s)?;
+            }
+            GCode::G82 => {
+                feed(self, bottom, s)?;
+                s.emit(EventKind::Dwell { seconds: params.p });
+                rapid(self, clear, s)?;
+            }
+            GCode::G73 | GCode::G83 => {
+                let mut depth = r - params.q;
+                while depth > bottom {
+                    feed(self, depth, s)?;
+                    if code == GCode::G83 {
+                        rapid(self, r, s)?;
+                    }
+                    rapid(self, depth + RAPID_DELTA, s)?;
+                    depth -= params.q;
+                }
+                feed(self, bottom, s)?;
+                rapid(self, clear, s)?;
+            }
+            GCode::G74 | GCode::G84 => {
+                let (reverse, forward) = if code == GCode::G84 {
+                    (SpindleState::CounterClockwise, SpindleState::Clockwise)
+                } else {
+                    (SpindleState::Clockwise, SpindleState::CounterClockwise)
+                };
+                // LinuxCNC 2.9 (and later) passes the tapping feeds' end
+                // points to its plane mapping in another order than the
+                // other cycles: in G18 and G19 the two feeds go along
+                // another axis than the cycle's. Reproduced as it runs.
+                let tap = |this: &mut Self, z: f64, s: &mut Step| {
+                    let mut to = this.state.position;
+                    match this.state.plane {
+                        Plane::Xy => (to[p], to[q], to[n]) = (a, b, z),
+                        Plane::Yz => (to[n], to[p], to[q]) = (b, z, a),
+                        Plane::Zx => (to[q], to[n], to[p]) = (z, a, b),
+                    }
+                    this.push_straight(false, to, words, s)
+                };
+                tap(self, bottom, s)?;
+                spindle(self, SpindleState::Stopped, s);
+                spindle(self, reverse, s);
+                s.emit(EventKind::Dwell { seconds: params.p });
+                tap(self, clear, s)?;
+                spindle(self, SpindleState::Stopped, s);
+                spindle(self, forward, s);
+            }
+            GCode::G85 => {
+                feed(self, bottom, s)?;
+                feed(self, r, s)?;
+                rapid(self, clear, s)?;
+            }
+            GCode::G86 => {
+                feed(self, bottom, s)?;
+                s.emit(EventKind::Dwell { seconds: params.p });
+                spindle(self, SpindleState::Stopped, s);
+                rapid(self, clear, s)?;
+                spindle(self, dir, s);
+            }
+            GCode::G87 => {
+                let [i, j, k] = params.ijk;
+                let middle = match self.state.distance {
+                    DistanceMode::Incremental => bottom + k,
+                    DistanceMode::Absolute => k,
+                };
+                let (oa, ob) = (a + i, b + j);
+                let to = at(self, oa, ob, r);
+                self.push_straight(true, to, words, s)?;
+                spindle(self, SpindleState::Stopped, s);
+                let to = at(self, oa, ob, bottom);
+                self.push_straight(true, to, words, s)?;
+                rapid(self, bottom, s)?;
+                spindle(self, dir, s);
+                feed(self, middle, s)?;
+                feed(self, bottom, s)?;
+                spindle(self, SpindleState::Stopped, s);
+                let to = at(self, oa, ob, bottom);
+                self.push_straight(true, to, words, s)?;
+                let to = at(self, oa, ob, clear);
+                self.push_straight(true, to, words, s)?;
+                rapid(self, clear, s)?;
+                spindle(self, dir, s);
+            }
+            GCode::G88 => {
+                // The operator retracts by hand after the program stop.
+                feed(self, bottom, s)?;
+                s.emit(EventKind::Dwell { seconds: params.p });
+                spindle(self, SpindleState::Stopped, s);
+                spindle(self, dir, s);
+            }
+            GCode::G89 => {
+                feed(self, bottom, s)?;
+                s.emit(EventKind::Dwell { seconds: params.p });
+                feed(self, clear, s)?;
+            }
+            _ => return Err(s.invalid(0, format!("{code} is not a canned cycle"))),
+        }
+        Ok(())
+    }
+
+    /// G53 (non-modal): needs axis words and a straight motion mode.
+    fn check_g53(&self, w: &BlockWords, codes: &Codes, s: &Step) -> Result<(), GcodeError> {
+        let Some(col) = codes.g53() else {
+            return Ok(());
+        };
+        if self.axis_words(w, codes).0.is_empty() {
+            return Err(s.invalid(col, "G53 without axis words"));
+        }
+        let mode = self.motion_to_be(codes);
+        if !matches!(mode, Some(MotionMode::Rapid | MotionMode::Linear)) {
+            return Err(s.invalid(col, "G53 needs G0 or G1"));
+        }
+        Ok(())
+    }
+
+    /// Sets the total offset from the work, G92 and tool offsets in force,
+    /// keeping the machine position.
+    fn apply_offsets(&mut self) {
+        let st = &mut self.state;
+        let machine = st.position.add(&st.offset);
+        let offset = st.work_offsets[usize::from(st.work_system - 1)]
+            .add(&st.axis_offset)
+            .add(&st.tool_offset);
+        st.offset = offset;
+        st.position = machine.sub(&offset);
+    }
+
+    /// The axis words of a block in canonical units (mm, degree).
+    fn axis_words(&self, w: &BlockWords, codes: &Codes) -> (AxisMask, [f64; 9]) {
+        let dialect = self.opts.dialect;
+        let dwell = codes.has(GCode::G4);
+        let mut axes = AxisMask::EMPTY;
+        let mut target = [0.0; 9];
+        for axis in Axis::ALL {
+            if let Some(a) = w.get(axis.letter()) {
+                if dwell && dialect != Dialect::LinuxCnc && axis == Axis::X {
+                    continue; // Fanuc G4 X: the dwell time.
+                }
+                axes.insert(axis);
+                let v = dialect.dimension(
+                    a.value,
+                    a.has_point,
+                    self.state.units == Units::Inch,
+                    axis.is_rotary(),
+                );
+                target[axis.index()] = if axis.is_rotary() {
+                    v
+                } else {
+                    v * self.state.units.mm_per_unit()
+                };
+            }
+        }
+        (axes, target)
+    }
+
+    /// Group 1: sets the motion mode (G80 clears it) and moves to the axis
+    /// words.
+    fn motion(&mut self, w: &BlockWords, codes: &Codes, s: &mut Step) -> Result<(), GcodeError> {
+        let previous = self.state.motion;
+        match codes.motion {
+            Some((GCode::G80, _)) => self.state.motion = None,
+            Some((code, _)) => self.state.motion = Some(motion_mode(code)),
+            None => {}
+        }
+        if codes.motion.is_some_and(|(c, _)| !c.is_cycle()) {
+            // Any other motion code ends a series of cycles.
+            self.cycle.initial_level = None;
+        }
+        let (axes, target) = self.axis_words(w, codes);
+        let g53 = codes.g53();
+        if codes.motion.is_none() && self.axes_consumed(codes) {
+            return Ok(());
+        }
+        if axes.is_empty() && codes.explicit_motion().is_none() {
+            return Ok(());
+        }
+        match self.state.motion {
+            None if !axes.is_empty() => {
+                Err(s.invalid(0, "axis words without a motion mode (G0, G1, G2 or G3)"))
+            }
+            None => Ok(()),
+            Some(MotionMode::Cycle(code)) => {
+                let r = self.canned_cycle(code, previous, w, axes, target, s);
+                if r.is_err() {
+                    self.state.motion = previous;
+                }
+                r
+            }
+            Some(mode) => {
+                self.cycle.initial_level = None;
+                self.move_to(mode, w, axes, target, g53, s)
+            }
+        }
+    }
+
+    /// One move of `mode` to the axis words.
+    fn move_to(
         &mut self,
         mode: MotionMode,
         w: &BlockWords,
         axes: AxisMask,
         target: [f64; 9],
         g53: Option<usize>,
-        line: u64,
-        at: SourcePos,
-        out: &mut Vec<Event>,
+        s: &mut Step,
     ) -> Result<(), GcodeError> {
+        let line = s.line;
         let st = &self.state;
         let from = st.position;
         let mut to = from;
         if let Some(col) = g53 {
             if !matches!(mode, MotionMode::Rapid | MotionMode::Linear) {
-                return Err(GcodeError::invalid(line, col, "G53 needs G0 or G1"));
+                return Err(s.invalid(col, "G53 needs G0 or G1"));
             }
             if st.distance == DistanceMode::Incremental {
-                return Err(GcodeError::invalid(
-                    line,
-                    col,
-                    "G53 is not allowed with G91",
-                ));
+                return Err(s.invalid(col, "G53 is not allowed with G91"));
             }
         }
         for axis in axes.iter() {
@@ -841,53 +1826,19 @@ impl Interpreter {
             g53: g53.is_some(),
             distance: st.distance,
             units: st.units,
-        };
-        let feed = || -> Result<Feed, GcodeError> {
-            match st.feed_mode {
-                FeedMode::UnitsPerMinute => {
-                    if st.feed <= 0.0 {
-                        return Err(GcodeError::invalid(
-                            line,
-                            0,
-                            "Cannot do G1, G2 or G3 with zero feed rate",
-                        ));
-                    }
-                    Ok(Feed::PerMinute(st.feed))
-                }
-                FeedMode::InverseTime => {
-                    if w.get(b'F').is_none() {
-                        return Err(GcodeError::invalid(
-                            line,
-                            0,
-                            "F word missing with inverse time G1, G2 or G3 move",
-                        ));
-                    }
-                    if st.feed <= 0.0 {
-                        return Err(GcodeError::invalid(line, 0, "zero inverse-time feed rate"));
-                    }
-                    Ok(Feed::InverseTime(st.feed))
-                }
-                FeedMode::UnitsPerRevolution => {
-                    if st.feed <= 0.0 {
-                        return Err(GcodeError::invalid(
-                            line,
-                            0,
-                            "Cannot do G1, G2 or G3 with zero feed per revolution",
-                        ));
-                    }
-                    Ok(Feed::PerRevolution {
-                        mm_per_rev: st.feed,
-                        rpm: st.spindle_rpm,
-                    })
-                }
-            }
+            expanded: false,
         };
         let kind = match mode {
             MotionMode::Rapid | MotionMode::Linear => {
                 if axes.is_empty() {
                     return Ok(());
                 }
-                let lin = |feed| Linear {
+                let feed = if mode == MotionMode::Rapid {
+                    Feed::Rapid
+                } else {
+                    self.feed(w, line)?
+                };
+                let lin = Linear {
                     from,
                     to,
                     offset: st.offset,
@@ -896,20 +1847,19 @@ impl Interpreter {
                     words,
                 };
                 if mode == MotionMode::Rapid {
-                    EventKind::Traverse(lin(Feed::Rapid))
+                    EventKind::Traverse(lin)
                 } else {
-                    EventKind::Feed(lin(feed()?))
+                    EventKind::Feed(lin)
                 }
+            }
+            MotionMode::Cycle(code) => {
+                return Err(s.invalid(0, format!("{code} is not a single move")));
             }
             MotionMode::ArcClockwise | MotionMode::ArcCounterClockwise => {
                 if axes.is_empty() {
-                    return Err(GcodeError::invalid(
-                        line,
-                        0,
-                        "All axes missing with motion code",
-                    ));
+                    return Err(s.invalid(0, "All axes missing with motion code"));
                 }
-                let feed = feed()?;
+                let feed = self.feed(w, line)?;
                 let ccw = mode == MotionMode::ArcCounterClockwise;
                 let (center, turns) = self.arc_center(w, &from, &to, ccw, line)?;
                 let st = &self.state;
@@ -927,8 +1877,59 @@ impl Interpreter {
             }
         };
         self.state.position = to;
-        out.push(Event { at, kind });
+        s.emit(kind);
         Ok(())
+    }
+
+    /// The feed of a G1, G2 or G3 move in the current feed mode.
+    fn feed(&self, w: &BlockWords, line: u64) -> Result<Feed, GcodeError> {
+        let st = &self.state;
+        match st.feed_mode {
+            FeedMode::UnitsPerMinute => {
+                if st.feed <= 0.0 {
+                    return Err(GcodeError::invalid(
+                        line,
+                        0,
+                        "Cannot do G1, G2 or G3 with zero feed rate",
+                    ));
+                }
+                Ok(Feed::PerMinute(st.feed))
+            }
+            FeedMode::InverseTime => {
+                if w.get(b'F').is_none() {
+                    return Err(GcodeError::invalid(
+                        line,
+                        0,
+                        "F word missing with inverse time G1, G2 or G3 move",
+                    ));
+                }
+                if st.feed <= 0.0 {
+                    return Err(GcodeError::invalid(line, 0, "zero inverse-time feed rate"));
+                }
+                Ok(Feed::InverseTime(st.feed))
+            }
+            FeedMode::UnitsPerRevolution => {
+                if st.feed <= 0.0 {
+                    return Err(GcodeError::invalid(
+                        line,
+                        0,
+                        "Cannot do G1, G2 or G3 with zero feed per revolution",
+                    ));
+                }
+                Ok(Feed::PerRevolution {
+                    mm_per_rev: st.feed,
+                    rpm: st.spindle_rpm,
+                })
+            }
+        }
+    }
+
+    /// M2, M30: end of program (M0, M1, M60 do not change the motion).
+    fn stop(&mut self, codes: &Codes, s: &mut Step) {
+        if let Some((2 | 30, _)) = codes.m_stop {
+            self.ended = true;
+            s.emit(EventKind::ProgramEnd);
+        }
     }
 
     /// Centre (work X Y Z) and signed turns of a G2/G3 block.
@@ -1026,8 +2027,16 @@ impl Interpreter {
     }
 }
 
-fn axes_or_motion(axes: &AxisMask, motion: Option<(u32, usize)>) -> bool {
-    !axes.is_empty() || motion.is_some_and(|(c, _)| c != 800)
+/// The motion mode a group-1 code sets (G80 excluded).
+fn motion_mode(code: GCode) -> MotionMode {
+    match code {
+        GCode::G0 => MotionMode::Rapid,
+        GCode::G2 => MotionMode::ArcClockwise,
+        GCode::G3 => MotionMode::ArcCounterClockwise,
+        c if c.is_cycle() => MotionMode::Cycle(c),
+        // G1 and the probing moves.
+        _ => MotionMode::Linear,
+    }
 }
 
 /// LinuxCNC's `unwrap_rotary`: absolute target of a wrapped rotary axis,
@@ -1061,55 +2070,44 @@ fn nonneg_int(l: Letter, line: u64, name: &str) -> Result<u32, GcodeError> {
     Ok(l.value as u32)
 }
 
-fn g_name(code: u32) -> String {
-    if code.is_multiple_of(10) {
-        format!("G{}", code / 10)
-    } else {
-        format!("G{}.{}", code / 10, code % 10)
+/// The value of a word: its number, or its expression evaluated.
+fn word_value(block: &Block, word: &Word) -> Result<f64, GcodeError> {
+    let line = block.line();
+    match word.value {
+        Value::Number(v) => Ok(v),
+        Value::Expression => match expr::eval(block.value_text(word).as_bytes()) {
+            Ok(v) => Ok(v),
+            Err(ExprError::Parameter) => Err(GcodeError::unsupported(
+                line,
+                word.span.start + 1,
+                format!("expression with parameters {}", block.value_text(word)),
+            )),
+            Err(ExprError::Invalid(m)) => Err(GcodeError::invalid(
+                line,
+                word.span.start + 1,
+                format!("{m} in {}", block.value_text(word)),
+            )),
+        },
+        Value::Parameter => Err(GcodeError::unsupported(
+            line,
+            word.span.start + 1,
+            format!("parameter {}", block.value_text(word)),
+        )),
     }
 }
 
+/// Files one word of a block: G- and M-codes in order, every other letter
+/// at most once.
 fn collect_word(block: &Block, word: &Word, w: &mut BlockWords) -> Result<(), GcodeError> {
     let line = block.line();
     let col = word.at + 1;
-    let value = match word.value {
-        Value::Number(v) => v,
-        Value::Expression => match expr::eval(block.value_text(word).as_bytes()) {
-            Ok(v) => v,
-            Err(ExprError::Parameter) => {
-                return Err(GcodeError::unsupported(
-                    line,
-                    word.span.start + 1,
-                    format!("expression with parameters {}", block.value_text(word)),
-                ));
-            }
-            Err(ExprError::Invalid(m)) => {
-                return Err(GcodeError::invalid(
-                    line,
-                    word.span.start + 1,
-                    format!("{m} in {}", block.value_text(word)),
-                ));
-            }
-        },
-        Value::Parameter => {
-            return Err(GcodeError::unsupported(
-                line,
-                word.span.start + 1,
-                format!("parameter {}", block.value_text(word)),
-            ));
-        }
-    };
+    let value = word_value(block, word)?;
     match word.letter {
         b'G' => {
-            let tenths = value * 10.0;
-            if (tenths - tenths.round()).abs() > 1e-6 || !(0.0..=9999.0).contains(&tenths) {
-                return Err(GcodeError::unsupported(
-                    line,
-                    col,
-                    format!("G-code G{}", block.value_text(word)),
-                ));
-            }
-            w.g.push((tenths.round() as u32, col));
+            let code = GCode::from_value(value).ok_or_else(|| {
+                GcodeError::unsupported(line, col, format!("G-code G{}", block.value_text(word)))
+            })?;
+            w.g.push((code, col));
         }
         b'M' => {
             if value.fract() != 0.0 || !(0.0..=9999.0).contains(&value) {
@@ -1258,7 +2256,7 @@ mod tests {
         let mut opts = InterpOptions::default();
         opts.work_offsets[1][Axis::X] = 100.0; // G55
         opts.work_offsets[1][Axis::Z] = -50.0;
-        opts.tools.insert(3, 20.0);
+        opts.tools.insert(crate::gcode::Tool::with_length(3, 20.0));
         let src = "G55 G0 X1 Z0\nG53 G0 Z-10\nT3 M6\nG43 H3\nG0 Z0\nG49 G0 Z0\n";
         let m = moves(&run_with(src, opts).unwrap());
         let l = lin(&m[0]);
@@ -1368,7 +2366,7 @@ mod tests {
     #[test]
     fn rejections_name_the_line() {
         let cases = [
-            ("G0 X0\nG81 X1 Z-1 R1\n", 2, true),
+            ("G0 X0\nG41 X1 Z-1\n", 2, true),
             ("G1 X1\n", 1, false),             // zero feed
             ("G93\nG1 X1 F1\nX2\n", 3, false), // inverse time needs F each move
             ("X1\n", 1, false),                // no motion mode
@@ -1503,5 +2501,356 @@ mod tests {
             run_with("N1e5\n", InterpOptions::default()),
             Err(GcodeError::Invalid { .. })
         ));
+    }
+    /// Move ends (work X Y Z) and kinds, for the expansion tests.
+    fn ends(events: &[Event]) -> Vec<(char, [f64; 3])> {
+        moves(events)
+            .iter()
+            .map(|k| match k {
+                EventKind::Traverse(l) => ('R', l.to.xyz()),
+                EventKind::Feed(l) => ('F', l.to.xyz()),
+                EventKind::Arc(a) => ('A', a.to.xyz()),
+                _ => unreachable!(),
+            })
+            .collect()
+    }
+
+    fn assert_ends(got: &[(char, [f64; 3])], want: &[(char, [f64; 3])]) {
+        assert_eq!(got.len(), want.len(), "{got:?}\n{want:?}");
+        for (g, w) in got.iter().zip(want) {
+            assert_eq!(g.0, w.0, "{got:?}\n{want:?}");
+            for k in 0..3 {
+                assert!(close(g.1[k], w.1[k]), "{got:?}\n{want:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn g80_shares_a_line_with_a_motion_code() {
+        // LinuxCNC's read_g: G80 beside another motion code is ignored.
+        let m = moves(&run("G0 G17 G40 G49 G80 G90 X1\n"));
+        assert!(close(lin(&m[0]).to[Axis::X], 1.0));
+        assert!(matches!(m[0], EventKind::Traverse(_)));
+        let m = moves(&run("G80 G1 X2 F100\n"));
+        assert!(matches!(m[0], EventKind::Feed(_)));
+        // G80 alone with axis words: no motion mode.
+        assert!(run_with("G80 X1\n", InterpOptions::default()).is_err());
+        // Fanuc: G80 has its own group; the line reads the same.
+        let fanuc = InterpOptions {
+            dialect: Dialect::Fanuc {
+                decimal_point_programming: true,
+            },
+            ..Default::default()
+        };
+        let m = moves(&run_with("G0 G80 X1.\n", fanuc.clone()).unwrap());
+        assert!(close(lin(&m[0]).to[Axis::X], 1.0));
+        // Two codes of one motion group are still refused.
+        assert!(run_with("G0 G1 X1\n", fanuc).is_err());
+    }
+
+    #[test]
+    fn reading_stops_at_the_program_end() {
+        // After M30 nothing is interpreted (the callers stop reading).
+        let text = "G0 X1\nM30\nPost Process Timed at; 32 Min, 50.0 sec\n";
+        let mut got = Vec::new();
+        crate::gcode::interpret(text.as_bytes(), InterpOptions::default(), |_, e| {
+            got.extend_from_slice(e);
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(moves(&got).len(), 1);
+        // A file starting with '%' ends at the next '%' line.
+        let text = "\n%\nG0 X1\n%\nthis is not G-code\n";
+        let mut n = 0;
+        crate::gcode::interpret(text.as_bytes(), InterpOptions::default(), |_, e| {
+            n += moves(e).len();
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(n, 1);
+        // Without a leading '%' a '%' line does not end the program.
+        assert_eq!(moves(&run("G0 X1\n%\nG0 X2\n")).len(), 2);
+    }
+
+    #[test]
+    fn g92_family_shifts_the_program_frame() {
+        // Machine at X10; G92 X0 makes it read 0: axis offset 10.
+        let src = "G0 X10\nG92 X0\nG0 X5\nG92.2\nG0 X5\nG92.3\nG0 X1\nG92.1\nG0 X1\n";
+        let mut it = Interpreter::new(InterpOptions::default());
+        let program = Program::parse(src.as_bytes()).unwrap();
+        let mut ev = Vec::new();
+        for (k, b) in program.blocks.iter().enumerate() {
+            it.execute(b, &mut ev).unwrap();
+            if k == 1 {
+                assert_eq!(it.state().axis_offset[Axis::X], 10.0);
+                assert_eq!(it.state().g92_saved[Axis::X], 10.0);
+                assert!(it.state().g92_applied);
+                assert_eq!(it.state().position[Axis::X], 0.0);
+            }
+        }
+        let m = moves(&ev);
+        let machine = |k: usize| lin(&m[k]).to[Axis::X] + lin(&m[k]).offset[Axis::X];
+        assert!(close(machine(1), 15.0), "G92: X5 is machine 15");
+        assert!(close(machine(2), 5.0), "G92.2: offsets off");
+        assert!(close(machine(3), 11.0), "G92.3: restored from 5211");
+        assert!(close(machine(4), 1.0), "G92.1: off");
+        assert_eq!(it.state().g92_saved, Axes::ZERO, "G92.1 clears 5211-5219");
+        // G92 in inch, with a work offset: offset = machine - work - value.
+        let mut opts = InterpOptions::default();
+        opts.work_offsets[0][Axis::Y] = 100.0;
+        let m = moves(&run_with("G20 G0 Y1\nG92 Y0\nG0 Y2\n", opts).unwrap());
+        let l = lin(&m[1]);
+        assert!(close(
+            l.to[Axis::Y] + l.offset[Axis::Y],
+            100.0 + 25.4 + 50.8
+        ));
+        // G52 sets the offset itself.
+        let m = moves(&run("G0 X1\nG52 X5\nG0 X1\n"));
+        let l = lin(&m[1]);
+        assert!(close(l.to[Axis::X] + l.offset[Axis::X], 6.0));
+        // G92 needs axis words and no motion code beside it.
+        assert!(run_with("G92\n", InterpOptions::default()).is_err());
+        assert!(run_with("G1 G92 X1 F10\n", InterpOptions::default()).is_err());
+    }
+
+    #[test]
+    fn g10_l2_l20_set_work_offsets() {
+        // G10 L2 P2 then G55 (a CAM set-up): machine = work + offset.
+        let m = moves(&run("G10 L2 P2 X100 Y50 Z-20\nG55 G0 X1 Y2 Z3\n"));
+        let l = lin(&m[0]);
+        let machine = l.to.add(&l.offset);
+        assert!(close(machine[Axis::X], 101.0) && close(machine[Axis::Y], 52.0));
+        assert!(close(machine[Axis::Z], -17.0));
+        // L2 P0 changes the active system at once; the tool stays where it is.
+        let m = moves(&run("G0 X10\nG10 L2 P0 X4\nG0 X0\n"));
+        let l = lin(&m[1]);
+        assert!(close(l.from[Axis::X], 6.0) && close(l.offset[Axis::X], 4.0));
+        // L20: the current position reads X3 in G54: offset = 10 - 3.
+        let mut it = Interpreter::new(InterpOptions::default());
+        let mut ev = Vec::new();
+        for b in &Program::parse(b"G0 X10\nG10 L20 P1 X3\n").unwrap().blocks {
+            it.execute(b, &mut ev).unwrap();
+        }
+        assert_eq!(it.state().work_offsets[0][Axis::X], 7.0);
+        assert_eq!(it.state().position[Axis::X], 3.0);
+        // Rotation is refused clearly, R = 0 is fine.
+        assert!(matches!(
+            run_with("G10 L2 P1 R30\n", InterpOptions::default()),
+            Err(GcodeError::Unsupported { .. })
+        ));
+        run("G10 L2 P1 X1 R0\n");
+        for bad in [
+            "G10 L2 P10 X1\n",
+            "G10 L3 P1 X1\n",
+            "G10 L2 P1.5 X1\n",
+            "G0 G10 L2 P1 X1\n",
+        ] {
+            assert!(run_with(bad, InterpOptions::default()).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn g10_l1_l10_l11_set_tool_entries() {
+        let opts = InterpOptions {
+            tools: [(1, 10.0)].into_iter().collect(),
+            ..Default::default()
+        };
+        let mut it = Interpreter::new(opts.clone());
+        let mut ev = Vec::new();
+        let src = "G10 L1 P1 Z25 R3\nT1 M6 G43\nG0 Z0\nG10 L10 P1 Z5\nG10 L11 P1 Z7\n";
+        for b in &Program::parse(src.as_bytes()).unwrap().blocks {
+            it.execute(b, &mut ev).unwrap();
+        }
+        // After L1 the table holds Z25, diameter 6; G43 applies it.
+        let m = moves(&ev);
+        assert!(close(lin(&m[0]).offset[Axis::Z], 25.0));
+        // L10: the current position (Z0 with the tool's 25) reads Z5 with
+        // this tool: length = 0 + 25 - 5 = 20. L11 the same in G59.3 (zero).
+        let t = it.tools().get(1).unwrap();
+        assert!(close(t.offset[Axis::Z], 25.0 - 7.0));
+        assert!(close(t.diameter, 6.0));
+        assert!(
+            run_with("G10 L1 P2 Z1\n", opts.clone()).is_err(),
+            "tool 2 not in table"
+        );
+        assert!(run_with("G10 L1 P1\n", opts).is_err(), "no offsets");
+    }
+
+    #[test]
+    fn g28_g30_go_through_the_waypoint_home() {
+        // G28.1 stores the machine position; G28 Z5 goes to Z5 then home Z.
+        let mut opts = InterpOptions::default();
+        opts.work_offsets[0][Axis::Z] = -100.0;
+        let src = "G0 X1 Y2 Z50\nG28.1\nG0 X7 Y8 Z0\nG91 G28 Z5\nG90 G30\n";
+        let ev = run_with(src, opts).unwrap();
+        let e = ends(&ev);
+        assert_ends(
+            &e[2..],
+            &[
+                ('R', [7.0, 8.0, 5.0]),   // waypoint, incremental
+                ('R', [7.0, 8.0, 50.0]),  // home on Z only (machine -50)
+                ('R', [7.0, 8.0, 50.0]),  // G30: no words, waypoint here
+                ('R', [0.0, 0.0, 100.0]), // G30 home is machine zero
+            ],
+        );
+    }
+
+    #[test]
+    fn tool_table_g43_variants() {
+        let opts = InterpOptions {
+            tools: ToolTable::parse("T1 P1 Z10\nT2 P2 Z20 X1\n", Units::Millimetre).unwrap(),
+            ..Default::default()
+        };
+        let ev = run_with(
+            "T1 M6\nG43\nG0 Z0\nG43 H2\nG0 Z0\nG43.2 H1\nG0 Z0\nG43.1 Z3\nG0 Z0\nG43.2 Z1\nG0 Z0\nG49\nG0 Z0\n",
+            opts.clone(),
+        )
+        .unwrap();
+        let offs: Vec<(f64, f64)> = moves(&ev)
+            .iter()
+            .map(|k| (lin(k).offset[Axis::X], lin(k).offset[Axis::Z]))
+            .collect();
+        assert_eq!(
+            offs,
+            // G43.2 with axis words moves in the modal G0 too (LinuxCNC's
+            // enhance_block), G43.1 does not.
+            [
+                (0.0, 10.0),
+                (1.0, 20.0),
+                (1.0, 30.0),
+                (1.0, 3.0),
+                (1.0, 4.0),
+                (1.0, 4.0),
+                (0.0, 0.0)
+            ]
+        );
+        for bad in ["G43 H3\n", "G43.2\n", "G43.2 H1 Z1\n", "T1 M6 G43 H-1\n"] {
+            assert!(run_with(bad, opts.clone()).is_err(), "{bad}");
+        }
+    }
+
+    /// The expansions of LinuxCNC's G-code manual (canned cycles), by hand.
+    #[test]
+    fn canned_cycles_expand_as_linuxcnc() {
+        // G81, absolute, G98: from Z3 (above R), rapid to XY, to R, feed to
+        // bottom, rapid back to the initial level.
+        let e = ends(&run("G0 X1 Y2 Z3\nG90 G98 G81 X4 Y5 Z-0.6 R1.8 F10\n"));
+        assert_ends(
+            &e[1..],
+            &[
+                ('R', [4.0, 5.0, 3.0]),
+                ('R', [4.0, 5.0, 1.8]),
+                ('F', [4.0, 5.0, -0.6]),
+                ('R', [4.0, 5.0, 3.0]),
+            ],
+        );
+        // The manual's incremental example: G91 G98 G81 X4 Y5 Z-0.6 R1.8 L3
+        // from (1, 2, 3): R = 4.8, bottom 4.2, clear = 4.8 (initial 3 < R).
+        let e = ends(&run("G0 X1 Y2 Z3\nG91 G98 G81 X4 Y5 Z-0.6 R1.8 L3 F10\n"));
+        assert_ends(
+            &e[1..],
+            &[
+                ('R', [1.0, 2.0, 4.8]),
+                ('R', [5.0, 7.0, 4.8]),
+                ('F', [5.0, 7.0, 4.2]),
+                ('R', [5.0, 7.0, 4.8]),
+                ('R', [9.0, 12.0, 4.8]),
+                ('F', [9.0, 12.0, 4.2]),
+                ('R', [9.0, 12.0, 4.8]),
+                ('R', [13.0, 17.0, 4.8]),
+                ('F', [13.0, 17.0, 4.2]),
+                ('R', [13.0, 17.0, 4.8]),
+            ],
+        );
+        // Modal: the next line reuses R and Z; G99 retracts to R.
+        let e = ends(&run("G0 Z10\nG99 G81 X1 Z-1 R2 F10\nX2\nG80\n"));
+        assert_ends(
+            &e[1..],
+            &[
+                ('R', [1.0, 0.0, 10.0]),
+                ('R', [1.0, 0.0, 2.0]),
+                ('F', [1.0, 0.0, -1.0]),
+                ('R', [1.0, 0.0, 2.0]),
+                ('R', [2.0, 0.0, 2.0]),
+                ('F', [2.0, 0.0, -1.0]),
+                ('R', [2.0, 0.0, 2.0]),
+            ],
+        );
+        // G83 peck Q1 from R2 to -1.5: feeds to 1, 0, -1, then -1.5; after
+        // each peck a rapid to R and back down to 0.254 mm above the depth.
+        let e = ends(&run("G0 Z5\nG83 Z-1.5 R2 Q1 F10\n"));
+        let z: Vec<(char, f64)> = e[2..].iter().map(|(k, p)| (*k, p[2])).collect();
+        let want = [
+            ('R', 2.0),
+            ('F', 1.0),
+            ('R', 2.0),
+            ('R', 1.254),
+            ('F', 0.0),
+            ('R', 2.0),
+            ('R', 0.254),
+            ('F', -1.0),
+            ('R', 2.0),
+            ('R', -0.746),
+            ('F', -1.5),
+            ('R', 5.0),
+        ];
+        assert_eq!(z.len(), want.len(), "{z:?}");
+        for (g, w) in z.iter().zip(want) {
+            assert!(g.0 == w.0 && close(g.1, w.1), "{z:?}");
+        }
+        // G73: no return to R between pecks.
+        let e = ends(&run("G0 Z5\nG73 Z-0.5 R1 Q1 F10\n"));
+        let z: Vec<f64> = e[2..].iter().map(|(_, p)| p[2]).collect();
+        assert!(
+            z.iter()
+                .zip([1.0, 0.0, 0.254, -0.5, 5.0])
+                .all(|(a, b)| close(*a, b)),
+            "{z:?}"
+        );
+        // G18 (ZX plane): the cycle axis is Y.
+        let e = ends(&run("G18 G0 Y5\nG81 X1 Z2 Y-1 R1 F10\n"));
+        assert_ends(
+            &e[1..],
+            &[
+                ('R', [1.0, 5.0, 2.0]),
+                ('R', [1.0, 1.0, 2.0]),
+                ('F', [1.0, -1.0, 2.0]),
+                ('R', [1.0, 5.0, 2.0]),
+            ],
+        );
+        // G82/G89 dwell, G84 reverses the spindle.
+        let ev = run("G0 Z5\nM3 S100\nG84 Z-1 R1 F10\n");
+        let spindle: Vec<SpindleState> = ev
+            .iter()
+            .filter_map(|e| match e.kind {
+                EventKind::Spindle(s) => Some(s),
+                _ => None,
+            })
+            .collect();
+        use SpindleState::*;
+        assert_eq!(
+            spindle,
+            [Clockwise, Stopped, CounterClockwise, Stopped, Clockwise]
+        );
+        let ev = run("G0 Z5\nG82 Z-1 R1 P0.5 F10\n");
+        assert!(
+            ev.iter()
+                .any(|e| e.kind == EventKind::Dwell { seconds: 0.5 })
+        );
+        // LinuxCNC's errors.
+        for bad in [
+            "G81 X1 Z-1 F10\n",       // no R
+            "G81 X1 R1 F10\n",        // no Z
+            "G81 X1 Z2 R1 F10\n",     // R below Z
+            "G81 X1 Z-1 R1\n",        // zero feed
+            "G81 X1 Z-1 R1 L0 F10\n", // zero repeats
+            "G83 X1 Z-1 R1 F10\n",    // no Q
+            "G82 X1 Z-1 R1 F10\n",    // no P
+            "G84 X1 Z-1 R1 F10\n",    // spindle stopped
+            "G81 X1 Z-1 R1 A5 F10\n", // rotary axis
+            "G93 G81 X1 Z-1 R1 F10\n",
+        ] {
+            assert!(run_with(bad, InterpOptions::default()).is_err(), "{bad}");
+        }
     }
 }

@@ -737,7 +737,7 @@ where
     let mut reader = BlockReader::new(input);
     let mut block = Block::default();
     let mut events = Vec::new();
-    while reader.read_block(&mut block)? {
+    while !interp.ended() && reader.read_block(&mut block)? {
         events.clear();
         interp.execute(&block, &mut events)?;
         for e in &events {

@@ -1,6 +1,6 @@
 //! The G-code engine: a lossless parser and writer, a modal interpreter for
-//! the motion subset of RS-274/NGC (as LinuxCNC runs it), and program
-//! statistics.
+//! RS-274/NGC without parameters and control flow (as LinuxCNC 2.9 runs
+//! it), and program statistics.
 //!
 //! * [`Block`] / [`BlockReader`] / [`BlockWriter`] / [`Program`]: one line is
 //!   one block holding its exact bytes, so writing an unchanged program
@@ -10,10 +10,15 @@
 //! * [`Interpreter`]: blocks in, canonical [`Event`]s out (mm, degree,
 //!   mm/min, s), each with its [`SourcePos`] and what the block wrote
 //!   ([`Programmed`]) so that a rewriter can change exactly the word behind a
-//!   coordinate. Constant expressions (`[1+2]`, `sqrt[2]`) are evaluated;
-//!   everything outside the subset (O-words, parameters, canned cycles,
-//!   G10/G28/G92, cutter compensation, ...) is an
-//!   [`GcodeError::Unsupported`] error naming the line. Dialects:
+//!   coordinate. Runs motion (G0–G3, probing, G53), canned cycles (G73,
+//!   G74, G81–G89 with G98/G99 and L), offsets (G54–G59.3, G10 L2/L20,
+//!   G92/G92.1/G92.2/G92.3, G52, G28/G30 and their .1), tools (T, M6, G43,
+//!   G43.1, G43.2, G49, G10 L1/L10/L11 with a [`ToolTable`] read from
+//!   LinuxCNC's `.tbl` format) and stops at M2/M30 or the closing `%`.
+//!   Constant expressions (`[1+2]`, `sqrt[2]`) are evaluated; everything
+//!   outside (O-words, parameters, cutter compensation, G33/G76, splines,
+//!   coordinate system rotation, ...) is an [`GcodeError::Unsupported`]
+//!   error naming the line. G-codes are the [`GCode`] type. Dialects:
 //!   [`Dialect`] (LinuxCNC, Fanuc).
 //! * [`stats`]: counts, path lengths, axis travel and ranges, estimated time.
 //! * [`interpolate`] / [`Interpolator`]: axis command samples at a fixed
@@ -43,6 +48,7 @@
 
 mod arc;
 mod axes;
+mod codes;
 mod dialect;
 pub mod doc;
 mod error;
@@ -60,9 +66,11 @@ mod stream;
 mod syntax;
 #[warn(missing_docs)]
 pub mod timing;
+mod tool_table;
 mod travel;
 
 pub use axes::{Axes, Axis, AxisLetterError, AxisMask};
+pub use codes::{GCode, ModalGroup};
 pub use dialect::Dialect;
 pub use doc::{AxisRangeDoc, GcodeInterpolateDoc, GcodeStatsDoc, TravelViolationDoc};
 pub use error::{GcodeError, Location};
@@ -70,7 +78,7 @@ pub use event::{
     ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, Plane, Programmed, SourcePos,
     SpindleState, Units,
 };
-pub use interp::{InterpOptions, Interpreter, ModalState, MotionMode, ToolTable, UnknownMCode};
+pub use interp::{InterpOptions, Interpreter, ModalState, MotionMode, RetractMode, UnknownMCode};
 pub use interpolate::{
     InterpolateError, InterpolateOptions, InterpolationSummary, Interpolator, Sample, interpolate,
 };
@@ -81,6 +89,7 @@ pub use program_writer::{
 pub use stats::{AxisRange, MotionObserver, ProgramStats, StatsOptions, stats, stats_with};
 pub use stream::{BlockReader, BlockWriter, Program};
 pub use syntax::{Block, CommentKind, Item, LineEnd, NumberFormat, Span, Value, Word};
+pub use tool_table::{Tool, ToolTable, ToolTableError};
 pub use travel::{TravelCheck, TravelViolation};
 
 /// Interprets a whole program from `input`, streaming, calling `sink` with
@@ -94,7 +103,7 @@ where
     let mut interp = Interpreter::new(opts);
     let mut block = Block::default();
     let mut events = Vec::new();
-    while reader.read_block(&mut block)? {
+    while !interp.ended() && reader.read_block(&mut block)? {
         events.clear();
         interp.execute(&block, &mut events)?;
         sink(&block, &events)?;

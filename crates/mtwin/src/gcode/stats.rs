@@ -218,7 +218,7 @@ pub fn stats_with<R: BufRead>(
     let mut block = Block::default();
     let mut events = Vec::new();
     let mut st = ProgramStats::default();
-    while reader.read_block(&mut block)? {
+    while !interp.ended() && reader.read_block(&mut block)? {
         st.blocks += 1;
         events.clear();
         interp.execute(&block, &mut events)?;

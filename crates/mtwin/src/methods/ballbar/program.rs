@@ -244,7 +244,7 @@ mod tests {
         );
         let mut opts = InterpOptions::default();
         opts.work_offsets[0][Axis::Z] = -150.0;
-        opts.tools.insert(1, 50.0);
+        opts.tools.insert(crate::gcode::Tool::with_length(1, 50.0));
         let program =
             Program::parse(p.replace("G21 G90", "T1 M6 G43 H1 G21 G90").as_bytes()).unwrap();
         let mut it = Interpreter::new(opts);

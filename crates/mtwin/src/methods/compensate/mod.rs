@@ -252,7 +252,7 @@ impl Compensator {
         let mut block = Block::default();
         let mut events = Vec::new();
         let mut inserted = Vec::new();
-        while reader.read_block(&mut block)? {
+        while !interp.ended() && reader.read_block(&mut block)? {
             run.summary.blocks += 1;
             events.clear();
             interp.execute(&block, &mut events)?;
@@ -262,6 +262,36 @@ impl Compensator {
             for ev in &events {
                 let line = ev.at.line;
                 match ev.kind {
+                    EventKind::Traverse(m) | EventKind::Feed(m) if m.words.expanded => {
+                        // One block, several moves (canned cycle, G28/G30):
+                        // no word of the block ends this move, so a
+                        // correction cannot be written; refused unless none
+                        // is needed.
+                        let mv = Move {
+                            path: NominalPath::line(&m),
+                            tcp: m.tcp,
+                            words: m.words,
+                            offset: m.offset,
+                            feed: m.feed,
+                            line,
+                        };
+                        let (_, end) = self.ends(&mv, &mut run)?;
+                        if Axis::ALL
+                            .iter()
+                            .any(|&a| (end.new_p[a] - end.p[a]).abs() > 1e-6)
+                        {
+                            return Err(GcodeError::unsupported(
+                                line,
+                                0,
+                                "correction of a move a canned cycle or G28/G30 expands to \
+                                 (one block, several moves: no word to rewrite); expand the cycle \
+                                 into G0/G1 moves first",
+                            )
+                            .into());
+                        }
+                        run.q_nom.clone_from(&end.q_nom);
+                        run.last = Some(end);
+                    }
                     EventKind::Traverse(m) | EventKind::Feed(m) => {
                         let split = matches!(ev.kind, EventKind::Feed(_));
                         let mv = Move {
@@ -317,6 +347,16 @@ impl Compensator {
                 writer.write_block(b)?;
             }
         }
+        // After the end of the program (M2, M30, closing '%') the text is
+        // copied unread, as LinuxCNC never reads it.
+        let mut trailer = Vec::new();
+        std::io::Read::read_to_end(&mut reader.into_inner(), &mut trailer)?;
+        // Its lines count as blocks of the file, as before reading stopped
+        // at the end.
+        run.summary.blocks += (trailer.iter().filter(|&&b| b == b'\n').count()
+            + usize::from(!trailer.is_empty() && !trailer.ends_with(b"\n")))
+            as u64;
+        writer.copy_raw(&trailer[..])?;
         writer.into_inner()?;
         Ok(run.summary)
     }

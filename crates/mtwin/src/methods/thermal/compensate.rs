@@ -77,6 +77,10 @@ pub struct CompensateOptions {
     /// grows without bound, so a long program would be corrected by
     /// meaningless amounts.
     pub allow_unstable: bool,
+    /// Tool table for T, M6, G43 and G10 L1 (LinuxCNC `.tbl`).
+    pub tools: crate::gcode::ToolTable,
+    /// Skip blocks starting with `/` (LinuxCNC's default).
+    pub skip_deleted_blocks: bool,
 }
 
 impl Default for CompensateOptions {
@@ -87,6 +91,8 @@ impl Default for CompensateOptions {
             rapid_feed: crate::model::DEFAULT_RAPID_FEED,
             update: CorrectionUpdate::Periodic { period_min: 10.0 },
             allow_unstable: false,
+            tools: crate::gcode::ToolTable::new(),
+            skip_deleted_blocks: true,
         }
     }
 }
@@ -307,15 +313,20 @@ pub fn compensate(
             }
         }
     }
-    let mut prog = crate::gcode::Program::parse(program)?;
     let stats_opts = StatsOptions {
         interp: InterpOptions {
             dialect: options.dialect,
+            tools: options.tools.clone(),
+            skip_deleted_blocks: options.skip_deleted_blocks,
             ..InterpOptions::default()
         },
         rapid_feed: options.rapid_feed,
         ..StatsOptions::default()
     };
+    // Read up to the end of the program (M2, M30, closing '%'); what
+    // follows is copied unread, as LinuxCNC never reads it.
+    let (mut prog, read) = crate::gcode::Program::parse_to_end(program, &stats_opts.interp)?;
+    let trailer = &program[read..];
 
     // Pass 1: times, speeds, Z moves.
     let mut interp = Interpreter::new(stats_opts.interp.clone());
@@ -363,7 +374,11 @@ pub fn compensate(
         z_blocks: Vec::with_capacity(moves.len()),
         programme,
         duration_min,
-        blocks: prog.blocks.len() as u64,
+        // Lines after the program end count as blocks of the file, as
+        // before reading stopped there.
+        blocks: (prog.blocks.len()
+            + trailer.iter().filter(|&&b| b == b'\n').count()
+            + usize::from(!trailer.is_empty() && !trailer.ends_with(b"\n"))) as u64,
         spindle_used,
         notes: Vec::new(),
     };
@@ -469,6 +484,7 @@ pub fn compensate(
         ));
     }
     result.output = prog.to_bytes();
+    result.output.extend_from_slice(trailer);
     Ok(result)
 }
 
