@@ -62,10 +62,8 @@ fn read(text: &str, dialect: Dialect) -> Vec<Step> {
             .map(|l| format!("{l}\n"))
             .collect()
     };
-    let opts = InterpOptions {
-        dialect,
-        ..InterpOptions::default()
-    };
+    let mut opts = InterpOptions::default();
+    opts.dialect = dialect;
     let mut steps = Vec::new();
     interpret(kept.as_bytes(), opts, |_, events: &[Event]| {
         for e in events {
