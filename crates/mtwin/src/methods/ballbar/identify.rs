@@ -31,23 +31,45 @@ pub const RESIDUAL_IMBALANCE: f64 = 3.0;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum BallbarIdentifyError {
+    /// None of the four modes was given.
     #[error("no mode data given; at least one of the four modes is needed")]
     NoModes,
+    /// A rig length (bar length, ZB1C, ZB1A) is not a positive finite length.
     #[error("{what} is {value} mm; it must be a positive finite length")]
-    BadRig { what: &'static str, value: f64 },
+    BadRig {
+        /// Which length.
+        what: &'static str,
+        /// Its value, mm.
+        value: f64,
+    },
+    /// The tool-ball set-up error is not finite.
     #[error("the set-up error ({ex}, {ey}) mm is not finite")]
-    BadSetup { ex: f64, ey: f64 },
+    BadSetup {
+        /// eX, mm.
+        ex: f64,
+        /// eY, mm.
+        ey: f64,
+    },
+    /// The machine is not a double turntable with A carrying C.
     #[error(transparent)]
     Machine(#[from] TrunnionError),
+    /// The angles of a mode leave the travel of its rotary axis.
     #[error("{mode}: the angles {lo}°..{hi}° lie outside the travel of {axis} ([{tlo}, {thi}]°)")]
     OutOfTravel {
+        /// The mode (`mode1` … `mode4`).
         mode: &'static str,
+        /// The rotary axis (`A` or `C`).
         axis: &'static str,
+        /// Smallest angle of the data, degrees.
         lo: f64,
+        /// Largest angle of the data, degrees.
         hi: f64,
+        /// Lower end of the axis travel, degrees.
         tlo: f64,
+        /// Upper end of the axis travel, degrees.
         thi: f64,
     },
+    /// The least-squares engine failed.
     #[error("the least-squares fit failed: {0}")]
     Fit(#[from] FitError),
 }
@@ -55,6 +77,7 @@ pub enum BallbarIdentifyError {
 /// A PIGE the given modes cannot determine.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Unresolved {
+    /// The PIGE.
     pub pige: Pige,
     /// Plain sentence: why.
     pub reason: String,
@@ -77,7 +100,9 @@ pub struct Identification {
     pub warnings: Vec<String>,
     /// The machine with the identified PIGEs written in.
     pub machine: Machine,
+    /// The A and C axes of the machine the identification used.
     pub trunnion: Trunnion,
+    /// The rig geometry and set-up error used.
     pub rig: Rig,
     /// The engine's full report.
     pub report: FitReport,

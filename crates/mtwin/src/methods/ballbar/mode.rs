@@ -131,11 +131,13 @@ impl Rig {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum TrunnionError {
+    /// The workpiece chain has no rotary axis of this name (`A` or `C`).
     #[error(
         "the machine has no rotary axis named {0} in its workpiece chain; the ballbar PIGE \
          method needs a double turntable with A carrying C"
     )]
     MissingAxis(&'static str),
+    /// C comes before A in the workpiece chain.
     #[error("in the workpiece chain C must come after A (A carries C)")]
     Order,
 }

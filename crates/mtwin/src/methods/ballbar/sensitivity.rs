@@ -11,6 +11,7 @@ use crate::model::Machine;
 /// One row of the table.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SensitivityRow {
+    /// The PIGE applied alone.
     pub pige: Pige,
     /// The error size applied (mm or rad).
     pub size: f64,

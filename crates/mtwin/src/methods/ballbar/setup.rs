@@ -34,21 +34,39 @@ pub struct SetupErrorInput {
 /// Why readings give no set-up error.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SetupErrorProblem {
+    /// A reading is not a positive finite length.
     #[error("{what} is {value}, but it must be a positive finite length in mm")]
-    NotALength { what: &'static str, value: f64 },
+    NotALength {
+        /// Which reading (L, Lmax, Lmin).
+        what: &'static str,
+        /// Its value, mm.
+        value: f64,
+    },
+    /// θ2 (degrees) is not finite.
     #[error("theta2 is {0}, which is not a finite angle")]
     BadAngle(f64),
+    /// The largest reading is below the smallest.
     #[error("Lmax ({lmax} mm) is smaller than Lmin ({lmin} mm)")]
-    MaxBelowMin { lmax: f64, lmin: f64 },
+    MaxBelowMin {
+        /// Largest reading, mm.
+        lmax: f64,
+        /// Smallest reading, mm.
+        lmin: f64,
+    },
+    /// The three readings give no triangle (|cos φ| > 1).
     #[error(
         "the readings describe no triangle: cos φ = {cos_phi:.6} is outside [−1, 1] \
          (L = {length} mm, Lmax = {lmax} mm, Lmin = {lmin} mm); check that L was read at 0° \
          and Lmax/Lmin over a full spindle turn"
     )]
     NoTriangle {
+        /// The cosine computed from the readings.
         cos_phi: f64,
+        /// Bar reading at 0°, mm.
         length: f64,
+        /// Largest reading, mm.
         lmax: f64,
+        /// Smallest reading, mm.
         lmin: f64,
     },
 }

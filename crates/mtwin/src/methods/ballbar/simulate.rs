@@ -11,6 +11,7 @@ use crate::model::Machine;
 /// How to simulate one mode.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimulationSpec {
+    /// The rig geometry and set-up error.
     pub rig: Rig,
     /// Standard deviation of the reading noise (mm).
     pub noise: f64,

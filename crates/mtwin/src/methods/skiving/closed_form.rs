@@ -50,12 +50,15 @@ pub const STANDARD_FORMULAS: [(&str, &str); 4] = [
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ClosedFormError {
+    /// A touch (index) was made with the tool swivelled (a or b ≠ 0).
     #[error("touch {0} has a or b different from 0; the closed forms assume a = b = 0")]
     Swivelled(usize),
+    /// The top touches do not determine both tilts.
     #[error(
         "the top touches do not determine both tilts (they need two table angles or two y positions each)"
     )]
     Tilts,
+    /// The side touches do not determine both offsets.
     #[error(
         "the side touches do not determine both offsets (they need two table angles, e.g. c = 0° and 90°)"
     )]

@@ -34,6 +34,7 @@ pub enum ProbeAxis {
 /// position along the probe axis (mm, degrees).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlannedTouch {
+    /// `x` held, mm.
     pub x: f64,
     /// `y` held (top) or nominal contact `y` (side), mm.
     pub y: f64,
@@ -41,8 +42,11 @@ pub struct PlannedTouch {
     pub z: f64,
     /// Rotary table angle, degrees (`a = b = 0`).
     pub c: f64,
+    /// The point of the tool that touches.
     pub point: ToolPoint,
+    /// The workpiece surface touched.
     pub contact: Contact,
+    /// The axis and direction of the probing move.
     pub probe: ProbeAxis,
 }
 
@@ -62,18 +66,38 @@ pub struct Plan {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum PlanError {
+    /// The x held puts the tool beside the workpiece.
     #[error("x = {x} mm puts the tool beside the workpiece (|x| must be below rg = {rg} mm)")]
-    XOutside { x: f64, rg: f64 },
+    XOutside {
+        /// x held, mm.
+        x: f64,
+        /// Workpiece radius rg, mm.
+        rg: f64,
+    },
+    /// The face offset (mm) is not positive or leaves the top face (limit rg + rt, mm).
     #[error(
         "the face offset {0} mm must be positive and leave the tool over the top face (below rg + rt = {1} mm)"
     )]
     FaceOffset(f64, f64),
+    /// The side depth (mm) is not positive.
     #[error("the side depth {0} mm must be positive")]
     SideDepth(f64),
+    /// A quantity is not a positive finite number.
     #[error("{name} = {value} must be a positive finite number")]
-    NotPositive { name: &'static str, value: f64 },
+    NotPositive {
+        /// The quantity.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// A quantity is not finite.
     #[error("{name} = {value} is not a finite number")]
-    NotFinite { name: &'static str, value: f64 },
+    NotFinite {
+        /// The quantity.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
 }
 
 impl Plan {

@@ -21,6 +21,7 @@ use super::touch::{Contact, Touch};
 pub struct Noise {
     /// Standard deviation, mm (≥ 0).
     pub sigma: f64,
+    /// Seed of the random numbers (same seed, same noise).
     pub seed: u64,
 }
 
@@ -28,10 +29,19 @@ pub struct Noise {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum SimulateError {
+    /// The probing move runs parallel to the surface.
     #[error("touch {touch}: the probing move runs parallel to the surface; no contact")]
-    Grazing { touch: usize },
+    Grazing {
+        /// Index of the touch.
+        touch: usize,
+    },
+    /// No contact along the probe axis.
     #[error("touch {touch}: no contact found along the probe axis")]
-    NoContact { touch: usize },
+    NoContact {
+        /// Index of the touch.
+        touch: usize,
+    },
+    /// The noise σ (mm) is not finite or negative.
     #[error("the noise sigma {0} mm must be finite and not negative")]
     Noise(f64),
 }

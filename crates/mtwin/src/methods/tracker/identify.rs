@@ -37,28 +37,50 @@ impl Default for IdentifyOptions {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum TrackerIdentifyError {
+    /// No points were given.
     #[error("there are no measured points")]
     NoPoints,
+    /// A point has the wrong number of axis positions.
     #[error("point {point} has {got} axis positions but the machine has {expected} axes")]
     AxisCount {
+        /// Index of the point.
         point: usize,
+        /// Axis positions it has.
         got: usize,
+        /// Axes of the machine.
         expected: usize,
     },
+    /// A point holds a non-finite number.
     #[error("point {point} holds a value that is not a finite number")]
-    NonFinite { point: usize },
+    NonFinite {
+        /// Index of the point.
+        point: usize,
+    },
+    /// An axis position is outside the axis travel.
     #[error("point {point}: axis {axis} at {value} is outside its travel [{lo}, {hi}]")]
     OutOfTravel {
+        /// Index of the point.
         point: usize,
+        /// The axis.
         axis: String,
+        /// The position (mm or degrees).
         value: f64,
+        /// Lower end of the travel.
         lo: f64,
+        /// Upper end of the travel.
         hi: f64,
     },
+    /// Too few points for the identifiable parameters.
     #[error(
         "{points} measured points cannot determine the {rank} identifiable parameters (need more points than that)"
     )]
-    TooFewPoints { points: usize, rank: usize },
+    TooFewPoints {
+        /// Points given.
+        points: usize,
+        /// Identifiable parameters (rank of the Jacobian).
+        rank: usize,
+    },
+    /// The least-squares engine failed.
     #[error(transparent)]
     Fit(#[from] FitError),
 }

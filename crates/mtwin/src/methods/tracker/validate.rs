@@ -13,8 +13,10 @@ use crate::model::Machine;
 /// Max, mean and standard deviation of `|e|` over the points (mm).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Stats {
+    /// Largest `|e|`.
     #[serde(deserialize_with = "crate::io::nan_if_null")]
     pub max: f64,
+    /// Mean of `|e|`.
     #[serde(deserialize_with = "crate::io::nan_if_null")]
     pub mean: f64,
     /// Population standard deviation of `|e|`.
@@ -58,9 +60,13 @@ impl Stats {
 /// Statistics per direction x, y, z (W) and of the distance `|Δp|`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ErrorStats {
+    /// Of the x component (W).
     pub x: Stats,
+    /// Of the y component (W).
     pub y: Stats,
+    /// Of the z component (W).
     pub z: Stats,
+    /// Of the distance `|Δp|`.
     pub distance: Stats,
 }
 
@@ -94,6 +100,7 @@ impl ErrorStats {
 /// A validation at check poses.
 #[derive(Debug, Clone, Serialize)]
 pub struct Validation {
+    /// Number of check points.
     pub points: usize,
     /// Measured − nominal model.
     pub before: ErrorStats,

@@ -11,7 +11,9 @@ use crate::report::svg::{Series, xy};
 /// One drift curve: `(t_min, drift_mm)` points.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DriftCurve {
+    /// Legend name.
     pub name: String,
+    /// `(t_min, drift_mm)` points: time in minutes, drift in mm.
     pub points: Vec<(f64, f64)>,
 }
 
