@@ -28,7 +28,7 @@ use faer::{Accum, Mat, MatRef, Par, Side};
 use super::FitError;
 use super::evaluate::Evaluation;
 
-/// Which decomposition produced a [`Spectrum`].
+/// Which decomposition produced a `Spectrum`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Source {

@@ -389,7 +389,7 @@ impl Kinematics {
         &self.axes[i].name
     }
 
-    /// Location error values of axis `i` in [`Component::ALL`] order.
+    /// Location error values of axis `i` in [`Component::ALL`](crate::model::Component::ALL) order.
     pub fn location(&self, i: usize) -> [f64; 6] {
         self.axes[i].loc
     }

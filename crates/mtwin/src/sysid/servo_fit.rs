@@ -382,7 +382,7 @@ pub(crate) fn read_servo_table(
 
 /// Read `SERVO.toml` text: top-level `ts`, `b`, `a` (with `a_0 = 1`) and
 /// optional `nk` (default 0), the same rules as `[axes.servo]` of a machine
-/// file ([`read_servo_table`]). Unknown keys and bad values are reported with their line.
+/// file (`read_servo_table`). Unknown keys and bad values are reported with their line.
 pub fn servo_from_toml_str(path: &Path, text: &str) -> Result<Servo, Diagnostics> {
     let doc = parse(path, text)?;
     let mut r = TomlReader::new(path, text);

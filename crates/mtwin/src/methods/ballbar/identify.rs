@@ -438,7 +438,7 @@ fn analyse(
     Ok(report.identifiability)
 }
 
-/// Which modes a PIGE moves at first order (table 2 of [R1]).
+/// Which modes a PIGE moves at first order (table 2 of \[R1\]).
 pub fn sees(mode: BallbarMode, p: Pige) -> bool {
     use Pige::*;
     match mode {

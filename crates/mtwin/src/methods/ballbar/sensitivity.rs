@@ -1,4 +1,4 @@
-//! Which PIGE moves which mode, and by how much (table 2 of the source paper [R1]),
+//! Which PIGE moves which mode, and by how much (table 2 of the source paper \[R1\]),
 //! computed on the exact model: one PIGE at a time set to a given size on
 //! the nominal machine with an ideal set-up, `ΔL(α) = L(α) − L(0)` over each
 //! mode's angles.

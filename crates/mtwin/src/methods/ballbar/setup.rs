@@ -1,4 +1,4 @@
-//! The set-up error of the tool ball (eqs 23–26 of the source paper [R1]).
+//! The set-up error of the tool ball (eqs 23–26 of the source paper \[R1\]).
 //!
 //! The tool ball B1 sits in a cup on the spindle; clamping leaves its centre
 //! off the spindle axis by `(eX, eY)` in M. With the bar mounted along +X at

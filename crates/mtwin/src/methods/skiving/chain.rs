@@ -1,4 +1,4 @@
-//! The exact kinematic chain of the power-skiving machine ([R3]), with the
+//! The exact kinematic chain of the power-skiving machine (\[R3\]), with the
 //! four workpiece set-up errors as parameters:
 //!
 //! ```text

@@ -27,7 +27,7 @@
 //! δgy = y₃ − rt − rg + εzy·(h + z₃)  δgx = y₆ − rt − rg − εxz·(h + z₆)
 //! ```
 //!
-//! (the patent's [R3] eq. 8 has `εxz` in the `δgy` formula: with this chain the
+//! (the patent's \[R3\] eq. 8 has `εxz` in the `δgy` formula: with this chain the
 //! tilt that moves a +Y side point is the one about X, `εzy`). The dropped
 //! terms are of order `ε·δ`, `ε²·ζ` and `δ²/rg`: well below a micrometre
 //! and a microradian for set-up errors of 0.05 mm and 3e-4 rad.

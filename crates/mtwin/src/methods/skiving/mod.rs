@@ -1,5 +1,5 @@
 //! Workpiece set-up (pose) error of a power-skiving machine from touch-offs
-//! (after [R3] in docs/references.md).
+//! (after \[R3\] in docs/references.md).
 //!
 //! * [`chain`]: the exact chain `M_gt = M_xg'⁻¹·M_xt` with the four unknowns
 //!   `δgx, δgy` (mm), `εxz, εzy` (rad);

@@ -1,4 +1,4 @@
-//! The touch-off plan of [R3] (docs/references.md) and the G-code program
+//! The touch-off plan of \[R3\] (docs/references.md) and the G-code program
 //! that carries it out with probing moves.
 //!
 //! The six touches, all at `X = x`, `a = b = 0`:
@@ -101,7 +101,7 @@ pub enum PlanError {
 }
 
 impl Plan {
-    /// The plan of the patent [R3] at `x`: face touches at `y = ±rg/2`, side touches 10 mm
+    /// The plan of the patent \[R3\] at `x`: face touches at `y = ±rg/2`, side touches 10 mm
     /// below the top face.
     pub fn standard(x: f64, g: &Geometry) -> Self {
         Self {

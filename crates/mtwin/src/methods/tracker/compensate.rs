@@ -2,7 +2,7 @@
 //! kinematics. The target of a commanded pose is where the nominal machine
 //! would put the tool: the identified machine is driven there.
 //!
-//! Position only (the choice of the source paper [R2]) moves the linear axes; position and tool
+//! Position only (the choice of the source paper \[R2\]) moves the linear axes; position and tool
 //! axis is used where the machine can do it ([`Machine::orients_tool`]:
 //! two rotary axes of five; all axes move).
 

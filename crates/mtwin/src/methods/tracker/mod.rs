@@ -1,5 +1,5 @@
 //! Volumetric error identification from tool-tip (laser-tracker)
-//! measurements ([R2] in docs/references.md): the measurement model, identification with
+//! measurements (\[R2\] in docs/references.md): the measurement model, identification with
 //! identifiability analysis, validation at held-out poses, measurement
 //! planning, simulation and compensation.
 

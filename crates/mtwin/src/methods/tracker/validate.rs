@@ -1,5 +1,5 @@
 //! Before/after statistics of the tool-tip error at check poses, per
-//! direction and for the distance (tables 6–9 of the source paper [R2]): the error of the
+//! direction and for the distance (tables 6–9 of the source paper \[R2\]): the error of the
 //! nominal model (measured − nominal) against the error left by the
 //! identified model (measured − identified prediction).
 

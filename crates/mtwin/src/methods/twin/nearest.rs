@@ -8,7 +8,7 @@
 //! 1. the time-matched segments `j−1` and `j` give an upper bound `d0` on the
 //!    nearest distance;
 //! 2. a bounding-volume hierarchy over runs of [`LEAF`] consecutive segments
-//!    ([`TimeTree`]) yields every run whose box lies within `d0 + slack` of
+//!    (`TimeTree`) yields every run whose box lies within `d0 + slack` of
 //!    `P`; a segment within `d0` of `P` lies in such a box, so no candidate is
 //!    missed (a proven bound, not a search window);
 //! 3. the exact point-to-segment distance of every segment of those runs.

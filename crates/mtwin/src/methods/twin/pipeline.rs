@@ -1,4 +1,4 @@
-//! The digital-twin pipeline (after [R5], docs/twin.md), streaming.
+//! The digital-twin pipeline (after \[R5\], docs/twin.md), streaming.
 //!
 //! **Stage 1** ([`Predictor::push`], one command sample at a time, in chunks):
 //! nominal forward kinematics of the command (command tip and axis in W), the

@@ -1,4 +1,4 @@
-//! Thermal section ([R4]): the fitted drift model (`THERMAL.toml`) as a
+//! Thermal section (\[R4\]): the fitted drift model (`THERMAL.toml`) as a
 //! table per height, and drift curves over time — e.g. the rows of
 //! `mtwin thermal predict` (`t_min,z_mm,drift_mm`), or drift with and without
 //! compensation.
