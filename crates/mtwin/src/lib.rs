@@ -65,6 +65,7 @@ pub mod kinematics;
 pub mod limits;
 pub mod methods;
 pub mod model;
+pub mod par;
 pub mod report;
 pub mod sysid;
 

@@ -181,7 +181,7 @@ fn singular_values_and_v(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), Fit
     let par = if m * k < PARALLEL_SVD_ENTRIES {
         Par::Seq
     } else {
-        Par::rayon(0)
+        crate::par::faer()
     };
     let mut s = Diag::<f64>::zeros(m.min(k));
     let mut v = Mat::<f64>::zeros(k, k);

@@ -339,6 +339,9 @@ impl Kinematics {
             qs.len(),
             out.len()
         );
+        if crate::par::sequential() {
+            return self.poses_into(qs, out);
+        }
         out.par_chunks_mut(BLOCK)
             .zip(qs.par_chunks(n * BLOCK))
             .for_each(|(o, q)| self.poses_into(q, o));
