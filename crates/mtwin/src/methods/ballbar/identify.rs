@@ -161,6 +161,40 @@ impl Identification {
     }
 }
 
+/// The inputs of [`run`]: the machine, the rig and the readings of the
+/// modes given.
+#[derive(Debug, Clone, Copy)]
+pub struct IdentifyInputs<'a> {
+    /// Nominal geometry and any PDGEs; its PIGEs are replaced by the identified ones.
+    pub machine: &'a Machine,
+    /// Bar length, tool-ball placements and set-up error (mm).
+    pub rig: Rig,
+    /// Readings of each mode given, in [`BallbarMode::ALL`](super::BallbarMode::ALL) order.
+    pub modes: [Option<&'a ModeData>; 4],
+}
+
+/// Options of [`run`].
+#[derive(Debug, Clone, Default)]
+#[non_exhaustive]
+pub struct IdentifyOptions {
+    /// Options of the least-squares engine (including its parallelism, `fit.par`).
+    pub fit: Options,
+    /// Name of the file the caller writes the identified machine to, reported by the document.
+    pub out: Option<String>,
+}
+
+/// `mtwin ballbar identify`: the identification ([`identify`]) and its
+/// document (the document's `plots` are empty: the caller adds the plots it
+/// writes, see [`super::plot::polar_plot`]).
+pub fn run(
+    inputs: &IdentifyInputs<'_>,
+    options: &IdentifyOptions,
+) -> Result<(Identification, super::BallbarIdentifyDoc), BallbarIdentifyError> {
+    let id = identify(inputs.machine, &inputs.rig, &inputs.modes, &options.fit)?;
+    let doc = super::BallbarIdentifyDoc::new(&id, options.out.clone(), Vec::new());
+    Ok((id, doc))
+}
+
 /// Identifies the PIGEs from the modes given (`data[mode.index()]`).
 ///
 /// `machine` supplies the nominal geometry and any PDGEs; the eight PIGEs it

@@ -38,12 +38,20 @@ pub use doc::{
     BallbarIdentifyDoc, BallbarProgramDoc, BallbarSensitivityDoc, BallbarSetupDoc,
     BallbarSimulateDoc, PerMode, PerPige,
 };
-pub use identify::{BallbarIdentifyError, Compensation, Identification, Unresolved, identify};
+pub use identify::{
+    BallbarIdentifyError, Compensation, Identification, IdentifyInputs, IdentifyOptions,
+    Unresolved, identify,
+};
 pub use mode::{BallbarMode, ModeModel, Rig, Trunnion, TrunnionError, Unknowns, predicted_reading};
 pub use program::{ProgramError, ProgramSpec, program};
-pub use sensitivity::{SensitivityRow, delta_l_curve, sensitivity_table};
-pub use setup::{SetupError, SetupErrorInput, SetupErrorProblem, setup_error};
-pub use simulate::{SimulationSpec, angle_range, simulate_mode, simulate_modes};
+pub use sensitivity::{
+    SensitivityInputs, SensitivityOptions, SensitivityRow, delta_l_curve, sensitivity_table,
+};
+pub use setup::{SetupError, SetupErrorInput, SetupErrorProblem, SetupOptions, setup_error};
+pub use simulate::{
+    SimulateInputs, SimulateOptions, SimulationSpec, angle_range, default_angles, simulate_mode,
+    simulate_modes,
+};
 
 /// One of the eight location errors of the rotary axes (ISO 230-1 names).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]

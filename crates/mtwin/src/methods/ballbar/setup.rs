@@ -215,3 +215,17 @@ mod tests {
         ));
     }
 }
+
+/// Options of [`run`]: none yet; the readings are the inputs.
+#[derive(Debug, Clone, Default, PartialEq)]
+#[non_exhaustive]
+pub struct SetupOptions {}
+
+/// `mtwin ballbar setup-error`: the tool-ball set-up error (eX, eY, mm) from
+/// the readings of one spindle turn, as its document.
+pub fn run(
+    input: &SetupErrorInput,
+    _options: &SetupOptions,
+) -> Result<super::BallbarSetupDoc, SetupErrorProblem> {
+    setup_error(input).map(super::BallbarSetupDoc::from)
+}

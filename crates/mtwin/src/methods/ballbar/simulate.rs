@@ -85,3 +85,74 @@ mod tests {
         assert!(angle_range(0.0, 10.0, 0.0).is_empty());
     }
 }
+
+/// The default angles of the four modes, degrees: −90…90° by 5° for the A
+/// modes (1, 2), 0…360° by 5° for the C modes (3, 4).
+pub fn default_angles() -> [Vec<f64>; 4] {
+    let a = angle_range(-90.0, 90.0, 5.0);
+    let c = angle_range(0.0, 360.0, 5.0);
+    [a.clone(), a, c.clone(), c]
+}
+
+/// The inputs of [`run`]: the machine with the errors to simulate and the rig.
+#[derive(Debug, Clone, Copy)]
+pub struct SimulateInputs<'a> {
+    /// The machine (a double turntable, A carrying C) with its errors.
+    pub machine: &'a Machine,
+    /// Bar length, tool-ball placements and set-up error (mm).
+    pub rig: Rig,
+}
+
+/// Options of [`run`].
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct SimulateOptions {
+    /// Standard deviation of the reading noise, mm (default 0.0003).
+    pub noise: f64,
+    /// Seed of the random numbers (same seed, same readings; default 1).
+    pub seed: u64,
+    /// Angles of each mode, degrees, in [`BallbarMode::ALL`] order (default [`default_angles`]).
+    pub angles_deg: [Vec<f64>; 4],
+    /// Names of the files the caller writes the four modes to, reported by the document.
+    pub files: Vec<String>,
+}
+
+impl Default for SimulateOptions {
+    fn default() -> Self {
+        Self {
+            noise: 0.0003,
+            seed: 1,
+            angles_deg: default_angles(),
+            files: Vec::new(),
+        }
+    }
+}
+
+/// `mtwin ballbar simulate`: the readings of the four modes (in
+/// [`BallbarMode::ALL`] order) and the document.
+pub fn run(
+    inputs: &SimulateInputs<'_>,
+    options: &SimulateOptions,
+) -> Result<(Vec<ModeData>, super::BallbarSimulateDoc), TrunnionError> {
+    let specs: Vec<(BallbarMode, SimulationSpec)> = BallbarMode::ALL
+        .into_iter()
+        .zip(&options.angles_deg)
+        .map(|(m, angles)| {
+            (
+                m,
+                SimulationSpec {
+                    rig: inputs.rig,
+                    noise: options.noise,
+                    angles_deg: angles.clone(),
+                },
+            )
+        })
+        .collect();
+    let data = simulate_modes(inputs.machine, &specs, options.seed)?;
+    let doc = super::BallbarSimulateDoc {
+        files: options.files.clone(),
+        noise: options.noise,
+        seed: options.seed,
+    };
+    Ok((data, doc))
+}

@@ -153,3 +153,50 @@ mod tests {
         assert!(r.error_before > 1e-4);
     }
 }
+
+/// Options of [`run`].
+#[derive(Debug, Clone, Default, PartialEq)]
+#[non_exhaustive]
+pub struct CompensatePointsOptions {
+    /// Name of the file the caller writes the corrected poses to, reported by the document.
+    pub out: String,
+}
+
+/// A pose that cannot be corrected: its index in the input and why.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("cannot compensate pose {index}: {source}")]
+pub struct PointError {
+    /// Index of the pose (0-based).
+    pub index: usize,
+    /// Why the inverse kinematics failed.
+    #[source]
+    pub source: IkError,
+}
+
+/// `mtwin tracker compensate-points`: the corrected command of every pose
+/// (mm, degree; [`PointCompensator::correct`]) and the document.
+pub fn run(
+    identified: &Machine,
+    poses: &[Vec<f64>],
+    options: &CompensatePointsOptions,
+) -> Result<(Vec<Corrected>, super::CompensatePointsDoc), PointError> {
+    let c = PointCompensator::new(identified);
+    let mut out = Vec::with_capacity(poses.len());
+    let (mut before, mut after) = (0.0f64, 0.0f64);
+    for (index, q) in poses.iter().enumerate() {
+        let r = c
+            .correct(q)
+            .map_err(|source| PointError { index, source })?;
+        before = before.max(r.error_before);
+        after = after.max(r.error_after);
+        out.push(r);
+    }
+    let doc = super::CompensatePointsDoc {
+        max_error_after: after,
+        max_error_before: before,
+        mode: c.mode(),
+        out: options.out.clone(),
+        poses: out.len(),
+    };
+    Ok((out, doc))
+}

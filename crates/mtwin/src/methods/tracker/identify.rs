@@ -16,10 +16,42 @@ use crate::model::{Machine, ParameterSet};
 pub struct IdentifyOptions {
     /// Fit the tracker-to-W registration (6 parameters) with the errors.
     pub registration: bool,
-    /// Settings of the least-squares engine. The default excludes outlier
-    /// points (a blocked beam) from a second fit; they are reported in
-    /// `report.outliers`.
+    /// Settings of the least-squares engine (including its parallelism,
+    /// `fit.par`). The default excludes outlier points (a blocked beam)
+    /// from a second fit; they are reported in `report.outliers`.
     pub fit: fit::Options,
+    /// Name of the file the caller writes the identified machine to,
+    /// reported by the document of [`run`].
+    pub out: String,
+}
+
+/// The inputs of [`run`].
+#[derive(Debug, Clone, Copy)]
+pub struct IdentifyInputs<'a> {
+    /// Nominal geometry (and errors not being fitted).
+    pub machine: &'a Machine,
+    /// What to fit.
+    pub params: &'a ParameterSet,
+    /// Axis positions (mm, degree) and measured tool tips (mm, W or the tracker frame).
+    pub points: &'a [TrackerPoint],
+}
+
+/// `mtwin tracker identify`: the identification ([`identify`]; `progress`
+/// is told how far the engine got) and its document.
+pub fn run(
+    inputs: &IdentifyInputs<'_>,
+    options: &IdentifyOptions,
+    progress: &dyn Fn(Progress),
+) -> Result<(Identification, super::TrackerIdentifyDoc), TrackerIdentifyError> {
+    let id = identify(
+        inputs.machine,
+        inputs.params,
+        inputs.points,
+        options,
+        progress,
+    )?;
+    let doc = super::TrackerIdentifyDoc::new(&id, inputs.points.len(), &options.out);
+    Ok((id, doc))
 }
 
 impl Default for IdentifyOptions {
@@ -29,6 +61,7 @@ impl Default for IdentifyOptions {
         Self {
             registration: false,
             fit,
+            out: String::new(),
         }
     }
 }

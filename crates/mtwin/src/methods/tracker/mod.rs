@@ -14,6 +14,8 @@ pub mod validate;
 pub use doc::{
     CompensatePointsDoc, TrackerIdentifyDoc, TrackerPlanDoc, TrackerSimulateDoc, TrackerValidateDoc,
 };
-pub use identify::{Identification, IdentifyOptions, TrackerIdentifyError, identify};
+pub use identify::{
+    Identification, IdentifyInputs, IdentifyOptions, TrackerIdentifyError, identify,
+};
 pub use model::{TrackerModel, TrackerPoint};
 pub use validate::{ErrorStats, Stats, Validation, validate};

@@ -160,3 +160,20 @@ mod tests {
         assert!((st.rms() - 62.5f64.sqrt()).abs() < 1e-12);
     }
 }
+
+/// Options of [`run`]: none yet.
+#[derive(Debug, Clone, Default, PartialEq)]
+#[non_exhaustive]
+pub struct ValidateOptions {}
+
+/// `mtwin tracker validate`: the validation ([`validate`]) of the identified
+/// machine at the check points and its document.
+pub fn run(
+    identified: &Machine,
+    points: &[TrackerPoint],
+    _options: &ValidateOptions,
+) -> (Validation, super::TrackerValidateDoc) {
+    let v = validate(identified, points);
+    let doc = super::TrackerValidateDoc::from(&v);
+    (v, doc)
+}
