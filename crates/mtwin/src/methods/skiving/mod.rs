@@ -165,6 +165,29 @@ pub enum SkivingIdentifyError {
     Fit(#[from] FitError),
 }
 
+/// `mtwin skiving setup-error`: the least-squares set-up error of
+/// `touches` on the workpiece `g` ([`identify`] with `options`), the
+/// first-order closed form where it applies ([`closed_form::first_order`])
+/// and the document.
+#[allow(clippy::type_complexity)]
+pub fn run(
+    touches: &[Touch],
+    g: &Geometry,
+    options: &Options,
+) -> Result<
+    (
+        Solution,
+        Result<SetupError, closed_form::ClosedFormError>,
+        doc::SkivingSetupDoc,
+    ),
+    SkivingIdentifyError,
+> {
+    let s = identify(touches, g, options)?;
+    let first = closed_form::first_order(touches, g);
+    let d = doc::SkivingSetupDoc::new(&s, first.as_ref().ok().copied(), touches.len());
+    Ok((s, first, d))
+}
+
 /// The exact least-squares set-up error from `touches` (any number ≥ 4,
 /// any table angles and swivel positions), started from the first-order
 /// closed form when it applies.
