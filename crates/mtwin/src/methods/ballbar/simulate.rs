@@ -156,3 +156,59 @@ pub fn run(
     };
     Ok((data, doc))
 }
+
+#[cfg(test)]
+mod run_tests {
+    use super::*;
+    use crate::methods::ballbar::{IdentifyInputs, IdentifyOptions, Pige, Piges, identify};
+
+    /// The run functions chain: noise-free readings of a machine with known
+    /// PIGEs, simulated by `simulate::run`, identify them through
+    /// `identify::run` (the known truth), and the documents say so.
+    #[test]
+    fn simulated_readings_identify_the_true_piges() {
+        let truth = crate::examples::machine("ac-trunnion-with-errors").unwrap();
+        // The same machine with its PIGEs zeroed: its PDGEs are known to the fit.
+        let mut nominal = truth.clone();
+        Piges([0.0; 8]).write_to(&mut nominal, &Trunnion::of(&truth).unwrap());
+        let rig = Rig::source_paper();
+        let mut options = SimulateOptions::default();
+        options.noise = 0.0;
+        options.files = vec!["m1.csv".into()];
+        let (data, doc) = run(
+            &SimulateInputs {
+                machine: &truth,
+                rig,
+            },
+            &options,
+        )
+        .unwrap();
+        assert_eq!(data.len(), 4);
+        assert_eq!((doc.noise, doc.seed, doc.files.len()), (0.0, 1, 1));
+        let modes = [0, 1, 2, 3].map(|i| Some(&data[i]));
+        let mut id_options = IdentifyOptions::default();
+        id_options.out = Some("id.toml".into());
+        let (id, doc) = identify::run(
+            &IdentifyInputs {
+                machine: &nominal,
+                rig,
+                modes,
+            },
+            &id_options,
+        )
+        .unwrap();
+        assert_eq!(doc.out.as_deref(), Some("id.toml"));
+        let t = Trunnion::of(&truth).unwrap();
+        let want = Piges::from_machine(&truth, &t);
+        for p in Pige::ALL {
+            let tol = if p.is_tilt() { 1e-9 } else { 1e-6 };
+            assert!(
+                (id.piges.get(p) - want.get(p)).abs() < tol,
+                "{}: {} vs {}",
+                p.name(),
+                id.piges.get(p),
+                want.get(p)
+            );
+        }
+    }
+}

@@ -200,3 +200,62 @@ pub fn run(
     };
     Ok((out, doc))
 }
+
+#[cfg(test)]
+mod run_tests {
+    use super::*;
+    use crate::methods::tracker::simulate::{self, SimulateOptions};
+    use crate::methods::tracker::{IdentifyInputs, IdentifyOptions, identify, validate};
+    use crate::model::ParameterSet;
+    use rand::SeedableRng;
+
+    /// The run functions chain on a known truth: tips simulated without
+    /// noise by `simulate::run`, location errors identified by
+    /// `identify::run`, validated by `validate::run` (the identified model
+    /// predicts the measured tips), and `compensate::run` corrects poses so
+    /// that the identified model puts the tip on the nominal one.
+    #[test]
+    fn simulate_identify_validate_compensate() {
+        let nominal = crate::examples::machine("ac-trunnion").unwrap();
+        let params = ParameterSet::from_spec(&nominal, "location").unwrap();
+        let mut truth = nominal.clone();
+        let theta: Vec<f64> = params
+            .is_rotation()
+            .iter()
+            .map(|&rot| if rot { 3e-5 } else { 0.02 })
+            .collect();
+        params.set(&mut truth, &theta);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+        let poses = simulate::random_poses(&nominal, 80, &mut rng);
+        let mut options = SimulateOptions::default();
+        options.noise = 0.0;
+        options.out = "fit.csv".into();
+        let (points, doc) = simulate::run(&truth, &poses, &options);
+        assert_eq!((doc.points, doc.out.as_str()), (80, "fit.csv"));
+        let mut id_options = IdentifyOptions::default();
+        id_options.out = "id.toml".into();
+        let (id, _) = identify::run(
+            &IdentifyInputs {
+                machine: &nominal,
+                params: &params,
+                points: &points,
+            },
+            &id_options,
+            &|_| {},
+        )
+        .unwrap();
+        let (v, vdoc) = validate::run(&id.machine, &points, &Default::default());
+        assert!(v.after.distance.max < 1e-6, "{}", v.after.distance.max);
+        assert!(v.before.distance.max > 0.01);
+        assert_eq!(vdoc, crate::methods::tracker::TrackerValidateDoc::from(&v));
+        let mut c_options = CompensatePointsOptions::default();
+        c_options.out = "corrected.csv".into();
+        let (corrected, cdoc) = run(&id.machine, &poses, &c_options).unwrap();
+        assert_eq!((cdoc.poses, cdoc.out.as_str()), (80, "corrected.csv"));
+        assert!(cdoc.max_error_after < 1e-6, "{}", cdoc.max_error_after);
+        let (k_id, k_nom) = (Kinematics::new(&id.machine), Kinematics::nominal(&nominal));
+        for (c, q) in corrected.iter().zip(&poses) {
+            assert!((k_id.pose(&c.q).tip - k_nom.pose(q).tip).norm() < 1e-6);
+        }
+    }
+}

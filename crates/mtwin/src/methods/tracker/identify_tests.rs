@@ -339,6 +339,7 @@ fn factored_normal_equations_agree_with_jacobian_rows_and_the_dense_path() {
                 factored,
                 ..IdentifyOptions::default().fit
             },
+            ..IdentifyOptions::default()
         };
         identify(&m, &params, pts, &opts, &|_| {}).unwrap().report
     };
