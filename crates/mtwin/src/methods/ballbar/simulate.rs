@@ -172,9 +172,11 @@ mod run_tests {
         let mut nominal = truth.clone();
         Piges([0.0; 8]).write_to(&mut nominal, &Trunnion::of(&truth).unwrap());
         let rig = Rig::source_paper();
-        let mut options = SimulateOptions::default();
-        options.noise = 0.0;
-        options.files = vec!["m1.csv".into()];
+        let options = SimulateOptions {
+            noise: 0.0,
+            files: vec!["m1.csv".into()],
+            ..Default::default()
+        };
         let (data, doc) = run(
             &SimulateInputs {
                 machine: &truth,
@@ -186,8 +188,10 @@ mod run_tests {
         assert_eq!(data.len(), 4);
         assert_eq!((doc.noise, doc.seed, doc.files.len()), (0.0, 1, 1));
         let modes = [0, 1, 2, 3].map(|i| Some(&data[i]));
-        let mut id_options = IdentifyOptions::default();
-        id_options.out = Some("id.toml".into());
+        let id_options = IdentifyOptions {
+            out: Some("id.toml".into()),
+            ..Default::default()
+        };
         let (id, doc) = identify::run(
             &IdentifyInputs {
                 machine: &nominal,

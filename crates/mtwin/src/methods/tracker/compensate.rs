@@ -227,13 +227,17 @@ mod run_tests {
         params.set(&mut truth, &theta);
         let mut rng = rand::rngs::StdRng::seed_from_u64(3);
         let poses = simulate::random_poses(&nominal, 80, &mut rng);
-        let mut options = SimulateOptions::default();
-        options.noise = 0.0;
-        options.out = "fit.csv".into();
+        let options = SimulateOptions {
+            noise: 0.0,
+            out: "fit.csv".into(),
+            ..Default::default()
+        };
         let (points, doc) = simulate::run(&truth, &poses, &options);
         assert_eq!((doc.points, doc.out.as_str()), (80, "fit.csv"));
-        let mut id_options = IdentifyOptions::default();
-        id_options.out = "id.toml".into();
+        let id_options = IdentifyOptions {
+            out: "id.toml".into(),
+            ..Default::default()
+        };
         let (id, _) = identify::run(
             &IdentifyInputs {
                 machine: &nominal,
@@ -248,8 +252,9 @@ mod run_tests {
         assert!(v.after.distance.max < 1e-6, "{}", v.after.distance.max);
         assert!(v.before.distance.max > 0.01);
         assert_eq!(vdoc, crate::methods::tracker::TrackerValidateDoc::from(&v));
-        let mut c_options = CompensatePointsOptions::default();
-        c_options.out = "corrected.csv".into();
+        let c_options = CompensatePointsOptions {
+            out: "corrected.csv".into(),
+        };
         let (corrected, cdoc) = run(&id.machine, &poses, &c_options).unwrap();
         assert_eq!((cdoc.poses, cdoc.out.as_str()), (80, "corrected.csv"));
         assert!(cdoc.max_error_after < 1e-6, "{}", cdoc.max_error_after);
