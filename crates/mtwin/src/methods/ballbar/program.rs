@@ -21,6 +21,7 @@ use crate::model::Machine;
 /// What a program is for.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ProgramSpec {
+    /// The rig geometry and set-up error (places the tool ball).
     pub rig: Rig,
     /// Angles of the moving axis, degrees, in the order visited; must contain 0.
     pub angles_deg: Vec<f64>,
@@ -34,10 +35,13 @@ pub struct ProgramSpec {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ProgramError {
+    /// The machine is not a double turntable with A carrying C.
     #[error(transparent)]
     Machine(#[from] TrunnionError),
+    /// The machine has no linear axis of this name (`X`, `Y` or `Z`).
     #[error("the machine has no linear axis named {0}")]
     MissingLinear(&'static str),
+    /// A position of the program leaves the travel of its axis.
     #[error(
         "{axis} = {} is outside its travel [{}, {}]",
         crate::limits::fmt_message_number(*.value),
@@ -45,19 +49,31 @@ pub enum ProgramError {
         crate::limits::fmt_message_number(*.hi)
     )]
     OutOfTravel {
+        /// The axis.
         axis: String,
+        /// The position (mm or degrees).
         value: f64,
+        /// Lower end of the travel.
         lo: f64,
+        /// Upper end of the travel.
         hi: f64,
     },
+    /// The angle list does not contain 0°.
     #[error("the angle list must contain 0° (the bar is set there)")]
     NoZero,
+    /// The dwell or the feed is not positive.
     #[error(
         "the dwell ({} s) and feed ({} deg/min) must be positive",
         crate::limits::fmt_message_number(*.dwell),
         crate::limits::fmt_message_number(*.feed)
     )]
-    BadTiming { dwell: f64, feed: f64 },
+    BadTiming {
+        /// Dwell at each step, s.
+        dwell: f64,
+        /// Rotary feed, deg/min.
+        feed: f64,
+    },
+    /// Writing the program failed.
     #[error(transparent)]
     Write(#[from] WriteError),
 }

@@ -107,7 +107,9 @@ pub enum CompensateError {
     /// Inverse kinematics failed (no solution, or outside travel).
     #[error("line {line}: {source}")]
     Ik {
+        /// Line of the program.
         line: u64,
+        /// Why the inverse kinematics failed.
         #[source]
         source: IkError,
     },
@@ -118,8 +120,11 @@ pub enum CompensateError {
         crate::limits::fmt_message_fixed(*.limit_um, 1)
     )]
     TooLarge {
+        /// Line of the program.
         line: u64,
+        /// The correction, µm.
         correction_um: f64,
+        /// The limit (`max_correction`), µm.
         limit_um: f64,
     },
     /// Splitting did not bring the path within tolerance.
@@ -127,7 +132,12 @@ pub enum CompensateError {
         "line {line}: the compensated path still deviates by {} µm after {MAX_DEPTH} halvings",
         crate::limits::fmt_message_fixed(*.deviation_um, 2)
     )]
-    NoConvergence { line: u64, deviation_um: f64 },
+    NoConvergence {
+        /// Line of the program.
+        line: u64,
+        /// Deviation left after the last halving, µm.
+        deviation_um: f64,
+    },
     /// The machine's axes are not one G-code axis letter each.
     #[error(transparent)]
     AxisName(#[from] AxisLetterError),

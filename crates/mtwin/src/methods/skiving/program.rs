@@ -1,4 +1,4 @@
-//! The touch-off plan of [R3] (docs/references.md) and the G-code program
+//! The touch-off plan of \[R3\] (docs/references.md) and the G-code program
 //! that carries it out with probing moves.
 //!
 //! The six touches, all at `X = x`, `a = b = 0`:
@@ -33,6 +33,7 @@ pub enum ProbeAxis {
 /// position along the probe axis (mm, degrees).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlannedTouch {
+    /// `x` held, mm.
     pub x: f64,
     /// `y` held (top) or nominal contact `y` (side), mm.
     pub y: f64,
@@ -40,8 +41,11 @@ pub struct PlannedTouch {
     pub z: f64,
     /// Rotary table angle, degrees (`a = b = 0`).
     pub c: f64,
+    /// The point of the tool that touches.
     pub point: ToolPoint,
+    /// The workpiece surface touched.
     pub contact: Contact,
+    /// The axis and direction of the probing move.
     pub probe: ProbeAxis,
 }
 
@@ -61,30 +65,51 @@ pub struct Plan {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum PlanError {
+    /// The x held puts the tool beside the workpiece.
     #[error(
         "x = {} mm puts the tool beside the workpiece (|x| must be below rg = {} mm)",
         crate::limits::fmt_message_number(*.x),
         crate::limits::fmt_message_number(*.rg)
     )]
-    XOutside { x: f64, rg: f64 },
+    XOutside {
+        /// x held, mm.
+        x: f64,
+        /// Workpiece radius rg, mm.
+        rg: f64,
+    },
+    /// The face offset (mm) is not positive or leaves the top face (limit rg + rt, mm).
     #[error(
         "the face offset {} mm must be positive and leave the tool over the top face (below rg + rt = {} mm)",
         crate::limits::fmt_message_number(*.0),
         crate::limits::fmt_message_number(*.1)
     )]
     FaceOffset(f64, f64),
+    /// The side depth (mm) is not positive.
     #[error("the side depth {} mm must be positive", crate::limits::fmt_message_number(*.0))]
     SideDepth(f64),
+    /// A quantity is not a positive finite number.
     #[error("{name} = {} must be a positive finite number", crate::limits::fmt_message_number(*.value))]
-    NotPositive { name: &'static str, value: f64 },
+    NotPositive {
+        /// The quantity.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// A quantity is not finite.
     #[error("{name} = {} is not a finite number", crate::limits::fmt_message_number(*.value))]
-    NotFinite { name: &'static str, value: f64 },
+    NotFinite {
+        /// The quantity.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// Writing the program failed.
     #[error(transparent)]
     Write(#[from] WriteError),
 }
 
 impl Plan {
-    /// The plan of the patent [R3] at `x`: face touches at `y = ±rg/2`, side touches 10 mm
+    /// The plan of the patent \[R3\] at `x`: face touches at `y = ±rg/2`, side touches 10 mm
     /// below the top face.
     pub fn standard(x: f64, g: &Geometry) -> Self {
         Self {

@@ -68,8 +68,11 @@ impl Contact {
 /// and the surface.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Touch {
+    /// Axis positions at contact (mm, degrees).
     pub at: AxisPositions,
+    /// The point of the tool that touched.
     pub point: ToolPoint,
+    /// The workpiece surface touched.
     pub contact: Contact,
 }
 

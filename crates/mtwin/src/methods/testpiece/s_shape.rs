@@ -4,7 +4,7 @@
 //! surface between a lower and an upper S-shaped guide curve, machined by
 //! flank milling. The closing and opening bevel along the S makes every
 //! axis of a five-axis machine reverse and accelerate, which is why the
-//! digital-twin patent [R5] (docs/references.md) predicts its contour errors.
+//! digital-twin patent \[R5\] (docs/references.md) predicts its contour errors.
 //!
 //! **Geometry used here (an approximation).** The standard defines the two
 //! guide curves by tabulated points joined by splines; those coordinates

@@ -13,7 +13,7 @@
 //!    target (work Z + work offset + tool length offset), mm.
 //! 4. Z targets are moved to `Z − c`, `c = e(t_c, Z)` the correction:
 //!    * continuous update: `t_c` is the time the block ends;
-//!    * periodic update (period `P`, the source paper [R4]: 10 min): the correction is
+//!    * periodic update (period `P`, the source paper \[R4\]: 10 min): the correction is
 //!      held over `[kP, (k+1)P)` and `t_c = (k + ½)·P`, the middle of the
 //!      interval (the whole program is known ahead, so the held value is the
 //!      one closest to the drift over the interval).
@@ -84,7 +84,7 @@ pub struct CompensateOptions {
 }
 
 impl Default for CompensateOptions {
-    /// LinuxCNC, rapids at 10 m/min, correction updated every 10 min (as in [R4]).
+    /// LinuxCNC, rapids at 10 m/min, correction updated every 10 min (as in \[R4\]).
     fn default() -> Self {
         CompensateOptions {
             dialect: Dialect::LinuxCnc,

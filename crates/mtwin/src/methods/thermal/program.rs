@@ -1,5 +1,5 @@
 //! The thermal measurement programme as G-code (the procedure of the
-//! source paper [R4]): a cold reference pass of the spindle probe over the
+//! source paper \[R4\]): a cold reference pass of the spindle probe over the
 //! ball array, then the spindle speed programme, interrupted every sample
 //! period by a probing pass over the balls.
 //!

@@ -309,3 +309,67 @@ mod tests {
         assert!(g.starts_with("%\n") && g.ends_with("M30\n%\n"), "{g}");
     }
 }
+
+/// The inputs of [`run`]: the machine and what the measurement should identify.
+#[derive(Debug, Clone, Copy)]
+pub struct PlanInputs<'a> {
+    /// The nominal machine.
+    pub machine: &'a Machine,
+    /// The parameters to identify (a fit specification's set).
+    pub params: &'a ParameterSet,
+}
+
+/// Options of [`run`].
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct PlanOptions {
+    /// Random candidate poses drawn in the travel (default 1000).
+    pub candidates: usize,
+    /// Poses kept (default 180).
+    pub select: usize,
+    /// Tracker noise per coordinate, mm (default 0.010).
+    pub noise: f64,
+    /// Seed of the random numbers (default 1).
+    pub seed: u64,
+    /// Feed of the pose program, mm/min (default 2000).
+    pub feed: f64,
+    /// Dwell at each pose for the tracker reading, s (default 2).
+    pub dwell_s: f64,
+}
+
+impl Default for PlanOptions {
+    fn default() -> Self {
+        Self {
+            candidates: 1000,
+            select: 180,
+            noise: 0.010,
+            seed: 1,
+            feed: 2000.0,
+            dwell_s: 2.0,
+        }
+    }
+}
+
+/// `mtwin tracker plan`: the plan ([`plan`]), its pose program ([`gcode`])
+/// and the document.
+pub fn run(
+    inputs: &PlanInputs<'_>,
+    options: &PlanOptions,
+) -> Result<(Plan, String, super::TrackerPlanDoc), TrackerIdentifyError> {
+    let p = plan(
+        inputs.machine,
+        inputs.params,
+        options.candidates,
+        options.select,
+        options.noise,
+        options.seed,
+    )?;
+    let program = gcode(inputs.machine, &p.poses, options.feed, options.dwell_s)?;
+    let doc = super::TrackerPlanDoc::new(
+        &p.expected,
+        p.poses.len(),
+        options.candidates,
+        options.noise,
+    );
+    Ok((p, program, doc))
+}

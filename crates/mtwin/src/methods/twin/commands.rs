@@ -1,5 +1,5 @@
 //! The twin's input (docs/twin.md): axis commands at the servo sample period, read from
-//! CMD.csv or interpolated from a G-code program, streamed into a [`Predictor`].
+//! CMD.csv or interpolated from a G-code program, streamed into a [`Predictor`](super::Predictor).
 
 use std::io::{self, BufRead};
 use std::path::Path;

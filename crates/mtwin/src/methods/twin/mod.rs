@@ -1,4 +1,4 @@
-//! The five-axis digital twin of trajectory error (after [R5] in docs/references.md).
+//! The five-axis digital twin of trajectory error (after \[R5\] in docs/references.md).
 //!
 //! Axis commands at the servo period ([`commands`]) → command tool tip and axis in W
 //! by nominal forward kinematics → per-axis servo models (encoder positions) →
