@@ -223,6 +223,9 @@ pub struct Interpreter {
     opts: InterpOptions,
     state: ModalState,
     tcp_from_g43_4: bool,
+    /// The F number as written (program units): LinuxCNC feeds a move of
+    /// rotary axes only at F deg/min (or deg/rev) whatever the length units.
+    feed_as_written: f64,
     block_index: u64,
     ended: bool,
     words: BlockWords,
@@ -255,6 +258,7 @@ impl Interpreter {
             opts,
             state,
             tcp_from_g43_4: false,
+            feed_as_written: 0.0,
             block_index: 0,
             ended: false,
             words: BlockWords::default(),
@@ -420,9 +424,10 @@ impl Interpreter {
                 940 => FeedMode::UnitsPerMinute,
                 _ => FeedMode::UnitsPerRevolution,
             };
-            if mode != self.state.feed_mode && mode == FeedMode::InverseTime {
-                self.state.feed = 0.0;
-            }
+            // LinuxCNC sets the feed rate to zero at every G93, G94 or G95,
+            // even of the mode already in force: F must follow.
+            self.state.feed = 0.0;
+            self.feed_as_written = 0.0;
             self.state.feed_mode = mode;
             out.push(Event {
                 at,
@@ -438,6 +443,7 @@ impl Interpreter {
                 _ => self.state.units.mm_per_unit(),
             };
             self.state.feed = f.value * scale;
+            self.feed_as_written = f.value;
             out.push(Event {
                 at,
                 kind: EventKind::FeedRate(self.state.feed),
@@ -875,6 +881,13 @@ impl Interpreter {
                             "Cannot do G1, G2 or G3 with zero feed per revolution",
                         ));
                     }
+                    if st.spindle_rpm <= 0.0 {
+                        return Err(GcodeError::invalid(
+                            line,
+                            0,
+                            "Cannot feed with zero spindle speed in feed per rev mode",
+                        ));
+                    }
                     Ok(Feed::PerRevolution {
                         mm_per_rev: st.feed,
                         rpm: st.spindle_rpm,
@@ -898,16 +911,32 @@ impl Interpreter {
                 if mode == MotionMode::Rapid {
                     EventKind::Traverse(lin(Feed::Rapid))
                 } else {
-                    EventKind::Feed(lin(feed()?))
+                    let d = to.sub(&from);
+                    let rotary_only =
+                        d.xyz_norm() == 0.0 && d.uvw_norm() == 0.0 && d.abc_norm() > 0.0;
+                    let f = match feed()? {
+                        Feed::PerMinute(_) if rotary_only => Feed::PerMinute(self.feed_as_written),
+                        Feed::PerRevolution { rpm, .. } if rotary_only => Feed::PerRevolution {
+                            mm_per_rev: self.feed_as_written,
+                            rpm,
+                        },
+                        f => f,
+                    };
+                    EventKind::Feed(lin(f))
                 }
             }
             MotionMode::ArcClockwise | MotionMode::ArcCounterClockwise => {
+                // No axis words: with I, J or K a full circle about the
+                // current point (as LinuxCNC 2.9 runs it), else an error.
                 if axes.is_empty() {
-                    return Err(GcodeError::invalid(
-                        line,
-                        0,
-                        "All axes missing with motion code",
-                    ));
+                    let ijk = [b'I', b'J', b'K'].iter().any(|&l| w.get(l).is_some());
+                    if w.get(b'R').is_some() || !ijk {
+                        return Err(GcodeError::invalid(
+                            line,
+                            0,
+                            "All axes missing with motion code",
+                        ));
+                    }
                 }
                 let feed = feed()?;
                 let ccw = mode == MotionMode::ArcCounterClockwise;

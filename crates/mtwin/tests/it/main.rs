@@ -12,5 +12,6 @@ mod shared;
 mod gcode_conformance;
 mod gcode_corpus;
 mod gcode_props;
+mod rs274;
 mod thermal_inputs;
 mod thermal_truth;
