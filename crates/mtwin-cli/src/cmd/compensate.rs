@@ -75,7 +75,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     bar.finish_and_clear();
     written.map_err(|e| match e {
         CompensateError::Io(e) => anyhow::anyhow!("cannot write {}: {e}", a.out.display()),
-        e => anyhow::anyhow!("{}: {e}", a.program.display()),
+        e => super::gcode::located(&a.program, e.line(), e.column(), &e),
     })?;
     out.commit()?;
     for n in &summary.notes {

@@ -77,11 +77,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let file = a.program.display();
         match &e {
             CompensateError::Gcode(g) => match g.location() {
-                Some(at) => anyhow::anyhow!("{file}:{}: {e}", at.line),
+                Some(at) => super::gcode::located(&a.program, Some(at.line), at.column, &e),
                 None => anyhow::anyhow!("{file}: {e}"),
             },
             CompensateError::Unsafe { line, .. } | CompensateError::Diverges { line, .. } => {
-                anyhow::anyhow!("{file}:{line}: {e}")
+                super::gcode::located(&a.program, Some(*line), 0, &e)
             }
             CompensateError::Unstable { .. } => {
                 anyhow::anyhow!("{}: {e} (--allow-unstable)", a.model.display())

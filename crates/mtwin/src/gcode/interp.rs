@@ -307,6 +307,9 @@ pub struct Interpreter {
     state: ModalState,
     tools: ToolTable,
     tcp_from_g43_4: bool,
+    /// The F number as written (program units): LinuxCNC feeds a move of
+    /// rotary axes only at F deg/min (or deg/rev) whatever the length units.
+    feed_as_written: f64,
     block_index: u64,
     ended: bool,
     percent: Percent,
@@ -396,6 +399,7 @@ impl Interpreter {
             opts,
             state,
             tcp_from_g43_4: false,
+            feed_as_written: 0.0,
             block_index: 0,
             ended: false,
             percent: Percent::BeforeFirstLine,
@@ -777,7 +781,7 @@ impl Interpreter {
         Ok(())
     }
 
-    /// G93, G94, G95. Entering inverse time clears the feed rate.
+    /// G93, G94, G95. Each clears the feed rate.
     fn set_feed_mode(&mut self, codes: &Codes, s: &mut Step) {
         let Some((code, _)) = codes.feed_mode else {
             return;
@@ -787,9 +791,10 @@ impl Interpreter {
             GCode::G94 => FeedMode::UnitsPerMinute,
             _ => FeedMode::UnitsPerRevolution,
         };
-        if mode != self.state.feed_mode && mode == FeedMode::InverseTime {
-            self.state.feed = 0.0;
-        }
+        // LinuxCNC sets the feed rate to zero at every G93, G94 or G95, even
+        // of the mode already in force: F must follow.
+        self.state.feed = 0.0;
+        self.feed_as_written = 0.0;
         self.state.feed_mode = mode;
         s.emit(EventKind::FeedMode(mode));
     }
@@ -807,6 +812,7 @@ impl Interpreter {
             _ => self.state.units.mm_per_unit(),
         };
         self.state.feed = f.value * scale;
+        self.feed_as_written = f.value;
         s.emit(EventKind::FeedRate(self.state.feed));
         Ok(())
     }
@@ -1836,7 +1842,19 @@ impl Interpreter {
                 let feed = if mode == MotionMode::Rapid {
                     Feed::Rapid
                 } else {
-                    self.feed(w, line)?
+                    // A move of rotary axes only: F is deg/min (or deg/rev)
+                    // whatever the length units.
+                    let d = to.sub(&from);
+                    let rotary_only =
+                        d.xyz_norm() == 0.0 && d.uvw_norm() == 0.0 && d.abc_norm() > 0.0;
+                    match self.feed(w, line)? {
+                        Feed::PerMinute(_) if rotary_only => Feed::PerMinute(self.feed_as_written),
+                        Feed::PerRevolution { rpm, .. } if rotary_only => Feed::PerRevolution {
+                            mm_per_rev: self.feed_as_written,
+                            rpm,
+                        },
+                        f => f,
+                    }
                 };
                 let lin = Linear {
                     from,
@@ -1856,7 +1874,10 @@ impl Interpreter {
                 return Err(s.invalid(0, format!("{code} is not a single move")));
             }
             MotionMode::ArcClockwise | MotionMode::ArcCounterClockwise => {
-                if axes.is_empty() {
+                // No axis words: with I, J or K a full circle about the
+                // current point (as LinuxCNC 2.9 runs it), else an error.
+                let ijk = [b'I', b'J', b'K'].iter().any(|&l| w.get(l).is_some());
+                if axes.is_empty() && (w.get(b'R').is_some() || !ijk) {
                     return Err(s.invalid(0, "All axes missing with motion code"));
                 }
                 let feed = self.feed(w, line)?;
@@ -1914,6 +1935,13 @@ impl Interpreter {
                         line,
                         0,
                         "Cannot do G1, G2 or G3 with zero feed per revolution",
+                    ));
+                }
+                if st.spindle_rpm <= 0.0 {
+                    return Err(GcodeError::invalid(
+                        line,
+                        0,
+                        "Cannot feed with zero spindle speed in feed per rev mode",
                     ));
                 }
                 Ok(Feed::PerRevolution {

@@ -15,5 +15,6 @@ mod gcode_corpus;
 mod gcode_props;
 mod generated_programs;
 mod positioning;
+mod rs274;
 mod thermal_inputs;
 mod thermal_truth;

@@ -146,6 +146,27 @@ pub enum CompensateError {
     Io(#[from] std::io::Error),
 }
 
+impl CompensateError {
+    /// 1-based source line of the problem, if it has one.
+    pub fn line(&self) -> Option<u64> {
+        match self {
+            CompensateError::Gcode(e) => e.location().map(|l| l.line),
+            CompensateError::Ik { line, .. }
+            | CompensateError::TooLarge { line, .. }
+            | CompensateError::NoConvergence { line, .. } => Some(*line),
+            _ => None,
+        }
+    }
+
+    /// 1-based column of the problem (0 when the whole block is at fault).
+    pub fn column(&self) -> u32 {
+        match self {
+            CompensateError::Gcode(e) => e.location().map_or(0, |l| l.column),
+            _ => 0,
+        }
+    }
+}
+
 /// Compensates the program read from `input` for the actual `machine` and
 /// writes it to `output`, block by block.
 pub fn compensate<R: BufRead, W: Write>(
