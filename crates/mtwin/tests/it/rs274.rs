@@ -101,12 +101,11 @@ fn mtwin_options() -> InterpOptions {
             work_offsets[k].0[i] = o[i] * 25.4;
         }
     }
-    InterpOptions {
-        unknown_m: UnknownMCode::Reject,
-        tools: TOOLS.iter().map(|&(t, z)| (t, z * 25.4)).collect(),
-        work_offsets,
-        ..InterpOptions::default()
-    }
+    let mut opts = InterpOptions::default();
+    opts.unknown_m = UnknownMCode::Reject;
+    opts.tools = TOOLS.iter().map(|&(t, z)| (t, z * 25.4)).collect();
+    opts.work_offsets = work_offsets;
+    opts
 }
 
 /// The temporary folder with the INI, tool table, var file and subroutines.
