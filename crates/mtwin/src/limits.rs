@@ -13,6 +13,15 @@ use std::fmt;
 /// data set stay far from `f64` overflow (1e308).
 pub const MAX_ABS_VALUE: f64 = 1e15;
 
+/// Largest magnitude of a time in a time column (`t_s`, `t_min`, see
+/// [`crate::io::columns::TIME`]): wider than [`MAX_ABS_VALUE`] so that a raw
+/// epoch timestamp reads — in µs (1.7e15) or ns (1.7e18, up to the year
+/// 2286). Times are used through their differences (sample period,
+/// sampling checks), so the magnitude does not reach a square or a sum of
+/// squares. The value is read in the column's unit as written (a `t_s`
+/// column of epoch nanoseconds gives a sample period in nanoseconds).
+pub const MAX_ABS_TIME: f64 = 1e19;
+
 /// Largest magnitude of an error function (mm or rad) or of its derivative
 /// (per mm or per degree) anywhere over its axis travel.
 pub const MAX_ERROR_VALUE: f64 = 1e6;
@@ -50,12 +59,18 @@ pub const MAX_TRACKER_WORK: u64 = 200_000_000;
 pub const MAX_EXECUTED_BLOCKS: u64 = 100_000_000;
 
 /// A size or value a user gave that is beyond a bound: names what was given
-/// (`what`, e.g. "the number of levels"), the value and the bound. The CLI
-/// names the option.
+/// (`what`, e.g. "the number of levels"), the value and the bound. When the
+/// value comes from fields of a library options struct, `fields` names them
+/// (e.g. `["max_order", "max_delay"]` of `ServoFitOptions`) so a front end
+/// can name its own spelling of each through [`LimitError::naming`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct LimitError {
     /// What was asked for, in words.
     pub what: String,
+    /// The options fields (Rust names in the library's options) whose values
+    /// set `value`: one for a plain option, several for a product of options;
+    /// empty when the value does not come from options (a file, a program).
+    pub fields: &'static [&'static str],
     /// The value asked for (or implied by the options).
     pub value: f64,
     /// The bound it exceeds.
@@ -79,14 +94,49 @@ impl fmt::Display for LimitError {
 
 impl std::error::Error for LimitError {}
 
+impl LimitError {
+    /// The same error with `what` spelled as the caller's names of the
+    /// option fields: `names` maps each field of [`LimitError::fields`] to
+    /// its spelling (a CLI flag such as `--max-order`). One field becomes its
+    /// name (`--max-order is 10000, …`); several keep the words and add their
+    /// names joined by ` × ` (`the number of structures (--max-order ×
+    /// --max-delay) is …`). A field missing from `names` keeps `what` as is.
+    pub fn naming(mut self, names: &[(&str, &str)]) -> LimitError {
+        let spelled: Option<Vec<&str>> = self
+            .fields
+            .iter()
+            .map(|f| names.iter().find(|(k, _)| k == f).map(|(_, v)| *v))
+            .collect();
+        match spelled.as_deref() {
+            None | Some([]) => {}
+            Some([one]) => self.what = (*one).to_string(),
+            Some(many) => self.what = format!("{} ({})", self.what, many.join(" × ")),
+        }
+        self
+    }
+}
+
 /// Checks that `value` (a count or size, may be non-integral when implied by
 /// a division) is at most `bound`; a non-finite value is beyond every bound.
 pub fn check(what: &str, value: f64, bound: u64, why: &'static str) -> Result<(), LimitError> {
+    check_fields(&[], what, value, bound, why)
+}
+
+/// [`check`] of a value set by the options fields `fields` (Rust names of
+/// the fields of a library options struct, see [`LimitError::fields`]).
+pub fn check_fields(
+    fields: &'static [&'static str],
+    what: &str,
+    value: f64,
+    bound: u64,
+    why: &'static str,
+) -> Result<(), LimitError> {
     if value.is_finite() && value <= bound as f64 {
         Ok(())
     } else {
         Err(LimitError {
             what: what.to_string(),
+            fields,
             value,
             bound: bound as f64,
             why,
@@ -110,9 +160,33 @@ pub fn fmt_message_number(x: f64) -> String {
     }
 }
 
+/// [`fmt_message_number`] at a fixed number of decimals, for messages that
+/// round (`12.81 µm`): `{:.decimals$}` while the magnitude is below 1e9,
+/// otherwise the scientific form with `decimals` digits after the point (so
+/// 1e308 at one decimal is `1.0e308`, not 311 characters).
+pub fn fmt_message_fixed(x: f64, decimals: usize) -> String {
+    if x.is_finite() && x.abs() < 1e9 {
+        format!("{x:.decimals$}")
+    } else if x.is_finite() {
+        format!("{x:.decimals$e}")
+    } else {
+        crate::io::fmt_f64(x)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fixed_message_numbers_are_short() {
+        assert_eq!(fmt_message_fixed(12.814, 2), "12.81");
+        assert_eq!(fmt_message_fixed(-0.26, 1), "-0.3");
+        assert_eq!(fmt_message_fixed(1e308, 1), "1.0e308");
+        assert_eq!(fmt_message_fixed(-3.25e12, 2), "-3.25e12");
+        assert_eq!(fmt_message_fixed(f64::INFINITY, 1), "inf");
+        assert!(fmt_message_fixed(f64::MAX, 6).len() < 20);
+    }
 
     #[test]
     fn message_numbers_are_short_and_round_trip() {
@@ -143,6 +217,33 @@ mod tests {
         );
         assert!(check("n", f64::INFINITY, 10, "").is_err());
         assert!(check("n", f64::NAN, 10, "").is_err());
+    }
+
+    #[test]
+    fn naming_spells_the_fields_by_the_callers_table() {
+        let names = [("max_order", "--max-order"), ("max_delay", "--max-delay")];
+        let one = check_fields(&["max_order"], "the largest order", 30.0, 20, "why").unwrap_err();
+        assert_eq!(
+            one.naming(&names).to_string(),
+            "--max-order is 30, above the limit of 20: why"
+        );
+        let two = check_fields(
+            &["max_order", "max_delay"],
+            "the structures",
+            3e5,
+            100_000,
+            "w",
+        )
+        .unwrap_err();
+        assert_eq!(
+            two.naming(&names).to_string(),
+            "the structures (--max-order × --max-delay) is 300000, above the limit of 100000: w"
+        );
+        // A field the table does not know, or no field: the words stay.
+        let other = check_fields(&["select"], "the selection", 30.0, 20, "w").unwrap_err();
+        assert_eq!(other.clone().naming(&names), other);
+        let plain = check("the levels", 30.0, 20, "w").unwrap_err();
+        assert_eq!(plain.clone().naming(&names), plain);
     }
 }
 

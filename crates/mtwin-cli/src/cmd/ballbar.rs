@@ -4,13 +4,11 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
-use mtwin::fit::Options;
 use mtwin::io::Outputs;
 use mtwin::methods::ballbar::{
-    self, BallbarIdentifyDoc, BallbarMode, BallbarProgramDoc, BallbarSensitivityDoc,
-    BallbarSetupDoc, BallbarSimulateDoc, ModeData, ProgramSpec, Rig, SetupErrorInput,
-    SimulationSpec, angle_range, identify, read_mode_file, sensitivity_table, setup_error,
-    simulate_modes, write_mode_file,
+    self, BallbarMode, BallbarProgramDoc, IdentifyInputs, IdentifyOptions, ModeData, ProgramSpec,
+    Rig, SensitivityInputs, SensitivityOptions, SetupErrorInput, SetupOptions, SimulateInputs,
+    SimulateOptions, angle_range, read_mode_file, write_mode_file,
 };
 use mtwin::model::{Machine, machine_to_toml};
 
@@ -43,6 +41,16 @@ pub enum Command {
         after_help = "Example:\n  mtwin ballbar simulate --machine examples/machines/ac-trunnion-with-errors.toml --ex -0.0403 --ey -0.0765 --noise 0.0003 --seed 1 --out data"
     )]
     Simulate(SimulateArgs),
+    /// ISO 230-4 circular test: G, H, F and the diagnosis (backlash, squareness, …) from cw/ccw traces.
+    #[command(
+        after_help = "Example:\n  mtwin ballbar circular --cw cw.csv --ccw ccw.csv --radius 150 --format json"
+    )]
+    Circular(super::ballbar_circular::CircularArgs),
+    /// Simulate cw/ccw circular-test traces with known errors and noise.
+    #[command(
+        after_help = "Example:\n  mtwin ballbar simulate-circular --out traces --radius 150 --backlash-x-um 8 --squareness-um-per-m 40 --noise 0.2"
+    )]
+    SimulateCircular(super::ballbar_circular::SimulateCircularArgs),
 }
 
 #[derive(Debug, clap::Args)]
@@ -274,6 +282,8 @@ pub fn run(c: Command) -> anyhow::Result<()> {
         Command::Sensitivity(a) => run_sensitivity(a),
         Command::Program(a) => run_program(a),
         Command::Simulate(a) => run_simulate(a),
+        Command::Circular(a) => super::ballbar_circular::run_circular(a),
+        Command::SimulateCircular(a) => super::ballbar_circular::run_simulate_circular(a),
     }
 }
 
@@ -285,13 +295,16 @@ fn machine_or(path: &Option<PathBuf>, bundled_name: &str) -> anyhow::Result<Mach
 }
 
 fn run_setup(a: SetupArgs) -> anyhow::Result<()> {
-    let e = setup_error(&SetupErrorInput {
-        length: a.length,
-        lmax: a.lmax,
-        lmin: a.lmin,
-        theta2_deg: a.theta2,
-    })?;
-    print_doc(&BallbarSetupDoc::from(e), a.format)
+    let doc = ballbar::setup::run(
+        &SetupErrorInput {
+            length: a.length,
+            lmax: a.lmax,
+            lmin: a.lmin,
+            theta2_deg: a.theta2,
+        },
+        &SetupOptions::default(),
+    )?;
+    print_doc(&doc, a.format)
 }
 
 fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
@@ -337,8 +350,16 @@ fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
         return Err(diag(problems));
     }
     let refs: [Option<&ModeData>; 4] = [0, 1, 2, 3].map(|i| data[i].as_ref());
-    let rig = a.rig.rig();
-    let id = identify(&machine, &rig, &refs, &Options::default())?;
+    let mut options = IdentifyOptions::default();
+    options.out = a.out.as_ref().map(|p| p.display().to_string());
+    let (id, mut doc) = ballbar::identify::run(
+        &IdentifyInputs {
+            machine: &machine,
+            rig: a.rig.rig(),
+            modes: refs,
+        },
+        &options,
+    )?;
 
     // Outputs first (all or nothing), then the report.
     if let Some(path) = &a.out {
@@ -369,11 +390,7 @@ fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
     for w in &id.warnings {
         warn(w);
     }
-    let doc = BallbarIdentifyDoc::new(
-        &id,
-        a.out.as_ref().map(|p| p.display().to_string()),
-        plots.iter().map(|p| p.display().to_string()).collect(),
-    );
+    doc.plots = plots.iter().map(|p| p.display().to_string()).collect();
     print_doc(&doc, a.format)
 }
 
@@ -385,8 +402,18 @@ fn run_sensitivity(a: SensitivityArgs) -> anyhow::Result<()> {
         a.range.angles(BallbarMode::Three)?,
         a.range.angles(BallbarMode::Four)?,
     ];
-    let rows = sensitivity_table(&machine, &a.rig.ideal_rig(), a.offset, a.tilt, &angles)?;
-    print_doc(&BallbarSensitivityDoc::from(rows.as_slice()), a.format)
+    let mut options = SensitivityOptions::default();
+    options.offset = a.offset;
+    options.tilt = a.tilt;
+    options.angles_deg = angles;
+    let doc = ballbar::sensitivity::run(
+        &SensitivityInputs {
+            machine: &machine,
+            rig: a.rig.ideal_rig(),
+        },
+        &options,
+    )?;
+    print_doc(&doc, a.format)
 }
 
 fn run_program(a: ProgramArgs) -> anyhow::Result<()> {
@@ -433,33 +460,33 @@ fn run_simulate(a: SimulateArgs) -> anyhow::Result<()> {
     if !(a.noise >= 0.0 && a.noise.is_finite()) {
         bail!(
             "--noise {} must be a non-negative standard deviation in mm",
-            a.noise
+            mtwin::limits::fmt_message_number(a.noise)
         );
     }
-    let mut specs = Vec::new();
-    for m in BallbarMode::ALL {
-        specs.push((
-            m,
-            SimulationSpec {
-                rig: a.rig.rig(),
-                noise: a.noise,
-                angles_deg: a.range.angles(m)?,
-            },
-        ));
-    }
-    let data = simulate_modes(&machine, &specs, a.seed)?;
-    let mut written = Vec::new();
+    let mut options = SimulateOptions::default();
+    options.noise = a.noise;
+    options.seed = a.seed;
+    options.angles_deg = [
+        a.range.angles(BallbarMode::One)?,
+        a.range.angles(BallbarMode::Two)?,
+        a.range.angles(BallbarMode::Three)?,
+        a.range.angles(BallbarMode::Four)?,
+    ];
+    options.files = BallbarMode::ALL
+        .map(|m| data_path(m).display().to_string())
+        .to_vec();
+    let (data, doc) = ballbar::simulate::run(
+        &SimulateInputs {
+            machine: &machine,
+            rig: a.rig.rig(),
+        },
+        &options,
+    )?;
     for (m, d) in BallbarMode::ALL.iter().zip(&data) {
         let p = data_path(*m);
         out.write_with(&p, |w| write_mode_file(w, d))
             .with_context(|| format!("cannot write {}", p.display()))?;
-        written.push(p.display().to_string());
     }
     out.commit()?;
-    let doc = BallbarSimulateDoc {
-        files: written,
-        noise: a.noise,
-        seed: a.seed,
-    };
     print_doc(&doc, a.format)
 }

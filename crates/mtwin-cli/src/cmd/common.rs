@@ -4,7 +4,10 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::Context;
-use mtwin::gcode::{Dialect, GcodeError, Message, MessageKind, MessageSink, ProgramOptions};
+use mtwin::gcode::{
+    Dialect, GcodeError, InterpOptions, Message, MessageKind, MessageSink, ProgramOptions,
+    ToolTable, Units,
+};
 use mtwin::io::{Diagnostics, Table};
 use mtwin::model::{Machine, read_machine};
 
@@ -35,7 +38,18 @@ pub enum DialectArg {
     Fanuc,
 }
 
-/// How a part program is read (`--dialect`, `--decimal-point`).
+/// Block delete switch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum OnOff {
+    /// Blocks starting with `/` are skipped (LinuxCNC's GUI default).
+    #[default]
+    On,
+    /// Blocks starting with `/` run.
+    Off,
+}
+
+/// How a part program is read, shared by every command that reads one
+/// (`--dialect`, `--decimal-point`, `--tool-table`, `--block-delete`).
 #[derive(Debug, Clone, clap::Args)]
 pub struct DialectArgs {
     /// The controller whose reading of the program is reproduced.
@@ -59,6 +73,13 @@ pub struct DialectArgs {
     /// run (an endless loop stops with an error).
     #[arg(long, value_name = "N", default_value_t = mtwin::limits::MAX_EXECUTED_BLOCKS)]
     pub max_blocks: u64,
+    /// LinuxCNC tool table (`.tbl`: `T1 P1 Z12.5 D6 ;remark`, lengths in mm)
+    /// for T, M6, G43 Hn, G43.2 Hn and G10 L1/L10/L11.
+    #[arg(long, value_name = "FILE")]
+    pub tool_table: Option<PathBuf>,
+    /// Block delete switch: `on` skips blocks starting with `/`.
+    #[arg(long, value_enum, default_value_t)]
+    pub block_delete: OnOff,
 }
 
 impl DialectArgs {
@@ -88,6 +109,31 @@ impl DialectArgs {
         Ok(o)
     }
 
+    /// The tool table of `--tool-table` (empty without it); a bad line is
+    /// `file:line:col: message`.
+    pub fn tools(&self) -> anyhow::Result<ToolTable> {
+        let Some(path) = &self.tool_table else {
+            return Ok(ToolTable::new());
+        };
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        ToolTable::parse(&text, Units::Millimetre)
+            .map_err(|e| anyhow::anyhow!("{}:{e}", path.display()))
+    }
+
+    /// Whether blocks starting with `/` are skipped.
+    pub fn skip_deleted_blocks(&self) -> bool {
+        self.block_delete == OnOff::On
+    }
+
+    /// Sets the dialect, tool table and block delete switch of `o`.
+    pub fn apply(&self, o: &mut InterpOptions) -> anyhow::Result<()> {
+        o.dialect = self.dialect();
+        o.tools = self.tools()?;
+        o.skip_deleted_blocks = self.skip_deleted_blocks();
+        Ok(())
+    }
+
     /// The library's dialect.
     pub fn dialect(&self) -> Dialect {
         match self.dialect {
@@ -103,8 +149,6 @@ impl DialectArgs {
 /// of the subroutine file it happened in).
 pub fn located_error(path: &Path, e: &GcodeError) -> anyhow::Error {
     let file = e.file().unwrap_or(path);
-    match e.location() {
-        Some(at) => anyhow::anyhow!("{}:{}:{}: {e}", file.display(), at.line, at.column.max(1)),
-        None => anyhow::anyhow!("{}: {e}", file.display()),
-    }
+    let at = e.location();
+    super::gcode::located(file, at.map(|a| a.line), at.map_or(0, |a| a.column), e)
 }

@@ -76,7 +76,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     written.map_err(|e| match e {
         CompensateError::Io(e) => anyhow::anyhow!("cannot write {}: {e}", a.out.display()),
         CompensateError::Gcode(e) => super::common::located_error(&a.program, &e),
-        e => anyhow::anyhow!("{}: {e}", a.program.display()),
+        e => super::gcode::located(&a.program, e.line(), e.column(), &e),
     })?;
     out.commit()?;
     for n in &summary.notes {

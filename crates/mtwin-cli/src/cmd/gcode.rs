@@ -116,7 +116,10 @@ pub(super) fn open(path: &Path) -> anyhow::Result<BufReader<File>> {
     Ok(BufReader::new(f))
 }
 
-/// `file:line:col: message` for an error with a source position.
+/// `file:line:col: message` for an error with a source position (the one
+/// error format of every command). The library's messages name the line
+/// themselves (`line N: …`, `… at line N, column M: …`); that repetition
+/// is left out here.
 pub(super) fn located(
     path: &Path,
     line: Option<u64>,
@@ -124,8 +127,56 @@ pub(super) fn located(
     msg: impl std::fmt::Display,
 ) -> anyhow::Error {
     match line {
-        Some(l) => anyhow::anyhow!("{}:{}:{}: {}", path.display(), l, column.max(1), msg),
+        Some(l) => {
+            let msg = strip_location(&msg.to_string(), l, column);
+            anyhow::anyhow!("{}:{}:{}: {}", path.display(), l, column.max(1), msg)
+        }
         None => anyhow::anyhow!("{}: {}", path.display(), msg),
+    }
+}
+
+/// `msg` without its own mention of `line` (and `column`).
+fn strip_location(msg: &str, line: u64, column: u32) -> String {
+    let mut m = msg.to_string();
+    let prefix = format!("line {line}: ");
+    if let Some(rest) = m.strip_prefix(&prefix) {
+        m = rest.to_string();
+    }
+    for at in [
+        format!(" at line {line}, column {column}"),
+        format!(" at line {line}"),
+    ] {
+        if let Some(i) = m.find(&at) {
+            let end = i + at.len();
+            // Only a whole mention (not `line 12` inside `line 123`).
+            if !m[end..].starts_with(|c: char| c.is_ascii_digit()) {
+                m.replace_range(i..end, "");
+                break;
+            }
+        }
+    }
+    m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn located_errors_name_the_place_once() {
+        let p = Path::new("part.ngc");
+        let e = located(p, Some(3), 5, "syntax error at line 3, column 5: bad");
+        assert_eq!(e.to_string(), "part.ngc:3:5: syntax error: bad");
+        let e = located(p, Some(12), 0, "unsupported canned cycle G81 at line 12");
+        assert_eq!(e.to_string(), "part.ngc:12:1: unsupported canned cycle G81");
+        let e = located(p, Some(4), 0, "line 4: the correction exceeds the limit");
+        assert_eq!(
+            e.to_string(),
+            "part.ngc:4:1: the correction exceeds the limit"
+        );
+        // Another line named in the message stays.
+        let e = located(p, Some(1), 0, "see line 12");
+        assert_eq!(e.to_string(), "part.ngc:1:1: see line 12");
     }
 }
 
@@ -139,7 +190,7 @@ pub(super) fn interp_options(
     program: &Path,
 ) -> anyhow::Result<InterpOptions> {
     let mut o = InterpOptions::default();
-    o.dialect = dialect.dialect();
+    dialect.apply(&mut o)?;
     o.program = dialect.program_options(program)?;
     if dialect.var_file.is_some() {
         // LinuxCNC starts with the coordinate systems of its var file.
@@ -195,7 +246,7 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
     let mut failure: Option<InterpolateError> = None;
     let mut summary = None;
     let written = out.write_with(&a.out, |w| -> std::io::Result<()> {
-        let mut header = vec!["t_s".to_string()];
+        let mut header = vec![mtwin::io::columns::T_S.to_string()];
         header.extend(m.axis_names().iter().map(|s| s.to_string()));
         writeln!(w, "{}", header.join(","))?;
         let mut row = Vec::with_capacity(m.n_axes() + 1);

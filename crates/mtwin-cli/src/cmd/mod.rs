@@ -4,11 +4,13 @@ pub mod common;
 
 pub use common::diag as common_diag;
 mod ballbar;
+mod ballbar_circular;
 mod compensate;
 mod completions;
 mod demo;
 mod gcode;
 mod model;
+mod positioning;
 mod predict;
 mod report;
 mod servo;
@@ -36,6 +38,9 @@ pub enum Command {
     /// Inspect and check machine model files.
     #[command(subcommand)]
     Model(model::Command),
+    /// Linear positioning accuracy of an axis after ISO 230-2 (docs/positioning.md).
+    #[command(subcommand)]
+    Positioning(positioning::Command),
     /// Predict the actual tool tip and tool axis at given axis positions.
     #[command(
         after_help = "Example:\n  mtwin predict --machine examples/machines/ac-trunnion-with-errors.toml --data poses.csv --out pred.csv"
@@ -99,6 +104,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Demo(a) => demo::run(a),
         Command::Gcode(c) => gcode::run(c),
         Command::Model(c) => model::run(c),
+        Command::Positioning(c) => positioning::run(c),
         Command::Predict(a) => predict::run(a),
         Command::Servo(c) => servo::run(c),
         Command::Thermal(c) => thermal::run(c),

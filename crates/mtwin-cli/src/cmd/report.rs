@@ -149,7 +149,7 @@ fn build(a: &Args) -> anyhow::Result<Vec<Section>> {
             Some(d) => {
                 let t = load_table(d)?;
                 let rows = t
-                    .number_rows(&["t_min", "z_mm", "drift_mm"])
+                    .number_rows(&mtwin::io::columns::THERMAL_PREDICTION)
                     .map_err(diag)?;
                 curves_from_rows(&rows.iter().map(|r| [r[0], r[1], r[2]]).collect::<Vec<_>>())
             }

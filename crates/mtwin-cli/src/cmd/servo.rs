@@ -5,12 +5,14 @@
 //! Units: time in s, positions in mm (deg for a rotary axis), feeds in mm/min
 //! (deg/min).
 
-use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use mtwin::io::{Outputs, Table, fmt_f64, write_csv_row};
-use mtwin::sysid::{self, ServoExcitationDoc, ServoFitDoc, ServoFitOptions, ServoSimulateDoc};
+use mtwin::io::{Outputs, Table, columns, fmt_f64, write_csv_row};
+use mtwin::sysid::{
+    self, ExcitationError, ExcitationOptions, ServoExcitationDoc, ServoFitDoc, ServoFitOptions,
+    ServoSimulateDoc, excitation_program,
+};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 
@@ -130,6 +132,9 @@ pub fn run(c: Command) -> anyhow::Result<()> {
     }
 }
 
+/// The flag of each field of `ServoFitOptions` that `servo fit` sets.
+const FIT_FLAGS: &[(&str, &str)] = &[("max_order", "--max-order"), ("max_delay", "--max-delay")];
+
 fn fit(a: FitArgs) -> anyhow::Result<()> {
     if !(a.feed.is_finite() && a.feed > 0.0) {
         anyhow::bail!(
@@ -141,14 +146,7 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
     options.max_order = a.max_order;
     options.max_delay = a.max_delay;
     options.validate().map_err(|e| match e {
-        sysid::SysidError::Limit(mut l) => {
-            l.what = match l.what.as_str() {
-                "the largest order" => "--max-order".into(),
-                "the largest delay" => "--max-delay".into(),
-                _ => format!("{} (--max-order × --max-delay)", l.what),
-            };
-            anyhow::anyhow!("{l}")
-        }
+        sysid::SysidError::Limit(l) => anyhow::anyhow!("{}", l.naming(FIT_FLAGS)),
         other => anyhow::anyhow!("--max-order: {other}"),
     })?;
     let mut out = Outputs::plan().input(&a.data).output(&a.out).begin()?;
@@ -204,8 +202,8 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
         );
     }
     let table = load_table(&a.commands)?;
-    let column = a.axis.as_deref().unwrap_or("command_mm");
-    let rows = table.number_rows(&["t_s", column]).map_err(diag)?;
+    let column = a.axis.as_deref().unwrap_or(columns::SERVO_COMMAND);
+    let rows = table.number_rows(&[columns::T_S, column]).map_err(diag)?;
     check_grid(&table, &rows, servo.ts())?;
     let commands: Vec<f64> = rows.iter().map(|r| r[1]).collect();
     let feedback = servo.simulate(&commands);
@@ -220,7 +218,7 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
     let noise = Normal::new(0.0, a.noise).context("the noise level")?;
     let mut rng = rand::rngs::StdRng::seed_from_u64(a.seed);
     out.write_with(&a.out, |w| -> std::io::Result<()> {
-        w.write_all(b"t_s,command_mm,feedback_mm\n")?;
+        w.write_all(format!("{}\n", columns::header(&columns::SERVO_LOG)).as_bytes())?;
         for (r, y) in rows.iter().zip(&feedback) {
             write_csv_row(w, &[r[0], r[1], y + noise.sample(&mut rng)])?;
         }
@@ -231,7 +229,7 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
     note(format!(
         "{} samples (noise {} mm, seed {}) → {}",
         rows.len(),
-        a.noise,
+        mtwin::limits::fmt_message_number(a.noise),
         a.seed,
         a.out.display()
     ));
@@ -277,88 +275,6 @@ fn check_grid(table: &Table, rows: &[Vec<f64>], ts: f64) -> anyhow::Result<()> {
     d.into_result(()).map_err(diag)
 }
 
-/// The excitation program (text), checked: positions inside `travel`, a positive feed.
-fn excitation_program(
-    axis: &str,
-    travel: (f64, f64),
-    feed: f64,
-    levels: usize,
-    dwell: f64,
-) -> anyhow::Result<String> {
-    let axis = axis.trim().to_ascii_uppercase();
-    if !(axis.len() == 1 && axis.chars().all(|c| "XYZABCUVW".contains(c))) {
-        anyhow::bail!("--axis must be one axis letter (X, Y, Z, A, B, C, U, V or W), not `{axis}`");
-    }
-    let (lo, hi) = travel;
-    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-        anyhow::bail!(
-            "--travel must be MIN,MAX with MIN < MAX, not {},{}",
-            mtwin::limits::fmt_message_number(lo),
-            mtwin::limits::fmt_message_number(hi)
-        );
-    }
-    if !(feed.is_finite() && feed > 0.0) {
-        anyhow::bail!(
-            "--feed must be a positive feed in mm/min, not {}",
-            mtwin::limits::fmt_message_number(feed)
-        );
-    }
-    if levels == 0 {
-        anyhow::bail!("--levels must be at least 1");
-    }
-    mtwin::limits::check(
-        "--levels",
-        levels as f64,
-        mtwin::limits::MAX_PROGRAM_POINTS / 4,
-        "each level is two moves and two dwells of the program",
-    )?;
-    if !(dwell.is_finite() && dwell >= 0.0) {
-        anyhow::bail!(
-            "--dwell must be finite and >= 0 s, not {}",
-            mtwin::limits::fmt_message_number(dwell)
-        );
-    }
-    let centre = 0.5 * (lo + hi);
-    let half = 0.5 * (hi - lo);
-    let mut p = String::new();
-    let _ = writeln!(p, "%");
-    let _ = writeln!(
-        p,
-        "(mtwin servo excitation: axis {axis}, travel {} .. {}, F{}, {levels} levels)",
-        fmt_f64(lo),
-        fmt_f64(hi),
-        fmt_f64(feed)
-    );
-    let _ = writeln!(
-        p,
-        "(log command and encoder positions of {axis} while this runs, then: mtwin servo fit)"
-    );
-    let _ = writeln!(p, "G21 G90 G94");
-    let _ = writeln!(p, "G1 {axis}{} F{}", fmt_f64(centre), fmt_f64(feed));
-    let dwell_line = |p: &mut String| {
-        if dwell > 0.0 {
-            let _ = writeln!(p, "G4 P{}", fmt_f64(dwell));
-        }
-    };
-    dwell_line(&mut p);
-    for k in 1..=levels {
-        let amp = half * k as f64 / levels as f64;
-        // Round inward to 1 µm so the text never leaves the travel.
-        let up = ((centre + amp) * 1e3).floor() / 1e3;
-        let down = ((centre - amp) * 1e3).ceil() / 1e3;
-        let _ = writeln!(p, "(level {k}: amplitude {})", fmt_f64(amp));
-        for target in [up, down] {
-            let _ = writeln!(p, "G1 {axis}{}", fmt_f64(target));
-            dwell_line(&mut p);
-        }
-    }
-    let _ = writeln!(p, "G1 {axis}{}", fmt_f64(centre));
-    dwell_line(&mut p);
-    let _ = writeln!(p, "M30");
-    let _ = writeln!(p, "%");
-    Ok(p)
-}
-
 fn excitation(a: ExcitationArgs) -> anyhow::Result<()> {
     let mut out = Outputs::plan().output(&a.out).begin()?;
     let values: Vec<f64> = a
@@ -373,7 +289,17 @@ fn excitation(a: ExcitationArgs) -> anyhow::Result<()> {
             a.travel.join(",")
         ),
     };
-    let text = excitation_program(&a.axis, travel, a.feed, a.levels, a.dwell)?;
+    let mut options = ExcitationOptions::new(&a.axis, [travel.0, travel.1], a.feed);
+    options.levels = a.levels;
+    options.dwell_s = a.dwell;
+    let text = excitation_program(&options).map_err(|e| match e {
+        ExcitationError::Setting { option, problem } => anyhow::anyhow!("--{option} {problem}"),
+        ExcitationError::Limit(mut l) => {
+            l.what = "--levels".into();
+            anyhow::anyhow!("{l}")
+        }
+        other => anyhow::anyhow!("cannot write the excitation program: {other}"),
+    })?;
     out.write(&a.out, text.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     out.commit()?;
@@ -393,43 +319,4 @@ fn excitation(a: ExcitationArgs) -> anyhow::Result<()> {
         travel: [travel.0, travel.1],
     };
     print_doc(&doc, a.format)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::excitation_program;
-
-    /// Every axis word of the program, in order.
-    fn targets(p: &str) -> Vec<f64> {
-        p.lines()
-            .filter(|l| l.starts_with("G1 "))
-            .map(|l| {
-                let w = l.split_whitespace().nth(1).unwrap();
-                w[1..].parse().unwrap()
-            })
-            .collect()
-    }
-
-    #[test]
-    fn amplitudes_grow_evenly_inside_the_travel() {
-        let p = excitation_program("x", (-100.0, 60.0), 3000.0, 4, 0.25).unwrap();
-        // Centre −20, half travel 80: ±20, ±40, ±60, ±80 around −20.
-        assert_eq!(
-            targets(&p),
-            vec![
-                -20.0, 0.0, -40.0, 20.0, -60.0, 40.0, -80.0, 60.0, -100.0, -20.0
-            ]
-        );
-        assert!(p.contains("G1 X-20 F3000"));
-        assert_eq!(p.matches("G4 P0.25").count(), 10);
-        assert!(p.trim_end().ends_with("M30\n%"));
-    }
-
-    #[test]
-    fn bad_arguments_are_refused() {
-        assert!(excitation_program("XY", (-1.0, 1.0), 100.0, 3, 0.0).is_err());
-        assert!(excitation_program("X", (1.0, -1.0), 100.0, 3, 0.0).is_err());
-        assert!(excitation_program("X", (-1.0, 1.0), 0.0, 3, 0.0).is_err());
-        assert!(excitation_program("X", (-1.0, 1.0), 100.0, 0, 0.0).is_err());
-    }
 }

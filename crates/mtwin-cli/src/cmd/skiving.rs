@@ -5,13 +5,14 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use mtwin::io::{Outputs, fmt_f64};
-use mtwin::methods::skiving::closed_form::{self, STANDARD_FORMULAS};
-use mtwin::methods::skiving::doc::{SkivingProgramDoc, SkivingSetupDoc, SkivingSimulateDoc};
-use mtwin::methods::skiving::program::{self, Dialect, Motion, Plan};
-use mtwin::methods::skiving::simulate::{Noise, simulate};
+use mtwin::gcode::Dialect;
+use mtwin::io::{Outputs, columns, fmt_f64};
+use mtwin::methods::skiving::closed_form::STANDARD_FORMULAS;
+use mtwin::methods::skiving::doc::SkivingProgramDoc;
+use mtwin::methods::skiving::program::{self, Motion, Plan};
+use mtwin::methods::skiving::simulate::SimulateOptions;
 use mtwin::methods::skiving::touch::{DEFAULT_PLAUSIBILITY_MM, read_touches};
-use mtwin::methods::skiving::{Geometry, Options, SetupError, Touch, UncertaintyBasis, identify};
+use mtwin::methods::skiving::{self, Geometry, Options, SetupError, UncertaintyBasis};
 
 use super::common::{diag, load_table};
 use crate::output::{Format, note, print_doc, warn};
@@ -192,9 +193,8 @@ fn setup_error(a: SetupErrorArgs) -> anyhow::Result<()> {
     let g = a.geometry.geometry()?;
     let t = load_table(&a.data)?;
     let touches = read_touches(&t, &g, a.tolerance).map_err(diag)?;
-    let s = identify(&touches, &g, &Options::with_noise(a.noise))
+    let (s, first, doc) = skiving::run(&touches, &g, &Options::with_noise(a.noise))
         .with_context(|| format!("{}: cannot identify the set-up error", a.data.display()))?;
-    let first = closed_form::first_order(&touches, &g);
     let e = s.estimate;
     let names = SetupError::NAMES;
     let unc = s.uncertainty.map(|u| u.std);
@@ -213,12 +213,12 @@ fn setup_error(a: SetupErrorArgs) -> anyhow::Result<()> {
     }
     for &i in &inconsistent {
         warn(format!(
-            "{}:{}: touch {} is inconsistent with the others (residual {:.2} µm, {:.1} times its expected size)",
+            "{}:{}: touch {} is inconsistent with the others (residual {} µm, {} times its expected size)",
             a.data.display(),
             t.line(i),
             i + 1,
-            s.residuals[i] * 1e3,
-            s.standardized[i].unwrap_or(f64::NAN).abs()
+            mtwin::limits::fmt_message_fixed(s.residuals[i] * 1e3, 2),
+            mtwin::limits::fmt_message_fixed(s.standardized[i].unwrap_or(f64::NAN).abs(), 1)
         ));
     }
     if s.flags
@@ -230,7 +230,6 @@ fn setup_error(a: SetupErrorArgs) -> anyhow::Result<()> {
     }
     match a.format {
         Format::Json => {
-            let doc = SkivingSetupDoc::new(&s, first.as_ref().ok().copied(), touches.len());
             println!("{}", serde_json::to_string_pretty(&doc)?);
             Ok(())
         }
@@ -324,7 +323,11 @@ fn write_program(a: ProgramArgs) -> anyhow::Result<()> {
     };
     let dialect = match a.dialect {
         DialectArg::Linuxcnc => Dialect::LinuxCnc,
-        DialectArg::Fanuc => Dialect::Fanuc,
+        // Every number is written with a decimal point: the program reads
+        // the same with and without decimal point programming.
+        DialectArg::Fanuc => Dialect::Fanuc {
+            decimal_point_programming: false,
+        },
     };
     let text = program::program(&a.plan.plan(&g), &g, &motion, dialect)
         .context("cannot write the touch-off program")?;
@@ -362,16 +365,20 @@ fn simulate_touches(a: SimulateArgs) -> anyhow::Result<()> {
     if a.repeat == 0 {
         anyhow::bail!("--repeat must be at least 1");
     }
-    let mut touches: Vec<Touch> = Vec::new();
-    for r in 0..a.repeat {
-        let noise = Some(Noise {
-            sigma: a.noise,
-            seed: a.seed.wrapping_add(u64::from(r)),
-        });
-        touches.extend(simulate(&plan, &g, &truth, noise).context("cannot simulate the touches")?);
-    }
+    let mut options = SimulateOptions::default();
+    options.sigma = a.noise;
+    options.seed = a.seed;
+    options.repeat = a.repeat;
+    options.out = a.out.display().to_string();
+    let (touches, doc) = skiving::simulate::run(&plan, &g, &truth, &options)
+        .context("cannot simulate the touches")?;
     out.write_with(&a.out, |w| -> std::io::Result<()> {
-        writeln!(w, "x,y,z,a,b,c,point,contact")?;
+        writeln!(
+            w,
+            "{},{}",
+            columns::header(&columns::SKIVING_TOUCH_POSITION),
+            columns::header(&columns::SKIVING_TOUCH_LABELS)
+        )?;
         for t in &touches {
             let q = t.at;
             let nums = [q.x, q.y, q.z, q.a, q.b, q.c].map(fmt_f64).join(",");
@@ -381,9 +388,5 @@ fn simulate_touches(a: SimulateArgs) -> anyhow::Result<()> {
     })
     .with_context(|| format!("cannot write {}", a.out.display()))?;
     out.commit()?;
-    let doc = SkivingSimulateDoc {
-        out: a.out.display().to_string(),
-        touches: touches.len(),
-    };
     print_doc(&doc, a.format)
 }

@@ -223,7 +223,7 @@ pub fn run(c: Command) -> anyhow::Result<()> {
 }
 
 fn program(a: ProgramArgs) -> anyhow::Result<()> {
-    use mtwin::methods::skiving::program::Dialect;
+    use mtwin::gcode::Dialect;
     let mut out = mtwin::io::Outputs::plan().output(&a.out).begin()?;
     let balls = thermal::BallArray {
         x0: a.x0,
@@ -240,7 +240,11 @@ fn program(a: ProgramArgs) -> anyhow::Result<()> {
     motion.rapid_feed = a.rapid;
     let dialect = match a.dialect {
         DialectArg::Linuxcnc => Dialect::LinuxCnc,
-        DialectArg::Fanuc => Dialect::Fanuc,
+        // Every number is written with a decimal point: the program reads
+        // the same with and without decimal point programming.
+        DialectArg::Fanuc => Dialect::Fanuc {
+            decimal_point_programming: false,
+        },
     };
     let p = thermal::thermal_program(
         &balls,
@@ -373,7 +377,7 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
         "{} rows ({} height(s), noise {} mm, seed {}) → {}",
         data.rows.len(),
         heights.len(),
-        a.noise,
+        mtwin::limits::fmt_message_number(a.noise),
         a.seed,
         a.out.display()
     ));

@@ -63,6 +63,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let mut options = CompensateOptions::default();
     options.dialect = a.dialect.dialect();
     options.program = a.dialect.program_options(&a.program)?;
+    options.tools = a.dialect.tools()?;
+    options.skip_deleted_blocks = a.dialect.skip_deleted_blocks();
     options.rapid_feed = a.rapid;
     options.allow_unstable = a.allow_unstable;
     options.update = if a.continuous {
@@ -72,18 +74,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             period_min: a.period_min,
         }
     };
-    let c = compensate(&model, &bytes, &options).map_err(|e| {
-        let file = a.program.display();
-        match &e {
-            CompensateError::Gcode(g) => super::common::located_error(&a.program, g),
-            CompensateError::Unsafe { line, .. } | CompensateError::Diverges { line, .. } => {
-                anyhow::anyhow!("{file}:{line}: {e}")
-            }
-            CompensateError::Unstable { .. } => {
-                anyhow::anyhow!("{}: {e} (--allow-unstable)", a.model.display())
-            }
-            _ => anyhow::anyhow!("{e}"),
+    let c = compensate(&model, &bytes, &options).map_err(|e| match &e {
+        CompensateError::Gcode(g) => super::common::located_error(&a.program, g),
+        CompensateError::Unsafe { line, .. } | CompensateError::Diverges { line, .. } => {
+            super::gcode::located(&a.program, Some(*line), 0, &e)
         }
+        CompensateError::Unstable { .. } => {
+            anyhow::anyhow!("{}: {e} (--allow-unstable)", a.model.display())
+        }
+        _ => anyhow::anyhow!("{e}"),
     })?;
     out.write(&a.out, &c.output)
         .with_context(|| format!("cannot write {}", a.out.display()))?;

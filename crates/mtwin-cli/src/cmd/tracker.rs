@@ -9,13 +9,11 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 use mtwin::fit::Progress;
 use mtwin::io::{Outputs, Table, write_csv_row};
-use mtwin::methods::tracker::compensate::PointCompensator;
-use mtwin::methods::tracker::plan::{gcode, plan};
-use mtwin::methods::tracker::simulate::simulate_seeded;
-use mtwin::methods::tracker::{
-    CompensatePointsDoc, IdentifyOptions, TrackerIdentifyDoc, TrackerPlanDoc, TrackerPoint,
-    TrackerSimulateDoc, TrackerValidateDoc, identify, validate,
-};
+use mtwin::methods::tracker::compensate::CompensatePointsOptions;
+use mtwin::methods::tracker::plan::{PlanInputs, PlanOptions};
+use mtwin::methods::tracker::simulate::SimulateOptions;
+use mtwin::methods::tracker::validate::ValidateOptions;
+use mtwin::methods::tracker::{self, IdentifyInputs, IdentifyOptions, TrackerPoint};
 use mtwin::model::{Machine, ParameterSet, machine_to_toml, read_poses};
 use mtwin::nalgebra::Vector3;
 use mtwin::report::svg::{Series, xy};
@@ -198,7 +196,9 @@ pub struct CompensateArgs {
 /// Axis positions and measured x,y,z of every row.
 fn read_points(t: &Table, m: &Machine) -> anyhow::Result<Vec<TrackerPoint>> {
     let poses = read_poses(t, m, true).map_err(diag)?;
-    let xyz = t.number_rows(&["x", "y", "z"]).map_err(diag)?;
+    let xyz = t
+        .number_rows(&mtwin::io::columns::TRACKER_MEASURED)
+        .map_err(diag)?;
     Ok(poses
         .into_iter()
         .zip(xyz)
@@ -244,12 +244,18 @@ pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
     let points = read_points(&t, &m)?;
     let mut options = IdentifyOptions::default();
     options.registration = a.registration;
+    options.out = a.out.display().to_string();
     // A progress bar once the identification has run for a second: the
     // rows of the current pass over the data, or the analysis stage.
     let start = std::time::Instant::now();
     let bar: std::cell::OnceCell<indicatif::ProgressBar> = std::cell::OnceCell::new();
     let passes = std::cell::Cell::new(0usize);
-    let id = identify(&m, &params, &points, &options, &|p| {
+    let inputs = IdentifyInputs {
+        machine: &m,
+        params: &params,
+        points: &points,
+    };
+    let (id, doc) = tracker::identify::run(&inputs, &options, &|p| {
         if bar.get().is_none() && start.elapsed() >= PROGRESS_AFTER {
             let _ = bar.set(progress(3 * points.len() as u64, "identify"));
         }
@@ -293,7 +299,6 @@ pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
     out.write(&a.out, text.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     out.commit()?;
-    let doc = TrackerIdentifyDoc::new(&id, points.len(), &a.out.display().to_string());
     print_doc(&doc, a.format)?;
     if a.format == Format::Human {
         note(format!("identified machine written to {}", a.out.display()));
@@ -313,7 +318,7 @@ pub fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
     if points.is_empty() {
         bail!("{}: no data rows", a.data.display());
     }
-    let v = validate(&m, &points);
+    let (v, doc) = tracker::validate::run(&m, &points, &ValidateOptions::default());
     if let Some(p) = &a.plot {
         let series = |name: &str, errs: &[mtwin::nalgebra::Vector3<f64>], color: &str| Series {
             name: name.to_string(),
@@ -338,8 +343,11 @@ pub fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
             .with_context(|| format!("cannot write {}", p.display()))?;
     }
     out.commit()?;
-    print_doc(&TrackerValidateDoc::from(&v), a.format)
+    print_doc(&doc, a.format)
 }
+
+/// The flag of each argument of `tracker::plan::plan` that `tracker plan` sets.
+const PLAN_FLAGS: &[(&str, &str)] = &[("candidates", "--candidates"), ("select", "--select")];
 
 pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
     let PlanCommand::Tracker(a) = c;
@@ -356,13 +364,9 @@ pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
             a.select
         );
     }
-    mtwin::methods::tracker::plan::check_plan_size(a.candidates, a.select).map_err(|mut e| {
-        e.what = match e.what.as_str() {
-            "the number of candidates" => "--candidates".into(),
-            _ => "--candidates × --select".into(),
-        };
-        anyhow::anyhow!("{e}")
-    })?;
+    mtwin::methods::tracker::plan::check_plan_size(a.candidates, a.select)
+        .map_err(|e| anyhow::anyhow!("{}", e.naming(PLAN_FLAGS)))?;
+
     let mut out = Outputs::plan()
         .input(&a.machine)
         .output(&a.out_csv)
@@ -370,20 +374,26 @@ pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
         .begin()?;
     let m = load_machine(&a.machine)?;
     let params = ParameterSet::from_spec(&m, &a.fit).map_err(|e| anyhow::anyhow!("--fit: {e}"))?;
+    let mut options = PlanOptions::default();
+    options.candidates = a.candidates;
+    options.select = a.select;
+    options.noise = a.noise;
+    options.seed = a.seed;
     let spin = crate::output::spinner("planning");
-    let p = plan(&m, &params, a.candidates, a.select, a.noise, a.seed);
+    let r = tracker::plan::run(
+        &PlanInputs {
+            machine: &m,
+            params: &params,
+        },
+        &options,
+    );
     spin.finish_and_clear();
-    let p = p.context("cannot evaluate the chosen poses")?;
+    let (p, g, doc) = r.context("cannot evaluate the chosen poses")?;
     write_points(&mut out, &a.out_csv, &m, &p.poses, &[])?;
-    let g = gcode(&m, &p.poses, 2000.0, 2.0);
     out.write(&a.out_gcode, g.as_bytes())
         .with_context(|| format!("cannot write {}", a.out_gcode.display()))?;
     out.commit()?;
-    let r = &p.expected;
-    print_doc(
-        &TrackerPlanDoc::new(r, p.poses.len(), a.candidates, a.noise),
-        a.format,
-    )
+    print_doc(&doc, a.format)
 }
 
 pub fn run_simulate(c: SimulateCommand) -> anyhow::Result<()> {
@@ -402,7 +412,11 @@ pub fn run_simulate(c: SimulateCommand) -> anyhow::Result<()> {
     let m = load_machine(&a.machine)?;
     let t = load_table(&a.poses)?;
     let poses = read_poses(&t, &m, true).map_err(diag)?;
-    let pts = simulate_seeded(&m, &poses, a.noise, a.seed);
+    let mut options = SimulateOptions::default();
+    options.noise = a.noise;
+    options.seed = a.seed;
+    options.out = a.out.display().to_string();
+    let (pts, doc) = tracker::simulate::run(&m, &poses, &options);
     let rows: Vec<Vec<f64>> = pts
         .iter()
         .map(|p| {
@@ -411,14 +425,14 @@ pub fn run_simulate(c: SimulateCommand) -> anyhow::Result<()> {
             r
         })
         .collect();
-    write_points(&mut out, &a.out, &m, &rows, &["x", "y", "z"])?;
+    write_points(
+        &mut out,
+        &a.out,
+        &m,
+        &rows,
+        &mtwin::io::columns::TRACKER_MEASURED,
+    )?;
     out.commit()?;
-    let doc = TrackerSimulateDoc {
-        noise: a.noise,
-        out: a.out.display().to_string(),
-        points: rows.len(),
-        seed: a.seed,
-    };
     print_doc(&doc, a.format)?;
     if a.format == Format::Human {
         note(format!(
@@ -439,36 +453,32 @@ pub fn run_compensate(a: CompensateArgs) -> anyhow::Result<()> {
     let m = load_machine(&a.machine)?;
     let t = load_table(&a.data)?;
     let poses = read_poses(&t, &m, true).map_err(diag)?;
-    let c = PointCompensator::new(&m);
-    let mut rows = Vec::with_capacity(poses.len());
-    let (mut before, mut after) = (0.0f64, 0.0f64);
-    for (k, q) in poses.iter().enumerate() {
-        let r = c.correct(q).map_err(|e| {
-            diag(
-                t.row_error(k, format!("cannot compensate this pose: {e}"))
-                    .into(),
+    let mut options = CompensatePointsOptions::default();
+    options.out = a.out.display().to_string();
+    let (corrected, doc) = tracker::compensate::run(&m, &poses, &options).map_err(|e| {
+        diag(
+            t.row_error(
+                e.index,
+                format!("cannot compensate this pose: {}", e.source),
             )
-        })?;
-        before = before.max(r.error_before);
-        after = after.max(r.error_after);
-        let mut row = r.q.clone();
-        row.extend([r.error_before, r.error_after, r.axis_error_after]);
-        rows.push(row);
-    }
+            .into(),
+        )
+    })?;
+    let rows: Vec<Vec<f64>> = corrected
+        .iter()
+        .map(|r| {
+            let mut row = r.q.clone();
+            row.extend([r.error_before, r.error_after, r.axis_error_after]);
+            row
+        })
+        .collect();
     write_points(
         &mut out,
         &a.out,
         &m,
         &rows,
-        &["error_before", "error_after", "axis_error_after"],
+        &mtwin::io::columns::TRACKER_COMPENSATED,
     )?;
     out.commit()?;
-    let doc = CompensatePointsDoc {
-        max_error_after: after,
-        max_error_before: before,
-        mode: c.mode(),
-        out: a.out.display().to_string(),
-        poses: rows.len(),
-    };
     print_doc(&doc, a.format)
 }

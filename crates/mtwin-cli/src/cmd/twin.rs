@@ -9,10 +9,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use mtwin::gcode::InterpolateOptions;
 use mtwin::io::write_csv_row;
-use mtwin::methods::twin::{
-    self, Progress, Sources, Twin, TwinError, TwinSample, TwinSummary, plot::PlotCollector,
-};
-use mtwin::model::Machine;
+use mtwin::methods::twin::{self, Commands, Progress, Sources, TwinError, plot::PlotCollector};
 
 use super::common::DialectArgs;
 use super::common::load_machine;
@@ -86,43 +83,68 @@ pub fn run(c: Command) -> anyhow::Result<()> {
     }
 }
 
-/// One run of the twin on the input of `a`, rows to `sink`.
-fn run_twin(
-    a: &PredictArgs,
-    machine: &Machine,
-    sources: Sources,
-    sink: impl FnMut(&TwinSample) -> std::io::Result<()>,
-) -> anyhow::Result<TwinSummary> {
-    let twin = Twin::new(machine, sources)?;
-    let pb = progress(0, &format!("twin {}", sources.as_str()));
-    let mut hook = |p: Progress| match p {
-        Progress::Commands(n) => {
-            pb.set_length(n);
-            pb.set_position(n);
+/// The twin's progress on a bar, one bar per run (`twin all`, `twin servo`, …).
+struct Bars {
+    bar: Option<(Sources, indicatif::ProgressBar)>,
+}
+
+impl Bars {
+    fn show(&mut self, sources: Sources, p: Progress) {
+        if self.bar.as_ref().is_none_or(|(s, _)| *s != sources) {
+            self.finish();
+            self.bar = Some((sources, progress(0, &format!("twin {}", sources.as_str()))));
         }
-        Progress::Errors { done, total } => {
-            pb.set_length(total);
-            pb.set_position(done);
+        let Some((_, pb)) = &self.bar else { return };
+        match p {
+            Progress::Commands(n) => {
+                pb.set_length(n);
+                pb.set_position(n);
+            }
+            Progress::Errors { done, total } => {
+                pb.set_length(total);
+                pb.set_position(done);
+            }
         }
-    };
-    let r = if let Some(path) = &a.commands {
-        twin::predict_csv(&twin, path, open(path)?, sink, &mut hook)
-    } else {
-        let path = a
-            .gcode
-            .as_deref()
-            .context("--commands or --gcode is needed")?;
-        let mut opts = InterpolateOptions::new(a.ts);
-        opts.interp = interp_options(&a.offsets, &a.dialect, path)?;
-        opts.interp.tcp_at_start = a.tcp;
-        opts.check_travel = !a.no_travel_check;
-        twin::predict_gcode(&twin, machine, open(path)?, &opts, sink, &mut hook)
-    };
-    pb.finish_and_clear();
-    r.map_err(|e| match (e, &a.gcode) {
+    }
+
+    fn finish(&mut self) {
+        if let Some((_, pb)) = self.bar.take() {
+            pb.finish_and_clear();
+        }
+    }
+}
+
+/// The input of `a`, as the library takes it: `opts` holds the interpolation
+/// settings of `--gcode`.
+fn commands<'a>(
+    a: &'a PredictArgs,
+    opts: &'a Option<InterpolateOptions>,
+) -> anyhow::Result<Commands<'a>> {
+    match (&a.commands, opts) {
+        (Some(path), _) => Ok(Commands::Csv { path }),
+        (None, Some(opts)) => Ok(Commands::Gcode { opts }),
+        (None, None) => anyhow::bail!("--commands or --gcode is needed"),
+    }
+}
+
+/// The file `a` reads its commands from.
+fn input(a: &PredictArgs) -> anyhow::Result<&std::path::Path> {
+    a.commands
+        .as_deref()
+        .or(a.gcode.as_deref())
+        .context("--commands or --gcode is needed")
+}
+
+/// A twin error with the program's `file:line:col` when it has one.
+fn twin_error(a: &PredictArgs, e: TwinError) -> anyhow::Error {
+    match (e, &a.gcode) {
         (TwinError::Program(e), Some(p)) => located(p, e.line(), e.column(), &e),
+        (TwinError::Read(e), _) => match input(a) {
+            Ok(p) => anyhow::anyhow!("cannot read {}: {e}", p.display()),
+            Err(e) => e,
+        },
         (e, _) => e.into(),
-    })
+    }
 }
 
 /// The plot files written into `--plot DIR`.
@@ -148,44 +170,71 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
         Some(Only::Servo) => Sources::Servo,
         Some(Only::Geometry) => Sources::Geometry,
     };
+    let opts = match &a.gcode {
+        Some(path) => {
+            let mut opts = InterpolateOptions::new(a.ts);
+            opts.interp = interp_options(&a.offsets, &a.dialect, path)?;
+            opts.interp.tcp_at_start = a.tcp;
+            opts.check_travel = !a.no_travel_check;
+            Some(opts)
+        }
+        None => None,
+    };
+    let commands = commands(&a, &opts)?;
+    let path = input(&a)?;
+    let mut bars = Bars { bar: None };
     let mut plot = a.plot.as_ref().map(|_| PlotCollector::new(2000));
     let mut summary = None;
     out.write_with(&a.out, |w| -> anyhow::Result<()> {
         // The PRED.csv columns, defined once beside the reader of the report.
         writeln!(w, "{}", mtwin::report::twin::COLUMNS.join(","))?;
-        let s = run_twin(&a, &machine, sources, |r| {
-            if let Some(p) = plot.as_mut() {
-                p.add(r);
-            }
-            write_csv_row(
-                w,
-                &[
-                    r.t,
-                    r.cmd_tip.x,
-                    r.cmd_tip.y,
-                    r.cmd_tip.z,
-                    r.cmd_axis.x,
-                    r.cmd_axis.y,
-                    r.cmd_axis.z,
-                    r.tip.x,
-                    r.tip.y,
-                    r.tip.z,
-                    r.axis.x,
-                    r.axis.y,
-                    r.axis.z,
-                    r.tip_error,
-                    r.axis_error,
-                ],
-            )
-        })?;
-        summary = Some(s);
+        let s = twin::predict(
+            &machine,
+            sources,
+            commands,
+            open(path)?,
+            |r| {
+                if let Some(p) = plot.as_mut() {
+                    p.add(r);
+                }
+                write_csv_row(
+                    w,
+                    &[
+                        r.t,
+                        r.cmd_tip.x,
+                        r.cmd_tip.y,
+                        r.cmd_tip.z,
+                        r.cmd_axis.x,
+                        r.cmd_axis.y,
+                        r.cmd_axis.z,
+                        r.tip.x,
+                        r.tip.y,
+                        r.tip.z,
+                        r.axis.x,
+                        r.axis.y,
+                        r.axis.z,
+                        r.tip_error,
+                        r.axis_error,
+                    ],
+                )
+            },
+            &mut |p| bars.show(sources, p),
+        );
+        bars.finish();
+        summary = Some(s.map_err(|e| twin_error(&a, e))?);
         Ok(())
     })?;
     let s = summary.context("the twin produced no summary")?;
     let breakdown = if a.breakdown {
-        let servo = run_twin(&a, &machine, Sources::Servo, |_| Ok(()))?;
-        let geometry = run_twin(&a, &machine, Sources::Geometry, |_| Ok(()))?;
-        Some(twin::TwinBreakdownDoc::new(&s, &servo, &geometry))
+        let b = twin::breakdown(
+            &machine,
+            commands,
+            &s,
+            || Ok(std::io::BufReader::new(std::fs::File::open(path)?)),
+            &mut |sources, p| bars.show(sources, p),
+        );
+        bars.finish();
+        Some(b.map_err(|e| twin_error(&a, e))?)
     } else {
         None
     };

@@ -4,6 +4,9 @@
 //! refused with exit 1, a message naming the problem and no output written,
 //! or accepted with checked content — and runs under a timeout.
 //!
+//! Every case's error output must print numbers short (no run of digits
+//! longer than `MAX_NUMBER_CHARS`: 1e308 is `1e308`, not 309 digits).
+//!
 //! Outcomes are counted by category and printed as
 //! `cases tried N, panics 0, silent-wrong 0, partial 0, hangs 0, wrong-outcome 0`;
 //! any non-zero figure fails the test. The figures are in docs/guide.md
@@ -171,6 +174,38 @@ fn mode3_hint(_: &Path, out: &str) -> Option<String> {
 /// its prediction overflows after about 1024 samples.
 const THERMAL_UNSTABLE: &[u8] = b"period_min = 10.0\n[[inputs]]\nname = \"speed_rpm\"\nscale = 1000.0\n[[heights]]\nz_mm = -50.0\na = [1.0, -2.0]\nb = [[1.0]]\nnk = [1]\n";
 
+/// A machine whose X travel starts at -1e308 (beyond the bound on numbers in files).
+const MACHINE_HUGE_TRAVEL: &[u8] = br#"name = "t"
+tool_chain = ["X"]
+workpiece_chain = []
+[tool]
+tip = [0, 0, 0]
+direction = [0, 0, 1]
+[workpiece]
+origin = [0, 0, 0]
+[[axes]]
+name = "X"
+kind = "linear"
+direction = [1, 0, 0]
+travel = [-1e308, 100]
+"#;
+
+/// A ballbar reading of -1e-300 mm: a number whose plain decimal form is 300
+/// digits long.
+const BALLBAR_TINY_LENGTH: &[u8] = b"angle_deg,length_mm\n0,100\n90,-1e-300\n180,100\n270,100\n";
+
+/// The longest run of digits (with `.`) in `text`: a message printing a
+/// number as 309 digits (1e308) or 300 zeros (1e-300) has one far above 20.
+fn longest_number(text: &str) -> usize {
+    text.split(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .map(str::len)
+        .max()
+        .unwrap_or(0)
+}
+
+/// Longest number a message may print (`0.0010000000000000009` is 21).
+const MAX_NUMBER_CHARS: usize = 24;
+
 fn leak(s: String) -> &'static [u8] {
     Box::leak(s.into_boxed_str()).as_bytes()
 }
@@ -329,6 +364,54 @@ fn cases() -> Vec<Case> {
             ],
             outputs: &["o.csv"],
             expect: Refused(&["p.csv:2:3", "1e308", "largest magnitude"]),
+        },
+        // --- Numbers in messages: 1e308 in a CSV (written out in full), a
+        // TOML machine file and an option; 1e-300 in a CSV. Every message
+        // prints them short (checked for every case below).
+        Case {
+            category: "words",
+            files: Box::leak(Box::new([(
+                "p.csv",
+                leak(format!("X,Y,Z,A,C\n0,0,1{},0,0\n", "0".repeat(308))),
+            )])),
+            setup: &[],
+            args: &[
+                "predict",
+                "--machine",
+                "@M:ac-trunnion-with-errors.toml",
+                "--data",
+                "p.csv",
+                "--out",
+                "o.csv",
+            ],
+            outputs: &["o.csv"],
+            expect: Refused(&["p.csv:2:3", "holds 1e308", "largest magnitude"]),
+        },
+        Case {
+            category: "words",
+            files: &[("m.toml", MACHINE_HUGE_TRAVEL)],
+            setup: &[],
+            args: &["model", "check", "m.toml"],
+            outputs: &[],
+            expect: Refused(&["m.toml:13", "it is -1e308"]),
+        },
+        Case {
+            category: "words",
+            files: &[],
+            setup: &[],
+            args: &["ballbar", "simulate", "--noise", "-1e308", "--out", "d"],
+            outputs: &["d"],
+            expect: Refused(&["--noise -1e308"]),
+        },
+        Case {
+            category: "words",
+            files: &[("m1.csv", BALLBAR_TINY_LENGTH)],
+            setup: &[],
+            args: &[
+                "ballbar", "identify", "--mode1", "m1.csv", "--length", "100",
+            ],
+            outputs: &[],
+            expect: Refused(&["m1.csv:3", "length_mm is -1e-300"]),
         },
         Case {
             category: "accepted",
@@ -773,6 +856,10 @@ fn hostile_inputs_are_refused_or_handled() {
             None => Some(("hang", format!("no end within {TIMEOUT:?}"))),
             Some(101) => Some(("panic", err.clone())),
             _ if err.contains("panicked") => Some(("panic", err.clone())),
+            _ if longest_number(&err) > MAX_NUMBER_CHARS => Some((
+                "wrong-outcome",
+                format!("a number longer than {MAX_NUMBER_CHARS} characters in:\n{err}"),
+            )),
             Some(code) => match &c.expect {
                 Expect::Refused(needles) => {
                     let low = err.to_lowercase();

@@ -173,7 +173,7 @@ fn refusals_name_the_line_and_write_nothing() {
         ],
     );
     assert_eq!(o.status.code(), Some(1));
-    assert!(stderr(&o).contains("part.ngc: line 4:"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("part.ngc:4:1: "), "{}", stderr(&o));
     assert!(!dir.path().join("comp.ngc").exists());
     std::fs::write(
         dir.path().join("far.ngc"),

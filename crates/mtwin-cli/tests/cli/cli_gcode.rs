@@ -126,44 +126,20 @@ fn errors_name_the_line_and_leave_no_output() {
 fn stats_reports_travel_violations() {
     let dir = tempfile::tempdir().unwrap();
     write(dir.path(), "far.nc", "G1 X10 F600\nG1 X400 Y30\nG1 X0 Y0\n");
-    let o = mtwin(
+    // The JSON is the library's `GcodeStatsDoc`, whose text is the human output.
+    let machine = example("ac-trunnion.toml");
+    let (doc, v) = json_round_trip::<mtwin::gcode::GcodeStatsDoc>(
         dir.path(),
-        &[
-            "gcode",
-            "stats",
-            "far.nc",
-            "--machine",
-            &example("ac-trunnion.toml"),
-            "--format",
-            "json",
-        ],
+        &["gcode", "stats", "far.nc", "--machine", &machine],
     );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
     assert_eq!(v["travel_violations"], 1);
     assert_eq!(v["violations"][0]["line"], 2);
     assert_eq!(v["violations"][0]["axis"], "X");
     // 10 + hypot(390, 30) + hypot(400, 30) mm.
     let len = 10.0 + 390f64.hypot(30.0) + 400f64.hypot(30.0);
     assert!((v["feed_length_mm"].as_f64().unwrap() - len).abs() < 1e-9);
-    // The JSON is the library's `GcodeStatsDoc`, whose text is the human output.
-    let doc: mtwin::gcode::GcodeStatsDoc =
-        serde_json::from_str(&stdout(&o)).expect("stdout is a GcodeStatsDoc");
-    assert_eq!(serde_json::to_value(&doc).unwrap(), v);
     assert_eq!(doc.program, "far.nc");
     assert_eq!(doc.unreachable_lines.as_deref(), Some(&[][..]));
-    let human = mtwin(
-        dir.path(),
-        &[
-            "gcode",
-            "stats",
-            "far.nc",
-            "--machine",
-            &example("ac-trunnion.toml"),
-        ],
-    );
-    assert_eq!(human.status.code(), Some(0), "{}", stderr(&human));
-    assert_eq!(stdout(&human), doc.to_string());
 
     // --strict: the same report, then exit code 1 naming the count.
     let strict = |prog: &str| {
@@ -377,4 +353,51 @@ M2\n";
             assert!(e.contains(at) && e.contains(what), "{name}: {e}");
         }
     }
+}
+
+/// `--tool-table`: G43 H1 takes tool 1's Z from the table (machine Z =
+/// program Z + 12.5); a bad table line is `file:line:col`, exit 1.
+/// `--block-delete off` runs the `/` blocks.
+#[test]
+fn tool_table_and_block_delete_options() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "tools.tbl",
+        "; mill\nT1 P1 Z12.5 D6 ;end mill\n",
+    );
+    write(dir.path(), "bad.tbl", "T1 P1\nT2 P2 Zx\n");
+    write(
+        dir.path(),
+        "p.nc",
+        "T1 M6\nG43 H1\nG0 Z0\n/G1 X10 F600\nM30\nPost Process Timed at; 32 Min\n",
+    );
+    let stats = |extra: &[&str]| {
+        let mut args = vec!["gcode", "stats", "p.nc", "--format", "json"];
+        args.extend_from_slice(extra);
+        mtwin(dir.path(), &args)
+    };
+    // Without a table, tool 1 is unknown: refused with the line.
+    let o = stats(&[]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("p.nc:2:"), "{}", stderr(&o));
+    let o = stats(&["--tool-table", "tools.tbl"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(
+        v["feed_length_mm"].as_f64(),
+        Some(0.0),
+        "the / block is skipped"
+    );
+    let o = stats(&["--tool-table", "tools.tbl", "--block-delete", "off"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(v["feed_length_mm"].as_f64(), Some(10.0));
+    let o = stats(&["--tool-table", "bad.tbl"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("bad.tbl:2:7: Z needs a number"),
+        "{}",
+        stderr(&o)
+    );
 }

@@ -264,6 +264,61 @@ fn fitted_servo_reproduces_a_held_out_command_within_1_um() {
     assert_eq!(s, d2.to_string());
 }
 
+/// A time column of raw epoch nanoseconds (1.73e18, beyond the 1e15 bound on
+/// other numbers) reads: `servo simulate` and `servo fit` take times in the
+/// column's unit as written, so a servo model with `ts = 1e6` (1 ms in ns)
+/// simulates on it, the log keeps the timestamps, and the fit finds the
+/// sample period 1e6 and the truth's coefficients.
+#[test]
+fn epoch_nanosecond_time_column_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    let ts_ns = 1e6;
+    std::fs::write(
+        p.join("truth.toml"),
+        truth_toml().replace(&format!("ts = {TS:?}"), "ts = 1000000.0"),
+    )
+    .unwrap();
+    let t0: u64 = 1_732_550_000_000_000_000;
+    let u = excitation_commands();
+    let mut csv = String::from("t_s,command_mm\n");
+    for (k, v) in u.iter().enumerate() {
+        csv.push_str(&format!("{},{v}\n", t0 + k as u64 * 1_000_000));
+    }
+    std::fs::write(p.join("exc.csv"), csv).unwrap();
+    simulate(p, "truth.toml", "exc.csv", "log.csv", "0", "1");
+    let log = read_log(&p.join("log.csv"));
+    assert_eq!(log.len(), u.len());
+    for (k, row) in log.iter().enumerate() {
+        // The f64 nearest each timestamp (spacing 256 ns at 1.7e18).
+        assert_eq!(row[0], (t0 + k as u64 * 1_000_000) as f64);
+    }
+    let o = mtwin(
+        p,
+        &[
+            "servo",
+            "fit",
+            "--data",
+            "log.csv",
+            "--max-order",
+            "2",
+            "--max-delay",
+            "1",
+            "--out",
+            "servo.toml",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let fitted = mtwin::sysid::read_servo_toml(&p.join("servo.toml")).unwrap();
+    // Timestamps are f64 to within 128 ns: the median interval is 1e6 ± 256.
+    assert!((fitted.ts() - ts_ns).abs() <= 256.0, "ts = {}", fitted.ts());
+    let (a, _) = truth();
+    assert_eq!(fitted.a().len(), 3, "{:?}", fitted.a());
+    for (got, want) in fitted.a().iter().zip(a) {
+        assert!((got - want).abs() < 1e-6, "a = {:?}", fitted.a());
+    }
+}
+
 #[test]
 fn fitted_file_is_a_valid_axes_servo_table() {
     let dir = tempfile::tempdir().unwrap();
@@ -408,7 +463,7 @@ fn bad_input_exits_1_names_the_line_and_writes_nothing() {
 #[test]
 fn excitation_program_stays_inside_the_travel() {
     let dir = tempfile::tempdir().unwrap();
-    let o = mtwin(
+    let (d, _) = json_round_trip::<mtwin::sysid::ServoExcitationDoc>(
         dir.path(),
         &[
             "servo",
@@ -421,13 +476,8 @@ fn excitation_program_stays_inside_the_travel() {
             "3000",
             "--out",
             "exc.nc",
-            "--format",
-            "json",
         ],
     );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let d: mtwin::sysid::ServoExcitationDoc =
-        serde_json::from_str(&stdout(&o)).expect("stdout is a ServoExcitationDoc");
     assert_eq!((d.axis.as_str(), d.travel), ("X", [-100.0, 100.0]));
     let text = std::fs::read_to_string(dir.path().join("exc.nc")).unwrap();
     assert_eq!(d.lines, text.lines().count());

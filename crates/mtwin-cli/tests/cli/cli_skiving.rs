@@ -212,7 +212,11 @@ fn bad_input_is_reported_with_file_and_line() {
 fn programs_in_both_dialects_and_no_output_on_failure() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    for (dialect, probe, out) in [("linuxcnc", "G38.2", "a.ngc"), ("fanuc", "G31", "b.nc")] {
+    // Written to 4 decimals for LinuxCNC, 3 with a decimal point for Fanuc.
+    for (dialect, probe, out, tol) in [
+        ("linuxcnc", "G38.2", "a.ngc", 0.5e-4),
+        ("fanuc", "G31", "b.nc", 0.5e-3),
+    ] {
         let mut args = vec![
             "skiving",
             "program",
@@ -230,8 +234,17 @@ fn programs_in_both_dialects_and_no_output_on_failure() {
         assert_eq!(probes.len(), 6, "{text}");
         // Side touch target: nominal y = rt + √(rg² − x²) minus the 1 mm overtravel.
         let y = 40.0 + (3600.0f64 - 6.25).sqrt() - 1.0;
-        assert!(probes[2].contains(&format!("Y{y:.4}")), "{}", probes[2]);
-        assert!(probes[0].contains("Z-81.0000"), "{}", probes[0]);
+        let word = |line: &str, letter: char| -> f64 {
+            let w = line.split_whitespace().find(|w| w.starts_with(letter));
+            w.unwrap_or_else(|| panic!("{letter} in {line}"))[1..]
+                .parse()
+                .unwrap()
+        };
+        assert!((word(probes[2], 'Y') - y).abs() <= tol, "{}", probes[2]);
+        assert_eq!(word(probes[0], 'Z'), -81.0, "{}", probes[0]);
+        if dialect == "fanuc" {
+            assert!(probes[0].contains("Z-81. "), "{}", probes[0]);
+        }
     }
     let mut args = vec![
         "skiving",

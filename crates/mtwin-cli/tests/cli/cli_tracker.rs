@@ -63,7 +63,7 @@ fn plan_simulate_identify_validate_compensate() {
     assert_eq!(csv.lines().next().unwrap(), "X,Y,Z,B,A,C");
     assert_eq!(csv.lines().count(), 91);
     let nc = std::fs::read_to_string(d.join("poses.nc")).unwrap();
-    assert_eq!(nc.matches("G04").count(), 90);
+    assert_eq!(nc.matches("\nG4 P2\n").count(), 90);
 
     for (poses, out, seed) in [
         ("poses.csv", "fit.csv", "1"),

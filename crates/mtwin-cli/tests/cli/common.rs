@@ -164,3 +164,32 @@ pub fn split_words(line: &str) -> Vec<String> {
     }
     out
 }
+
+/// The JSON round trip of a command's document: runs `mtwin args --format
+/// json` in `dir` (exit 0), reads stdout into the library's document type
+/// `D` (so `--format json` is exactly the serialised `D`), checks that `D`
+/// serialises back to the same JSON value, then runs `mtwin args` (human
+/// output) and checks its stdout is `D`'s `Display`. Returns the document and
+/// the JSON value.
+pub fn json_round_trip<D>(dir: &Path, args: &[&str]) -> (D, serde_json::Value)
+where
+    D: serde::de::DeserializeOwned + serde::Serialize + std::fmt::Display,
+{
+    let mut with_json = args.to_vec();
+    with_json.extend(["--format", "json"]);
+    let o = mtwin(dir, &with_json);
+    assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o))
+        .unwrap_or_else(|e| panic!("{args:?}: {e}: {}", stdout(&o)));
+    let doc: D = serde_json::from_str(&stdout(&o)).unwrap_or_else(|e| {
+        panic!(
+            "{args:?}: stdout is not a {}: {e}",
+            std::any::type_name::<D>()
+        )
+    });
+    assert_eq!(serde_json::to_value(&doc).unwrap(), v, "{args:?}");
+    let human = mtwin(dir, args);
+    assert_eq!(human.status.code(), Some(0), "{args:?}: {}", stderr(&human));
+    assert_eq!(stdout(&human), doc.to_string(), "{args:?}");
+    (doc, v)
+}

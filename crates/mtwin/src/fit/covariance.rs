@@ -44,7 +44,7 @@ impl Covariance {
         let par = if k * k * rank < PARALLEL_FLOPS {
             Par::Seq
         } else {
-            Par::rayon(0)
+            crate::par::faer()
         };
         matmul(
             matrix.as_mut(),

@@ -14,7 +14,7 @@ use std::ops::Range;
 use faer::linalg::matmul::matmul;
 use faer::linalg::matmul::triangular::{BlockStructure, matmul as tri_matmul};
 use faer::reborrow::ReborrowMut;
-use faer::{Accum, ColMut, ColRef, Mat, MatMut, MatRef, Par};
+use faer::{Accum, ColMut, ColRef, Mat, MatMut, MatRef};
 use rayon::prelude::*;
 
 use super::factored::{self, Plan};
@@ -85,9 +85,14 @@ impl Pass<'_> {
         match (need, self.factored) {
             (Need::Residuals, _) => {
                 let mut slices = split_rows(&mut r, &tasks);
-                slices.par_iter_mut().for_each(|(rows, out)| {
+                let each = |(rows, out): &mut (Range<usize>, &mut [f64])| {
                     self.model.residuals(theta, rows.clone(), out);
-                });
+                };
+                if crate::par::sequential() {
+                    slices.iter_mut().for_each(each);
+                } else {
+                    slices.par_iter_mut().for_each(each);
+                }
                 (self.progress)(Progress::Evaluating {
                     rows_done: m,
                     rows_total: m,
@@ -157,7 +162,7 @@ impl Pass<'_> {
                             jt.transpose(),
                             BlockStructure::Rectangular,
                             1.0,
-                            Par::rayon(0),
+                            crate::par::faer(),
                         );
                     }
                     (self.progress)(Progress::Evaluating {
@@ -218,7 +223,7 @@ impl Pass<'_> {
             rest_r = b;
             rest_j = jb;
         }
-        parts.into_par_iter().for_each(|(rows, r, mut j)| {
+        let each = |(rows, r, mut j): (Range<usize>, &mut [f64], MatMut<'_, f64>)| {
             self.model
                 .residuals_and_jacobian(theta, rows.clone(), r, j.rb_mut());
             let mut b = self.layout.block_of_row(rows.start);
@@ -234,7 +239,12 @@ impl Pass<'_> {
                 }
                 b += 1;
             }
-        });
+        };
+        if crate::par::sequential() {
+            parts.into_iter().for_each(each);
+        } else {
+            parts.into_par_iter().for_each(each);
+        }
     }
 
     /// Zeroes excluded residual rows (the residual-only pass does not go
@@ -309,6 +319,6 @@ fn gemv(jt: MatRef<'_, f64>, r: &[f64], g: &mut [f64], accum: Accum) {
         jt,
         ColRef::from_slice(r).as_mat(),
         1.0,
-        Par::rayon(0),
+        crate::par::faer(),
     );
 }

@@ -212,13 +212,22 @@ pub(crate) fn accumulate(
         tiles.push((b..e, a));
         rest = tail;
     }
-    tiles.into_par_iter().for_each(|(blocks, r)| {
-        let k =
-            rayon::current_thread_index().map_or(slots.0.len() - 1, |i| i.min(slots.0.len() - 2));
+    let each = |(blocks, r): (Range<usize>, &mut [f64])| {
+        // Sequential work runs outside the pool (or on one of its threads,
+        // alone): the last slot, or that thread's.
+        let k = match rayon::current_thread_index() {
+            Some(i) => i.min(slots.0.len() - 2),
+            None => slots.0.len() - 1,
+        };
         // Only this thread uses slot k (or, outside the pool, the last one).
         let mut slot = slots.0[k].lock().unwrap_or_else(|e| e.into_inner());
         tile(model, plan, layout, included, theta, blocks, r, &mut slot);
-    });
+    };
+    if crate::par::sequential() {
+        tiles.into_iter().for_each(each);
+    } else {
+        tiles.into_par_iter().for_each(each);
+    }
 }
 
 /// Adds one tile of blocks to the slot's sums.

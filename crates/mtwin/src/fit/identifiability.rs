@@ -18,7 +18,7 @@
 //!    `√(max(m, n)·ε)` on the normal-equation path, whose spectrum is
 //!    squared) or a user threshold (never below that floor).
 //! 3. **Which parameters to fix.** Greedy column pivoting on the scaled
-//!    problem ([`super::scaling::pivot_order`], equivalent to column-pivoted
+//!    problem (`pivot_order`, equivalent to column-pivoted
 //!    QR): the first `rank` pivots are estimated, the others are fixed at
 //!    their start value. Ties go to the parameter listed first.
 //!

@@ -1,6 +1,6 @@
 //! Levenberg–Marquardt on the exact model, over the estimated parameters.
 //!
-//! Each linearisation is decomposed once ([`Scaled`]: `λᵢ`, `V` of the
+//! Each linearisation is decomposed once (`Scaled`: `λᵢ`, `V` of the
 //! column-scaled problem); every trial damping `μ` then costs only
 //! `O(k²)`: the step in scaled variables is
 //! `y = −V·diag(1/(λᵢ + μ))·Vᵀ·gₛ`, `δθ_j = y_j / D_j`, and the reduction

@@ -185,6 +185,11 @@ pub struct Options {
     /// estimated parameters (default 1e6: uncertainties amplified a million
     /// times along the weakest direction).
     pub ill_conditioned_above: f64,
+    /// Parallelism of the evaluation and the decompositions:
+    /// [`Par::Seq`](crate::par::Par::Seq) on the calling thread only,
+    /// `Par::rayon(_)` (default `Par::rayon(0)`) on the rayon pool the call
+    /// runs in (choose its size with [`crate::par::install`]).
+    pub par: crate::par::Par,
 }
 
 impl Default for Options {
@@ -205,6 +210,7 @@ impl Default for Options {
             factored: true,
             outliers: OutlierRule::default(),
             ill_conditioned_above: 1e6,
+            par: crate::par::Par::rayon(0),
         }
     }
 }
@@ -216,6 +222,16 @@ pub fn fit(model: &dyn Model, theta0: &[f64], options: &Options) -> Result<FitRe
 
 /// [`fit`] with a progress hook.
 pub fn fit_with_progress(
+    model: &dyn Model,
+    theta0: &[f64],
+    options: &Options,
+    progress: &dyn Fn(Progress),
+) -> Result<FitReport, FitError> {
+    crate::par::here(options.par, || fit_here(model, theta0, options, progress))
+}
+
+/// [`fit_with_progress`] on the current thread's parallelism.
+fn fit_here(
     model: &dyn Model,
     theta0: &[f64],
     options: &Options,

@@ -28,7 +28,7 @@ use faer::{Accum, Mat, MatRef, Par, Side};
 use super::FitError;
 use super::evaluate::Evaluation;
 
-/// Which decomposition produced a [`Spectrum`].
+/// Which decomposition produced a `Spectrum`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Source {
@@ -181,7 +181,7 @@ fn singular_values_and_v(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), Fit
     let par = if m * k < PARALLEL_SVD_ENTRIES {
         Par::Seq
     } else {
-        Par::rayon(0)
+        crate::par::faer()
     };
     let mut s = Diag::<f64>::zeros(m.min(k));
     let mut v = Mat::<f64>::zeros(k, k);

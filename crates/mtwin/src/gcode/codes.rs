@@ -303,15 +303,10 @@ impl GCode {
     pub fn unsupported(self) -> Option<&'static str> {
         use GCode::*;
         Some(match self {
-            G10 => "setting offsets",
-            G28 | G28_1 | G30 | G30_1 => "return to home position",
-            G92 | G92_1 | G92_2 | G92_3 | G52 => "axis offsets",
             G41 | G41_1 | G42 | G42_1 => "cutter radius compensation",
             G33 | G33_1 | G76 => "spindle-synchronised motion",
-            G73 | G74 | G81 | G82 | G83 | G84 | G85 | G86 | G87 | G88 | G89 => "canned cycle",
             G70 | G71 | G71_1 | G71_2 | G72 | G72_1 | G72_2 => "lathe cycle",
             G5 | G5_1 | G5_2 | G5_3 => "spline / NURBS motion",
-            G43_1 | G43_2 => "dynamic tool length offset",
             G96 => "constant surface speed",
             G7 | G8 => "lathe diameter/radius mode",
             G17_1 | G18_1 | G19_1 => "UVW plane selection",
@@ -326,6 +321,24 @@ impl GCode {
         matches!(
             self,
             GCode::G31 | GCode::G38_2 | GCode::G38_3 | GCode::G38_4 | GCode::G38_5
+        )
+    }
+
+    /// Whether the code is a canned cycle (G73, G74, G81 ... G89).
+    pub fn is_cycle(self) -> bool {
+        use GCode::*;
+        matches!(
+            self,
+            G73 | G74 | G81 | G82 | G83 | G84 | G85 | G86 | G87 | G88 | G89
+        )
+    }
+
+    /// Whether the non-modal code reads the axis words (G10, G28, G30,
+    /// G52, G92), so that no motion code may share its line.
+    pub fn covets_axes(self) -> bool {
+        matches!(
+            self,
+            GCode::G10 | GCode::G28 | GCode::G30 | GCode::G52 | GCode::G92
         )
     }
 }

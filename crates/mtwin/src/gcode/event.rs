@@ -124,6 +124,10 @@ pub struct Programmed {
     pub distance: DistanceMode,
     /// Length units of the block.
     pub units: Units,
+    /// The move is one of several that one block expands to (a canned
+    /// cycle, the two moves of G28/G30): its end is not what the block's
+    /// words say, so no word can be rewritten to move it.
+    pub expanded: bool,
 }
 
 impl Programmed {

@@ -8,18 +8,17 @@
 //! spindle speed, tool select, tool change, spindle direction, TCP
 //! M-codes, dwell, plane, length units, cutter compensation, tool length
 //! offset, coordinate system, path control, distance mode, arc distance
-//! mode, retract mode, the non-modal codes, motion, and last the stops
+//! mode, retract mode, the non-modal codes (G10, G28, G30, G52, G92),
+//! G92.1/G92.2/G92.3, motion (canned cycles included), and last the stops
 //! (M0, M1, M2, M30, M60).
 //!
 //! Expressions and parameters are evaluated ([`Parameters`]); a line's
 //! assignments take effect after the whole line is read, before its codes
 //! run. O-word lines are program flow, run by
 //! [`run_program`](super::program_flow::run_program), not here. Anything
-//! else outside the supported language (canned cycles,
-//! G10/G28/G92, cutter compensation, ...) is an
+//! else outside the supported language (cutter compensation, G33/G76,
+//! splines, coordinate system rotation, ...) is an
 //! [`GcodeError::Unsupported`] error naming the line: never skipped.
-
-use std::collections::BTreeMap;
 
 use super::arc::{self, ArcError};
 use super::axes::{Axes, Axis, AxisMask};
@@ -34,9 +33,7 @@ use super::expr::{self, Target};
 use super::parameters::Parameters;
 use super::program_flow::ProgramOptions;
 use super::syntax::{Block, Item, Value, Word};
-
-/// Tool number → tool length offset along Z, mm (the caller's tool table).
-pub type ToolTable = BTreeMap<u32, f64>;
+use super::tool_table::ToolTable;
 
 /// What unknown M-codes do.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -60,7 +57,9 @@ pub struct InterpOptions {
     /// Offsets of G54, G55, G56, G57, G58, G59, G59.1, G59.2, G59.3
     /// (machine coordinates of the work origin), mm and degree.
     pub work_offsets: [Axes; 9],
-    /// Tool table for G43 H / G43.4 H.
+    /// Tool table (LinuxCNC's `.tbl`, [`ToolTable::parse`]) for T, M6,
+    /// G43, G43.2, G43.4 and G10 L1/L10/L11 (which change the
+    /// interpreter's copy).
     pub tools: ToolTable,
     /// M-code that turns tool centre point control on (LinuxCNC remap in the
     /// corpus: M428); `None` for no such code.
@@ -105,11 +104,28 @@ impl Default for InterpOptions {
 
 /// Active motion mode (modal group 1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum MotionMode {
+    /// G0.
     Rapid,
+    /// G1 (and the probing moves).
     Linear,
+    /// G2.
     ArcClockwise,
+    /// G3.
     ArcCounterClockwise,
+    /// A canned cycle: G73, G74, G81 ... G89.
+    Cycle(GCode),
+}
+
+/// Where a canned cycle retracts to at the end of each repeat.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RetractMode {
+    /// G98: the level the tool was at before the cycle (if above R).
+    #[default]
+    InitialLevel,
+    /// G99: the R level.
+    RLevel,
 }
 
 /// The modal state between blocks.
@@ -145,8 +161,27 @@ pub struct ModalState {
     pub tcp: bool,
     /// Current position in work coordinates, mm/deg.
     pub position: Axes,
-    /// Work offset plus tool length offset (machine = position + offset).
+    /// Work offset plus G92 offset plus tool offset (machine = position +
+    /// offset).
     pub offset: Axes,
+    /// Offsets of G54 ... G59.3 in force: the options' ones as changed by
+    /// G10 L2/L20 (parameters 5221 ... 5389), mm/deg.
+    pub work_offsets: [Axes; 9],
+    /// G92 axis offsets in force, mm/deg.
+    pub axis_offset: Axes,
+    /// The G92 offsets kept for G92.3 (parameters 5211–5219), mm/deg.
+    pub g92_saved: Axes,
+    /// Whether the G92 offsets are applied (parameter 5210).
+    pub g92_applied: bool,
+    /// G28 home position, machine coordinates (parameters 5161–5169), mm/deg.
+    pub g28_home: Axes,
+    /// G30 home position, machine coordinates (parameters 5181–5189), mm/deg.
+    pub g30_home: Axes,
+    /// Tool offset in force (G43, G43.1, G43.2), every axis, mm/deg;
+    /// `tool_length` is its Z.
+    pub tool_offset: Axes,
+    /// G98/G99.
+    pub retract: RetractMode,
 }
 
 /// M-codes accepted without a motion meaning.
@@ -278,12 +313,47 @@ impl Codes {
 pub struct Interpreter {
     opts: InterpOptions,
     state: ModalState,
+    tools: ToolTable,
     tcp_from_g43_4: bool,
+    /// The F number as written (program units): LinuxCNC feeds a move of
+    /// rotary axes only at F deg/min (or deg/rev) whatever the length units.
+    feed_as_written: f64,
     block_index: u64,
     ended: bool,
+    percent: Percent,
+    cycle: CycleMemory,
     words: BlockWords,
     params: Parameters,
     assignments: Vec<(Target, f64, usize)>,
+}
+
+/// Whether the program uses `%` lines (LinuxCNC: the first non-blank line
+/// is `%` alone; reading then stops at the next `%` line).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Percent {
+    BeforeFirstLine,
+    Used,
+    NotUsed,
+}
+
+/// What a canned cycle remembers for the next block of the same cycle
+/// (LinuxCNC's `cycle_*` settings), canonical units.
+#[derive(Debug, Clone, Copy, Default)]
+struct CycleMemory {
+    /// R level.
+    r: f64,
+    /// Bottom: the block's word of the plane's normal axis, canonical
+    /// (in G91 measured from R).
+    bottom: f64,
+    /// Dwell, s.
+    p: f64,
+    /// Peck, mm.
+    q: f64,
+    /// G87 offsets I J K.
+    ijk: [f64; 3],
+    /// The level before the first cycle of a series (LinuxCNC's
+    /// `cycle_il`), reset by any other motion.
+    initial_level: Option<f64>,
 }
 
 /// What every step of a block needs: its line, its position and its events.
@@ -326,13 +396,25 @@ impl Interpreter {
             tcp: opts.tcp_at_start,
             position: opts.initial_machine_position.sub(&offset),
             offset,
+            work_offsets: opts.work_offsets,
+            axis_offset: Axes::ZERO,
+            g92_saved: Axes::ZERO,
+            g92_applied: false,
+            g28_home: Axes::ZERO,
+            g30_home: Axes::ZERO,
+            tool_offset: Axes::ZERO,
+            retract: RetractMode::InitialLevel,
         };
         Interpreter {
+            tools: opts.tools.clone(),
             opts,
             state,
             tcp_from_g43_4: false,
+            feed_as_written: 0.0,
             block_index: 0,
             ended: false,
+            percent: Percent::BeforeFirstLine,
+            cycle: CycleMemory::default(),
             words: BlockWords::default(),
             params: (*opts_params).clone(),
             assignments: Vec::new(),
@@ -354,9 +436,17 @@ impl Interpreter {
         &mut self.params
     }
 
-    /// Whether M2/M30 was executed (later blocks are then ignored).
+    /// Whether the program has ended: M2/M30 was executed, or the closing
+    /// `%` of a program that starts with `%` was read. Later blocks are
+    /// ignored; callers stop reading there (LinuxCNC reads no further, so
+    /// text after the end is never an error).
     pub fn ended(&self) -> bool {
         self.ended
+    }
+
+    /// The tool table as the program has changed it (G10 L1/L10/L11).
+    pub fn tools(&self) -> &ToolTable {
+        &self.tools
     }
 
     /// Executes one block, appending its events to `out`. On error the state
@@ -368,7 +458,20 @@ impl Interpreter {
             file: 0,
         };
         self.block_index += 1;
-        if self.ended || (self.opts.skip_deleted_blocks && block.is_block_delete()) {
+        if self.ended {
+            return Ok(());
+        }
+        if self.percent == Percent::BeforeFirstLine && !block.text().trim_ascii().is_empty() {
+            if block.is_percent() && block.items().len() == 1 {
+                self.percent = Percent::Used;
+                return Ok(());
+            }
+            self.percent = Percent::NotUsed;
+        } else if self.percent == Percent::Used && block.is_percent() && block.items().len() == 1 {
+            self.ended = true;
+            return Ok(());
+        }
+        if self.opts.skip_deleted_blocks && block.is_block_delete() {
             return Ok(());
         }
         self.collect(block)?;
@@ -448,10 +551,13 @@ impl Interpreter {
         // always off.
         self.set_tool_length_offset(w, &codes, s)?;
         self.select_coordinate_system(&codes, s);
-        // Path control (G61, G61.1, G64) and retract mode (G98, G99) change
-        // no motion this interpreter produces.
+        // Path control (G61, G61.1, G64) changes no motion this interpreter
+        // produces.
         self.set_distance_mode(&codes);
         self.set_arc_distance_mode(&codes);
+        self.set_retract_mode(&codes);
+        self.non_modal(w, &codes, s)?;
+        self.set_g92_applied(&codes);
         self.check_g53(w, &codes, s)?;
         self.motion(w, &codes, s)?;
         self.stop(&codes, s);
@@ -535,6 +641,27 @@ impl Interpreter {
             }
             *slot = Some((code, col));
         }
+        if let Some((code, col)) = codes.non_modal
+            && code.covets_axes()
+        {
+            if let Some((motion, _)) = codes.explicit_motion() {
+                return Err(GcodeError::invalid(
+                    line,
+                    col,
+                    format!(
+                        "Cannot use two G codes that both use axis values: {code} and {motion}"
+                    ),
+                ));
+            }
+            let any_axis = Axis::ALL.iter().any(|a| w.get(a.letter()).is_some());
+            if !any_axis && matches!(code, GCode::G52 | GCode::G92) {
+                return Err(GcodeError::invalid(
+                    line,
+                    col,
+                    format!("All axes missing with {code}"),
+                ));
+            }
+        }
         if let Some((code, col)) = codes.motion
             && code.is_probe()
             && !Axis::ALL.iter().any(|a| w.get(a.letter()).is_some())
@@ -549,9 +676,18 @@ impl Interpreter {
         Ok(codes)
     }
 
+    /// Whether a non-motion code of the block reads its axis words (G10,
+    /// G28, G30, G52, G92, G43.1).
+    fn axes_consumed(&self, codes: &Codes) -> bool {
+        codes.non_modal.is_some_and(|(c, _)| c.covets_axes()) || codes.has(GCode::G43_1)
+    }
+
     /// The motion mode the block's axis words will use: its own motion
     /// code, else the modal one.
     fn motion_to_be(&self, codes: &Codes) -> Option<MotionMode> {
+        if codes.motion.is_none() && self.axes_consumed(codes) {
+            return None;
+        }
         match codes.motion {
             Some((GCode::G80, _)) => None,
             Some((code, _)) => Some(motion_mode(code)),
@@ -572,11 +708,19 @@ impl Interpreter {
         line: u64,
     ) -> Result<(), GcodeError> {
         let any_axis = Axis::ALL.iter().any(|a| w.get(a.letter()).is_some());
-        let arc_now = (any_axis || codes.explicit_motion().is_some())
+        let moving = any_axis || codes.explicit_motion().is_some();
+        let to_be = self.motion_to_be(codes);
+        let arc_now = moving
             && matches!(
-                self.motion_to_be(codes),
+                to_be,
                 Some(MotionMode::ArcClockwise | MotionMode::ArcCounterClockwise)
             );
+        let cycle_now = match to_be {
+            Some(MotionMode::Cycle(c)) if moving => Some(c),
+            _ => None,
+        };
+        let cycle_in = |cs: &[GCode]| cycle_now.is_some_and(|c| cs.contains(&c));
+        let g10 = codes.has(GCode::G10);
         if let Some(r) = w.get(b'R') {
             // R is read by G2/G3, G64 (blend tolerance) and M19 (orientation).
             let g64 = codes.has(GCode::G64);
@@ -588,7 +732,7 @@ impl Interpreter {
                     "R word is ambiguous on a line with both G64 and M19 - use separate lines",
                 ));
             }
-            if !(arc_now || g64 || m19) {
+            if !(arc_now || g64 || m19 || g10 || cycle_now.is_some()) {
                 return Err(GcodeError::invalid(
                     line,
                     r.column,
@@ -596,8 +740,11 @@ impl Interpreter {
                 ));
             }
         }
-        if !arc_now {
+        if !arc_now && !cycle_in(&[GCode::G87]) {
             for l in [b'I', b'J', b'K'] {
+                if l != b'K' && g10 {
+                    continue;
+                }
                 if let Some(x) = w.get(l) {
                     return Err(GcodeError::invalid(
                         line,
@@ -616,12 +763,12 @@ impl Interpreter {
             ),
             (
                 b'H',
-                codes.has(GCode::G43) || codes.has(GCode::G43_4),
+                codes.has(GCode::G43) || codes.has(GCode::G43_2) || codes.has(GCode::G43_4),
                 "H word with no G43 to use it",
             ),
             (
                 b'L',
-                w.has_m(&[66]),
+                w.has_m(&[66]) || g10 || cycle_now.is_some(),
                 "L word with no G10, cutter compensation, canned cycle or M66 to use it",
             ),
             (
@@ -629,12 +776,24 @@ impl Interpreter {
                 codes.has(GCode::G4)
                     || codes.has(GCode::G64)
                     || arc_now
+                    || g10
+                    || cycle_in(&[
+                        GCode::G74,
+                        GCode::G82,
+                        GCode::G84,
+                        GCode::G86,
+                        GCode::G88,
+                        GCode::G89,
+                    ])
                     || w.has_m(&[19, 50, 51, 52, 53, 62, 63, 64, 65, 66]),
                 "P word with no G2, G3, G4, G64, M19, M50-M53 or M62-M66 to use it",
             ),
             (
                 b'Q',
-                codes.has(GCode::G64) || w.has_m(&[19, 61, 66, 67, 68]),
+                codes.has(GCode::G64)
+                    || w.has_m(&[19, 61, 66, 67, 68])
+                    || g10
+                    || cycle_in(&[GCode::G73, GCode::G83]),
                 "Q word with no G64, M19, M61, M66, M67, M68 or canned cycle to use it",
             ),
         ];
@@ -660,7 +819,7 @@ impl Interpreter {
         Ok(())
     }
 
-    /// G93, G94, G95. Entering inverse time clears the feed rate.
+    /// G93, G94, G95. Each clears the feed rate.
     fn set_feed_mode(&mut self, codes: &Codes, s: &mut Step) {
         let Some((code, _)) = codes.feed_mode else {
             return;
@@ -670,9 +829,10 @@ impl Interpreter {
             GCode::G94 => FeedMode::UnitsPerMinute,
             _ => FeedMode::UnitsPerRevolution,
         };
-        if mode != self.state.feed_mode && mode == FeedMode::InverseTime {
-            self.state.feed = 0.0;
-        }
+        // LinuxCNC sets the feed rate to zero at every G93, G94 or G95, even
+        // of the mode already in force: F must follow.
+        self.state.feed = 0.0;
+        self.feed_as_written = 0.0;
         self.state.feed_mode = mode;
         s.emit(EventKind::FeedMode(mode));
     }
@@ -690,6 +850,7 @@ impl Interpreter {
             _ => self.state.units.mm_per_unit(),
         };
         self.state.feed = f.value * scale;
+        self.feed_as_written = f.value;
         s.emit(EventKind::FeedRate(self.state.feed));
         Ok(())
     }
@@ -792,7 +953,9 @@ impl Interpreter {
         }
     }
 
-    /// G43 (H defaults to the tool in the spindle), G43.4 (TCP), G49.
+    /// G43 (H defaults to the tool in the spindle), G43.1 (dynamic: the
+    /// axis words), G43.2 (added: H's tool or the axis words), G43.4 (TCP),
+    /// G49.
     fn set_tool_length_offset(
         &mut self,
         w: &BlockWords,
@@ -802,26 +965,57 @@ impl Interpreter {
         let Some((code, col)) = codes.tool_length else {
             return Ok(());
         };
-        let length = match code {
-            GCode::G49 => 0.0,
-            _ => {
-                let tool = match w.get(b'H') {
-                    Some(h) => nonneg_int(*h, s.line, "H")?,
-                    None => self.state.tool,
-                };
-                if tool == 0 {
-                    0.0
-                } else {
-                    *self.opts.tools.get(&tool).ok_or_else(|| {
-                        s.invalid(col, format!("tool {tool} is not in the tool table"))
-                    })?
+        let table_offset = |this: &Self, tool: u32| -> Result<Axes, GcodeError> {
+            if tool == 0 {
+                return Ok(Axes::ZERO);
+            }
+            this.tools
+                .get(tool)
+                .map(|t| t.offset)
+                .ok_or_else(|| s.invalid(col, format!("tool {tool} is not in the tool table")))
+        };
+        let h = w
+            .get(b'H')
+            .map(|h| nonneg_int(*h, s.line, "H"))
+            .transpose()?;
+        let (axes, values) = self.axis_words(w, codes);
+        let offset = match code {
+            GCode::G49 => Axes::ZERO,
+            GCode::G43 | GCode::G43_4 => table_offset(self, h.unwrap_or(self.state.tool))?,
+            GCode::G43_1 => {
+                let mut o = self.state.tool_offset;
+                for a in axes.iter() {
+                    o[a] = values[a.index()];
                 }
+                o
+            }
+            _ => {
+                // G43.2
+                if h.is_some() && !axes.is_empty() {
+                    return Err(s.invalid(col, "G43.2: Can not have both H and axis words"));
+                }
+                let added = match h {
+                    Some(tool) => table_offset(self, tool)?,
+                    None if axes.is_empty() => {
+                        return Err(s.invalid(col, "G43.2: No axes specified and H word missing"));
+                    }
+                    None => {
+                        let mut o = Axes::ZERO;
+                        for a in axes.iter() {
+                            o[a] = values[a.index()];
+                        }
+                        o
+                    }
+                };
+                self.state.tool_offset.add(&added)
             }
         };
-        self.state.tool_length = length;
-        let work = self.opts.work_offsets[usize::from(self.state.work_system - 1)];
-        self.set_offsets(work, length);
-        s.emit(EventKind::ToolLengthOffset { length });
+        self.state.tool_offset = offset;
+        self.state.tool_length = offset[Axis::Z];
+        self.apply_offsets();
+        s.emit(EventKind::ToolLengthOffset {
+            length: offset[Axis::Z],
+        });
         let tcp = match code {
             GCode::G43_4 => Some(true),
             GCode::G49 if self.tcp_from_g43_4 => Some(false),
@@ -852,8 +1046,8 @@ impl Interpreter {
             _ => 9,
         };
         self.state.work_system = system;
-        let offset = self.opts.work_offsets[usize::from(system - 1)];
-        self.set_offsets(offset, self.state.tool_length);
+        let offset = self.state.work_offsets[usize::from(system - 1)];
+        self.apply_offsets();
         s.emit(EventKind::WorkOffset { system, offset });
     }
 
@@ -879,6 +1073,667 @@ impl Interpreter {
         }
     }
 
+    /// G98, G99.
+    fn set_retract_mode(&mut self, codes: &Codes) {
+        if let Some((code, _)) = codes.retract {
+            self.state.retract = if code == GCode::G98 {
+                RetractMode::InitialLevel
+            } else {
+                RetractMode::RLevel
+            };
+        }
+    }
+
+    /// The non-modal codes of group 0 that change state or move: G10, G28,
+    /// G28.1, G30, G30.1, G52, G92 (G4 and G53 have their own steps).
+    fn non_modal(&mut self, w: &BlockWords, codes: &Codes, s: &mut Step) -> Result<(), GcodeError> {
+        let Some((code, col)) = codes.non_modal else {
+            return Ok(());
+        };
+        match code {
+            GCode::G10 => self.g10(w, codes, col, s),
+            GCode::G28 | GCode::G30 => self.go_home(code, w, codes, s),
+            GCode::G28_1 => {
+                self.state.g28_home = self.home_to_store();
+                Ok(())
+            }
+            GCode::G30_1 => {
+                self.state.g30_home = self.home_to_store();
+                Ok(())
+            }
+            GCode::G52 | GCode::G92 => {
+                let (axes, values) = self.axis_words(w, codes);
+                self.check_wrapped(w, axes, &values, s)?;
+                for a in axes.iter() {
+                    let v = values[a.index()];
+                    self.state.axis_offset[a] = if code == GCode::G92 {
+                        self.state.position[a] + self.state.axis_offset[a] - v
+                    } else {
+                        v
+                    };
+                }
+                self.apply_offsets();
+                self.state.g92_saved = self.state.axis_offset;
+                self.state.g92_applied = true;
+                Ok(())
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Refuses absolute values of wrapped rotary axes outside (−360, 360).
+    fn check_wrapped(
+        &self,
+        w: &BlockWords,
+        axes: AxisMask,
+        values: &[f64; 9],
+        s: &Step,
+    ) -> Result<(), GcodeError> {
+        for a in axes.iter() {
+            let v = values[a.index()];
+            if self.opts.wrapped_rotary.contains(a) && (v <= -360.0 || v >= 360.0) {
+                let col = w.get(a.letter()).map_or(0, |l| l.column);
+                return Err(s.invalid(
+                    col,
+                    format!("Invalid absolute position {v} for wrapped rotary axis {a:?}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The machine position G28.1/G30.1 store (wrapped rotary axes in
+    /// [0, 360)).
+    fn home_to_store(&self) -> Axes {
+        let mut m = self.state.position.add(&self.state.offset);
+        for a in self.opts.wrapped_rotary.iter() {
+            m[a] = m[a].rem_euclid(360.0);
+        }
+        m
+    }
+
+    /// G28, G30: a rapid to the axis words (the waypoint, in the current
+    /// frame and distance mode), then a rapid to the stored home position
+    /// on the axes named (all axes if none is named). Both moves are made
+    /// even when they have no length, as LinuxCNC's canonical calls are.
+    fn go_home(
+        &mut self,
+        code: GCode,
+        w: &BlockWords,
+        codes: &Codes,
+        s: &mut Step,
+    ) -> Result<(), GcodeError> {
+        let (axes, values) = self.axis_words(w, codes);
+        let from = self.state.position;
+        let mut waypoint = from;
+        for a in axes.iter() {
+            let v = values[a.index()];
+            waypoint[a] = match self.state.distance {
+                DistanceMode::Incremental => from[a] + v,
+                DistanceMode::Absolute if self.opts.wrapped_rotary.contains(a) => {
+                    unwrap_rotary(v, from[a])
+                        .map_err(|m| s.invalid(w.get(a.letter()).map_or(0, |l| l.column), m))?
+                }
+                DistanceMode::Absolute => v,
+            };
+        }
+        let mut words = self.programmed(axes, false);
+        words.expanded = true;
+        self.push_straight(true, waypoint, words, s)?;
+        let home = if code == GCode::G28 {
+            self.state.g28_home
+        } else {
+            self.state.g30_home
+        };
+        let home_work = home.sub(&self.state.offset);
+        let mut end = waypoint;
+        for a in Axis::ALL {
+            if axes.is_empty() || axes.contains(a) {
+                end[a] = home_work[a];
+            }
+        }
+        self.push_straight(true, end, self.programmed(AxisMask::EMPTY, true), s)
+    }
+
+    /// What the block wrote for a move, in the current modes.
+    fn programmed(&self, axes: AxisMask, expanded: bool) -> Programmed {
+        Programmed {
+            axes,
+            g53: false,
+            distance: self.state.distance,
+            units: self.state.units,
+            expanded,
+        }
+    }
+
+    /// A straight move from the current position to `to` (work
+    /// coordinates): a rapid, or a feed at the current feed (units per
+    /// minute or per revolution, as canned cycles feed).
+    fn push_straight(
+        &mut self,
+        rapid: bool,
+        to: Axes,
+        words: Programmed,
+        s: &mut Step,
+    ) -> Result<(), GcodeError> {
+        let st = &self.state;
+        let feed = if rapid {
+            Feed::Rapid
+        } else {
+            match st.feed_mode {
+                FeedMode::UnitsPerRevolution => Feed::PerRevolution {
+                    mm_per_rev: st.feed,
+                    rpm: st.spindle_rpm,
+                },
+                _ => Feed::PerMinute(st.feed),
+            }
+        };
+        let lin = Linear {
+            from: st.position,
+            to,
+            offset: st.offset,
+            feed,
+            tcp: st.tcp,
+            words,
+        };
+        self.state.position = to;
+        s.emit(if rapid {
+            EventKind::Traverse(lin)
+        } else {
+            EventKind::Feed(lin)
+        });
+        Ok(())
+    }
+
+    /// G10: L2 and L20 set the offset of a coordinate system (P1 ... P9,
+    /// P0 the active one), L1, L10 and L11 a tool table entry (P the tool).
+    fn g10(
+        &mut self,
+        w: &BlockWords,
+        codes: &Codes,
+        col: usize,
+        s: &mut Step,
+    ) -> Result<(), GcodeError> {
+        let l = w
+            .get(b'L')
+            .filter(|l| matches!(l.value, 1.0 | 2.0 | 10.0 | 11.0 | 20.0))
+            .ok_or_else(|| s.invalid(col, "Line with G10 does not have L1, L10, L11, L2, or L20"))?
+            .value as u32;
+        let p = w.get(b'P').map_or(0.0, |p| p.value);
+        let p_int = p.round();
+        if (p - p_int).abs() > 0.0002 {
+            return Err(s.invalid(col, "P value not an integer with G10"));
+        }
+        let (axes, values) = self.axis_words(w, codes);
+        let st = &self.state;
+        // The current position as it would read in `system` (LinuxCNC's
+        // find_current_in_system), without rotation.
+        let in_system = |system: usize, with_tool: bool| -> Axes {
+            let mut c = st
+                .position
+                .add(&st.axis_offset)
+                .add(&st.work_offsets[usize::from(st.work_system - 1)])
+                .sub(&st.work_offsets[system - 1]);
+            if st.g92_applied {
+                c = c.sub(&st.g92_saved);
+            }
+            if with_tool {
+                c = c.add(&st.tool_offset);
+            }
+            c
+        };
+        match l {
+            2 | 20 => {
+                if !(0.0..=9.0).contains(&p_int) {
+                    return Err(s.invalid(col, format!("P value out of range (0-9) with G10 L{l}")));
+                }
+                if w.get(b'I').is_some() || w.get(b'J').is_some() {
+                    return Err(s.invalid(col, "I J words not allowed with G10 L2"));
+                }
+                if let Some(r) = w.get(b'R') {
+                    if l == 20 {
+                        return Err(s.invalid(r.column, "R not allowed in G10 L20"));
+                    }
+                    if r.value != 0.0 {
+                        return Err(GcodeError::unsupported(
+                            s.line,
+                            r.column,
+                            "coordinate system rotation (G10 L2 R)",
+                        ));
+                    }
+                }
+                if l == 20 {
+                    self.check_wrapped(w, axes, &values, s)?;
+                }
+                let system = if p_int == 0.0 {
+                    usize::from(st.work_system)
+                } else {
+                    p_int as usize
+                };
+                let current = in_system(system, false);
+                let mut offset = st.work_offsets[system - 1];
+                for a in axes.iter() {
+                    let v = values[a.index()];
+                    offset[a] = if l == 20 {
+                        current[a] + offset[a] - v
+                    } else {
+                        v
+                    };
+                }
+                self.state.work_offsets[system - 1] = offset;
+                if system == usize::from(self.state.work_system) {
+                    self.apply_offsets();
+                    s.emit(EventKind::WorkOffset {
+                        system: system as u8,
+                        offset,
+                    });
+                }
+                Ok(())
+            }
+            _ => {
+                if p_int < 1.0 {
+                    return Err(s.invalid(col, format!("P value out of range with G10 L{l}")));
+                }
+                let tool = p_int as u32;
+                if axes.is_empty() && [b'R', b'Q', b'I', b'J'].iter().all(|&c| w.get(c).is_none()) {
+                    return Err(s.invalid(col, "G10 L1 without offsets has no effect"));
+                }
+                if self.tools.get(tool).is_none() {
+                    return Err(s.invalid(col, format!("tool {tool} is not in the tool table")));
+                }
+                let current = if l == 11 {
+                    let mut c = in_system(9, true);
+                    if st.g92_applied {
+                        c = c.add(&st.g92_saved);
+                    }
+                    c
+                } else {
+                    in_system(usize::from(st.work_system), true)
+                };
+                let scale = self.state.units.mm_per_unit();
+                let r = w.get(b'R').map(|r| r.value * scale);
+                let q = w.get(b'Q').map(|q| q.value);
+                let (i, j) = (w.get(b'I').map(|x| x.value), w.get(b'J').map(|x| x.value));
+                let entry = self.tools.entry(tool);
+                for a in axes.iter() {
+                    let v = values[a.index()];
+                    entry.offset[a] = if l == 1 { v } else { current[a] - v };
+                }
+                if let Some(r) = r {
+                    entry.diameter = (2.0 * r).abs();
+                }
+                if let Some(q) = q {
+                    if !(0.0..=9.0).contains(&q) || q.fract() != 0.0 {
+                        return Err(s.invalid(col, "Q (orientation) must be 0 to 9 with G10 L1"));
+                    }
+                    entry.orientation = q as u8;
+                }
+                if let Some(i) = i {
+                    entry.front_angle = i;
+                }
+                if let Some(j) = j {
+                    entry.back_angle = j;
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// G92.1 and G92.2 (axis offsets to zero; G92.1 also clears the kept
+    /// values), G92.3 (restore the kept values).
+    fn set_g92_applied(&mut self, codes: &Codes) {
+        let Some((code, _)) = codes.g92_applied else {
+            return;
+        };
+        if code == GCode::G92_3 {
+            self.state.axis_offset = self.state.g92_saved;
+            self.state.g92_applied = true;
+        } else {
+            self.state.axis_offset = Axes::ZERO;
+            self.state.g92_applied = false;
+            if code == GCode::G92_1 {
+                self.state.g92_saved = Axes::ZERO;
+            }
+        }
+        self.apply_offsets();
+    }
+
+    /// A canned cycle (G73, G74, G81 ... G89) in the active plane, as the
+    /// straight moves, dwells and spindle commands LinuxCNC's
+    /// `convert_cycle_*` produce, repeated L times (in G91 each repeat
+    /// moves by the in-plane words). `previous` is the motion mode before
+    /// the block: words a cycle remembers may be left out only when it is
+    /// the same cycle.
+    fn canned_cycle(
+        &mut self,
+        code: GCode,
+        previous: Option<MotionMode>,
+        w: &BlockWords,
+        axes: AxisMask,
+        target: [f64; 9],
+        s: &mut Step,
+    ) -> Result<(), GcodeError> {
+        let st = &self.state;
+        let same = previous == Some(MotionMode::Cycle(code));
+        if st.feed <= 0.0 {
+            return Err(s.invalid(0, "Cannot feed with zero feed rate"));
+        }
+        if st.feed_mode == FeedMode::InverseTime {
+            return Err(s.invalid(0, "Cannot use inverse time feed with canned cycles"));
+        }
+        let (p, q, n) = st.plane.axes();
+        let plane = match st.plane {
+            Plane::Xy => "XY",
+            Plane::Zx => "XZ",
+            Plane::Yz => "YZ",
+        };
+        for a in axes.iter() {
+            if a.is_rotary() || matches!(a, Axis::U | Axis::V | Axis::W) {
+                let col = w.get(a.letter()).map_or(0, |l| l.column);
+                return Err(s.invalid(
+                    col,
+                    format!("Cannot put {a:?} in a canned cycle in the {plane} plane"),
+                ));
+            }
+        }
+        let scale = st.units.mm_per_unit();
+        let r_word = match w.get(b'R') {
+            Some(r) => r.value * scale,
+            None if same => self.cycle.r,
+            None => {
+                return Err(s.invalid(0, "R clearance plane unspecified in canned cycle"));
+            }
+        };
+        let repeats = match w.get(b'L') {
+            None => 1,
+            Some(l) => {
+                let n = nonneg_int(*l, s.line, "L")?;
+                if n == 0 {
+                    return Err(s.invalid(l.column, "Cannot do zero repeats of canned cycle"));
+                }
+                n
+            }
+        };
+        if !same && !axes.contains(n) {
+            return Err(s.invalid(
+                0,
+                format!("{n:?} value unspecified in {plane} plane canned cycle"),
+            ));
+        }
+        let bottom_word = if axes.contains(n) {
+            target[n.index()]
+        } else {
+            self.cycle.bottom
+        };
+        let mut current_cc = st.position[n];
+        let mut old_cc = *self.cycle.initial_level.get_or_insert(current_cc);
+        let (mut aa, mut bb) = (st.position[p], st.position[q]);
+        let (mut da, mut db) = (0.0, 0.0);
+        let (r, cc) = match st.distance {
+            DistanceMode::Absolute => {
+                if axes.contains(p) {
+                    aa = target[p.index()];
+                }
+                if axes.contains(q) {
+                    bb = target[q.index()];
+                }
+                (r_word, bottom_word)
+            }
+            DistanceMode::Incremental => {
+                if axes.contains(p) {
+                    da = target[p.index()];
+                }
+                if axes.contains(q) {
+                    db = target[q.index()];
+                }
+                let r = r_word + old_cc;
+                (r, r + bottom_word)
+            }
+        };
+        if r < cc {
+            return Err(s.invalid(0, format!("R less than {n:?} in cycle in {plane} plane")));
+        }
+        // Cycle words, checked before any move.
+        let dwell = |this: &Self| -> Result<f64, GcodeError> {
+            match w.get(b'P') {
+                Some(pw) => Ok(pw.value),
+                None if same || matches!(code, GCode::G74 | GCode::G84) => Ok(this.cycle.p),
+                None => Err(s.invalid(0, format!("Dwell time P word missing with {code}"))),
+            }
+        };
+        let mut params = self.cycle;
+        match code {
+            GCode::G82 | GCode::G86 | GCode::G88 | GCode::G89 | GCode::G74 | GCode::G84 => {
+                params.p = dwell(self)?;
+            }
+            GCode::G73 | GCode::G83 => {
+                params.q = match w.get(b'Q') {
+                    Some(qw) => qw.value * scale,
+                    None if same => self.cycle.q,
+                    None => return Err(s.invalid(0, format!("Q word missing with {code}"))),
+                };
+                if params.q <= 0.0 {
+                    return Err(s.invalid(0, "Negative or zero Q value used"));
+                }
+            }
+            GCode::G87 => {
+                for (k, l) in [b'I', b'J', b'K'].into_iter().enumerate() {
+                    match w.get(l) {
+                        Some(x) => params.ijk[k] = x.value * scale,
+                        None if same => {}
+                        None => {
+                            return Err(
+                                s.invalid(0, format!("{} word missing with G87", l as char))
+                            );
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+        let spindle = self.state.spindle;
+        match (code, spindle) {
+            (
+                GCode::G84 | GCode::G74 | GCode::G86 | GCode::G87 | GCode::G88,
+                SpindleState::Stopped,
+            ) => {
+                return Err(s.invalid(0, format!("Spindle not turning in {code}")));
+            }
+            (GCode::G84, SpindleState::CounterClockwise) => {
+                return Err(s.invalid(0, "Spindle turning counterclockwise in G84"));
+            }
+            (GCode::G74, SpindleState::Clockwise) => {
+                return Err(s.invalid(0, "Spindle turning clockwise in G74"));
+            }
+            _ => {}
+        }
+        let words = self.programmed(axes, true);
+        let at = |this: &Self, a: f64, b: f64, c: f64| {
+            let mut to = this.state.position;
+            to[p] = a;
+            to[q] = b;
+            to[n] = c;
+            to
+        };
+        // Below the R level: straight up to it first.
+        if old_cc < r {
+            let to = at(self, self.state.position[p], self.state.position[q], r);
+            self.push_straight(true, to, words, s)?;
+            old_cc = r;
+            current_cc = old_cc;
+        }
+        let clear = match self.state.retract {
+            RetractMode::RLevel => r,
+            RetractMode::InitialLevel => old_cc,
+        };
+        for repeat in (1..=repeats).rev() {
+            aa += da;
+            bb += db;
+            if repeat == repeats && current_cc > r {
+                self.push_straight(true, at(self, aa, bb, current_cc), words, s)?;
+                self.push_straight(true, at(self, aa, bb, r), words, s)?;
+            } else {
+                self.push_straight(true, at(self, aa, bb, clear), words, s)?;
+                if clear > r {
+                    self.push_straight(true, at(self, aa, bb, r), words, s)?;
+                }
+            }
+            self.cycle_body(code, &params, [aa, bb], r, clear, cc, words, s)?;
+        }
+        let mut end = self.state.position;
+        end[p] = aa;
+        end[q] = bb;
+        end[n] = clear;
+        self.state.position = end;
+        self.cycle = CycleMemory {
+            r: r_word,
+            bottom: bottom_word,
+            initial_level: self.cycle.initial_level,
+            ..params
+        };
+        Ok(())
+    }
+
+    /// The moves of one repeat of a canned cycle at (`a`, `b`) in the plane,
+    /// from the R level `r` to the bottom `bottom` and back to `clear`.
+    #[allow(clippy::too_many_arguments)]
+    fn cycle_body(
+        &mut self,
+        code: GCode,
+        params: &CycleMemory,
+        [a, b]: [f64; 2],
+        r: f64,
+        clear: f64,
+        bottom: f64,
+        words: Programmed,
+        s: &mut Step,
+    ) -> Result<(), GcodeError> {
+        let (p, q, n) = self.state.plane.axes();
+        let at = |this: &Self, x: f64, y: f64, z: f64| {
+            let mut to = this.state.position;
+            to[p] = x;
+            to[q] = y;
+            to[n] = z;
+            to
+        };
+        let feed = |this: &mut Self, z: f64, s: &mut Step| {
+            let to = at(this, a, b, z);
+            this.push_straight(false, to, words, s)
+        };
+        let rapid = |this: &mut Self, z: f64, s: &mut Step| {
+            let to = at(this, a, b, z);
+            this.push_straight(true, to, words, s)
+        };
+        let spindle = |this: &mut Self, dir: SpindleState, s: &mut Step| {
+            this.state.spindle = dir;
+            s.emit(EventKind::Spindle(dir));
+        };
+        let dir = self.state.spindle;
+        // G73/G83 back off 0.010 inch (0.254 mm) above the last depth.
+        const RAPID_DELTA: f64 = 0.254;
+        match code {
+            GCode::G81 => {
+                feed(self, bottom, s)?;
+                rapid(self, clear, s)?;
+            }
+            GCode::G82 => {
+                feed(self, bottom, s)?;
+                s.emit(EventKind::Dwell { seconds: params.p });
+                rapid(self, clear, s)?;
+            }
+            GCode::G73 | GCode::G83 => {
+                let mut depth = r - params.q;
+                while depth > bottom {
+                    feed(self, depth, s)?;
+                    if code == GCode::G83 {
+                        rapid(self, r, s)?;
+                    }
+                    rapid(self, depth + RAPID_DELTA, s)?;
+                    depth -= params.q;
+                }
+                feed(self, bottom, s)?;
+                rapid(self, clear, s)?;
+            }
+            GCode::G74 | GCode::G84 => {
+                let (reverse, forward) = if code == GCode::G84 {
+                    (SpindleState::CounterClockwise, SpindleState::Clockwise)
+                } else {
+                    (SpindleState::Clockwise, SpindleState::CounterClockwise)
+                };
+                // LinuxCNC 2.9 (and later) passes the tapping feeds' end
+                // points to its plane mapping in another order than the
+                // other cycles: in G18 and G19 the two feeds go along
+                // another axis than the cycle's. Reproduced as it runs.
+                let tap = |this: &mut Self, z: f64, s: &mut Step| {
+                    let mut to = this.state.position;
+                    match this.state.plane {
+                        Plane::Xy => (to[p], to[q], to[n]) = (a, b, z),
+                        Plane::Yz => (to[n], to[p], to[q]) = (b, z, a),
+                        Plane::Zx => (to[q], to[n], to[p]) = (z, a, b),
+                    }
+                    this.push_straight(false, to, words, s)
+                };
+                tap(self, bottom, s)?;
+                spindle(self, SpindleState::Stopped, s);
+                spindle(self, reverse, s);
+                s.emit(EventKind::Dwell { seconds: params.p });
+                tap(self, clear, s)?;
+                spindle(self, SpindleState::Stopped, s);
+                spindle(self, forward, s);
+            }
+            GCode::G85 => {
+                feed(self, bottom, s)?;
+                feed(self, r, s)?;
+                rapid(self, clear, s)?;
+            }
+            GCode::G86 => {
+                feed(self, bottom, s)?;
+                s.emit(EventKind::Dwell { seconds: params.p });
+                spindle(self, SpindleState::Stopped, s);
+                rapid(self, clear, s)?;
+                spindle(self, dir, s);
+            }
+            GCode::G87 => {
+                let [i, j, k] = params.ijk;
+                let middle = match self.state.distance {
+                    DistanceMode::Incremental => bottom + k,
+                    DistanceMode::Absolute => k,
+                };
+                let (oa, ob) = (a + i, b + j);
+                let to = at(self, oa, ob, r);
+                self.push_straight(true, to, words, s)?;
+                spindle(self, SpindleState::Stopped, s);
+                let to = at(self, oa, ob, bottom);
+                self.push_straight(true, to, words, s)?;
+                rapid(self, bottom, s)?;
+                spindle(self, dir, s);
+                feed(self, middle, s)?;
+                feed(self, bottom, s)?;
+                spindle(self, SpindleState::Stopped, s);
+                let to = at(self, oa, ob, bottom);
+                self.push_straight(true, to, words, s)?;
+                let to = at(self, oa, ob, clear);
+                self.push_straight(true, to, words, s)?;
+                rapid(self, clear, s)?;
+                spindle(self, dir, s);
+            }
+            GCode::G88 => {
+                // The operator retracts by hand after the program stop.
+                feed(self, bottom, s)?;
+                s.emit(EventKind::Dwell { seconds: params.p });
+                spindle(self, SpindleState::Stopped, s);
+                spindle(self, dir, s);
+            }
+            GCode::G89 => {
+                feed(self, bottom, s)?;
+                s.emit(EventKind::Dwell { seconds: params.p });
+                feed(self, clear, s)?;
+            }
+            _ => return Err(s.invalid(0, format!("{code} is not a canned cycle"))),
+        }
+        Ok(())
+    }
+
     /// G53 (non-modal): needs axis words and a straight motion mode.
     fn check_g53(&self, w: &BlockWords, codes: &Codes, s: &Step) -> Result<(), GcodeError> {
         let Some(col) = codes.g53() else {
@@ -894,13 +1749,16 @@ impl Interpreter {
         Ok(())
     }
 
-    /// Changes the offsets keeping the machine position.
-    fn set_offsets(&mut self, work: Axes, tool_length: f64) {
-        let machine = self.state.position.add(&self.state.offset);
-        let mut offset = work;
-        offset[Axis::Z] += tool_length;
-        self.state.offset = offset;
-        self.state.position = machine.sub(&offset);
+    /// Sets the total offset from the work, G92 and tool offsets in force,
+    /// keeping the machine position.
+    fn apply_offsets(&mut self) {
+        let st = &mut self.state;
+        let machine = st.position.add(&st.offset);
+        let offset = st.work_offsets[usize::from(st.work_system - 1)]
+            .add(&st.axis_offset)
+            .add(&st.tool_offset);
+        st.offset = offset;
+        st.position = machine.sub(&offset);
     }
 
     /// The axis words of a block in canonical units (mm, degree).
@@ -934,13 +1792,21 @@ impl Interpreter {
     /// Group 1: sets the motion mode (G80 clears it) and moves to the axis
     /// words.
     fn motion(&mut self, w: &BlockWords, codes: &Codes, s: &mut Step) -> Result<(), GcodeError> {
+        let previous = self.state.motion;
         match codes.motion {
             Some((GCode::G80, _)) => self.state.motion = None,
             Some((code, _)) => self.state.motion = Some(motion_mode(code)),
             None => {}
         }
+        if codes.motion.is_some_and(|(c, _)| !c.is_cycle()) {
+            // Any other motion code ends a series of cycles.
+            self.cycle.initial_level = None;
+        }
         let (axes, target) = self.axis_words(w, codes);
         let g53 = codes.g53();
+        if codes.motion.is_none() && self.axes_consumed(codes) {
+            return Ok(());
+        }
         if axes.is_empty() && codes.explicit_motion().is_none() {
             return Ok(());
         }
@@ -949,7 +1815,17 @@ impl Interpreter {
                 Err(s.invalid(0, "axis words without a motion mode (G0, G1, G2 or G3)"))
             }
             None => Ok(()),
-            Some(mode) => self.move_to(mode, w, axes, target, g53, s),
+            Some(MotionMode::Cycle(code)) => {
+                let r = self.canned_cycle(code, previous, w, axes, target, s);
+                if r.is_err() {
+                    self.state.motion = previous;
+                }
+                r
+            }
+            Some(mode) => {
+                self.cycle.initial_level = None;
+                self.move_to(mode, w, axes, target, g53, s)
+            }
         }
     }
 
@@ -994,6 +1870,7 @@ impl Interpreter {
             g53: g53.is_some(),
             distance: st.distance,
             units: st.units,
+            expanded: false,
         };
         let kind = match mode {
             MotionMode::Rapid | MotionMode::Linear => {
@@ -1003,7 +1880,19 @@ impl Interpreter {
                 let feed = if mode == MotionMode::Rapid {
                     Feed::Rapid
                 } else {
-                    self.feed(w, line)?
+                    // A move of rotary axes only: F is deg/min (or deg/rev)
+                    // whatever the length units.
+                    let d = to.sub(&from);
+                    let rotary_only =
+                        d.xyz_norm() == 0.0 && d.uvw_norm() == 0.0 && d.abc_norm() > 0.0;
+                    match self.feed(w, line)? {
+                        Feed::PerMinute(_) if rotary_only => Feed::PerMinute(self.feed_as_written),
+                        Feed::PerRevolution { rpm, .. } if rotary_only => Feed::PerRevolution {
+                            mm_per_rev: self.feed_as_written,
+                            rpm,
+                        },
+                        f => f,
+                    }
                 };
                 let lin = Linear {
                     from,
@@ -1019,8 +1908,14 @@ impl Interpreter {
                     EventKind::Feed(lin)
                 }
             }
+            MotionMode::Cycle(code) => {
+                return Err(s.invalid(0, format!("{code} is not a single move")));
+            }
             MotionMode::ArcClockwise | MotionMode::ArcCounterClockwise => {
-                if axes.is_empty() {
+                // No axis words: with I, J or K a full circle about the
+                // current point (as LinuxCNC 2.9 runs it), else an error.
+                let ijk = [b'I', b'J', b'K'].iter().any(|&l| w.get(l).is_some());
+                if axes.is_empty() && (w.get(b'R').is_some() || !ijk) {
                     return Err(s.invalid(0, "All axes missing with motion code"));
                 }
                 let feed = self.feed(w, line)?;
@@ -1078,6 +1973,13 @@ impl Interpreter {
                         line,
                         0,
                         "Cannot do G1, G2 or G3 with zero feed per revolution",
+                    ));
+                }
+                if st.spindle_rpm <= 0.0 {
+                    return Err(GcodeError::invalid(
+                        line,
+                        0,
+                        "Cannot feed with zero spindle speed in feed per rev mode",
                     ));
                 }
                 Ok(Feed::PerRevolution {
@@ -1197,6 +2099,7 @@ fn motion_mode(code: GCode) -> MotionMode {
         GCode::G0 => MotionMode::Rapid,
         GCode::G2 => MotionMode::ArcClockwise,
         GCode::G3 => MotionMode::ArcCounterClockwise,
+        c if c.is_cycle() => MotionMode::Cycle(c),
         // G1 and the probing moves.
         _ => MotionMode::Linear,
     }
@@ -1415,7 +2318,7 @@ mod tests {
         let mut opts = InterpOptions::default();
         opts.work_offsets[1][Axis::X] = 100.0; // G55
         opts.work_offsets[1][Axis::Z] = -50.0;
-        opts.tools.insert(3, 20.0);
+        opts.tools.insert(crate::gcode::Tool::with_length(3, 20.0));
         let src = "G55 G0 X1 Z0\nG53 G0 Z-10\nT3 M6\nG43 H3\nG0 Z0\nG49 G0 Z0\n";
         let m = moves(&run_with(src, opts).unwrap());
         let l = lin(&m[0]);
@@ -1539,7 +2442,7 @@ mod tests {
     #[test]
     fn rejections_name_the_line() {
         let cases = [
-            ("G0 X0\nG81 X1 Z-1 R1\n", 2, true),
+            ("G0 X0\nG41 X1 Z-1\n", 2, true),
             ("G1 X1\n", 1, false),             // zero feed
             ("G93\nG1 X1 F1\nX2\n", 3, false), // inverse time needs F each move
             ("X1\n", 1, false),                // no motion mode
@@ -1673,5 +2576,356 @@ mod tests {
             run_with("N1e5\n", InterpOptions::default()),
             Err(GcodeError::Invalid { .. })
         ));
+    }
+    /// Move ends (work X Y Z) and kinds, for the expansion tests.
+    fn ends(events: &[Event]) -> Vec<(char, [f64; 3])> {
+        moves(events)
+            .iter()
+            .map(|k| match k {
+                EventKind::Traverse(l) => ('R', l.to.xyz()),
+                EventKind::Feed(l) => ('F', l.to.xyz()),
+                EventKind::Arc(a) => ('A', a.to.xyz()),
+                _ => unreachable!(),
+            })
+            .collect()
+    }
+
+    fn assert_ends(got: &[(char, [f64; 3])], want: &[(char, [f64; 3])]) {
+        assert_eq!(got.len(), want.len(), "{got:?}\n{want:?}");
+        for (g, w) in got.iter().zip(want) {
+            assert_eq!(g.0, w.0, "{got:?}\n{want:?}");
+            for k in 0..3 {
+                assert!(close(g.1[k], w.1[k]), "{got:?}\n{want:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn g80_shares_a_line_with_a_motion_code() {
+        // LinuxCNC's read_g: G80 beside another motion code is ignored.
+        let m = moves(&run("G0 G17 G40 G49 G80 G90 X1\n"));
+        assert!(close(lin(&m[0]).to[Axis::X], 1.0));
+        assert!(matches!(m[0], EventKind::Traverse(_)));
+        let m = moves(&run("G80 G1 X2 F100\n"));
+        assert!(matches!(m[0], EventKind::Feed(_)));
+        // G80 alone with axis words: no motion mode.
+        assert!(run_with("G80 X1\n", InterpOptions::default()).is_err());
+        // Fanuc: G80 has its own group; the line reads the same.
+        let fanuc = InterpOptions {
+            dialect: Dialect::Fanuc {
+                decimal_point_programming: true,
+            },
+            ..Default::default()
+        };
+        let m = moves(&run_with("G0 G80 X1.\n", fanuc.clone()).unwrap());
+        assert!(close(lin(&m[0]).to[Axis::X], 1.0));
+        // Two codes of one motion group are still refused.
+        assert!(run_with("G0 G1 X1\n", fanuc).is_err());
+    }
+
+    #[test]
+    fn reading_stops_at_the_program_end() {
+        // After M30 nothing is interpreted (the callers stop reading).
+        let text = "G0 X1\nM30\nPost Process Timed at; 32 Min, 50.0 sec\n";
+        let mut got = Vec::new();
+        crate::gcode::interpret(text.as_bytes(), InterpOptions::default(), |_, e| {
+            got.extend_from_slice(e);
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(moves(&got).len(), 1);
+        // A file starting with '%' ends at the next '%' line.
+        let text = "\n%\nG0 X1\n%\nthis is not G-code\n";
+        let mut n = 0;
+        crate::gcode::interpret(text.as_bytes(), InterpOptions::default(), |_, e| {
+            n += moves(e).len();
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(n, 1);
+        // Without a leading '%' a '%' line does not end the program.
+        assert_eq!(moves(&run("G0 X1\n%\nG0 X2\n")).len(), 2);
+    }
+
+    #[test]
+    fn g92_family_shifts_the_program_frame() {
+        // Machine at X10; G92 X0 makes it read 0: axis offset 10.
+        let src = "G0 X10\nG92 X0\nG0 X5\nG92.2\nG0 X5\nG92.3\nG0 X1\nG92.1\nG0 X1\n";
+        let mut it = Interpreter::new(InterpOptions::default());
+        let program = Program::parse(src.as_bytes()).unwrap();
+        let mut ev = Vec::new();
+        for (k, b) in program.blocks.iter().enumerate() {
+            it.execute(b, &mut ev).unwrap();
+            if k == 1 {
+                assert_eq!(it.state().axis_offset[Axis::X], 10.0);
+                assert_eq!(it.state().g92_saved[Axis::X], 10.0);
+                assert!(it.state().g92_applied);
+                assert_eq!(it.state().position[Axis::X], 0.0);
+            }
+        }
+        let m = moves(&ev);
+        let machine = |k: usize| lin(&m[k]).to[Axis::X] + lin(&m[k]).offset[Axis::X];
+        assert!(close(machine(1), 15.0), "G92: X5 is machine 15");
+        assert!(close(machine(2), 5.0), "G92.2: offsets off");
+        assert!(close(machine(3), 11.0), "G92.3: restored from 5211");
+        assert!(close(machine(4), 1.0), "G92.1: off");
+        assert_eq!(it.state().g92_saved, Axes::ZERO, "G92.1 clears 5211-5219");
+        // G92 in inch, with a work offset: offset = machine - work - value.
+        let mut opts = InterpOptions::default();
+        opts.work_offsets[0][Axis::Y] = 100.0;
+        let m = moves(&run_with("G20 G0 Y1\nG92 Y0\nG0 Y2\n", opts).unwrap());
+        let l = lin(&m[1]);
+        assert!(close(
+            l.to[Axis::Y] + l.offset[Axis::Y],
+            100.0 + 25.4 + 50.8
+        ));
+        // G52 sets the offset itself.
+        let m = moves(&run("G0 X1\nG52 X5\nG0 X1\n"));
+        let l = lin(&m[1]);
+        assert!(close(l.to[Axis::X] + l.offset[Axis::X], 6.0));
+        // G92 needs axis words and no motion code beside it.
+        assert!(run_with("G92\n", InterpOptions::default()).is_err());
+        assert!(run_with("G1 G92 X1 F10\n", InterpOptions::default()).is_err());
+    }
+
+    #[test]
+    fn g10_l2_l20_set_work_offsets() {
+        // G10 L2 P2 then G55 (a CAM set-up): machine = work + offset.
+        let m = moves(&run("G10 L2 P2 X100 Y50 Z-20\nG55 G0 X1 Y2 Z3\n"));
+        let l = lin(&m[0]);
+        let machine = l.to.add(&l.offset);
+        assert!(close(machine[Axis::X], 101.0) && close(machine[Axis::Y], 52.0));
+        assert!(close(machine[Axis::Z], -17.0));
+        // L2 P0 changes the active system at once; the tool stays where it is.
+        let m = moves(&run("G0 X10\nG10 L2 P0 X4\nG0 X0\n"));
+        let l = lin(&m[1]);
+        assert!(close(l.from[Axis::X], 6.0) && close(l.offset[Axis::X], 4.0));
+        // L20: the current position reads X3 in G54: offset = 10 - 3.
+        let mut it = Interpreter::new(InterpOptions::default());
+        let mut ev = Vec::new();
+        for b in &Program::parse(b"G0 X10\nG10 L20 P1 X3\n").unwrap().blocks {
+            it.execute(b, &mut ev).unwrap();
+        }
+        assert_eq!(it.state().work_offsets[0][Axis::X], 7.0);
+        assert_eq!(it.state().position[Axis::X], 3.0);
+        // Rotation is refused clearly, R = 0 is fine.
+        assert!(matches!(
+            run_with("G10 L2 P1 R30\n", InterpOptions::default()),
+            Err(GcodeError::Unsupported { .. })
+        ));
+        run("G10 L2 P1 X1 R0\n");
+        for bad in [
+            "G10 L2 P10 X1\n",
+            "G10 L3 P1 X1\n",
+            "G10 L2 P1.5 X1\n",
+            "G0 G10 L2 P1 X1\n",
+        ] {
+            assert!(run_with(bad, InterpOptions::default()).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn g10_l1_l10_l11_set_tool_entries() {
+        let opts = InterpOptions {
+            tools: [(1, 10.0)].into_iter().collect(),
+            ..Default::default()
+        };
+        let mut it = Interpreter::new(opts.clone());
+        let mut ev = Vec::new();
+        let src = "G10 L1 P1 Z25 R3\nT1 M6 G43\nG0 Z0\nG10 L10 P1 Z5\nG10 L11 P1 Z7\n";
+        for b in &Program::parse(src.as_bytes()).unwrap().blocks {
+            it.execute(b, &mut ev).unwrap();
+        }
+        // After L1 the table holds Z25, diameter 6; G43 applies it.
+        let m = moves(&ev);
+        assert!(close(lin(&m[0]).offset[Axis::Z], 25.0));
+        // L10: the current position (Z0 with the tool's 25) reads Z5 with
+        // this tool: length = 0 + 25 - 5 = 20. L11 the same in G59.3 (zero).
+        let t = it.tools().get(1).unwrap();
+        assert!(close(t.offset[Axis::Z], 25.0 - 7.0));
+        assert!(close(t.diameter, 6.0));
+        assert!(
+            run_with("G10 L1 P2 Z1\n", opts.clone()).is_err(),
+            "tool 2 not in table"
+        );
+        assert!(run_with("G10 L1 P1\n", opts).is_err(), "no offsets");
+    }
+
+    #[test]
+    fn g28_g30_go_through_the_waypoint_home() {
+        // G28.1 stores the machine position; G28 Z5 goes to Z5 then home Z.
+        let mut opts = InterpOptions::default();
+        opts.work_offsets[0][Axis::Z] = -100.0;
+        let src = "G0 X1 Y2 Z50\nG28.1\nG0 X7 Y8 Z0\nG91 G28 Z5\nG90 G30\n";
+        let ev = run_with(src, opts).unwrap();
+        let e = ends(&ev);
+        assert_ends(
+            &e[2..],
+            &[
+                ('R', [7.0, 8.0, 5.0]),   // waypoint, incremental
+                ('R', [7.0, 8.0, 50.0]),  // home on Z only (machine -50)
+                ('R', [7.0, 8.0, 50.0]),  // G30: no words, waypoint here
+                ('R', [0.0, 0.0, 100.0]), // G30 home is machine zero
+            ],
+        );
+    }
+
+    #[test]
+    fn tool_table_g43_variants() {
+        let opts = InterpOptions {
+            tools: ToolTable::parse("T1 P1 Z10\nT2 P2 Z20 X1\n", Units::Millimetre).unwrap(),
+            ..Default::default()
+        };
+        let ev = run_with(
+            "T1 M6\nG43\nG0 Z0\nG43 H2\nG0 Z0\nG43.2 H1\nG0 Z0\nG43.1 Z3\nG0 Z0\nG43.2 Z1\nG0 Z0\nG49\nG0 Z0\n",
+            opts.clone(),
+        )
+        .unwrap();
+        let offs: Vec<(f64, f64)> = moves(&ev)
+            .iter()
+            .map(|k| (lin(k).offset[Axis::X], lin(k).offset[Axis::Z]))
+            .collect();
+        assert_eq!(
+            offs,
+            // G43.2 with axis words moves in the modal G0 too (LinuxCNC's
+            // enhance_block), G43.1 does not.
+            [
+                (0.0, 10.0),
+                (1.0, 20.0),
+                (1.0, 30.0),
+                (1.0, 3.0),
+                (1.0, 4.0),
+                (1.0, 4.0),
+                (0.0, 0.0)
+            ]
+        );
+        for bad in ["G43 H3\n", "G43.2\n", "G43.2 H1 Z1\n", "T1 M6 G43 H-1\n"] {
+            assert!(run_with(bad, opts.clone()).is_err(), "{bad}");
+        }
+    }
+
+    /// The expansions of LinuxCNC's G-code manual (canned cycles), by hand.
+    #[test]
+    fn canned_cycles_expand_as_linuxcnc() {
+        // G81, absolute, G98: from Z3 (above R), rapid to XY, to R, feed to
+        // bottom, rapid back to the initial level.
+        let e = ends(&run("G0 X1 Y2 Z3\nG90 G98 G81 X4 Y5 Z-0.6 R1.8 F10\n"));
+        assert_ends(
+            &e[1..],
+            &[
+                ('R', [4.0, 5.0, 3.0]),
+                ('R', [4.0, 5.0, 1.8]),
+                ('F', [4.0, 5.0, -0.6]),
+                ('R', [4.0, 5.0, 3.0]),
+            ],
+        );
+        // The manual's incremental example: G91 G98 G81 X4 Y5 Z-0.6 R1.8 L3
+        // from (1, 2, 3): R = 4.8, bottom 4.2, clear = 4.8 (initial 3 < R).
+        let e = ends(&run("G0 X1 Y2 Z3\nG91 G98 G81 X4 Y5 Z-0.6 R1.8 L3 F10\n"));
+        assert_ends(
+            &e[1..],
+            &[
+                ('R', [1.0, 2.0, 4.8]),
+                ('R', [5.0, 7.0, 4.8]),
+                ('F', [5.0, 7.0, 4.2]),
+                ('R', [5.0, 7.0, 4.8]),
+                ('R', [9.0, 12.0, 4.8]),
+                ('F', [9.0, 12.0, 4.2]),
+                ('R', [9.0, 12.0, 4.8]),
+                ('R', [13.0, 17.0, 4.8]),
+                ('F', [13.0, 17.0, 4.2]),
+                ('R', [13.0, 17.0, 4.8]),
+            ],
+        );
+        // Modal: the next line reuses R and Z; G99 retracts to R.
+        let e = ends(&run("G0 Z10\nG99 G81 X1 Z-1 R2 F10\nX2\nG80\n"));
+        assert_ends(
+            &e[1..],
+            &[
+                ('R', [1.0, 0.0, 10.0]),
+                ('R', [1.0, 0.0, 2.0]),
+                ('F', [1.0, 0.0, -1.0]),
+                ('R', [1.0, 0.0, 2.0]),
+                ('R', [2.0, 0.0, 2.0]),
+                ('F', [2.0, 0.0, -1.0]),
+                ('R', [2.0, 0.0, 2.0]),
+            ],
+        );
+        // G83 peck Q1 from R2 to -1.5: feeds to 1, 0, -1, then -1.5; after
+        // each peck a rapid to R and back down to 0.254 mm above the depth.
+        let e = ends(&run("G0 Z5\nG83 Z-1.5 R2 Q1 F10\n"));
+        let z: Vec<(char, f64)> = e[2..].iter().map(|(k, p)| (*k, p[2])).collect();
+        let want = [
+            ('R', 2.0),
+            ('F', 1.0),
+            ('R', 2.0),
+            ('R', 1.254),
+            ('F', 0.0),
+            ('R', 2.0),
+            ('R', 0.254),
+            ('F', -1.0),
+            ('R', 2.0),
+            ('R', -0.746),
+            ('F', -1.5),
+            ('R', 5.0),
+        ];
+        assert_eq!(z.len(), want.len(), "{z:?}");
+        for (g, w) in z.iter().zip(want) {
+            assert!(g.0 == w.0 && close(g.1, w.1), "{z:?}");
+        }
+        // G73: no return to R between pecks.
+        let e = ends(&run("G0 Z5\nG73 Z-0.5 R1 Q1 F10\n"));
+        let z: Vec<f64> = e[2..].iter().map(|(_, p)| p[2]).collect();
+        assert!(
+            z.iter()
+                .zip([1.0, 0.0, 0.254, -0.5, 5.0])
+                .all(|(a, b)| close(*a, b)),
+            "{z:?}"
+        );
+        // G18 (ZX plane): the cycle axis is Y.
+        let e = ends(&run("G18 G0 Y5\nG81 X1 Z2 Y-1 R1 F10\n"));
+        assert_ends(
+            &e[1..],
+            &[
+                ('R', [1.0, 5.0, 2.0]),
+                ('R', [1.0, 1.0, 2.0]),
+                ('F', [1.0, -1.0, 2.0]),
+                ('R', [1.0, 5.0, 2.0]),
+            ],
+        );
+        // G82/G89 dwell, G84 reverses the spindle.
+        let ev = run("G0 Z5\nM3 S100\nG84 Z-1 R1 F10\n");
+        let spindle: Vec<SpindleState> = ev
+            .iter()
+            .filter_map(|e| match e.kind {
+                EventKind::Spindle(s) => Some(s),
+                _ => None,
+            })
+            .collect();
+        use SpindleState::*;
+        assert_eq!(
+            spindle,
+            [Clockwise, Stopped, CounterClockwise, Stopped, Clockwise]
+        );
+        let ev = run("G0 Z5\nG82 Z-1 R1 P0.5 F10\n");
+        assert!(
+            ev.iter()
+                .any(|e| e.kind == EventKind::Dwell { seconds: 0.5 })
+        );
+        // LinuxCNC's errors.
+        for bad in [
+            "G81 X1 Z-1 F10\n",       // no R
+            "G81 X1 R1 F10\n",        // no Z
+            "G81 X1 Z2 R1 F10\n",     // R below Z
+            "G81 X1 Z-1 R1\n",        // zero feed
+            "G81 X1 Z-1 R1 L0 F10\n", // zero repeats
+            "G83 X1 Z-1 R1 F10\n",    // no Q
+            "G82 X1 Z-1 R1 F10\n",    // no P
+            "G84 X1 Z-1 R1 F10\n",    // spindle stopped
+            "G81 X1 Z-1 R1 A5 F10\n", // rotary axis
+            "G93 G81 X1 Z-1 R1 F10\n",
+        ] {
+            assert!(run_with(bad, InterpOptions::default()).is_err(), "{bad}");
+        }
     }
 }

@@ -1,6 +1,6 @@
 //! The G-code engine: a lossless parser and writer, a modal interpreter for
-//! the motion subset of RS-274/NGC (as LinuxCNC runs it), and program
-//! statistics.
+//! RS-274/NGC without parameters and control flow (as LinuxCNC 2.9 runs
+//! it), and program statistics.
 //!
 //! * [`Block`] / [`BlockReader`] / [`BlockWriter`] / [`Program`]: one line is
 //!   one block holding its exact bytes, so writing an unchanged program
@@ -10,11 +10,18 @@
 //! * [`Interpreter`]: blocks in, canonical [`Event`]s out (mm, degree,
 //!   mm/min, s), each with its [`SourcePos`] and what the block wrote
 //!   ([`Programmed`]) so that a rewriter can change exactly the word behind a
-//!   coordinate. Expressions and parameters ([`Parameters`]: numbered,
+//!   coordinate. Runs motion (G0–G3, probing, G53), canned cycles (G73,
+//!   G74, G81–G89 with G98/G99 and L), offsets (G54–G59.3, G10 L2/L20,
+//!   G92/G92.1/G92.2/G92.3, G52, G28/G30 and their .1), tools (T, M6, G43,
+//!   G43.1, G43.2, G49, G10 L1/L10/L11 with a [`ToolTable`] read from
+//!   LinuxCNC's `.tbl` format) and stops at M2/M30 or the closing `%`.
+//!   Expressions and parameters ([`Parameters`]: numbered,
 //!   named local and global, read from a LinuxCNC var file with
 //!   [`read_var_file`]) are evaluated as LinuxCNC does; everything outside
-//!   the supported language is an [`GcodeError::Unsupported`] error naming
-//!   the line. Dialects: [`Dialect`] (LinuxCNC, Fanuc).
+//!   the supported language (cutter compensation, G33/G76, splines,
+//!   coordinate system rotation, ...) is an [`GcodeError::Unsupported`]
+//!   error naming the line. G-codes are the [`GCode`] type. Dialects:
+//!   [`Dialect`] (LinuxCNC, Fanuc).
 //! * [`run_program`] ([`program_flow`]): the one driver every command uses:
 //!   O-word subroutines and loops, external subroutine files, Fanuc
 //!   M98/M99, `(DEBUG,…)`/`(PRINT,…)` messages; a program without O-words
@@ -30,6 +37,9 @@
 //!   duration of a move at a feed, of a rapid, straight interpolation).
 //! * Machine travel checks during statistics plug in through
 //!   [`MotionObserver`].
+//! * [`ProgramWriter`]: the one writer of generated programs (numbers,
+//!   decimal points, dwell, probing, comments, start and end per
+//!   [`Dialect`]).
 //!
 //! ```
 //! use mtwin::gcode::{self, Block, StatsOptions};
@@ -59,11 +69,14 @@ pub mod parameters;
 mod profile;
 pub mod program_flow;
 #[warn(missing_docs)]
+mod program_writer;
+#[warn(missing_docs)]
 mod stats;
 mod stream;
 mod syntax;
 #[warn(missing_docs)]
 pub mod timing;
+mod tool_table;
 mod travel;
 pub mod var_file;
 
@@ -76,7 +89,7 @@ pub use event::{
     ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, Plane, Programmed, SourcePos,
     SpindleState, Units,
 };
-pub use interp::{InterpOptions, Interpreter, ModalState, MotionMode, ToolTable, UnknownMCode};
+pub use interp::{InterpOptions, Interpreter, ModalState, MotionMode, RetractMode, UnknownMCode};
 pub use interpolate::{
     InterpolateError, InterpolateOptions, InterpolationSummary, Interpolator, Sample, interpolate,
 };
@@ -85,9 +98,13 @@ pub use profile::Trapezoid;
 pub use program_flow::{
     Message, MessageKind, MessageSink, ProgramOptions, RunSummary, Step, run_program,
 };
+pub use program_writer::{
+    ArcDirection, BlockBuilder, ProgramEnd, ProgramWriter, WriteError, WriterOptions,
+};
 pub use stats::{AxisRange, MotionObserver, ProgramStats, StatsOptions, stats, stats_with};
 pub use stream::{BlockReader, BlockWriter, Program};
 pub use syntax::{Block, CommentKind, Item, LineEnd, NumberFormat, Span, Value, Word};
+pub use tool_table::{Tool, ToolTable, ToolTableError};
 pub use travel::{TravelCheck, TravelViolation};
 pub use var_file::{read_var_file, write_var_file};
 

@@ -164,6 +164,10 @@ pub struct RunSummary {
     pub files: Vec<PathBuf>,
     /// Blocks executed (each run of a block counts).
     pub executed: u64,
+    /// The input after the end of a streamed program (M2, M30, closing
+    /// `%`), unread: callers copy it as it is, as LinuxCNC never reads it.
+    /// Empty when the program ran to the end of the input or was held.
+    pub rest: Vec<u8>,
 }
 
 /// Runs the program read from `input` on `interp`, calling `sink` with every
@@ -187,7 +191,7 @@ where
     let fanuc = matches!(dialect, Dialect::Fanuc { .. });
     // Fanuc: the program-number line at the top (before any word) is a name.
     let mut seen_words = false;
-    while reader.read_block(&mut block)? {
+    while !interp.ended() && reader.read_block(&mut block)? {
         let trigger = if fanuc {
             let oline = block
                 .items()
@@ -206,11 +210,22 @@ where
         };
         if trigger && !interp.ended() {
             let mut held = vec![std::mem::take(&mut block)];
-            while reader.read_block(&mut block)? {
-                held.push(std::mem::take(&mut block));
+            // A line that does not parse is an error only if it runs (text
+            // after the program end is never read by LinuxCNC).
+            let mut bad = HashMap::new();
+            loop {
+                match reader.read_block(&mut block) {
+                    Ok(false) => break,
+                    Ok(true) => held.push(std::mem::take(&mut block)),
+                    Err(e @ GcodeError::Syntax { .. }) => {
+                        bad.insert(held.len(), e);
+                        held.push(std::mem::take(&mut block));
+                    }
+                    Err(e) => return Err(e.into()),
+                }
             }
             let mut flow = Flow {
-                codes: vec![Code::new(held, 0, fanuc)?],
+                codes: vec![Code::new_with_bad(held, 0, fanuc, bad)?],
                 files: Vec::new(),
                 opts,
                 fanuc,
@@ -405,6 +420,8 @@ struct Code {
     stmts: Vec<Option<Stmt>>,
     subs: HashMap<String, usize>,
     file: u32,
+    /// Lines that did not parse (by index): their error if they run.
+    bad: HashMap<usize, GcodeError>,
 }
 
 fn err_at(file: u32, files: &[PathBuf], e: GcodeError) -> GcodeError {
@@ -419,15 +436,29 @@ fn err_at(file: u32, files: &[PathBuf], e: GcodeError) -> GcodeError {
 
 impl Code {
     fn new(blocks: Vec<Block>, file: u32, fanuc: bool) -> Result<Code, GcodeError> {
+        Code::new_with_bad(blocks, file, fanuc, HashMap::new())
+    }
+
+    fn new_with_bad(
+        blocks: Vec<Block>,
+        file: u32,
+        fanuc: bool,
+        bad: HashMap<usize, GcodeError>,
+    ) -> Result<Code, GcodeError> {
         let mut stmts: Vec<Option<Stmt>> = Vec::with_capacity(blocks.len());
-        for b in &blocks {
-            stmts.push(parse_stmt(b, fanuc)?);
+        for (i, b) in blocks.iter().enumerate() {
+            stmts.push(if bad.contains_key(&i) {
+                None
+            } else {
+                parse_stmt(b, fanuc)?
+            });
         }
         let mut code = Code {
             blocks,
             stmts,
             subs: HashMap::new(),
             file,
+            bad,
         };
         code.link(fanuc)?;
         Ok(code)
@@ -809,6 +840,9 @@ impl Flow<'_> {
         let mut events = Vec::new();
         let (mut c, mut pc) = (0usize, 0usize);
         while !interp.ended() {
+            if let Some(e) = self.codes[c].bad.remove(&pc) {
+                return Err(err_at(self.codes[c].file, &self.files, e).into());
+            }
             let Some(block) = self.codes[c].blocks.get(pc) else {
                 if frames.is_empty() {
                     return Ok(());

@@ -40,6 +40,12 @@ impl<R: BufRead> BlockReader<R> {
         Ok(true)
     }
 
+    /// The input after the lines read so far (to copy what follows the end
+    /// of a program unread).
+    pub fn into_inner(self) -> R {
+        self.input
+    }
+
     /// Number of lines read so far.
     pub fn lines_read(&self) -> u64 {
         self.line
@@ -82,6 +88,12 @@ impl<W: Write> BlockWriter<W> {
         Ok(())
     }
 
+    /// Copies `input` as it is (the text after the end of a program).
+    pub fn copy_raw<R: std::io::Read>(&mut self, mut input: R) -> Result<(), GcodeError> {
+        std::io::copy(&mut input, &mut self.out)?;
+        Ok(())
+    }
+
     /// Flushes and returns the inner writer.
     pub fn into_inner(mut self) -> Result<W, GcodeError> {
         self.out.flush()?;
@@ -100,6 +112,29 @@ impl Program {
     /// Parses a program held in memory.
     pub fn parse(bytes: &[u8]) -> Result<Program, GcodeError> {
         Program::read(bytes)
+    }
+
+    /// Parses a program held in memory up to its end as `opts` interpret
+    /// it (M2, M30, the closing `%` of a program starting with `%`), as
+    /// LinuxCNC reads it: the bytes after the end are not parsed. Returns
+    /// the program and the length of the part read; `bytes[len..]` is the
+    /// text after the end.
+    pub fn parse_to_end(
+        bytes: &[u8],
+        opts: &super::InterpOptions,
+    ) -> Result<(Program, usize), GcodeError> {
+        let mut reader = BlockReader::new(bytes);
+        let mut interp = super::Interpreter::new(opts.clone());
+        let mut blocks = Vec::new();
+        let mut block = Block::default();
+        let mut events = Vec::new();
+        while !interp.ended() && reader.read_block(&mut block)? {
+            events.clear();
+            interp.execute(&block, &mut events)?;
+            blocks.push(block.clone());
+        }
+        let len = reader.bytes_read() as usize;
+        Ok((Program { blocks }, len))
     }
 
     /// Reads a whole program from a reader.

@@ -7,6 +7,7 @@
 //! line and (where it applies) the column, so the CLI can print one plain
 //! sentence per problem.
 
+pub mod columns;
 mod diagnostic;
 mod number;
 mod outputs;

@@ -271,15 +271,21 @@ pub(super) fn parse_number(
     name: &str,
     s: &str,
 ) -> Result<f64, Diagnostic> {
+    let bound = if super::columns::TIME.contains(&name) {
+        crate::limits::MAX_ABS_TIME
+    } else {
+        crate::limits::MAX_ABS_VALUE
+    };
     match s.parse::<f64>() {
-        Ok(v) if v.is_finite() && v.abs() <= crate::limits::MAX_ABS_VALUE => Ok(v),
+        Ok(v) if v.is_finite() && v.abs() <= bound => Ok(v),
         Ok(v) if v.is_finite() => Err(Diagnostic::at(
             path,
             line,
             index + 1,
             format!(
-                "column `{name}` holds `{s}`, beyond the largest magnitude accepted ({}): no quantity in these files is that large",
-                crate::limits::fmt_message_number(crate::limits::MAX_ABS_VALUE)
+                "column `{name}` holds {}, beyond the largest magnitude accepted ({}): no quantity in these files is that large",
+                crate::limits::fmt_message_number(v),
+                crate::limits::fmt_message_number(bound)
             ),
         )),
         Ok(_) => Err(Diagnostic::at(
@@ -388,6 +394,31 @@ mod tests {
             "{e}"
         );
         assert!(t.number(2, x).is_err());
+    }
+
+    /// Time columns take raw epoch timestamps in µs and ns (to 1e19); other
+    /// columns keep the 1e15 bound, and a time column refuses beyond 1e19.
+    #[test]
+    fn time_columns_take_epoch_timestamps() {
+        let t = parse(
+            "t_s,t_min,x\n1732550000123456789,1732550000123456,0\n1e19,-1e19,1.7e18\n1e20,0,0\n",
+        )
+        .unwrap();
+        let [ts, tm, x] = ["t_s", "t_min", "x"].map(|n| t.column(n).unwrap());
+        assert_eq!(t.number(0, ts).unwrap(), 1_732_550_000_123_456_789_f64);
+        assert_eq!(t.number(0, tm).unwrap(), 1_732_550_000_123_456_f64);
+        assert_eq!(t.number(1, ts).unwrap(), 1e19);
+        assert_eq!(t.number(1, tm).unwrap(), -1e19);
+        let e = t.number(1, x).unwrap_err();
+        assert!(
+            e.message.contains("1.7e18") && e.message.contains("1e15"),
+            "{e}"
+        );
+        let e = t.number(2, ts).unwrap_err();
+        assert!(
+            e.message.contains("1e20") && e.message.contains("1e19"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -80,7 +80,9 @@ fn finite(v: &Value) -> Option<f64> {
         Value::Integer(i) => *i.value() as f64,
         _ => return None,
     };
-    (x.is_finite() && x.abs() <= crate::limits::MAX_ABS_VALUE).then_some(x)
+    crate::model::rules::why_not_number(x)
+        .is_none()
+        .then_some(x)
 }
 
 /// Why `v` is not accepted as a number, after `must be ` / `is `.
@@ -90,15 +92,7 @@ fn why_not_number(v: &Value) -> String {
         Value::Integer(i) => *i.value() as f64,
         _ => return format!("a finite number, not {}", v.type_name()),
     };
-    if x.is_finite() {
-        format!(
-            "within ±{} (it is {}): no quantity in these files is that large",
-            crate::limits::fmt_message_number(crate::limits::MAX_ABS_VALUE),
-            crate::limits::fmt_message_number(x)
-        )
-    } else {
-        format!("a finite number, not {}", crate::io::fmt_f64(x))
-    }
+    crate::model::rules::why_not_number(x).unwrap_or_default()
 }
 
 /// Collects the problems of one file while values are read from it.

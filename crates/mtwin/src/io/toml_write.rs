@@ -12,7 +12,10 @@ use toml_edit::{Array, DocumentMut, InlineTable, Item, Table, Value};
 
 /// A value that cannot be written: a non-finite number (NaN or ±infinity).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("cannot write `{key}` = {value}: a TOML file written by mtwin holds finite numbers only")]
+#[error(
+    "cannot write `{key}` = {}: a TOML file written by mtwin holds finite numbers only",
+    crate::limits::fmt_message_number(*.value)
+)]
 pub struct TomlWriteError {
     /// Where the number would go, e.g. `axes.X.errors.EXX.poly[2]`.
     pub key: String,

@@ -339,6 +339,9 @@ impl Kinematics {
             qs.len(),
             out.len()
         );
+        if crate::par::sequential() {
+            return self.poses_into(qs, out);
+        }
         out.par_chunks_mut(BLOCK)
             .zip(qs.par_chunks(n * BLOCK))
             .for_each(|(o, q)| self.poses_into(q, o));
@@ -389,7 +392,7 @@ impl Kinematics {
         &self.axes[i].name
     }
 
-    /// Location error values of axis `i` in [`Component::ALL`] order.
+    /// Location error values of axis `i` in [`Component::ALL`](crate::model::Component::ALL) order.
     pub fn location(&self, i: usize) -> [f64; 6] {
         self.axes[i].loc
     }

@@ -64,7 +64,12 @@ pub enum IkError {
         axis_residual: f64,
     },
     /// The solution leaves the travel of an axis.
-    #[error("the solution puts axis {axis} at {value} {unit}, outside its travel [{lo}, {hi}]")]
+    #[error(
+        "the solution puts axis {axis} at {} {unit}, outside its travel [{}, {}]",
+        crate::limits::fmt_message_number(*.value),
+        crate::limits::fmt_message_number(*.lo),
+        crate::limits::fmt_message_number(*.hi)
+    )]
     OutOfTravel {
         /// Axis name.
         axis: String,

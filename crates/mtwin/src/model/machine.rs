@@ -178,11 +178,11 @@ impl Machine {
     /// error functions, servo tables, rapid feed, finite numbers), so a
     /// [`Machine`] that passes is one a file could hold.
     ///
-    /// The machine is written as its TOML file ([`machine_to_toml`](super::machine_to_toml))
-    /// and read back by the file reader ([`parse_machine`](super::parse_machine)): the
-    /// checks are the reader's own, not a copy. Each problem is one
-    /// [`Diagnostic`](crate::io::Diagnostic) on the machine as a whole,
-    /// named `<machine NAME>`, its message the reader's (keys name the place).
+    /// The check is done in memory with the same rules (and messages) the
+    /// file reader ([`parse_machine`](super::parse_machine)) applies to each
+    /// value it reads. Each problem is one [`Diagnostic`](crate::io::Diagnostic)
+    /// on the machine as a whole, named `<machine NAME>`, its message the
+    /// reader's (keys name the place).
     ///
     /// ```
     /// let mut m = mtwin::examples::machine("ac-trunnion").unwrap();
@@ -194,26 +194,17 @@ impl Machine {
     pub fn validate(&self) -> Result<(), crate::io::Diagnostics> {
         use crate::io::{Diagnostic, Diagnostics};
         let file = std::path::PathBuf::from(format!("<machine {}>", self.name));
-        let whole = |m: String| Diagnostics(vec![Diagnostic::whole(&file, m)]);
-        let n = self.n_axes();
-        for (what, chain) in [
-            ("tool", &self.tool_chain),
-            ("workpiece", &self.workpiece_chain),
-        ] {
-            if let Some(i) = chain.iter().find(|&&i| i >= n) {
-                return Err(whole(format!(
-                    "the {what} chain names axis index {i}, but the machine has {n} axes"
-                )));
-            }
-        }
-        let text = super::machine_to_toml(self, &[]).map_err(|e| whole(e.to_string()))?;
-        super::parse_machine(&file, &text).map(|_| ()).map_err(|d| {
-            Diagnostics(
-                d.0.into_iter()
-                    .map(|x| Diagnostic::whole(&file, x.message))
+        let problems = super::rules::machine_problems(self);
+        if problems.is_empty() {
+            Ok(())
+        } else {
+            Err(Diagnostics(
+                problems
+                    .into_iter()
+                    .map(|m| Diagnostic::whole(&file, m))
                     .collect(),
-            )
-        })
+            ))
+        }
     }
 
     /// Number of rotary axes.

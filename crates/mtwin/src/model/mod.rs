@@ -7,6 +7,7 @@ pub mod error_name;
 mod machine;
 mod parameters;
 mod poses;
+pub(crate) mod rules;
 mod toml_read;
 mod toml_write;
 

@@ -35,11 +35,12 @@ pub fn read_poses(
                             r,
                             c,
                             format!(
-                                "axis {} at {v} {} is outside its travel [{}, {}]",
+                                "axis {} at {} {} is outside its travel [{}, {}]",
                                 a.name,
+                                crate::limits::fmt_message_number(v),
                                 a.kind.unit(),
-                                a.travel[0],
-                                a.travel[1]
+                                crate::limits::fmt_message_number(a.travel[0]),
+                                crate::limits::fmt_message_number(a.travel[1])
                             ),
                         ));
                     }

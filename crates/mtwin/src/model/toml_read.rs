@@ -6,13 +6,12 @@ use nalgebra::Vector3;
 use toml_edit::{Item, TableLike, Value};
 
 use super::machine::DEFAULT_RAPID_FEED;
+use super::rules;
+pub use super::rules::UNIT_TOLERANCE;
 use super::{Axis, AxisErrors, AxisKind, ErrorFunction, ErrorKind, ErrorName, Machine, ServoTable};
 use crate::io::toml::{Span, TomlReader, parse};
 use crate::io::{Diagnostic, Diagnostics};
 use crate::sysid::read_servo_table;
-
-/// Tolerance on |d| − 1 for a direction to count as a unit vector.
-pub const UNIT_TOLERANCE: f64 = 1e-9;
 
 /// Read and validate a machine model file.
 pub fn read_machine(path: &Path) -> Result<Machine, Diagnostics> {
@@ -72,11 +71,13 @@ impl Cx<'_> {
         };
         let rapid_feed = match self.value(root, "rapid_feed", "the machine file", None) {
             Some(v) => match self.number(v, "`rapid_feed` (mm/min)") {
-                Some(f) if f > 0.0 => f,
-                Some(_) => {
-                    self.error(v.span(), "`rapid_feed` (mm/min) must be positive");
-                    DEFAULT_RAPID_FEED
-                }
+                Some(f) => match rules::rapid_feed(f) {
+                    Ok(()) => f,
+                    Err(e) => {
+                        self.error(v.span(), e);
+                        DEFAULT_RAPID_FEED
+                    }
+                },
                 None => DEFAULT_RAPID_FEED,
             },
             None => DEFAULT_RAPID_FEED,
@@ -135,9 +136,7 @@ impl Cx<'_> {
                     };
                     // Names become column headers and G-code letters, where case
                     // does not separate them: `x` beside `X` is a duplicate.
-                    if let Some((_, first)) = names
-                        .iter()
-                        .find(|(n, _)| !n.is_empty() && n.eq_ignore_ascii_case(&name))
+                    if let Some((_, first)) = names.iter().find(|(n, _)| rules::same_name(n, &name))
                     {
                         let first_line = self.line(first.clone());
                         self.error(
@@ -192,13 +191,8 @@ impl Cx<'_> {
             if a.is_empty() {
                 continue;
             }
-            if n == 0 {
-                self.error(
-                    span.clone(),
-                    format!("axis `{a}` is in neither `tool_chain` nor `workpiece_chain`"),
-                );
-            } else if n > 1 {
-                self.error(span.clone(), format!("axis `{a}` appears {n} times in the chains; each axis belongs to exactly one place"));
+            if let Err(e) = rules::chain_count(a, n) {
+                self.error(span.clone(), e);
             }
         }
         Some(Machine {
@@ -233,11 +227,8 @@ impl Cx<'_> {
         let name = match self.required_value(t, "name", "an [[axes]] table", span.clone()) {
             Some(Value::String(s)) => {
                 let n = s.value().clone();
-                let valid = !n.is_empty()
-                    && n.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
-                    && n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
-                if !valid {
-                    self.error(s.span(), format!("axis name `{n}` must start with a letter and hold only letters, digits and `_`"));
+                if let Err(e) = rules::axis_name(&n) {
+                    self.error(s.span(), e);
                     return None;
                 }
                 n
@@ -282,14 +273,8 @@ impl Cx<'_> {
                     );
                     return None;
                 }
-                if n[0] >= n[1] {
-                    self.error(
-                        v.span(),
-                        format!(
-                            "`travel` of {what} is empty: lo = {} is not below hi = {}",
-                            n[0], n[1]
-                        ),
-                    );
+                if let Err(e) = rules::travel(&what, [n[0], n[1]]) {
+                    self.error(v.span(), e);
                     return None;
                 }
                 Some([n[0], n[1]])
@@ -297,8 +282,8 @@ impl Cx<'_> {
         let positive = |cx: &mut Self, key: &str, unit: &str| -> Option<f64> {
             let v = cx.value(t, key, &what, None)?;
             let x = cx.number(v, &format!("`{key}` of {what} ({unit})"))?;
-            if x <= 0.0 {
-                cx.error(v.span(), format!("`{key}` of {what} must be positive"));
+            if let Err(e) = rules::positive(key, &what, x) {
+                cx.error(v.span(), e);
                 return None;
             }
             Some(x)
@@ -402,18 +387,8 @@ impl Cx<'_> {
     /// instead of giving NaN later.
     fn function(&mut self, v: &Value, k: &str, travel: Option<[f64; 2]>) -> Option<ErrorFunction> {
         let f = self.function_unchecked(v, k, travel)?;
-        if let Some(travel) = travel
-            && let Some((q, what, x)) = overflow_over_travel(&f, travel)
-        {
-            self.error(
-                v.span(),
-                format!(
-                    "error `{k}` is out of range over the axis travel: its {what} at {} is {} (the limit is ±{})",
-                    crate::limits::fmt_message_number(q),
-                    crate::limits::fmt_message_number(x),
-                    crate::limits::fmt_message_number(crate::limits::MAX_ERROR_VALUE)
-                ),
-            );
+        if let Err(e) = rules::error_function(k, &f, travel) {
+            self.error(v.span(), e);
             return None;
         }
         Some(f)
@@ -451,21 +426,19 @@ impl Cx<'_> {
                 match form {
                     "poly" | "cheb" => {
                         let c = self.numbers(val, &format!("`{form}` of error `{k}`"))?;
-                        if c.is_empty() {
-                            self.error(
-                                val.span(),
-                                format!("`{form}` of error `{k}` needs at least one coefficient"),
-                            );
+                        let f = if form == "poly" {
+                            ErrorFunction::Poly(c)
+                        } else {
+                            ErrorFunction::Cheb(c)
+                        };
+                        if let Err(e) = rules::error_function(k, &f, None) {
+                            self.error(val.span(), e);
                             return None;
                         }
                         if form == "cheb" && travel.is_none() {
                             return None;
                         }
-                        Some(if form == "poly" {
-                            ErrorFunction::Poly(c)
-                        } else {
-                            ErrorFunction::Cheb(c)
-                        })
+                        Some(f)
                     }
                     "table" => {
                         let Value::InlineTable(tt) = val else {
@@ -494,18 +467,12 @@ impl Cx<'_> {
                             );
                             return None;
                         };
-                        if q.len() != e.len() || q.is_empty() {
-                            self.error(tt.span(), format!("`table` of error `{k}`: `q` and `e` must have the same, non-zero length ({} and {})", q.len(), e.len()));
+                        let f = ErrorFunction::Table { q, e };
+                        if let Err(e) = rules::error_function(k, &f, None) {
+                            self.error(tt.span(), e);
                             return None;
                         }
-                        if q.windows(2).any(|w| w[1] <= w[0]) {
-                            self.error(
-                                tt.span(),
-                                format!("`q` of the table of `{k}` must be strictly increasing"),
-                            );
-                            return None;
-                        }
-                        Some(ErrorFunction::Table { q, e })
+                        Some(f)
                     }
                     other => {
                         let span = it.get_key_value(other).and_then(|(key, _)| key.span());
@@ -541,33 +508,6 @@ impl Cx<'_> {
             nk: servo.nk(),
         })
     }
-}
-
-/// The first point of `travel` where `f` or its derivative is non-finite or
-/// beyond [`crate::limits::MAX_ERROR_VALUE`]: (position, "value" or
-/// "derivative", the value there). Checked on 1025 evenly spaced points with
-/// both ends (a polynomial's magnitude is largest at an end or between
-/// points that close; tables are checked at their own points too).
-fn overflow_over_travel(f: &ErrorFunction, travel: [f64; 2]) -> Option<(f64, &'static str, f64)> {
-    const N: usize = 1024;
-    let bad = |x: f64| !x.is_finite() || x.abs() > crate::limits::MAX_ERROR_VALUE;
-    let mut points: Vec<f64> = (0..=N)
-        .map(|i| travel[0] + (travel[1] - travel[0]) * i as f64 / N as f64)
-        .collect();
-    if let ErrorFunction::Table { q, .. } = f {
-        points.extend(q.iter().copied());
-    }
-    for q in points {
-        let x = f.eval(q, travel);
-        if bad(x) {
-            return Some((q, "value", x));
-        }
-        let d = f.deriv(q, travel);
-        if bad(d) {
-            return Some((q, "derivative", d));
-        }
-    }
-    None
 }
 
 #[cfg(test)]

@@ -373,6 +373,12 @@ mod tests {
                 prop_assert_eq!(back.unwrap(), m);
             }
 
+            /// Every machine the reader accepts passes the in-memory check.
+            #[test]
+            fn any_machine_that_reads_back_validates(m in machine()) {
+                prop_assert!(m.validate().is_ok(), "{:?}", m.validate().err());
+            }
+
             #[test]
             fn any_non_finite_number_is_refused(m in machine(), pick in 0usize..4, bad in prop_oneof![Just(f64::NAN), Just(f64::INFINITY), Just(f64::NEG_INFINITY)]) {
                 let mut m = m;

@@ -17,6 +17,7 @@ pub struct Report {
     pub title: String,
     /// One line under the title (what was run, on what).
     pub subtitle: String,
+    /// The sections, in page order.
     pub sections: Vec<Section>,
 }
 
@@ -25,7 +26,9 @@ pub struct Report {
 pub struct Section {
     /// Anchor (letters, digits, `-`).
     pub id: String,
+    /// Heading.
     pub title: String,
+    /// Content, in page order.
     pub blocks: Vec<Block>,
 }
 
@@ -73,8 +76,11 @@ pub struct Headline {
 /// A table; every header cell names its unit.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Table {
+    /// Caption above the table.
     pub caption: String,
+    /// Header cells (each names its unit).
     pub header: Vec<String>,
+    /// Body rows, one cell per header cell.
     pub rows: Vec<Vec<String>>,
 }
 
@@ -112,16 +118,22 @@ pub enum Block {
     Text(String),
     /// Our figures beside the sources'.
     Headlines(Vec<Headline>),
+    /// A table.
     Table(Table),
     /// An inline SVG document (from [`crate::report::svg`]) with a caption.
     Figure {
+        /// Caption under the figure.
         caption: String,
+        /// The SVG document.
         svg: String,
     },
     /// An identifiability or quality verdict with its explanation lines.
     Verdict {
+        /// How it reads.
         verdict: Verdict,
+        /// One-line summary.
         title: String,
+        /// Explanation, one line each.
         lines: Vec<String>,
     },
 }

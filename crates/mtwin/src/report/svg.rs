@@ -10,7 +10,9 @@ use std::fmt::Write as _;
 /// and style sheets can find them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Series {
+    /// Legend name.
     pub name: String,
+    /// `(x, y)` points in the units of the chart's axes.
     pub points: Vec<(f64, f64)>,
     /// CSS colour.
     pub color: String,

@@ -101,8 +101,9 @@ impl Stability {
         match *self {
             Stability::Stable { .. } => None,
             Stability::Unstable { spectral_radius } => Some(format!(
-                "the model is not stable: a pole has modulus {spectral_radius:.6} (>= 1), so a \
-                 simulation does not settle and long predictions are meaningless"
+                "the model is not stable: a pole has modulus {} (>= 1), so a \
+                 simulation does not settle and long predictions are meaningless",
+                crate::limits::fmt_message_fixed(spectral_radius, 6)
             )),
         }
     }

@@ -5,7 +5,7 @@ use thiserror::Error;
 #[non_exhaustive]
 pub enum SysidError {
     /// The `a` polynomial must start with `a_0 = 1`.
-    #[error("the first `a` coefficient must be 1 (a_0 = 1), not {0}")]
+    #[error("the first `a` coefficient must be 1 (a_0 = 1), not {}", crate::limits::fmt_message_number(*.0))]
     LeadingA(f64),
     /// An input has no `b` coefficient.
     #[error("input {input} has no `b` coefficient (at least b_0 is needed)")]
@@ -20,7 +20,7 @@ pub enum SysidError {
         what: String,
     },
     /// The sample period must be positive.
-    #[error("the sample period must be positive and finite, not {0}")]
+    #[error("the sample period must be positive and finite, not {}", crate::limits::fmt_message_number(*.0))]
     BadPeriod(f64),
     /// A run or a call gives the wrong number of input signals.
     #[error("the model has {expected} input(s) but {found} were given")]

@@ -16,13 +16,15 @@
 //!   grid table;
 //! * [`Servo`]: the per-axis transfer function of docs/servo.md (`[axes.servo]`),
 //!   run on deviations from the first command, with its bandwidth and
-//!   following error, and [`fit_servo`] which identifies it from a log.
+//!   following error, and [`fit_servo`] which identifies it from a log;
+//! * [`excitation_program`]: the G-code program that records such a log.
 //!
 //! Units are those of the data: the module never rescales outputs; inputs
 //! and outputs keep whatever unit the caller gives them.
 
 mod arx;
 mod error;
+mod excitation;
 mod fit;
 mod order;
 mod output_error;
@@ -33,6 +35,7 @@ mod servo_fit;
 
 pub use arx::{Arx, ArxOrders, ArxStepper, InputOrder, Stability};
 pub use error::SysidError;
+pub use excitation::{ExcitationError, ExcitationOptions, excitation_program, excitation_targets};
 pub use fit::{ArxFit, FitStats, Run, Start, fit_arx};
 pub use order::{
     Criterion, GridRow, GridRowDoc, InputGrid, OrderGrid, OrderSelection, grid_text, select_orders,

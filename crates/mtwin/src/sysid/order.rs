@@ -1,7 +1,5 @@
 use std::ops::RangeInclusive;
 
-use rayon::prelude::*;
-
 use super::{ArxFit, ArxOrders, FitStats, InputOrder, Run, Start, SysidError, fit_arx};
 
 /// The information criterion that picks the orders.
@@ -297,10 +295,8 @@ pub fn select_orders(
     if structures.is_empty() {
         return Err(SysidError::NoOrderFits("the grid is empty".into()));
     }
-    let fits: Vec<Result<ArxFit, SysidError>> = structures
-        .par_iter()
-        .map(|o| fit_arx(runs, o, start))
-        .collect();
+    let fits: Vec<Result<ArxFit, SysidError>> =
+        crate::par::map(&structures, 1, |_, o| fit_arx(runs, o, start));
     selection_of(structures, fits, criterion)
 }
 

@@ -37,7 +37,6 @@ use std::ops::Range;
 use std::sync::{Arc, Mutex};
 
 use faer::MatMut;
-use rayon::prelude::*;
 
 use super::order::selection_of;
 use super::{
@@ -430,10 +429,9 @@ pub fn select_orders_output_error(
         return Err(SysidError::NoOrderFits("the grid is empty".into()));
     }
     let first = grid.max_lag();
-    let fits: Vec<Result<ArxFit, SysidError>> = structures
-        .par_iter()
-        .map(|o| fit_output_error(run, o, first).map(|f| f.fit))
-        .collect();
+    let fits: Vec<Result<ArxFit, SysidError>> = crate::par::map(&structures, 1, |_, o| {
+        fit_output_error(run, o, first).map(|f| f.fit)
+    });
     selection_of(structures, fits, criterion)
 }
 

@@ -1,6 +1,7 @@
 //! Checks of the time column of logged data: strictly increasing, evenly sampled.
 
 use crate::io::{Diagnostics, Table};
+use crate::limits::fmt_message_number;
 
 /// Relative tolerance on a sample interval: text files round times, and a
 /// logger's clock jitters a little; a missing or doubled sample is far outside.
@@ -53,18 +54,20 @@ pub(crate) fn check_sampling(
                 rows[i],
                 format!(
                     "time {} {unit} does not increase{ctx} (the previous sample, line {}, is at {} {unit})",
-                    times[i],
+                    fmt_message_number(times[i]),
                     table.line(rows[i - 1]),
-                    times[i - 1]
+                    fmt_message_number(times[i - 1])
                 ),
             ));
         } else if (dt - period).abs() > PERIOD_TOLERANCE * period {
             diags.push(table.row_error(
                 rows[i],
                 format!(
-                    "uneven sampling{ctx}: {dt} {unit} since the previous sample (line {}), but the \
-                     sample period is {period} {unit}; every interval must be equal",
-                    table.line(rows[i - 1])
+                    "uneven sampling{ctx}: {} {unit} since the previous sample (line {}), but the \
+                     sample period is {} {unit}; every interval must be equal",
+                    fmt_message_number(dt),
+                    table.line(rows[i - 1]),
+                    fmt_message_number(period)
                 ),
             ));
         }

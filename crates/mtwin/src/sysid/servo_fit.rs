@@ -17,6 +17,7 @@ use crate::io::toml::{Span, TomlReader, parse};
 use crate::io::toml_write::{float, floats, int, set, with_header};
 use crate::io::{Diagnostic, Diagnostics, Table, fmt_f64};
 use crate::limits;
+use crate::model::rules;
 use toml_edit::DocumentMut;
 
 /// A servo log: commands and encoder positions (mm or deg) every `ts` seconds.
@@ -72,7 +73,7 @@ impl ServoLog {
 /// and evenly spaced; every problem is reported with its line.
 pub fn read_servo_log(path: &Path) -> Result<ServoLog, Diagnostics> {
     let table = Table::read(path)?;
-    let rows = table.number_rows(&["t_s", "command_mm", "feedback_mm"])?;
+    let rows = table.number_rows(&crate::io::columns::SERVO_LOG)?;
     if rows.len() < 2 {
         return Err(Diagnostic::whole(path, "the log needs at least two samples").into());
     }
@@ -127,13 +128,15 @@ impl ServoFitOptions {
                 "the largest order must be at least 1 (a servo has at least one pole)".into(),
             ));
         }
-        limits::check(
+        limits::check_fields(
+            &["max_order"],
             "the largest order",
             self.max_order as f64,
             limits::MAX_MODEL_ORDER,
             "a servo axis needs a few poles; use a smaller order",
         )?;
-        limits::check(
+        limits::check_fields(
+            &["max_delay"],
             "the largest delay",
             self.max_delay as f64,
             limits::MAX_DELAY_SAMPLES,
@@ -141,7 +144,8 @@ impl ServoFitOptions {
         )?;
         let n =
             self.max_order as f64 * (self.max_order as f64 + 1.0) * (self.max_delay as f64 + 1.0);
-        limits::check(
+        limits::check_fields(
+            &["max_order", "max_delay"],
             "the number of structures to fit (orders × delays)",
             n,
             limits::MAX_FIT_CANDIDATES,
@@ -182,8 +186,8 @@ impl ServoFit {
         let mut w: Vec<String> = self.stability.warning().into_iter().collect();
         if (self.dc_gain - 1.0).abs() > 0.01 {
             w.push(format!(
-                "the static gain is {:.4}, not 1: the axis would not reach a held command",
-                self.dc_gain
+                "the static gain is {}, not 1: the axis would not reach a held command",
+                limits::fmt_message_fixed(self.dc_gain, 4)
             ));
         }
         w
@@ -336,37 +340,24 @@ pub(crate) fn read_servo_table(
     r.check_keys(t, &["ts", "b", "a", "nk"], what);
     let ts = r.required(t, "ts", what, at.clone()).and_then(|i| {
         let x = r.number(i, &format!("`ts` of {what} (s)"))?;
-        if x <= 0.0 {
-            r.error(
-                i.span(),
-                format!(
-                    "`ts` of {what} must be positive, not {}",
-                    limits::fmt_message_number(x)
-                ),
-            );
+        if let Err(e) = rules::servo_ts(what, x) {
+            r.error(i.span(), e);
             return None;
         }
         Some(x)
     });
     let b = r.required(t, "b", what, at.clone()).and_then(|i| {
         let b = r.numbers(i, &format!("`b` of {what}"))?;
-        if b.is_empty() {
-            r.error(
-                i.span(),
-                format!("`b` of {what} needs at least one coefficient (b_0)"),
-            );
+        if let Err(e) = rules::servo_b(what, &b) {
+            r.error(i.span(), e);
             return None;
         }
         Some(b)
     });
     let a = r.required(t, "a", what, at.clone()).and_then(|i| {
         let a = r.numbers(i, &format!("`a` of {what}"))?;
-        if a.first() != Some(&1.0) {
-            let a0 = a.first().map_or("nothing".to_string(), f64::to_string);
-            r.error(
-                i.span(),
-                format!("`a` of {what} must start with a_0 = 1, not {a0}"),
-            );
+        if let Err(e) = rules::servo_a(what, &a) {
+            r.error(i.span(), e);
             return None;
         }
         Some(a)
@@ -374,26 +365,19 @@ pub(crate) fn read_servo_table(
     let nk = match t.get("nk") {
         Some(i) => r
             .count(i, &format!("`nk` of {what} (samples)"))
-            .and_then(|nk| {
-                match limits::check(
-                    &format!("`nk` of {what} (samples)"),
-                    nk as f64,
-                    limits::MAX_DELAY_SAMPLES,
-                    "a servo dead time is a few samples",
-                ) {
-                    Ok(()) => Some(nk),
-                    Err(e) => {
-                        r.error(i.span(), e.to_string());
-                        None
-                    }
+            .and_then(|nk| match rules::servo_nk(what, nk) {
+                Ok(()) => Some(nk),
+                Err(e) => {
+                    r.error(i.span(), e);
+                    None
                 }
             }),
         None => Some(0),
     };
-    match Servo::new(ts?, b?, a?, nk?) {
+    match rules::servo(what, ts?, b?, a?, nk?) {
         Ok(s) => Some(s),
         Err(e) => {
-            r.error(at, format!("{what}: {e}"));
+            r.error(at, e);
             None
         }
     }
@@ -401,7 +385,7 @@ pub(crate) fn read_servo_table(
 
 /// Read `SERVO.toml` text: top-level `ts`, `b`, `a` (with `a_0 = 1`) and
 /// optional `nk` (default 0), the same rules as `[axes.servo]` of a machine
-/// file ([`read_servo_table`]). Unknown keys and bad values are reported with their line.
+/// file (`read_servo_table`). Unknown keys and bad values are reported with their line.
 pub fn servo_from_toml_str(path: &Path, text: &str) -> Result<Servo, Diagnostics> {
     let doc = parse(path, text)?;
     let mut r = TomlReader::new(path, text);

@@ -19,17 +19,27 @@ use mtwin::gcode::{self, EventKind, GcodeError, InterpOptions, UnknownMCode};
 /// Cases skipped (the interpreter reports "unsupported") and why.
 const SKIPPED: &[(&str, &str)] = &[
     ("abort-hot-comment", "parameter assignment"),
-    ("bad/a-in-canned-cycle.ngc", "canned cycle G81"),
-    ("bad/a-in-canned-cycle2.ngc", "canned cycle G81"),
     ("bad/ccomp-arcexit.ngc", "cutter radius compensation G41.1"),
     ("bad/ccomp-gouging.ngc", "cutter radius compensation G41.1"),
-    ("bad/exists-1.ngc", "expression with parameters"),
-    ("bad/exists-2.ngc", "expression with parameters"),
+    ("bad/exists-1.ngc", "expression with parameters EXISTS[1]"),
+    (
+        "bad/exists-2.ngc",
+        "expression with parameters EXISTS[#1+#2]",
+    ),
     ("bad/exists-3.ngc", "parameter assignment"),
-    ("bad/exists-4.ngc", "expression with parameters"),
-    ("bad/exists-5.ngc", "expression with parameters"),
-    ("bad/exists-6.ngc", "expression with parameters"),
-    ("bad/exists-7.ngc", "expression with parameters"),
+    (
+        "bad/exists-4.ngc",
+        "expression with parameters EXISTS[#foo]",
+    ),
+    (
+        "bad/exists-5.ngc",
+        "expression with parameters EXISTS[#<foo]",
+    ),
+    ("bad/exists-6.ngc", "expression with parameters EXISTS[#]"),
+    (
+        "bad/exists-7.ngc",
+        "expression with parameters EXISTS[#<foo>+1]",
+    ),
     (
         "bad/nested.ngc",
         "O-word statement (subroutines and control flow)",
@@ -46,14 +56,19 @@ const SKIPPED: &[(&str, &str)] = &[
         "flowsnake",
         "O-word statement (subroutines and control flow)",
     ),
-    ("g10/g10-l1-l10", "setting offsets G10"),
-    ("g10/g10-l11", "setting offsets G10"),
-    ("g10/g10-l2-while-active", "setting offsets G10"),
-    ("g10/g10-l20-while-active", "setting offsets G10"),
-    ("g10/g10-with-g92", "axis offsets G92.1"),
+    ("g10/g10-l1-l10", "coordinate system rotation (G10 L2 R)"),
+    ("g10/g10-l11", "coordinate system rotation (G10 L2 R)"),
+    (
+        "g10/g10-l2-while-active",
+        "coordinate system rotation (G10 L2 R)",
+    ),
+    (
+        "g10/g10-l20-while-active",
+        "coordinate system rotation (G10 L2 R)",
+    ),
+    ("g10/g10-with-g92", "coordinate system rotation (G10 L2 R)"),
     ("g33.1", "spindle-synchronised motion G33.1"),
-    ("g52/g52-g92-interaction", "axis offsets G92"),
-    ("g71-endless-loop", "axis offsets G92.1"),
+    ("g71-endless-loop", "lathe diameter/radius mode G8"),
     ("g71-endless-loop2", "constant surface speed G96"),
     ("g71-endless-loop_2", "parameter assignment"),
     (
@@ -69,19 +84,7 @@ const SKIPPED: &[(&str, &str)] = &[
         "O-word statement (subroutines and control flow)",
     ),
     ("g76", "spindle-synchronised motion G76"),
-    ("g81/g17/g98", "canned cycle G81"),
-    ("g81/g17/g99", "canned cycle G81"),
-    ("g81/g18/g98", "canned cycle G81"),
-    ("g81/g18/g99", "canned cycle G81"),
-    ("g81/g19/g98", "canned cycle G81"),
-    ("g81/g19/g99", "canned cycle G81"),
-    ("g84/g17/g98", "canned cycle G84"),
-    ("g84/g17/g99", "canned cycle G84"),
-    ("g84/g18/g98", "canned cycle G84"),
-    ("g84/g18/g99", "canned cycle G81"),
-    ("g84/g19/g98", "canned cycle G84"),
-    ("g84/g19/g99", "canned cycle G84"),
-    ("iniparam", "parameter #<_ini"),
+    ("iniparam", "parameter #<_ini[vars]toolchange_x>"),
     ("iniparam-failassign", "parameter assignment"),
     (
         "inside-corners",
@@ -159,8 +162,8 @@ const SKIPPED: &[(&str, &str)] = &[
         "rotation/abs-pts",
         "O-word statement (subroutines and control flow)",
     ),
-    ("rotation/g28", "setting offsets G10"),
-    ("rotation/g53", "setting offsets G10"),
+    ("rotation/g28", "coordinate system rotation (G10 L2 R)"),
+    ("rotation/g53", "coordinate system rotation (G10 L2 R)"),
     (
         "sequence-number",
         "O-word statement (subroutines and control flow)",
@@ -173,7 +176,6 @@ const SKIPPED: &[(&str, &str)] = &[
         "subs-follow-main",
         "O-word statement (subroutines and control flow)",
     ),
-    ("unit-conversion", "axis offsets G92.1"),
     (
         "value-returned",
         "O-word statement (subroutines and control flow)",
@@ -235,7 +237,8 @@ fn expected_motion(text: &str) -> Vec<Call> {
 fn our_motion(program: &[u8]) -> Result<Vec<Call>, (Vec<Call>, GcodeError)> {
     // The tool lengths LinuxCNC's test tool table gives (USE_TOOL_LENGTH_OFFSET
     // in the traces of g72-facing, in mm, and g76, 0.7 in).
-    let tools = [(2, 2.54), (4, 0.7 * 25.4)].into_iter().collect();
+    // Tool 1 with zero offsets: the test.tbl of LinuxCNC's g10 cases.
+    let tools = [(1, 0.0), (2, 2.54), (4, 0.7 * 25.4)].into_iter().collect();
     let mut opts = InterpOptions::default();
     opts.unknown_m = UnknownMCode::Reject;
     opts.tools = tools;

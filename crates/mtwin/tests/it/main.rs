@@ -9,8 +9,12 @@
 #[path = "../../src/test_support.rs"]
 mod shared;
 
+mod ballbar_circular;
 mod gcode_conformance;
 mod gcode_corpus;
 mod gcode_props;
+mod generated_programs;
+mod positioning;
+mod rs274;
 mod thermal_inputs;
 mod thermal_truth;

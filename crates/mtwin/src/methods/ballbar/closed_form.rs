@@ -1,4 +1,4 @@
-//! The first-order forms of the source paper [R1] (eqs 19–22), written as
+//! The first-order forms of the source paper \[R1\] (eqs 19–22), written as
 //! `ΔL(α) = a·(1 − cos α) + b·sin α`:
 //!
 //! | mode | `a` | `b` |
@@ -8,7 +8,7 @@
 //! | 3 | `eX − EX0C` | `EY0A + EY0C − eY` |
 //! | 4 | `eX − EX0C − ZB1A·(EB0A + EB0C)` | `EY0A + EY0C − eY − ZB1A·EA0C` |
 //!
-//! They hold for the orientation of [R1] (A about +x, C about +z) and are
+//! They hold for the orientation of \[R1\] (A about +x, C about +z) and are
 //! used for the start of the joint fit and to cross-check the exact model.
 
 use nalgebra::{Matrix3, Vector3};
@@ -61,7 +61,7 @@ pub fn fit_coefficients(data: &ModeData) -> Option<(f64, f64, f64)> {
 }
 
 /// Start values from the modes present (`data[mode.index()]`), solving the
-/// table above in the order of [R1] (mode 1 → A offsets, 2 → A tilts,
+/// table above in the order of \[R1\] (mode 1 → A offsets, 2 → A tilts,
 /// 3 → C offsets, 4 → C tilts). PIGEs a missing mode would give start at 0.
 /// Also returns the bar length of each mode (the nominal length when absent).
 pub fn start_values(data: &[Option<&ModeData>; 4], rig: &Rig) -> (Piges, [f64; 4]) {

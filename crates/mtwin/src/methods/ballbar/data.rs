@@ -83,7 +83,8 @@ impl ModeData {
                     lines[b],
                     format!(
                         "angle {}° appears twice (also on line {}); give one reading per angle",
-                        self.angles_deg[b], lines[a]
+                        crate::limits::fmt_message_number(self.angles_deg[b]),
+                        lines[a]
                     ),
                 ));
             }
@@ -93,7 +94,10 @@ impl ModeData {
                 diags.push(Diagnostic::at_line(
                     path,
                     lines[i],
-                    format!("length_mm is {l}, but a bar reading is a positive length"),
+                    format!(
+                        "length_mm is {}, but a bar reading is a positive length",
+                        crate::limits::fmt_message_number(l)
+                    ),
                 ));
             }
         }
@@ -115,7 +119,11 @@ impl ModeData {
 
 /// Writes readings as a mode file (`angle_deg,length_mm`, full precision).
 pub fn write_mode_file(w: &mut dyn std::io::Write, data: &ModeData) -> std::io::Result<()> {
-    writeln!(w, "angle_deg,length_mm")?;
+    writeln!(
+        w,
+        "{}",
+        crate::io::columns::header(&crate::io::columns::BALLBAR_MODE)
+    )?;
     for (a, l) in data.angles_deg.iter().zip(&data.lengths) {
         crate::io::write_csv_row(w, &[*a, *l])?;
     }
@@ -137,7 +145,7 @@ pub fn parse_mode_text(path: &Path, text: &str) -> Result<ModeData, Diagnostics>
 }
 
 fn parse_table(table: &Table) -> Result<ModeData, Diagnostics> {
-    let rows = table.number_rows(&["angle_deg", "length_mm"])?;
+    let rows = table.number_rows(&crate::io::columns::BALLBAR_MODE)?;
     let lines: Vec<usize> = (0..table.len()).map(|r| table.line(r)).collect();
     let d = ModeData {
         source: Some(table.path().to_path_buf()),

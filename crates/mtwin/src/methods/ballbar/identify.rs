@@ -31,23 +31,51 @@ pub const RESIDUAL_IMBALANCE: f64 = 3.0;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum BallbarIdentifyError {
+    /// None of the four modes was given.
     #[error("no mode data given; at least one of the four modes is needed")]
     NoModes,
-    #[error("{what} is {value} mm; it must be a positive finite length")]
-    BadRig { what: &'static str, value: f64 },
-    #[error("the set-up error ({ex}, {ey}) mm is not finite")]
-    BadSetup { ex: f64, ey: f64 },
+    /// A rig length (bar length, ZB1C, ZB1A) is not a positive finite length.
+    #[error("{what} is {} mm; it must be a positive finite length", crate::limits::fmt_message_number(*.value))]
+    BadRig {
+        /// Which length.
+        what: &'static str,
+        /// Its value, mm.
+        value: f64,
+    },
+    /// The tool-ball set-up error is not finite.
+    #[error("the set-up error ({}, {}) mm is not finite", crate::limits::fmt_message_number(*.ex), crate::limits::fmt_message_number(*.ey))]
+    BadSetup {
+        /// eX, mm.
+        ex: f64,
+        /// eY, mm.
+        ey: f64,
+    },
+    /// The machine is not a double turntable with A carrying C.
     #[error(transparent)]
     Machine(#[from] TrunnionError),
-    #[error("{mode}: the angles {lo}°..{hi}° lie outside the travel of {axis} ([{tlo}, {thi}]°)")]
+    /// The angles of a mode leave the travel of its rotary axis.
+    #[error(
+        "{mode}: the angles {}°..{}° lie outside the travel of {axis} ([{}, {}]°)",
+        crate::limits::fmt_message_number(*.lo),
+        crate::limits::fmt_message_number(*.hi),
+        crate::limits::fmt_message_number(*.tlo),
+        crate::limits::fmt_message_number(*.thi)
+    )]
     OutOfTravel {
+        /// The mode (`mode1` … `mode4`).
         mode: &'static str,
+        /// The rotary axis (`A` or `C`).
         axis: &'static str,
+        /// Smallest angle of the data, degrees.
         lo: f64,
+        /// Largest angle of the data, degrees.
         hi: f64,
+        /// Lower end of the axis travel, degrees.
         tlo: f64,
+        /// Upper end of the axis travel, degrees.
         thi: f64,
     },
+    /// The least-squares engine failed.
     #[error("the least-squares fit failed: {0}")]
     Fit(#[from] FitError),
 }
@@ -55,6 +83,7 @@ pub enum BallbarIdentifyError {
 /// A PIGE the given modes cannot determine.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Unresolved {
+    /// The PIGE.
     pub pige: Pige,
     /// Plain sentence: why.
     pub reason: String,
@@ -77,7 +106,9 @@ pub struct Identification {
     pub warnings: Vec<String>,
     /// The machine with the identified PIGEs written in.
     pub machine: Machine,
+    /// The A and C axes of the machine the identification used.
     pub trunnion: Trunnion,
+    /// The rig geometry and set-up error used.
     pub rig: Rig,
     /// The engine's full report.
     pub report: FitReport,
@@ -134,6 +165,40 @@ impl Identification {
             ) - ell,
         )
     }
+}
+
+/// The inputs of [`run`]: the machine, the rig and the readings of the
+/// modes given.
+#[derive(Debug, Clone, Copy)]
+pub struct IdentifyInputs<'a> {
+    /// Nominal geometry and any PDGEs; its PIGEs are replaced by the identified ones.
+    pub machine: &'a Machine,
+    /// Bar length, tool-ball placements and set-up error (mm).
+    pub rig: Rig,
+    /// Readings of each mode given, in [`BallbarMode::ALL`](super::BallbarMode::ALL) order.
+    pub modes: [Option<&'a ModeData>; 4],
+}
+
+/// Options of [`run`].
+#[derive(Debug, Clone, Default)]
+#[non_exhaustive]
+pub struct IdentifyOptions {
+    /// Options of the least-squares engine (including its parallelism, `fit.par`).
+    pub fit: Options,
+    /// Name of the file the caller writes the identified machine to, reported by the document.
+    pub out: Option<String>,
+}
+
+/// `mtwin ballbar identify`: the identification ([`identify`]) and its
+/// document (the document's `plots` are empty: the caller adds the plots it
+/// writes, see [`super::plot::polar_plot`]).
+pub fn run(
+    inputs: &IdentifyInputs<'_>,
+    options: &IdentifyOptions,
+) -> Result<(Identification, super::BallbarIdentifyDoc), BallbarIdentifyError> {
+    let id = identify(inputs.machine, &inputs.rig, &inputs.modes, &options.fit)?;
+    let doc = super::BallbarIdentifyDoc::new(&id, options.out.clone(), Vec::new());
+    Ok((id, doc))
 }
 
 /// Identifies the PIGEs from the modes given (`data[mode.index()]`).
@@ -413,7 +478,7 @@ fn analyse(
     Ok(report.identifiability)
 }
 
-/// Which modes a PIGE moves at first order (table 2 of [R1]).
+/// Which modes a PIGE moves at first order (table 2 of \[R1\]).
 pub fn sees(mode: BallbarMode, p: Pige) -> bool {
     use Pige::*;
     match mode {

@@ -1,5 +1,5 @@
 //! Double-ballbar identification of the eight location errors (PIGEs) of the
-//! rotary axes of a double-turntable machine ([R1] in docs/references.md): A tilting about x,
+//! rotary axes of a double-turntable machine (\[R1\] in docs/references.md): A tilting about x,
 //! carrying C turning about z.
 //!
 //! * [`setup`]: the tool-ball set-up error `(eX, eY)` from spindle-rotation
@@ -7,14 +7,18 @@
 //! * [`mode`]: the four measurement modes as measurement models on the exact
 //!   kinematics (`B2(α) = A(α)·A(0)⁻¹·B2(0)`), implementing
 //!   [`crate::fit::Model`];
-//! * [`closed_form`]: the first-order forms of [R1] (eqs 19–22), the start of
+//! * [`closed_form`]: the first-order forms of \[R1\] (eqs 19–22), the start of
 //!   the fit and a cross-check of the exact model;
-//! * [`identify`]: the joint nonlinear least squares over the modes given;
-//! * [`sensitivity`], [`program`], [`simulate`]: table 2 of [R1], the
+//! * [`identify`](mod@identify): the joint nonlinear least squares over the modes given;
+//! * [`sensitivity`], [`program`](mod@program), [`simulate`]: table 2 of \[R1\], the
 //!   G-code test programs, and synthetic readings for planning.
 //!
 //! Units: mm, rad for the errors, degrees for axis angles.
 
+#[warn(missing_docs)]
+pub mod circular;
+#[warn(missing_docs)]
+pub mod circular_sim;
 pub mod closed_form;
 pub mod data;
 pub mod doc;
@@ -38,12 +42,20 @@ pub use doc::{
     BallbarIdentifyDoc, BallbarProgramDoc, BallbarSensitivityDoc, BallbarSetupDoc,
     BallbarSimulateDoc, PerMode, PerPige,
 };
-pub use identify::{BallbarIdentifyError, Compensation, Identification, Unresolved, identify};
+pub use identify::{
+    BallbarIdentifyError, Compensation, Identification, IdentifyInputs, IdentifyOptions,
+    Unresolved, identify,
+};
 pub use mode::{BallbarMode, ModeModel, Rig, Trunnion, TrunnionError, Unknowns, predicted_reading};
 pub use program::{ProgramError, ProgramSpec, program};
-pub use sensitivity::{SensitivityRow, delta_l_curve, sensitivity_table};
-pub use setup::{SetupError, SetupErrorInput, SetupErrorProblem, setup_error};
-pub use simulate::{SimulationSpec, angle_range, simulate_mode, simulate_modes};
+pub use sensitivity::{
+    SensitivityInputs, SensitivityOptions, SensitivityRow, delta_l_curve, sensitivity_table,
+};
+pub use setup::{SetupError, SetupErrorInput, SetupErrorProblem, SetupOptions, setup_error};
+pub use simulate::{
+    SimulateInputs, SimulateOptions, SimulationSpec, angle_range, default_angles, simulate_mode,
+    simulate_modes,
+};
 
 /// One of the eight location errors of the rotary axes (ISO 230-1 names).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]

@@ -35,7 +35,7 @@ use crate::kinematics::transform::rxyz_derivatives;
 use crate::kinematics::{Kinematics, Rigid};
 use crate::model::Machine;
 
-/// One of the four measurement modes of [R1] (docs/references.md).
+/// One of the four measurement modes of \[R1\] (docs/references.md).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum BallbarMode {
     /// A turns; B1 on the A/C intersection; bar along −y. Sees EY0A, EZ0A.
@@ -62,7 +62,7 @@ impl BallbarMode {
         self as usize
     }
 
-    /// 1..=4, the numbering of the source paper [R1].
+    /// 1..=4, the numbering of the source paper \[R1\].
     pub fn number(self) -> usize {
         self.index() + 1
     }
@@ -116,7 +116,7 @@ pub struct Rig {
 }
 
 impl Rig {
-    /// The rig of the source paper [R1]: `L = 100`, `ZB1C = ZB1A = 100` mm, no set-up error.
+    /// The rig of the source paper \[R1\]: `L = 100`, `ZB1C = ZB1A = 100` mm, no set-up error.
     pub fn source_paper() -> Rig {
         Rig {
             length: 100.0,
@@ -131,11 +131,13 @@ impl Rig {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum TrunnionError {
+    /// The workpiece chain has no rotary axis of this name (`A` or `C`).
     #[error(
         "the machine has no rotary axis named {0} in its workpiece chain; the ballbar PIGE \
          method needs a double turntable with A carrying C"
     )]
     MissingAxis(&'static str),
+    /// C comes before A in the workpiece chain.
     #[error("in the workpiece chain C must come after A (A carries C)")]
     Order,
 }

@@ -1,4 +1,4 @@
-//! Polar plots of ΔL per mode (figure 11 of the source paper [R1]): the measured readings,
+//! Polar plots of ΔL per mode (figure 11 of the source paper \[R1\]): the measured readings,
 //! the fit of the identified model, and the prediction after compensating
 //! the four axis-line offsets (the tilts remain).
 

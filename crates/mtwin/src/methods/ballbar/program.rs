@@ -14,15 +14,14 @@
 //! machine zero, and the model's tool tip (`[tool] tip`) is the centre of
 //! the tool ball.
 
-use std::fmt::Write as _;
-
 use super::mode::{BallbarMode, Rig, Trunnion, TrunnionError};
-use crate::io::fmt_f64;
+use crate::gcode::{Dialect, ProgramEnd, ProgramWriter, WriteError};
 use crate::model::Machine;
 
 /// What a program is for.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ProgramSpec {
+    /// The rig geometry and set-up error (places the tool ball).
     pub rig: Rig,
     /// Angles of the moving axis, degrees, in the order visited; must contain 0.
     pub angles_deg: Vec<f64>,
@@ -36,21 +35,47 @@ pub struct ProgramSpec {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ProgramError {
+    /// The machine is not a double turntable with A carrying C.
     #[error(transparent)]
     Machine(#[from] TrunnionError),
+    /// The machine has no linear axis of this name (`X`, `Y` or `Z`).
     #[error("the machine has no linear axis named {0}")]
     MissingLinear(&'static str),
-    #[error("{axis} = {value} is outside its travel [{lo}, {hi}]")]
+    /// A position of the program leaves the travel of its axis.
+    #[error(
+        "{axis} = {} is outside its travel [{}, {}]",
+        crate::limits::fmt_message_number(*.value),
+        crate::limits::fmt_message_number(*.lo),
+        crate::limits::fmt_message_number(*.hi)
+    )]
     OutOfTravel {
+        /// The axis.
         axis: String,
+        /// The position (mm or degrees).
         value: f64,
+        /// Lower end of the travel.
         lo: f64,
+        /// Upper end of the travel.
         hi: f64,
     },
+    /// The angle list does not contain 0°.
     #[error("the angle list must contain 0° (the bar is set there)")]
     NoZero,
-    #[error("the dwell ({dwell} s) and feed ({feed} deg/min) must be positive")]
-    BadTiming { dwell: f64, feed: f64 },
+    /// The dwell or the feed is not positive.
+    #[error(
+        "the dwell ({} s) and feed ({} deg/min) must be positive",
+        crate::limits::fmt_message_number(*.dwell),
+        crate::limits::fmt_message_number(*.feed)
+    )]
+    BadTiming {
+        /// Dwell at each step, s.
+        dwell: f64,
+        /// Rotary feed, deg/min.
+        feed: f64,
+    },
+    /// Writing the program failed.
+    #[error(transparent)]
+    Write(#[from] WriteError),
 }
 
 /// The G-code program of `mode` for `machine`.
@@ -77,7 +102,7 @@ pub fn program(
     let b1 = t.pivot + mode.tool_ball(&nominal);
     let d = b1 - machine.tool_tip;
     let mut lin = Vec::new();
-    for name in ["X", "Y", "Z"] {
+    for (name, l) in [("X", 'X'), ("Y", 'Y'), ("Z", 'Z')] {
         let i = machine
             .axis_index(name)
             .filter(|&i| machine.axes[i].kind == crate::model::AxisKind::Linear)
@@ -85,76 +110,79 @@ pub fn program(
         let ax = &machine.axes[i];
         let v = d.dot(&ax.direction);
         check(name, v, ax.travel)?;
-        lin.push((name, v));
+        lin.push((l, v));
     }
     let moving = &machine.axes[if mode.moves_a() { t.a } else { t.c }];
     for &a in &spec.angles_deg {
         check(mode.axis_name(), a, moving.travel)?;
     }
-    let (w, other) = if mode.moves_a() {
+    let (axis, other) = if mode.moves_a() {
         ("A", "C")
     } else {
         ("C", "A")
     };
+    let letter = if mode.moves_a() { 'A' } else { 'C' };
     let bar = if mode.moves_a() { "-Y" } else { "+X" };
-    let mut s = String::new();
-    let f = |x: f64| fmt_f64(if x == 0.0 { 0.0 } else { x });
-    // Writing to a String cannot fail.
-    let _ = writeln!(s, "%");
-    let _ = writeln!(
-        s,
-        "(mtwin ballbar test, mode {}: {w} turns, {other} = 0, other axes still)",
-        mode.number()
-    );
-    let _ = writeln!(
-        s,
-        "(bar {} mm along {bar} at {w} = 0; tool ball B1 at X{} Y{} Z{} of M)",
-        f(spec.rig.length),
-        f(b1.x),
-        f(b1.y),
-        f(b1.z)
-    );
-    let _ = writeln!(
-        s,
-        "(static ballbar: take one reading during each dwell of {} s; {} steps)",
-        f(spec.dwell_s),
-        spec.angles_deg.len()
-    );
-    let _ = writeln!(
-        s,
-        "(every move is G53, in machine coordinates: work offsets such as G54 and the tool)"
-    );
-    let _ = writeln!(
-        s,
-        "(length offset are ignored. The machine zero must be the model's axis zero, and the)"
-    );
-    let _ = writeln!(
-        s,
-        "(model's tool tip must be the centre of the tool ball; check both before running.)"
-    );
-    let _ = writeln!(s, "G21 G90 G94 G17");
-    let _ = writeln!(s, "G53 G0 A0 C0");
-    let _ = writeln!(
-        s,
-        "G53 G0 {}",
-        lin.iter()
-            .map(|(n, v)| format!("{n}{}", f(*v)))
-            .collect::<Vec<_>>()
-            .join(" ")
-    );
-    let _ = writeln!(
-        s,
-        "M0 (mount the bar: B2 on the table, {bar} of B1, then start the instrument)"
-    );
-    for &a in &spec.angles_deg {
-        let _ = writeln!(s, "G53 G1 {w}{} F{}", f(a), f(spec.feed));
-        let _ = writeln!(s, "G4 P{}", f(spec.dwell_s));
+    let mut w = ProgramWriter::new(Dialect::LinuxCnc);
+    // Numbers inside comments as the writer writes the words.
+    let f = |v: f64| w.plain(v);
+    let header = [
+        format!(
+            "mtwin ballbar test, mode {}: {w_axis} turns, {other} = 0, other axes still",
+            mode.number(),
+            w_axis = axis
+        ),
+        format!(
+            "bar {} mm along {bar} at {axis} = 0; tool ball B1 at X{} Y{} Z{} of M",
+            f(spec.rig.length)?,
+            f(b1.x)?,
+            f(b1.y)?,
+            f(b1.z)?
+        ),
+        format!(
+            "static ballbar: take one reading during each dwell of {} s; {} steps",
+            w.plain(spec.dwell_s)?,
+            spec.angles_deg.len()
+        ),
+        "every move is G53, in machine coordinates: work offsets such as G54 and the tool".into(),
+        "length offset are ignored. The machine zero must be the model's axis zero, and the".into(),
+        "model's tool tip must be the centre of the tool ball; check both before running.".into(),
+    ];
+    w.start(None)?;
+    for line in &header {
+        w.comment(line)?;
     }
-    let _ = writeln!(s, "G53 G1 {w}0 F{}", f(spec.feed));
-    let _ = writeln!(s, "M0 (remove the bar)");
-    let _ = writeln!(s, "M30");
-    let _ = writeln!(s, "%");
-    Ok(s)
+    w.block().g(21).g(90).g(94).g(17).write()?;
+    w.block()
+        .g(53)
+        .g(0)
+        .axes(&[('A', 0.0), ('C', 0.0)])
+        .write()?;
+    w.block().g(53).g(0).axes(&lin).write()?;
+    w.block()
+        .m(0)
+        .comment(&format!(
+            "mount the bar: B2 on the table, {bar} of B1, then start the instrument"
+        ))
+        .write()?;
+    for &a in &spec.angles_deg {
+        w.block()
+            .g(53)
+            .g(1)
+            .axes(&[(letter, a)])
+            .feed(spec.feed)
+            .write()?;
+        w.dwell(spec.dwell_s)?;
+    }
+    w.block()
+        .g(53)
+        .g(1)
+        .axes(&[(letter, 0.0)])
+        .feed(spec.feed)
+        .write()?;
+    w.block().m(0).comment("remove the bar").write()?;
+    w.end(ProgramEnd::M30)?;
+    Ok(w.finish())
 }
 
 fn check(axis: &str, value: f64, travel: [f64; 2]) -> Result<(), ProgramError> {
@@ -232,7 +260,7 @@ mod tests {
         );
         let mut opts = InterpOptions::default();
         opts.work_offsets[0][Axis::Z] = -150.0;
-        opts.tools.insert(1, 50.0);
+        opts.tools.insert(crate::gcode::Tool::with_length(1, 50.0));
         let program =
             Program::parse(p.replace("G21 G90", "T1 M6 G43 H1 G21 G90").as_bytes()).unwrap();
         let mut it = Interpreter::new(opts);

@@ -1,4 +1,4 @@
-//! Which PIGE moves which mode, and by how much (table 2 of the source paper [R1]),
+//! Which PIGE moves which mode, and by how much (table 2 of the source paper \[R1\]),
 //! computed on the exact model: one PIGE at a time set to a given size on
 //! the nominal machine with an ideal set-up, `ΔL(α) = L(α) − L(0)` over each
 //! mode's angles.
@@ -11,6 +11,7 @@ use crate::model::Machine;
 /// One row of the table.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SensitivityRow {
+    /// The PIGE applied alone.
     pub pige: Pige,
     /// The error size applied (mm or rad).
     pub size: f64,
@@ -158,4 +159,53 @@ mod tests {
             assert!((x - 0.01 * al.to_radians().sin()).abs() < 2e-6);
         }
     }
+}
+
+/// The inputs of [`run`]: the nominal machine and the rig geometry (its
+/// set-up error is ignored: the table is for an ideal set-up).
+#[derive(Debug, Clone, Copy)]
+pub struct SensitivityInputs<'a> {
+    /// The machine (a double turntable, A carrying C).
+    pub machine: &'a Machine,
+    /// Bar length and tool-ball placements (mm).
+    pub rig: Rig,
+}
+
+/// Options of [`run`].
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct SensitivityOptions {
+    /// Size of the offsets, mm (default 0.010).
+    pub offset: f64,
+    /// Size of the tilts, rad (default 0.005° = 8.7266e-5 rad).
+    pub tilt: f64,
+    /// Angles of each mode, degrees, in [`BallbarMode::ALL`] order (default
+    /// −90…90° by 5° for the A modes 1 and 2, 0…360° by 5° for the C modes 3 and 4).
+    pub angles_deg: [Vec<f64>; 4],
+}
+
+impl Default for SensitivityOptions {
+    fn default() -> Self {
+        Self {
+            offset: 0.010,
+            tilt: 0.005_f64.to_radians(),
+            angles_deg: super::simulate::default_angles(),
+        }
+    }
+}
+
+/// `mtwin ballbar sensitivity`: which PIGE moves which mode, and by how
+/// much ([`sensitivity_table`]), as its document.
+pub fn run(
+    inputs: &SensitivityInputs<'_>,
+    options: &SensitivityOptions,
+) -> Result<super::BallbarSensitivityDoc, TrunnionError> {
+    let rows = sensitivity_table(
+        inputs.machine,
+        &inputs.rig,
+        options.offset,
+        options.tilt,
+        &options.angles_deg,
+    )?;
+    Ok(super::BallbarSensitivityDoc::from(rows.as_slice()))
 }

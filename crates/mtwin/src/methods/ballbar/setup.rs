@@ -1,4 +1,4 @@
-//! The set-up error of the tool ball (eqs 23–26 of the source paper [R1]).
+//! The set-up error of the tool ball (eqs 23–26 of the source paper \[R1\]).
 //!
 //! The tool ball B1 sits in a cup on the spindle; clamping leaves its centre
 //! off the spindle axis by `(eX, eY)` in M. With the bar mounted along +X at
@@ -34,21 +34,43 @@ pub struct SetupErrorInput {
 /// Why readings give no set-up error.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SetupErrorProblem {
-    #[error("{what} is {value}, but it must be a positive finite length in mm")]
-    NotALength { what: &'static str, value: f64 },
-    #[error("theta2 is {0}, which is not a finite angle")]
+    /// A reading is not a positive finite length.
+    #[error("{what} is {}, but it must be a positive finite length in mm", crate::limits::fmt_message_number(*.value))]
+    NotALength {
+        /// Which reading (L, Lmax, Lmin).
+        what: &'static str,
+        /// Its value, mm.
+        value: f64,
+    },
+    /// θ2 (degrees) is not finite.
+    #[error("theta2 is {}, which is not a finite angle", crate::limits::fmt_message_number(*.0))]
     BadAngle(f64),
-    #[error("Lmax ({lmax} mm) is smaller than Lmin ({lmin} mm)")]
-    MaxBelowMin { lmax: f64, lmin: f64 },
+    /// The largest reading is below the smallest.
+    #[error("Lmax ({} mm) is smaller than Lmin ({} mm)", crate::limits::fmt_message_number(*.lmax), crate::limits::fmt_message_number(*.lmin))]
+    MaxBelowMin {
+        /// Largest reading, mm.
+        lmax: f64,
+        /// Smallest reading, mm.
+        lmin: f64,
+    },
+    /// The three readings give no triangle (|cos φ| > 1).
     #[error(
-        "the readings describe no triangle: cos φ = {cos_phi:.6} is outside [−1, 1] \
-         (L = {length} mm, Lmax = {lmax} mm, Lmin = {lmin} mm); check that L was read at 0° \
-         and Lmax/Lmin over a full spindle turn"
+        "the readings describe no triangle: cos φ = {} is outside [−1, 1] \
+         (L = {} mm, Lmax = {} mm, Lmin = {} mm); check that L was read at 0° \
+         and Lmax/Lmin over a full spindle turn",
+        crate::limits::fmt_message_fixed(*.cos_phi, 6),
+        crate::limits::fmt_message_number(*.length),
+        crate::limits::fmt_message_number(*.lmax),
+        crate::limits::fmt_message_number(*.lmin)
     )]
     NoTriangle {
+        /// The cosine computed from the readings.
         cos_phi: f64,
+        /// Bar reading at 0°, mm.
         length: f64,
+        /// Largest reading, mm.
         lmax: f64,
+        /// Smallest reading, mm.
         lmin: f64,
     },
 }
@@ -196,4 +218,18 @@ mod tests {
             Err(SetupErrorProblem::NotALength { .. })
         ));
     }
+}
+
+/// Options of [`run`]: none yet; the readings are the inputs.
+#[derive(Debug, Clone, Default, PartialEq)]
+#[non_exhaustive]
+pub struct SetupOptions {}
+
+/// `mtwin ballbar setup-error`: the tool-ball set-up error (eX, eY, mm) from
+/// the readings of one spindle turn, as its document.
+pub fn run(
+    input: &SetupErrorInput,
+    _options: &SetupOptions,
+) -> Result<super::BallbarSetupDoc, SetupErrorProblem> {
+    setup_error(input).map(super::BallbarSetupDoc::from)
 }

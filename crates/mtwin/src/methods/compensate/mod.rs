@@ -109,30 +109,64 @@ pub enum CompensateError {
     /// Inverse kinematics failed (no solution, or outside travel).
     #[error("line {line}: {source}")]
     Ik {
+        /// Line of the program.
         line: u64,
+        /// Why the inverse kinematics failed.
         #[source]
         source: IkError,
     },
     /// A correction is above the limit.
     #[error(
-        "line {line}: the correction of {correction_um:.1} µm exceeds the limit of {limit_um:.1} µm (--max-correction)"
+        "line {line}: the correction of {} µm exceeds the limit of {} µm (--max-correction)",
+        crate::limits::fmt_message_fixed(*.correction_um, 1),
+        crate::limits::fmt_message_fixed(*.limit_um, 1)
     )]
     TooLarge {
+        /// Line of the program.
         line: u64,
+        /// The correction, µm.
         correction_um: f64,
+        /// The limit (`max_correction`), µm.
         limit_um: f64,
     },
     /// Splitting did not bring the path within tolerance.
     #[error(
-        "line {line}: the compensated path still deviates by {deviation_um:.2} µm after {MAX_DEPTH} halvings"
+        "line {line}: the compensated path still deviates by {} µm after {MAX_DEPTH} halvings",
+        crate::limits::fmt_message_fixed(*.deviation_um, 2)
     )]
-    NoConvergence { line: u64, deviation_um: f64 },
+    NoConvergence {
+        /// Line of the program.
+        line: u64,
+        /// Deviation left after the last halving, µm.
+        deviation_um: f64,
+    },
     /// The machine's axes are not one G-code axis letter each.
     #[error(transparent)]
     AxisName(#[from] AxisLetterError),
     /// Writing failed.
     #[error("cannot write the program: {0}")]
     Io(#[from] std::io::Error),
+}
+
+impl CompensateError {
+    /// 1-based source line of the problem, if it has one.
+    pub fn line(&self) -> Option<u64> {
+        match self {
+            CompensateError::Gcode(e) => e.location().map(|l| l.line),
+            CompensateError::Ik { line, .. }
+            | CompensateError::TooLarge { line, .. }
+            | CompensateError::NoConvergence { line, .. } => Some(*line),
+            _ => None,
+        }
+    }
+
+    /// 1-based column of the problem (0 when the whole block is at fault).
+    pub fn column(&self) -> u32 {
+        match self {
+            CompensateError::Gcode(e) => e.location().map_or(0, |l| l.column),
+            _ => 0,
+        }
+    }
 }
 
 /// Compensates the program read from `input` for the actual `machine` and
@@ -318,6 +352,15 @@ impl Compensator {
                 _ => writer.write_block(block)?,
             }
         }
+        // After the end of the program (M2, M30, closing '%') the text is
+        // copied unread, as LinuxCNC never reads it.
+        let trailer = flow.rest;
+        // Its lines count as blocks of the file, as before reading stopped
+        // at the end.
+        run.summary.blocks += (trailer.iter().filter(|&&b| b == b'\n').count()
+            + usize::from(!trailer.is_empty() && !trailer.ends_with(b"\n")))
+            as u64;
+        writer.copy_raw(&trailer[..])?;
         writer.into_inner()?;
         Ok(run.summary)
     }
@@ -337,6 +380,35 @@ impl Compensator {
         for ev in events {
             let line = ev.at.line;
             match ev.kind {
+                EventKind::Traverse(m) | EventKind::Feed(m) if m.words.expanded => {
+                    // One block, several moves (canned cycle, G28/G30): no
+                    // word of the block ends this move, so a correction
+                    // cannot be written; refused unless none is needed.
+                    let mv = Move {
+                        path: NominalPath::line(&m),
+                        tcp: m.tcp,
+                        words: m.words,
+                        offset: m.offset,
+                        feed: m.feed,
+                        line,
+                    };
+                    let (_, end) = self.ends(&mv, run)?;
+                    if Axis::ALL
+                        .iter()
+                        .any(|&a| (end.new_p[a] - end.p[a]).abs() > 1e-6)
+                    {
+                        return Err(GcodeError::unsupported(
+                            line,
+                            0,
+                            "correction of a move a canned cycle or G28/G30 expands to \
+                             (one block, several moves: no word to rewrite); expand the cycle \
+                             into G0/G1 moves first",
+                        )
+                        .into());
+                    }
+                    run.q_nom.clone_from(&end.q_nom);
+                    run.last = Some(end);
+                }
                 EventKind::Traverse(m) | EventKind::Feed(m) => {
                     let split = matches!(ev.kind, EventKind::Feed(_));
                     let mv = Move {

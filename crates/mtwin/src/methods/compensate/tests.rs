@@ -537,3 +537,29 @@ fn flow_programs_round_trip_and_varying_corrections_are_refused() {
     let (end, _, _) = check(&e, once.as_bytes(), &out, &opts.interp);
     assert!(end <= opts.tol + ROUNDING, "end deviation {end}");
 }
+
+/// Canned cycles, G28 and a footer after M30: a zero-error model copies the
+/// program byte for byte; a correction that would fall on a move a cycle
+/// expands to is refused, naming the block's line.
+#[test]
+fn cycles_round_trip_and_corrections_inside_them_are_refused() {
+    let prog = "G21 G90 G94\nG0 X10 Y20 Z150\nG98 G81 X10 Y20 Z120 R130 F300\nX20\nG80\nG91 G28 Z0\nG90\nM30\nPost Process Timed at; 32 Min, 50.0 sec\n";
+    let m = example("ac-trunnion.toml");
+    let (out, s) = run(&m, prog.as_bytes(), &CompensateOptions::default());
+    assert_eq!(String::from_utf8(out).unwrap(), prog);
+    assert_eq!(s.blocks_changed, 0);
+    let m = example("ac-trunnion-with-errors.toml");
+    let opts = CompensateOptions {
+        max_correction: 2.0,
+        ..CompensateOptions::default()
+    };
+    let c = Compensator::new(&m, opts).unwrap();
+    let err = c.run(prog.as_bytes(), Vec::new()).unwrap_err();
+    match err {
+        CompensateError::Gcode(GcodeError::Unsupported { at, what }) => {
+            assert_eq!(at.line, 3, "{what}");
+            assert!(what.contains("canned cycle"), "{what}");
+        }
+        other => panic!("expected a refusal, got {other}"),
+    }
+}

@@ -1,4 +1,4 @@
-//! The exact kinematic chain of the power-skiving machine ([R3]), with the
+//! The exact kinematic chain of the power-skiving machine (\[R3\]), with the
 //! four workpiece set-up errors as parameters:
 //!
 //! ```text
@@ -28,10 +28,22 @@ pub struct Geometry {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum GeometryError {
-    #[error("{name} = {value} is not a finite number")]
-    NotFinite { name: &'static str, value: f64 },
-    #[error("{name} = {value} mm must be positive")]
-    NotPositive { name: &'static str, value: f64 },
+    /// A number is not finite.
+    #[error("{name} = {} is not a finite number", crate::limits::fmt_message_number(*.value))]
+    NotFinite {
+        /// The quantity.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// A length is not positive.
+    #[error("{name} = {} mm must be positive", crate::limits::fmt_message_number(*.value))]
+    NotPositive {
+        /// The quantity.
+        name: &'static str,
+        /// Its value, mm.
+        value: f64,
+    },
 }
 
 impl Geometry {
@@ -73,11 +85,17 @@ impl Geometry {
 /// Machine axis positions: `x`, `y`, `z` in mm, `a`, `b`, `c` in degrees.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AxisPositions {
+    /// X, mm.
     pub x: f64,
+    /// Y, mm.
     pub y: f64,
+    /// Z, mm.
     pub z: f64,
+    /// A (tool swivel about x), degrees.
     pub a: f64,
+    /// B (tool swivel about y), degrees.
     pub b: f64,
+    /// C (rotary table), degrees.
     pub c: f64,
 }
 
@@ -86,9 +104,13 @@ pub struct AxisPositions {
 /// (about x, rad).
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct SetupError {
+    /// Offset along the table's x, mm.
     pub dgx: f64,
+    /// Offset along the table's y, mm.
     pub dgy: f64,
+    /// Tilt about y, rad.
     pub exz: f64,
+    /// Tilt about x, rad.
     pub ezy: f64,
 }
 

@@ -27,7 +27,7 @@
 //! δgy = y₃ − rt − rg + εzy·(h + z₃)  δgx = y₆ − rt − rg − εxz·(h + z₆)
 //! ```
 //!
-//! (the patent's [R3] eq. 8 has `εxz` in the `δgy` formula: with this chain the
+//! (the patent's \[R3\] eq. 8 has `εxz` in the `δgy` formula: with this chain the
 //! tilt that moves a +Y side point is the one about X, `εzy`). The dropped
 //! terms are of order `ε·δ`, `ε²·ζ` and `δ²/rg`: well below a micrometre
 //! and a microradian for set-up errors of 0.05 mm and 3e-4 rad.
@@ -50,12 +50,15 @@ pub const STANDARD_FORMULAS: [(&str, &str); 4] = [
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ClosedFormError {
+    /// A touch (index) was made with the tool swivelled (a or b ≠ 0).
     #[error("touch {0} has a or b different from 0; the closed forms assume a = b = 0")]
     Swivelled(usize),
+    /// The top touches do not determine both tilts.
     #[error(
         "the top touches do not determine both tilts (they need two table angles or two y positions each)"
     )]
     Tilts,
+    /// The side touches do not determine both offsets.
     #[error(
         "the side touches do not determine both offsets (they need two table angles, e.g. c = 0° and 90°)"
     )]

@@ -1,5 +1,5 @@
 //! Workpiece set-up (pose) error of a power-skiving machine from touch-offs
-//! (after [R3] in docs/references.md).
+//! (after \[R3\] in docs/references.md).
 //!
 //! * [`chain`]: the exact chain `M_gt = M_xg'⁻¹·M_xt` with the four unknowns
 //!   `δgx, δgy` (mm), `εxz, εzy` (rad);
@@ -58,17 +58,27 @@ impl Options {
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum UncertaintyBasis {
     /// A known touch noise σ (mm): a 2σ interval is a 95 % interval.
-    KnownNoise { sigma: f64 },
+    KnownNoise {
+        /// σ, mm.
+        sigma: f64,
+    },
     /// σ estimated from the residuals with `dof` degrees of freedom: a 95 %
     /// interval is the Student-t factor `t(0.975, dof)` times the
     /// uncertainty (4.30 for six touches).
-    Residuals { sigma: f64, dof: usize },
+    Residuals {
+        /// σ estimated, mm.
+        sigma: f64,
+        /// Degrees of freedom (touches − 4).
+        dof: usize,
+    },
 }
 
 /// Standard uncertainties of `[dgx, dgy, exz, ezy]` (mm, mm, rad, rad).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Uncertainty {
+    /// Standard uncertainties of `[dgx, dgy, exz, ezy]` (mm, mm, rad, rad).
     pub std: [f64; 4],
+    /// Where σ comes from.
     pub basis: UncertaintyBasis,
 }
 
@@ -113,6 +123,7 @@ impl TouchFlag {
 /// The identified set-up error.
 #[derive(Debug, Clone)]
 pub struct Solution {
+    /// The identified set-up error.
     pub estimate: SetupError,
     /// `None` when σ can be neither given nor estimated (as many touches
     /// as unknowns and no known noise).
@@ -125,6 +136,7 @@ pub struct Solution {
     pub standardized: Vec<Option<f64>>,
     /// The noise level used for the flags (mm).
     pub flag_noise: f64,
+    /// What the other touches say about every touch, in input order.
     pub flags: Vec<TouchFlag>,
     /// The engine's report (convergence, identifiability, warnings).
     pub fit: FitReport,
@@ -134,18 +146,46 @@ pub struct Solution {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum SkivingIdentifyError {
+    /// Fewer touches (the count) than the four unknowns.
     #[error(
         "{0} touches cannot determine 4 unknowns; at least 4 (the standard plan has 6) are needed"
     )]
     TooFewTouches(usize),
+    /// The touches leave these unknowns undetermined.
     #[error("the touches do not determine {}; add touches at another table angle or y position", .0.join(", "))]
     NotIdentifiable(Vec<String>),
-    #[error("the noise sigma {0} mm must be a positive finite number")]
+    /// The given noise σ (mm) is not a positive finite number.
+    #[error("the noise sigma {} mm must be a positive finite number", crate::limits::fmt_message_number(*.0))]
     Noise(f64),
+    /// The least-squares iteration did not converge (the engine's reason).
     #[error("the least-squares solution did not converge: {0}")]
     NotConverged(String),
+    /// The least-squares engine failed.
     #[error(transparent)]
     Fit(#[from] FitError),
+}
+
+/// `mtwin skiving setup-error`: the least-squares set-up error of
+/// `touches` on the workpiece `g` ([`identify`] with `options`), the
+/// first-order closed form where it applies ([`closed_form::first_order`])
+/// and the document.
+#[allow(clippy::type_complexity)]
+pub fn run(
+    touches: &[Touch],
+    g: &Geometry,
+    options: &Options,
+) -> Result<
+    (
+        Solution,
+        Result<SetupError, closed_form::ClosedFormError>,
+        doc::SkivingSetupDoc,
+    ),
+    SkivingIdentifyError,
+> {
+    let s = identify(touches, g, options)?;
+    let first = closed_form::first_order(touches, g);
+    let d = doc::SkivingSetupDoc::new(&s, first.as_ref().ok().copied(), touches.len());
+    Ok((s, first, d))
 }
 
 /// The exact least-squares set-up error from `touches` (any number ≥ 4,

@@ -1,4 +1,4 @@
-//! The touch-off plan of [R3] (docs/references.md) and the G-code program
+//! The touch-off plan of \[R3\] (docs/references.md) and the G-code program
 //! that carries it out with probing moves.
 //!
 //! The six touches, all at `X = x`, `a = b = 0`:
@@ -15,10 +15,9 @@
 //! (`f` the face offset, `d` the side depth below the top face.) The
 //! nominal positions follow from the chain at zero set-up error.
 
-use std::fmt::Write as _;
-
 use super::chain::Geometry;
 use super::touch::{Contact, ToolPoint};
+use crate::gcode::{Dialect, ProgramEnd, ProgramWriter, WriteError};
 
 /// The machine axis a touch is probed along (always towards the
 /// workpiece, i.e. in the negative direction).
@@ -34,6 +33,7 @@ pub enum ProbeAxis {
 /// position along the probe axis (mm, degrees).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlannedTouch {
+    /// `x` held, mm.
     pub x: f64,
     /// `y` held (top) or nominal contact `y` (side), mm.
     pub y: f64,
@@ -41,8 +41,11 @@ pub struct PlannedTouch {
     pub z: f64,
     /// Rotary table angle, degrees (`a = b = 0`).
     pub c: f64,
+    /// The point of the tool that touches.
     pub point: ToolPoint,
+    /// The workpiece surface touched.
     pub contact: Contact,
+    /// The axis and direction of the probing move.
     pub probe: ProbeAxis,
 }
 
@@ -62,22 +65,51 @@ pub struct Plan {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum PlanError {
-    #[error("x = {x} mm puts the tool beside the workpiece (|x| must be below rg = {rg} mm)")]
-    XOutside { x: f64, rg: f64 },
+    /// The x held puts the tool beside the workpiece.
     #[error(
-        "the face offset {0} mm must be positive and leave the tool over the top face (below rg + rt = {1} mm)"
+        "x = {} mm puts the tool beside the workpiece (|x| must be below rg = {} mm)",
+        crate::limits::fmt_message_number(*.x),
+        crate::limits::fmt_message_number(*.rg)
+    )]
+    XOutside {
+        /// x held, mm.
+        x: f64,
+        /// Workpiece radius rg, mm.
+        rg: f64,
+    },
+    /// The face offset (mm) is not positive or leaves the top face (limit rg + rt, mm).
+    #[error(
+        "the face offset {} mm must be positive and leave the tool over the top face (below rg + rt = {} mm)",
+        crate::limits::fmt_message_number(*.0),
+        crate::limits::fmt_message_number(*.1)
     )]
     FaceOffset(f64, f64),
-    #[error("the side depth {0} mm must be positive")]
+    /// The side depth (mm) is not positive.
+    #[error("the side depth {} mm must be positive", crate::limits::fmt_message_number(*.0))]
     SideDepth(f64),
-    #[error("{name} = {value} must be a positive finite number")]
-    NotPositive { name: &'static str, value: f64 },
-    #[error("{name} = {value} is not a finite number")]
-    NotFinite { name: &'static str, value: f64 },
+    /// A quantity is not a positive finite number.
+    #[error("{name} = {} must be a positive finite number", crate::limits::fmt_message_number(*.value))]
+    NotPositive {
+        /// The quantity.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// A quantity is not finite.
+    #[error("{name} = {} is not a finite number", crate::limits::fmt_message_number(*.value))]
+    NotFinite {
+        /// The quantity.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// Writing the program failed.
+    #[error(transparent)]
+    Write(#[from] WriteError),
 }
 
 impl Plan {
-    /// The plan of the patent [R3] at `x`: face touches at `y = ±rg/2`, side touches 10 mm
+    /// The plan of the patent \[R3\] at `x`: face touches at `y = ±rg/2`, side touches 10 mm
     /// below the top face.
     pub fn standard(x: f64, g: &Geometry) -> Self {
         Self {
@@ -142,17 +174,6 @@ impl Plan {
     }
 }
 
-/// The controller dialect of the probing moves.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Dialect {
-    /// LinuxCNC: `G38.2` (error if no contact), results `#5061…#5066`
-    /// written to a CSV log with `(LOGOPEN)`/`(LOG)`.
-    LinuxCnc,
-    /// Fanuc Macro B: `G31` skip, results `#5061…#5063` copied to common
-    /// variables `#501…` and printed with `DPRNT`; alarm if no contact.
-    Fanuc,
-}
-
 /// Motion settings of the program (mm, mm/min).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Motion {
@@ -177,8 +198,13 @@ impl Default for Motion {
     }
 }
 
-/// Writes the touch-off program for `plan` in `dialect`. Coordinates are
-/// machine coordinates of this method (the frame of `M_xt`, `M_xg'`).
+/// Writes the touch-off program for `plan` in `dialect` (LinuxCNC: `G38.2`
+/// probing moves, results `#5061…#5066` written to a CSV log with
+/// `(LOGOPEN)`/`(LOG)`; Fanuc: program `O9100`, `G31` skip, Macro B results
+/// `#5061…#5063` copied to common variables `#501…` and printed with
+/// `DPRNT`, alarm if no contact). Coordinates are machine coordinates of
+/// this method (the frame of `M_xt`, `M_xg'`), written by
+/// [`ProgramWriter`].
 pub fn program(
     plan: &Plan,
     g: &Geometry,
@@ -196,126 +222,100 @@ pub fn program(
         }
     }
     let touches = plan.touches(g)?;
-    let n = |v: f64| format!("{v:.4}");
     let safe_z = -g.h() + motion.clearance;
-    let mut s = String::new();
-    let comment = |s: &mut String, text: &str| {
-        let text = match dialect {
-            Dialect::LinuxCnc => text.to_owned(),
-            // Fanuc comments: upper case, no parentheses inside.
-            Dialect::Fanuc => text.to_uppercase().replace(['(', ')'], ""),
-        };
-        let _ = writeln!(s, "({text})");
-    };
-    s.push_str("%\n");
-    if dialect == Dialect::Fanuc {
-        s.push_str("O9100\n");
+    let fanuc = matches!(dialect, Dialect::Fanuc { .. });
+    let mut w = ProgramWriter::new(dialect);
+    w.start(Some(9100))?;
+    w.comment("mtwin skiving touch-off program: workpiece set-up error, see docs/skiving.md")?;
+    w.comment(&format!(
+        "x={} h={} L={} rt={} rg={} face offset={} side depth={}",
+        plan.x,
+        g.h(),
+        g.l(),
+        g.rt(),
+        g.rg(),
+        plan.face_offset,
+        plan.side_depth
+    ))?;
+    w.comment(&format!(
+        "approach={} overtravel={} clearance={} feed={} mm/min",
+        motion.approach, motion.overtravel, motion.clearance, motion.feed
+    ))?;
+    w.block().g(21).g(90).g(94).g(17).write()?;
+    if fanuc {
+        w.statement("POPEN")?;
+    } else {
+        use crate::io::columns::{SKIVING_TOUCH_LABELS, SKIVING_TOUCH_POSITION, header};
+        w.statement("(LOGOPEN,skiving-touches.csv)")?;
+        w.statement(&format!(
+            "(LOG,{},{})",
+            header(&SKIVING_TOUCH_POSITION),
+            header(&SKIVING_TOUCH_LABELS)
+        ))?;
     }
-    comment(
-        &mut s,
-        "mtwin skiving touch-off program: workpiece set-up error, see docs/skiving.md",
-    );
-    comment(
-        &mut s,
-        &format!(
-            "x={} h={} L={} rt={} rg={} face offset={} side depth={}",
-            plan.x,
-            g.h(),
-            g.l(),
-            g.rt(),
-            g.rg(),
-            plan.face_offset,
-            plan.side_depth
-        ),
-    );
-    comment(
-        &mut s,
-        &format!(
-            "approach={} overtravel={} clearance={} feed={} mm/min",
-            motion.approach, motion.overtravel, motion.clearance, motion.feed
-        ),
-    );
-    s.push_str("G21 G90 G94 G17\n");
-    match dialect {
-        Dialect::LinuxCnc => {
-            s.push_str("(LOGOPEN,skiving-touches.csv)\n(LOG,x,y,z,a,b,c,point,contact)\n")
-        }
-        Dialect::Fanuc => s.push_str("POPEN\n"),
-    }
-    let _ = writeln!(s, "G0 Z{}", n(safe_z));
+    w.rapid(&[('Z', safe_z)])?;
     for (i, t) in touches.iter().enumerate() {
-        comment(
-            &mut s,
-            &format!(
-                "touch {}: c={} tool {} on the {} face",
-                i + 1,
-                t.c,
-                t.point.name(),
-                t.contact.name()
-            ),
-        );
-        let _ = writeln!(s, "G0 A0 B0 C{}", n(t.c));
+        w.comment(&format!(
+            "touch {}: c={} tool {} on the {} face",
+            i + 1,
+            t.c,
+            t.point.name(),
+            t.contact.name()
+        ))?;
+        w.rapid(&[('A', 0.0), ('B', 0.0), ('C', t.c)])?;
         let (letter, start, target) = match t.probe {
             ProbeAxis::MinusZ => {
-                let _ = writeln!(s, "G0 X{} Y{}", n(t.x), n(t.y));
-                let _ = writeln!(s, "G0 Z{}", n(t.z + motion.approach));
-                ("Z", t.z + motion.approach, t.z - motion.overtravel)
+                w.rapid(&[('X', t.x), ('Y', t.y)])?;
+                w.rapid(&[('Z', t.z + motion.approach)])?;
+                ('Z', t.z + motion.approach, t.z - motion.overtravel)
             }
             ProbeAxis::MinusY => {
-                let _ = writeln!(s, "G0 X{} Y{}", n(t.x), n(t.y + motion.approach));
-                let _ = writeln!(s, "G0 Z{}", n(t.z));
-                ("Y", t.y + motion.approach, t.y - motion.overtravel)
+                w.rapid(&[('X', t.x), ('Y', t.y + motion.approach)])?;
+                w.rapid(&[('Z', t.z)])?;
+                ('Y', t.y + motion.approach, t.y - motion.overtravel)
             }
         };
-        let var = if letter == "Z" { "#5063" } else { "#5062" };
-        match dialect {
-            Dialect::LinuxCnc => {
-                let _ = writeln!(s, "G38.2 {letter}{} F{}", n(target), n(motion.feed));
-                let _ = writeln!(
-                    s,
-                    "(LOG,#5061,#5062,#5063,#5064,#5065,#5066,{},{})",
-                    t.point.name(),
-                    t.contact.name()
-                );
+        w.probe(&[(letter, target)], motion.feed)?;
+        if fanuc {
+            let var = if letter == 'Z' { "#5063" } else { "#5062" };
+            // The no-contact test compares with the target as written.
+            w.statement(&format!(
+                "IF[ABS[{var}-[{}]] LT 0.0005] THEN #3000=1 (NO CONTACT TOUCH {})",
+                w.number(letter, target)?,
+                i + 1
+            ))?;
+            let base = 501 + 3 * i;
+            for (k, v) in ["#5061", "#5062", "#5063"].iter().enumerate() {
+                w.statement(&format!("#{}={v}", base + k))?;
             }
-            Dialect::Fanuc => {
-                let _ = writeln!(s, "G31 {letter}{} F{}", n(target), n(motion.feed));
-                let _ = writeln!(
-                    s,
-                    "IF[ABS[{var}-[{}]] LT 0.0005] THEN #3000=1 (NO CONTACT TOUCH {})",
-                    n(target),
-                    i + 1
-                );
-                let base = 501 + 3 * i;
-                let _ = writeln!(
-                    s,
-                    "#{}=#5061\n#{}=#5062\n#{}=#5063",
-                    base,
-                    base + 1,
-                    base + 2
-                );
-                let _ = writeln!(
-                    s,
-                    "DPRNT[#{}[44]*#{}[44]*#{}[44]*0*0*{}*{}*{}]",
-                    base,
-                    base + 1,
-                    base + 2,
-                    t.c,
-                    t.point.name().to_uppercase(),
-                    t.contact.name().to_uppercase()
-                );
-            }
+            w.statement(&format!(
+                "DPRNT[#{}[44]*#{}[44]*#{}[44]*0*0*{}*{}*{}]",
+                base,
+                base + 1,
+                base + 2,
+                t.c,
+                t.point.name().to_uppercase(),
+                t.contact.name().to_uppercase()
+            ))?;
+        } else {
+            w.statement(&format!(
+                "(LOG,#5061,#5062,#5063,#5064,#5065,#5066,{},{})",
+                t.point.name(),
+                t.contact.name()
+            ))?;
         }
         // Back off along the probe axis, then up to the safe height.
-        let _ = writeln!(s, "G0 {letter}{}", n(start));
-        let _ = writeln!(s, "G0 Z{}", n(safe_z));
+        w.rapid(&[(letter, start)])?;
+        w.rapid(&[('Z', safe_z)])?;
     }
-    match dialect {
-        Dialect::LinuxCnc => s.push_str("(LOGCLOSE)\nM2\n"),
-        Dialect::Fanuc => s.push_str("PCLOS\nM30\n"),
+    if fanuc {
+        w.statement("PCLOS")?;
+        w.end(ProgramEnd::M30)?;
+    } else {
+        w.statement("(LOGCLOSE)")?;
+        w.end(ProgramEnd::M2)?;
     }
-    s.push_str("%\n");
-    Ok(s)
+    Ok(w.finish())
 }
 
 #[cfg(test)]
@@ -367,7 +367,11 @@ mod tests {
         let plan = Plan::standard(0.0, &g);
         let m = Motion::default();
         let planned = plan.touches(&g).unwrap();
-        for (dialect, probe) in [(Dialect::LinuxCnc, "G38.2"), (Dialect::Fanuc, "G31")] {
+        let fanuc = Dialect::Fanuc {
+            decimal_point_programming: false,
+        };
+        // Written to 4 decimals (LinuxCNC) or 3 (Fanuc).
+        for (dialect, probe, tol) in [(Dialect::LinuxCnc, "G38.2", 5e-5), (fanuc, "G31", 5e-4)] {
             let text = program(&plan, &g, &m, dialect).unwrap();
             let probes: Vec<&str> = text.lines().filter(|l| l.starts_with(probe)).collect();
             assert_eq!(probes.len(), 6);
@@ -378,7 +382,7 @@ mod tests {
                     ProbeAxis::MinusY => ('Y', p.y),
                 };
                 let target = w.iter().find(|(l, _)| *l == letter).unwrap().1;
-                assert!((target - (nominal - m.overtravel)).abs() < 1e-4, "{line}");
+                assert!((target - (nominal - m.overtravel)).abs() <= tol, "{line}");
                 assert_eq!(w.iter().find(|(l, _)| *l == 'F').unwrap().1, m.feed);
             }
         }

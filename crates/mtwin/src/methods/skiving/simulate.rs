@@ -21,6 +21,7 @@ use super::touch::{Contact, Touch};
 pub struct Noise {
     /// Standard deviation, mm (≥ 0).
     pub sigma: f64,
+    /// Seed of the random numbers (same seed, same noise).
     pub seed: u64,
 }
 
@@ -28,11 +29,20 @@ pub struct Noise {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum SimulateError {
+    /// The probing move runs parallel to the surface.
     #[error("touch {touch}: the probing move runs parallel to the surface; no contact")]
-    Grazing { touch: usize },
+    Grazing {
+        /// Index of the touch.
+        touch: usize,
+    },
+    /// No contact along the probe axis.
     #[error("touch {touch}: no contact found along the probe axis")]
-    NoContact { touch: usize },
-    #[error("the noise sigma {0} mm must be finite and not negative")]
+    NoContact {
+        /// Index of the touch.
+        touch: usize,
+    },
+    /// The noise σ (mm) is not finite or negative.
+    #[error("the noise sigma {} mm must be finite and not negative", crate::limits::fmt_message_number(*.0))]
     Noise(f64),
 }
 
@@ -206,4 +216,53 @@ mod tests {
             .is_err()
         );
     }
+}
+
+/// Options of [`run`].
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct SimulateOptions {
+    /// Standard deviation of the touch noise along the probing direction, mm (default 0).
+    pub sigma: f64,
+    /// Seed of the first pass; pass `r` uses `seed + r` (default 1).
+    pub seed: u64,
+    /// How many times the plan is touched (default 1).
+    pub repeat: u32,
+    /// Name of the file the caller writes the touches to, reported by the document.
+    pub out: String,
+}
+
+impl Default for SimulateOptions {
+    fn default() -> Self {
+        Self {
+            sigma: 0.0,
+            seed: 1,
+            repeat: 1,
+            out: String::new(),
+        }
+    }
+}
+
+/// `mtwin skiving simulate`: the touches of `plan` on the workpiece `g`
+/// set up with the error `truth`, `options.repeat` times with seeded noise
+/// ([`simulate`]), and the document.
+pub fn run(
+    plan: &[PlannedTouch],
+    g: &Geometry,
+    truth: &SetupError,
+    options: &SimulateOptions,
+) -> Result<(Vec<Touch>, super::doc::SkivingSimulateDoc), SimulateError> {
+    let mut touches = Vec::new();
+    for r in 0..options.repeat {
+        let noise = Some(Noise {
+            sigma: options.sigma,
+            seed: options.seed.wrapping_add(u64::from(r)),
+        });
+        touches.extend(simulate(plan, g, truth, noise)?);
+    }
+    let doc = super::doc::SkivingSimulateDoc {
+        out: options.out.clone(),
+        touches: touches.len(),
+    };
+    Ok((touches, doc))
 }

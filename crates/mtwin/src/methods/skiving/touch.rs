@@ -68,8 +68,11 @@ impl Contact {
 /// and the surface.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Touch {
+    /// Axis positions at contact (mm, degrees).
     pub at: AxisPositions,
+    /// The point of the tool that touched.
     pub point: ToolPoint,
+    /// The workpiece surface touched.
     pub contact: Contact,
 }
 
@@ -145,9 +148,9 @@ pub const DEFAULT_PLAUSIBILITY_MM: f64 = 1.0;
 /// touches that cannot be contacts ([`Touch::plausibility`]). Every
 /// problem is reported with file and line.
 pub fn read_touches(t: &Table, g: &Geometry, tolerance: f64) -> Result<Vec<Touch>, Diagnostics> {
-    let nums = t.number_rows(&["x", "y", "z", "a", "b", "c"])?;
+    let nums = t.number_rows(&crate::io::columns::SKIVING_TOUCH_POSITION)?;
     let cols = t
-        .require(&["point", "contact"])
+        .require(&crate::io::columns::SKIVING_TOUCH_LABELS)
         .map_err(Diagnostics::from)?;
     let mut diags = Diagnostics::default();
     let mut out = Vec::with_capacity(t.len());

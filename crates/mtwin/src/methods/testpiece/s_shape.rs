@@ -4,7 +4,7 @@
 //! surface between a lower and an upper S-shaped guide curve, machined by
 //! flank milling. The closing and opening bevel along the S makes every
 //! axis of a five-axis machine reverse and accelerate, which is why the
-//! digital-twin patent [R5] (docs/references.md) predicts its contour errors.
+//! digital-twin patent \[R5\] (docs/references.md) predicts its contour errors.
 //!
 //! **Geometry used here (an approximation).** The standard defines the two
 //! guide curves by tabulated points joined by splines; those coordinates
@@ -31,13 +31,11 @@
 //! compensated path.
 
 use std::f64::consts::PI;
-use std::fmt::Write as _;
 
 use nalgebra::Vector3;
 use thiserror::Error;
 
-use crate::gcode::Axis;
-use crate::io::fmt_f64;
+use crate::gcode::{Axis, Dialect, ProgramEnd, ProgramWriter, WriteError, WriterOptions};
 use crate::kinematics::{IkError, IkOptions, IkTarget, Kinematics};
 use crate::model::{AxisKind, Machine};
 
@@ -149,6 +147,9 @@ pub enum SShapeError {
         /// What the inverse kinematics said.
         source: Box<IkError>,
     },
+    /// A value the G-code writer cannot write.
+    #[error(transparent)]
+    Write(#[from] WriteError),
 }
 
 /// How the program is written.
@@ -240,8 +241,8 @@ pub fn s_shape_poses(
 /// The program text (see [`SShapeProgram`]): a header, `G21 G90` and the
 /// feed mode (`G43.4 H0` for TCP), a rapid `G0` to the first pose, one
 /// `G1` per segment, `G49` after a TCP program, `M30`.
-/// Words are written in machine axis order with 6 decimals (mm, degrees),
-/// `F` with 4.
+/// Words are written in machine axis order with 6 decimals (mm, degrees,
+/// `F` too), trailing zeros trimmed, by [`ProgramWriter`].
 /// The approach to and the retract from the part are left to the user.
 pub fn s_shape_program(
     machine: &Machine,
@@ -270,92 +271,80 @@ pub fn s_shape_program(
     }
     let poses = s_shape_poses(machine, shape, opts.segments)?;
     let n = opts.segments;
-    // 6 decimals (1 nm, 1e-6°), never `-0.000000`.
-    let f6 = |v: f64| {
-        let r = (v * 1e6).round() / 1e6;
-        format!("{:.6}", if r == 0.0 { 0.0 } else { r })
-    };
-    let words = |i: usize, tcp: bool| -> String {
+    // 6 decimals (1 nm, 1e-6°).
+    let mut w = ProgramWriter::with_options(
+        Dialect::LinuxCnc,
+        WriterOptions::of(Dialect::LinuxCnc).with_decimals(6),
+    );
+    let words = |i: usize, tcp: bool| -> Vec<(char, f64)> {
         let q = &poses[i];
-        let mut w = Vec::new();
+        let mut out = Vec::new();
         if tcp {
             let tip = shape.lower(i as f64 / n as f64);
-            for (l, v) in ['X', 'Y', 'Z'].iter().zip(tip.iter()) {
-                w.push(format!("{l}{}", f6(*v)));
-            }
+            out.extend(['X', 'Y', 'Z'].into_iter().zip(tip.iter().copied()));
             for (a, (l, v)) in machine.axes.iter().zip(letters.iter().zip(q)) {
                 if a.kind == AxisKind::Rotary {
-                    w.push(format!("{l}{}", f6(*v)));
+                    out.push((*l, *v));
                 }
             }
         } else {
-            for (l, v) in letters.iter().zip(q) {
-                w.push(format!("{l}{}", f6(*v)));
-            }
+            out.extend(letters.iter().copied().zip(q.iter().copied()));
         }
-        w.join(" ")
+        out
     };
-    let mut p = String::new();
-    let _ = writeln!(p, "%");
-    let _ = writeln!(
-        p,
-        "(mtwin testpiece s-shape: ISO 10791-7 style S-shaped piece, flank milling)"
-    );
-    let _ = writeln!(
-        p,
-        "(L {} W {} H {} mm, top ratios {} {}, lean {} deg, {} segments)",
-        fmt_f64(shape.length),
-        fmt_f64(shape.width),
-        fmt_f64(shape.height),
-        fmt_f64(shape.top_length_ratio),
-        fmt_f64(shape.top_width_ratio),
-        fmt_f64(shape.lean_deg),
+    let header = format!(
+        "L {} W {} H {} mm, top ratios {} {}, lean {} deg, {} segments",
+        w.plain(shape.length)?,
+        w.plain(shape.width)?,
+        w.plain(shape.height)?,
+        w.plain(shape.top_length_ratio)?,
+        w.plain(shape.top_width_ratio)?,
+        w.plain(shape.lean_deg)?,
         n
     );
-    let _ = writeln!(
-        p,
-        "(machine: {}; {})",
-        machine.name.replace(['(', ')'], ""),
+    w.start(None)?;
+    w.comment("mtwin testpiece s-shape: ISO 10791-7 style S-shaped piece, flank milling")?;
+    w.comment(&header)?;
+    w.comment(&format!(
+        "machine: {}; {}",
+        machine.name,
         if opts.tcp {
             "TCP program: X Y Z = tool tip in W, G43.4 on, G49 off"
         } else {
             "joint-space axis words from the nominal inverse kinematics"
         }
-    );
-    let _ = writeln!(
-        p,
-        "G21 G90 {}",
-        if opts.inverse_time { "G93" } else { "G94" }
-    );
+    ))?;
+    w.block()
+        .g(21)
+        .g(90)
+        .g(if opts.inverse_time { 93 } else { 94 })
+        .write()?;
     // TCP on before the rapid: a G-code position written before G43.4 would
     // be taken as a tool tip afterwards.
     if opts.tcp {
-        let _ = writeln!(p, "G43.4 H0");
+        w.block().g_sub(43, 4).int('H', 0).write()?;
     }
-    let _ = writeln!(p, "G0 {}", words(0, opts.tcp));
+    w.rapid(&words(0, opts.tcp))?;
     for i in 1..=n {
         let feed = if opts.inverse_time {
             let len =
                 (shape.lower(i as f64 / n as f64) - shape.lower((i - 1) as f64 / n as f64)).norm();
-            opts.feed / len
+            Some(opts.feed / len)
+        } else if i == 1 {
+            Some(opts.feed)
         } else {
-            opts.feed
+            None
         };
-        if opts.inverse_time || i == 1 {
-            let _ = writeln!(p, "G1 {} F{:.4}", words(i, opts.tcp), feed);
-        } else {
-            let _ = writeln!(p, "G1 {}", words(i, opts.tcp));
-        }
+        w.linear(&words(i, opts.tcp), feed)?;
     }
     if opts.tcp {
-        let _ = writeln!(p, "G49");
+        w.block().g(49).write()?;
     }
     if opts.inverse_time {
-        let _ = writeln!(p, "G94");
+        w.block().g(94).write()?;
     }
-    let _ = writeln!(p, "M30");
-    let _ = writeln!(p, "%");
-    Ok(p)
+    w.end(ProgramEnd::M30)?;
+    Ok(w.finish())
 }
 
 #[cfg(test)]

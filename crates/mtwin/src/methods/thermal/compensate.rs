@@ -13,7 +13,7 @@
 //!    target (work Z + work offset + tool length offset), mm.
 //! 4. Z targets are moved to `Z − c`, `c = e(t_c, Z)` the correction:
 //!    * continuous update: `t_c` is the time the block ends;
-//!    * periodic update (period `P`, the source paper [R4]: 10 min): the correction is
+//!    * periodic update (period `P`, the source paper \[R4\]: 10 min): the correction is
 //!      held over `[kP, (k+1)P)` and `t_c = (k + ½)·P`, the middle of the
 //!      interval (the whole program is known ahead, so the held value is the
 //!      one closest to the drift over the interval).
@@ -81,10 +81,14 @@ pub struct CompensateOptions {
     /// (subroutines, loops) is refused: each line is rewritten once with the
     /// correction of its one run.
     pub program: crate::gcode::ProgramOptions,
+    /// Tool table for T, M6, G43 and G10 L1 (LinuxCNC `.tbl`).
+    pub tools: crate::gcode::ToolTable,
+    /// Skip blocks starting with `/` (LinuxCNC's default).
+    pub skip_deleted_blocks: bool,
 }
 
 impl Default for CompensateOptions {
-    /// LinuxCNC, rapids at 10 m/min, correction updated every 10 min (as in [R4]).
+    /// LinuxCNC, rapids at 10 m/min, correction updated every 10 min (as in \[R4\]).
     fn default() -> Self {
         CompensateOptions {
             dialect: Dialect::LinuxCnc,
@@ -92,6 +96,8 @@ impl Default for CompensateOptions {
             update: CorrectionUpdate::Periodic { period_min: 10.0 },
             allow_unstable: false,
             program: crate::gcode::ProgramOptions::default(),
+            tools: crate::gcode::ToolTable::new(),
+            skip_deleted_blocks: true,
         }
     }
 }
@@ -121,7 +127,8 @@ pub enum CompensateError {
     Options(String),
     /// The model is unstable at some height and `allow_unstable` is off.
     #[error(
-        "the thermal model at z = {z_mm} mm: {reason}; refusing to compensate with it (allow it explicitly to go on)"
+        "the thermal model at z = {} mm: {reason}; refusing to compensate with it (allow it explicitly to go on)",
+        crate::limits::fmt_message_number(*.z_mm)
     )]
     Unstable {
         /// The height of the unstable ARX model, mm.
@@ -142,7 +149,8 @@ pub enum CompensateError {
     },
     /// The estimated duration is beyond what a drift prediction can cover.
     #[error(
-        "the program's estimated duration ({duration_min} min) exceeds {MAX_DURATION_MIN} min: check its feeds and dwells"
+        "the program's estimated duration ({} min) exceeds {MAX_DURATION_MIN} min: check its feeds and dwells",
+        crate::limits::fmt_message_number(*.duration_min)
     )]
     TooLong {
         /// Estimated duration, min.
@@ -310,16 +318,21 @@ pub fn compensate(
             }
         }
     }
-    let mut prog = crate::gcode::Program::parse(program)?;
     let stats_opts = StatsOptions {
         interp: InterpOptions {
             dialect: options.dialect,
             program: options.program.clone(),
+            tools: options.tools.clone(),
+            skip_deleted_blocks: options.skip_deleted_blocks,
             ..InterpOptions::default()
         },
         rapid_feed: options.rapid_feed,
         ..StatsOptions::default()
     };
+    // Read up to the end of the program (M2, M30, closing '%'); what
+    // follows is copied unread, as LinuxCNC never reads it.
+    let (mut prog, read) = crate::gcode::Program::parse_to_end(program, &stats_opts.interp)?;
+    let trailer = &program[read..];
 
     // Pass 1: times, speeds, Z moves.
     let mut interp = Interpreter::new(stats_opts.interp.clone());
@@ -367,7 +380,11 @@ pub fn compensate(
         z_blocks: Vec::with_capacity(moves.len()),
         programme,
         duration_min,
-        blocks: prog.blocks.len() as u64,
+        // Lines after the program end count as blocks of the file, as
+        // before reading stopped there.
+        blocks: (prog.blocks.len()
+            + trailer.iter().filter(|&&b| b == b'\n').count()
+            + usize::from(!trailer.is_empty() && !trailer.ends_with(b"\n"))) as u64,
         spindle_used,
         notes: Vec::new(),
     };
@@ -473,6 +490,7 @@ pub fn compensate(
         ));
     }
     result.output = prog.to_bytes();
+    result.output.extend_from_slice(trailer);
     Ok(result)
 }
 

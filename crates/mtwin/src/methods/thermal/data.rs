@@ -102,7 +102,8 @@ pub fn training_from_table(
     extra_inputs: &[String],
 ) -> Result<TrainingData, Diagnostics> {
     let path = table.path();
-    let mut names: Vec<&str> = vec!["t_min", "z_mm", "drift_mm", "speed_rpm"];
+    use crate::io::columns::{DRIFT_MM, SPEED_RPM, T_MIN, Z_MM};
+    let mut names: Vec<&str> = vec![T_MIN, Z_MM, DRIFT_MM, SPEED_RPM];
     names.extend(extra_inputs.iter().map(String::as_str));
     let values = table.number_rows(&names)?;
     if values.is_empty() {

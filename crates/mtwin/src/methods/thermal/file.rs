@@ -147,7 +147,13 @@ pub fn model_from_toml_str(path: &Path, text: &str) -> Result<ThermalModel, Diag
         .and_then(|i| r.number(i, "`period_min`"));
     if let Some(p) = period.filter(|p| *p <= 0.0) {
         let span = root.get("period_min").and_then(Item::span);
-        r.error(span, format!("`period_min` must be positive, not {p}"));
+        r.error(
+            span,
+            format!(
+                "`period_min` must be positive, not {}",
+                crate::limits::fmt_message_number(p)
+            ),
+        );
     }
 
     let mut inputs = Vec::new();
@@ -177,8 +183,9 @@ pub fn model_from_toml_str(path: &Path, text: &str) -> Result<ThermalModel, Diag
                             r.error(
                                 i.span(),
                                 format!(
-                                    "`power` must be a whole number from 1 to {}, not {p}",
-                                    InputChannel::MAX_POWER
+                                    "`power` must be a whole number from 1 to {}, not {}",
+                                    InputChannel::MAX_POWER,
+                                    crate::limits::fmt_message_number(p)
                                 ),
                             );
                         }
@@ -188,7 +195,10 @@ pub fn model_from_toml_str(path: &Path, text: &str) -> Result<ThermalModel, Diag
                 if let Some(s) = scale.filter(|s| *s <= 0.0) {
                     r.error(
                         t.get("scale").and_then(Item::span),
-                        format!("`scale` must be positive, not {s}"),
+                        format!(
+                            "`scale` must be positive, not {}",
+                            crate::limits::fmt_message_number(s)
+                        ),
                     );
                 } else if let (Some(name), Some(scale), Some(power)) = (name, scale, power) {
                     inputs.push(InputChannel { name, scale, power });
@@ -222,7 +232,10 @@ pub fn model_from_toml_str(path: &Path, text: &str) -> Result<ThermalModel, Diag
         {
             r.error(
                 spans[i].clone(),
-                format!("the height z = {} mm appears twice", heights[i].z_mm),
+                format!(
+                    "the height z = {} mm appears twice",
+                    crate::limits::fmt_message_number(heights[i].z_mm)
+                ),
             );
         }
     }

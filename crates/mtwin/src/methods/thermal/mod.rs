@@ -8,7 +8,7 @@
 //!
 //! * drift `e(t, z)` in mm, time in minutes (`t_min`), speed in rev/min,
 //!   heights `z` in mm;
-//! * the sample period `T` is the probing period (the source paper [R4]: 10 min);
+//! * the sample period `T` is the probing period (the source paper \[R4\]: 10 min);
 //! * an input value given at `t = kT` holds over `[kT, (k+1)T)`, so it acts on
 //!   the drift from `(k+1)T` on: every input of a thermal model has a delay
 //!   `nk ≥ 1`. The model of 04, `e(t) = Σ a_i e(t−i) + Σ_{i=0..m} b_i n(t−i)`,
@@ -63,7 +63,7 @@ pub enum ThermalError {
     #[error("{0}")]
     Input(#[from] Diagnostics),
     /// The model of one height could not be identified.
-    #[error("the drift at z = {z_mm} mm could not be modelled: {source}")]
+    #[error("the drift at z = {} mm could not be modelled: {source}", crate::limits::fmt_message_number(*.z_mm))]
     Fit {
         /// The height, mm.
         z_mm: f64,

@@ -61,7 +61,7 @@ impl Programme {
 /// `k ≥ 0`, consecutive. Samples before the first time are idle (inputs 0).
 pub fn read_programme(path: &Path, model: &ThermalModel) -> Result<Programme, Diagnostics> {
     let table = Table::read(path)?;
-    let mut names = vec!["t_min"];
+    let mut names = vec![crate::io::columns::T_MIN];
     names.extend(model.columns().iter().map(String::as_str));
     let rows = table.number_rows(&names)?;
     if rows.is_empty() {
@@ -81,11 +81,26 @@ pub fn read_programme(path: &Path, model: &ThermalModel) -> Result<Programme, Di
             diags.push(table.row_error(
                 r,
                 format!(
-                    "time {} min is not on the model's sample grid (t = k x {period} min, k >= 0)",
-                    v[0]
+                    "time {} min is not on the model's sample grid (t = k x {} min, k >= 0)",
+                    crate::limits::fmt_message_number(v[0]),
+                    crate::limits::fmt_message_number(period)
                 ),
             ));
             continue;
+        }
+        if prev.is_none() && k > crate::limits::MAX_SAMPLES as f64 {
+            // Samples before the first time are idle and held in memory.
+            diags.push(table.row_error(
+                r,
+                format!(
+                    "the first time, {} min, is sample {} of the model's grid, above the limit of {} samples: \
+                     the programme starts at t = 0; give times from the start of the programme",
+                    crate::limits::fmt_message_number(v[0]),
+                    crate::limits::fmt_message_number(k),
+                    crate::limits::MAX_SAMPLES
+                ),
+            ));
+            break;
         }
         let k = k as usize;
         match prev {
@@ -97,9 +112,10 @@ pub fn read_programme(path: &Path, model: &ThermalModel) -> Result<Programme, Di
                 diags.push(table.row_error(
                     r,
                     format!(
-                        "time {} min does not follow the previous sample ({} min) by one period of {period} min",
-                        v[0],
-                        p as f64 * period
+                        "time {} min does not follow the previous sample ({} min) by one period of {} min",
+                        crate::limits::fmt_message_number(v[0]),
+                        crate::limits::fmt_message_number(p as f64 * period),
+                        crate::limits::fmt_message_number(period)
                     ),
                 ));
             }
@@ -145,7 +161,11 @@ impl Prediction {
 
     /// Write the `DRIFT.csv` text (header `t_min,z_mm,drift_mm`) to `w`.
     pub fn write_csv_to(&self, w: &mut dyn Write) -> std::io::Result<()> {
-        w.write_all(b"t_min,z_mm,drift_mm\n")?;
+        writeln!(
+            w,
+            "{}",
+            crate::io::columns::header(&crate::io::columns::THERMAL_PREDICTION)
+        )?;
         for r in &self.rows {
             write_csv_row(&mut &mut *w, r)?;
         }
@@ -332,7 +352,7 @@ pub(super) fn fit_with(
                 format!(
                     "z = {} mm has {} samples, but models up to order {} have up to {} parameters and \
                      need at least {needed} samples (measure longer, add runs or lower --max-order)",
-                    h.z_mm,
+                    crate::limits::fmt_message_number(h.z_mm),
                     h.samples(),
                     options.max_order,
                     grid.max_params()
@@ -389,7 +409,10 @@ pub(super) fn fit_with(
             select_orders(&runs, &grid, options.criterion, Start::AtRest).map_err(fail)?;
         let fit = &selection.fit;
         if let Some(w) = fit.model.stability().warning() {
-            warnings.push(format!("z = {} mm: {w}", h.z_mm));
+            warnings.push(format!(
+                "z = {} mm: {w}",
+                crate::limits::fmt_message_number(h.z_mm)
+            ));
         }
         let stats = HeightStats {
             samples: fit.stats.samples,
@@ -445,7 +468,12 @@ impl SimulatedData {
 
     /// Write the `TRAIN.csv` text (`t_min,<inputs>,z_mm,drift_mm`) to `w`.
     pub fn write_csv_to(&self, w: &mut dyn Write) -> std::io::Result<()> {
-        writeln!(w, "t_min,{},z_mm,drift_mm", self.input_names.join(","))?;
+        use crate::io::columns::{DRIFT_MM, T_MIN, Z_MM};
+        writeln!(
+            w,
+            "{T_MIN},{},{Z_MM},{DRIFT_MM}",
+            self.input_names.join(",")
+        )?;
         let mut row = Vec::new();
         for (t, inputs, z, e) in &self.rows {
             row.clear();
@@ -512,6 +540,25 @@ mod tests {
         };
         let inputs = vec![InputChannel::linear("speed_rpm", 1000.0)];
         ThermalModel::new(10.0, inputs, vec![h(-50.0, 0.01), h(-150.0, 0.03)]).unwrap()
+    }
+
+    /// A programme starting at an epoch time (an epoch in seconds written as
+    /// minutes, far on the model's grid) would hold every idle sample before
+    /// it: refused at its line, with the limit, before anything is allocated.
+    #[test]
+    fn speed_file_far_from_zero_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("SPEED.csv");
+        std::fs::write(&p, "t_min,speed_rpm\n1732550000,1000\n1732550010,1000\n").unwrap();
+        let Err(e) = read_programme(&p, &model()) else {
+            panic!("a programme starting at sample 173255000 was accepted");
+        };
+        assert!(
+            e.0.iter().any(|d| d.line == 2
+                && d.message.contains("sample 173255000")
+                && d.message.contains("limit")),
+            "{e:?}"
+        );
     }
 
     #[test]

@@ -1,5 +1,5 @@
 //! The thermal measurement programme as G-code (the procedure of the
-//! source paper [R4]): a cold reference pass of the spindle probe over the
+//! source paper \[R4\]): a cold reference pass of the spindle probe over the
 //! ball array, then the spindle speed programme, interrupted every sample
 //! period by a probing pass over the balls.
 //!
@@ -26,12 +26,9 @@
 //! holds over `[j·step, (j+1)·step)` minutes; the last pass is at the last
 //! multiple of `T` within the programme's duration.
 
-use std::fmt::Write as _;
-
 use thiserror::Error;
 
-use crate::io::fmt_f64;
-use crate::methods::skiving::program::Dialect;
+use crate::gcode::{Dialect, ProgramEnd, ProgramWriter, WriteError};
 
 /// The ball array (mm, work coordinates).
 #[derive(Debug, Clone, PartialEq)]
@@ -112,8 +109,10 @@ pub enum ThermalProgramError {
     Setting(String),
     /// A probing pass does not fit in a sample period.
     #[error(
-        "one probing pass takes {pass_s:.1} s, not shorter than the sample period {period_s:.1} s: \
-         fewer balls, a faster probing feed or a longer period"
+        "one probing pass takes {} s, not shorter than the sample period {} s: \
+         fewer balls, a faster probing feed or a longer period",
+        crate::limits::fmt_message_fixed(*.pass_s, 1),
+        crate::limits::fmt_message_fixed(*.period_s, 1)
     )]
     PassTooLong {
         /// Pass duration, s.
@@ -121,6 +120,9 @@ pub enum ThermalProgramError {
         /// Period, s.
         period_s: f64,
     },
+    /// A value the G-code writer cannot write.
+    #[error(transparent)]
+    Write(#[from] WriteError),
 }
 
 /// Duration of one probing pass (s): rapid path at `motion.rapid_feed`, probing
@@ -201,102 +203,72 @@ pub fn thermal_program(
     .map_err(|e| ThermalProgramError::Setting(e.to_string()))?;
     let passes = passes_f as usize;
     let safe = safe_height(balls, motion);
-    let n = |v: f64| {
-        let r = (v * 1e4).round() / 1e4;
-        fmt_f64(if r == 0.0 { 0.0 } else { r })
-    };
-    let fanuc = dialect == Dialect::Fanuc;
-    let mut s = String::new();
-    let comment = |s: &mut String, text: &str| {
-        let text = if fanuc {
-            text.to_uppercase().replace(['(', ')'], "")
-        } else {
-            text.to_owned()
-        };
-        let _ = writeln!(s, "({text})");
+    let fanuc = matches!(dialect, Dialect::Fanuc { .. });
+    let mut w = ProgramWriter::new(dialect);
+    let list = |w: &ProgramWriter, values: &[f64]| -> Result<String, WriteError> {
+        Ok(values
+            .iter()
+            .map(|v| w.plain(*v))
+            .collect::<Result<Vec<_>, _>>()?
+            .join(" "))
     };
     // No Fanuc program number (O…): give it one when loading the program.
-    s.push_str("%\n");
-    comment(
-        &mut s,
-        "mtwin thermal program: thermal drift measurement, see docs/thermal.md",
-    );
-    comment(
-        &mut s,
-        &format!(
-            "{} balls at z = {} mm, diameter {} mm; sample every {} min; {} passes",
-            balls.heights.len(),
-            balls
-                .heights
-                .iter()
-                .map(|z| fmt_f64(*z))
-                .collect::<Vec<_>>()
-                .join(" "),
-            fmt_f64(balls.diameter),
-            fmt_f64(period_min),
-            passes
-        ),
-    );
-    comment(
-        &mut s,
-        &format!(
-            "speeds {} rev/min, {} min each; spindle stopped during the passes",
-            speeds
-                .iter()
-                .map(|v| fmt_f64(*v))
-                .collect::<Vec<_>>()
-                .join(" "),
-            fmt_f64(step_min)
-        ),
-    );
-    s.push_str("G21 G90 G94 G17\nM5\n");
+    w.start(None)?;
+    w.comment("mtwin thermal program: thermal drift measurement, see docs/thermal.md")?;
+    w.comment(&format!(
+        "{} balls at z = {} mm, diameter {} mm; sample every {} min; {} passes",
+        balls.heights.len(),
+        list(&w, &balls.heights)?,
+        w.plain(balls.diameter)?,
+        w.plain(period_min)?,
+        passes
+    ))?;
+    w.comment(&format!(
+        "speeds {} rev/min, {} min each; spindle stopped during the passes",
+        list(&w, speeds)?,
+        w.plain(step_min)?
+    ))?;
+    w.block().g(21).g(90).g(94).g(17).write()?;
+    w.block().m(5).write()?;
     if !fanuc {
-        s.push_str("(LOGOPEN,thermal-probe.csv)\n(LOG,pass,ball,z_ball_mm,z_touch_mm)\n");
+        w.statement("(LOGOPEN,thermal-probe.csv)")?;
+        w.statement("(LOG,pass,ball,z_ball_mm,z_touch_mm)")?;
     }
-    let _ = writeln!(s, "G0 Z{}", n(safe));
-    let _ = writeln!(s, "G0 X{} Y{}", n(balls.x0), n(balls.y));
+    w.rapid(&[('Z', safe)])?;
+    w.rapid(&[('X', balls.x0), ('Y', balls.y)])?;
     // Dwells are written to 1 ms; `clock` is the program time written so
-    // far, so the rounding never accumulates over the passes.
+    // far (as the control reads the dwells), so the rounding never
+    // accumulates over the passes.
     let mut clock = 0.0;
-    let dwell = |s: &mut String, clock: &mut f64, until: f64| {
+    let dwell = |w: &mut ProgramWriter, clock: &mut f64, until: f64| -> Result<(), WriteError> {
         let v = ((until - *clock) * 1e3).round() / 1e3;
-        *clock += v;
         if v > 0.0 {
-            if fanuc {
-                let _ = writeln!(s, "G4 X{}", fmt_f64(v));
-            } else {
-                let _ = writeln!(s, "G4 P{}", fmt_f64(v));
-            }
+            *clock += w.dwell(v)?;
         }
+        Ok(())
     };
     let mut running: Option<f64> = None;
     for k in 0..passes {
-        comment(
-            &mut s,
-            &format!("pass {k} at t = {} min", fmt_f64(k as f64 * period_min)),
-        );
+        w.comment(&format!(
+            "pass {k} at t = {} min",
+            w.plain(k as f64 * period_min)?
+        ))?;
         if running.take().is_some_and(|v| v > 0.0) {
-            s.push_str("M5\n");
+            w.block().m(5).write()?;
         }
-        s.push_str("M19\n");
+        w.block().m(19).write()?;
         for i in 0..balls.heights.len() {
             let [x, _, z] = balls.centre(i);
             let top = balls.top(i);
-            let _ = writeln!(s, "G0 X{}", n(x));
-            let _ = writeln!(s, "G0 Z{}", n(top + motion.approach));
-            let probe = if fanuc { "G31" } else { "G38.2" };
-            let _ = writeln!(
-                s,
-                "{probe} Z{} F{}",
-                n(top - motion.overtravel),
-                fmt_f64(motion.feed)
-            );
+            w.rapid(&[('X', x)])?;
+            w.rapid(&[('Z', top + motion.approach)])?;
+            w.probe(&[('Z', top - motion.overtravel)], motion.feed)?;
             if !fanuc {
-                let _ = writeln!(s, "(LOG,{k},{i},{},#5063)", n(z));
+                w.statement(&format!("(LOG,{k},{i},{},#5063)", w.plain(z)?))?;
             }
-            let _ = writeln!(s, "G0 Z{}", n(safe));
+            w.rapid(&[('Z', safe)])?;
         }
-        let _ = writeln!(s, "G0 X{}", n(balls.x0));
+        w.rapid(&[('X', balls.x0)])?;
         clock += pass_s;
         if k + 1 == passes {
             break;
@@ -309,20 +281,21 @@ pub fn thermal_program(
             let end = (((j + 1) as f64) * step_min * 60.0).min(b);
             if running != Some(speed) {
                 if speed > 0.0 {
-                    let _ = writeln!(s, "S{} M3", fmt_f64(speed));
+                    w.block().spindle_speed(speed).m(3).write()?;
                 } else if running.is_some_and(|v| v > 0.0) {
-                    s.push_str("M5\n");
+                    w.block().m(5).write()?;
                 }
                 running = Some(speed);
             }
-            dwell(&mut s, &mut clock, end);
+            dwell(&mut w, &mut clock, end)?;
             a = end;
         }
     }
     if !fanuc {
-        s.push_str("(LOGCLOSE)\n");
+        w.statement("(LOGCLOSE)")?;
     }
-    s.push_str("M30\n%\n");
+    w.end(ProgramEnd::M30)?;
+    let s = w.finish();
     Ok(ThermalProgram {
         text: s,
         passes,
@@ -335,7 +308,7 @@ pub fn thermal_program(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gcode::{Dialect as GDialect, InterpOptions, StatsOptions, stats};
+    use crate::gcode::{InterpOptions, StatsOptions, stats};
 
     fn balls() -> BallArray {
         BallArray {
@@ -348,17 +321,19 @@ mod tests {
     }
 
     fn time_of(text: &str, dialect: Dialect) -> f64 {
-        let mut o = StatsOptions::default();
-        if dialect == Dialect::Fanuc {
-            o.interp = InterpOptions {
-                dialect: GDialect::Fanuc {
-                    decimal_point_programming: true,
-                },
+        let o = StatsOptions {
+            interp: InterpOptions {
+                dialect,
                 ..InterpOptions::default()
-            };
-        }
+            },
+            ..StatsOptions::default()
+        };
         stats(text.as_bytes(), &o).unwrap().total_time()
     }
+
+    const FANUC: Dialect = Dialect::Fanuc {
+        decimal_point_programming: false,
+    };
 
     #[test]
     fn passes_start_every_period_and_the_programme_lasts_its_duration() {
@@ -366,7 +341,12 @@ mod tests {
         let m = ProbeMotion::default();
         // Steps of 25 min are not a multiple of the 10 min period.
         let speeds = [2000.0, 0.0, 6000.0, 4000.0];
-        for dialect in [Dialect::LinuxCnc, Dialect::Fanuc] {
+        // Every number is written with a decimal point for Fanuc, so the
+        // program reads the same with and without decimal point programming.
+        let calculator = Dialect::Fanuc {
+            decimal_point_programming: true,
+        };
+        for dialect in [Dialect::LinuxCnc, FANUC, calculator] {
             let p = thermal_program(&b, &m, &speeds, 25.0, 10.0, dialect).unwrap();
             // 100 min of programme: passes at 0, 10, …, 100 min.
             assert_eq!(p.passes, 11);
@@ -402,7 +382,7 @@ mod tests {
             assert!((total - (1000.0 * 6.0 + want_pass)).abs() < 1e-3, "{total}");
             assert!((p.time_s - total).abs() < 1e-3);
             // Probing moves: 4 per pass, to the ball tops minus the overtravel.
-            let probe = if dialect == Dialect::Fanuc {
+            let probe = if dialect != Dialect::LinuxCnc {
                 "G31 Z"
             } else {
                 "G38.2 Z"

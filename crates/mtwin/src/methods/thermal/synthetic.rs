@@ -7,7 +7,7 @@ use rand::{SeedableRng, rngs::StdRng};
 use rand_distr::{Distribution, Normal};
 
 /// Continuous-time two-time-constant drift model (04's description of the
-/// machine of the source paper [R4]):
+/// machine of the source paper \[R4\]):
 ///
 /// ```text
 /// τ_f·ẋ_f = h(n) − x_f,   τ_s·ẋ_s = h(n) − x_s,   h(n) = (n/1000)^p   (n in rev/min)
@@ -35,7 +35,7 @@ pub struct TruthMachine {
 }
 
 impl TruthMachine {
-    /// A vertical machining centre like that of the source paper [R4]: 10 min sampling, fast
+    /// A vertical machining centre like that of the source paper \[R4\]: 10 min sampling, fast
     /// 25 min and slow 150 min time constants, about −40 µm of drift at the
     /// top after hours at 8000 rev/min, heights −400…0 mm.
     pub fn demo() -> TruthMachine {
@@ -88,7 +88,8 @@ impl TruthMachine {
         let noise =
             Normal::new(0.0, noise_mm.max(0.0)).expect("a finite non-negative standard deviation");
         let mut rng = StdRng::seed_from_u64(seed);
-        let mut s = String::from("run,t_min,speed_rpm,z_mm,drift_mm\n");
+        use crate::io::columns::{DRIFT_MM, SPEED_RPM, T_MIN, Z_MM};
+        let mut s = format!("run,{T_MIN},{SPEED_RPM},{Z_MM},{DRIFT_MM}\n");
         for (label, speeds) in runs {
             let drifts: Vec<Vec<f64>> = heights.iter().map(|&z| self.drift(speeds, z)).collect();
             for (k, n) in speeds.iter().enumerate() {

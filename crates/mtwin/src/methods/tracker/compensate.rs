@@ -2,7 +2,7 @@
 //! kinematics. The target of a commanded pose is where the nominal machine
 //! would put the tool: the identified machine is driven there.
 //!
-//! Position only (the choice of the source paper [R2]) moves the linear axes; position and tool
+//! Position only (the choice of the source paper \[R2\]) moves the linear axes; position and tool
 //! axis is used where the machine can do it ([`Machine::orients_tool`]:
 //! two rotary axes of five; all axes move).
 
@@ -151,5 +151,116 @@ mod tests {
         let r = c.correct(&q).unwrap();
         assert!(r.error_after < 1e-8 && r.axis_error_after < 1e-10, "{r:?}");
         assert!(r.error_before > 1e-4);
+    }
+}
+
+/// Options of [`run`].
+#[derive(Debug, Clone, Default, PartialEq)]
+#[non_exhaustive]
+pub struct CompensatePointsOptions {
+    /// Name of the file the caller writes the corrected poses to, reported by the document.
+    pub out: String,
+}
+
+/// A pose that cannot be corrected: its index in the input and why.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("cannot compensate pose {index}: {source}")]
+pub struct PointError {
+    /// Index of the pose (0-based).
+    pub index: usize,
+    /// Why the inverse kinematics failed.
+    #[source]
+    pub source: IkError,
+}
+
+/// `mtwin tracker compensate-points`: the corrected command of every pose
+/// (mm, degree; [`PointCompensator::correct`]) and the document.
+pub fn run(
+    identified: &Machine,
+    poses: &[Vec<f64>],
+    options: &CompensatePointsOptions,
+) -> Result<(Vec<Corrected>, super::CompensatePointsDoc), PointError> {
+    let c = PointCompensator::new(identified);
+    let mut out = Vec::with_capacity(poses.len());
+    let (mut before, mut after) = (0.0f64, 0.0f64);
+    for (index, q) in poses.iter().enumerate() {
+        let r = c
+            .correct(q)
+            .map_err(|source| PointError { index, source })?;
+        before = before.max(r.error_before);
+        after = after.max(r.error_after);
+        out.push(r);
+    }
+    let doc = super::CompensatePointsDoc {
+        max_error_after: after,
+        max_error_before: before,
+        mode: c.mode(),
+        out: options.out.clone(),
+        poses: out.len(),
+    };
+    Ok((out, doc))
+}
+
+#[cfg(test)]
+mod run_tests {
+    use super::*;
+    use crate::methods::tracker::simulate::{self, SimulateOptions};
+    use crate::methods::tracker::{IdentifyInputs, IdentifyOptions, identify, validate};
+    use crate::model::ParameterSet;
+    use rand::SeedableRng;
+
+    /// The run functions chain on a known truth: tips simulated without
+    /// noise by `simulate::run`, location errors identified by
+    /// `identify::run`, validated by `validate::run` (the identified model
+    /// predicts the measured tips), and `compensate::run` corrects poses so
+    /// that the identified model puts the tip on the nominal one.
+    #[test]
+    fn simulate_identify_validate_compensate() {
+        let nominal = crate::examples::machine("ac-trunnion").unwrap();
+        let params = ParameterSet::from_spec(&nominal, "location").unwrap();
+        let mut truth = nominal.clone();
+        let theta: Vec<f64> = params
+            .is_rotation()
+            .iter()
+            .map(|&rot| if rot { 3e-5 } else { 0.02 })
+            .collect();
+        params.set(&mut truth, &theta);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+        let poses = simulate::random_poses(&nominal, 80, &mut rng);
+        let options = SimulateOptions {
+            noise: 0.0,
+            out: "fit.csv".into(),
+            ..Default::default()
+        };
+        let (points, doc) = simulate::run(&truth, &poses, &options);
+        assert_eq!((doc.points, doc.out.as_str()), (80, "fit.csv"));
+        let id_options = IdentifyOptions {
+            out: "id.toml".into(),
+            ..Default::default()
+        };
+        let (id, _) = identify::run(
+            &IdentifyInputs {
+                machine: &nominal,
+                params: &params,
+                points: &points,
+            },
+            &id_options,
+            &|_| {},
+        )
+        .unwrap();
+        let (v, vdoc) = validate::run(&id.machine, &points, &Default::default());
+        assert!(v.after.distance.max < 1e-6, "{}", v.after.distance.max);
+        assert!(v.before.distance.max > 0.01);
+        assert_eq!(vdoc, crate::methods::tracker::TrackerValidateDoc::from(&v));
+        let c_options = CompensatePointsOptions {
+            out: "corrected.csv".into(),
+        };
+        let (corrected, cdoc) = run(&id.machine, &poses, &c_options).unwrap();
+        assert_eq!((cdoc.poses, cdoc.out.as_str()), (80, "corrected.csv"));
+        assert!(cdoc.max_error_after < 1e-6, "{}", cdoc.max_error_after);
+        let (k_id, k_nom) = (Kinematics::new(&id.machine), Kinematics::nominal(&nominal));
+        for (c, q) in corrected.iter().zip(&poses) {
+            assert!((k_id.pose(&c.q).tip - k_nom.pose(q).tip).norm() < 1e-6);
+        }
     }
 }

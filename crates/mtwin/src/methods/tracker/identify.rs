@@ -16,10 +16,42 @@ use crate::model::{Machine, ParameterSet};
 pub struct IdentifyOptions {
     /// Fit the tracker-to-W registration (6 parameters) with the errors.
     pub registration: bool,
-    /// Settings of the least-squares engine. The default excludes outlier
-    /// points (a blocked beam) from a second fit; they are reported in
-    /// `report.outliers`.
+    /// Settings of the least-squares engine (including its parallelism,
+    /// `fit.par`). The default excludes outlier points (a blocked beam)
+    /// from a second fit; they are reported in `report.outliers`.
     pub fit: fit::Options,
+    /// Name of the file the caller writes the identified machine to,
+    /// reported by the document of [`run`].
+    pub out: String,
+}
+
+/// The inputs of [`run`].
+#[derive(Debug, Clone, Copy)]
+pub struct IdentifyInputs<'a> {
+    /// Nominal geometry (and errors not being fitted).
+    pub machine: &'a Machine,
+    /// What to fit.
+    pub params: &'a ParameterSet,
+    /// Axis positions (mm, degree) and measured tool tips (mm, W or the tracker frame).
+    pub points: &'a [TrackerPoint],
+}
+
+/// `mtwin tracker identify`: the identification ([`identify`]; `progress`
+/// is told how far the engine got) and its document.
+pub fn run(
+    inputs: &IdentifyInputs<'_>,
+    options: &IdentifyOptions,
+    progress: &dyn Fn(Progress),
+) -> Result<(Identification, super::TrackerIdentifyDoc), TrackerIdentifyError> {
+    let id = identify(
+        inputs.machine,
+        inputs.params,
+        inputs.points,
+        options,
+        progress,
+    )?;
+    let doc = super::TrackerIdentifyDoc::new(&id, inputs.points.len(), &options.out);
+    Ok((id, doc))
 }
 
 impl Default for IdentifyOptions {
@@ -29,6 +61,7 @@ impl Default for IdentifyOptions {
         Self {
             registration: false,
             fit,
+            out: String::new(),
         }
     }
 }
@@ -37,30 +70,60 @@ impl Default for IdentifyOptions {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum TrackerIdentifyError {
+    /// No points were given.
     #[error("there are no measured points")]
     NoPoints,
+    /// A point has the wrong number of axis positions.
     #[error("point {point} has {got} axis positions but the machine has {expected} axes")]
     AxisCount {
+        /// Index of the point.
         point: usize,
+        /// Axis positions it has.
         got: usize,
+        /// Axes of the machine.
         expected: usize,
     },
+    /// A point holds a non-finite number.
     #[error("point {point} holds a value that is not a finite number")]
-    NonFinite { point: usize },
-    #[error("point {point}: axis {axis} at {value} is outside its travel [{lo}, {hi}]")]
-    OutOfTravel {
+    NonFinite {
+        /// Index of the point.
         point: usize,
+    },
+    /// An axis position is outside the axis travel.
+    #[error(
+        "point {point}: axis {axis} at {} is outside its travel [{}, {}]",
+        crate::limits::fmt_message_number(*.value),
+        crate::limits::fmt_message_number(*.lo),
+        crate::limits::fmt_message_number(*.hi)
+    )]
+    OutOfTravel {
+        /// Index of the point.
+        point: usize,
+        /// The axis.
         axis: String,
+        /// The position (mm or degrees).
         value: f64,
+        /// Lower end of the travel.
         lo: f64,
+        /// Upper end of the travel.
         hi: f64,
     },
+    /// Too few points for the identifiable parameters.
     #[error(
         "{points} measured points cannot determine the {rank} identifiable parameters (need more points than that)"
     )]
-    TooFewPoints { points: usize, rank: usize },
+    TooFewPoints {
+        /// Points given.
+        points: usize,
+        /// Identifiable parameters (rank of the Jacobian).
+        rank: usize,
+    },
+    /// The least-squares engine failed.
     #[error(transparent)]
     Fit(#[from] FitError),
+    /// The pose program of a plan could not be written.
+    #[error("cannot write the pose program: {0}")]
+    Program(#[from] crate::gcode::WriteError),
 }
 
 /// The result of [`identify`].

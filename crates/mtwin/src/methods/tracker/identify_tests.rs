@@ -144,7 +144,7 @@ fn held_out_prediction_matches_an_independent_least_squares_fit() {
     );
 }
 
-/// The 162-parameter model of the source paper [R2]: cubic Chebyshev PDGEs, three squareness
+/// The 162-parameter model of the source paper \[R2\]: cubic Chebyshev PDGEs, three squareness
 /// errors, five location errors per rotary axis.
 const SEED_SPEC: &str = "pdge:cheb3,EC0Y,EB0Z,EA0Z,EX0B,EZ0B,EA0B,EB0B,EC0B,EY0A,EZ0A,EA0A,EB0A,EC0A,EX0C,EY0C,EA0C,EB0C,EC0C";
 
@@ -339,6 +339,7 @@ fn factored_normal_equations_agree_with_jacobian_rows_and_the_dense_path() {
                 factored,
                 ..IdentifyOptions::default().fit
             },
+            ..IdentifyOptions::default()
         };
         identify(&m, &params, pts, &opts, &|_| {}).unwrap().report
     };

@@ -1,5 +1,5 @@
 //! Volumetric error identification from tool-tip (laser-tracker)
-//! measurements ([R2] in docs/references.md): the measurement model, identification with
+//! measurements (\[R2\] in docs/references.md): the measurement model, identification with
 //! identifiability analysis, validation at held-out poses, measurement
 //! planning, simulation and compensation.
 
@@ -14,6 +14,8 @@ pub mod validate;
 pub use doc::{
     CompensatePointsDoc, TrackerIdentifyDoc, TrackerPlanDoc, TrackerSimulateDoc, TrackerValidateDoc,
 };
-pub use identify::{Identification, IdentifyOptions, TrackerIdentifyError, identify};
+pub use identify::{
+    Identification, IdentifyInputs, IdentifyOptions, TrackerIdentifyError, identify,
+};
 pub use model::{TrackerModel, TrackerPoint};
 pub use validate::{ErrorStats, Stats, Validation, validate};

@@ -18,6 +18,7 @@ use super::model::{TrackerModel, TrackerPoint};
 use super::simulate::simulate;
 use crate::fit::FitReport;
 use crate::fit::{Model, problem::BlockLayout};
+use crate::gcode::{Axis, Dialect, ProgramEnd, ProgramWriter, WriteError};
 use crate::model::{Machine, ParameterSet};
 
 /// Ridge added to the scaled information matrix (columns have unit norm
@@ -167,15 +168,19 @@ pub struct Plan {
 /// Checks the size of a plan before any work: at most
 /// [`crate::limits::MAX_TRACKER_CANDIDATES`] candidates, and the selection
 /// work (`candidates × select`, each step of the D-optimal selection scores
-/// every candidate) at most [`crate::limits::MAX_TRACKER_WORK`].
+/// every candidate) at most [`crate::limits::MAX_TRACKER_WORK`]. The
+/// error's [`fields`](crate::limits::LimitError::fields) are `candidates` and
+/// `select`, the names of the arguments of [`plan`].
 pub fn check_plan_size(candidates: usize, select: usize) -> Result<(), crate::limits::LimitError> {
-    crate::limits::check(
+    crate::limits::check_fields(
+        &["candidates"],
         "the number of candidates",
         candidates as f64,
         crate::limits::MAX_TRACKER_CANDIDATES,
         "every candidate holds a Jacobian; use fewer candidates",
     )?;
-    crate::limits::check(
+    crate::limits::check_fields(
+        &["candidates", "select"],
         "candidates × selected poses",
         candidates as f64 * select as f64,
         crate::limits::MAX_TRACKER_WORK,
@@ -202,19 +207,33 @@ pub fn plan(
     Ok(Plan { poses, expected })
 }
 
-/// The pose program: rapid-free linear moves to every pose with a dwell for
-/// the tracker reading, axis words by axis name (mm, degree).
-pub fn gcode(machine: &Machine, poses: &[Vec<f64>], feed: f64, dwell_s: f64) -> String {
-    let mut s = String::from("(mtwin tracker plan: measurement poses)\nG90 G21 G94\n");
+/// The pose program (LinuxCNC, written by [`ProgramWriter`]): rapid-free
+/// linear moves to every pose at `feed` with a dwell of `dwell_s` for the
+/// tracker reading, one axis word per machine axis in machine order (mm,
+/// degree). Fails if an axis name is not a G-code axis letter or a value
+/// cannot be written.
+pub fn gcode(
+    machine: &Machine,
+    poses: &[Vec<f64>],
+    feed: f64,
+    dwell_s: f64,
+) -> Result<String, WriteError> {
+    let letters: Vec<char> = Axis::of_machine(machine)?
+        .into_iter()
+        .map(|a| char::from(a.letter()))
+        .collect();
+    let mut w = ProgramWriter::new(Dialect::LinuxCnc);
+    w.start(None)?;
+    w.comment("mtwin tracker plan: measurement poses")?;
+    w.block().g(90).g(21).g(94).write()?;
     for (k, q) in poses.iter().enumerate() {
-        s.push_str(&format!("(POSE {})\nG01", k + 1));
-        for (a, v) in machine.axes.iter().zip(q) {
-            s.push_str(&format!(" {}{:.4}", a.name, v));
-        }
-        s.push_str(&format!(" F{feed}\nG04 P{dwell_s}\n"));
+        w.comment(&format!("POSE {}", k + 1))?;
+        let words: Vec<(char, f64)> = letters.iter().copied().zip(q.iter().copied()).collect();
+        w.linear(&words, Some(feed))?;
+        w.dwell(dwell_s)?;
     }
-    s.push_str("M30\n");
-    s
+    w.end(ProgramEnd::M30)?;
+    Ok(w.finish())
 }
 
 #[cfg(test)]
@@ -282,8 +301,75 @@ mod tests {
     #[test]
     fn gcode_lists_every_pose_with_a_dwell() {
         let m = afp();
-        let g = gcode(&m, &[vec![1.0, 2.0, -3.0, 4.0, 5.0, 6.0]], 3000.0, 2.0);
-        assert!(g.contains("G01 X1.0000 Y2.0000 Z-3.0000 B4.0000 A5.0000 C6.0000 F3000\nG04 P2\n"));
-        assert!(g.ends_with("M30\n"));
+        let g = gcode(&m, &[vec![1.0, 2.0, -3.25, 4.0, 5.0, 6.0]], 3000.0, 2.0).unwrap();
+        assert!(
+            g.contains("(POSE 1)\nG1 X1 Y2 Z-3.25 B4 A5 C6 F3000\nG4 P2\n"),
+            "{g}"
+        );
+        assert!(g.starts_with("%\n") && g.ends_with("M30\n%\n"), "{g}");
     }
+}
+
+/// The inputs of [`run`]: the machine and what the measurement should identify.
+#[derive(Debug, Clone, Copy)]
+pub struct PlanInputs<'a> {
+    /// The nominal machine.
+    pub machine: &'a Machine,
+    /// The parameters to identify (a fit specification's set).
+    pub params: &'a ParameterSet,
+}
+
+/// Options of [`run`].
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct PlanOptions {
+    /// Random candidate poses drawn in the travel (default 1000).
+    pub candidates: usize,
+    /// Poses kept (default 180).
+    pub select: usize,
+    /// Tracker noise per coordinate, mm (default 0.010).
+    pub noise: f64,
+    /// Seed of the random numbers (default 1).
+    pub seed: u64,
+    /// Feed of the pose program, mm/min (default 2000).
+    pub feed: f64,
+    /// Dwell at each pose for the tracker reading, s (default 2).
+    pub dwell_s: f64,
+}
+
+impl Default for PlanOptions {
+    fn default() -> Self {
+        Self {
+            candidates: 1000,
+            select: 180,
+            noise: 0.010,
+            seed: 1,
+            feed: 2000.0,
+            dwell_s: 2.0,
+        }
+    }
+}
+
+/// `mtwin tracker plan`: the plan ([`plan`]), its pose program ([`gcode`])
+/// and the document.
+pub fn run(
+    inputs: &PlanInputs<'_>,
+    options: &PlanOptions,
+) -> Result<(Plan, String, super::TrackerPlanDoc), TrackerIdentifyError> {
+    let p = plan(
+        inputs.machine,
+        inputs.params,
+        options.candidates,
+        options.select,
+        options.noise,
+        options.seed,
+    )?;
+    let program = gcode(inputs.machine, &p.poses, options.feed, options.dwell_s)?;
+    let doc = super::TrackerPlanDoc::new(
+        &p.expected,
+        p.poses.len(),
+        options.candidates,
+        options.noise,
+    );
+    Ok((p, program, doc))
 }

@@ -152,3 +152,42 @@ mod tests {
         assert!((sd - 0.01).abs() < 0.0006, "{sd}");
     }
 }
+
+/// Options of [`run`].
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct SimulateOptions {
+    /// Standard deviation of the tracker noise per coordinate, mm (default 0.010).
+    pub noise: f64,
+    /// Seed of the random numbers (same seed, same points; default 1).
+    pub seed: u64,
+    /// Name of the file the caller writes the points to, reported by the document.
+    pub out: String,
+}
+
+impl Default for SimulateOptions {
+    fn default() -> Self {
+        Self {
+            noise: 0.010,
+            seed: 1,
+            out: String::new(),
+        }
+    }
+}
+
+/// `mtwin tracker simulate`: the measured tool tips (W, mm) of `machine` at
+/// `poses` (mm, degree) with seeded noise ([`simulate_seeded`]) and the document.
+pub fn run(
+    machine: &Machine,
+    poses: &[Vec<f64>],
+    options: &SimulateOptions,
+) -> (Vec<TrackerPoint>, super::TrackerSimulateDoc) {
+    let points = simulate_seeded(machine, poses, options.noise, options.seed);
+    let doc = super::TrackerSimulateDoc {
+        noise: options.noise,
+        out: options.out.clone(),
+        points: points.len(),
+        seed: options.seed,
+    };
+    (points, doc)
+}

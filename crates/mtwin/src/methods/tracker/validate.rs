@@ -1,5 +1,5 @@
 //! Before/after statistics of the tool-tip error at check poses, per
-//! direction and for the distance (tables 6–9 of the source paper [R2]): the error of the
+//! direction and for the distance (tables 6–9 of the source paper \[R2\]): the error of the
 //! nominal model (measured − nominal) against the error left by the
 //! identified model (measured − identified prediction).
 
@@ -13,8 +13,10 @@ use crate::model::Machine;
 /// Max, mean and standard deviation of `|e|` over the points (mm).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Stats {
+    /// Largest `|e|`.
     #[serde(deserialize_with = "crate::io::nan_if_null")]
     pub max: f64,
+    /// Mean of `|e|`.
     #[serde(deserialize_with = "crate::io::nan_if_null")]
     pub mean: f64,
     /// Population standard deviation of `|e|`.
@@ -58,9 +60,13 @@ impl Stats {
 /// Statistics per direction x, y, z (W) and of the distance `|Δp|`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ErrorStats {
+    /// Of the x component (W).
     pub x: Stats,
+    /// Of the y component (W).
     pub y: Stats,
+    /// Of the z component (W).
     pub z: Stats,
+    /// Of the distance `|Δp|`.
     pub distance: Stats,
 }
 
@@ -94,6 +100,7 @@ impl ErrorStats {
 /// A validation at check poses.
 #[derive(Debug, Clone, Serialize)]
 pub struct Validation {
+    /// Number of check points.
     pub points: usize,
     /// Measured − nominal model.
     pub before: ErrorStats,
@@ -152,4 +159,21 @@ mod tests {
         // rms of |e| = 5, 10: √((25 + 100)/2).
         assert!((st.rms() - 62.5f64.sqrt()).abs() < 1e-12);
     }
+}
+
+/// Options of [`run`]: none yet.
+#[derive(Debug, Clone, Default, PartialEq)]
+#[non_exhaustive]
+pub struct ValidateOptions {}
+
+/// `mtwin tracker validate`: the validation ([`validate`]) of the identified
+/// machine at the check points and its document.
+pub fn run(
+    identified: &Machine,
+    points: &[TrackerPoint],
+    _options: &ValidateOptions,
+) -> (Validation, super::TrackerValidateDoc) {
+    let v = validate(identified, points);
+    let doc = super::TrackerValidateDoc::from(&v);
+    (v, doc)
 }

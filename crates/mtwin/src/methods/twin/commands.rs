@@ -1,5 +1,5 @@
 //! The twin's input (docs/twin.md): axis commands at the servo sample period, read from
-//! CMD.csv or interpolated from a G-code program, streamed into a [`Predictor`].
+//! CMD.csv or interpolated from a G-code program, streamed into a [`Predictor`](super::Predictor).
 
 use std::io::{self, BufRead};
 use std::path::Path;
@@ -32,7 +32,7 @@ where
     F: FnMut(&TwinSample) -> io::Result<()>,
 {
     let mut rows = CsvRows::new(path, reader)?;
-    let mut names = vec!["t_s"];
+    let mut names = vec![crate::io::columns::T_S];
     names.extend(twin.axis_names().iter().map(String::as_str));
     let cols = rows.require(&names)?;
     let mut first = Vec::new();

@@ -1,4 +1,4 @@
-//! The five-axis digital twin of trajectory error (after [R5] in docs/references.md).
+//! The five-axis digital twin of trajectory error (after \[R5\] in docs/references.md).
 //!
 //! Axis commands at the servo period ([`commands`]) → command tool tip and axis in W
 //! by nominal forward kinematics → per-axis servo models (encoder positions) →
@@ -12,6 +12,7 @@
 //! samples are spooled to a temporary file (56 bytes per sample on disk) and
 //! rows are streamed to the caller.
 
+pub mod breakdown;
 pub mod commands;
 pub mod doc;
 pub mod nearest;
@@ -21,6 +22,7 @@ pub mod plot;
 #[cfg(test)]
 mod tests;
 
+pub use breakdown::{Commands, breakdown, predict};
 pub use commands::{predict_csv, predict_gcode};
 pub use doc::{BySourceDoc, StretchDoc, TwinBreakdownDoc, TwinErrorsDoc, TwinPredictDoc, dominant};
 pub use nearest::{CommandPath, Nearest, angle_between};
@@ -41,11 +43,13 @@ pub enum TwinError {
     #[error(transparent)]
     Program(InterpolateError),
     /// The command period is not a positive number.
-    #[error("the command period must be a positive number of seconds, not {0}")]
+    #[error("the command period must be a positive number of seconds, not {}", crate::limits::fmt_message_number(*.0))]
     Period(f64),
     /// A servo model runs at another period than the commands.
     #[error(
-        "axis {axis}: its servo model runs at ts = {servo} s but the commands come every {commands} s; identify the servo at the command period"
+        "axis {axis}: its servo model runs at ts = {} s but the commands come every {} s; identify the servo at the command period",
+        crate::limits::fmt_message_number(*.servo),
+        crate::limits::fmt_message_number(*.commands)
     )]
     ServoPeriod {
         /// Axis name.
@@ -77,6 +81,10 @@ pub enum TwinError {
     /// The temporary spool of actual samples failed.
     #[error("temporary spool file: {0}")]
     Spool(std::io::Error),
+    /// The input could not be opened or read again (a breakdown reads it
+    /// once per run).
+    #[error("cannot read the input: {0}")]
+    Read(std::io::Error),
     /// The caller's sink failed (writing the output).
     #[error("{0}")]
     Sink(std::io::Error),

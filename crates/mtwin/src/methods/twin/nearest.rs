@@ -8,7 +8,7 @@
 //! 1. the time-matched segments `j−1` and `j` give an upper bound `d0` on the
 //!    nearest distance;
 //! 2. a bounding-volume hierarchy over runs of [`LEAF`] consecutive segments
-//!    ([`TimeTree`]) yields every run whose box lies within `d0 + slack` of
+//!    (`TimeTree`) yields every run whose box lies within `d0 + slack` of
 //!    `P`; a segment within `d0` of `P` lies in such a box, so no candidate is
 //!    missed (a proven bound, not a search window);
 //! 3. the exact point-to-segment distance of every segment of those runs.
@@ -35,7 +35,6 @@
 //! is taken: `u = clamp(j − k, 0, 1)`.
 
 use nalgebra::Vector3;
-use rayon::prelude::*;
 
 /// Distances within this many mm of the smallest one are ties (docs/twin.md).
 pub const TIE_MM: f64 = 1e-12;
@@ -127,11 +126,13 @@ impl TimeTree {
     fn new(leaves: Vec<Aabb>) -> TimeTree {
         let mut levels = vec![leaves];
         while let Some(top) = levels.last().filter(|t| t.len() > BRANCH) {
-            let up: Vec<Aabb> = top
-                .par_chunks(BRANCH)
-                .with_min_len(64)
-                .map(|c| c.iter().fold(Aabb::EMPTY, |a, b| a.union(b)))
-                .collect();
+            let up: Vec<Aabb> = crate::par::map_chunks_init(
+                top,
+                BRANCH,
+                64,
+                || (),
+                |_, _, c| c.iter().fold(Aabb::EMPTY, |a, b| a.union(b)),
+            );
             levels.push(up);
         }
         TimeTree { levels }
@@ -227,33 +228,26 @@ impl CommandPath {
     pub fn new(tips: Vec<Vector3<f64>>, axes: Vec<Vector3<f64>>) -> Self {
         assert_eq!(tips.len(), axes.len(), "one tool axis per tool tip");
         let n_seg = tips.len().saturating_sub(1);
-        let leaves: Vec<Aabb> = (0..n_seg.div_ceil(LEAF))
-            .into_par_iter()
-            .with_min_len(1024)
-            .map(|i| Aabb::around(&tips[i * LEAF..=((i + 1) * LEAF).min(n_seg)]))
-            .collect();
+        let leaf_index: Vec<usize> = (0..n_seg.div_ceil(LEAF)).collect();
+        let leaves: Vec<Aabb> = crate::par::map(&leaf_index, 1024, |_, &i| {
+            Aabb::around(&tips[i * LEAF..=((i + 1) * LEAF).min(n_seg)])
+        });
         let tree = TimeTree::new(leaves);
         let cap2 = CLEARANCE_CAP_MM * CLEARANCE_CAP_MM;
-        let clearance = tree
-            .leaves()
-            .par_iter()
-            .enumerate()
-            .with_min_len(256)
-            .map(|(i, b)| {
-                let mut best2 = cap2;
-                tree.walk(|level, o, node| {
-                    let d2 = node.box_distance2(b);
-                    if d2 >= best2 {
-                        return false;
-                    }
-                    if level == 0 && o.abs_diff(i) > WINDOW {
-                        best2 = d2;
-                    }
-                    true
-                });
-                best2.sqrt()
-            })
-            .collect();
+        let clearance = crate::par::map(tree.leaves(), 256, |i, b| {
+            let mut best2 = cap2;
+            tree.walk(|level, o, node| {
+                let d2 = node.box_distance2(b);
+                if d2 >= best2 {
+                    return false;
+                }
+                if level == 0 && o.abs_diff(i) > WINDOW {
+                    best2 = d2;
+                }
+                true
+            });
+            best2.sqrt()
+        });
         CommandPath {
             tips,
             axes,

@@ -1,4 +1,4 @@
-//! The digital-twin pipeline (after [R5], docs/twin.md), streaming.
+//! The digital-twin pipeline (after \[R5\], docs/twin.md), streaming.
 //!
 //! **Stage 1** ([`Predictor::push`], one command sample at a time, in chunks):
 //! nominal forward kinematics of the command (command tip and axis in W), the
@@ -16,7 +16,6 @@ use std::fs::File;
 use std::io::{self, BufReader, BufWriter, Read, Seek, Write};
 
 use nalgebra::Vector3;
-use rayon::prelude::*;
 
 use super::TwinError;
 use super::nearest::{CommandPath, angle_between};
@@ -25,7 +24,7 @@ use crate::model::Machine;
 use crate::sysid::{Servo, ServoStepper};
 
 /// Command samples processed together in stage 1 (parallel kinematics per chunk).
-const CHUNK: usize = 4096;
+pub(super) const CHUNK: usize = 4096;
 
 /// Actual samples queried together in stage 2.
 const QUERY_CHUNK: usize = 16384;
@@ -70,6 +69,7 @@ pub struct Twin {
     servos: Vec<Option<Servo>>,
     names: Vec<String>,
     sources: Sources,
+    par: crate::par::Par,
 }
 
 /// One predicted sample (a row of PRED.csv plus where it lies).
@@ -199,7 +199,18 @@ impl Twin {
             servos,
             names: machine.axes.iter().map(|a| a.name.clone()).collect(),
             sources,
+            par: crate::par::Par::rayon(0),
         })
+    }
+
+    /// The same twin with the parallelism `par` for its kinematics and its
+    /// nearest-point search: [`Par::Seq`](crate::par::Par::Seq) on the
+    /// calling thread only, `Par::rayon(_)` (the default, `Par::rayon(0)`)
+    /// on the rayon pool the run is in (choose its size with
+    /// [`crate::par::install`]). Both give bit-identical samples.
+    pub fn with_par(mut self, par: crate::par::Par) -> Twin {
+        self.par = par;
+        self
     }
 
     /// Axis names in command order.
@@ -348,8 +359,12 @@ impl Predictor<'_> {
 
     /// Kinematics of the buffered chunk, in parallel.
     fn flush(&mut self) -> io::Result<()> {
+        crate::par::here(self.twin.par, || self.flush_here())
+    }
+
+    fn flush_here(&mut self) -> io::Result<()> {
         let tw = self.twin;
-        let (commanded, actual) = rayon::join(
+        let (commanded, actual) = crate::par::join(
             || tw.nominal.poses(&self.chunk_q),
             || tw.actual.poses(&self.chunk_qa),
         );
@@ -368,6 +383,18 @@ impl Predictor<'_> {
     /// Stage 2: the errors of every sample, handed to `sink` in order; `progress` is
     /// told how far it got after every chunk.
     pub fn finish<F>(
+        self,
+        sink: F,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<TwinSummary, TwinError>
+    where
+        F: FnMut(&TwinSample) -> io::Result<()>,
+    {
+        let par = self.twin.par;
+        crate::par::here(par, || self.finish_here(sink, progress))
+    }
+
+    fn finish_here<F>(
         mut self,
         mut sink: F,
         progress: &mut dyn FnMut(Progress),
@@ -390,11 +417,8 @@ impl Predictor<'_> {
         let mut records = Vec::new();
         let mut first = 0usize;
         while source.read(&mut records).map_err(TwinError::Spool)? {
-            let rows: Vec<TwinSample> = records
-                .par_chunks(RECORD)
-                .enumerate()
-                .with_min_len(512)
-                .map_init(Vec::new, |scratch, (i, r)| {
+            let rows: Vec<TwinSample> =
+                crate::par::map_chunks_init(&records, RECORD, 512, Vec::new, |scratch, i, r| {
                     let j = first + i;
                     let tip = Vector3::new(r[1], r[2], r[3]);
                     let axis = Vector3::new(r[4], r[5], r[6]);
@@ -412,8 +436,7 @@ impl Predictor<'_> {
                         axis_error: angle_between(&axis, &near.axis),
                         path_length: 0.0,
                     }
-                })
-                .collect();
+                });
             for mut row in rows {
                 acc.add(&mut row);
                 sink(&row).map_err(TwinError::Sink)?;

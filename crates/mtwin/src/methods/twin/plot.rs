@@ -1,4 +1,4 @@
-//! Plots of a twin run (figures 7–9 of the patent [R5]): the command and actual tool path with
+//! Plots of a twin run (figures 7–9 of the patent \[R5\]): the command and actual tool path with
 //! the tool-tip error coloured along it, and the tool-tip and tool-axis errors along
 //! the path length. A [`PlotCollector`] keeps a bounded number of points from a
 //! stream of any length.

@@ -562,3 +562,38 @@ fn the_predict_document_of_a_lagged_corner_round_trips_with_its_breakdown() {
     assert!(v.get("breakdown").is_none() && v.get("plots").is_none());
     assert_eq!(v["sources"], "servo");
 }
+
+/// `Par::Seq` (the calling thread only) and the parallel path (two threads)
+/// predict bit-identical samples and summaries, over more than one chunk of
+/// kinematics and with servos and geometric errors.
+#[test]
+fn sequential_and_parallel_runs_are_bit_identical() {
+    let mut m = example("ac-trunnion-with-errors.toml");
+    for (a, s) in m.axes.iter_mut().zip(five_servos()) {
+        a.servo = Some(s);
+    }
+    let n = 3 * pipeline::CHUNK + 17;
+    let qs: Vec<f64> = (0..n)
+        .flat_map(|k| {
+            let t = k as f64 * 0.001;
+            [
+                60.0 * (0.7 * t).sin(),
+                50.0 * (0.9 * t + 1.0).sin(),
+                30.0 * (1.1 * t).cos(),
+                25.0 * (0.5 * t).sin(),
+                120.0 * (0.3 * t).sin(),
+            ]
+        })
+        .collect();
+    let twin = Twin::new(&m, Sources::All).unwrap();
+    let seq = twin
+        .clone()
+        .with_par(crate::par::Par::Seq)
+        .predict_slice(0.0, 0.001, &qs)
+        .unwrap();
+    let par = crate::par::install(crate::par::Par::rayon(2), || {
+        twin.predict_slice(0.0, 0.001, &qs).unwrap()
+    });
+    assert_eq!(seq.0.len(), n);
+    assert_eq!(format!("{seq:?}"), format!("{par:?}"));
+}

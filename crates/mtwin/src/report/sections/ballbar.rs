@@ -1,4 +1,4 @@
-//! Ballbar section ([R1]) from the JSON of `mtwin ballbar identify --format json`:
+//! Ballbar section (\[R1\]) from the JSON of `mtwin ballbar identify --format json`:
 //! the eight PIGEs with standard uncertainties, residual RMS per mode, the
 //! corrected axis-line positions and the polar plots.
 

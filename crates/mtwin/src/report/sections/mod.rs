@@ -36,7 +36,12 @@ impl std::fmt::Display for ReportDoc {
 pub enum ReportError {
     /// Anything else wrong with an input.
     #[error("{what}: {message}")]
-    Input { what: String, message: String },
+    Input {
+        /// The input (file or document).
+        what: String,
+        /// What is wrong with it.
+        message: String,
+    },
 }
 
 /// `v` with `decimals` decimals, a true minus sign, `—` for none.

@@ -1,4 +1,4 @@
-//! Servo section ([R5]) from the JSON of `mtwin servo fit --format json`
+//! Servo section (\[R5\]) from the JSON of `mtwin servo fit --format json`
 //! (one document per axis): transfer function, orders, bandwidth, velocity lag.
 
 use super::fmt;

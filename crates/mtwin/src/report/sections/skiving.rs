@@ -1,4 +1,4 @@
-//! Skiving section ([R3]) from the JSON of `mtwin skiving setup-error
+//! Skiving section (\[R3\]) from the JSON of `mtwin skiving setup-error
 //! --format json`: the four set-up errors with uncertainties, the first-order
 //! closed form beside them, and the residual of every touch.
 

@@ -1,4 +1,4 @@
-//! Thermal section ([R4]): the fitted drift model (`THERMAL.toml`) as a
+//! Thermal section (\[R4\]): the fitted drift model (`THERMAL.toml`) as a
 //! table per height, and drift curves over time — e.g. the rows of
 //! `mtwin thermal predict` (`t_min,z_mm,drift_mm`), or drift with and without
 //! compensation.
@@ -11,7 +11,9 @@ use crate::report::svg::{Series, xy};
 /// One drift curve: `(t_min, drift_mm)` points.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DriftCurve {
+    /// Legend name.
     pub name: String,
+    /// `(t_min, drift_mm)` points: time in minutes, drift in mm.
     pub points: Vec<(f64, f64)>,
 }
 

@@ -1,4 +1,4 @@
-//! Tracker sections ([R2]): identification from the JSON of
+//! Tracker sections (\[R2\]): identification from the JSON of
 //! `mtwin tracker identify --format json` (identifiability verdict and estimates with
 //! uncertainties) and validation from the JSON of `mtwin tracker validate --format
 //! json` (before/after statistics per direction and as a chart).

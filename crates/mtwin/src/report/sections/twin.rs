@@ -1,4 +1,4 @@
-//! Digital-twin sections ([R5], docs/references.md): tool-tip and tool-axis trajectory errors
+//! Digital-twin sections (\[R5\], docs/references.md): tool-tip and tool-axis trajectory errors
 //! along the path, from the rows of `PRED.csv` (`t_s, x_cmd,y_cmd,z_cmd,
 //! i_cmd,j_cmd,k_cmd, x,y,z, i,j,k, tip_error, axis_error`: command and
 //! actual tool tip (mm) and tool axis in W, ε_p in mm, ε_o in rad).
@@ -10,7 +10,7 @@ use crate::report::svg::{Series, xy};
 
 /// The columns of `PRED.csv`, in order (docs/twin.md).
 pub const COLUMNS: [&str; 15] = [
-    "t_s",
+    crate::io::columns::T_S,
     "x_cmd",
     "y_cmd",
     "z_cmd",
@@ -94,7 +94,7 @@ fn along(rows: &[TwinRow], f: impl Fn(&TwinRow) -> f64) -> Vec<(f64, f64)> {
 }
 
 /// A twin section from the rows of one prediction: summary table with the
-/// source patent's [R5] figures, tip error and tool-axis error along the path, and the path
+/// source patent's \[R5\] figures, tip error and tool-axis error along the path, and the path
 /// itself (command and actual tool tip in the XY plane of W).
 pub fn section_from_rows(id: &str, title: &str, rows: &[TwinRow]) -> Section {
     let (tip_max, tip_rms, axis_max) = summary(rows);

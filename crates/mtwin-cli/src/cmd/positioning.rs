@@ -1,0 +1,147 @@
+//! `mtwin positioning …`: linear positioning accuracy of an axis after
+//! ISO 230-2 (docs/positioning.md). Units: mm for positions, µm for figures.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use mtwin::methods::positioning::{self, InputFormat, LogOptions, Options};
+
+use super::common::diag;
+use crate::output::{Format, note, print_doc};
+
+#[derive(Debug, clap::Subcommand)]
+pub enum Command {
+    /// ISO 230-2 evaluation of a positioning run: A, B, E, M, R per direction and per target.
+    #[command(
+        after_help = "Examples:\n  mtwin positioning evaluate --data run.csv\n  mtwin positioning evaluate --data target_x_ISO230.dat --format json --plot x.svg\n  mtwin positioning evaluate --data x.log --ref-channel IOC_TEST:ILD_DownSample --cmd-channel TARGET_DU:X-PosCmd --ref-gain -1.0035779146 --ref-offset 50.3193131396"
+    )]
+    Evaluate(EvaluateArgs),
+}
+
+/// Input formats of `--data`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum DataFormat {
+    /// From the file name: .csv, .dat, .rtx, anything else a raw log.
+    #[default]
+    Auto,
+    /// CSV table: target_mm,direction[,cycle],measured_mm|deviation_mm|deviation_um.
+    Csv,
+    /// ecmc key=value data file (TGT_DATA[i], REF_DATA_FWD[i,j], REF_DATA_BWD[i,j]).
+    Dat,
+    /// Renishaw dynamic capture (needs --targets).
+    Rtx,
+    /// Raw log, `NAME date time value` lines (needs --ref-channel and --cmd-channel).
+    Log,
+}
+
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct EvaluateArgs {
+    /// The run: CSV table, ecmc .dat, Renishaw .rtx or raw log.
+    #[arg(long)]
+    data: PathBuf,
+    /// Format of --data.
+    #[arg(long, value_enum, default_value_t)]
+    input_format: DataFormat,
+    /// Write the plot (deviation against position per direction, ±2s band) as SVG.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    /// Raw log: channel of the measured reference position.
+    #[arg(long)]
+    ref_channel: Option<String>,
+    /// Raw log: channel of the commanded position.
+    #[arg(long)]
+    cmd_channel: Option<String>,
+    /// Raw log or capture: reference in mm = gain × value + offset.
+    #[arg(long, default_value_t = 1.0)]
+    ref_gain: f64,
+    /// Raw log or capture: see --ref-gain, mm.
+    #[arg(long, default_value_t = 0.0)]
+    ref_offset: f64,
+    /// Target positions, mm, comma separated (default for logs: every commanded value approached from both sides).
+    #[arg(long, value_delimiter = ',')]
+    targets: Option<Vec<f64>>,
+    /// Largest spread of the samples of a dwell, mm.
+    #[arg(long, default_value_t = 0.005)]
+    dwell_band: f64,
+    /// Fewest samples that make a dwell (raw logs).
+    #[arg(long, default_value_t = 3)]
+    min_dwell_samples: usize,
+    /// Shortest dwell in a capture, s.
+    #[arg(long, default_value_t = 0.5)]
+    min_dwell_s: f64,
+    /// Largest |measured − target| of a dwell that reaches its target, mm.
+    #[arg(long, default_value_t = 0.1)]
+    reach_tol: f64,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+pub fn run(c: Command) -> anyhow::Result<()> {
+    match c {
+        Command::Evaluate(a) => evaluate(a),
+    }
+}
+
+fn positive(name: &str, v: f64) -> anyhow::Result<()> {
+    if !(v.is_finite() && v > 0.0) {
+        anyhow::bail!(
+            "{name} must be positive, not {}",
+            mtwin::limits::fmt_message_number(v)
+        );
+    }
+    Ok(())
+}
+
+fn evaluate(a: EvaluateArgs) -> anyhow::Result<()> {
+    positive("--dwell-band", a.dwell_band)?;
+    positive("--min-dwell-s", a.min_dwell_s)?;
+    positive("--reach-tol", a.reach_tol)?;
+    if !(a.ref_gain.is_finite() && a.ref_gain != 0.0 && a.ref_offset.is_finite()) {
+        anyhow::bail!("--ref-gain must be a non-zero number and --ref-offset a number");
+    }
+    if let Some(t) = &a.targets
+        && t.iter().any(|v| !v.is_finite())
+    {
+        anyhow::bail!("--targets must be numbers");
+    }
+    let mut plan = mtwin::io::Outputs::plan().input(&a.data);
+    if let Some(p) = &a.plot {
+        plan = plan.output(p);
+    }
+    let mut out = plan.begin()?;
+    let opts = Options {
+        format: match a.input_format {
+            DataFormat::Auto => InputFormat::Auto,
+            DataFormat::Csv => InputFormat::Csv,
+            DataFormat::Dat => InputFormat::Dat,
+            DataFormat::Rtx => InputFormat::Rtx,
+            DataFormat::Log => InputFormat::Log,
+        },
+        log: LogOptions {
+            reference: a.ref_channel.clone(),
+            command: a.cmd_channel.clone(),
+            gain: a.ref_gain,
+            offset: a.ref_offset,
+            targets_mm: a.targets.clone(),
+            dwell_band_mm: a.dwell_band,
+            min_dwell_samples: a.min_dwell_samples,
+            min_dwell_s: a.min_dwell_s,
+            reach_tol_mm: a.reach_tol,
+        },
+    };
+    let doc = positioning::run(&a.data, &opts).map_err(diag)?;
+    if let Some(p) = &a.plot {
+        out.write(p, positioning::plot_svg(&doc).as_bytes())
+            .with_context(|| format!("cannot write {}", p.display()))?;
+    }
+    out.commit()?;
+    print_doc(&doc, a.format)?;
+    if a.format == Format::Human
+        && let Some(p) = &a.plot
+    {
+        note(format!("plot written to {}", p.display()));
+    }
+    Ok(())
+}
