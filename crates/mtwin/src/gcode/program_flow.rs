@@ -270,6 +270,10 @@ where
             held: false,
         })?;
     }
+    if interp.ended() {
+        std::io::Read::read_to_end(&mut reader.into_inner(), &mut summary.rest)
+            .map_err(GcodeError::from)?;
+    }
     Ok(summary)
 }
 
