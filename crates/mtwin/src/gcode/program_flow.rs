@@ -1560,6 +1560,38 @@ mod tests {
     }
 
     #[test]
+    fn reading_stops_at_the_program_end() {
+        let run = |src: &str| {
+            let mut interp = Interpreter::new(InterpOptions::default());
+            let mut lines = Vec::new();
+            let s = run_program(
+                src.as_bytes(),
+                &mut interp,
+                &ProgramOptions::default(),
+                Dialect::LinuxCnc,
+                |st: &Step<'_>| -> Result<(), GcodeError> {
+                    lines.push(st.block.line());
+                    Ok(())
+                },
+            );
+            (s, lines)
+        };
+        // Streamed: nothing after M30 is read; it comes back unread.
+        let (s, lines) = run("G0 X1\nM30\nX[1 +\n\u{1}junk\n");
+        let s = s.unwrap();
+        assert_eq!(lines, [1, 2]);
+        assert_eq!(s.rest, b"X[1 +\n\x01junk\n");
+        // Held: a line after the end that does not parse is never run.
+        let (s, lines) = run("o1 repeat [2]\nG0 X1\no1 endrepeat\nM2\nX[1 +\n");
+        assert_eq!(s.unwrap().held.len(), 5);
+        assert_eq!(lines, [1, 2, 3, 2, 3, 4]);
+        // ... but one that runs is the error, naming its line.
+        let (s, _) = run("o1 repeat [2]\nG0 X1\no1 endrepeat\nX[1 +\nM2\n");
+        let e = s.unwrap_err();
+        assert_eq!(e.location().map(|l| l.line), Some(4), "{e}");
+    }
+
+    #[test]
     fn plain_programs_stream_and_flow_programs_are_held_from_the_first_o_word() {
         let src = "G0 X1\nG0 X2\no1 repeat [2]\nG0 X3\no1 endrepeat\n";
         let mut interp = Interpreter::new(InterpOptions::default());

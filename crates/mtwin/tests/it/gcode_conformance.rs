@@ -16,46 +16,59 @@ use std::path::{Path, PathBuf};
 
 use mtwin::gcode::{self, EventKind, GcodeError, InterpOptions, UnknownMCode};
 
+/// Cases that now run (parameters, O-word flow) but do not give LinuxCNC's
+/// result yet, with the reason; each must still fail, so the list cannot go
+/// stale.
+const KNOWN_FAILURES: &[(&str, &str)] = &[
+    ("exists", "EXISTS of a numbered parameter is refused"),
+    ("flowsnake", "the recursion differs from call 3"),
+    ("g72-", "`o… end` is not an O-word statement mtwin knows"),
+    ("iniparam", "INI parameters #<_ini[…]> are not read"),
+    (
+        "m98m99/1",
+        "O-number programs and O expressions in the LinuxCNC dialect",
+    ),
+    (
+        "machine-coord-params",
+        "moves before the unsupported block differ",
+    ),
+    ("namedparam-bug424", "a `#` form the lexer refuses"),
+    (
+        "nested-sub-",
+        "the case's subroutine file is not found next to the program",
+    ),
+    (
+        "oword-unwind",
+        "the division by zero in a subroutine is refused before LinuxCNC's motion",
+    ),
+    ("pymove", "Python (remap) subroutines are not run"),
+    ("python-self", "Python (remap) subroutines are not run"),
+    (
+        "sub-call-from-sub",
+        "the case's subroutine file is not found next to the program",
+    ),
+    (
+        "value-returned",
+        "the case's subroutine file is not found next to the program",
+    ),
+    ("oword-bug315-p2", "an O-word label form mtwin refuses"),
+    (
+        "return-value",
+        "#<_value> read before any return is undefined in mtwin",
+    ),
+    (
+        "rotation/abs-pts",
+        "moves before the unsupported block differ",
+    ),
+];
+
 /// Cases skipped (the interpreter reports "unsupported") and why.
 const SKIPPED: &[(&str, &str)] = &[
-    ("abort-hot-comment", "parameter assignment"),
     ("bad/ccomp-arcexit.ngc", "cutter radius compensation G41.1"),
     ("bad/ccomp-gouging.ngc", "cutter radius compensation G41.1"),
-    ("bad/exists-1.ngc", "expression with parameters EXISTS[1]"),
-    (
-        "bad/exists-2.ngc",
-        "expression with parameters EXISTS[#1+#2]",
-    ),
-    ("bad/exists-3.ngc", "parameter assignment"),
-    (
-        "bad/exists-4.ngc",
-        "expression with parameters EXISTS[#foo]",
-    ),
-    (
-        "bad/exists-5.ngc",
-        "expression with parameters EXISTS[#<foo]",
-    ),
-    ("bad/exists-6.ngc", "expression with parameters EXISTS[#]"),
-    (
-        "bad/exists-7.ngc",
-        "expression with parameters EXISTS[#<foo>+1]",
-    ),
-    (
-        "bad/nested.ngc",
-        "O-word statement (subroutines and control flow)",
-    ),
-    ("cam-nisley", "parameter assignment"),
+    ("cam-nisley", "cutter radius compensation G42"),
     ("compile", "no single program file (several or none)"),
-    (
-        "crazy-paths",
-        "O-word statement (subroutines and control flow)",
-    ),
-    ("do-while-break", "parameter assignment"),
-    ("exists", "parameter assignment"),
-    (
-        "flowsnake",
-        "O-word statement (subroutines and control flow)",
-    ),
+    ("crazy-paths", "cutter radius compensation G41.1"),
     ("g10/g10-l1-l10", "coordinate system rotation (G10 L2 R)"),
     ("g10/g10-l11", "coordinate system rotation (G10 L2 R)"),
     (
@@ -70,40 +83,21 @@ const SKIPPED: &[(&str, &str)] = &[
     ("g33.1", "spindle-synchronised motion G33.1"),
     ("g71-endless-loop", "lathe diameter/radius mode G8"),
     ("g71-endless-loop2", "constant surface speed G96"),
-    ("g71-endless-loop_2", "parameter assignment"),
-    (
-        "g71-with-g70",
-        "O-word statement (subroutines and control flow)",
-    ),
-    (
-        "g72-facing",
-        "O-word statement (subroutines and control flow)",
-    ),
-    (
-        "g72-missing-iteration",
-        "O-word statement (subroutines and control flow)",
-    ),
+    ("g71-endless-loop_2", "lathe diameter/radius mode G7"),
+    ("g71-with-g70", "lathe cycle G71.1"),
     ("g76", "spindle-synchronised motion G76"),
-    ("iniparam", "parameter #<_ini[vars]toolchange_x>"),
-    ("iniparam-failassign", "parameter assignment"),
-    (
-        "inside-corners",
-        "O-word statement (subroutines and control flow)",
-    ),
-    (
-        "inverse-time-with-comp",
-        "O-word statement (subroutines and control flow)",
-    ),
+    ("inside-corners", "cutter radius compensation G41.1"),
+    ("inverse-time-with-comp", "cutter radius compensation G42.1"),
     ("m98m99/01-basics", "subprogram call M98"),
-    ("m98m99/02-variables", "parameter assignment"),
+    ("m98m99/02-variables", "subprogram call M98"),
     ("m98m99/03-error-M98-no-P-word", "subprogram call M98"),
     ("m98m99/04-M98-but-no-sub", "subprogram call M98"),
-    ("m98m99/05-M98-loops", "parameter assignment"),
+    ("m98m99/05-M98-loops", "subprogram call M98"),
     (
         "m98m99/06-error-mixed-sub-styles",
         "no single program file (several or none)",
     ),
-    ("m98m99/07-nested-subs", "parameter assignment"),
+    ("m98m99/07-nested-subs", "subprogram call M98"),
     ("m98m99/08-sub-follows-main", "subprogram call M98"),
     (
         "m98m99/09-disable-fanuc-subs",
@@ -114,72 +108,20 @@ const SKIPPED: &[(&str, &str)] = &[
         "m98m99/11-main-program-oword",
         "no single program file (several or none)",
     ),
-    ("m98m99/12-M99-endless-main-program", "parameter assignment"),
     (
         "m98m99/13-named-program",
         "no single program file (several or none)",
     ),
-    ("m98m99/14-o-expression-call", "parameter assignment"),
     (
         "machine-coord-params",
-        "O-word statement (subroutines and control flow)",
-    ),
-    (
-        "magic_comments/param_format_printing",
-        "parameter assignment",
-    ),
-    ("namedparam-bug424", "parameter assignment"),
-    (
-        "nested-sub-error",
-        "O-word statement (subroutines and control flow)",
-    ),
-    (
-        "nested-sub-in-file-error",
-        "O-word statement (subroutines and control flow)",
-    ),
-    (
-        "oword-bug315",
-        "O-word statement (subroutines and control flow)",
-    ),
-    (
-        "oword-bug315-p2",
-        "O-word statement (subroutines and control flow)",
-    ),
-    (
-        "oword-unwind",
-        "O-word statement (subroutines and control flow)",
+        "coordinate system rotation (G10 L2 R)",
     ),
     ("plug/absolute", "no single program file (several or none)"),
     ("plug/filename", "no single program file (several or none)"),
     ("plug/relative", "no single program file (several or none)"),
-    ("pymove", "O-word statement (subroutines and control flow)"),
-    (
-        "python-self",
-        "O-word statement (subroutines and control flow)",
-    ),
-    ("return-value", "parameter assignment"),
-    (
-        "rotation/abs-pts",
-        "O-word statement (subroutines and control flow)",
-    ),
+    ("rotation/abs-pts", "coordinate system rotation (G10 L2 R)"),
     ("rotation/g28", "coordinate system rotation (G10 L2 R)"),
     ("rotation/g53", "coordinate system rotation (G10 L2 R)"),
-    (
-        "sequence-number",
-        "O-word statement (subroutines and control flow)",
-    ),
-    (
-        "sub-call-from-sub",
-        "O-word statement (subroutines and control flow)",
-    ),
-    (
-        "subs-follow-main",
-        "O-word statement (subroutines and control flow)",
-    ),
-    (
-        "value-returned",
-        "O-word statement (subroutines and control flow)",
-    ),
 ];
 
 fn root() -> Option<PathBuf> {
@@ -234,7 +176,7 @@ fn expected_motion(text: &str) -> Vec<Call> {
 
 /// Motion calls of our interpreter, in LinuxCNC's argument order: all of
 /// them, or those before the block that failed and the error.
-fn our_motion(program: &[u8]) -> Result<Vec<Call>, (Vec<Call>, GcodeError)> {
+fn our_motion(program: &[u8], dir: &Path) -> Result<Vec<Call>, (Vec<Call>, GcodeError)> {
     // The tool lengths LinuxCNC's test tool table gives (USE_TOOL_LENGTH_OFFSET
     // in the traces of g72-facing, in mm, and g76, 0.7 in).
     // Tool 1 with zero offsets: the test.tbl of LinuxCNC's g10 cases.
@@ -242,6 +184,8 @@ fn our_motion(program: &[u8]) -> Result<Vec<Call>, (Vec<Call>, GcodeError)> {
     let mut opts = InterpOptions::default();
     opts.unknown_m = UnknownMCode::Reject;
     opts.tools = tools;
+    // Subroutine files of a case sit next to its program.
+    opts.program.subroutine_path = vec![dir.to_path_buf()];
     let mut calls = Vec::new();
     let result = gcode::interpret(program, opts, |_, events| {
         for e in events {
@@ -359,7 +303,7 @@ fn linuxcnc_conformance() {
         let bytes = std::fs::read(&program).unwrap();
         let expected_text =
             String::from_utf8_lossy(&std::fs::read(dir.join("expected")).unwrap()).into_owned();
-        match our_motion(&bytes) {
+        match our_motion(&bytes, dir) {
             Ok(ours) => match same(&ours, &expected_motion(&expected_text)) {
                 Ok(()) => passed.push(name.clone()),
                 Err(e) => failures.push(format!("{name}: {e}")),
@@ -391,7 +335,10 @@ fn linuxcnc_conformance() {
         files.sort();
         for f in files {
             let name = format!("{folder}/{}", f.file_name().unwrap().to_string_lossy());
-            match (our_motion(&std::fs::read(&f).unwrap()), must_fail) {
+            match (
+                our_motion(&std::fs::read(&f).unwrap(), &root.join(folder)),
+                must_fail,
+            ) {
                 (Err((_, e @ GcodeError::Unsupported { .. })), _) => {
                     skipped.insert(name, e.to_string());
                 }
@@ -409,11 +356,29 @@ fn linuxcnc_conformance() {
     for (k, v) in &skipped {
         eprintln!("skipped {k}: {v}");
     }
+    let mut known_seen = vec![false; KNOWN_FAILURES.len()];
+    failures.retain(
+        |f| match KNOWN_FAILURES.iter().position(|(p, _)| f.starts_with(p)) {
+            Some(k) => {
+                known_seen[k] = true;
+                eprintln!("known failure ({}): {f}", KNOWN_FAILURES[k].1);
+                false
+            }
+            None => true,
+        },
+    );
     assert!(
         failures.is_empty(),
         "conformance failures:\n{}",
         failures.join("\n")
     );
+    for (k, seen) in known_seen.iter().enumerate() {
+        assert!(
+            *seen,
+            "KNOWN_FAILURES is out of date: {} passes now",
+            KNOWN_FAILURES[k].0
+        );
+    }
     let listed: BTreeMap<String, String> = SKIPPED
         .iter()
         .map(|(k, v)| (k.to_string(), v.to_string()))

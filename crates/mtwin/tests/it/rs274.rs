@@ -509,6 +509,48 @@ const KNOWN_DIFFERENCES: &[(&str, &str)] = &[
     ),
 ];
 
+/// Programs of the conformance suite that now run (parameters and O-word
+/// flow) and still differ from rs274, by path prefix, with the reason. Left
+/// for later; each must still disagree, so the list cannot go stale.
+const KNOWN_FLOW_DIFFERENCES: &[(&str, &str)] = &[
+    (
+        "linuxcnc-interp/abort-hot-comment/",
+        "(ABORT,…) comments are not run (mtwin accepts what rs274 aborts)",
+    ),
+    (
+        "linuxcnc-interp/exists/",
+        "EXISTS of a numbered parameter is refused",
+    ),
+    (
+        "linuxcnc-interp/flowsnake/",
+        "the flowsnake subroutine recursion differs from step 3",
+    ),
+    (
+        "linuxcnc-interp/g10/g10-l2-while-active/",
+        "the first feed of the G10 L2 case differs (feed units before the unsupported rotation)",
+    ),
+    (
+        "linuxcnc-interp/g72-",
+        "`o… end` is not an O-word statement mtwin knows",
+    ),
+    (
+        "linuxcnc-interp/m98m99/1",
+        "Fanuc-style O-number programs in the LinuxCNC dialect (main program O-word, M98/M99, named programs, O expressions)",
+    ),
+    (
+        "linuxcnc-interp/namedparam-bug424/",
+        "a `#` form mtwin's lexer refuses",
+    ),
+    (
+        "linuxcnc-interp/oword-bug315-p2/",
+        "an O-word label form mtwin refuses",
+    ),
+    (
+        "linuxcnc-interp/return-value/",
+        "#<_value> read before any return is undefined in mtwin (0 in LinuxCNC)",
+    ),
+];
+
 enum Verdict {
     Agree,
     Known(&'static str),
@@ -1101,8 +1143,22 @@ fn differential_against_linuxcnc_rs274() {
     let mut unsupported: BTreeMap<String, Vec<String>> = BTreeMap::new();
     let mut known: BTreeMap<&str, Vec<String>> = BTreeMap::new();
     let mut disagreements = Vec::new();
+    let mut flow_known_seen = vec![false; KNOWN_FLOW_DIFFERENCES.len()];
     for (i, v) in &verdicts {
         let name = &cases[*i].name;
+        if let Verdict::Disagree(d) = v
+            && let Some(k) = KNOWN_FLOW_DIFFERENCES
+                .iter()
+                .position(|(p, _)| name.starts_with(p))
+        {
+            flow_known_seen[k] = true;
+            eprintln!("  known flow difference {name}: {d}");
+            known
+                .entry(KNOWN_FLOW_DIFFERENCES[k].1)
+                .or_default()
+                .push(name.clone());
+            continue;
+        }
         match v {
             Verdict::Agree => {
                 agree += 1;
@@ -1112,6 +1168,13 @@ fn differential_against_linuxcnc_rs274() {
             Verdict::Unsupported(f) => unsupported.entry(f.clone()).or_default().push(name.clone()),
             Verdict::Disagree(d) => disagreements.push(format!("{name}: {d}")),
         }
+    }
+    for (k, seen) in flow_known_seen.iter().enumerate() {
+        assert!(
+            *seen,
+            "KNOWN_FLOW_DIFFERENCES is out of date: {} agrees now",
+            KNOWN_FLOW_DIFFERENCES[k].0
+        );
     }
     let n_unsupported: usize = unsupported.values().map(Vec::len).sum();
     eprintln!(
