@@ -157,28 +157,6 @@ fn strip_location(msg: &str, line: u64, column: u32) -> String {
     m
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn located_errors_name_the_place_once() {
-        let p = Path::new("part.ngc");
-        let e = located(p, Some(3), 5, "syntax error at line 3, column 5: bad");
-        assert_eq!(e.to_string(), "part.ngc:3:5: syntax error: bad");
-        let e = located(p, Some(12), 0, "unsupported canned cycle G81 at line 12");
-        assert_eq!(e.to_string(), "part.ngc:12:1: unsupported canned cycle G81");
-        let e = located(p, Some(4), 0, "line 4: the correction exceeds the limit");
-        assert_eq!(
-            e.to_string(),
-            "part.ngc:4:1: the correction exceeds the limit"
-        );
-        // Another line named in the message stays.
-        let e = located(p, Some(1), 0, "see line 12");
-        assert_eq!(e.to_string(), "part.ngc:1:1: see line 12");
-    }
-}
-
 /// Interpreter options from `--offset` items and the program-reading
 /// arguments (dialect, tool table, block delete).
 pub(super) fn interp_options(
@@ -323,4 +301,26 @@ fn stats(a: StatsArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn located_errors_name_the_place_once() {
+        let p = Path::new("part.ngc");
+        let e = located(p, Some(3), 5, "syntax error at line 3, column 5: bad");
+        assert_eq!(e.to_string(), "part.ngc:3:5: syntax error: bad");
+        let e = located(p, Some(12), 0, "unsupported canned cycle G81 at line 12");
+        assert_eq!(e.to_string(), "part.ngc:12:1: unsupported canned cycle G81");
+        let e = located(p, Some(4), 0, "line 4: the correction exceeds the limit");
+        assert_eq!(
+            e.to_string(),
+            "part.ngc:4:1: the correction exceeds the limit"
+        );
+        // Another line named in the message stays.
+        let e = located(p, Some(1), 0, "see line 12");
+        assert_eq!(e.to_string(), "part.ngc:1:1: see line 12");
+    }
 }

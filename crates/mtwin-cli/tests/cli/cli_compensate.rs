@@ -193,7 +193,7 @@ fn refusals_name_the_line_and_write_nothing() {
         ],
     );
     assert_eq!(o.status.code(), Some(1));
-    assert!(stderr(&o).contains("line 3:") && stderr(&o).contains("outside its travel"));
+    assert!(stderr(&o).contains("far.ngc:3:") && stderr(&o).contains("outside its travel"));
     assert!(!dir.path().join("comp.ngc").exists());
 }
 

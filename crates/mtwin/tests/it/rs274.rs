@@ -96,9 +96,9 @@ fn var_text() -> String {
 
 fn mtwin_options() -> InterpOptions {
     let mut work_offsets = [Axes::ZERO; 9];
-    for (k, o) in WORK_OFFSETS.iter().enumerate() {
-        for i in 0..3 {
-            work_offsets[k].0[i] = o[i] * 25.4;
+    for (w, o) in work_offsets.iter_mut().zip(WORK_OFFSETS.iter()) {
+        for (x, v) in w.0.iter_mut().zip(o.iter()).take(3) {
+            *x = v * 25.4;
         }
     }
     let mut opts = InterpOptions::default();
