@@ -225,7 +225,7 @@ mod tests {
 
     /// Leaves that print no numbers on stdout (files and notes only), so
     /// they take no `--format`.
-    const NO_NUMBERS: &[&str] = &["mtwin completions"];
+    const NO_NUMBERS: &[&str] = &["mtwin completions", "mtwin ballbar simulate-circular"];
 
     #[test]
     fn every_subcommand_that_prints_numbers_takes_format_json() {

@@ -158,10 +158,10 @@ fn strip_location(msg: &str, line: u64, column: u32) -> String {
     m
 }
 
-/// Interpreter options from `--offset` items and the dialect arguments
-/// (var file, subroutine path) for the program at `program`. With a var
-/// file the nine work offsets are its 5221… parameters; `--offset` sets
-/// the G54 axes it names on top.
+/// Interpreter options from `--offset` items and the program-reading
+/// arguments (dialect, tool table, block delete, var file, subroutine path)
+/// for the program at `program`. With a var file the nine work offsets are
+/// its 5221… parameters; `--offset` sets the G54 axes it names on top.
 pub(super) fn interp_options(
     offsets: &[String],
     dialect: &DialectArgs,

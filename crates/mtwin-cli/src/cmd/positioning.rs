@@ -13,7 +13,7 @@ use crate::output::{Format, note, print_doc};
 pub enum Command {
     /// ISO 230-2 evaluation of a positioning run: A, B, E, M, R per direction and per target.
     #[command(
-        after_help = "Examples:\n  mtwin positioning evaluate --data run.csv\n  mtwin positioning evaluate --data target_x_ISO230.dat --format json --plot x.svg\n  mtwin positioning evaluate --data x.log --ref-channel IOC_TEST:ILD_DownSample --cmd-channel TARGET_DU:X-PosCmd --ref-gain -1.0035779146 --ref-offset 50.3193131396"
+        after_help = "Example:\n  mtwin positioning evaluate --data run.csv\n  mtwin positioning evaluate --data target_x_ISO230.dat --format json --plot x.svg\n  mtwin positioning evaluate --data x.log --ref-channel IOC_TEST:ILD_DownSample --cmd-channel TARGET_DU:X-PosCmd --ref-gain -1.0035779146 --ref-offset 50.3193131396"
     )]
     Evaluate(EvaluateArgs),
 }

@@ -374,13 +374,19 @@ fn canonical_feed(feed: Feed, xyz_mm: f64, abc_deg: f64, scale: f64) -> Option<f
 
 fn run_mtwin(program: &[u8]) -> Outcome {
     let mut steps = Vec::new();
+    // The last end in program coordinates: a move that ends where the last
+    // one did is left out, by the same rule as the rs274 side (a change of
+    // work offset between them moves the machine, not the program point).
+    let mut at = [0.0; 6];
     let result = gcode::interpret(program, mtwin_options(), |_, events| {
         for e in events {
             match &e.kind {
                 EventKind::Traverse(m) | EventKind::Feed(m) => {
                     let d = m.to.sub(&m.from);
                     let (xyz, abc) = (d.xyz_norm(), d.abc_norm());
-                    if xyz == 0.0 && abc == 0.0 {
+                    let still = (0..6).all(|i| (m.to.0[i] - at[i]).abs() < 1.3e-3);
+                    at.copy_from_slice(&m.to.0[..6]);
+                    if still || (xyz == 0.0 && abc == 0.0) {
                         continue;
                     }
                     let scale = m.words.units.mm_per_unit();
@@ -396,6 +402,7 @@ fn run_mtwin(program: &[u8]) -> Outcome {
                     });
                 }
                 EventKind::Arc(a) => {
+                    at.copy_from_slice(&a.to.0[..6]);
                     let scale = a.words.units.mm_per_unit();
                     let (p, q, n) = a.plane.axes();
                     let abc = a.to.sub(&a.from).abc_norm();
