@@ -533,10 +533,6 @@ const KNOWN_FLOW_DIFFERENCES: &[(&str, &str)] = &[
         "the flowsnake subroutine recursion differs from step 3",
     ),
     (
-        "linuxcnc-interp/g10/g10-l2-while-active/",
-        "the first feed of the G10 L2 case differs (feed units before the unsupported rotation)",
-    ),
-    (
         "linuxcnc-interp/g72-",
         "`o… end` is not an O-word statement mtwin knows",
     ),
