@@ -115,7 +115,7 @@ pub struct SimulateCircularArgs {
 fn read_trace(path: &Path) -> anyhow::Result<Trace> {
     let t = Table::read(path).map_err(diag)?;
     let rows = t
-        .number_rows(&["angle_deg", "deviation_um"])
+        .number_rows(&mtwin::io::columns::BALLBAR_CIRCULAR)
         .map_err(diag)?;
     if rows.len() < 8 {
         return Err(diag(
@@ -208,7 +208,10 @@ pub fn run_simulate_circular(a: SimulateCircularArgs) -> anyhow::Result<()> {
         .begin()?;
     for (ccw, path) in [(false, &cw_path), (true, &ccw_path)] {
         let t = simulate_circular(&e, &o, ccw, a.samples, a.noise, a.seed);
-        let mut text = String::from("angle_deg,deviation_um\n");
+        let mut text = format!(
+            "{}\n",
+            mtwin::io::columns::header(&mtwin::io::columns::BALLBAR_CIRCULAR)
+        );
         for (th, d) in t.angle_deg.iter().zip(&t.deviation_um) {
             text.push_str(&format!(
                 "{},{}\n",

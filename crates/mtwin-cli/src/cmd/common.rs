@@ -150,5 +150,10 @@ impl DialectArgs {
 pub fn located_error(path: &Path, e: &GcodeError) -> anyhow::Error {
     let file = e.file().unwrap_or(path);
     let at = e.location();
-    super::gcode::located(file, at.map(|a| a.line), at.map_or(0, |a| a.column), e)
+    super::gcode::located(
+        file,
+        at.map(|a| a.line),
+        at.map_or(0, |a| a.column),
+        e.message(),
+    )
 }

@@ -68,6 +68,18 @@ impl GcodeError {
         }
     }
 
+    /// What went wrong, without the location (for callers that print the
+    /// location themselves, as `file:line:col: message`).
+    pub fn message(&self) -> String {
+        match self {
+            GcodeError::Syntax { message, .. } => format!("syntax error: {message}"),
+            GcodeError::Unsupported { what, .. } => format!("unsupported {what}"),
+            GcodeError::Invalid { message, .. } => format!("invalid block: {message}"),
+            GcodeError::Edit(_) | GcodeError::Io(_) => self.to_string(),
+            GcodeError::InFile { error, .. } => error.message(),
+        }
+    }
+
     /// The subroutine file the error is in, when it is not in the program.
     pub fn file(&self) -> Option<&std::path::Path> {
         match self {
@@ -109,4 +121,19 @@ impl GcodeError {
 
 fn col32(column: usize) -> u32 {
     u32::try_from(column).unwrap_or(u32::MAX)
+}
+
+#[cfg(test)]
+mod message_tests {
+    use super::*;
+
+    #[test]
+    fn message_leaves_the_location_to_the_caller() {
+        let e = GcodeError::syntax(3, 5, "bad");
+        assert_eq!(e.message(), "syntax error: bad");
+        assert_eq!(e.location().map(|l| (l.line, l.column)), Some((3, 5)));
+        let e = GcodeError::unsupported(12, 0, "canned cycle G81");
+        assert_eq!(e.message(), "unsupported canned cycle G81");
+        assert!(!e.message().contains("12"));
+    }
 }

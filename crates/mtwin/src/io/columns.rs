@@ -33,6 +33,10 @@ pub const THERMAL_PREDICTION: [&str; 3] = [T_MIN, Z_MM, DRIFT_MM];
 
 /// Ballbar readings of one mode: table angle (deg) and bar length (mm).
 pub const BALLBAR_MODE: [&str; 2] = ["angle_deg", "length_mm"];
+/// A circular-test trace (ISO 230-4) of `ballbar circular` and
+/// `ballbar simulate-circular`: angle counter-clockwise from +X in the test
+/// plane (deg), deviation of the measured radius from the nominal (µm).
+pub const BALLBAR_CIRCULAR: [&str; 2] = ["angle_deg", "deviation_um"];
 
 /// Skiving touches: the numeric columns, machine positions at each touch
 /// (mm, deg).
