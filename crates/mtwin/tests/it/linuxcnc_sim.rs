@@ -771,6 +771,9 @@ fn run_or_panic(name: &str, program: &str, setup: &SimSetup, timeout: Duration) 
         t.moving().len(),
         t.wall.as_secs_f64()
     );
+    for m in &t.messages {
+        eprintln!("linuxcnc_sim {name}: LinuxCNC says: {m}");
+    }
     t
 }
 
@@ -831,8 +834,8 @@ fn square_lies_on_its_path_within_the_tolerance() {
     let raw: Vec<[f64; 5]> = t.samples.iter().map(|s| s.world).collect();
     for i in 3..raw.len() {
         let q = interpolated(&raw, i);
-        for j in 0..5 {
-            assert!((q[j] - t.samples[i].joint[j]).abs() < 1e-12, "sample {i}");
+        for (qj, sj) in q.iter().zip(&t.samples[i].joint) {
+            assert!((qj - sj).abs() < 1e-12, "sample {i}");
         }
     }
     assert!(worst <= TOL + 1e-9, "square: {worst} mm off the path");
@@ -1097,8 +1100,7 @@ fn trunnion_parameters_set_in_hal_are_mtwins_axis_lines() {
     };
     let program = "G21 G90 G94 G64 P0.01\nM428\nG0 X5 Y5 Z20 A0 C0\n\
                    G1 X10 Y-5 Z15 A-30 C60 F600\nG1 X-5 A20 C-45\nG0 A0 C0\nM429\nM2\n";
-    let mut setup = SimSetup::default();
-    setup.hal = p.hal();
+    let setup = p.hal().into_iter().fold(SimSetup::default(), SimSetup::hal);
     let t = run_or_panic("trunnion parameters", program, &setup, SHORT);
     let (worst, tcp) = joints_against_mtwin(&t, &p);
     assert!(tcp > 500, "only {tcp} samples under TCP");
@@ -1245,9 +1247,34 @@ fn record_total_times() {
         let r =
             reference(&prog, &SimSetup::default(), SHORT).unwrap_or_else(|e| panic!("{name}: {e}"));
         println!(
-            "{name}: {:.3} s ({} path samples)",
+            "{name}: {:.3} s ({} path samples at {} s)",
             r.total_time,
-            r.path.len()
+            r.path.len(),
+            r.period
+        );
+    }
+}
+
+/// Total times of the whole corpus programs on the simulator (about 10 min
+/// of real time each; figures in `docs/linuxcnc.md`):
+/// `cargo test -p mtwin --test it linuxcnc_sim::corpus_total_times -- --ignored --nocapture`.
+#[test]
+#[ignore = "about 20 minutes of real time"]
+fn corpus_total_times() {
+    if !available() {
+        return;
+    }
+    let Some(dir) = crate::shared::shared_dir("corpus/gcode/linuxcnc") else {
+        return;
+    };
+    for name in ["boat-xyzac.ngc", "impeller-7bl-xyzac.ngc"] {
+        let text = std::fs::read_to_string(dir.join(name)).unwrap();
+        let t = run_or_panic(name, &text, &SimSetup::default(), Duration::from_secs(3600));
+        let v = max_axis_speed(&t);
+        println!(
+            "{name}: total time {:.3} s, {} samples, largest world axis speeds {v:.3?}",
+            t.total_time(),
+            t.samples.len()
         );
     }
 }
