@@ -13,6 +13,7 @@ from ._document import Document
 from ._mtwin import (
     Machine,
     __version__,
+    ballbar_setup_error,
     example_names,
     gcode_stats,
     thermal_fit,
@@ -26,6 +27,7 @@ __all__ = [
     "InputError",
     "Machine",
     "__version__",
+    "ballbar_setup_error",
     "example_names",
     "gcode_stats",
     "thermal_fit",

@@ -5,6 +5,15 @@ from __future__ import annotations
 from typing import Any, Dict, Iterator
 
 
+def _lists(value: Any) -> Any:
+    """Tuples (serde tuples and fixed arrays) as lists, as in the JSON document."""
+    if isinstance(value, dict):
+        return {k: _lists(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_lists(v) for v in value]
+    return value
+
+
 def _wrap(value: Any) -> Any:
     if isinstance(value, dict):
         return Document("", value, "")
@@ -26,7 +35,7 @@ class Document:
 
     def __init__(self, kind: str, data: Dict[str, Any], text: str) -> None:
         object.__setattr__(self, "kind", kind)
-        object.__setattr__(self, "_data", data)
+        object.__setattr__(self, "_data", _lists(data) if kind else data)
         object.__setattr__(self, "_text", text)
 
     def __getattr__(self, name: str) -> Any:

@@ -20,13 +20,13 @@ def without(d: dict, *keys: str) -> dict:
 
 
 def test_gcode_stats_equals_the_cli(cli, tmp_path):
-    expected = cli.json("gcode", "stats", "--program", str(PROGRAM), cwd=tmp_path)
+    expected = cli.json("gcode", "stats", str(PROGRAM), cwd=tmp_path)
     doc = mtwin.gcode_stats(PROGRAM)
     assert doc.kind == "GcodeStatsDoc"
     assert doc.to_dict() == expected
     machine = MACHINES / "ac-trunnion.toml"
     expected = cli.json(
-        "gcode", "stats", "--program", str(PROGRAM), "--machine", str(machine), cwd=tmp_path
+        "gcode", "stats", str(PROGRAM), "--machine", str(machine), cwd=tmp_path
     )
     doc = mtwin.gcode_stats(PROGRAM, machine=mtwin.Machine.from_file(machine))
     assert doc.to_dict() == expected
@@ -135,3 +135,10 @@ def test_thermal_fit_and_predict_equal_the_cli(cli, tmp_path):
     header, cli_table = read_csv(tmp_path / "drift.csv")
     assert header == ["t_min", "z_mm", "drift_mm"]
     assert np.array_equal(table, cli_table)
+
+
+def test_ballbar_setup_error_equals_the_cli(cli, tmp_path):
+    args = dict(length=100.012, lmax=100.02, lmin=99.996, theta2=135.0)
+    expected = cli.json("ballbar", "setup-error", "--length", "100.012", "--lmax", "100.02",
+                        "--lmin", "99.996", "--theta2", "135", cwd=tmp_path)
+    assert mtwin.ballbar_setup_error(**args).to_dict() == expected

@@ -54,7 +54,11 @@ pub fn value_error(e: impl Display) -> PyErr {
 /// The serde document `doc` as `mtwin.Document(kind, data, text)`: `data` is the
 /// document converted field by field (pythonize: structs → dicts, sequences → lists,
 /// f64 → float bit for bit), `text` the library's human summary (its `Display`).
-pub fn document<T: Serialize + Display>(py: Python<'_>, kind: &str, doc: &T) -> PyResult<Py<PyAny>> {
+pub fn document<T: Serialize + Display>(
+    py: Python<'_>,
+    kind: &str,
+    doc: &T,
+) -> PyResult<Py<PyAny>> {
     document_text(py, kind, doc, &doc.to_string())
 }
 

@@ -6,7 +6,9 @@ use std::path::PathBuf;
 use mtwin::kinematics::{IkOptions, IkTarget, Kinematics};
 use mtwin::nalgebra::Vector3;
 use numpy::ndarray::{Array2, Array3};
-use numpy::{IntoPyArray, PyUntypedArrayMethods, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{
+    IntoPyArray, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -149,7 +151,10 @@ impl Machine {
     fn example(py: Python<'_>, name: &str) -> PyResult<Self> {
         let m = diag(py, mtwin::examples::machine(name))?;
         let base = name.strip_suffix(".toml").unwrap_or(name);
-        Ok(Machine::new(m, PathBuf::from(format!("examples/machines/{base}.toml"))))
+        Ok(Machine::new(
+            m,
+            PathBuf::from(format!("examples/machines/{base}.toml")),
+        ))
     }
 
     /// The file (or the name given) the machine was read from.
@@ -161,7 +166,11 @@ impl Machine {
     /// Axis names in the machine file's order: the columns of pose arrays.
     #[getter]
     fn axis_names(&self) -> Vec<String> {
-        self.inner.axis_names().iter().map(|s| s.to_string()).collect()
+        self.inner
+            .axis_names()
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
     }
 
     /// Number of axes.
@@ -425,8 +434,7 @@ impl Machine {
             }
             Ok(out)
         });
-        let out = result
-            .map_err(|(i, e)| PyValueError::new_err(format!("target {i}: {e}")))?;
+        let out = result.map_err(|(i, e)| PyValueError::new_err(format!("target {i}: {e}")))?;
         Ok(Array2::from_shape_vec((count, n), out)
             .expect("axes values per target")
             .into_pyarray(py))

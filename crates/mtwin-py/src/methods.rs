@@ -25,6 +25,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(thermal_fit, m)?)?;
     m.add_function(wrap_pyfunction!(thermal_predict, m)?)?;
     m.add_function(wrap_pyfunction!(gcode_stats, m)?)?;
+    m.add_function(wrap_pyfunction!(ballbar_setup_error, m)?)?;
     Ok(())
 }
 
@@ -53,10 +54,7 @@ fn tracker_points(
     })?;
     let t = diag(py, Table::read(&path))?;
     let poses = diag(py, read_poses(&t, &m.inner, true))?;
-    let xyz = diag(
-        py,
-        t.number_rows(&mtwin::io::columns::TRACKER_MEASURED),
-    )?;
+    let xyz = diag(py, t.number_rows(&mtwin::io::columns::TRACKER_MEASURED))?;
     let pts = poses
         .into_iter()
         .zip(xyz)
@@ -103,7 +101,10 @@ fn tracker_identify(
     let text = machine_to_toml(&id.machine, &[]).map_err(value_error)?;
     let path = PathBuf::from(format!("identified from {name}"));
     let m = diag(py, mtwin::model::parse_machine(&path, &text))?;
-    Ok((Machine::new(m, path), document(py, "TrackerIdentifyDoc", &doc)?))
+    Ok((
+        Machine::new(m, path),
+        document(py, "TrackerIdentifyDoc", &doc)?,
+    ))
 }
 
 /// `mtwin tracker validate`: measured tool tips at check poses (`data` as in
@@ -165,7 +166,9 @@ fn thermal_predict<'py>(
     z: Vec<f64>,
 ) -> PyResult<(Bound<'py, numpy::PyArray2<f64>>, Py<PyAny>)> {
     if let Some(h) = z.iter().find(|h| !h.is_finite()) {
-        return Err(PyValueError::new_err(format!("z: {h} is not a height in mm")));
+        return Err(PyValueError::new_err(format!(
+            "z: {h} is not a height in mm"
+        )));
     }
     let m = diag(py, thermal::read_model(&model))?;
     let programme = diag(py, thermal::read_programme(&speed, &m))?;
@@ -181,8 +184,8 @@ fn thermal_predict<'py>(
     let warnings = p.warnings(&m);
     let doc = thermal::ThermalPredictDoc::new(&p, &z, "", warnings);
     let flat: Vec<f64> = p.rows.iter().flatten().copied().collect();
-    let arr = numpy::ndarray::Array2::from_shape_vec((p.rows.len(), 3), flat)
-        .expect("3 values per row");
+    let arr =
+        numpy::ndarray::Array2::from_shape_vec((p.rows.len(), 3), flat).expect("3 values per row");
     Ok((
         numpy::IntoPyArray::into_pyarray(arr, py),
         document(py, "ThermalPredictDoc", &doc)?,
@@ -193,7 +196,12 @@ fn thermal_predict<'py>(
 fn gcode_error(py: Python<'_>, program: &Path, e: &GcodeError) -> PyErr {
     let file = e.file().unwrap_or(program);
     let d = match e.location() {
-        Some(at) => Diagnostic::at(file, at.line as usize, at.column.max(1) as usize, e.message()),
+        Some(at) => Diagnostic::at(
+            file,
+            at.line as usize,
+            at.column.max(1) as usize,
+            e.message(),
+        ),
         None => Diagnostic::whole(file, e.message()),
     };
     input_error(py, &Diagnostics::from(d))
@@ -241,4 +249,30 @@ fn gcode_stats(
         check.as_ref(),
     );
     document(py, "GcodeStatsDoc", &doc)
+}
+
+/// `mtwin ballbar setup-error`: the set-up error of the tool ball from the bar
+/// readings over one spindle turn: `length` at spindle angle 0°, the largest
+/// `lmax` and smallest `lmin` reading (mm), `theta2` the spindle angle of the
+/// smallest (degrees, M3 sense). Returns the `BallbarSetupDoc`.
+#[pyfunction]
+fn ballbar_setup_error(
+    length: f64,
+    lmax: f64,
+    lmin: f64,
+    theta2: f64,
+    py: Python<'_>,
+) -> PyResult<Py<PyAny>> {
+    use mtwin::methods::ballbar::{self, SetupErrorInput, SetupOptions};
+    let doc = ballbar::setup::run(
+        &SetupErrorInput {
+            length,
+            lmax,
+            lmin,
+            theta2_deg: theta2,
+        },
+        &SetupOptions::default(),
+    )
+    .map_err(value_error)?;
+    document(py, "BallbarSetupDoc", &doc)
 }

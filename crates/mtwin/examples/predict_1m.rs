@@ -7,7 +7,10 @@
 
 fn main() {
     let mut args = std::env::args().skip(1);
-    let n: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(1_000_000);
+    let n: usize = args
+        .next()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1_000_000);
     let runs: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(5);
     let m = mtwin::examples::machine("ac-trunnion-with-errors").expect("example machine");
     let k = mtwin::kinematics::Kinematics::new(&m);

@@ -127,14 +127,28 @@ fn python_package_builds_installs_and_passes_its_tests() {
     assert!(name.contains("abi3"), "not an abi3 wheel: {name}");
     run(
         Command::new(&bin)
-            .args(["-m", "pip", "install", "-q", "--no-deps", "--force-reinstall"])
+            .args([
+                "-m",
+                "pip",
+                "install",
+                "-q",
+                "--no-deps",
+                "--force-reinstall",
+            ])
             .arg(&wheel),
         "pip install the wheel",
     );
     let t0 = Instant::now();
     let o = Command::new(&bin)
         .current_dir(repo())
-        .args(["-m", "pytest", "-q", "-p", "no:cacheprovider", "python/tests"])
+        .args([
+            "-m",
+            "pytest",
+            "-q",
+            "-p",
+            "no:cacheprovider",
+            "python/tests",
+        ])
         .env("MTWIN_BIN", env!("CARGO_BIN_EXE_mtwin"))
         .output()
         .expect("pytest runs");
