@@ -8,8 +8,7 @@ the two results compared.
     python python/examples/spark_fleet.py --machines 500 --cores 2 --out fleet.parquet
 
 The job is plain Spark: on a cluster, the same script runs unchanged with
-`spark-submit --master <cluster URL>` (or `--master` left to the cluster's
-default) when `mtwin` is installed on the executors (`pip install` of the wheel
+`spark-submit --master <cluster URL> spark_fleet.py --cluster` when `mtwin` is installed on the executors (`pip install` of the wheel
 in the cluster's Python environment); the input and output paths then name
 shared storage.
 """
@@ -32,6 +31,7 @@ TRUTH = "afp-gantry-with-errors"
 FIT = "location"
 POINTS = 60
 HELD_OUT = 15
+MEASURED = ["mx", "my", "mz"]
 
 
 def simulate(n_machines: int, path: str) -> None:
@@ -40,7 +40,9 @@ def simulate(n_machines: int, path: str) -> None:
     nominal = mtwin.Machine.example(NOMINAL)
     truth = mtwin.Machine.example(TRUTH)
     t = nominal.travels
-    cols = {n: [] for n in ["machine", "point"] + nominal.axis_names + ["x", "y", "z"]}
+    # Spark's column names are case-insensitive: the measured tips are mx, my, mz
+    # beside the axis columns X, Y, Z.
+    cols = {n: [] for n in ["machine", "point"] + nominal.axis_names + MEASURED}
     for k in range(n_machines):
         rng = np.random.default_rng(1000 + k)
         q = t[:, 0] + (t[:, 1] - t[:, 0]) * rng.random((POINTS, nominal.n_axes))
@@ -49,7 +51,7 @@ def simulate(n_machines: int, path: str) -> None:
         cols["point"] += list(range(POINTS))
         for a, n in enumerate(nominal.axis_names):
             cols[n] += list(q[:, a])
-        for c, n in enumerate("xyz"):
+        for c, n in enumerate(MEASURED):
             cols[n] += list(tips[:, c])
     pq.write_table(pa.table(cols), path)
 
@@ -77,9 +79,9 @@ def identify_one(table: pa.Table) -> pa.Table:
     names = nominal.axis_names
     cols = lambda t, ns: np.column_stack([t.column(n).to_numpy() for n in ns])
     fit, held = table.slice(0, table.num_rows - HELD_OUT), table.slice(table.num_rows - HELD_OUT)
-    identified, doc = mtwin.tracker_identify(nominal, np.ascontiguousarray(cols(fit, names + ["x", "y", "z"])), FIT)
+    identified, doc = mtwin.tracker_identify(nominal, np.ascontiguousarray(cols(fit, names + MEASURED)), FIT)
     d = doc.to_dict()
-    dd = identified.predict(cols(held, names), check_travel=False)[:, :3] - cols(held, ["x", "y", "z"])
+    dd = identified.predict(cols(held, names), check_travel=False)[:, :3] - cols(held, MEASURED)
     return pa.Table.from_pydict(
         {
             "machine": [table.column("machine")[0].as_py()],
@@ -96,12 +98,14 @@ def identify_one(table: pa.Table) -> pa.Table:
     )
 
 
-def run_spark(inp: str, out: str, cores: int) -> float:
+def run_spark(inp: str, out: str, cores: int, cluster: bool = False) -> float:
     from pyspark.sql import SparkSession
 
+    builder = SparkSession.builder
+    if not cluster:
+        builder = builder.master(f"local[{cores}]")
     spark = (
-        SparkSession.builder.master(f"local[{cores}]")
-        .appName("mtwin-fleet")
+        builder.appName("mtwin-fleet")
         .config("spark.sql.shuffle.partitions", str(2 * cores))
         .config("spark.ui.enabled", "false")
         .getOrCreate()
@@ -138,12 +142,14 @@ def main() -> None:
     ap.add_argument("--machines", type=int, default=500)
     ap.add_argument("--cores", type=int, default=2)
     ap.add_argument("--work", default="fleet-work")
+    ap.add_argument("--cluster", action="store_true",
+                    help="use the master spark-submit gives (a cluster), not local[cores]")
     a = ap.parse_args()
     os.makedirs(a.work, exist_ok=True)
     inp = os.path.join(a.work, "measurements.parquet")
     out = os.path.join(a.work, "identified.parquet")
     simulate(a.machines, inp)
-    wall = run_spark(inp, out, a.cores)
+    wall = run_spark(inp, out, a.cores, a.cluster)
     spark_result = pq.read_table(out).sort_by("machine")
     t0 = time.perf_counter()
     local = run_one_by_one(inp).sort_by("machine")
