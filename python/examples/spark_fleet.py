@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import time
 
 import numpy as np
@@ -103,6 +104,8 @@ def run_spark(inp: str, out: str, cores: int, cluster: bool = False) -> float:
 
     builder = SparkSession.builder
     if not cluster:
+        # Local workers run this Python (the one with mtwin installed).
+        os.environ.setdefault("PYSPARK_PYTHON", sys.executable)
         builder = builder.master(f"local[{cores}]")
     spark = (
         builder.appName("mtwin-fleet")
@@ -111,6 +114,8 @@ def run_spark(inp: str, out: str, cores: int, cluster: bool = False) -> float:
         .getOrCreate()
     )
     try:
+        # The workers import this module when identify_one comes from an import.
+        spark.sparkContext.addPyFile(os.path.abspath(__file__))
         t0 = time.perf_counter()
         df = spark.read.parquet(inp)
         res = df.groupBy("machine").applyInArrow(identify_one, schema=_ddl())
