@@ -26,3 +26,4 @@ mod cli_tracker;
 mod cli_twin;
 mod docs;
 mod outputs;
+mod python;

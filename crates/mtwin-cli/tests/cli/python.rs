@@ -1,0 +1,166 @@
+//! The Python package (pyproject.toml, crates/mtwin-py, python/) built and tested
+//! from `cargo test`: the wheel is built by maturin into the shared target folder,
+//! installed into a virtual environment under it, and `python/tests` run by pytest
+//! against the `mtwin` binary of this build (the bit-for-bit comparisons with the CLI).
+//!
+//! Needs Python 3 (with `venv` and `pip`). Without a `python3`, the test prints why
+//! and passes, unless `MTWIN_REQUIRE_PYTHON=1` (set by `.ci/run`), where it fails.
+//! `MTWIN_PYTHON` names another interpreter. The virtual environment gets maturin,
+//! numpy, pyarrow and pytest from the package index once (or uses those already there).
+
+use crate::common::*;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+fn require() -> bool {
+    std::env::var("MTWIN_REQUIRE_PYTHON").is_ok_and(|v| v == "1")
+}
+
+/// The target folder `cargo test` builds into (shared with the wheel build).
+fn target_dir() -> PathBuf {
+    match std::env::var_os("CARGO_TARGET_DIR") {
+        Some(d) => {
+            let d = PathBuf::from(d);
+            if d.is_absolute() { d } else { repo().join(d) }
+        }
+        None => repo().join("target"),
+    }
+}
+
+fn run(cmd: &mut Command, what: &str) {
+    let t0 = Instant::now();
+    let o = cmd
+        .output()
+        .unwrap_or_else(|e| panic!("{what}: cannot start: {e}"));
+    eprintln!("python: {what} took {:.1} s", t0.elapsed().as_secs_f64());
+    assert!(
+        o.status.success(),
+        "{what} failed ({}):\n{}\n{}",
+        o.status,
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn python() -> Option<String> {
+    let py = std::env::var("MTWIN_PYTHON").unwrap_or_else(|_| "python3".into());
+    let ok = Command::new(&py)
+        .args(["-c", "import sys, venv; assert sys.version_info >= (3, 9)"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    ok.then_some(py)
+}
+
+/// A virtual environment under the target folder with what the build and the tests need.
+fn venv(py: &str, dir: &Path) -> PathBuf {
+    let bin = dir.join("bin/python");
+    if !bin.exists() {
+        run(
+            Command::new(py).args(["-m", "venv"]).arg(dir),
+            "python3 -m venv",
+        );
+    }
+    let have = Command::new(&bin)
+        .args([
+            "-c",
+            "import numpy, pytest, pyarrow, shutil, sys; sys.exit(shutil.which('maturin', path=sys.argv[1]) is None)",
+        ])
+        .arg(dir.join("bin"))
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !have {
+        run(
+            Command::new(&bin).args([
+                "-m",
+                "pip",
+                "install",
+                "-q",
+                "maturin>=1.9,<2",
+                "numpy",
+                "pytest",
+                "pyarrow",
+            ]),
+            "pip install maturin numpy pytest pyarrow",
+        );
+    }
+    bin
+}
+
+#[test]
+fn python_package_builds_installs_and_passes_its_tests() {
+    let Some(py) = python() else {
+        assert!(
+            !require(),
+            "MTWIN_REQUIRE_PYTHON=1 but no Python 3 with venv (python3 or $MTWIN_PYTHON)"
+        );
+        eprintln!("SKIPPED python tests: no Python 3 with venv found (set MTWIN_PYTHON)");
+        return;
+    };
+    let target = target_dir();
+    let env_dir = target.join("py-venv");
+    let bin = venv(&py, &env_dir);
+    let wheels = target.join("py-wheels");
+    let _ = std::fs::remove_dir_all(&wheels);
+    // The wheel is built (dev profile: dependencies at opt-level 2 as for `cargo test`)
+    // into the same target folder, so the dependencies `cargo test` compiled are
+    // reused where their features agree. (`--profile test` would make cargo build a
+    // test harness, not the extension module.)
+    run(
+        Command::new(env_dir.join("bin/maturin"))
+            .current_dir(repo())
+            .args(["build", "--interpreter"])
+            .arg(&bin)
+            .arg("--out")
+            .arg(&wheels)
+            .env("CARGO_TARGET_DIR", &target)
+            .env("VIRTUAL_ENV", &env_dir),
+        "maturin build (the wheel)",
+    );
+    let wheel = std::fs::read_dir(&wheels)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "whl"))
+        .expect("maturin wrote a wheel");
+    let name = wheel.file_name().unwrap().to_string_lossy().into_owned();
+    assert!(name.contains("abi3"), "not an abi3 wheel: {name}");
+    run(
+        Command::new(&bin)
+            .args([
+                "-m",
+                "pip",
+                "install",
+                "-q",
+                "--no-deps",
+                "--force-reinstall",
+            ])
+            .arg(&wheel),
+        "pip install the wheel",
+    );
+    let t0 = Instant::now();
+    let o = Command::new(&bin)
+        .current_dir(repo())
+        .args([
+            "-m",
+            "pytest",
+            "-q",
+            "-p",
+            "no:cacheprovider",
+            "python/tests",
+        ])
+        .env("MTWIN_BIN", env!("CARGO_BIN_EXE_mtwin"))
+        .output()
+        .expect("pytest runs");
+    let out = String::from_utf8_lossy(&o.stdout);
+    eprintln!(
+        "python: pytest took {:.1} s\n{out}{}",
+        t0.elapsed().as_secs_f64(),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(o.status.success(), "pytest failed ({})", o.status);
+    assert!(
+        out.contains(" passed") && !out.contains(" skipped"),
+        "every Python test must run: {out}"
+    );
+}
