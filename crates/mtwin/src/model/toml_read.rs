@@ -579,12 +579,18 @@ travel = [-360, 360]
         assert_eq!(again.axes[0].max_acceleration, Some(2000.0));
         assert_eq!(again.axes[1].max_jerk, None);
         expect_error(
-            &GOOD.replace("travel = [-100, 100]", "travel = [-100, 100]\nmax_jerk = -5"),
+            &GOOD.replace(
+                "travel = [-100, 100]",
+                "travel = [-100, 100]\nmax_jerk = -5",
+            ),
             15,
             "`max_jerk` of axis `X` must be positive",
         );
         expect_error(
-            &GOOD.replace("travel = [-100, 100]", "travel = [-100, 100]\nmax_jerk = \"fast\""),
+            &GOOD.replace(
+                "travel = [-100, 100]",
+                "travel = [-100, 100]\nmax_jerk = \"fast\"",
+            ),
             15,
             "`max_jerk` of axis `X` (mm/s³)",
         );

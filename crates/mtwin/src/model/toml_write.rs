@@ -311,7 +311,13 @@ mod tests {
                 prop::option::of(servo()),
             )
                 .prop_map(
-                    |((rotary, direction, origin), (a, b), (pdge, location), (v, acc, jerk), servo)| {
+                    |(
+                        (rotary, direction, origin),
+                        (a, b),
+                        (pdge, location),
+                        (v, acc, jerk),
+                        servo,
+                    )| {
                         Axis {
                             name: String::new(),
                             kind: if rotary {
