@@ -956,12 +956,12 @@ pub fn plan(
             "curvature_share must be in (0, 1), not {rho}"
         )));
     }
-    if let Some(tj) = opts.filter_time {
-        if !(tj >= 0.0 && tj.is_finite()) {
-            return Err(JerkError::Options(format!(
-                "filter_time must be a finite time ≥ 0 s, not {tj}"
-            )));
-        }
+    if let Some(tj) = opts.filter_time
+        && !(tj >= 0.0 && tj.is_finite())
+    {
+        return Err(JerkError::Options(format!(
+            "filter_time must be a finite time ≥ 0 s, not {tj}"
+        )));
     }
     let (vl, al, jl): (Vec<f64>, Vec<f64>, Vec<f64>) = (
         limits.v.iter().map(|x| x * f).collect(),

@@ -286,8 +286,10 @@ fn collinear_points_stay_on_the_line() {
 fn options_scale_the_limits_and_bad_input_is_refused() {
     let path = JointPath::new(1, vec![0.0, 50.0], vec![0.0, 50.0], vec![40.0; 2]).unwrap();
     let lim = limits(&[f64::INFINITY], &[400.0], &[8000.0]);
-    let mut opts = JerkOptions::default();
-    opts.limit_fraction = 0.5;
+    let opts = JerkOptions {
+        limit_fraction: 0.5,
+        ..JerkOptions::default()
+    };
     let law = plan(&path, &lim, &opts).unwrap();
     let best = seven_phase_time(50.0, 40.0, 200.0, 4000.0);
     assert!((law.duration() - best).abs() <= 1e-9 * best);
@@ -311,8 +313,10 @@ fn options_scale_the_limits_and_bad_input_is_refused() {
     let unbounded =
         JointPath::new(1, vec![0.0, 1.0], vec![0.0, 1.0], vec![f64::INFINITY; 2]).unwrap();
     assert!(plan(&unbounded, &lim, &JerkOptions::default()).is_err());
-    let mut o = JerkOptions::default();
-    o.curvature_share = 1.0;
+    let o = JerkOptions {
+        curvature_share: 1.0,
+        ..JerkOptions::default()
+    };
     assert!(matches!(plan(&path, &lim, &o), Err(JerkError::Options(_))));
 }
 
@@ -418,8 +422,10 @@ proptest! {
             a: lims.iter().map(|l| l.1).collect(),
             j: lims.iter().map(|l| l.2).collect(),
         };
-        let mut opts = JerkOptions::default();
-        opts.curvature_share = share;
+        let opts = JerkOptions {
+            curvature_share: share,
+            ..JerkOptions::default()
+        };
         let law = plan(&path, &lim, &opts).unwrap();
         check(&path, &lim, &law, 1e-3);
     }
