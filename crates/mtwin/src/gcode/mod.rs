@@ -66,6 +66,7 @@ mod interp;
 mod interpolate;
 mod lexer;
 pub mod parameters;
+pub mod plan;
 mod profile;
 pub mod program_flow;
 #[warn(missing_docs)]

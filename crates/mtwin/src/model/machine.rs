@@ -92,6 +92,8 @@ pub struct Axis {
     pub max_velocity: Option<f64>,
     /// Acceleration limit for the interpolator, mm/s² or deg/s².
     pub max_acceleration: Option<f64>,
+    /// Jerk limit for the jerk-limited planner, mm/s³ or deg/s³.
+    pub max_jerk: Option<f64>,
     /// Servo model of the axis, if identified.
     pub servo: Option<ServoTable>,
 }
@@ -114,6 +116,7 @@ impl Axis {
             errors: AxisErrors::default(),
             max_velocity: None,
             max_acceleration: None,
+            max_jerk: None,
             servo: None,
         }
     }

@@ -306,13 +306,14 @@ pub(crate) fn machine_problems(m: &Machine) -> Vec<String> {
             .and_then(|()| travel(&what, a.travel));
         let travel_known = travel_ok.is_ok();
         ok(travel_ok);
-        let (vu, au) = match a.kind {
-            AxisKind::Rotary => ("deg/s", "deg/s²"),
-            AxisKind::Linear => ("mm/s", "mm/s²"),
+        let (vu, au, ju) = match a.kind {
+            AxisKind::Rotary => ("deg/s", "deg/s²", "deg/s³"),
+            AxisKind::Linear => ("mm/s", "mm/s²", "mm/s³"),
         };
         for (key, unit_name, v) in [
             ("max_velocity", vu, a.max_velocity),
             ("max_acceleration", au, a.max_acceleration),
+            ("max_jerk", ju, a.max_jerk),
         ] {
             if let Some(x) = v {
                 ok(number(&format!("`{key}` of {what} ({unit_name})"), x)
@@ -408,6 +409,10 @@ mod tests {
                 Box::new(move |m| m.axes[x].max_velocity = Some(-1.0)),
             ),
             (
+                "`max_jerk` of axis `X` must be positive",
+                Box::new(move |m| m.axes[x].max_jerk = Some(0.0)),
+            ),
+            (
                 "axis name `1bad` must start with a letter",
                 Box::new(move |m| m.axes[x].name = "1bad".into()),
             ),
@@ -491,6 +496,13 @@ mod tests {
         let mut m = good.clone();
         m.tool_chain.push(17);
         assert!(m.validate().unwrap_err().to_string().contains("index 17"));
+        let mut m = good.clone();
+        m.axes[x].max_jerk = Some(f64::INFINITY);
+        let e = m.validate().unwrap_err().to_string();
+        assert!(
+            e.contains("`max_jerk` of axis `X` (mm/s³) must be a finite number"),
+            "{e}"
+        );
         let mut m = good;
         m.tool_tip.x = f64::NAN;
         let e = m.validate().unwrap_err().to_string();

@@ -221,6 +221,7 @@ impl Cx<'_> {
                 "servo",
                 "max_velocity",
                 "max_acceleration",
+                "max_jerk",
             ],
             "[[axes]]",
         );
@@ -288,12 +289,13 @@ impl Cx<'_> {
             }
             Some(x)
         };
-        let (vu, au) = match kind {
-            Some(AxisKind::Rotary) => ("deg/s", "deg/s²"),
-            _ => ("mm/s", "mm/s²"),
+        let (vu, au, ju) = match kind {
+            Some(AxisKind::Rotary) => ("deg/s", "deg/s²", "deg/s³"),
+            _ => ("mm/s", "mm/s²", "mm/s³"),
         };
         let max_velocity = positive(self, "max_velocity", vu);
         let max_acceleration = positive(self, "max_acceleration", au);
+        let max_jerk = positive(self, "max_jerk", ju);
         let errors = match t.get("errors") {
             Some(Item::Table(e)) => self.errors(e, &name, travel),
             Some(other) => {
@@ -326,6 +328,7 @@ impl Cx<'_> {
             errors,
             max_velocity,
             max_acceleration,
+            max_jerk,
             servo,
         })
     }
@@ -558,6 +561,39 @@ travel = [-360, 360]
         assert_eq!(m.axes[1].errors.location[0], 0.01);
         assert_eq!(m.axes[0].errors.location[5], 1e-5);
         assert!(m.axes[1].servo.is_some());
+    }
+
+    /// `max_jerk` is read in the axis's unit, written back and read again
+    /// unchanged; a non-positive one is refused at its line.
+    #[test]
+    fn max_jerk_is_read_written_and_checked() {
+        let text = GOOD.replace(
+            "travel = [-100, 100]",
+            "travel = [-100, 100]\nmax_velocity = 200.0\nmax_acceleration = 2000.0\nmax_jerk = 40000.0",
+        );
+        let m = parse(&text).unwrap();
+        assert_eq!(m.axes[0].max_jerk, Some(40000.0));
+        assert_eq!(m.axes[1].max_jerk, None);
+        let again = parse(&crate::model::machine_to_toml(&m, &[]).unwrap()).unwrap();
+        assert_eq!(again.axes[0].max_jerk, Some(40000.0));
+        assert_eq!(again.axes[0].max_acceleration, Some(2000.0));
+        assert_eq!(again.axes[1].max_jerk, None);
+        expect_error(
+            &GOOD.replace(
+                "travel = [-100, 100]",
+                "travel = [-100, 100]\nmax_jerk = -5",
+            ),
+            15,
+            "`max_jerk` of axis `X` must be positive",
+        );
+        expect_error(
+            &GOOD.replace(
+                "travel = [-100, 100]",
+                "travel = [-100, 100]\nmax_jerk = \"fast\"",
+            ),
+            15,
+            "`max_jerk` of axis `X` (mm/s³)",
+        );
     }
 
     fn expect_error(s: &str, line: usize, needle: &str) {

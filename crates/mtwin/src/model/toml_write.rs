@@ -106,6 +106,9 @@ pub fn machine_to_toml(m: &Machine, header: &[&str]) -> Result<String, TomlWrite
                 None,
             );
         }
+        if let Some(v) = a.max_jerk {
+            set(&mut t, "max_jerk", float(&k("max_jerk"), v)?, None);
+        }
         let mut errors = Table::new();
         for c in Component::ALL {
             if let Some(f) = &a.errors.pdge[c.index()] {
@@ -300,11 +303,21 @@ mod tests {
                     prop::array::uniform6(prop::option::of(function())),
                     prop::array::uniform6(finite()),
                 ),
-                (prop::option::of(positive()), prop::option::of(positive())),
+                (
+                    prop::option::of(positive()),
+                    prop::option::of(positive()),
+                    prop::option::of(positive()),
+                ),
                 prop::option::of(servo()),
             )
                 .prop_map(
-                    |((rotary, direction, origin), (a, b), (pdge, location), (v, acc), servo)| {
+                    |(
+                        (rotary, direction, origin),
+                        (a, b),
+                        (pdge, location),
+                        (v, acc, jerk),
+                        servo,
+                    )| {
                         Axis {
                             name: String::new(),
                             kind: if rotary {
@@ -318,6 +331,7 @@ mod tests {
                             errors: AxisErrors { pdge, location },
                             max_velocity: v,
                             max_acceleration: acc,
+                            max_jerk: jerk,
                             servo,
                         }
                     },

@@ -1,0 +1,2 @@
+//! Motion planning along a programmed path (see docs/gcode.md).
+pub mod jerk;
