@@ -110,7 +110,9 @@ fn python_package_builds_installs_and_passes_its_tests() {
     run(
         Command::new(env_dir.join("bin/maturin"))
             .current_dir(repo())
-            .args(["build", "--interpreter"])
+            // `align-test-build`: the same dependency features as this test build, so
+            // that the library and its dependencies are not compiled a second time.
+            .args(["build", "--features", "align-test-build", "--interpreter"])
             .arg(&bin)
             .arg("--out")
             .arg(&wheels)
