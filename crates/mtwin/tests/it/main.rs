@@ -17,4 +17,6 @@ mod generated_programs;
 mod positioning;
 mod rs274;
 mod thermal_inputs;
+mod thermal_probing;
+mod thermal_real;
 mod thermal_truth;
