@@ -18,10 +18,12 @@ const BALL_RADIUS: f64 = 12.7;
 
 /// The identification programme: speed steps, one value per 10-min period.
 fn speeds() -> Vec<f64> {
-    [2000.0, 6000.0, 8000.0, 0.0, 4000.0, 7000.0, 1000.0, 8000.0, 3000.0, 0.0]
-        .iter()
-        .flat_map(|&s| [s; 4])
-        .collect()
+    [
+        2000.0, 6000.0, 8000.0, 0.0, 4000.0, 7000.0, 1000.0, 8000.0, 3000.0, 0.0,
+    ]
+    .iter()
+    .flat_map(|&s| [s; 4])
+    .collect()
 }
 
 /// Touched Z of every pass (rows) and ball (columns): the probe moves down
@@ -30,7 +32,10 @@ fn speeds() -> Vec<f64> {
 fn touched(machine: &TruthMachine) -> Vec<Vec<f64>> {
     let noise = Normal::new(0.0, 0.0003).unwrap();
     let mut rng = rand::rngs::StdRng::seed_from_u64(11);
-    let drifts: Vec<Vec<f64>> = HEIGHTS.iter().map(|&z| machine.drift(&speeds(), z)).collect();
+    let drifts: Vec<Vec<f64>> = HEIGHTS
+        .iter()
+        .map(|&z| machine.drift(&speeds(), z))
+        .collect();
     (0..speeds().len())
         .map(|k| {
             HEIGHTS
@@ -47,7 +52,11 @@ fn training(column: &str, value: impl Fn(f64, f64) -> f64, probes: &[Vec<f64>]) 
     let mut s = format!("t_min,speed_rpm,z_mm,{column}\n");
     for (k, (pass, n)) in probes.iter().zip(speeds()).enumerate() {
         for (i, &z) in HEIGHTS.iter().enumerate() {
-            s.push_str(&format!("{},{n},{z},{}\n", 10 * k, value(probes[0][i], pass[i])));
+            s.push_str(&format!(
+                "{},{n},{z},{}\n",
+                10 * k,
+                value(probes[0][i], pass[i])
+            ));
         }
     }
     s
@@ -74,10 +83,8 @@ fn actual_errors(train: &str) -> Vec<(f64, f64, f64)> {
     };
     let fit = fit_csv(&path, &options).unwrap();
     let program = "G21 G90 G17\nS8000 M3\nG4 P3000\nG1 Z-50 F1000\nG4 P1800\nG1 Z-150\nM5\nM2\n";
-    let options = CompensateOptions {
-        update: CorrectionUpdate::Continuous,
-        ..CompensateOptions::default()
-    };
+    let mut options = CompensateOptions::default();
+    options.update = CorrectionUpdate::Continuous;
     let out = compensate(&fit.model, program.as_bytes(), &options).unwrap();
     let text = String::from_utf8(out.output).unwrap();
     let written: Vec<f64> = text

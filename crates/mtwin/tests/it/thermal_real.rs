@@ -49,13 +49,27 @@ fn evaluate(path: &Path, inputs: &[&str]) -> (Vec<f64>, Vec<f64>) {
         .iter()
         .map(|c| ChannelSpec::parse(&format!("{c}:Z")).unwrap())
         .collect();
-    let inputs: Vec<InputSpec> = inputs.iter().map(|c| InputSpec::parse(c).unwrap()).collect();
+    let inputs: Vec<InputSpec> = inputs
+        .iter()
+        .map(|c| InputSpec::parse(c).unwrap())
+        .collect();
     let table = Table::read(path).unwrap();
     let log = read_log(&table, &channels, &inputs, 1.0).unwrap();
     let n_train = (log.len() * 2) / 3;
     let start = std::time::Instant::now();
-    let fit = fit_log(&log, &channels, &inputs, Some(n_train), &LogFitOptions::default()).unwrap();
-    eprintln!("fit in {:.2} s: {:?}", start.elapsed().as_secs_f64(), fit.selection);
+    let fit = fit_log(
+        &log,
+        &channels,
+        &inputs,
+        Some(n_train),
+        &LogFitOptions::default(),
+    )
+    .unwrap();
+    eprintln!(
+        "fit in {:.2} s: {:?}",
+        start.elapsed().as_secs_f64(),
+        fit.selection
+    );
     let pred = predict_log(&fit.model, &log).unwrap();
     let t_test = n_train as f64 * log.period_min;
     let raw = raw_rows(path);
