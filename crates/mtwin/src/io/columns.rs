@@ -26,6 +26,10 @@ pub const SERVO_COMMAND: &str = "command_mm";
 pub const Z_MM: &str = "z_mm";
 /// Measured or predicted thermal drift (mm).
 pub const DRIFT_MM: &str = "drift_mm";
+/// Alternative to [`DRIFT_MM`] in thermal training data: the probe's touched
+/// Z minus the cold pass's (mm), i.e. minus the drift (the probe trips at
+/// `b − e` when the tool has grown by `e` in +Z).
+pub const PROBE_SHIFT_MM: &str = "probe_shift_mm";
 /// Spindle speed (rev/min), the first input of a thermal model.
 pub const SPEED_RPM: &str = "speed_rpm";
 /// A thermal drift prediction, `DRIFT.csv` of `thermal predict`.

@@ -18,4 +18,6 @@ mod linuxcnc_sim;
 mod positioning;
 mod rs274;
 mod thermal_inputs;
+mod thermal_probing;
+mod thermal_real;
 mod thermal_truth;

@@ -1,5 +1,8 @@
-//! `TRAIN.csv` (04, contract): long format `t_min,speed_rpm,z_mm,drift_mm`,
-//! optional `run` column, one row per time and height; each run starts cold.
+//! `TRAIN.csv` (contract): long format `t_min,speed_rpm,z_mm,drift_mm`,
+//! optional `run` column, one row per time and height; each run starts cold
+//! at `t = 0`. `drift_mm` is the tool's displacement relative to the work in
+//! +Z (from probing: the cold pass's touched Z minus this pass's);
+//! `probe_shift_mm` (touched minus cold, i.e. `−drift`) may replace it.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -102,10 +105,29 @@ pub fn training_from_table(
     extra_inputs: &[String],
 ) -> Result<TrainingData, Diagnostics> {
     let path = table.path();
-    use crate::io::columns::{DRIFT_MM, SPEED_RPM, T_MIN, Z_MM};
-    let mut names: Vec<&str> = vec![T_MIN, Z_MM, DRIFT_MM, SPEED_RPM];
+    use crate::io::columns::{DRIFT_MM, PROBE_SHIFT_MM, SPEED_RPM, T_MIN, Z_MM};
+    // The drift column, or the probe's shift (touched − cold = −drift).
+    let shift = table.column(DRIFT_MM).is_none() && table.column(PROBE_SHIFT_MM).is_some();
+    if table.column(DRIFT_MM).is_some() && table.column(PROBE_SHIFT_MM).is_some() {
+        return Err(Diagnostic::at_line(
+            path,
+            table.header_line(),
+            format!(
+                "both `{DRIFT_MM}` and `{PROBE_SHIFT_MM}` are given: keep one (`{DRIFT_MM}` = cold touched Z \
+                 minus touched Z; `{PROBE_SHIFT_MM}` = touched Z minus cold, its negative)"
+            ),
+        )
+        .into());
+    }
+    let drift_col = if shift { PROBE_SHIFT_MM } else { DRIFT_MM };
+    let mut names: Vec<&str> = vec![T_MIN, Z_MM, drift_col, SPEED_RPM];
     names.extend(extra_inputs.iter().map(String::as_str));
-    let values = table.number_rows(&names)?;
+    let mut values = table.number_rows(&names)?;
+    if shift {
+        for v in &mut values {
+            v[2] = -v[2];
+        }
+    }
     if values.is_empty() {
         return Err(
             Diagnostic::at_line(path, table.header_line(), "the file has no data rows").into(),
@@ -183,6 +205,19 @@ pub fn training_from_table(
             &within,
             &mut diags,
         );
+        // A run is simulated from cold at t = 0: a first row later than
+        // that would lose the interval before it without a word.
+        let t0 = values[rows[0]][0];
+        if t0.abs() > 0.01 * period {
+            diags.push(table.row_error(
+                rows[0],
+                format!(
+                    "{within} starts at t = {} min: each run starts cold at t = 0 (the reference pass, \
+                     drift 0); add the t = 0 row or shift the times",
+                    crate::limits::fmt_message_number(t0)
+                ),
+            ));
+        }
     }
     if !diags.is_empty() {
         return Err(diags);
@@ -274,6 +309,22 @@ mod tests {
         assert_eq!(parse(bad_number).unwrap_err().0[0].column, Some(4));
         let missing = "t_min,speed_rpm,drift_mm\n0,5,0\n";
         assert!(parse(missing).unwrap_err().to_string().contains("`z_mm`"));
+    }
+
+    #[test]
+    fn probe_shift_is_the_negative_drift_and_runs_start_at_zero() {
+        let d = parse("t_min,speed_rpm,z_mm,probe_shift_mm\n0,5,-50,0\n10,5,-50,-0.016\n").unwrap();
+        assert_eq!(d.heights[0].series[0].drift, vec![0.0, 0.016]);
+        let both = "t_min,speed_rpm,z_mm,drift_mm,probe_shift_mm\n0,5,-50,0,0\n10,5,-50,1,-1\n";
+        let e = parse(both).unwrap_err();
+        assert!(e.to_string().starts_with("TRAIN.csv:1:"), "{e}");
+        let late = "t_min,speed_rpm,z_mm,drift_mm\n10,5,-50,0\n20,5,-50,1\n30,5,-50,2\n";
+        let e = parse(late).unwrap_err();
+        assert!(
+            e.0.iter()
+                .any(|d| d.line == 2 && d.message.contains("starts at t = 10 min")),
+            "{e}"
+        );
     }
 
     proptest::proptest! {

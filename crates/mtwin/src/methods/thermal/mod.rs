@@ -23,6 +23,7 @@ mod compensate;
 mod data;
 pub mod doc;
 mod file;
+pub mod log;
 mod model;
 mod predict;
 mod program;

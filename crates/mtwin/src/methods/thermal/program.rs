@@ -9,11 +9,17 @@
 //! its top, in −Z: rapid to `z_i + r + approach`, probing move to
 //! `z_i + r − overtravel` at the probing feed (`G38.2` for LinuxCNC, `G31`
 //! skip for Fanuc), rapid back to the safe height
-//! `max_i(z_i + r) + clearance`. The drift at height `z_i` is the touched
-//! Z minus the cold pass's (LinuxCNC writes `#5063` of every touch to
-//! `thermal-probe.csv` with `(LOG,…)`; on Fanuc read `#5063` after each
-//! `G31` as your control's macro practice prescribes — the program holds
-//! no macro statements).
+//! `max_i(z_i + r) + clearance`. The drift at height `z_i` is the cold
+//! pass's touched Z minus the touched Z of the pass (reference minus new
+//! reading): when the tool moves by `e` in +Z relative to the work, the
+//! probe touches the ball top `b` at the indicated `b − e`, so the touched
+//! Z falls by `e`, and `cold − touched = e` is the drift of the model
+//! (the one `thermal compensate` removes by writing `Z − e`). LinuxCNC
+//! writes `#5063` of every touch to `thermal-probe.csv` with `(LOG,…)`; on
+//! Fanuc read `#5063` after each `G31` as your control's macro practice
+//! prescribes — the program holds no macro statements. A training file may
+//! give the touched shift itself (`probe_shift_mm` = touched − cold) in
+//! place of `drift_mm`; the fit then takes `drift = −probe_shift`.
 //!
 //! **Timing.** Pass `k` starts at exactly `t_k = k·T` after the end of the
 //! initial positioning (the time estimate of the program: rapids at the
