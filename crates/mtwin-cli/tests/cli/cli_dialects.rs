@@ -96,9 +96,11 @@ fn tracker_plan_takes_the_dialect() {
         "--fit",
         "pdge:cheb2,location",
         "--candidates",
-        "100",
+        "200",
         "--select",
-        "40",
+        "90",
+        "--seed",
+        "4",
         "--out-csv",
         "poses.csv",
     ];
@@ -153,6 +155,13 @@ fn testpiece_s_shape_takes_the_dialect() {
         "40",
         "--tcp",
     ];
-    // TCP: X Y Z are the tip, 41 poses to 0.0005 mm (Fanuc) in each of three words.
-    same_motion(dir.path(), &args, "--out", "s.nc", 41.0 * 3.0 * 5e-4);
+    // TCP: X Y Z are the tip; 40 segments whose ends move by at most
+    // √3·0.0005 mm each (3 decimals for Fanuc against 6).
+    same_motion(
+        dir.path(),
+        &args,
+        "--out",
+        "s.nc",
+        40.0 * 2.0 * 3f64.sqrt() * 5e-4,
+    );
 }

@@ -31,7 +31,7 @@ use crate::gcode::program_flow::{Step, run_program};
 use crate::gcode::timing::lerp;
 use crate::gcode::{
     Axes, Axis, AxisLetterError, Block, BlockWriter, Dialect, DistanceMode, EventKind, Feed,
-    GcodeError, InterpOptions, Interpreter, Item, NumberFormat, Programmed, Value,
+    GcodeError, InterpOptions, Interpreter, Item, NumberFormat, ProgramOptions, Programmed, Value,
 };
 use crate::kinematics::{IkError, IkJacobian, IkOptions, IkTarget, Kinematics};
 use crate::model::{AxisKind, Machine};
@@ -351,10 +351,15 @@ impl Compensator {
         // Lines of the held part (O-word flow) as every run of them left them:
         // a line that runs several times must come out the same each time.
         let mut held: HashMap<u64, (Block, Vec<Block>)> = HashMap::new();
+        // The text after the program end is copied as it is.
+        let program = ProgramOptions {
+            keep_rest: true,
+            ..self.opts.interp.program.clone()
+        };
         let flow = run_program(
             input,
             &mut interp,
-            &self.opts.interp.program,
+            &program,
             self.opts.interp.dialect,
             |step: &Step<'_>| -> Result<(), CompensateError> {
                 run.summary.blocks += 1;
