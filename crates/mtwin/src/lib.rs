@@ -57,8 +57,6 @@
 
 pub mod examples;
 pub mod fit;
-// documented by the G-code work in progress
-#[allow(missing_docs)]
 pub mod gcode;
 pub mod io;
 pub mod kinematics;

@@ -236,7 +236,7 @@ pub struct ProgramArgs {
     rig: RigArgs,
     #[command(flatten)]
     range: RangeArgs,
-    /// Dwell at each step, s (`G4 P`).
+    /// Dwell at each step, s (`G4 P` for LinuxCNC, `G4 X` for Fanuc).
     #[arg(long, default_value_t = 2.0)]
     dwell: f64,
     /// Rotary feed, deg/min.
@@ -248,6 +248,8 @@ pub struct ProgramArgs {
     /// Folder for mode1.ngc … mode4.ngc (created if absent).
     #[arg(long)]
     out: PathBuf,
+    #[command(flatten)]
+    dialect: super::common::WriteDialectArgs,
     #[arg(long, value_enum, default_value_t)]
     format: Format,
 }
@@ -431,6 +433,7 @@ fn run_program(a: ProgramArgs) -> anyhow::Result<()> {
             angles_deg: a.range.angles(m)?,
             dwell_s: a.dwell,
             feed: a.feed,
+            dialect: a.dialect.dialect(),
         };
         texts.push((m, ballbar::program(&machine, m, &spec)?));
     }

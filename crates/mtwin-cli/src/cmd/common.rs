@@ -145,6 +145,30 @@ impl DialectArgs {
     }
 }
 
+/// The controller a generated program is written for (`--dialect`): every
+/// number is written with a decimal point, so a Fanuc control reads it the
+/// same with and without decimal point programming.
+#[derive(Debug, Clone, clap::Args)]
+pub struct WriteDialectArgs {
+    /// The controller the program is written for (LinuxCNC: `G4 P` in
+    /// seconds; Fanuc: `G4 X` in seconds, every number with a decimal point,
+    /// upper-case comments).
+    #[arg(long, value_enum, default_value_t)]
+    pub dialect: DialectArg,
+}
+
+impl WriteDialectArgs {
+    /// The library's dialect.
+    pub fn dialect(&self) -> Dialect {
+        match self.dialect {
+            DialectArg::Linuxcnc => Dialect::LinuxCnc,
+            DialectArg::Fanuc => Dialect::Fanuc {
+                decimal_point_programming: false,
+            },
+        }
+    }
+}
+
 /// `file:line:col: message` for a G-code error of the program at `path` (or
 /// of the subroutine file it happened in).
 pub fn located_error(path: &Path, e: &GcodeError) -> anyhow::Error {

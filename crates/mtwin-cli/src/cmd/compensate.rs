@@ -3,9 +3,7 @@
 
 use std::path::PathBuf;
 
-use mtwin::methods::compensate::{
-    CompensateDoc, CompensateError, CompensateOptions, Compensator, Summary,
-};
+use mtwin::methods::compensate::{self, CompensateDoc, CompensateError, CompensateOptions};
 
 use super::common::{DialectArgs, load_machine};
 use crate::output::{Format, note, print_doc};
@@ -43,47 +41,43 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    anyhow::ensure!(
-        a.tol > 0.0 && a.tol.is_finite(),
-        "--tol must be a positive number of mm, not {}",
-        mtwin::limits::fmt_message_number(a.tol)
-    );
-    anyhow::ensure!(
-        a.max_correction > 0.0 && a.max_correction.is_finite(),
-        "--max-correction must be a positive number of mm, not {}",
-        mtwin::limits::fmt_message_number(a.max_correction)
-    );
+    let mut opts = CompensateOptions::default();
+    opts.tol = a.tol;
+    opts.max_correction = a.max_correction;
+    let error = |e: CompensateError| match e {
+        CompensateError::Setting { option, problem } => {
+            anyhow::anyhow!("--{} {problem}", option.replace('_', "-"))
+        }
+        CompensateError::Io(e) => anyhow::anyhow!("cannot write {}: {e}", a.out.display()),
+        CompensateError::Gcode(e) => super::common::located_error(&a.program, &e),
+        CompensateError::AxisName(e) => anyhow::anyhow!("{}: {e}", a.machine.display()),
+        e => super::gcode::located(&a.program, e.line(), e.column(), e.message()),
+    };
+    opts.validate().map_err(error)?;
     let mut out = mtwin::io::Outputs::plan()
         .input(&a.machine)
         .input(&a.program)
         .output(&a.out)
         .begin()?;
     let m = load_machine(&a.machine)?;
-    let mut opts = CompensateOptions::default();
-    opts.tol = a.tol;
-    opts.max_correction = a.max_correction;
     opts.interp = super::gcode::interp_options(&a.offsets, &a.dialect, &a.program)?;
     opts.interp.tcp_at_start = a.tcp;
-    let comp =
-        Compensator::new(&m, opts).map_err(|e| anyhow::anyhow!("{}: {e}", a.machine.display()))?;
     let (input, bar) = crate::output::open_with_progress(&a.program, "compensate")?;
-    let mut summary = Summary::default();
+    let mut result = None;
     let written = out.write_with(&a.out, |w| -> Result<(), CompensateError> {
-        summary = comp.run(input, w)?;
+        result = Some(compensate::run(&m, input, w, &opts)?);
         Ok(())
     });
     bar.finish_and_clear();
-    written.map_err(|e| match e {
-        CompensateError::Io(e) => anyhow::anyhow!("cannot write {}: {e}", a.out.display()),
-        CompensateError::Gcode(e) => super::common::located_error(&a.program, &e),
-        e => super::gcode::located(&a.program, e.line(), e.column(), &e),
-    })?;
+    written.map_err(error)?;
     out.commit()?;
+    let (summary, doc) = result.ok_or_else(|| anyhow::anyhow!("the compensation did not run"))?;
     for n in &summary.notes {
         note(n);
     }
-    print_doc(
-        &CompensateDoc::new(&summary, &a.out.display().to_string()),
-        a.format,
-    )
+    let doc = CompensateDoc {
+        out: a.out.display().to_string(),
+        ..doc
+    };
+    print_doc(&doc, a.format)
 }

@@ -111,15 +111,9 @@ fn parse_offsets(items: &[String], base: Axes) -> anyhow::Result<Axes> {
     Ok(off)
 }
 
-pub(super) fn open(path: &Path) -> anyhow::Result<BufReader<File>> {
-    let f = File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
-    Ok(BufReader::new(f))
-}
-
 /// `file:line:col: message` for an error with a source position (the one
-/// error format of every command). The library's messages name the line
-/// themselves (`line N: …`, `… at line N, column M: …`); that repetition
-/// is left out here.
+/// error format of every command); `msg` is the library's message without
+/// its location (the errors' `message()`).
 pub(super) fn located(
     path: &Path,
     line: Option<u64>,
@@ -127,35 +121,9 @@ pub(super) fn located(
     msg: impl std::fmt::Display,
 ) -> anyhow::Error {
     match line {
-        Some(l) => {
-            let msg = strip_location(&msg.to_string(), l, column);
-            anyhow::anyhow!("{}:{}:{}: {}", path.display(), l, column.max(1), msg)
-        }
+        Some(l) => anyhow::anyhow!("{}:{}:{}: {}", path.display(), l, column.max(1), msg),
         None => anyhow::anyhow!("{}: {}", path.display(), msg),
     }
-}
-
-/// `msg` without its own mention of `line` (and `column`).
-fn strip_location(msg: &str, line: u64, column: u32) -> String {
-    let mut m = msg.to_string();
-    let prefix = format!("line {line}: ");
-    if let Some(rest) = m.strip_prefix(&prefix) {
-        m = rest.to_string();
-    }
-    for at in [
-        format!(" at line {line}, column {column}"),
-        format!(" at line {line}"),
-    ] {
-        if let Some(i) = m.find(&at) {
-            let end = i + at.len();
-            // Only a whole mention (not `line 12` inside `line 123`).
-            if !m[end..].starts_with(|c: char| c.is_ascii_digit()) {
-                m.replace_range(i..end, "");
-                break;
-            }
-        }
-    }
-    m
 }
 
 /// Interpreter options from `--offset` items and the program-reading
@@ -248,7 +216,7 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
     });
     bar.finish_and_clear();
     if let Some(e) = failure {
-        return Err(located(&a.program, e.line(), e.column(), &e));
+        return Err(located(&a.program, e.line(), e.column(), e.message()));
     }
     written.with_context(|| format!("cannot write {}", a.out.display()))?;
     out.commit()?;
@@ -309,19 +277,17 @@ mod tests {
     use super::*;
 
     #[test]
-    fn located_errors_name_the_place_once() {
+    fn located_errors_put_the_place_first() {
         let p = Path::new("part.ngc");
-        let e = located(p, Some(3), 5, "syntax error at line 3, column 5: bad");
+        let e = located(p, Some(3), 5, "syntax error: bad");
         assert_eq!(e.to_string(), "part.ngc:3:5: syntax error: bad");
-        let e = located(p, Some(12), 0, "unsupported canned cycle G81 at line 12");
+        // A whole block at fault is column 1.
+        let e = located(p, Some(12), 0, "unsupported canned cycle G81");
         assert_eq!(e.to_string(), "part.ngc:12:1: unsupported canned cycle G81");
-        let e = located(p, Some(4), 0, "line 4: the correction exceeds the limit");
-        assert_eq!(
-            e.to_string(),
-            "part.ngc:4:1: the correction exceeds the limit"
-        );
         // Another line named in the message stays.
         let e = located(p, Some(1), 0, "see line 12");
         assert_eq!(e.to_string(), "part.ngc:1:1: see line 12");
+        let e = located(p, None, 0, "no moves");
+        assert_eq!(e.to_string(), "part.ngc: no moves");
     }
 }

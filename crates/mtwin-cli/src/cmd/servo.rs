@@ -8,15 +8,13 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use mtwin::io::{Outputs, Table, columns, fmt_f64, write_csv_row};
+use mtwin::io::{Outputs, columns, fmt_f64, write_csv_row};
 use mtwin::sysid::{
-    self, ExcitationError, ExcitationOptions, ServoExcitationDoc, ServoFitDoc, ServoFitOptions,
-    ServoSimulateDoc, excitation_program,
+    self, ExcitationError, ExcitationOptions, FitRunOptions, ServoExcitationDoc, ServoFitDoc,
+    ServoFitError, ServoSimulateDoc, SimulateRunError, SimulateRunOptions,
 };
-use rand::SeedableRng;
-use rand_distr::{Distribution, Normal};
 
-use super::common::{diag, load_table};
+use super::common::{WriteDialectArgs, diag, load_table};
 use crate::output::{Format, note, print_doc, warn};
 
 #[derive(Debug, clap::Subcommand)]
@@ -119,6 +117,8 @@ pub struct ExcitationArgs {
     /// Output G-code program.
     #[arg(long)]
     out: PathBuf,
+    #[command(flatten)]
+    dialect: WriteDialectArgs,
     /// Output format of the summary.
     #[arg(long, value_enum, default_value_t)]
     format: Format,
@@ -136,41 +136,35 @@ pub fn run(c: Command) -> anyhow::Result<()> {
 const FIT_FLAGS: &[(&str, &str)] = &[("max_order", "--max-order"), ("max_delay", "--max-delay")];
 
 fn fit(a: FitArgs) -> anyhow::Result<()> {
-    if !(a.feed.is_finite() && a.feed > 0.0) {
-        anyhow::bail!(
-            "--feed must be a positive feed in mm/min, not {}",
-            mtwin::limits::fmt_message_number(a.feed)
-        );
-    }
-    let mut options = ServoFitOptions::default();
-    options.max_order = a.max_order;
-    options.max_delay = a.max_delay;
+    let mut options = FitRunOptions::default();
+    options.fit.max_order = a.max_order;
+    options.fit.max_delay = a.max_delay;
+    options.feed_mm_min = Some(a.feed);
     options.validate().map_err(|e| match e {
-        sysid::SysidError::Limit(l) => anyhow::anyhow!("{}", l.naming(FIT_FLAGS)),
-        other => anyhow::anyhow!("--max-order: {other}"),
+        ServoFitError::Fit(sysid::SysidError::Limit(l)) => {
+            anyhow::anyhow!("{}", l.naming(FIT_FLAGS))
+        }
+        ServoFitError::Fit(other) => anyhow::anyhow!("--max-order: {other}"),
+        other => fit_error(other),
     })?;
     let mut out = Outputs::plan().input(&a.data).output(&a.out).begin()?;
     // Every structure of the order grid is refined by output error: seconds
     // on a long log.
     let spin = crate::output::spinner("fitting servo structures");
-    let fit = sysid::fit_servo_csv(&a.data, &options);
+    let result = sysid::run_fit(&a.data, &options);
     spin.finish_and_clear();
-    let fit = fit?;
+    let (fit, doc) = result.map_err(fit_error)?;
     out.write(&a.out, fit.to_toml()?.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     out.commit()?;
-    for w in fit.warnings() {
+    for w in &doc.warnings {
         warn(w);
     }
-    let velocity = a.feed / 60.0;
-    let following = fit.servo.following_error(velocity).ok();
     let doc = ServoFitDoc {
         out: Some(a.out.display().to_string()),
-        feed_mm_min: Some(a.feed),
-        following_error_at_feed: following,
-        ..ServoFitDoc::new(&fit)
+        ..doc
     };
-    crate::output::print_doc(&doc, a.format)?;
+    print_doc(&doc, a.format)?;
     if a.format == Format::Human {
         note(format!(
             "copy the keys of {} under the axis' [axes.servo] table of the machine model",
@@ -180,47 +174,48 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
-    if !(a.noise.is_finite() && a.noise >= 0.0) {
-        anyhow::bail!(
-            "--noise must be finite and >= 0 mm, not {}",
-            mtwin::limits::fmt_message_number(a.noise)
-        );
+/// A fit error, a setting named by its flag.
+fn fit_error(e: ServoFitError) -> anyhow::Error {
+    match e {
+        ServoFitError::Setting { option, problem } => anyhow::anyhow!("--{option} {problem}"),
+        other => other.into(),
     }
+}
+
+fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
+    let mut options = SimulateRunOptions::default();
+    options.noise = a.noise;
+    options.seed = a.seed;
+    options.allow_unstable = a.allow_unstable;
+    let simulate_error = |e: SimulateRunError| match e {
+        SimulateRunError::Setting { option, problem } => anyhow::anyhow!("--{option} {problem}"),
+        SimulateRunError::Unstable(w) => anyhow::anyhow!(
+            "{}: {w}; refusing to simulate it (give --allow-unstable to simulate anyway)",
+            a.servo.display()
+        ),
+        SimulateRunError::Diverges { t_s, sample } => anyhow::anyhow!(
+            "the simulated feedback overflows at t_s = {} (sample {sample}): the servo of {} diverges; nothing written",
+            fmt_f64(t_s),
+            a.servo.display()
+        ),
+        other => other.into(),
+    };
+    options.validate().map_err(simulate_error)?;
     let mut out = Outputs::plan()
         .input(&a.servo)
         .input(&a.commands)
         .output(&a.out)
         .begin()?;
     let servo = sysid::read_servo_toml(&a.servo).map_err(diag)?;
-    if let Some(w) = servo.arx().stability().warning()
-        && !a.allow_unstable
-    {
-        anyhow::bail!(
-            "{}: {w}; refusing to simulate it (give --allow-unstable to simulate anyway)",
-            a.servo.display()
-        );
-    }
+    options.check_servo(&servo).map_err(simulate_error)?;
     let table = load_table(&a.commands)?;
     let column = a.axis.as_deref().unwrap_or(columns::SERVO_COMMAND);
-    let rows = table.number_rows(&[columns::T_S, column]).map_err(diag)?;
-    check_grid(&table, &rows, servo.ts())?;
-    let commands: Vec<f64> = rows.iter().map(|r| r[1]).collect();
-    let feedback = servo.simulate(&commands);
-    if let Some(k) = feedback.iter().position(|y| !y.is_finite()) {
-        anyhow::bail!(
-            "the simulated feedback overflows at t_s = {} (sample {}): the servo of {} diverges; nothing written",
-            fmt_f64(rows[k][0]),
-            k + 1,
-            a.servo.display()
-        );
-    }
-    let noise = Normal::new(0.0, a.noise).context("the noise level")?;
-    let mut rng = rand::rngs::StdRng::seed_from_u64(a.seed);
+    let commands = sysid::read_servo_commands(&table, column, servo.ts()).map_err(diag)?;
+    let (log, doc) = sysid::run_simulate(&servo, &commands, &options).map_err(simulate_error)?;
     out.write_with(&a.out, |w| -> std::io::Result<()> {
         w.write_all(format!("{}\n", columns::header(&columns::SERVO_LOG)).as_bytes())?;
-        for (r, y) in rows.iter().zip(&feedback) {
-            write_csv_row(w, &[r[0], r[1], y + noise.sample(&mut rng)])?;
+        for r in &log {
+            write_csv_row(w, r)?;
         }
         Ok(())
     })
@@ -228,51 +223,16 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
     out.commit()?;
     note(format!(
         "{} samples (noise {} mm, seed {}) → {}",
-        rows.len(),
+        doc.samples,
         mtwin::limits::fmt_message_number(a.noise),
         a.seed,
         a.out.display()
     ));
     let doc = ServoSimulateDoc {
-        duration_s: rows.len() as f64 * servo.ts(),
-        largest_following_error: commands
-            .iter()
-            .zip(&feedback)
-            .map(|(c, y)| (c - y).abs())
-            .fold(0.0, f64::max),
-        noise: a.noise,
         out: a.out.display().to_string(),
-        samples: rows.len(),
-        seed: a.seed,
+        ..doc
     };
     print_doc(&doc, a.format)
-}
-
-/// Commands must be at least two samples, `t_s` increasing by the servo's `ts` (within 1 %).
-fn check_grid(table: &Table, rows: &[Vec<f64>], ts: f64) -> anyhow::Result<()> {
-    let mut d = mtwin::io::Diagnostics::default();
-    if rows.is_empty() {
-        d.push(mtwin::io::Diagnostic::at_line(
-            table.path(),
-            table.header_line(),
-            "the file has no data rows",
-        ));
-    }
-    for (r, w) in rows.windows(2).enumerate() {
-        let dt = w[1][0] - w[0][0];
-        if (dt - ts).abs() > 0.01 * ts {
-            d.push(table.row_error(
-                r + 1,
-                format!(
-                    "t_s = {} does not follow the previous sample ({}) by the servo's ts = {} s",
-                    fmt_f64(w[1][0]),
-                    fmt_f64(w[0][0]),
-                    fmt_f64(ts)
-                ),
-            ));
-        }
-    }
-    d.into_result(()).map_err(diag)
 }
 
 fn excitation(a: ExcitationArgs) -> anyhow::Result<()> {
@@ -283,16 +243,17 @@ fn excitation(a: ExcitationArgs) -> anyhow::Result<()> {
         .filter_map(|s| s.trim().parse().ok())
         .collect();
     let travel = match values.as_slice() {
-        [lo, hi] if a.travel.len() == 2 => (*lo, *hi),
+        [lo, hi] if a.travel.len() == 2 => [*lo, *hi],
         _ => anyhow::bail!(
             "--travel needs two numbers MIN,MAX (mm or deg), not `{}`",
             a.travel.join(",")
         ),
     };
-    let mut options = ExcitationOptions::new(&a.axis, [travel.0, travel.1], a.feed);
+    let mut options = ExcitationOptions::new(&a.axis, travel, a.feed);
     options.levels = a.levels;
     options.dwell_s = a.dwell;
-    let text = excitation_program(&options).map_err(|e| match e {
+    options.dialect = a.dialect.dialect();
+    let (text, doc) = sysid::run_excitation(&options).map_err(|e| match e {
         ExcitationError::Setting { option, problem } => anyhow::anyhow!("--{option} {problem}"),
         ExcitationError::Limit(mut l) => {
             l.what = "--levels".into();
@@ -310,13 +271,8 @@ fn excitation(a: ExcitationArgs) -> anyhow::Result<()> {
         a.out.display()
     ));
     let doc = ServoExcitationDoc {
-        axis: a.axis.clone(),
-        dwell_s: a.dwell,
-        feed: a.feed,
-        levels: a.levels,
-        lines: text.lines().count(),
         out: a.out.display().to_string(),
-        travel: [travel.0, travel.1],
+        ..doc
     };
     print_doc(&doc, a.format)
 }

@@ -7,12 +7,11 @@ use std::path::PathBuf;
 use anyhow::Context;
 use mtwin::gcode::Dialect;
 use mtwin::io::{Outputs, columns, fmt_f64};
-use mtwin::methods::skiving::closed_form::STANDARD_FORMULAS;
 use mtwin::methods::skiving::doc::SkivingProgramDoc;
 use mtwin::methods::skiving::program::{self, Motion, Plan};
 use mtwin::methods::skiving::simulate::SimulateOptions;
 use mtwin::methods::skiving::touch::{DEFAULT_PLAUSIBILITY_MM, read_touches};
-use mtwin::methods::skiving::{self, Geometry, Options, SetupError, UncertaintyBasis};
+use mtwin::methods::skiving::{self, Geometry, Options, SetupError};
 
 use super::common::{diag, load_table};
 use crate::output::{Format, note, print_doc, warn};
@@ -193,11 +192,12 @@ fn setup_error(a: SetupErrorArgs) -> anyhow::Result<()> {
     let g = a.geometry.geometry()?;
     let t = load_table(&a.data)?;
     let touches = read_touches(&t, &g, a.tolerance).map_err(diag)?;
-    let (s, first, doc) = skiving::run(&touches, &g, &Options::with_noise(a.noise))
+    let (s, _, mut doc) = skiving::run(&touches, &g, &Options::with_noise(a.noise))
         .with_context(|| format!("{}: cannot identify the set-up error", a.data.display()))?;
-    let e = s.estimate;
-    let names = SetupError::NAMES;
-    let unc = s.uncertainty.map(|u| u.std);
+    doc.source = Some(a.data.display().to_string());
+    for (i, row) in doc.rows.iter_mut().enumerate() {
+        row.line = t.line(i);
+    }
     let inconsistent: Vec<usize> = s
         .flags
         .iter()
@@ -228,87 +228,11 @@ fn setup_error(a: SetupErrorArgs) -> anyhow::Result<()> {
             "touches marked `unchecked` are not checked by any other touch: an error in them goes straight into the result (repeat them to check)",
         );
     }
-    match a.format {
-        Format::Json => {
-            println!("{}", serde_json::to_string_pretty(&doc)?);
-            Ok(())
-        }
-        Format::Human => {
-            println!(
-                "Workpiece set-up error from {} touches ({}), exact chain, least squares",
-                touches.len(),
-                a.data.display()
-            );
-            let val = [e.dgx * 1e3, e.dgy * 1e3, e.exz * 1e6, e.ezy * 1e6];
-            let unit = ["µm", "µm", "µrad", "µrad"];
-            let fo = first
-                .as_ref()
-                .ok()
-                .map(|f| [f.dgx * 1e3, f.dgy * 1e3, f.exz * 1e6, f.ezy * 1e6]);
-            print!("  {:<4} {:>12} {:>14}", "", "value", "std. uncert.");
-            if a.explain {
-                print!(" {:>13}  formula (x = 0, six touches)", "first order");
-            }
-            println!();
-            for k in 0..4 {
-                let u = unc
-                    .map(|u| format!("±{:.3}", u[k] * if k < 2 { 1e3 } else { 1e6 }))
-                    .unwrap_or_else(|| "—".into());
-                print!("  {:<4} {:>12.3} {:>9} {:<4}", names[k], val[k], u, unit[k]);
-                if a.explain {
-                    match fo {
-                        Some(f) => print!(" {:>13.3}  {}", f[k], STANDARD_FORMULAS[k].1),
-                        None => print!(" {:>13}", "—"),
-                    }
-                }
-                println!();
-            }
-            match s.uncertainty {
-                Some(u) => match u.basis {
-                    UncertaintyBasis::KnownNoise { sigma } => println!(
-                        "uncertainties from the given touch noise σ = {:.3} µm; 95 % interval: ±{:.2}·u",
-                        sigma * 1e3,
-                        u.coverage_factor_95()
-                    ),
-                    UncertaintyBasis::Residuals { sigma, dof } => println!(
-                        "uncertainties from the residuals, σ = {:.3} µm with only {dof} degree(s) of freedom; \
-                         95 % interval: ±{:.2}·u (give --noise if the touch repeatability is known)",
-                        sigma * 1e3,
-                        u.coverage_factor_95()
-                    ),
-                },
-                None => println!("no uncertainties: as many touches as unknowns and no --noise"),
-            }
-            if a.explain {
-                match &first {
-                    Ok(_) => println!(
-                        "first order: products of the unknowns dropped (sub-µm, sub-µrad for a few 0.01 mm and 1e-4 rad)"
-                    ),
-                    Err(err) => println!("first order: not applicable: {err}"),
-                }
-            }
-            println!(
-                "  {:>5} {:>5} {:>8} {:<5} {:<5} {:>12} {:>8}  flag",
-                "touch", "line", "c [deg]", "point", "cont.", "residual µm", "r/σ"
-            );
-            for (i, tch) in touches.iter().enumerate() {
-                let st = s.standardized[i]
-                    .map(|v| format!("{v:.2}"))
-                    .unwrap_or_else(|| "—".into());
-                println!(
-                    "  {:>5} {:>5} {:>8.3} {:<5} {:<5} {:>12.4} {:>8}  {}",
-                    i + 1,
-                    t.line(i),
-                    tch.at.c,
-                    tch.point.name(),
-                    tch.contact.name(),
-                    s.residuals[i] * 1e3,
-                    st,
-                    s.flags[i].name()
-                );
-            }
-            Ok(())
-        }
+    if a.explain && a.format == Format::Human {
+        print!("{doc:#}");
+        Ok(())
+    } else {
+        print_doc(&doc, a.format)
     }
 }
 

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use mtwin::methods::testpiece::{SShape, SShapeProgram, s_shape_program};
+use mtwin::methods::testpiece::{self, SShape, SShapeProgram, SShapeProgramDoc};
 
 use super::common::load_machine;
 use crate::output::{Format, note, print_doc};
@@ -60,6 +60,8 @@ pub struct SShapeArgs {
     /// A TCP program (G43.4 H0 … G49; X Y Z = tool tip in W) instead of joint-space axis words.
     #[arg(long)]
     tcp: bool,
+    #[command(flatten)]
+    dialect: super::common::WriteDialectArgs,
     /// Output format of the summary.
     #[arg(long, value_enum, default_value_t)]
     format: Format,
@@ -97,30 +99,16 @@ fn s_shape(a: SShapeArgs) -> anyhow::Result<()> {
         feed: a.feed,
         inverse_time: a.inverse_time,
         tcp: a.tcp,
+        dialect: a.dialect.dialect(),
     };
-    let text = s_shape_program(&machine, &shape, &opts)
+    let (text, doc) = testpiece::run(&machine, &shape, &opts)
         .with_context(|| format!("the S-shaped piece on {}", a.machine.display()))?;
     out.write(&a.out, text.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     out.commit()?;
-    let length: f64 = (1..=a.segments)
-        .map(|i| {
-            let n = a.segments as f64;
-            (shape.lower(i as f64 / n) - shape.lower((i - 1) as f64 / n)).norm()
-        })
-        .sum();
-    let doc = mtwin::methods::testpiece::SShapeProgramDoc {
-        cutting_time_s: length / a.feed * 60.0,
-        feed_mm_min: a.feed,
-        height_mm: shape.height,
-        inverse_time: a.inverse_time,
-        length_mm: shape.length,
+    let doc = SShapeProgramDoc {
         out: a.out.display().to_string(),
-        poses: a.segments + 1,
-        segments: a.segments,
-        tcp: a.tcp,
-        tip_path_mm: length,
-        width_mm: shape.width,
+        ..doc
     };
     print_doc(&doc, a.format)?;
     if a.format == Format::Human {

@@ -77,7 +77,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let c = compensate(&model, &bytes, &options).map_err(|e| match &e {
         CompensateError::Gcode(g) => super::common::located_error(&a.program, g),
         CompensateError::Unsafe { line, .. } | CompensateError::Diverges { line, .. } => {
-            super::gcode::located(&a.program, Some(*line), 0, &e)
+            super::gcode::located(&a.program, Some(*line), 0, e.message())
         }
         CompensateError::Unstable { .. } => {
             anyhow::anyhow!("{}: {e} (--allow-unstable)", a.model.display())

@@ -141,6 +141,8 @@ pub struct PlanArgs {
     /// Output G-code program visiting the poses with a dwell at each.
     #[arg(long)]
     out_gcode: PathBuf,
+    #[command(flatten)]
+    dialect: super::common::WriteDialectArgs,
     #[arg(long, value_enum, default_value_t)]
     format: Format,
 }
@@ -379,6 +381,7 @@ pub fn run_plan(c: PlanCommand) -> anyhow::Result<()> {
     options.select = a.select;
     options.noise = a.noise;
     options.seed = a.seed;
+    options.dialect = a.dialect.dialect();
     let spin = crate::output::spinner("planning");
     let r = tracker::plan::run(
         &PlanInputs {

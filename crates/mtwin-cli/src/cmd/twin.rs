@@ -9,11 +9,11 @@ use std::path::PathBuf;
 use anyhow::Context;
 use mtwin::gcode::InterpolateOptions;
 use mtwin::io::write_csv_row;
-use mtwin::methods::twin::{self, Commands, Progress, Sources, TwinError, plot::PlotCollector};
+use mtwin::methods::twin::{self, Commands, PredictOptions, Progress, Sources, TwinError};
 
 use super::common::DialectArgs;
 use super::common::load_machine;
-use super::gcode::{interp_options, located, open};
+use super::gcode::{interp_options, located};
 use crate::output::{Format, print_doc, progress};
 
 #[derive(Debug, clap::Subcommand)]
@@ -138,7 +138,7 @@ fn input(a: &PredictArgs) -> anyhow::Result<&std::path::Path> {
 /// A twin error with the program's `file:line:col` when it has one.
 fn twin_error(a: &PredictArgs, e: TwinError) -> anyhow::Error {
     match (e, &a.gcode) {
-        (TwinError::Program(e), Some(p)) => located(p, e.line(), e.column(), &e),
+        (TwinError::Program(e), Some(p)) => located(p, e.line(), e.column(), e.message()),
         (TwinError::Read(e), _) => match input(a) {
             Ok(p) => anyhow::anyhow!("cannot read {}: {e}", p.display()),
             Err(e) => e,
@@ -147,14 +147,11 @@ fn twin_error(a: &PredictArgs, e: TwinError) -> anyhow::Error {
     }
 }
 
-/// The plot files written into `--plot DIR`.
-const PLOT_FILES: [&str; 3] = ["path.svg", "tip_error.svg", "axis_error.svg"];
-
 fn predict(a: PredictArgs) -> anyhow::Result<()> {
     let plot_files: Vec<PathBuf> = a
         .plot
         .iter()
-        .flat_map(|d| PLOT_FILES.map(|f| d.join(f)))
+        .flat_map(|d| twin::PLOT_FILES.map(|f| d.join(f)))
         .collect();
     let mut out = mtwin::io::Outputs::plan()
         .input(&a.machine)
@@ -165,11 +162,15 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
         .outputs(&plot_files)
         .begin()?;
     let machine = load_machine(&a.machine)?;
-    let sources = match a.only {
+    let mut options = PredictOptions::default();
+    options.sources = match a.only {
         None => Sources::All,
         Some(Only::Servo) => Sources::Servo,
         Some(Only::Geometry) => Sources::Geometry,
     };
+    options.breakdown = a.breakdown;
+    options.plot = a.plot.is_some();
+    options.out = a.out.display().to_string();
     let opts = match &a.gcode {
         Some(path) => {
             let mut opts = InterpolateOptions::new(a.ts);
@@ -183,77 +184,33 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
     let commands = commands(&a, &opts)?;
     let path = input(&a)?;
     let mut bars = Bars { bar: None };
-    let mut plot = a.plot.as_ref().map(|_| PlotCollector::new(2000));
-    let mut summary = None;
+    let mut result = None;
     out.write_with(&a.out, |w| -> anyhow::Result<()> {
         // The PRED.csv columns, defined once beside the reader of the report.
         writeln!(w, "{}", mtwin::report::twin::COLUMNS.join(","))?;
-        let s = twin::predict(
-            &machine,
-            sources,
-            commands,
-            open(path)?,
-            |r| {
-                if let Some(p) = plot.as_mut() {
-                    p.add(r);
-                }
-                write_csv_row(
-                    w,
-                    &[
-                        r.t,
-                        r.cmd_tip.x,
-                        r.cmd_tip.y,
-                        r.cmd_tip.z,
-                        r.cmd_axis.x,
-                        r.cmd_axis.y,
-                        r.cmd_axis.z,
-                        r.tip.x,
-                        r.tip.y,
-                        r.tip.z,
-                        r.axis.x,
-                        r.axis.y,
-                        r.axis.z,
-                        r.tip_error,
-                        r.axis_error,
-                    ],
-                )
-            },
-            &mut |p| bars.show(sources, p),
-        );
-        bars.finish();
-        summary = Some(s.map_err(|e| twin_error(&a, e))?);
-        Ok(())
-    })?;
-    let s = summary.context("the twin produced no summary")?;
-    let breakdown = if a.breakdown {
-        let b = twin::breakdown(
+        let r = twin::run(
             &machine,
             commands,
-            &s,
-            || Ok(std::io::BufReader::new(std::fs::File::open(path)?)),
+            || std::fs::File::open(path).map(std::io::BufReader::new),
+            &options,
+            |r| write_csv_row(w, &twin::pred_row(r)),
             &mut |sources, p| bars.show(sources, p),
         );
         bars.finish();
-        Some(b.map_err(|e| twin_error(&a, e))?)
-    } else {
-        None
-    };
+        result = Some(r.map_err(|e| twin_error(&a, e))?);
+        Ok(())
+    })?;
+    let r = result.context("the twin produced no summary")?;
     let mut plots = Vec::new();
-    if let (Some(dir), Some(p)) = (&a.plot, &plot) {
-        let pts = p.points();
-        for (name, svg) in PLOT_FILES.into_iter().zip([
-            twin::plot::path_svg(&pts),
-            twin::plot::tip_error_svg(&pts),
-            twin::plot::axis_error_svg(&pts),
-        ]) {
+    if let Some(dir) = &a.plot {
+        for (name, svg) in &r.plots {
             let f = dir.join(name);
             out.write(&f, svg.as_bytes())
                 .with_context(|| format!("cannot write {}", f.display()))?;
-            plots.push(f);
+            plots.push(f.display().to_string());
         }
     }
     out.commit()?;
-    let plots: Vec<String> = plots.iter().map(|p| p.display().to_string()).collect();
-    let doc = twin::TwinPredictDoc::new(&s, &a.out.display().to_string(), breakdown, &plots);
+    let doc = twin::TwinPredictDoc { plots, ..r.doc };
     print_doc(&doc, a.format)
 }

@@ -176,7 +176,7 @@ fn stats_reports_travel_violations() {
 fn documented_walkthrough_ends_where_it_started() {
     let dir = tempfile::tempdir().unwrap();
     let ran = crate::common::run_doc("gcode.md", dir.path());
-    assert_eq!(ran.len(), 5, "{ran:?}");
+    assert_eq!(ran.len(), 6, "{ran:?}");
     // Read the Fanuc way, the square's numbers (no decimal point) are in
     // least increments: a thousand times smaller.
     let json = |k: usize| -> serde_json::Value { serde_json::from_str(&ran[k].1).unwrap() };
@@ -187,6 +187,9 @@ fn documented_walkthrough_ends_where_it_started() {
     let (_, rows) = csv(&dir.path().join("cmd.csv"));
     let last = rows.last().unwrap();
     assert_eq!(&last[1..4], &[0.0, 0.0, 0.0]);
+    // The generated program of the dialect section is written for Fanuc.
+    let exc = std::fs::read_to_string(dir.path().join("exc.nc")).unwrap();
+    assert!(exc.contains("G4 X0.5") && !exc.contains("G4 P"), "{exc}");
 }
 
 #[test]

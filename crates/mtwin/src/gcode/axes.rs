@@ -27,14 +27,23 @@ pub enum AxisLetterError {
 /// A B C rotary (degree).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Axis {
+    /// Linear X, mm.
     X,
+    /// Linear Y, mm.
     Y,
+    /// Linear Z, mm.
     Z,
+    /// Rotary A (about X), degree.
     A,
+    /// Rotary B (about Y), degree.
     B,
+    /// Rotary C (about Z), degree.
     C,
+    /// Linear U (parallel to X), mm.
     U,
+    /// Linear V (parallel to Y), mm.
     V,
+    /// Linear W (parallel to Z), mm.
     W,
 }
 

@@ -30,15 +30,30 @@ pub enum GcodeError {
     /// The bytes do not form a block (bad character, unclosed comment, word
     /// letter without a value, ...).
     #[error("syntax error at {at}: {message}")]
-    Syntax { at: Location, message: String },
+    Syntax {
+        /// Where in the program.
+        at: Location,
+        /// What is wrong.
+        message: String,
+    },
     /// Valid RS-274/NGC that this interpreter does not implement (O-words,
     /// expressions, parameters, canned cycles, ...). Never silently skipped.
     #[error("unsupported {what} at {at}")]
-    Unsupported { at: Location, what: String },
+    Unsupported {
+        /// Where in the program.
+        at: Location,
+        /// What is not supported (e.g. `cutter compensation G41`).
+        what: String,
+    },
     /// A block that a controller would reject (arc radius mismatch, G1
     /// without feed rate, two codes of one modal group, ...).
     #[error("invalid block at {at}: {message}")]
-    Invalid { at: Location, message: String },
+    Invalid {
+        /// Where in the program.
+        at: Location,
+        /// Why a controller would reject the block.
+        message: String,
+    },
     /// A word edit that cannot be done (non-finite value, ambiguous word).
     #[error("cannot edit block: {0}")]
     Edit(String),

@@ -43,17 +43,22 @@ impl Units {
 /// G90/G91.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum DistanceMode {
+    /// G90: coordinates are positions.
     #[default]
     Absolute,
+    /// G91: coordinates are distances from the current position.
     Incremental,
 }
 
 /// Arc plane: G17 (XY, normal +Z), G18 (ZX, normal +Y), G19 (YZ, normal +X).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Plane {
+    /// G17: the XY plane, arcs about +Z.
     #[default]
     Xy,
+    /// G18: the ZX plane, arcs about +Y.
     Zx,
+    /// G19: the YZ plane, arcs about +X.
     Yz,
 }
 
@@ -101,14 +106,22 @@ pub enum Feed {
     /// The move lasts 1/f minutes (G93).
     InverseTime(f64),
     /// mm per revolution at the given spindle speed in rev/min (G95).
-    PerRevolution { mm_per_rev: f64, rpm: f64 },
+    PerRevolution {
+        /// Feed per spindle revolution, mm.
+        mm_per_rev: f64,
+        /// Spindle speed, rev/min.
+        rpm: f64,
+    },
 }
 
 /// Spindle direction (M3/M4/M5).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SpindleState {
+    /// M3: turning clockwise.
     Clockwise,
+    /// M4: turning counter-clockwise.
     CounterClockwise,
+    /// M5 (and at program start): stopped.
     #[default]
     Stopped,
 }
@@ -229,9 +242,15 @@ pub enum EventKind {
     /// G2/G3.
     Arc(ArcMove),
     /// G4, s.
-    Dwell { seconds: f64 },
+    Dwell {
+        /// Duration, s.
+        seconds: f64,
+    },
     /// S, rev/min.
-    SpindleSpeed { rpm: f64 },
+    SpindleSpeed {
+        /// Spindle speed, rev/min.
+        rpm: f64,
+    },
     /// M3/M4/M5.
     Spindle(SpindleState),
     /// G93/G94/G95.
@@ -243,9 +262,17 @@ pub enum EventKind {
     /// G20/G21.
     Units(Units),
     /// G54..G59.3 selected: system number 1..=9 and its offset, mm/deg.
-    WorkOffset { system: u8, offset: Axes },
+    WorkOffset {
+        /// Coordinate system number, 1 (G54) to 9 (G59.3).
+        system: u8,
+        /// Its offset, mm (degree for rotary axes).
+        offset: Axes,
+    },
     /// G43/G43.4/G49: tool length offset along Z now in force, mm.
-    ToolLengthOffset { length: f64 },
+    ToolLengthOffset {
+        /// Tool length offset along Z, mm.
+        length: f64,
+    },
     /// M2/M30.
     ProgramEnd,
 }
@@ -253,6 +280,8 @@ pub enum EventKind {
 /// One canonical event and its source.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Event {
+    /// The block that produced the event.
     pub at: SourcePos,
+    /// What happened.
     pub kind: EventKind,
 }

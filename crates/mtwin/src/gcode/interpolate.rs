@@ -194,6 +194,41 @@ impl InterpolateError {
             _ => 0,
         }
     }
+
+    /// What went wrong, without the location (for callers that print the
+    /// location themselves, as `file:line:col: message`); a located
+    /// error's [`Display`](std::fmt::Display) is `line N: ` and this.
+    pub fn message(&self) -> String {
+        match self {
+            InterpolateError::Gcode(e) => e.message(),
+            InterpolateError::MissingAxis { letter, .. } => {
+                format!("the program moves axis {letter}, which the machine does not have")
+            }
+            InterpolateError::Feed { message, .. } => message.clone(),
+            InterpolateError::Ik {
+                x, y, z, source, ..
+            } => {
+                format!("cannot place the tool tip at ({x}, {y}, {z}) mm in W: {source}")
+            }
+            InterpolateError::TooManySamples { t, ts, max, .. } => format!(
+                "the program runs to t = {} s, which at a sample period of {} s is more than {max} samples (the limit): use a longer sample period",
+                crate::limits::fmt_message_number(*t),
+                crate::limits::fmt_message_number(*ts)
+            ),
+            InterpolateError::OutOfTravel {
+                axis,
+                value,
+                unit,
+                t,
+                lo,
+                hi,
+                ..
+            } => format!(
+                "axis {axis} reaches {value} {unit} at t = {t} s, outside its travel [{lo}, {hi}]"
+            ),
+            other => other.to_string(),
+        }
+    }
 }
 
 /// The geometry of a move in work coordinates as a function of `s ∈ [0, 1]`.

@@ -125,6 +125,12 @@ pub struct ProgramOptions {
     pub max_blocks: u64,
     /// `(DEBUG,…)` / `(PRINT,…)` messages.
     pub messages: MessageSink,
+    /// Read the input after the end of a streamed program into
+    /// [`RunSummary::rest`] (for a caller that copies it, as `compensate`
+    /// does). Off by default: the driver stops reading at the end, so a
+    /// caller that only interprets (statistics, interpolation) neither reads
+    /// nor holds the rest of a long file.
+    pub keep_rest: bool,
 }
 
 impl Default for ProgramOptions {
@@ -134,6 +140,7 @@ impl Default for ProgramOptions {
             subroutine_path: Vec::new(),
             max_blocks: DEFAULT_MAX_BLOCKS,
             messages: MessageSink::default(),
+            keep_rest: false,
         }
     }
 }
@@ -166,7 +173,8 @@ pub struct RunSummary {
     pub executed: u64,
     /// The input after the end of a streamed program (M2, M30, closing
     /// `%`), unread: callers copy it as it is, as LinuxCNC never reads it.
-    /// Empty when the program ran to the end of the input or was held.
+    /// Empty when the program ran to the end of the input or was held, and
+    /// unless [`ProgramOptions::keep_rest`] asks for it.
     pub rest: Vec<u8>,
 }
 
@@ -270,7 +278,7 @@ where
             held: false,
         })?;
     }
-    if interp.ended() {
+    if interp.ended() && opts.keep_rest {
         std::io::Read::read_to_end(&mut reader.into_inner(), &mut summary.rest)
             .map_err(GcodeError::from)?;
     }
@@ -1561,13 +1569,17 @@ mod tests {
 
     #[test]
     fn reading_stops_at_the_program_end() {
+        let keep = ProgramOptions {
+            keep_rest: true,
+            ..Default::default()
+        };
         let run = |src: &str| {
             let mut interp = Interpreter::new(InterpOptions::default());
             let mut lines = Vec::new();
             let s = run_program(
                 src.as_bytes(),
                 &mut interp,
-                &ProgramOptions::default(),
+                &keep,
                 Dialect::LinuxCnc,
                 |st: &Step<'_>| -> Result<(), GcodeError> {
                     lines.push(st.block.line());
@@ -1581,6 +1593,19 @@ mod tests {
         let s = s.unwrap();
         assert_eq!(lines, [1, 2]);
         assert_eq!(s.rest, b"X[1 +\n\x01junk\n");
+        // Without `keep_rest` the rest is neither read nor held.
+        let mut interp = Interpreter::new(InterpOptions::default());
+        let mut input: &[u8] = b"G0 X1\nM30\nG0 X2\n";
+        let s = run_program(
+            &mut input,
+            &mut interp,
+            &ProgramOptions::default(),
+            Dialect::LinuxCnc,
+            |_: &Step<'_>| -> Result<(), GcodeError> { Ok(()) },
+        )
+        .unwrap();
+        assert!(s.rest.is_empty());
+        assert_eq!(input, b"G0 X2\n");
         // Held: a line after the end that does not parse is never run.
         let (s, lines) = run("o1 repeat [2]\nG0 X1\no1 endrepeat\nM2\nX[1 +\n");
         assert_eq!(s.unwrap().held.len(), 5);

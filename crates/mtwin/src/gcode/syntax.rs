@@ -13,7 +13,9 @@ use super::lexer;
 /// A half-open byte range `start..end` within a block's text.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Span {
+    /// First byte, 0-based.
     pub start: usize,
+    /// One past the last byte.
     pub end: usize,
 }
 
@@ -94,15 +96,32 @@ pub enum Item {
     /// A letter and its value.
     Word(Word),
     /// A comment, span including its delimiters.
-    Comment { kind: CommentKind, span: Span },
+    Comment {
+        /// Parenthesised or to the end of the line.
+        kind: CommentKind,
+        /// Where it lies in the block's text.
+        span: Span,
+    },
     /// `/` as the first character: block delete.
-    BlockDelete { at: usize },
+    BlockDelete {
+        /// Byte offset of the `/`.
+        at: usize,
+    },
     /// `%` as the first character: program start/end marker.
-    Percent { at: usize },
+    Percent {
+        /// Byte offset of the `%`.
+        at: usize,
+    },
     /// An O-word statement (`o100 sub`, `O1 if [..]`), to the end of the line.
-    OWord { span: Span },
+    OWord {
+        /// The statement's bytes in the block's text.
+        span: Span,
+    },
     /// A parameter assignment `#n = value`.
-    Assignment { span: Span },
+    Assignment {
+        /// The assignment's bytes in the block's text.
+        span: Span,
+    },
 }
 
 /// How a line ended in the source.

@@ -13,3 +13,6 @@ pub mod thermal;
 pub mod tracker;
 #[warn(missing_docs)]
 pub mod twin;
+
+#[cfg(test)]
+mod located_messages_tests;

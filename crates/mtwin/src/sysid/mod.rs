@@ -17,7 +17,9 @@
 //! * [`Servo`]: the per-axis transfer function of docs/servo.md (`[axes.servo]`),
 //!   run on deviations from the first command, with its bandwidth and
 //!   following error, and [`fit_servo`] which identifies it from a log;
-//! * [`excitation_program`]: the G-code program that records such a log.
+//! * [`excitation_program`]: the G-code program that records such a log;
+//! * [`run_fit`], [`run_simulate`], [`run_excitation`]: the `mtwin servo`
+//!   methods, options in and a document out.
 //!
 //! Units are those of the data: the module never rescales outputs; inputs
 //! and outputs keep whatever unit the caller gives them.
@@ -32,6 +34,7 @@ pub(crate) mod sampling;
 mod servo;
 mod servo_doc;
 mod servo_fit;
+mod servo_run;
 
 pub use arx::{Arx, ArxOrders, ArxStepper, InputOrder, Stability};
 pub use error::SysidError;
@@ -49,4 +52,8 @@ pub(crate) use servo_fit::read_servo_table;
 pub use servo_fit::{
     ServoFit, ServoFitError, ServoFitOptions, ServoLog, fit_servo, fit_servo_csv, read_servo_log,
     read_servo_toml, servo_from_toml_str,
+};
+pub use servo_run::{
+    FitRunOptions, SimulateRunError, SimulateRunOptions, read_servo_commands, run_excitation,
+    run_fit, run_simulate,
 };

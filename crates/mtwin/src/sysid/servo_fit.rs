@@ -239,6 +239,15 @@ pub enum ServoFitError {
     /// The identification failed.
     #[error("{0}")]
     Fit(#[from] SysidError),
+    /// An option out of its domain: `option` names the field of
+    /// [`super::FitRunOptions`].
+    #[error("{option} {problem}")]
+    Setting {
+        /// The option.
+        option: &'static str,
+        /// What is wrong, as "must be …, not …".
+        problem: String,
+    },
 }
 
 /// Identify a servo from a log, on deviations from the first command

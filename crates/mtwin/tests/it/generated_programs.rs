@@ -353,14 +353,25 @@ fn servo_excitation_reads_back_in_every_dialect() {
     }
 }
 
+/// The writer's dialects and the readings of each: a Fanuc program keeps a
+/// decimal point on every number, so it reads the same with and without
+/// decimal point programming.
+fn dialects() -> [(Dialect, Vec<Dialect>); 2] {
+    [
+        (Dialect::LinuxCnc, vec![Dialect::LinuxCnc]),
+        (FANUC, vec![FANUC, FANUC_CALCULATOR]),
+    ]
+}
+
 #[test]
-fn ballbar_programs_read_back() {
+fn ballbar_programs_read_back_in_every_dialect() {
     let machine = mtwin::examples::machine("ac-trunnion").unwrap();
-    let spec = |angles: Vec<f64>| ProgramSpec {
+    let spec = |angles: Vec<f64>, dialect| ProgramSpec {
         rig: Rig::source_paper(),
         angles_deg: angles,
         dwell_s: 1.5,
         feed: 720.0,
+        dialect,
     };
     // The source paper's rig on the trunnion: the ball 100 mm from the C
     // line along x for mode 2 (A turns), 100 mm above the table for mode 4.
@@ -373,8 +384,6 @@ fn ballbar_programs_read_back() {
         } else {
             angle_range(0.0, 360.0, 12.5)
         };
-        let text = ballbar::program(&machine, mode, &spec(angles.clone())).unwrap();
-        let steps = read(&text, Dialect::LinuxCnc);
         let mut targets = vec![
             vec![(Axis::A, 0.0), (Axis::C, 0.0)],
             vec![(Axis::X, ball[0]), (Axis::Y, ball[1]), (Axis::Z, ball[2])],
@@ -383,90 +392,120 @@ fn ballbar_programs_read_back() {
             targets.push(vec![(moving, a)]);
         }
         let want = ends(&targets);
-        let got = moves(&steps);
-        assert_eq!(got.len(), want.len());
-        for (k, ((to, rapid, feed), w)) in got.iter().zip(&want).enumerate() {
-            assert_close(to, w, 1e-9, &format!("{mode:?} move {k}"));
-            assert_eq!(*rapid, k < 2);
-            if k >= 2 {
-                assert_eq!(*feed, Feed::PerMinute(720.0));
+        for (dialect, readings) in dialects() {
+            let text = ballbar::program(&machine, mode, &spec(angles.clone(), dialect)).unwrap();
+            for reading in readings {
+                let steps = read(&text, reading);
+                let got = moves(&steps);
+                assert_eq!(got.len(), want.len());
+                for (k, ((to, rapid, feed), w)) in got.iter().zip(&want).enumerate() {
+                    assert_close(to, w, 1e-9, &format!("{mode:?} {reading:?} move {k}"));
+                    assert_eq!(*rapid, k < 2);
+                    if k >= 2 {
+                        assert_eq!(*feed, Feed::PerMinute(720.0));
+                    }
+                }
+                assert_eq!(dwells(&steps), vec![1.5; angles.len()]);
             }
         }
-        assert_eq!(dwells(&steps), vec![1.5; angles.len()]);
     }
 }
 
 #[test]
-fn tracker_pose_program_reads_back() {
+fn tracker_pose_program_reads_back_in_every_dialect() {
     let machine = mtwin::examples::machine("afp-gantry").unwrap();
     // Axis order of the gantry: X Y Z B A C.
     let poses = vec![
         vec![100.123_44, -2.0, -300.5, 10.0, -0.00004, 45.0],
         vec![0.0, 1.0 / 3.0, -0.25, -12.345_67, 5.0, -90.0],
     ];
-    let text = tracker::plan::gcode(&machine, &poses, 2000.0, 2.0).unwrap();
-    let steps = read(&text, Dialect::LinuxCnc);
     let order = [Axis::X, Axis::Y, Axis::Z, Axis::B, Axis::A, Axis::C];
     let want: Vec<Vec<(Axis, f64)>> = poses
         .iter()
         .map(|q| order.iter().copied().zip(q.iter().copied()).collect())
         .collect();
     let want = ends(&want);
-    let got = moves(&steps);
-    assert_eq!(got.len(), 2);
-    for (k, ((to, rapid, feed), w)) in got.iter().zip(&want).enumerate() {
-        assert_close(to, w, 0.5e-4 + 1e-12, &format!("pose {k}"));
-        assert!(!rapid && *feed == Feed::PerMinute(2000.0));
+    for (dialect, readings) in dialects() {
+        let text = tracker::plan::gcode(&machine, &poses, 2000.0, 2.0, dialect).unwrap();
+        for reading in readings {
+            let steps = read(&text, reading);
+            let got = moves(&steps);
+            assert_eq!(got.len(), 2);
+            for (k, ((to, rapid, feed), w)) in got.iter().zip(&want).enumerate() {
+                assert_close(to, w, tolerance(dialect), &format!("{reading:?} pose {k}"));
+                assert!(!rapid && *feed == Feed::PerMinute(2000.0));
+            }
+            assert_eq!(dwells(&steps), vec![2.0, 2.0]);
+        }
     }
-    assert_eq!(dwells(&steps), vec![2.0, 2.0]);
 }
 
 #[test]
-fn s_shape_programs_read_back() {
+fn s_shape_programs_read_back_in_every_dialect() {
     let machine = mtwin::examples::machine("ac-trunnion").unwrap();
     let kin = Kinematics::nominal(&machine);
     let letters: Vec<Axis> = Axis::of_machine(&machine).unwrap();
     let shape = SShape::default().scaled(0.5);
     let n = 24;
-    for (tcp, inverse_time) in [(false, false), (false, true), (true, false)] {
-        let opts = SShapeProgram {
-            segments: n,
-            feed: 800.0,
-            inverse_time,
-            tcp,
+    for (dialect, readings) in dialects() {
+        // Half the last written decimal: 6 for LinuxCNC, 3 for Fanuc.
+        let half = if dialect == Dialect::LinuxCnc {
+            0.5e-6
+        } else {
+            0.5e-3
         };
-        let text = s_shape_program(&machine, &shape, &opts).unwrap();
-        let steps = read(&text, Dialect::LinuxCnc);
-        let got = moves(&steps);
-        assert_eq!(got.len(), n + 1);
-        for (i, (to, rapid, feed)) in got.iter().enumerate() {
-            let s = i as f64 / n as f64;
-            assert_eq!(*rapid, i == 0);
-            if tcp {
-                // X Y Z are the tip on the lower curve, to 6 decimals.
-                for (k, a) in [Axis::X, Axis::Y, Axis::Z].into_iter().enumerate() {
-                    assert!((to[a.index()] - shape.lower(s)[k]).abs() <= 0.5e-6 + 1e-12);
+        for (tcp, inverse_time) in [(false, false), (false, true), (true, false)] {
+            let opts = SShapeProgram {
+                segments: n,
+                feed: 800.0,
+                inverse_time,
+                tcp,
+                dialect,
+            };
+            let text = s_shape_program(&machine, &shape, &opts).unwrap();
+            for &reading in &readings {
+                let steps = read(&text, reading);
+                let got = moves(&steps);
+                assert_eq!(got.len(), n + 1);
+                for (i, (to, rapid, feed)) in got.iter().enumerate() {
+                    let s = i as f64 / n as f64;
+                    assert_eq!(*rapid, i == 0);
+                    if tcp {
+                        // X Y Z are the tip on the lower curve, to the written decimals.
+                        for (k, a) in [Axis::X, Axis::Y, Axis::Z].into_iter().enumerate() {
+                            assert!((to[a.index()] - shape.lower(s)[k]).abs() <= half + 1e-12);
+                        }
+                    } else {
+                        // The axis positions put the tip on the lower curve
+                        // and the tool axis along the ruling, within what
+                        // the written decimals move them (a lever of about
+                        // 200 mm turns 0.0005° into 2 µm).
+                        let q: Vec<f64> = letters.iter().map(|a| to[a.index()]).collect();
+                        let pose = kin.pose(&q);
+                        let (tip_tol, axis_tol) = if dialect == Dialect::LinuxCnc {
+                            (5e-6, 5e-8)
+                        } else {
+                            (5e-3, 2e-5)
+                        };
+                        assert!((pose.tip - shape.lower(s)).norm() < tip_tol, "pose {i}");
+                        assert!((pose.axis - shape.ruling(s)).norm() < axis_tol, "pose {i}");
+                    }
+                    if i > 0 && inverse_time {
+                        // F = feed / segment length of the tip, 1/min: the
+                        // segment lasts its length at the feed (F written
+                        // to the dialect's decimals).
+                        let len = (shape.lower(s) - shape.lower((i - 1) as f64 / n as f64)).norm();
+                        let Feed::InverseTime(f) = feed else {
+                            panic!("{feed:?}")
+                        };
+                        let exact = 800.0 / len;
+                        assert!((f - exact).abs() <= half + 1e-9, "segment {i}");
+                    } else if i > 0 {
+                        assert_eq!(*feed, Feed::PerMinute(800.0));
+                    }
                 }
-            } else {
-                // The axis positions put the tip on the lower curve and the
-                // tool axis along the ruling (6 decimals: sub-µm).
-                let q: Vec<f64> = letters.iter().map(|a| to[a.index()]).collect();
-                let pose = kin.pose(&q);
-                assert!((pose.tip - shape.lower(s)).norm() < 5e-6, "pose {i}");
-                assert!((pose.axis - shape.ruling(s)).norm() < 5e-8, "pose {i}");
-            }
-            if i > 0 && inverse_time {
-                // F = feed / segment length of the tip, 1/min: the segment
-                // lasts its length at the feed.
-                let len = (shape.lower(s) - shape.lower((i - 1) as f64 / n as f64)).norm();
-                let Feed::InverseTime(f) = feed else {
-                    panic!("{feed:?}")
-                };
-                assert!((60.0 / f - 60.0 * len / 800.0).abs() < 1e-6, "segment {i}");
-            } else if i > 0 {
-                assert_eq!(*feed, Feed::PerMinute(800.0));
+                assert!(dwells(&steps).is_empty());
             }
         }
-        assert!(dwells(&steps).is_empty());
     }
 }

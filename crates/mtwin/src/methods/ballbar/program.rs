@@ -1,8 +1,8 @@
 //! The four test programs (G-code) for a static-mode ballbar: the linear
 //! axes place the tool ball B1, then the moving rotary axis steps through
 //! the angles with a dwell at each step while the instrument takes its
-//! reading. Dialect: `G4 P` dwell in seconds (LinuxCNC), rotary feed in
-//! deg/min under G94.
+//! reading. Dwell and numbers as the dialect of [`ProgramSpec::dialect`]
+//! writes them ([`ProgramWriter`]), rotary feed in deg/min under G94.
 //!
 //! Every move is written with `G53`: positions are the model's axis
 //! positions, which are the controller's machine coordinates, so no work
@@ -29,6 +29,8 @@ pub struct ProgramSpec {
     pub dwell_s: f64,
     /// Rotary feed, deg/min.
     pub feed: f64,
+    /// The controller the program is written for.
+    pub dialect: Dialect,
 }
 
 /// Why a program cannot be written.
@@ -123,7 +125,7 @@ pub fn program(
     };
     let letter = if mode.moves_a() { 'A' } else { 'C' };
     let bar = if mode.moves_a() { "-Y" } else { "+X" };
-    let mut w = ProgramWriter::new(Dialect::LinuxCnc);
+    let mut w = ProgramWriter::new(spec.dialect);
     // Numbers inside comments as the writer writes the words.
     let f = |v: f64| w.plain(v);
     let header = [
@@ -219,6 +221,7 @@ mod tests {
             angles_deg: angle_range(-90.0, 90.0, 5.0),
             dwell_s: 2.0,
             feed: 720.0,
+            dialect: Dialect::LinuxCnc,
         };
         let p = program(&machine(), BallbarMode::Two, &spec).unwrap();
         // B1 at ZB1C = 100 along x from the C line: X100 Y0 Z0.
@@ -247,6 +250,7 @@ mod tests {
             angles_deg: angle_range(0.0, 90.0, 45.0),
             dwell_s: 1.0,
             feed: 720.0,
+            dialect: Dialect::LinuxCnc,
         };
         let p = program(&machine(), BallbarMode::Four, &spec).unwrap();
         assert!(
@@ -288,6 +292,7 @@ mod tests {
             angles_deg: angle_range(0.0, 360.0, 5.0),
             dwell_s: 1.0,
             feed: 720.0,
+            dialect: Dialect::LinuxCnc,
         };
         let p = program(&machine(), BallbarMode::Four, &spec).unwrap();
         assert!(p.contains("G0 X0 Y0 Z100"), "{p}");

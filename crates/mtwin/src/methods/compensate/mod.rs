@@ -31,7 +31,7 @@ use crate::gcode::program_flow::{Step, run_program};
 use crate::gcode::timing::lerp;
 use crate::gcode::{
     Axes, Axis, AxisLetterError, Block, BlockWriter, Dialect, DistanceMode, EventKind, Feed,
-    GcodeError, InterpOptions, Interpreter, Item, NumberFormat, Programmed, Value,
+    GcodeError, InterpOptions, Interpreter, Item, NumberFormat, ProgramOptions, Programmed, Value,
 };
 use crate::kinematics::{IkError, IkJacobian, IkOptions, IkTarget, Kinematics};
 use crate::model::{AxisKind, Machine};
@@ -146,6 +146,15 @@ pub enum CompensateError {
     /// Writing failed.
     #[error("cannot write the program: {0}")]
     Io(#[from] std::io::Error),
+    /// An option out of its domain: `option` names the field of
+    /// [`CompensateOptions`] (`tol`, `max_correction`).
+    #[error("{option} {problem}")]
+    Setting {
+        /// The option.
+        option: &'static str,
+        /// What is wrong, as "must be …, not …".
+        problem: String,
+    },
 }
 
 impl CompensateError {
@@ -167,6 +176,63 @@ impl CompensateError {
             _ => 0,
         }
     }
+
+    /// What went wrong, without the location (for callers that print the
+    /// location themselves, as `file:line:col: message`); the text of
+    /// [`Display`](std::fmt::Display) is `line N: ` and this.
+    pub fn message(&self) -> String {
+        let fixed = crate::limits::fmt_message_fixed;
+        match self {
+            CompensateError::Gcode(e) => e.message(),
+            CompensateError::Ik { source, .. } => source.to_string(),
+            CompensateError::TooLarge {
+                correction_um,
+                limit_um,
+                ..
+            } => format!(
+                "the correction of {} µm exceeds the limit of {} µm (--max-correction)",
+                fixed(*correction_um, 1),
+                fixed(*limit_um, 1)
+            ),
+            CompensateError::NoConvergence { deviation_um, .. } => format!(
+                "the compensated path still deviates by {} µm after {MAX_DEPTH} halvings",
+                fixed(*deviation_um, 2)
+            ),
+            other => other.to_string(),
+        }
+    }
+}
+
+impl CompensateOptions {
+    /// Checks the options: `tol` and `max_correction` positive and finite.
+    pub fn validate(&self) -> Result<(), CompensateError> {
+        let num = crate::limits::fmt_message_number;
+        for (option, value) in [("tol", self.tol), ("max_correction", self.max_correction)] {
+            if !(value > 0.0 && value.is_finite()) {
+                return Err(CompensateError::Setting {
+                    option,
+                    problem: format!("must be a positive number of mm, not {}", num(value)),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `mtwin compensate`: the program read from `input` compensated for the
+/// actual `machine` ([`compensate`]) and written to `output`, with its
+/// document (`out` left empty for the caller, who knows where `output`
+/// goes).
+pub fn run<R: BufRead, W: Write>(
+    machine: &Machine,
+    input: R,
+    output: W,
+    options: &CompensateOptions,
+) -> Result<(Summary, CompensateDoc), CompensateError> {
+    options.validate()?;
+    let summary = compensate(machine, input, output, options)?;
+    let doc = CompensateDoc::new(&summary, "");
+    Ok((summary, doc))
 }
 
 /// Compensates the program read from `input` for the actual `machine` and
@@ -285,10 +351,15 @@ impl Compensator {
         // Lines of the held part (O-word flow) as every run of them left them:
         // a line that runs several times must come out the same each time.
         let mut held: HashMap<u64, (Block, Vec<Block>)> = HashMap::new();
+        // The text after the program end is copied as it is.
+        let program = ProgramOptions {
+            keep_rest: true,
+            ..self.opts.interp.program.clone()
+        };
         let flow = run_program(
             input,
             &mut interp,
-            &self.opts.interp.program,
+            &program,
             self.opts.interp.dialect,
             |step: &Step<'_>| -> Result<(), CompensateError> {
                 run.summary.blocks += 1;

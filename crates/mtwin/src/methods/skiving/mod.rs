@@ -168,7 +168,9 @@ pub enum SkivingIdentifyError {
 /// `mtwin skiving setup-error`: the least-squares set-up error of
 /// `touches` on the workpiece `g` ([`identify`] with `options`), the
 /// first-order closed form where it applies ([`closed_form::first_order`])
-/// and the document.
+/// and the document. The document's rows are numbered by touch (1, 2, …);
+/// a caller that read the touches from a file sets their lines and the
+/// document's `source`.
 #[allow(clippy::type_complexity)]
 pub fn run(
     touches: &[Touch],
@@ -184,7 +186,18 @@ pub fn run(
 > {
     let s = identify(touches, g, options)?;
     let first = closed_form::first_order(touches, g);
-    let d = doc::SkivingSetupDoc::new(&s, first.as_ref().ok().copied(), touches.len());
+    let mut d = doc::SkivingSetupDoc::new(&s, first.as_ref().ok().copied(), touches.len());
+    d.first_order_not_applicable = first.as_ref().err().map(|e| e.to_string());
+    d.rows = touches
+        .iter()
+        .enumerate()
+        .map(|(i, t)| doc::TouchRowDoc {
+            line: i + 1,
+            c_deg: t.at.c,
+            point: t.point.name().into(),
+            contact: t.contact.name().into(),
+        })
+        .collect();
     Ok((s, first, d))
 }
 

@@ -9,4 +9,4 @@ pub mod s_shape;
 
 pub use doc::SShapeProgramDoc;
 
-pub use s_shape::{SShape, SShapeError, SShapeProgram, s_shape_poses, s_shape_program};
+pub use s_shape::{SShape, SShapeError, SShapeProgram, run, s_shape_poses, s_shape_program};

@@ -165,6 +165,9 @@ pub struct SShapeProgram {
     /// A TCP program (`G43.4 H0` … `G49`: X Y Z are the tool tip in W,
     /// rotary words are axis angles) instead of joint-space axis words.
     pub tcp: bool,
+    /// The controller the program is written for: LinuxCNC with 6 decimals
+    /// (1 nm, 1e-6°), Fanuc with its 3 (a Fanuc word has at most 8 digits).
+    pub dialect: Dialect,
 }
 
 impl Default for SShapeProgram {
@@ -174,6 +177,7 @@ impl Default for SShapeProgram {
             feed: 1000.0,
             inverse_time: false,
             tcp: false,
+            dialect: Dialect::LinuxCnc,
         }
     }
 }
@@ -241,8 +245,9 @@ pub fn s_shape_poses(
 /// The program text (see [`SShapeProgram`]): a header, `G21 G90` and the
 /// feed mode (`G43.4 H0` for TCP), a rapid `G0` to the first pose, one
 /// `G1` per segment, `G49` after a TCP program, `M30`.
-/// Words are written in machine axis order with 6 decimals (mm, degrees,
-/// `F` too), trailing zeros trimmed, by [`ProgramWriter`].
+/// Words are written in machine axis order with 6 decimals for LinuxCNC
+/// (mm, degrees, `F` too; 3 for Fanuc), trailing zeros trimmed, by
+/// [`ProgramWriter`].
 /// The approach to and the retract from the part are left to the user.
 pub fn s_shape_program(
     machine: &Machine,
@@ -271,11 +276,12 @@ pub fn s_shape_program(
     }
     let poses = s_shape_poses(machine, shape, opts.segments)?;
     let n = opts.segments;
-    // 6 decimals (1 nm, 1e-6°).
-    let mut w = ProgramWriter::with_options(
-        Dialect::LinuxCnc,
-        WriterOptions::of(Dialect::LinuxCnc).with_decimals(6),
-    );
+    // LinuxCNC: 6 decimals (1 nm, 1e-6°); Fanuc: its least increment.
+    let writer_options = match opts.dialect {
+        Dialect::LinuxCnc => WriterOptions::of(Dialect::LinuxCnc).with_decimals(6),
+        fanuc => WriterOptions::of(fanuc),
+    };
+    let mut w = ProgramWriter::with_options(opts.dialect, writer_options);
     let words = |i: usize, tcp: bool| -> Vec<(char, f64)> {
         let q = &poses[i];
         let mut out = Vec::new();
@@ -345,6 +351,36 @@ pub fn s_shape_program(
     }
     w.end(ProgramEnd::M30)?;
     Ok(w.finish())
+}
+
+/// `mtwin testpiece s-shape`: the program of `shape` on `machine`
+/// ([`s_shape_program`]) and its document (`out` left empty for the
+/// caller). The cutting time is the lower curve's polyline length at the
+/// feed.
+pub fn run(
+    machine: &Machine,
+    shape: &SShape,
+    opts: &SShapeProgram,
+) -> Result<(String, super::SShapeProgramDoc), SShapeError> {
+    let text = s_shape_program(machine, shape, opts)?;
+    let n = opts.segments as f64;
+    let length: f64 = (1..=opts.segments)
+        .map(|i| (shape.lower(i as f64 / n) - shape.lower((i - 1) as f64 / n)).norm())
+        .sum();
+    let doc = super::SShapeProgramDoc {
+        cutting_time_s: length / opts.feed * 60.0,
+        feed_mm_min: opts.feed,
+        height_mm: shape.height,
+        inverse_time: opts.inverse_time,
+        length_mm: shape.length,
+        out: String::new(),
+        poses: opts.segments + 1,
+        segments: opts.segments,
+        tcp: opts.tcp,
+        tip_path_mm: length,
+        width_mm: shape.width,
+    };
+    Ok((text, doc))
 }
 
 #[cfg(test)]

@@ -158,6 +158,25 @@ pub enum CompensateError {
     },
 }
 
+impl CompensateError {
+    /// What went wrong, without the location (for callers that print the
+    /// location themselves, as `file:line:col: message`); a located
+    /// error's [`Display`](std::fmt::Display) is `line N: ` and this.
+    pub fn message(&self) -> String {
+        match self {
+            CompensateError::Gcode(e) => e.message(),
+            CompensateError::Unsafe { reason, .. } => {
+                format!("cannot compensate this block safely: {reason}")
+            }
+            CompensateError::Diverges { drift_mm, .. } => format!(
+                "the predicted drift is {} mm (the model diverges): nothing written",
+                crate::limits::fmt_message_number(*drift_mm)
+            ),
+            other => other.to_string(),
+        }
+    }
+}
+
 /// Longest program duration compensated (a year), min: the sample grid of the
 /// prediction is held in memory.
 pub const MAX_DURATION_MIN: f64 = 525_600.0;

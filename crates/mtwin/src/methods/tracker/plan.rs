@@ -207,7 +207,7 @@ pub fn plan(
     Ok(Plan { poses, expected })
 }
 
-/// The pose program (LinuxCNC, written by [`ProgramWriter`]): rapid-free
+/// The pose program in `dialect` (written by [`ProgramWriter`]): rapid-free
 /// linear moves to every pose at `feed` with a dwell of `dwell_s` for the
 /// tracker reading, one axis word per machine axis in machine order (mm,
 /// degree). Fails if an axis name is not a G-code axis letter or a value
@@ -217,12 +217,13 @@ pub fn gcode(
     poses: &[Vec<f64>],
     feed: f64,
     dwell_s: f64,
+    dialect: Dialect,
 ) -> Result<String, WriteError> {
     let letters: Vec<char> = Axis::of_machine(machine)?
         .into_iter()
         .map(|a| char::from(a.letter()))
         .collect();
-    let mut w = ProgramWriter::new(Dialect::LinuxCnc);
+    let mut w = ProgramWriter::new(dialect);
     w.start(None)?;
     w.comment("mtwin tracker plan: measurement poses")?;
     w.block().g(90).g(21).g(94).write()?;
@@ -301,7 +302,14 @@ mod tests {
     #[test]
     fn gcode_lists_every_pose_with_a_dwell() {
         let m = afp();
-        let g = gcode(&m, &[vec![1.0, 2.0, -3.25, 4.0, 5.0, 6.0]], 3000.0, 2.0).unwrap();
+        let g = gcode(
+            &m,
+            &[vec![1.0, 2.0, -3.25, 4.0, 5.0, 6.0]],
+            3000.0,
+            2.0,
+            Dialect::LinuxCnc,
+        )
+        .unwrap();
         assert!(
             g.contains("(POSE 1)\nG1 X1 Y2 Z-3.25 B4 A5 C6 F3000\nG4 P2\n"),
             "{g}"
@@ -335,6 +343,8 @@ pub struct PlanOptions {
     pub feed: f64,
     /// Dwell at each pose for the tracker reading, s (default 2).
     pub dwell_s: f64,
+    /// The controller the pose program is written for (default LinuxCNC).
+    pub dialect: Dialect,
 }
 
 impl Default for PlanOptions {
@@ -346,6 +356,7 @@ impl Default for PlanOptions {
             seed: 1,
             feed: 2000.0,
             dwell_s: 2.0,
+            dialect: Dialect::LinuxCnc,
         }
     }
 }
@@ -364,7 +375,13 @@ pub fn run(
         options.noise,
         options.seed,
     )?;
-    let program = gcode(inputs.machine, &p.poses, options.feed, options.dwell_s)?;
+    let program = gcode(
+        inputs.machine,
+        &p.poses,
+        options.feed,
+        options.dwell_s,
+        options.dialect,
+    )?;
     let doc = super::TrackerPlanDoc::new(
         &p.expected,
         p.poses.len(),

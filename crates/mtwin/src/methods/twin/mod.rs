@@ -18,6 +18,7 @@ pub mod doc;
 pub mod nearest;
 pub mod pipeline;
 pub mod plot;
+pub mod run;
 
 #[cfg(test)]
 mod tests;
@@ -27,6 +28,7 @@ pub use commands::{predict_csv, predict_gcode};
 pub use doc::{BySourceDoc, StretchDoc, TwinBreakdownDoc, TwinErrorsDoc, TwinPredictDoc, dominant};
 pub use nearest::{CommandPath, Nearest, angle_between};
 pub use pipeline::{At, Bin, Predictor, Progress, Sources, Twin, TwinSample, TwinSummary};
+pub use run::{PLOT_FILES, PredictOptions, PredictRun, pred_row, run};
 
 use crate::gcode::InterpolateError;
 use crate::io::Diagnostic;

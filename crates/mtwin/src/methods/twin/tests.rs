@@ -597,3 +597,63 @@ fn sequential_and_parallel_runs_are_bit_identical() {
     assert_eq!(seq.0.len(), n);
     assert_eq!(format!("{seq:?}"), format!("{par:?}"));
 }
+
+/// `run` on CSV commands: a constant positioning error EXX = c across a
+/// move along Y gives ε_p = |c| on every row (closed form); the breakdown
+/// puts it all on the geometry, the three plots are drawn and every row
+/// reaches the sink in the order of the PRED.csv columns.
+#[test]
+fn run_streams_rows_and_returns_the_document_with_breakdown_and_plots() {
+    let c = 0.003;
+    let mut m = xyz();
+    m.axes[0].errors.pdge[0] = Some(ErrorFunction::Constant(c));
+    let mut text = String::from("t_s,X,Y,Z\n");
+    for k in 0..200 {
+        text.push_str(&format!("{},5,{},1\n", k as f64 * 0.001, 0.05 * k as f64));
+    }
+    let mut opens = 0;
+    let mut rows = Vec::new();
+    let options = PredictOptions {
+        breakdown: true,
+        plot: true,
+        out: "pred.csv".into(),
+        ..Default::default()
+    };
+    let r = run(
+        &m,
+        Commands::Csv {
+            path: Path::new("cmd.csv"),
+        },
+        || {
+            opens += 1;
+            Ok(text.as_bytes())
+        },
+        &options,
+        |s| {
+            rows.push(pred_row(s));
+            Ok(())
+        },
+        &mut |_, _| {},
+    )
+    .unwrap();
+    // The run, then servo alone and geometry alone.
+    assert_eq!(opens, 3);
+    assert_eq!(rows.len(), 200);
+    let col = |name: &str| {
+        crate::report::twin::COLUMNS
+            .iter()
+            .position(|c| *c == name)
+            .unwrap()
+    };
+    assert_eq!(rows[7][col("t_s")], 0.007);
+    assert!((rows[7][col("y_cmd")] - 0.35).abs() < 1e-12);
+    assert!(rows.iter().all(|r| (r[col("tip_error")] - c).abs() < 1e-12));
+    assert!((r.doc.tip_error_max - c).abs() < 1e-12);
+    assert_eq!((r.doc.out.as_str(), r.doc.samples), ("pred.csv", 200));
+    assert_eq!(r.doc.breakdown.as_ref().unwrap().dominant, "geometry");
+    assert_eq!(
+        r.plots.iter().map(|p| p.0).collect::<Vec<_>>(),
+        PLOT_FILES.to_vec()
+    );
+    assert!(r.plots.iter().all(|p| p.1.starts_with("<svg")));
+}
