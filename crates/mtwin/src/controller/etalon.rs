@@ -167,7 +167,7 @@ pub fn apply(machine: &mut Machine, params: &[Parameter], file: &Path) -> Result
 }
 
 /// Text of a machine whose PDGEs are tables (see [`super::tabulated`]).
-pub(crate) fn write(tab: &Machine) -> String {
+pub fn write(tab: &Machine) -> String {
     let mut s = format!(
         "// Etalon exchange parameters of {} written by mtwin export.\n\
          // Errors in ISO 230-1 names, mtwin's sign convention (docs/machine-model.md).\n",

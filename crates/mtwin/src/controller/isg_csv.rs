@@ -199,7 +199,7 @@ pub fn column_name(n: &ErrorName) -> String {
 /// The blocks of a machine: one block of location errors (when any is
 /// non-zero), then per axis with position-dependent errors one block over
 /// `machine`'s tables (see [`super::tabulated`]).
-pub(crate) fn machine_blocks(tab: &Machine) -> Vec<(String, Block)> {
+pub fn machine_blocks(tab: &Machine) -> Vec<(String, Block)> {
     let mut out = Vec::new();
     let locations: Vec<ErrorName> = nonzero_errors(tab)
         .into_iter()
