@@ -12,6 +12,7 @@ mod browser;
 mod cli_ballbar;
 mod cli_ballbar_circular;
 mod cli_compensate;
+mod cli_export;
 mod cli_gcode;
 mod cli_model;
 mod cli_positioning;
