@@ -40,7 +40,10 @@ fn linuxcnc_on_the_trunnion_writes_comp_files_hal_and_readme() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
     let lc = &v["linuxcnc"];
-    let (max, rms) = (lc["max_um"].as_f64().unwrap(), lc["rms_um"].as_f64().unwrap());
+    let (max, rms) = (
+        lc["max_um"].as_f64().unwrap(),
+        lc["rms_um"].as_f64().unwrap(),
+    );
     assert!(max > 0.0 && rms > 0.0 && rms <= max);
     assert!(lc["dropped"].as_array().unwrap().len() > 0);
     let mut names: Vec<String> = std::fs::read_dir(&out)
@@ -50,21 +53,40 @@ fn linuxcnc_on_the_trunnion_writes_comp_files_hal_and_readme() {
     names.sort();
     assert_eq!(
         names,
-        ["README.txt", "comp_X.txt", "comp_Y.txt", "comp_Z.txt", "kinematics.hal"]
+        [
+            "README.txt",
+            "comp_X.txt",
+            "comp_Y.txt",
+            "comp_Z.txt",
+            "kinematics.hal"
+        ]
     );
     for axis in ["X", "Y", "Z"] {
         let t = std::fs::read_to_string(out.join(format!("comp_{axis}.txt"))).unwrap();
         assert_eq!(three_numbers_ascending(&t), 61, "{axis}: 600 mm at 10 mm");
     }
     let hal = std::fs::read_to_string(out.join("kinematics.hal")).unwrap();
-    for pin in ["x-rot-point", "y-rot-point", "z-rot-point", "y-offset", "z-offset", "tool-offset"] {
+    for pin in [
+        "x-rot-point",
+        "y-rot-point",
+        "z-rot-point",
+        "y-offset",
+        "z-offset",
+        "tool-offset",
+    ] {
         assert!(
-            hal.lines().any(|l| l.starts_with(&format!("setp xyzac-trt-kins.{pin} "))),
+            hal.lines()
+                .any(|l| l.starts_with(&format!("setp xyzac-trt-kins.{pin} "))),
             "{pin}"
         );
     }
     let readme = std::fs::read_to_string(out.join("README.txt")).unwrap();
-    for line in ["[JOINT_0]", "COMP_FILE = comp_X.txt", "COMP_FILE_TYPE = 1", "BACKLASH"] {
+    for line in [
+        "[JOINT_0]",
+        "COMP_FILE = comp_X.txt",
+        "COMP_FILE_TYPE = 1",
+        "BACKLASH",
+    ] {
         assert!(readme.contains(line), "{line}");
     }
 }
@@ -159,7 +181,15 @@ fn bad_options_exit_1_and_write_nothing() {
     std::fs::write(&bad, text).unwrap();
     let o = mtwin(
         dir.path(),
-        &["export", "--machine", "m.toml", "--to", "isg", "--out", "out"],
+        &[
+            "export",
+            "--machine",
+            "m.toml",
+            "--to",
+            "isg",
+            "--out",
+            "out",
+        ],
     );
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("isg cannot carry"), "{}", stderr(&o));

@@ -70,7 +70,10 @@ pub fn parse(text: &str, file: &Path) -> Result<Vec<Parameter>, Diagnostic> {
                     "a grid point is two numbers: position value",
                 ));
             }
-            out.last_mut().expect("grid inside a block").grid.push((q, v));
+            out.last_mut()
+                .expect("grid inside a block")
+                .grid
+                .push((q, v));
             continue;
         }
         if let Some(rest) = body.strip_prefix('[') {
@@ -93,18 +96,30 @@ pub fn parse(text: &str, file: &Path) -> Result<Vec<Parameter>, Diagnostic> {
             ));
         };
         let Some(p) = out.last_mut() else {
-            return Err(Diagnostic::at_line(file, line_no, "a value before any `[NAME]` block"));
+            return Err(Diagnostic::at_line(
+                file,
+                line_no,
+                "a value before any `[NAME]` block",
+            ));
         };
         match key.trim().to_ascii_lowercase().as_str() {
             "value" => {
                 p.value = Some(parse_number(value.trim()).ok_or_else(|| {
-                    Diagnostic::at_line(file, line_no, format!("`{}` is not a finite number", value.trim()))
+                    Diagnostic::at_line(
+                        file,
+                        line_no,
+                        format!("`{}` is not a finite number", value.trim()),
+                    )
                 })?);
             }
             "gridpoints" => {
                 let v = value.trim();
                 if !v.starts_with('{') {
-                    return Err(Diagnostic::at_line(file, line_no, "Gridpoints must open with `{`"));
+                    return Err(Diagnostic::at_line(
+                        file,
+                        line_no,
+                        "Gridpoints must open with `{`",
+                    ));
                 }
                 in_grid = !v.ends_with('}');
             }
@@ -118,7 +133,10 @@ pub fn parse(text: &str, file: &Path) -> Result<Vec<Parameter>, Diagnostic> {
         }
     }
     if in_grid {
-        return Err(Diagnostic::whole(file, "the last Gridpoints block is not closed by `}`"));
+        return Err(Diagnostic::whole(
+            file,
+            "the last Gridpoints block is not closed by `}`",
+        ));
     }
     Ok(out)
 }
@@ -128,13 +146,20 @@ pub fn parse(text: &str, file: &Path) -> Result<Vec<Parameter>, Diagnostic> {
 pub fn apply(machine: &mut Machine, params: &[Parameter], file: &Path) -> Result<(), Diagnostic> {
     for p in params {
         let n = volumetric_name(&p.name).ok_or_else(|| {
-            Diagnostic::at_line(file, p.line, format!("`[{}]` is not an ISO 230-1 error name", p.name))
+            Diagnostic::at_line(
+                file,
+                p.line,
+                format!("`[{}]` is not an ISO 230-1 error name", p.name),
+            )
         })?;
         let i = machine.axis_index(&n.axis).ok_or_else(|| {
             Diagnostic::at_line(
                 file,
                 p.line,
-                format!("`[{}]` names axis {}, which the machine does not have", p.name, n.axis),
+                format!(
+                    "`[{}]` names axis {}, which the machine does not have",
+                    p.name, n.axis
+                ),
             )
         })?;
         if n.is_location() {
@@ -209,7 +234,10 @@ pub(crate) fn export(machine: &Machine, opts: &ExportOptions) -> Result<Exported
     Ok(Exported {
         format: Format::Etalon,
         files,
-        carried: nonzero_errors(machine).iter().map(|n| n.to_string()).collect(),
+        carried: nonzero_errors(machine)
+            .iter()
+            .map(|n| n.to_string())
+            .collect(),
         dropped: Vec::new(),
         correction: Correction::Volumetric(tab),
     })

@@ -224,14 +224,21 @@ pub fn machine_blocks(tab: &Machine) -> Vec<(String, Block)> {
             .into_iter()
             .filter(|c| ax.errors.pdge[c.index()].is_some())
             .collect();
-        let Some(q) = present.iter().find_map(|c| match &ax.errors.pdge[c.index()] {
-            Some(ErrorFunction::Table { q, .. }) => Some(q.clone()),
-            _ => None,
-        }) else {
+        let Some(q) = present
+            .iter()
+            .find_map(|c| match &ax.errors.pdge[c.index()] {
+                Some(ErrorFunction::Table { q, .. }) => Some(q.clone()),
+                _ => None,
+            })
+        else {
             continue;
         };
         let mut header = vec![ax.name.clone()];
-        header.extend(present.iter().map(|&c| ErrorName::pdge(c, &ax.name).to_string()));
+        header.extend(
+            present
+                .iter()
+                .map(|&c| ErrorName::pdge(c, &ax.name).to_string()),
+        );
         let rows = q
             .iter()
             .map(|&v| {
@@ -320,7 +327,10 @@ pub fn apply(machine: &mut Machine, blocks: &[Block], file: &Path) -> Result<(),
                     Diagnostic::at_line(
                         file,
                         b.line,
-                        format!("`{name}` names axis {}, which the machine does not have", n.axis),
+                        format!(
+                            "`{name}` names axis {}, which the machine does not have",
+                            n.axis
+                        ),
                     )
                 })?;
                 machine.axes[i].errors.location[n.component.index()] = b.rows[0][j];
@@ -348,16 +358,22 @@ pub fn parse_lis(text: &str, file: &Path) -> Result<Vec<(String, String)>, Diagn
                 rest.strip_suffix(']')
                     .and_then(|k| k.parse::<usize>().ok())
                     .ok_or_else(|| {
-                        Diagnostic::at(file, n + 1, 1, format!("`{key}` needs an index: {prefix}[0]"))
+                        Diagnostic::at(
+                            file,
+                            n + 1,
+                            1,
+                            format!("`{key}` needs an index: {prefix}[0]"),
+                        )
                     }),
             )
         };
         if let Some(k) = index("file") {
-            let v = value.ok_or_else(|| Diagnostic::at_line(file, n + 1, "the file name is missing"))?;
+            let v = value
+                .ok_or_else(|| Diagnostic::at_line(file, n + 1, "the file name is missing"))?;
             files.push((k?, v.to_string(), n + 1));
         } else if let Some(k) = index("file_format") {
-            let v =
-                value.ok_or_else(|| Diagnostic::at_line(file, n + 1, "the file format is missing"))?;
+            let v = value
+                .ok_or_else(|| Diagnostic::at_line(file, n + 1, "the file format is missing"))?;
             formats.push((k?, v.to_string()));
         }
     }
@@ -392,11 +408,15 @@ pub fn import(lis: &Path, machine: &Machine) -> Result<Machine, Diagnostic> {
         let body = read(&path)?;
         match fmt.as_str() {
             "ISG_CSV" => apply(&mut m, &parse(&body, &path)?, &path)?,
-            "ETALON_EXCHANGE" => super::etalon::apply(&mut m, &super::etalon::parse(&body, &path)?, &path)?,
+            "ETALON_EXCHANGE" => {
+                super::etalon::apply(&mut m, &super::etalon::parse(&body, &path)?, &path)?
+            }
             other => {
                 return Err(Diagnostic::whole(
                     lis,
-                    format!("file format `{other}` of {name} is not read (ISG_CSV, ETALON_EXCHANGE are)"),
+                    format!(
+                        "file format `{other}` of {name} is not read (ISG_CSV, ETALON_EXCHANGE are)"
+                    ),
                 ));
             }
         }
@@ -438,13 +458,19 @@ pub(crate) fn export(machine: &Machine, opts: &ExportOptions) -> Result<Exported
     );
     csv.push_str(&write(&machine_blocks(&tab)));
     let files = vec![
-        (LIS_FILE.to_string(), lis_text(machine, &[(CSV_FILE, "ISG_CSV")])),
+        (
+            LIS_FILE.to_string(),
+            lis_text(machine, &[(CSV_FILE, "ISG_CSV")]),
+        ),
         (CSV_FILE.to_string(), csv),
     ];
     Ok(Exported {
         format: Format::Isg,
         files,
-        carried: nonzero_errors(machine).iter().map(|n| n.to_string()).collect(),
+        carried: nonzero_errors(machine)
+            .iter()
+            .map(|n| n.to_string())
+            .collect(),
         dropped: Vec::new(),
         correction: Correction::Volumetric(tab),
     })

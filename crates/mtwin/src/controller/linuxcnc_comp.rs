@@ -24,8 +24,8 @@ use std::path::Path;
 use nalgebra::{Matrix3, Vector3};
 
 use super::{
-    Correction, ExportError, ExportOptions, Exported, Format, dropped_except, fixed,
-    line_tables, linear_axes, linear_letter, parse_number, reference_pose,
+    Correction, ExportError, ExportOptions, Exported, Format, dropped_except, fixed, line_tables,
+    linear_axes, linear_letter, parse_number, reference_pose,
 };
 use crate::io::Diagnostic;
 use crate::kinematics::Kinematics;
@@ -67,7 +67,8 @@ impl Trunnion {
         }
         if lin.iter().any(|&i| {
             !machine.tool_chain.contains(&i)
-                || linear_letter(machine, i).is_none_or(|(c, _)| c.letter().to_string() != machine.axes[i].name)
+                || linear_letter(machine, i)
+                    .is_none_or(|(c, _)| c.letter().to_string() != machine.axes[i].name)
         }) {
             return None;
         }
@@ -132,10 +133,13 @@ fn rotation_line_point(k: &Kinematics, n_axes: usize, axis: usize) -> Vector3<f6
     let q0 = vec![0.0; n_axes];
     let mut q1 = q0.clone();
     q1[axis] = 90.0;
-    let rel = k.workpiece_frame(&q1).compose(&k.workpiece_frame(&q0).inverse());
+    let rel = k
+        .workpiece_frame(&q1)
+        .compose(&k.workpiece_frame(&q0).inverse());
     let a: Matrix3<f64> = rel.r - Matrix3::identity();
     let svd = a.svd(true, true);
-    svd.solve(&(-rel.t), 1e-12).unwrap_or_else(|_| Vector3::zeros())
+    svd.solve(&(-rel.t), 1e-12)
+        .unwrap_or_else(|_| Vector3::zeros())
 }
 
 impl TrtParameters {
@@ -266,7 +270,10 @@ pub fn import(dir: &Path, machine: &Machine) -> Result<Machine, Diagnostic> {
             return Err(Diagnostic::whole(&path, "a table needs at least two lines"));
         }
         let (comp, _) = linear_letter(machine, i).ok_or_else(|| {
-            Diagnostic::whole(&path, format!("axis {name} does not run along a machine axis"))
+            Diagnostic::whole(
+                &path,
+                format!("axis {name} does not run along a machine axis"),
+            )
         })?;
         // Tip motion per mm of joint, and per mm of the positioning error.
         let mut qp = q0.clone();
@@ -319,7 +326,12 @@ pub(crate) fn export(machine: &Machine, opts: &ExportOptions) -> Result<Exported
     }
     let joints = joint_numbers(machine);
     let mut tables = line_tables(machine, &kin, opts, MAX_LINES, |i| vec![i])?;
-    tables.sort_by_key(|t| joints.iter().find(|(i, _)| *i == t.input).map_or(0, |p| p.1));
+    tables.sort_by_key(|t| {
+        joints
+            .iter()
+            .find(|(i, _)| *i == t.input)
+            .map_or(0, |p| p.1)
+    });
     let mut files = Vec::new();
     let mut carried = Vec::new();
     let mut readme = format!(
@@ -333,7 +345,10 @@ pub(crate) fn export(machine: &Machine, opts: &ExportOptions) -> Result<Exported
         let name = &machine.axes[t.input].name;
         let file = comp_file_name(name);
         files.push((file.clone(), write(&t.q, &t.c)));
-        let j = joints.iter().find(|(i, _)| *i == t.input).map_or(0, |p| p.1);
+        let j = joints
+            .iter()
+            .find(|(i, _)| *i == t.input)
+            .map_or(0, |p| p.1);
         readme.push_str(&format!(
             "[JOINT_{j}]\nCOMP_FILE = {file}\nCOMP_FILE_TYPE = 1\n\n"
         ));

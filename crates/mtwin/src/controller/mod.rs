@@ -510,7 +510,10 @@ pub(crate) fn check_iso_axes(machine: &Machine, format: Format) -> Result<(), Ex
 /// Text of a number with `decimals` places, without `-0`.
 pub(crate) fn fixed(x: f64, decimals: usize) -> String {
     let s = format!("{x:.decimals$}");
-    if s.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
+    if s.trim_start_matches('-')
+        .chars()
+        .all(|c| c == '0' || c == '.')
+    {
         s.trim_start_matches('-').to_string()
     } else {
         s

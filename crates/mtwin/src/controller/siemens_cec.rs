@@ -79,7 +79,10 @@ pub fn parse(text: &str, file: &Path) -> Result<Vec<CecTable>, Diagnostic> {
                     return Err(Diagnostic::at_line(
                         file,
                         a.line,
-                        format!("point {k} of table {t} out of order (expected {})", tb.values.len()),
+                        format!(
+                            "point {k} of table {t} out of order (expected {})",
+                            tb.values.len()
+                        ),
                     ));
                 }
                 tb.values.push(number(&a, file)?);
@@ -129,7 +132,9 @@ pub(crate) fn export(machine: &Machine, opts: &ExportOptions) -> Result<Exported
     for (t, tb) in tables.iter().enumerate() {
         let (ia, oa) = (ax_id(machine, tb.input), ax_id(machine, tb.output));
         let (iname, oname) = (&machine.axes[tb.input].name, &machine.axes[tb.output].name);
-        s.push_str(&format!("; table {t}: {oname} ({oa}) over {iname} ({ia})\n"));
+        s.push_str(&format!(
+            "; table {t}: {oname} ({oa}) over {iname} ({ia})\n"
+        ));
         for (k, c) in tb.c.iter().enumerate() {
             s.push_str(&format!("$AN_CEC[{t},{k}]={}\n", fixed(*c, 6)));
         }
@@ -152,7 +157,8 @@ pub(crate) fn export(machine: &Machine, opts: &ExportOptions) -> Result<Exported
     let tables = tables
         .into_iter()
         .map(|mut t| {
-            t.c.iter_mut().for_each(|c| *c = fixed(*c, 6).parse::<f64>().unwrap_or(*c));
+            t.c.iter_mut()
+                .for_each(|c| *c = fixed(*c, 6).parse::<f64>().unwrap_or(*c));
             t
         })
         .collect();

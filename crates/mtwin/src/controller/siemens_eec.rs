@@ -77,7 +77,11 @@ pub fn parse_assignments(text: &str, file: &Path) -> Result<Vec<Assignment>, Dia
 /// A number on the right-hand side of an assignment.
 pub(crate) fn number(a: &Assignment, file: &Path) -> Result<f64, Diagnostic> {
     parse_number(&a.value).ok_or_else(|| {
-        Diagnostic::at_line(file, a.line, format!("`{}` is not a finite number", a.value))
+        Diagnostic::at_line(
+            file,
+            a.line,
+            format!("`{}` is not a finite number", a.value),
+        )
     })
 }
 
@@ -87,7 +91,11 @@ pub(crate) fn index(a: &Assignment, k: usize, file: &Path) -> Result<usize, Diag
         .get(k)
         .and_then(|s| s.parse::<usize>().ok())
         .ok_or_else(|| {
-            Diagnostic::at_line(file, a.line, format!("{}: index {} must be a whole number", a.name, k + 1))
+            Diagnostic::at_line(
+                file,
+                a.line,
+                format!("{}: index {} must be a whole number", a.name, k + 1),
+            )
         })
 }
 
@@ -114,7 +122,10 @@ pub fn parse(text: &str, file: &Path) -> Result<Vec<EecTable>, Diagnostic> {
     for a in parse_assignments(text, file)? {
         let axis = a.args.last().cloned().unwrap_or_default();
         let encoder = index(&a, 0, file)?;
-        let pos = match tables.iter().position(|t| t.axis == axis && t.encoder == encoder) {
+        let pos = match tables
+            .iter()
+            .position(|t| t.axis == axis && t.encoder == encoder)
+        {
             Some(p) => p,
             None => {
                 tables.push(EecTable {
@@ -136,7 +147,10 @@ pub fn parse(text: &str, file: &Path) -> Result<Vec<EecTable>, Diagnostic> {
                     return Err(Diagnostic::at_line(
                         file,
                         a.line,
-                        format!("point {k} of {axis} out of order (expected {})", t.values.len()),
+                        format!(
+                            "point {k} of {axis} out of order (expected {})",
+                            t.values.len()
+                        ),
                     ));
                 }
                 t.values.push(number(&a, file)?);
@@ -160,7 +174,11 @@ pub fn parse(text: &str, file: &Path) -> Result<Vec<EecTable>, Diagnostic> {
 /// Machine axis identifier of axis index `i` (`AX1` for the first of X, Y, Z…).
 pub(crate) fn ax_id(machine: &Machine, i: usize) -> String {
     let mut idx: Vec<usize> = (0..machine.n_axes()).collect();
-    idx.sort_by_key(|&k| "XYZABCUVW".find(machine.axes[k].name.as_str()).unwrap_or(99));
+    idx.sort_by_key(|&k| {
+        "XYZABCUVW"
+            .find(machine.axes[k].name.as_str())
+            .unwrap_or(99)
+    });
     let n = idx.iter().position(|&k| k == i).unwrap_or(i);
     format!("AX{}", n + 1)
 }
@@ -174,7 +192,9 @@ pub(crate) fn export(machine: &Machine, opts: &ExportOptions) -> Result<Exported
         });
     }
     let kin = machine.nominal();
-    let tables = line_tables(machine, &kin, opts, Format::SiemensEec.max_points(), |i| vec![i])?;
+    let tables = line_tables(machine, &kin, opts, Format::SiemensEec.max_points(), |i| {
+        vec![i]
+    })?;
     let mut s = format!(
         "%_N_AX_EEC_INI\n\
          ; Leadscrew/encoder error compensation of {} written by mtwin export.\n\
@@ -213,7 +233,8 @@ pub(crate) fn export(machine: &Machine, opts: &ExportOptions) -> Result<Exported
     let tables = tables
         .into_iter()
         .map(|mut t| {
-            t.c.iter_mut().for_each(|c| *c = -fixed(-*c, 6).parse::<f64>().unwrap_or(-*c));
+            t.c.iter_mut()
+                .for_each(|c| *c = -fixed(-*c, 6).parse::<f64>().unwrap_or(-*c));
             t
         })
         .collect();

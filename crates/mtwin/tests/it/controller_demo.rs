@@ -72,22 +72,35 @@ fn residual_report_on_the_demo_machines() {
     let trunnion_full = mtwin::examples::machine("ac-trunnion-with-errors").unwrap();
     for (name, m) in [
         ("gantry identified (tracker step)", demo_gantry()),
-        ("trunnion, PIGEs identified (ballbar step)", demo_trunnion_ballbar()),
+        (
+            "trunnion, PIGEs identified (ballbar step)",
+            demo_trunnion_ballbar(),
+        ),
         ("trunnion with errors (compensation step)", trunnion_full),
     ] {
         let rows = residuals(&m);
         print(name, &rows);
         for (f, r) in &rows {
-            let r = r.as_ref().unwrap_or_else(|e| panic!("{name} {}: {e}", f.name()));
+            let r = r
+                .as_ref()
+                .unwrap_or_else(|e| panic!("{name} {}: {e}", f.name()));
             // Compensating with the full model leaves nothing (solver tolerance).
-            assert!(r.full_model_max_um < 1e-3, "{name}: {}", r.full_model_max_um);
+            assert!(
+                r.full_model_max_um < 1e-3,
+                "{name}: {}",
+                r.full_model_max_um
+            );
             assert!(r.max_um.is_finite() && r.rms_um <= r.max_um);
         }
         // The volumetric formats carry the whole model: what is left is
         // table interpolation, far below the error itself.
         for f in [Format::Isg, Format::Etalon] {
             let r = get(&rows, f);
-            assert!(r.max_um < 0.02 * r.uncompensated_max_um, "{name} {}: {r:?}", f.name());
+            assert!(
+                r.max_um < 0.02 * r.uncompensated_max_um,
+                "{name} {}: {r:?}",
+                f.name()
+            );
         }
     }
     // The ballbar's PIGEs: LinuxCNC's trunnion parameters carry the four

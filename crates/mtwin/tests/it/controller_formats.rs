@@ -4,7 +4,9 @@
 
 use std::path::Path;
 
-use mtwin::controller::{self, ExportOptions, Format, etalon, isg_csv, linuxcnc_comp, siemens_cec, siemens_eec};
+use mtwin::controller::{
+    self, ExportOptions, Format, etalon, isg_csv, linuxcnc_comp, siemens_cec, siemens_eec,
+};
 use mtwin::model::{ErrorFunction, ErrorName, Machine};
 
 fn trunnion() -> Machine {
@@ -12,7 +14,8 @@ fn trunnion() -> Machine {
 }
 
 fn value(m: &Machine, name: &str, q: f64) -> f64 {
-    m.error_value(&name.parse::<ErrorName>().unwrap(), q).unwrap()
+    m.error_value(&name.parse::<ErrorName>().unwrap(), q)
+        .unwrap()
 }
 
 /// An ISG_CSV file in the documented layout: comments, a block of location
@@ -65,9 +68,17 @@ fn isg_csv_bad_input_names_the_place() {
     let e = isg_csv::parse("X EXX\n0 0.1\n10 abc\n", file).unwrap_err();
     assert_eq!(e.to_string(), "bad.csv:3:4: `abc` is not a finite number");
     let e = isg_csv::parse("X EXX\n0 0.1 0.2\n", file).unwrap_err();
-    assert!(e.to_string().starts_with("bad.csv:2:1: this row has 3 values"), "{e}");
+    assert!(
+        e.to_string()
+            .starts_with("bad.csv:2:1: this row has 3 values"),
+        "{e}"
+    );
     let e = isg_csv::parse("0 0.1\n", file).unwrap_err();
-    assert!(e.to_string().starts_with("bad.csv:1:1: expected a header row"), "{e}");
+    assert!(
+        e.to_string()
+            .starts_with("bad.csv:1:1: expected a header row"),
+        "{e}"
+    );
     let mut m = trunnion();
     let blocks = isg_csv::parse("X EXX\n10 0.1\n0 0.2\n", file).unwrap();
     let e = isg_csv::apply(&mut m, &blocks, file).unwrap_err();
@@ -99,7 +110,10 @@ fn etalon_documented_layout_reads_and_writes_back() {
     assert_eq!(params.len(), 3);
     assert_eq!(params[0].name, "C0A");
     assert_eq!(params[0].value, Some(0.000021));
-    assert_eq!(params[2].grid, [(-300.0, -0.0012), (0.0, 0.0004), (300.0, 0.0010)]);
+    assert_eq!(
+        params[2].grid,
+        [(-300.0, -0.0012), (0.0, 0.0004), (300.0, 0.0010)]
+    );
     let mut m = trunnion();
     etalon::apply(&mut m, &params, file).unwrap();
     assert_eq!(value(&m, "EC0A", 0.0), 0.000021);
@@ -114,7 +128,10 @@ fn etalon_documented_layout_reads_and_writes_back() {
     assert!(e.to_string().contains("not closed"), "{e}");
     let bad = etalon::parse("[QQQ]\nVALUE = 1\n", file).unwrap();
     let e = etalon::apply(&mut m2, &bad, file).unwrap_err();
-    assert!(e.to_string().starts_with("example.etalon:1: `[QQQ]`"), "{e}");
+    assert!(
+        e.to_string().starts_with("example.etalon:1: `[QQQ]`"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -123,14 +140,27 @@ fn linuxcnc_comp_file_layout() {
     let file = Path::new("comp_X.txt");
     let text = "-100.0 0.0021 0.0021\n0.0 0.0 0.0\n100.0 -0.003 -0.0025\n";
     let rows = linuxcnc_comp::parse(text, file).unwrap();
-    assert_eq!(rows, [[-100.0, 0.0021, 0.0021], [0.0, 0.0, 0.0], [100.0, -0.003, -0.0025]]);
+    assert_eq!(
+        rows,
+        [
+            [-100.0, 0.0021, 0.0021],
+            [0.0, 0.0, 0.0],
+            [100.0, -0.003, -0.0025]
+        ]
+    );
     let written = linuxcnc_comp::write(&[-100.0, 0.0, 100.0], &[0.0021, 0.0, -0.003]);
     for line in written.lines() {
-        let v: Vec<f64> = line.split_whitespace().map(|t| t.parse().unwrap()).collect();
+        let v: Vec<f64> = line
+            .split_whitespace()
+            .map(|t| t.parse().unwrap())
+            .collect();
         assert_eq!(v.len(), 3, "{line}");
         assert_eq!(v[1], v[2]);
     }
-    assert_eq!(linuxcnc_comp::parse(&written, file).unwrap()[2], [100.0, -0.003, -0.003]);
+    assert_eq!(
+        linuxcnc_comp::parse(&written, file).unwrap()[2],
+        [100.0, -0.003, -0.003]
+    );
     // A header (LinuxCNC would stop there), a descending line, 257 lines: refused.
     assert!(linuxcnc_comp::parse("nominal forward reverse\n0 0 0\n", file).is_err());
     assert!(linuxcnc_comp::parse("0 0 0\n-1 0 0\n", file).is_err());
@@ -184,7 +214,11 @@ fn siemens_cec_layout_holds_the_straightness() {
     let (name, text) = &e.files[0];
     assert!(text.starts_with("%_N_NC_CEC_INI\n"));
     assert!(text.ends_with("M17\n"));
-    for key in ["$AN_CEC_DIRECTION[0]=0", "$AN_CEC_MULT_BY_TABLE[0]=0", "$AN_CEC_IS_MODULO[0]=0"] {
+    for key in [
+        "$AN_CEC_DIRECTION[0]=0",
+        "$AN_CEC_MULT_BY_TABLE[0]=0",
+        "$AN_CEC_IS_MODULO[0]=0",
+    ] {
         assert!(text.contains(key), "{key}");
     }
     let tables = siemens_cec::parse(text, Path::new(name)).unwrap();
@@ -193,13 +227,24 @@ fn siemens_cec_layout_holds_the_straightness() {
         .iter()
         .find(|t| t.input == "AX1" && t.output == "AX2")
         .expect("Y over X");
-    assert_eq!((t.min, t.max, t.step, t.direction), (-300.0, 300.0, 10.0, 0));
+    assert_eq!(
+        (t.min, t.max, t.step, t.direction),
+        (-300.0, 300.0, 10.0, 0)
+    );
     for (k, v) in t.values.iter().enumerate() {
         let q = t.min + k as f64 * t.step;
         assert!((v + 3e-8 * q * q).abs() < 1e-6, "q={q}: {v}");
     }
-    for t in tables.iter().filter(|t| !(t.input == "AX1" && t.output == "AX2")) {
-        assert!(t.values.iter().all(|v| v.abs() < 1e-6), "{} over {}", t.output, t.input);
+    for t in tables
+        .iter()
+        .filter(|t| !(t.input == "AX1" && t.output == "AX2"))
+    {
+        assert!(
+            t.values.iter().all(|v| v.abs() < 1e-6),
+            "{} over {}",
+            t.output,
+            t.input
+        );
     }
     // Positioning is not CEC's: an EXX is reported as not carried.
     let m = with("EXX", ErrorFunction::Poly(vec![0.0, 1e-5]));

@@ -72,8 +72,17 @@ fn volumetric_round_trip(format: Format) {
     let back = isg_csv::import(&dir.path().join(isg_csv::LIS_FILE), &m.nominal()).unwrap();
     for (name, c) in &cubics {
         let ax = &m.axes[m.axis_index(&name.axis).unwrap()];
-        let h = if ax.kind == AxisKind::Linear { h_mm } else { h_deg };
-        let tol = bound(c, ax.travel, h) + if name.component.is_rotation() { 1e-12 } else { 1e-9 };
+        let h = if ax.kind == AxisKind::Linear {
+            h_mm
+        } else {
+            h_deg
+        };
+        let tol = bound(c, ax.travel, h)
+            + if name.component.is_rotation() {
+                1e-12
+            } else {
+                1e-9
+            };
         let mut worst: f64 = 0.0;
         for k in 0..=997 {
             let q = ax.travel[0] + (ax.travel[1] - ax.travel[0]) * k as f64 / 997.0;
@@ -87,7 +96,9 @@ fn volumetric_round_trip(format: Format) {
     for ax in &m.axes {
         for c in Component::ALL {
             assert_eq!(
-                back.axes[back.axis_index(&ax.name).unwrap()].errors.location[c.index()],
+                back.axes[back.axis_index(&ax.name).unwrap()]
+                    .errors
+                    .location[c.index()],
                 ax.errors.location[c.index()],
                 "E{}0{}",
                 c.letter(),
@@ -136,7 +147,16 @@ fn linuxcnc_round_trip_within_interpolation_bound() {
     let e = controller::export(&m, Format::LinuxCnc, &opts).unwrap();
     assert!(e.dropped.is_empty(), "{:?}", e.dropped);
     let names: Vec<&str> = e.files.iter().map(|f| f.0.as_str()).collect();
-    assert_eq!(names, ["comp_X.txt", "comp_Y.txt", "comp_Z.txt", "kinematics.hal", "README.txt"]);
+    assert_eq!(
+        names,
+        [
+            "comp_X.txt",
+            "comp_Y.txt",
+            "comp_Z.txt",
+            "kinematics.hal",
+            "README.txt"
+        ]
+    );
     let dir = tempfile::tempdir().unwrap();
     write_all(dir.path(), &e.files);
     let back = linuxcnc_comp::import(dir.path(), &m.nominal()).unwrap();
@@ -159,7 +179,12 @@ fn linuxcnc_round_trip_within_interpolation_bound() {
         .map(|b| b * b)
         .sum::<f64>()
         .sqrt();
-    assert!(r.max_um <= total * 1000.0, "{} µm > {} µm", r.max_um, total * 1000.0);
+    assert!(
+        r.max_um <= total * 1000.0,
+        "{} µm > {} µm",
+        r.max_um,
+        total * 1000.0
+    );
     assert!(r.uncompensated_max_um > 10.0, "{}", r.uncompensated_max_um);
     assert!(r.full_model_max_um < 1e-3, "{}", r.full_model_max_um);
     // Siemens EEC carries the same.
@@ -187,6 +212,11 @@ fn volumetric_residual_is_within_the_interpolation_bound() {
         .map(|b| b * b)
         .sum::<f64>()
         .sqrt();
-    assert!(r.max_um <= total * 1000.0 * 1.001 + 1e-3, "{} > {}", r.max_um, total * 1000.0);
+    assert!(
+        r.max_um <= total * 1000.0 * 1.001 + 1e-3,
+        "{} > {}",
+        r.max_um,
+        total * 1000.0
+    );
     assert!(r.max_um < r.uncompensated_max_um / 10.0);
 }
