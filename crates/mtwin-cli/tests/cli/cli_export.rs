@@ -45,7 +45,7 @@ fn linuxcnc_on_the_trunnion_writes_comp_files_hal_and_readme() {
         lc["rms_um"].as_f64().unwrap(),
     );
     assert!(max > 0.0 && rms > 0.0 && rms <= max);
-    assert!(lc["dropped"].as_array().unwrap().len() > 0);
+    assert!(!lc["dropped"].as_array().unwrap().is_empty());
     let mut names: Vec<String> = std::fs::read_dir(&out)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())

@@ -431,7 +431,7 @@ pub(crate) fn line_tables(
     };
     let at_ref = correction(&q0);
     let mut tables = Vec::new();
-    for (col_i, &i) in lin.iter().enumerate() {
+    for &i in &lin {
         let grid = axis_grid(machine, i, opts, max_points)?;
         let per_q: Vec<Vec<f64>> = grid
             .iter()
@@ -444,7 +444,6 @@ pub(crate) fn line_tables(
         for o in outputs(i) {
             let col_o = lin.iter().position(|&l| l == o).expect("output is linear");
             let base = if o == i { 0.0 } else { at_ref[col_o] };
-            let _ = col_i;
             tables.push(JointTable {
                 input: i,
                 output: o,

@@ -148,14 +148,12 @@ pub fn residual(machine: &Machine, correction: &Correction, opts: &ResidualOptio
         };
         let full = solve(&actual, machine, q, target);
         let e = [err(&cmd), err(q), err(&full)];
-        for k in 0..3 {
-            sum[k] += e[k] * e[k];
-            if e[k] > max[k] {
-                max[k] = e[k];
-                if k == 0 {
-                    at = q.clone();
-                }
-            }
+        if e[0] > max[0] {
+            at = q.clone();
+        }
+        for ((s, m), v) in sum.iter_mut().zip(max.iter_mut()).zip(e) {
+            *s += v * v;
+            *m = m.max(v);
         }
     }
     let n = poses.len().max(1) as f64;

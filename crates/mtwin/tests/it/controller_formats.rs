@@ -312,8 +312,8 @@ fn linuxcnc_trunnion_parameters_follow_linuxcnc_kinematics() {
             let w = fwd([x, y, z, sa * a, sc * c]);
             let d = [tip.x - w[0], tip.y - w[1], tip.z - w[2]];
             let o = *offset.get_or_insert(d);
-            for i in 0..3 {
-                worst = worst.max((d[i] - o[i]).abs());
+            for (di, oi) in d.iter().zip(o) {
+                worst = worst.max((di - oi).abs());
             }
         }
         eprintln!("directions A {sa:+} C {sc:+}: worst {worst:e} mm");
