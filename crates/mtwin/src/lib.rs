@@ -55,6 +55,7 @@
 #![allow(clippy::needless_range_loop)]
 #![warn(missing_docs)]
 
+pub mod controller;
 pub mod examples;
 pub mod fit;
 pub mod gcode;

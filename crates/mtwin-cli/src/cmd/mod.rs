@@ -8,6 +8,7 @@ mod ballbar_circular;
 mod compensate;
 mod completions;
 mod demo;
+mod export;
 mod gcode;
 mod model;
 mod positioning;
@@ -32,6 +33,11 @@ pub enum Command {
     /// Run every method end to end on the bundled examples, print a summary, write an HTML report.
     #[command(after_help = "Example:\n  mtwin demo --out-dir mtwin-demo")]
     Demo(demo::Args),
+    /// Write an identified model as controller compensation tables (ISG, Etalon, LinuxCNC, Siemens) with the error they leave.
+    #[command(
+        after_help = "Example:\n  mtwin export --machine identified.toml --to linuxcnc --out comp"
+    )]
+    Export(export::Args),
     /// Read G-code: interpolate it into axis commands, program statistics.
     #[command(subcommand)]
     Gcode(gcode::Command),
@@ -102,6 +108,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
     match command {
         Command::Ballbar(c) => ballbar::run(c),
         Command::Demo(a) => demo::run(a),
+        Command::Export(a) => export::run(a),
         Command::Gcode(c) => gcode::run(c),
         Command::Model(c) => model::run(c),
         Command::Positioning(c) => positioning::run(c),

@@ -13,6 +13,7 @@ mod cli_ballbar;
 mod cli_ballbar_circular;
 mod cli_compensate;
 mod cli_dialects;
+mod cli_export;
 mod cli_gcode;
 mod cli_model;
 mod cli_positioning;

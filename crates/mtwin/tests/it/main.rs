@@ -10,6 +10,9 @@
 mod shared;
 
 mod ballbar_circular;
+mod controller_demo;
+mod controller_formats;
+mod controller_roundtrip;
 mod gcode_conformance;
 mod gcode_corpus;
 mod gcode_props;
