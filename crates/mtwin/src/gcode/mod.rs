@@ -64,6 +64,7 @@ mod event;
 mod expr;
 mod interp;
 mod interpolate;
+pub mod plan;
 mod lexer;
 pub mod parameters;
 mod profile;
@@ -86,7 +87,7 @@ pub use dialect::Dialect;
 pub use doc::{AxisRangeDoc, GcodeInterpolateDoc, GcodeStatsDoc, TravelViolationDoc};
 pub use error::{GcodeError, Location};
 pub use event::{
-    ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, Plane, Programmed, SourcePos,
+    ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, PathMode, Plane, Programmed, SourcePos,
     SpindleState, Units,
 };
 pub use interp::{InterpOptions, Interpreter, ModalState, MotionMode, RetractMode, UnknownMCode};

@@ -14,6 +14,7 @@ mod gcode_conformance;
 mod gcode_corpus;
 mod gcode_props;
 mod generated_programs;
+mod planner;
 mod positioning;
 mod rs274;
 mod thermal_inputs;
