@@ -11,8 +11,8 @@ use mtwin::gcode::InterpolateOptions;
 use mtwin::io::write_csv_row;
 use mtwin::methods::twin::{self, Commands, Progress, Sources, TwinError, plot::PlotCollector};
 
-use super::common::{DialectArgs, PlanArgs};
 use super::common::load_machine;
+use super::common::{DialectArgs, PlanArgs};
 use super::gcode::{interp_options, located, open};
 use crate::output::{Format, print_doc, progress};
 

@@ -26,8 +26,8 @@ use super::codes::{GCode, ModalGroup};
 use super::dialect::{Dialect, DwellWord};
 use super::error::GcodeError;
 use super::event::{
-    ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, PathMode, Plane, Programmed, SourcePos,
-    SpindleState, Units,
+    ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, PathMode, Plane, Programmed,
+    SourcePos, SpindleState, Units,
 };
 use super::expr::{self, Target};
 use super::parameters::Parameters;

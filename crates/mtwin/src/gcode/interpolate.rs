@@ -238,7 +238,11 @@ fn direction(geom: &Geom, u: f64) -> [f64; 3] {
     let h = 1e-6;
     let (a, b) = ((u - h).max(0.0), (u + h).min(1.0));
     let (p, q) = (geom.at(a), geom.at(b));
-    let d = [q[Axis::X] - p[Axis::X], q[Axis::Y] - p[Axis::Y], q[Axis::Z] - p[Axis::Z]];
+    let d = [
+        q[Axis::X] - p[Axis::X],
+        q[Axis::Y] - p[Axis::Y],
+        q[Axis::Z] - p[Axis::Z],
+    ];
     let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
     if n > 0.0 {
         [d[0] / n, d[1] / n, d[2] / n]
@@ -985,7 +989,12 @@ impl<'m> Interpolator<'m> {
         let mut w = Axes::default();
         let mut tcp = false;
         for (i, p) in self.active.iter().take(started).enumerate() {
-            if let Path::Work { geom, offset, tcp: c } = &p.payload.path {
+            if let Path::Work {
+                geom,
+                offset,
+                tcp: c,
+            } = &p.payload.path
+            {
                 tcp = *c;
                 let x = Self::world(geom, offset, u(p));
                 if i == 0 {
@@ -1032,11 +1041,7 @@ impl<'m> Interpolator<'m> {
             if let Err(e) = self.check_travel(&out, t) {
                 break Err(e);
             }
-            let sample = Sample {
-                t,
-                q: &out,
-                line,
-            };
+            let sample = Sample { t, q: &out, line };
             if let Err(e) = sink(&sample) {
                 break Err(InterpolateError::Sink(e));
             }

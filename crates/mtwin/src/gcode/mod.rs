@@ -64,9 +64,9 @@ mod event;
 mod expr;
 mod interp;
 mod interpolate;
-pub mod plan;
 mod lexer;
 pub mod parameters;
+pub mod plan;
 mod profile;
 pub mod program_flow;
 #[warn(missing_docs)]
@@ -87,8 +87,8 @@ pub use dialect::Dialect;
 pub use doc::{AxisRangeDoc, GcodeInterpolateDoc, GcodeStatsDoc, TravelViolationDoc};
 pub use error::{GcodeError, Location};
 pub use event::{
-    ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, PathMode, Plane, Programmed, SourcePos,
-    SpindleState, Units,
+    ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, PathMode, Plane, Programmed,
+    SourcePos, SpindleState, Units,
 };
 pub use interp::{InterpOptions, Interpreter, ModalState, MotionMode, RetractMode, UnknownMCode};
 pub use interpolate::{

@@ -88,7 +88,10 @@ fn collinear_blocks_run_as_one_move() {
     let t = time(&format!("G61.1\n{prog}"), &m, Planner::Linuxcnc);
     assert!((t - 10.0 * (10.0 / v + v / a)).abs() < 1e-9, "G61.1: {t}");
     let t = time(&prog, &m, Planner::ExactStop);
-    assert!((t - 10.0 * (10.0 / v + v / a)).abs() < 1e-9, "exact-stop: {t}");
+    assert!(
+        (t - 10.0 * (10.0 / v + v / a)).abs() < 1e-9,
+        "exact-stop: {t}"
+    );
 }
 
 /// Distance from `p` to the polyline `pts` (XY).
@@ -158,7 +161,10 @@ fn arcs_in_the_three_planes_take_the_same_time() {
     ];
     for planner in [Planner::Linuxcnc, Planner::ExactStop] {
         let t: Vec<f64> = progs.iter().map(|p| time(p, &m, planner)).collect();
-        assert!((t[0] - t[1]).abs() < 1e-9 && (t[0] - t[2]).abs() < 1e-9, "{t:?}");
+        assert!(
+            (t[0] - t[1]).abs() < 1e-9 && (t[0] - t[2]).abs() < 1e-9,
+            "{t:?}"
+        );
         // Never faster than the path at the feed.
         let at_feed = (10.0 + 2.0 * std::f64::consts::PI * 10.0) / 15.0;
         assert!(t[0] > at_feed, "{planner}: {} vs {at_feed}", t[0]);
@@ -175,7 +181,10 @@ fn feed_modes_that_mean_the_same_speed_take_the_same_time() {
         let c = time("S6000 M3\nG95 G1 X30 F0.1\n", &m, planner);
         assert!((a - b).abs() < 1e-9 && (a - c).abs() < 1e-9, "{a} {b} {c}");
         // 3 s at 10 mm/s plus the time lost ramping: v/a (at a/2 to stop under G64).
-        assert!(a > 3.0 && a < 3.0 + 2.0 * 10.0 / 300.0 + 1e-9, "{planner}: {a}");
+        assert!(
+            a > 3.0 && a < 3.0 + 2.0 * 10.0 / 300.0 + 1e-9,
+            "{planner}: {a}"
+        );
     }
 }
 
@@ -187,7 +196,11 @@ fn feed_override_scales_the_feed() {
     opts.plan.feed_override = 0.5;
     let s = interpolate(b"G61 G1 X30 F600\n".as_slice(), &m, &opts, |_| Ok(())).unwrap();
     // 30 mm at 5 mm/s: 6 s + 5/300 s.
-    assert!((s.duration - (6.0 + 5.0 / 300.0)).abs() < 1e-9, "{}", s.duration);
+    assert!(
+        (s.duration - (6.0 + 5.0 / 300.0)).abs() < 1e-9,
+        "{}",
+        s.duration
+    );
 }
 
 #[test]
@@ -223,9 +236,17 @@ fn check_limits(s: &Samples, ts: f64, vmax: f64, amax: f64) -> Result<(), TestCa
     for w in s.windows(3) {
         for i in 0..3 {
             let v = (w[1].1[i] - w[0].1[i]) / ts;
-            prop_assert!(v.abs() <= vmax * (1.0 + 1e-6) + 1e-9, "v = {v} at {}", w[0].0);
+            prop_assert!(
+                v.abs() <= vmax * (1.0 + 1e-6) + 1e-9,
+                "v = {v} at {}",
+                w[0].0
+            );
             let a = (w[2].1[i] - 2.0 * w[1].1[i] + w[0].1[i]) / (ts * ts);
-            prop_assert!(a.abs() <= amax * (1.0 + 1e-4) + 1e-6, "a = {a} at {}", w[0].0);
+            prop_assert!(
+                a.abs() <= amax * (1.0 + 1e-4) + 1e-6,
+                "a = {a} at {}",
+                w[0].0
+            );
         }
     }
     Ok(())

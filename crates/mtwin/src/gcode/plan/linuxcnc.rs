@@ -156,8 +156,16 @@ pub fn arc(chord: &Axes, shape: &ArcShape, len: f64, lim: &WorldLimits) -> MoveL
     let t_a = tt_motion.max(spiral / a_axes);
     MoveLimits {
         len,
-        v: if t_v > 0.0 { total / t_v } else { f64::INFINITY },
-        a: if t_a > 0.0 { total / t_a } else { f64::INFINITY },
+        v: if t_v > 0.0 {
+            total / t_v
+        } else {
+            f64::INFINITY
+        },
+        a: if t_a > 0.0 {
+            total / t_a
+        } else {
+            f64::INFINITY
+        },
         pure_rotary: false,
         rotary: st.rotary,
     }

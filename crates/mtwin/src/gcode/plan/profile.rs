@@ -85,11 +85,7 @@ impl Profile {
 
     /// Distance along the path at `t` s after the start, in `[0, L]`.
     pub fn s_at(&self, t: f64) -> f64 {
-        let (t1, t2, total) = (
-            self.t_acc,
-            self.t_acc + self.t_flat,
-            self.duration(),
-        );
+        let (t1, t2, total) = (self.t_acc, self.t_acc + self.t_flat, self.duration());
         let s = if t <= 0.0 {
             0.0
         } else if t >= total {
@@ -112,7 +108,11 @@ impl Profile {
     pub fn v_at(&self, t: f64) -> f64 {
         let total = self.duration();
         if self.a.is_infinite() {
-            return if (0.0..total).contains(&t) { self.vp } else { 0.0 };
+            return if (0.0..total).contains(&t) {
+                self.vp
+            } else {
+                0.0
+            };
         }
         if t <= 0.0 {
             self.v0
