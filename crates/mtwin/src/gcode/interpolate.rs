@@ -619,7 +619,7 @@ impl<'m> Interpolator<'m> {
                 } else {
                     ml.len
                 };
-                if !(len > 0.0) {
+                if len.is_nan() || len <= 0.0 {
                     return Ok(());
                 }
                 let v_ini = ml.v.min(len / self.opts.plan.cycle_time);
