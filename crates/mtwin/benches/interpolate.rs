@@ -1,7 +1,10 @@
 //! Interpolating the corpus impeller (LinuxCNC `impeller-7bl-xyzac.ngc`,
 //! 4510 lines of G93 TCP five-axis moves) at 1 ms on the AC trunnion example
 //! (C travel widened to ±36000° as in the corpus's xyzac-trt.ini), samples
-//! consumed by a counter.
+//! consumed by a counter; and planning plus sampling the boat
+//! (`boat-xyzac.ngc`, M428 TCP) at 1 ms under `--planner linuxcnc` with
+//! xyzac-trt's limits, once and repeated 10 times (look-ahead cost linear in
+//! the program length: the ×10 run should take ten times as long).
 //!
 //!     cargo bench -p mtwin --bench interpolate
 //!
@@ -11,8 +14,9 @@ use std::hint::black_box;
 use std::path::Path;
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use mtwin::gcode::plan::{PlanOptions, Planner};
 use mtwin::gcode::{InterpolateOptions, interpolate};
-use mtwin::model::read_machine;
+use mtwin::model::{AxisKind, read_machine};
 
 fn bench(c: &mut Criterion) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -40,6 +44,43 @@ fn bench(c: &mut Criterion) {
             black_box((n, s))
         })
     });
+    // The boat under the linuxcnc planner, xyzac-trt limits.
+    let boat = root.join("../../../shared/corpus/gcode/linuxcnc/boat-xyzac.ngc");
+    if let Ok(text) = std::fs::read_to_string(&boat) {
+        let mut m = machine.clone();
+        for a in m.axes.iter_mut() {
+            let lin = a.kind == AxisKind::Linear;
+            a.max_velocity = Some(if lin { 20.0 } else { 30.0 });
+            a.max_acceleration = Some(300.0);
+        }
+        m.rapid_feed = 35.0 * 60.0;
+        let mut opts = InterpolateOptions::new(0.001);
+        opts.plan = PlanOptions::new(Planner::Linuxcnc);
+        opts.check_travel = false;
+        // Repeating the program body: M2 only at the end, M428 once.
+        let body: String = text
+            .lines()
+            .filter(|l| !l.trim_start().starts_with('%') && !l.contains("M2") && !l.contains("M30"))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        for reps in [1usize, 10] {
+            let prog = body.repeat(reps) + "M2\n";
+            g.bench_function(format!("boat_linuxcnc_1ms_x{reps}"), |b| {
+                b.iter(|| {
+                    let mut n = 0u64;
+                    let s = interpolate(prog.as_bytes(), &m, &opts, |s| {
+                        n += 1;
+                        black_box(s.q);
+                        Ok(())
+                    })
+                    .expect("the boat interpolates");
+                    black_box((n, s))
+                })
+            });
+        }
+    } else {
+        eprintln!("skipping the boat: {} is absent", boat.display());
+    }
     g.finish();
 }
 

@@ -181,3 +181,43 @@ pub fn located_error(path: &Path, e: &GcodeError) -> anyhow::Error {
         e.message(),
     )
 }
+
+/// `--planner`: the trajectory planner that times the moves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum PlannerArg {
+    /// Stop at every block end; joint velocity and acceleration limits.
+    #[default]
+    ExactStop,
+    /// LinuxCNC 2.9's planner: world-axis limits, look-ahead, G61/G61.1/G64 blending.
+    Linuxcnc,
+}
+
+/// How a program's moves are planned, shared by the commands that time a
+/// program (`--planner`, `--feed-override`, `--derivative-margin`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct PlanArgs {
+    /// Trajectory planner: `exact-stop` (stop at every block, joint limits) or
+    /// `linuxcnc` (LinuxCNC 2.9: world-axis limits, look-ahead, G64 blends).
+    #[arg(long, value_enum, default_value_t)]
+    pub planner: PlannerArg,
+    /// Feed override, a fraction of the programmed feed (feed moves only).
+    #[arg(long, default_value_t = 1.0, value_name = "FRACTION")]
+    pub feed_override: f64,
+    /// exact-stop under TCP: factor on the estimated joint path derivatives
+    /// (a reserve; 1 = none).
+    #[arg(long, default_value_t = 1.1, value_name = "FACTOR")]
+    pub derivative_margin: f64,
+}
+
+impl PlanArgs {
+    /// The planner settings.
+    pub fn options(&self) -> mtwin::gcode::plan::PlanOptions {
+        let mut o = mtwin::gcode::plan::PlanOptions::new(match self.planner {
+            PlannerArg::ExactStop => mtwin::gcode::plan::Planner::ExactStop,
+            PlannerArg::Linuxcnc => mtwin::gcode::plan::Planner::Linuxcnc,
+        });
+        o.feed_override = self.feed_override;
+        o.derivative_margin = self.derivative_margin;
+        o
+    }
+}

@@ -11,19 +11,19 @@ use mtwin::gcode::{
 };
 use mtwin::io::write_csv_row;
 
-use super::common::{DialectArgs, load_machine, located_error};
+use super::common::{DialectArgs, PlanArgs, load_machine, located_error};
 use crate::output::{Format, warn};
 
 #[derive(Debug, clap::Subcommand)]
 pub enum Command {
     /// Sample a program in time: axis commands at a fixed period (CMD.csv).
     #[command(
-        after_help = "Example:\n  mtwin gcode interpolate --machine examples/machines/ac-trunnion.toml part.nc --ts 0.001 --out cmd.csv --tcp"
+        after_help = "Example:\n  mtwin gcode interpolate --machine examples/machines/ac-trunnion.toml part.nc --ts 0.001 --out cmd.csv --tcp\n  mtwin gcode interpolate --machine examples/machines/ac-trunnion.toml part.nc --planner linuxcnc --feed-override 0.8 --out cmd.csv"
     )]
     Interpolate(InterpolateArgs),
     /// Program statistics: blocks, path length, estimated time, axis ranges, travel checks.
     #[command(
-        after_help = "Example:\n  mtwin gcode stats part.nc --machine examples/machines/ac-trunnion.toml"
+        after_help = "Example:\n  mtwin gcode stats part.nc --machine examples/machines/ac-trunnion.toml\n  mtwin gcode stats part.nc --machine examples/machines/ac-trunnion.toml --planner linuxcnc --format json"
     )]
     Stats(StatsArgs),
 }
@@ -50,6 +50,8 @@ pub struct InterpolateArgs {
     offsets: Vec<String>,
     #[command(flatten)]
     dialect: DialectArgs,
+    #[command(flatten)]
+    plan: PlanArgs,
     /// Write samples outside the axis travels instead of stopping.
     #[arg(long)]
     no_travel_check: bool,
@@ -78,6 +80,8 @@ pub struct StatsArgs {
     offsets: Vec<String>,
     #[command(flatten)]
     dialect: DialectArgs,
+    #[command(flatten)]
+    plan: PlanArgs,
     /// Output format.
     #[arg(long, value_enum, default_value_t)]
     format: Format,
@@ -187,6 +191,7 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
     opts.interp = interp_options(&a.offsets, &a.dialect, &a.program)?;
     opts.force_tcp = a.tcp;
     opts.check_travel = !a.no_travel_check;
+    opts.plan = a.plan.options();
     check_sample_count(&a, &m, &opts)?;
     let (input, bar) = crate::output::open_with_progress(&a.program, "interpolate")?;
     let mut failure: Option<InterpolateError> = None;
@@ -231,6 +236,35 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
     crate::output::print_doc(&doc, a.format)
 }
 
+/// With a machine, the program's time under `--planner` (accelerations,
+/// junctions and limits included), from the interpolator run without
+/// sampling; `None` (with a warning) when the program cannot be interpolated
+/// on the machine (an unreachable tip, reported by the travel check).
+fn planned_time(
+    a: &StatsArgs,
+    m: &mtwin::model::Machine,
+    interp: &InterpOptions,
+) -> anyhow::Result<Option<f64>> {
+    // One sample at the start and one at the end: the period only bounds the count.
+    let mut opts = InterpolateOptions::new(1e9);
+    opts.interp = interp.clone();
+    opts.force_tcp = a.tcp;
+    opts.check_travel = false;
+    opts.plan = a.plan.options();
+    match gcode::interpolate(open(&a.program)?, m, &opts, |_| Ok(())) {
+        Ok(s) => Ok(Some(s.duration)),
+        Err(InterpolateError::Plan(e)) => bail!("{e}"),
+        Err(e) => {
+            warn(format!(
+                "{}: the planned time is not available ({}); total_time_s is the estimate without accelerations",
+                a.program.display(),
+                located(&a.program, e.line(), e.column(), &e)
+            ));
+            Ok(None)
+        }
+    }
+}
+
 fn stats(a: StatsArgs) -> anyhow::Result<()> {
     let machine = a.machine.as_deref().map(load_machine).transpose()?;
     let mut opts = StatsOptions::default();
@@ -250,7 +284,10 @@ fn stats(a: StatsArgs) -> anyhow::Result<()> {
         None => gcode::stats(input, &opts),
     };
     bar.finish_and_clear();
-    let st = st.map_err(|e| located_error(&a.program, &e))?;
+    let mut st = st.map_err(|e| located_error(&a.program, &e))?;
+    if let Some(m) = &machine {
+        st.planned_time = planned_time(&a, m, &opts.interp)?;
+    }
     let doc = gcode::GcodeStatsDoc::new(
         &a.program.display().to_string(),
         &st,

@@ -11,8 +11,8 @@ use mtwin::gcode::InterpolateOptions;
 use mtwin::io::write_csv_row;
 use mtwin::methods::twin::{self, Commands, PredictOptions, Progress, Sources, TwinError};
 
-use super::common::DialectArgs;
 use super::common::load_machine;
+use super::common::{DialectArgs, PlanArgs};
 use super::gcode::{interp_options, located};
 use crate::output::{Format, print_doc, progress};
 
@@ -20,7 +20,7 @@ use crate::output::{Format, print_doc, progress};
 pub enum Command {
     /// Predict the tool-tip and tool-axis trajectory errors of a program or of axis commands.
     #[command(
-        after_help = "Example:\n  mtwin twin predict --machine examples/machines/ac-trunnion-twin.toml --commands cmd.csv --out pred.csv\n  mtwin twin predict --machine examples/machines/ac-trunnion-twin.toml --gcode part.nc --tcp --ts 0.001 --out pred.csv --plot plots --format json"
+        after_help = "Example:\n  mtwin twin predict --machine examples/machines/ac-trunnion-twin.toml --commands cmd.csv --out pred.csv\n  mtwin twin predict --machine examples/machines/ac-trunnion-twin.toml --gcode part.nc --tcp --ts 0.001 --out pred.csv --plot plots --format json\n  mtwin twin predict --machine examples/machines/ac-trunnion-twin.toml --gcode part.nc --planner linuxcnc --out pred.csv"
     )]
     Predict(PredictArgs),
 }
@@ -57,6 +57,8 @@ pub struct PredictArgs {
     offsets: Vec<String>,
     #[command(flatten)]
     dialect: DialectArgs,
+    #[command(flatten)]
+    plan: PlanArgs,
     /// Interpolate samples outside the axis travels instead of stopping.
     #[arg(long, requires = "gcode")]
     no_travel_check: bool,
@@ -177,6 +179,7 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
             opts.interp = interp_options(&a.offsets, &a.dialect, path)?;
             opts.interp.tcp_at_start = a.tcp;
             opts.check_travel = !a.no_travel_check;
+            opts.plan = a.plan.options();
             Some(opts)
         }
         None => None,

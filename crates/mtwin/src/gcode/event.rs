@@ -232,6 +232,32 @@ impl ArcMove {
     }
 }
 
+/// Path control mode (G61, G61.1, G64), as LinuxCNC documents it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PathMode {
+    /// G61: exact path. Every block ends on its programmed end point; a
+    /// planner may keep the speed through blocks that continue in the same
+    /// direction, and stops at corners.
+    ExactPath,
+    /// G61.1: exact stop. The machine stops at the end of every block.
+    ExactStop,
+    /// G64: blending, with the path tolerance `p` (mm, `None`: as fast as
+    /// possible, no tolerance) and the naive-CAM tolerance `q` (mm,
+    /// `None`: collinear straight feeds are not merged).
+    Blend { p: Option<f64>, q: Option<f64> },
+}
+
+impl PathMode {
+    /// LinuxCNC's mode at start-up: G64 without tolerances.
+    pub const DEFAULT: PathMode = PathMode::Blend { p: None, q: None };
+}
+
+impl Default for PathMode {
+    fn default() -> Self {
+        PathMode::DEFAULT
+    }
+}
+
 /// Kinds of canonical event.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum EventKind {
@@ -273,6 +299,8 @@ pub enum EventKind {
         /// Tool length offset along Z, mm.
         length: f64,
     },
+    /// G61, G61.1 or G64 (P and Q converted to mm).
+    PathControl(PathMode),
     /// M2/M30.
     ProgramEnd,
 }

@@ -26,8 +26,8 @@ use super::codes::{GCode, ModalGroup};
 use super::dialect::{Dialect, DwellWord};
 use super::error::GcodeError;
 use super::event::{
-    ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, Plane, Programmed, SourcePos,
-    SpindleState, Units,
+    ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, PathMode, Plane, Programmed,
+    SourcePos, SpindleState, Units,
 };
 use super::expr::{self, Target};
 use super::parameters::Parameters;
@@ -551,8 +551,7 @@ impl Interpreter {
         // always off.
         self.set_tool_length_offset(w, &codes, s)?;
         self.select_coordinate_system(&codes, s);
-        // Path control (G61, G61.1, G64) changes no motion this interpreter
-        // produces.
+        self.set_path_control(w, &codes, s);
         self.set_distance_mode(&codes);
         self.set_arc_distance_mode(&codes);
         self.set_retract_mode(&codes);
@@ -939,6 +938,29 @@ impl Interpreter {
                 _ => Plane::Yz,
             };
         }
+    }
+
+    /// G61, G61.1, G64 with its P and Q (program units, converted to mm;
+    /// absent or zero means none, as in LinuxCNC).
+    fn set_path_control(&mut self, w: &BlockWords, codes: &Codes, s: &mut Step) {
+        let Some((code, _)) = codes.path_control else {
+            return;
+        };
+        let mm = self.state.units.mm_per_unit();
+        let tol = |letter: u8| {
+            w.get(letter)
+                .map(|v| v.value * mm)
+                .filter(|v| *v > 0.0 && v.is_finite())
+        };
+        let mode = match code {
+            GCode::G61 => PathMode::ExactPath,
+            GCode::G61_1 => PathMode::ExactStop,
+            _ => PathMode::Blend {
+                p: tol(b'P'),
+                q: tol(b'Q'),
+            },
+        };
+        s.emit(EventKind::PathControl(mode));
     }
 
     /// G20, G21.

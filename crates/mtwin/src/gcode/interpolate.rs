@@ -38,6 +38,7 @@
 //!   position). They are handed to a callback one by one: memory does not
 //!   grow with the program.
 
+use std::collections::VecDeque;
 use std::io::{self, BufRead};
 
 use nalgebra::Vector3;
@@ -45,9 +46,11 @@ use nalgebra::Vector3;
 use super::arc::{self, Geometry};
 use super::axes::{Axes, Axis, AxisLetterError};
 use super::error::GcodeError;
-use super::event::{ArcMove, Event, EventKind, Feed, Linear};
+use super::event::{ArcMove, Event, EventKind, Feed, Linear, PathMode};
 use super::interp::{InterpOptions, Interpreter};
-use super::profile::Trapezoid;
+use super::plan::linuxcnc;
+use super::plan::lookahead::{Limits, Lookahead, Planned};
+use super::plan::{PlanOptions, Planner};
 use super::program_flow::{Step, run_program};
 use super::timing::{self, lerp};
 use crate::kinematics::{IkError, IkOptions, IkTarget, Kinematics};
@@ -72,6 +75,8 @@ pub struct InterpolateOptions {
     /// [`InterpolateError::TooManySamples`] before the samples of the move
     /// that crosses the bound are made.
     pub max_samples: u64,
+    /// The trajectory planner and its settings.
+    pub plan: PlanOptions,
 }
 
 impl InterpolateOptions {
@@ -84,6 +89,7 @@ impl InterpolateOptions {
             force_tcp: false,
             check_travel: true,
             max_samples: crate::limits::MAX_SAMPLES,
+            plan: PlanOptions::default(),
         }
     }
 }
@@ -168,6 +174,9 @@ pub enum InterpolateError {
     /// Reading or interpreting the program failed.
     #[error(transparent)]
     Gcode(#[from] GcodeError),
+    /// The planner settings are out of range.
+    #[error("{0}")]
+    Plan(String),
     /// The sample callback failed.
     #[error("writing samples failed: {0}")]
     Sink(#[source] io::Error),
@@ -258,7 +267,26 @@ impl Geom {
     }
 }
 
-/// A segment of motion.
+/// Unit XYZ direction of travel of `geom` at `u ∈ [0, 1]` (zero when XYZ
+/// does not move), by a central difference.
+fn direction(geom: &Geom, u: f64) -> [f64; 3] {
+    let h = 1e-6;
+    let (a, b) = ((u - h).max(0.0), (u + h).min(1.0));
+    let (p, q) = (geom.at(a), geom.at(b));
+    let d = [
+        q[Axis::X] - p[Axis::X],
+        q[Axis::Y] - p[Axis::Y],
+        q[Axis::Z] - p[Axis::Z],
+    ];
+    let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    if n > 0.0 {
+        [d[0] / n, d[1] / n, d[2] / n]
+    } else {
+        [0.0; 3]
+    }
+}
+
+/// A block of motion.
 enum Path {
     /// Straight in axis space.
     Joint { q0: Vec<f64>, q1: Vec<f64> },
@@ -268,10 +296,64 @@ enum Path {
         offset: Axes,
         tcp: bool,
     },
+    /// Standing still (a dwell).
+    Hold { q: Vec<f64> },
 }
 
-/// Fraction of a sub-step margin on finite-difference derivative bounds.
-const FD_MARGIN: f64 = 1.1;
+/// A queued block: its path, the length of its path parameter (the path
+/// parameter `s ∈ [0, len]` maps to `s / len` along the path), its line.
+struct Block {
+    path: Path,
+    len: f64,
+    line: u64,
+}
+
+/// What the `linuxcnc` join rules need of the last queued block.
+#[derive(Clone, Copy)]
+struct Tail {
+    side: linuxcnc::Side,
+    mode: PathMode,
+    tcp: bool,
+    offset: Axes,
+    speed: Speed,
+}
+
+/// The speed and acceleration inputs of a `linuxcnc` block, before its
+/// joins are known.
+#[derive(Clone, Copy)]
+struct Speed {
+    len: f64,
+    /// Highest speed by the axis limits and the cycle, per s.
+    v_ini: f64,
+    /// Requested speed (feed × override, or the rapid speed), within the
+    /// trajectory limit, per s.
+    v_req: f64,
+    /// Acceleration by the axis limits, per s².
+    a_base: f64,
+    /// Effective radius of an arc.
+    r_eff: Option<f64>,
+    /// The acceleration is halved by a parabolic blend before or after.
+    halved: bool,
+    /// Acceleration reduction of a tangent kink before or after.
+    kink: f64,
+}
+
+impl Speed {
+    /// Target speed and tangential acceleration.
+    fn limits(&self) -> Limits {
+        let a = self.a_base * (1.0 - self.kink) * if self.halved { 0.5 } else { 1.0 };
+        let (v_max, ratio) = match self.r_eff {
+            Some(r) if a.is_finite() => linuxcnc::arc_speed_and_ratio(self.v_ini, a, r),
+            _ => (self.v_ini, 1.0),
+        };
+        Limits {
+            len: self.len,
+            v: self.v_req.min(v_max),
+            a: a * ratio,
+        }
+    }
+}
+
 /// Sub-steps of the finite-difference derivative bounds under TCP.
 const FD_STEPS: usize = 16;
 /// Axis-space distance below which a move's start is the current position.
@@ -285,16 +367,19 @@ pub struct Interpolator<'m> {
     linear: Vec<bool>,
     ik: IkOptions,
     opts: InterpolateOptions,
-    /// Current axis positions.
+    /// Axis positions at the end of the last queued block.
     q: Vec<f64>,
-    /// Scratch axis positions.
+    /// Scratch axis positions (the last sample, the IK start).
     buf: Vec<f64>,
     /// Index of the next sample.
     k: u64,
-    /// End time of the last segment, s.
-    now: f64,
     line: u64,
     summary: InterpolationSummary,
+    world: linuxcnc::WorldLimits,
+    queue: Lookahead<Block>,
+    active: VecDeque<Planned<Block>>,
+    mode: PathMode,
+    tail: Option<Tail>,
 }
 
 impl<'m> Interpolator<'m> {
@@ -303,6 +388,25 @@ impl<'m> Interpolator<'m> {
     pub fn new(machine: &'m Machine, opts: &InterpolateOptions) -> Result<Self, InterpolateError> {
         if !(opts.ts > 0.0 && opts.ts.is_finite()) {
             return Err(InterpolateError::Period(opts.ts));
+        }
+        let p = &opts.plan;
+        if !(p.feed_override > 0.0 && p.feed_override.is_finite()) {
+            return Err(InterpolateError::Plan(format!(
+                "the feed override must be a positive fraction, not {}",
+                p.feed_override
+            )));
+        }
+        if !(p.derivative_margin >= 1.0 && p.derivative_margin.is_finite()) {
+            return Err(InterpolateError::Plan(format!(
+                "the derivative margin must be a number ≥ 1, not {}",
+                p.derivative_margin
+            )));
+        }
+        if !(p.cycle_time > 0.0 && p.cycle_time.is_finite()) || p.lookahead == 0 {
+            return Err(InterpolateError::Plan(
+                "the planner cycle time must be positive and the look-ahead at least one block"
+                    .into(),
+            ));
         }
         let letters = Axis::of_machine(machine)?;
         let q: Vec<f64> = letters
@@ -313,6 +417,16 @@ impl<'m> Interpolator<'m> {
         if opts.force_tcp {
             opts.interp.tcp_at_start = true;
         }
+        let mut vel = [f64::INFINITY; 9];
+        let mut acc = [f64::INFINITY; 9];
+        for (axis, l) in machine.axes.iter().zip(&letters) {
+            vel[l.index()] = axis.max_velocity.unwrap_or(f64::INFINITY);
+            acc[l.index()] = axis.max_acceleration.unwrap_or(f64::INFINITY);
+        }
+        let depth = match opts.plan.planner {
+            Planner::ExactStop => 1,
+            _ => opts.plan.lookahead,
+        };
         Ok(Interpolator {
             machine,
             kin: Kinematics::nominal(machine),
@@ -333,9 +447,17 @@ impl<'m> Interpolator<'m> {
             q,
             opts,
             k: 0,
-            now: 0.0,
             line: 0,
             summary: InterpolationSummary::default(),
+            world: linuxcnc::WorldLimits {
+                vel,
+                acc,
+                v_traj: machine.rapid_feed / 60.0,
+            },
+            queue: Lookahead::new(depth),
+            active: VecDeque::new(),
+            mode: PathMode::DEFAULT,
+            tail: None,
         })
     }
 
@@ -344,12 +466,14 @@ impl<'m> Interpolator<'m> {
         &self.opts
     }
 
-    /// Current axis positions, machine axis order.
+    /// Axis positions at the end of the moves given so far, machine axis order.
     pub fn position(&self) -> &[f64] {
         &self.q
     }
 
-    /// Interpolates one event, handing its samples to `sink`.
+    /// Interpolates one event, handing the samples it makes ready to `sink`
+    /// (with look-ahead, the samples of a move come once the moves after it
+    /// are known, or at [`Interpolator::finish`]).
     pub fn push<F>(&mut self, event: &Event, sink: &mut F) -> Result<(), InterpolateError>
     where
         F: FnMut(&Sample<'_>) -> io::Result<()>,
@@ -367,34 +491,47 @@ impl<'m> Interpolator<'m> {
             }
             EventKind::Dwell { seconds } if *seconds > 0.0 => {
                 self.summary.dwell_time += seconds;
-                let end = self.now + seconds;
-                let q = self.q.clone();
-                self.emit_until(end, sink, |_, out| {
-                    out.copy_from_slice(&q);
-                    Ok(())
-                })?;
-                self.now = end;
+                let block = Block {
+                    path: Path::Hold { q: self.q.clone() },
+                    len: *seconds,
+                    line: self.line,
+                };
+                let lim = Limits {
+                    len: *seconds,
+                    v: 1.0,
+                    a: f64::INFINITY,
+                };
+                self.enqueue(block, lim, None, sink)
+            }
+            EventKind::PathControl(mode) => {
+                self.mode = *mode;
                 Ok(())
             }
             _ => Ok(()),
         }
     }
 
-    /// Emits the last sample (at the first `k·ts` not before the end) and
-    /// returns the summary.
+    /// Plans and samples what is still queued, emits the last sample (at
+    /// the first `k·ts` not before the end) and returns the summary.
     pub fn finish<F>(mut self, sink: &mut F) -> Result<InterpolationSummary, InterpolateError>
     where
         F: FnMut(&Sample<'_>) -> io::Result<()>,
     {
+        self.end_chain();
+        while let Some(p) = self.queue.pop_flush() {
+            self.start(p, sink)?;
+        }
+        let end = self.active.iter().map(|p| p.t1()).fold(0.0, f64::max);
+        self.emit_until(end, sink)?;
         let t = self.k as f64 * self.opts.ts;
         let sample = Sample {
             t,
             q: &self.q,
-            line: self.line,
+            line: self.active.back().map_or(self.line, |p| p.payload.line),
         };
         sink(&sample).map_err(InterpolateError::Sink)?;
         self.summary.samples += 1;
-        self.summary.duration = self.now;
+        self.summary.duration = end;
         Ok(self.summary)
     }
 
@@ -469,37 +606,225 @@ impl<'m> Interpolator<'m> {
             // diving to the programmed start first.
             let mut end = self.q.clone();
             self.eval(&path, 1.0, &mut end)?;
-            let joint = Path::Joint {
-                q0: self.q.clone(),
-                q1: end.clone(),
-            };
-            let minutes = self.joint_rapid_minutes(&self.q, &end);
-            self.segment(&joint, 60.0 * minutes, sink)?;
-            self.summary.transitions += 1;
+            self.transition(end, sink)?;
             self.summary.moves += 1;
-            self.q.copy_from_slice(&end);
             return Ok(());
         }
         if gap > SAME_POSITION {
-            let joint = Path::Joint {
-                q0: self.q.clone(),
-                q1: start.clone(),
-            };
-            let minutes = self.joint_rapid_minutes(&self.q, &start);
-            self.segment(&joint, 60.0 * minutes, sink)?;
-            self.summary.transitions += 1;
+            self.transition(start.clone(), sink)?;
         }
         self.q.copy_from_slice(&start);
         if still {
             return Ok(());
         }
-        let length = match geom {
+        let xyz = match geom {
             Geom::Line { .. } => d.xyz_norm(),
             Geom::Arc { g, .. } => g.xyz_length(),
         };
-        let seconds = self.feed_seconds(feed, length, &d)?;
-        self.segment(&path, seconds, sink)?;
+        let mut seconds = self.feed_seconds(feed, xyz, &d)?;
+        if !matches!(feed, Feed::Rapid) {
+            seconds /= self.opts.plan.feed_override;
+        }
+        match self.opts.plan.planner {
+            Planner::ExactStop => {
+                let lim = self.exact_limits(&path, seconds)?;
+                let block = Block {
+                    path,
+                    len: 1.0,
+                    line: self.line,
+                };
+                self.enqueue(block, lim, None, sink)?;
+            }
+            _ => {
+                let ml = match geom {
+                    Geom::Line { .. } => linuxcnc::straight(&d, &self.world),
+                    Geom::Arc { arc, g } => {
+                        let (p, q, n) = arc.plane.axes();
+                        let shape = linuxcnc::ArcShape {
+                            plane: (p, q),
+                            radius: (g.radius, g.end_radius),
+                            sweep: g.sweep,
+                            normal_len: d[n],
+                        };
+                        linuxcnc::arc(&d, &shape, xyz, &self.world)
+                    }
+                };
+                let len = if matches!(geom, Geom::Arc { .. }) {
+                    xyz
+                } else {
+                    ml.len
+                };
+                if len.is_nan() || len <= 0.0 {
+                    return Ok(());
+                }
+                let v_ini = ml.v.min(len / self.opts.plan.cycle_time);
+                let mut v_req = match feed {
+                    Feed::Rapid => v_ini,
+                    _ => len / seconds,
+                };
+                if !ml.pure_rotary {
+                    v_req = v_req.min(self.world.v_traj);
+                }
+                let speed = Speed {
+                    len,
+                    v_ini,
+                    v_req,
+                    a_base: ml.a,
+                    r_eff: match geom {
+                        Geom::Arc { arc, g } => Some(
+                            linuxcnc::ArcShape {
+                                plane: (arc.plane.axes().0, arc.plane.axes().1),
+                                radius: (g.radius, g.end_radius),
+                                sweep: g.sweep,
+                                normal_len: 0.0,
+                            }
+                            .effective_radius(),
+                        ),
+                        Geom::Line { .. } => None,
+                    },
+                    halved: false,
+                    kink: 0.0,
+                };
+                let lim = speed.limits();
+                let side = linuxcnc::Side {
+                    dir: direction(&geom, 0.0),
+                    rotary: ml.rotary,
+                    circular: matches!(geom, Geom::Arc { .. }),
+                    v: lim.v,
+                    a: lim.a,
+                    len,
+                };
+                let tail = Tail {
+                    side,
+                    mode: self.mode,
+                    tcp,
+                    offset,
+                    speed,
+                };
+                let block = Block {
+                    path,
+                    len,
+                    line: self.line,
+                };
+                self.enqueue(block, lim, Some(tail), sink)?;
+                if let Some(t) = self.tail.as_mut() {
+                    // The join rules see the end direction of this block next time.
+                    t.side.dir = direction(&geom, 1.0);
+                }
+            }
+        }
+        let mut end = self.q.clone();
+        if let Some((b, _, _)) = self.queue.last_mut() {
+            let path = std::mem::replace(&mut b.path, Path::Hold { q: Vec::new() });
+            let r = self.eval(&path, 1.0, &mut end);
+            if let Some((b, _, _)) = self.queue.last_mut() {
+                b.path = path;
+            }
+            r?;
+        }
+        self.check_travel(&end, 0.0)?;
+        self.q.copy_from_slice(&end);
         self.summary.moves += 1;
+        Ok(())
+    }
+
+    /// Queues a straight axis-space move from the current position to `end`
+    /// at the rapid rate (stops before and after).
+    fn transition<F>(&mut self, end: Vec<f64>, sink: &mut F) -> Result<(), InterpolateError>
+    where
+        F: FnMut(&Sample<'_>) -> io::Result<()>,
+    {
+        let joint = Path::Joint {
+            q0: self.q.clone(),
+            q1: end.clone(),
+        };
+        let minutes = self.joint_rapid_minutes(&self.q, &end);
+        let lim = self.exact_limits(&joint, 60.0 * minutes)?;
+        let block = Block {
+            path: joint,
+            len: 1.0,
+            line: self.line,
+        };
+        self.enqueue(block, lim, None, sink)?;
+        self.check_travel(&end, 0.0)?;
+        self.q.copy_from_slice(&end);
+        self.summary.transitions += 1;
+        Ok(())
+    }
+
+    /// Queues a block, joining it to the one before by the planner's rules
+    /// (`tail`: the block's join data for `linuxcnc`; `None`: stops before
+    /// and after), and samples what becomes ready.
+    fn enqueue<F>(
+        &mut self,
+        block: Block,
+        mut lim: Limits,
+        tail: Option<Tail>,
+        sink: &mut F,
+    ) -> Result<(), InterpolateError>
+    where
+        F: FnMut(&Sample<'_>) -> io::Result<()>,
+    {
+        let mut tail = tail;
+        let joinable = match (&self.tail, &tail) {
+            (Some(prev), Some(next)) => prev.tcp == next.tcp && prev.offset == next.offset,
+            _ => false,
+        };
+        if !joinable {
+            self.end_chain();
+        }
+        if let (true, Some(prev), Some(next)) = (joinable, self.tail.as_mut(), tail.as_mut()) {
+            let set = linuxcnc::JoinSettings {
+                cycle_time: self.opts.plan.cycle_time,
+                kink_ratio: self.opts.plan.kink_ratio,
+                acc_xyz: [self.world.acc[0], self.world.acc[1], self.world.acc[2]],
+            };
+            let rule = linuxcnc::join(prev.mode, &prev.side, &next.side, &set);
+            for (t, f) in [(&mut *prev, rule.a_prev), (&mut *next, rule.a_next)] {
+                if f == 0.5 {
+                    t.speed.halved = true;
+                } else if f < 1.0 {
+                    t.speed.kink = t.speed.kink.max(1.0 - f);
+                }
+            }
+            let prev_lim = prev.speed.limits();
+            lim = next.speed.limits();
+            if let Some((_, l, j)) = self.queue.last_mut() {
+                *l = prev_lim;
+                *j = Some(rule.join);
+            }
+        }
+        self.tail = tail;
+        self.queue.push(block, lim);
+        while let Some(p) = self.queue.pop_ready() {
+            self.start(p, sink)?;
+        }
+        Ok(())
+    }
+
+    /// The last queued block stops at its end: under G64 (its term
+    /// condition stays a blend with nothing to blend into) LinuxCNC runs it
+    /// at half acceleration, as it does every block that blends.
+    fn end_chain(&mut self) {
+        if let Some(prev) = self.tail.as_mut()
+            && matches!(prev.mode, PathMode::Blend { .. })
+            && !prev.speed.halved
+        {
+            prev.speed.halved = true;
+            let lim = prev.speed.limits();
+            if let Some((_, l, _)) = self.queue.last_mut() {
+                *l = lim;
+            }
+        }
+    }
+
+    /// Samples up to the start of the planned block `p`, then makes it active.
+    fn start<F>(&mut self, p: Planned<Block>, sink: &mut F) -> Result<(), InterpolateError>
+    where
+        F: FnMut(&Sample<'_>) -> io::Result<()>,
+    {
+        self.emit_until(p.t0, sink)?;
+        self.active.push_back(p);
         Ok(())
     }
 
@@ -527,7 +852,44 @@ impl<'m> Interpolator<'m> {
         })
     }
 
-    /// Axis positions at `s` along `path` into `out` (which holds the
+    /// Work coordinates plus offset of a programmed move at `u ∈ [0, 1]`.
+    fn world(geom: &Geom, offset: &Axes, u: f64) -> Axes {
+        let w = geom.at(u);
+        Axes(std::array::from_fn(|i| w.0[i] + offset.0[i]))
+    }
+
+    /// Axis positions of the world position `w` (machine position under
+    /// TCP: the tip plus the rotary axes) into `out`, which holds the
+    /// previous positions (the IK start under TCP).
+    fn joints(&self, w: &Axes, tcp: bool, out: &mut [f64]) -> Result<(), InterpolateError> {
+        if !tcp {
+            for (o, &l) in out.iter_mut().zip(&self.letters) {
+                *o = w[l];
+            }
+            return Ok(());
+        }
+        for (i, (o, &l)) in out.iter_mut().zip(&self.letters).enumerate() {
+            if !self.linear[i] {
+                *o = w[l];
+            }
+        }
+        let tip = Vector3::new(w[Axis::X], w[Axis::Y], w[Axis::Z]);
+        let target = IkTarget { tip, axis: None };
+        let q = self
+            .kin
+            .inverse(&target, out, &self.linear, &self.ik)
+            .map_err(|source| InterpolateError::Ik {
+                line: self.line,
+                x: tip.x,
+                y: tip.y,
+                z: tip.z,
+                source,
+            })?;
+        out.copy_from_slice(&q);
+        Ok(())
+    }
+
+    /// Axis positions at `s ∈ [0, 1]` along `path` into `out` (which holds the
     /// previous positions, used as the IK start under TCP).
     fn eval(&self, path: &Path, s: f64, out: &mut [f64]) -> Result<(), InterpolateError> {
         match path {
@@ -541,37 +903,13 @@ impl<'m> Interpolator<'m> {
                 }
                 Ok(())
             }
-            Path::Work { geom, offset, tcp } => {
-                let w = geom.at(s);
-                if !tcp {
-                    for (o, &l) in out.iter_mut().zip(&self.letters) {
-                        *o = w[l] + offset[l];
-                    }
-                    return Ok(());
-                }
-                for (i, (o, &l)) in out.iter_mut().zip(&self.letters).enumerate() {
-                    if !self.linear[i] {
-                        *o = w[l] + offset[l];
-                    }
-                }
-                let tip = Vector3::new(
-                    w[Axis::X] + offset[Axis::X],
-                    w[Axis::Y] + offset[Axis::Y],
-                    w[Axis::Z] + offset[Axis::Z],
-                );
-                let target = IkTarget { tip, axis: None };
-                let q = self
-                    .kin
-                    .inverse(&target, out, &self.linear, &self.ik)
-                    .map_err(|source| InterpolateError::Ik {
-                        line: self.line,
-                        x: tip.x,
-                        y: tip.y,
-                        z: tip.z,
-                        source,
-                    })?;
-                out.copy_from_slice(&q);
+            Path::Hold { q } => {
+                out.copy_from_slice(q);
                 Ok(())
+            }
+            Path::Work { geom, offset, tcp } => {
+                let w = Self::world(geom, offset, s);
+                self.joints(&w, *tcp, out)
             }
         }
     }
@@ -581,7 +919,9 @@ impl<'m> Interpolator<'m> {
         let n = self.q.len();
         let mut d1 = vec![0.0; n];
         let mut d2 = vec![0.0; n];
+        let margin = self.opts.plan.derivative_margin;
         match path {
+            Path::Hold { .. } => {}
             Path::Joint { q0, q1 } => {
                 for i in 0..n {
                     d1[i] = (q1[i] - q0[i]).abs();
@@ -613,7 +953,7 @@ impl<'m> Interpolator<'m> {
                 }
             }
             Path::Work { tcp: true, .. } => {
-                // Finite differences over FD_STEPS sub-steps.
+                // Finite differences over FD_STEPS sub-steps, times the margin.
                 let h = 1.0 / FD_STEPS as f64;
                 let mut pts = Vec::with_capacity(FD_STEPS + 1);
                 let mut cur = self.q.clone();
@@ -624,11 +964,11 @@ impl<'m> Interpolator<'m> {
                 for j in 0..FD_STEPS {
                     for i in 0..n {
                         let v = (pts[j + 1][i] - pts[j][i]).abs() / h;
-                        d1[i] = f64::max(d1[i], FD_MARGIN * v);
+                        d1[i] = f64::max(d1[i], margin * v);
                         if j > 0 {
                             let a =
                                 (pts[j + 1][i] - 2.0 * pts[j][i] + pts[j - 1][i]).abs() / (h * h);
-                            d2[i] = f64::max(d2[i], FD_MARGIN * a);
+                            d2[i] = f64::max(d2[i], margin * a);
                         }
                     }
                 }
@@ -637,16 +977,10 @@ impl<'m> Interpolator<'m> {
         Ok((d1, d2))
     }
 
-    /// Runs one segment whose programmed duration is `seconds`.
-    fn segment<F>(
-        &mut self,
-        path: &Path,
-        seconds: f64,
-        sink: &mut F,
-    ) -> Result<(), InterpolateError>
-    where
-        F: FnMut(&Sample<'_>) -> io::Result<()>,
-    {
+    /// `exact-stop` limits of a block over `s ∈ [0, 1]` whose programmed
+    /// duration is `seconds`: the path speed and acceleration scaled down so
+    /// that no joint exceeds its limits (see the module documentation).
+    fn exact_limits(&self, path: &Path, seconds: f64) -> Result<Limits, InterpolateError> {
         let (d1, d2) = self.derivative_bounds(path)?;
         let mut v = 1.0 / seconds;
         let mut a = f64::INFINITY;
@@ -670,29 +1004,56 @@ impl<'m> Interpolator<'m> {
                 }
             }
         }
-        let profile = Trapezoid::new(v, a);
-        let t0 = self.now;
-        let end = t0 + profile.duration();
-        self.emit_until(end, sink, |me, out| {
-            let s = profile.s_at(me.k as f64 * me.opts.ts - t0);
-            me.eval(path, s, out)
-        })?;
-        let mut last = std::mem::take(&mut self.buf);
-        last.copy_from_slice(&self.q);
-        self.eval(path, 1.0, &mut last)?;
-        self.check_travel(&last, end)?;
-        self.q.copy_from_slice(&last);
-        self.buf = last;
-        self.now = end;
-        Ok(())
+        Ok(Limits { len: 1.0, v, a })
     }
 
-    /// Emits samples `k·ts < end`, positions from `at(self, out)`.
-    fn emit_until<F, G>(&mut self, end: f64, sink: &mut F, at: G) -> Result<(), InterpolateError>
+    /// Axis positions at time `t` into `out` (the blocks active then; while
+    /// two blocks blend, the second one's displacement adds to the first's).
+    fn position_at(&mut self, t: f64, out: &mut [f64]) -> Result<u64, InterpolateError> {
+        while self.active.len() > 1 && self.active[0].t1() <= t && self.active[1].t0 <= t {
+            self.active.pop_front();
+        }
+        let started = self.active.iter().take_while(|p| p.t0 <= t).count().max(1);
+        let first = &self.active[0];
+        let line = self.active[started - 1].payload.line;
+        let u = |p: &Planned<Block>| p.profile.s_at(t - p.t0) / p.payload.len;
+        if started == 1 {
+            self.eval(&first.payload.path, u(first), out)?;
+            return Ok(line);
+        }
+        let mut w = Axes::default();
+        let mut tcp = false;
+        for (i, p) in self.active.iter().take(started).enumerate() {
+            if let Path::Work {
+                geom,
+                offset,
+                tcp: c,
+            } = &p.payload.path
+            {
+                tcp = *c;
+                let x = Self::world(geom, offset, u(p));
+                if i == 0 {
+                    w = x;
+                } else {
+                    let x0 = Self::world(geom, offset, 0.0);
+                    for j in 0..9 {
+                        w.0[j] += x.0[j] - x0.0[j];
+                    }
+                }
+            }
+        }
+        self.joints(&w, tcp, out)?;
+        Ok(line)
+    }
+
+    /// Emits samples `k·ts < end`.
+    fn emit_until<F>(&mut self, end: f64, sink: &mut F) -> Result<(), InterpolateError>
     where
         F: FnMut(&Sample<'_>) -> io::Result<()>,
-        G: Fn(&Self, &mut [f64]) -> Result<(), InterpolateError>,
     {
+        if self.active.is_empty() {
+            return Ok(());
+        }
         // The samples this move needs, counted before any is made.
         if end / self.opts.ts >= self.opts.max_samples as f64 {
             return Err(InterpolateError::TooManySamples {
@@ -703,23 +1064,19 @@ impl<'m> Interpolator<'m> {
             });
         }
         let mut out = std::mem::take(&mut self.buf);
-        out.copy_from_slice(&self.q);
         let result = loop {
             let t = self.k as f64 * self.opts.ts;
             if t >= end {
                 break Ok(());
             }
-            if let Err(e) = at(self, &mut out) {
-                break Err(e);
-            }
+            let line = match self.position_at(t, &mut out) {
+                Ok(l) => l,
+                Err(e) => break Err(e),
+            };
             if let Err(e) = self.check_travel(&out, t) {
                 break Err(e);
             }
-            let sample = Sample {
-                t,
-                q: &out,
-                line: self.line,
-            };
+            let sample = Sample { t, q: &out, line };
             if let Err(e) = sink(&sample) {
                 break Err(InterpolateError::Sink(e));
             }
@@ -729,7 +1086,6 @@ impl<'m> Interpolator<'m> {
         self.buf = out;
         result
     }
-
     fn check_travel(&self, q: &[f64], t: f64) -> Result<(), InterpolateError> {
         if !self.opts.check_travel {
             return Ok(());

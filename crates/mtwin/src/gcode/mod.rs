@@ -69,7 +69,6 @@ mod interpolate;
 mod lexer;
 pub mod parameters;
 pub mod plan;
-#[allow(missing_docs)]
 mod profile;
 pub mod program_flow;
 #[warn(missing_docs)]
@@ -90,8 +89,8 @@ pub use dialect::Dialect;
 pub use doc::{AxisRangeDoc, GcodeInterpolateDoc, GcodeStatsDoc, TravelViolationDoc};
 pub use error::{GcodeError, Location};
 pub use event::{
-    ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, Plane, Programmed, SourcePos,
-    SpindleState, Units,
+    ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, PathMode, Plane, Programmed,
+    SourcePos, SpindleState, Units,
 };
 pub use interp::{InterpOptions, Interpreter, ModalState, MotionMode, RetractMode, UnknownMCode};
 pub use interpolate::{

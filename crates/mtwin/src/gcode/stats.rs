@@ -93,12 +93,18 @@ pub struct ProgramStats {
     pub rapid_time: f64,
     /// Dwell time, s.
     pub dwell_time: f64,
+    /// The program's time as a trajectory planner runs it on a machine
+    /// (accelerations and junctions included), s, when one was computed
+    /// (`gcode stats --machine`); not set by [`stats`].
+    pub planned_time: Option<f64>,
 }
 
 impl ProgramStats {
-    /// Estimated total time, s.
+    /// Estimated total time, s: the planned time when there is one, else
+    /// feeds, rapids and dwells without acceleration.
     pub fn total_time(&self) -> f64 {
-        self.feed_time + self.rapid_time + self.dwell_time
+        self.planned_time
+            .unwrap_or(self.feed_time + self.rapid_time + self.dwell_time)
     }
 
     /// Adds one event.

@@ -18,6 +18,7 @@ mod gcode_corpus;
 mod gcode_props;
 mod generated_programs;
 mod linuxcnc_sim;
+mod planner;
 mod positioning;
 mod rs274;
 mod thermal_inputs;

@@ -1,2 +1,126 @@
-//! Motion planning along a programmed path (see docs/gcode.md).
+//! Trajectory planning: how fast a program's moves run and how they join.
+//!
+//! * [`Planner::ExactStop`] (`exact-stop`): every block starts and ends at
+//!   rest (rest-to-rest trapezoids in a normalised path parameter); the
+//!   limits are the **joint** limits (`Axis::max_velocity`,
+//!   `Axis::max_acceleration` of each machine axis), also under TCP, where
+//!   the path derivatives are estimated by finite differences and multiplied
+//!   by [`PlanOptions::derivative_margin`].
+//! * [`Planner::Linuxcnc`] (`linuxcnc`): LinuxCNC 2.9's planner rules
+//!   ([`linuxcnc`]): limits on the **world** axes (the program's X Y Z A B C
+//!   U V W, i.e. the tool tip in W under TCP), look-ahead over
+//!   [`PlanOptions::lookahead`] blocks ([`lookahead`]), tangent junctions
+//!   without stopping, parabolic blends under G64 within the P tolerance,
+//!   G61/G61.1 stops at corners/every block.
+//!
+//! Nothing is kept in reserve beyond what [`PlanOptions`] states.
+
 pub mod jerk;
+pub mod linuxcnc;
+pub mod lookahead;
+pub mod profile;
+
+use std::fmt;
+use std::str::FromStr;
+
+/// Which trajectory planner moves the machine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum Planner {
+    /// Stop at every block end; joint limits (see the module documentation).
+    #[default]
+    ExactStop,
+    /// LinuxCNC 2.9's trajectory planner (see [`linuxcnc`]).
+    Linuxcnc,
+}
+
+impl Planner {
+    /// The names accepted by [`FromStr`], in order.
+    pub const NAMES: &'static [&'static str] = &["exact-stop", "linuxcnc"];
+}
+
+impl fmt::Display for Planner {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Planner::ExactStop => "exact-stop",
+            Planner::Linuxcnc => "linuxcnc",
+        })
+    }
+}
+
+/// An unknown planner name.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown planner `{0}` (expected one of: exact-stop, linuxcnc)")]
+pub struct UnknownPlanner(pub String);
+
+impl FromStr for Planner {
+    type Err = UnknownPlanner;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "exact-stop" => Ok(Planner::ExactStop),
+            "linuxcnc" => Ok(Planner::Linuxcnc),
+            _ => Err(UnknownPlanner(s.to_string())),
+        }
+    }
+}
+
+/// Planner settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub struct PlanOptions {
+    /// The planner ([`Planner::ExactStop`] by default).
+    pub planner: Planner,
+    /// Feed override, a fraction (1 = as programmed): multiplies the
+    /// programmed feed of feed moves (G1/G2/G3, all feed modes), never
+    /// rapids, never above the axis limits.
+    pub feed_override: f64,
+    /// `exact-stop` under TCP: factor on the finite-difference estimates of
+    /// the joint path derivatives (16 sub-steps per move), a reserve for
+    /// what the sub-steps miss. Default 1.1 (joint peaks at up to 1/1.1 of
+    /// their limits); 1 uses the estimates as they are.
+    pub derivative_margin: f64,
+    /// `linuxcnc`: blocks of look-ahead (LinuxCNC's
+    /// `[TRAJ] ARC_BLEND_OPTIMIZATION_DEPTH`, default 50).
+    pub lookahead: usize,
+    /// `linuxcnc`: trajectory cycle, s (LinuxCNC's servo period, default
+    /// 0.001): a block moves at most its length per cycle.
+    pub cycle_time: f64,
+    /// `linuxcnc`: LinuxCNC's `[TRAJ] ARC_BLEND_KINK_RATIO` (default 0.1).
+    pub kink_ratio: f64,
+}
+
+impl Default for PlanOptions {
+    fn default() -> Self {
+        PlanOptions {
+            planner: Planner::default(),
+            feed_override: 1.0,
+            derivative_margin: 1.1,
+            lookahead: 50,
+            cycle_time: 0.001,
+            kink_ratio: 0.1,
+        }
+    }
+}
+
+impl PlanOptions {
+    /// Default settings for `planner`.
+    pub fn new(planner: Planner) -> Self {
+        PlanOptions {
+            planner,
+            ..PlanOptions::default()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip() {
+        for n in Planner::NAMES {
+            assert_eq!(n.parse::<Planner>().unwrap().to_string(), *n);
+        }
+        assert!("jerk-free".parse::<Planner>().is_err());
+    }
+}
