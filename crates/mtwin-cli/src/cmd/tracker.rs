@@ -86,6 +86,12 @@ pub struct IdentifyArgs {
     /// (x,y,z are then in the tracker frame).
     #[arg(long)]
     registration: bool,
+    /// A previous calibration of the same machine (TOML): the values of the
+    /// fitted errors that the points cannot determine individually are
+    /// pulled to it. Default: 0 (the minimum-norm solution). See
+    /// docs/tracker.md, "Gauge fixing".
+    #[arg(long, value_name = "MACHINE.toml")]
+    prior: Option<PathBuf>,
     #[arg(long, value_enum, default_value_t)]
     format: Format,
 }
@@ -246,6 +252,9 @@ pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
     let points = read_points(&t, &m)?;
     let mut options = IdentifyOptions::default();
     options.registration = a.registration;
+    if let Some(p) = &a.prior {
+        options.prior = Some(load_machine(p)?);
+    }
     options.out = a.out.display().to_string();
     // A progress bar once the identification has run for a second: the
     // rows of the current pass over the data, or the analysis stage.

@@ -468,3 +468,82 @@ fn old_spellings_run_the_same_commands() {
         assert_eq!(read(new_dir.path()), read(old_dir.path()), "{f}");
     }
 }
+
+/// `--prior`: the constant x-straightness of X and of Y move the tip alike
+/// (only their sum S is determined). Without a prior the gauge splits S in
+/// half (minimum norm); with a prior (p_X, p_Y) the closed form is
+/// `EXX.c0 = (S + p_X − p_Y)/2`, `EXY.c0 = (S − p_X + p_Y)/2`.
+#[test]
+fn identify_prior_sets_the_undetermined_split() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let s = 0.010;
+    let mut rows = String::new();
+    for k in 0..12 {
+        let kf = k as f64;
+        let (x, y, z) = (300.0 + 600.0 * kf, 100.0 + 280.0 * kf, -80.0 * kf);
+        let y = if k % 2 == 0 { y } else { 3400.0 - y };
+        rows += &format!("{x},{y},{z},0,0,0,{},{y},{}\n", x + s, z - 500.0);
+    }
+    fit_csv(d, &rows);
+    let spec = "EXX:cheb1,EXY:cheb1";
+    let value = |j: &serde_json::Value, name: &str| {
+        j["estimates"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|e| e["name"] == name)
+            .unwrap()["value"]
+            .as_f64()
+            .unwrap()
+    };
+    let o = identify_with(d, spec, &["--format", "json"]);
+    ok(&o);
+    let j = json(&o);
+    assert_eq!(j["gauge"], "start");
+    assert!(
+        (value(&j, "EXX.c0") - s / 2.0).abs() < 1e-9,
+        "{}",
+        j["estimates"]
+    );
+    assert!((value(&j, "EXY.c0") - s / 2.0).abs() < 1e-9);
+    let combos = j["identifiable_combinations"].as_array().unwrap();
+    assert_eq!(combos.len(), 1, "{combos:?}");
+    let text = combos[0].as_str().unwrap();
+    assert!(text.contains("EXX.c0") && text.contains("EXY.c0"), "{text}");
+    assert!(text.contains("10.000"), "{text}");
+
+    let (px, py) = (0.004, -0.001);
+    let prior = std::fs::read_to_string(example("afp-gantry.toml"))
+        .unwrap()
+        .replacen(
+            "travel = [0.0, 8000.0]\n",
+            &format!("travel = [0.0, 8000.0]\n  [axes.errors]\n  EXX = {{ cheb = [{px}, 0.0] }}\n"),
+            1,
+        )
+        .replacen(
+            "travel = [0.0, 3500.0]\n",
+            &format!("travel = [0.0, 3500.0]\n  [axes.errors]\n  EXY = {{ cheb = [{py}, 0.0] }}\n"),
+            1,
+        );
+    write(d, "prior.toml", &prior);
+    let o = identify_with(d, spec, &["--prior", "prior.toml", "--format", "json"]);
+    ok(&o);
+    let j = json(&o);
+    assert_eq!(j["gauge"], "prior");
+    assert!(
+        (value(&j, "EXX.c0") - (s + px - py) / 2.0).abs() < 1e-9,
+        "{}",
+        j["estimates"]
+    );
+    assert!((value(&j, "EXY.c0") - (s - px + py) / 2.0).abs() < 1e-9);
+    let fixed = j["gauge_fixed"].as_array().unwrap();
+    let fx = fixed.iter().find(|g| g["name"] == "EXX.c0").unwrap();
+    assert_eq!(fx["prior"].as_f64().unwrap(), px);
+
+    // A prior of another machine is refused, nothing written.
+    std::fs::remove_file(d.join("id.toml")).unwrap();
+    let other = example("ac-trunnion.toml");
+    let o = identify_with(d, spec, &["--prior", &other]);
+    fails_with(&o, d, &["prior machine has axes"]);
+}

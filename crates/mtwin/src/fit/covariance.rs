@@ -10,7 +10,11 @@
 //! normal-equation path the last decomposition is that of the last `JᵀJ`
 //! formed, which may be from an earlier iterate when the model was linear
 //! enough for it to be reused (see [`super::lm`]). Unidentifiable
-//! parameters have no uncertainty: they are not estimated.
+//! parameters have no uncertainty: they are not estimated — unless the fit
+//! is gauge-fixed ([`super::gauge`]): then the covariance is the
+//! pseudo-inverse over every non-zero column at the gauge-fixed solution,
+//! and confounded parameters get the uncertainty of their share of the
+//! determined combinations.
 
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
@@ -34,8 +38,20 @@ impl Covariance {
     /// `λᵢ ≤ τ²·λ_max`. Returns the covariance and the number of ignored
     /// directions. `scaled.cols` must be ascending.
     pub(crate) fn from_scaled(scaled: &Scaled, sigma2: f64, tau: f64) -> (Self, usize) {
-        let k = scaled.len();
         let rank = scaled.rank(tau);
+        (
+            Self::pseudo_inverse(scaled, sigma2, rank),
+            scaled.len() - rank,
+        )
+    }
+
+    /// `σ²·D⁻¹·V_r·Λ_r⁻¹·V_rᵀ·D⁻¹` over the first `rank` directions of
+    /// `scaled` (whose columns must be ascending): the covariance of the
+    /// gauge-fixed (minimum-distance) estimate over every column of
+    /// `scaled`, see [`super::gauge`].
+    pub(crate) fn pseudo_inverse(scaled: &Scaled, sigma2: f64, rank: usize) -> Self {
+        let k = scaled.len();
+        let rank = rank.min(k);
         // C = σ²·A·Aᵀ with A = D⁻¹·V_r·diag(1/√λ) (k × rank).
         let a = Mat::<f64>::from_fn(k, rank, |a, i| {
             scaled.v[(a, i)] / (scaled.lambda[i].sqrt() * scaled.d[a])
@@ -60,13 +76,10 @@ impl Covariance {
                 matrix[(r, c)] = matrix[(c, r)];
             }
         }
-        (
-            Self {
-                estimated: scaled.cols.clone(),
-                matrix,
-            },
-            k - rank,
-        )
+        Self {
+            estimated: scaled.cols.clone(),
+            matrix,
+        }
     }
 
     /// Standard uncertainty of parameter `j` (`None` if not estimated).

@@ -11,7 +11,11 @@
 //!    combinations, and which parameters to fix so the rest is full rank;
 //! 2. runs Levenberg–Marquardt over the estimated parameters only (the
 //!    others stay at their start value, typically 0) ([`lm`]);
-//! 3. reports standard uncertainties and correlations ([`covariance`]),
+//! 3. when parameters are unidentifiable and [`Options::gauge`] asks for
+//!    it, moves the solution along the null space only, to the point
+//!    closest to a stated prior (e.g. the start values: minimum norm) and
+//!    reports the combinations the data determine ([`gauge`]);
+//! 4. reports standard uncertainties and correlations ([`covariance`]),
 //!    per-group residual RMS, outlier blocks ([`outliers`]) and warnings,
 //!    optionally refitting without the outliers.
 //!
@@ -40,6 +44,7 @@ pub mod check;
 pub mod covariance;
 mod evaluate;
 mod factored;
+pub mod gauge;
 pub mod identifiability;
 pub mod lm;
 pub mod outliers;
@@ -51,6 +56,9 @@ use serde::Serialize;
 
 pub use check::{JacobianCheck, check_jacobian};
 pub use covariance::Covariance;
+pub use gauge::{
+    CombinationTerm, ConfoundedGroup, DeterminedCombination, Gauge, GaugeReport, GaugedParameter,
+};
 pub use identifiability::{Combination, Identifiability, RankRule, Term, Unidentifiable};
 pub use lm::{Convergence, StopReason};
 pub use outliers::{Outlier, OutlierRule, OutlierScan, block_norms};
@@ -185,6 +193,13 @@ pub struct Options {
     /// estimated parameters (default 1e6: uncertainties amplified a million
     /// times along the weakest direction).
     pub ill_conditioned_above: f64,
+    /// Where the parameters the data do not determine are put after
+    /// convergence (see [`gauge`]; the predictions at the measured points do
+    /// not change). Default [`Gauge::Pivoted`]: no gauge fixing, the
+    /// confounded parameters stay at their start values; the tracker
+    /// identification chooses [`Gauge::Start`] (closest to the start values
+    /// in the scaled variables, the minimum-norm solution when they are 0).
+    pub gauge: Gauge,
     /// Parallelism of the evaluation and the decompositions:
     /// [`Par::Seq`](crate::par::Par::Seq) on the calling thread only,
     /// `Par::rayon(_)` (default `Par::rayon(0)`) on the rayon pool the call
@@ -210,6 +225,7 @@ impl Default for Options {
             factored: true,
             outliers: OutlierRule::default(),
             ill_conditioned_above: 1e6,
+            gauge: Gauge::Pivoted,
             par: crate::par::Par::rayon(0),
         }
     }
@@ -302,6 +318,7 @@ fn fit_here(
 struct Stage {
     ident: Identifiability,
     outcome: lm::Outcome,
+    fixed: Option<gauge::Fixed>,
     initial_r: Vec<f64>,
     tau: f64,
 }
@@ -352,10 +369,35 @@ impl Stage {
             lm::Start::Scales(kept.iter().map(|&j| norms[j]).collect())
         };
         let initial_r = eval0.r.clone();
-        let outcome = lm::minimise(&pass, theta0.to_vec(), eval0, &kept, start, options, dense)?;
+        let mut outcome =
+            lm::minimise(&pass, theta0.to_vec(), eval0, &kept, start, options, dense)?;
+        let fixed = match options.gauge.prior(theta0) {
+            Some(prior) if kept.len() < n => {
+                if prior.len() != n {
+                    return Err(FitError::ParameterCount {
+                        expected: n,
+                        got: prior.len(),
+                    });
+                }
+                Some(gauge::fix(
+                    &pass,
+                    &mut outcome,
+                    &zero,
+                    &nonzero,
+                    &d,
+                    kept.len(),
+                    &kept,
+                    prior,
+                    options,
+                    dense,
+                )?)
+            }
+            _ => None,
+        };
         Ok(Self {
             ident,
             outcome,
+            fixed,
             initial_r,
             tau,
         })
@@ -375,6 +417,7 @@ impl Stage {
         let Stage {
             ident,
             outcome,
+            fixed,
             initial_r,
             tau,
         } = self;
@@ -387,9 +430,12 @@ impl Stage {
         let mut warnings = Vec::new();
         let (covariance, sigma) = if dof > 0 {
             let sigma2 = 2.0 * outcome.convergence.final_cost / dof as f64;
-            let (c, lost) = Covariance::from_scaled(&outcome.scaled, sigma2, tau);
+            let (mut c, lost) = Covariance::from_scaled(&outcome.scaled, sigma2, tau);
             if lost > 0 {
                 warnings.push(Warning::SingularAtSolution { directions: lost });
+            }
+            if let Some(f) = &fixed {
+                c = Covariance::pseudo_inverse(&f.scaled, sigma2, f.rank.saturating_sub(lost));
             }
             (Some(c), Some(sigma2.sqrt()))
         } else {
@@ -437,8 +483,18 @@ impl Stage {
             })
             .collect();
         let groups = group_stats(layout, included, &initial_r, &outcome.eval.r);
+        let gauge = fixed.as_ref().map(|f| {
+            gauge::report(
+                f,
+                &options.gauge,
+                params,
+                &outcome.theta,
+                covariance.as_ref(),
+            )
+        });
         FitReport {
             strategy,
+            gauge,
             estimates,
             theta: outcome.theta,
             convergence: outcome.convergence,

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use super::Strategy;
 use super::covariance::Covariance;
+use super::gauge::GaugeReport;
 use super::identifiability::{Identifiability, Unidentifiable};
 use super::lm::{Convergence, StopReason};
 use super::outliers::OutlierScan;
@@ -19,10 +20,15 @@ pub struct Estimate {
     pub name: String,
     /// Start value (parameter unit).
     pub start: f64,
-    /// Final value (equal to `start` when not estimated).
+    /// Final value. For a parameter not estimated: its start value without
+    /// gauge fixing; with it ([`super::Gauge`]), the gauge-fixed value (its
+    /// prior plus its share of the determined combinations).
     pub value: f64,
-    /// Standard uncertainty (parameter unit); `None` when not estimated or
-    /// when there are no degrees of freedom.
+    /// Standard uncertainty (parameter unit); `None` when the column is zero,
+    /// when not estimated without gauge fixing, or when there are no degrees
+    /// of freedom. With gauge fixing, from the pseudo-inverse covariance:
+    /// the scatter given the gauge, not the distance from the truth of the
+    /// undetermined part.
     pub uncertainty: Option<f64>,
     /// `None` when estimated, otherwise why not.
     pub unidentifiable: Option<Unidentifiable>,
@@ -58,8 +64,9 @@ pub enum Warning {
         /// The condition number.
         condition_number: f64,
     },
-    /// Some parameters are not identifiable and were left at their start
-    /// values.
+    /// Some parameters are not identifiable: they are set by the gauge
+    /// (closest to the prior, see [`super::Gauge`]), or left at their start
+    /// values with [`super::Gauge::Pivoted`].
     RankDeficient {
         /// Numerical rank.
         rank: usize,
@@ -97,7 +104,7 @@ impl fmt::Display for Warning {
             ),
             Warning::RankDeficient { rank, parameters } => write!(
                 f,
-                "only {rank} of {parameters} parameters are identifiable; the others keep their start values"
+                "only {rank} of {parameters} parameters are identifiable; the others are not determined individually (see the determined combinations)"
             ),
             Warning::NotConverged { reason } => {
                 write!(f, "the iteration did not converge (stopped: {reason:?})")
@@ -132,6 +139,9 @@ pub struct FitReport {
     pub convergence: Convergence,
     /// Analysis at the start values of the final fit.
     pub identifiability: Identifiability,
+    /// What the gauge fixing did (`None` when every parameter is estimated
+    /// or with [`super::Gauge::Pivoted`]).
+    pub gauge: Option<GaugeReport>,
     /// Condition number of the scaled Jacobian of the estimated parameters
     /// at the solution.
     pub condition_number: f64,

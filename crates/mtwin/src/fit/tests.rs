@@ -623,3 +623,255 @@ fn progress_reports_passes_and_iterations() {
         rows_total: 20
     }));
 }
+
+/// `A·θ − y` where column 2 is `ratio ×` column 1: θ1 and θ2 only enter
+/// through `θ1 + ratio·θ2`. Noisy data, so the residuals are not zero.
+fn sum_problem(ratio: f64, seed: u64) -> (Linear, [f64; 4]) {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let m = 60;
+    let mut a = random_matrix(&mut rng, m, 4);
+    for i in 0..m {
+        a[(i, 2)] = ratio * a[(i, 1)];
+    }
+    let truth = [0.5, 1.0, 2.0, -0.25];
+    let nd = Normal::new(0.0, 1e-3).unwrap();
+    let y = apply(&a, &truth)
+        .into_iter()
+        .map(|v| v + nd.sample(&mut rng))
+        .collect();
+    (Linear::new(a, y, 3), truth)
+}
+
+fn norm_of(a: &Mat<f64>, c: usize) -> f64 {
+    (0..a.nrows())
+        .map(|i| a[(i, c)].powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+#[test]
+fn gauge_min_norm_splits_a_sum_in_scaled_units() {
+    for strategy in [Strategy::Dense, Strategy::NormalEquations] {
+        for ratio in [1.0, 2.0] {
+            let (model, _) = sum_problem(ratio, 7);
+            let opts = Options {
+                strategy,
+                gauge: Gauge::Start,
+                ..Options::default()
+            };
+            let pivoted = fit(
+                &model,
+                &[0.0; 4],
+                &Options {
+                    gauge: Gauge::Pivoted,
+                    ..opts.clone()
+                },
+            )
+            .unwrap();
+            let rep = fit(&model, &[0.0; 4], &opts).unwrap();
+            // The determined sum S = θ1 + ratio·θ2, from the pivoted fit
+            // (θ2 fixed at 0, θ1 carries S).
+            assert_eq!(pivoted.theta[2], 0.0);
+            let s = pivoted.theta[1];
+            // Closed form: the scaled variables y1 = D1·θ1, y2 = D2·θ2 with
+            // D2 = ratio·D1 enter as y1 + y2 = D1·S; the minimum-norm split is
+            // y1 = y2 = D1·S/2, i.e. θ1 = S/2, θ2 = S/(2·ratio).
+            let t = &rep.theta;
+            assert!(
+                (t[1] - s / 2.0).abs() < 1e-9,
+                "{strategy:?} {ratio}: {t:?} S {s}"
+            );
+            assert!((t[2] - s / (2.0 * ratio)).abs() < 1e-9, "{t:?}");
+            // The determined parameters do not move.
+            assert!((t[0] - pivoted.theta[0]).abs() < 1e-9);
+            assert!((t[3] - pivoted.theta[3]).abs() < 1e-9);
+            // Predictions unchanged.
+            let (pa, pb) = (apply(&model.a, t), apply(&model.a, &pivoted.theta));
+            let dmax = pa
+                .iter()
+                .zip(&pb)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(dmax < 1e-10, "{dmax}");
+            assert!((rep.convergence.final_cost - pivoted.convergence.final_cost).abs() < 1e-12);
+            // The report: one group {p1, p2}, one null direction, the
+            // determined combination θ1 + ratio·θ2 = S.
+            let g = rep.gauge.as_ref().expect("gauge report");
+            assert_eq!(g.kind, "start");
+            assert_eq!(g.null_dimension, 1);
+            assert!(g.max_residual_change < 1e-10);
+            assert_eq!(g.groups.len(), 1);
+            let grp = &g.groups[0];
+            assert_eq!(grp.parameters, vec!["p1", "p2"]);
+            assert_eq!(grp.undetermined, 1);
+            assert_eq!(grp.determined.len(), 1);
+            let c = &grp.determined[0];
+            assert_eq!(c.terms[0].name, "p1");
+            assert_eq!(c.terms[0].coefficient, 1.0);
+            assert!((c.terms[1].coefficient - ratio).abs() < 1e-9, "{c:?}");
+            assert!((c.value - s).abs() < 1e-9);
+            // Its uncertainty is that of the pivoted fit's carrier θ1 (which
+            // estimated S), and each share carries half of it (scaled units).
+            let us = pivoted.estimates[1].uncertainty.unwrap();
+            assert!(
+                (c.uncertainty.unwrap() - us).abs() < 1e-6 * us,
+                "{c:?} vs {us}"
+            );
+            let u1 = rep.estimates[1].uncertainty.unwrap();
+            let u2 = rep.estimates[2].uncertainty.unwrap();
+            assert!((u1 - us / 2.0).abs() < 1e-6 * us, "{u1} vs {us}");
+            assert!((u2 - us / (2.0 * ratio)).abs() < 1e-6 * us, "{u2} vs {us}");
+            // The other parameters keep their full-rank uncertainty.
+            for j in [0, 3] {
+                let (a, b) = (
+                    rep.estimates[j].uncertainty.unwrap(),
+                    pivoted.estimates[j].uncertainty.unwrap(),
+                );
+                assert!((a - b).abs() < 1e-6 * b, "{j}: {a} vs {b}");
+            }
+            // Gauge-fixed parameters are listed with their prior.
+            let names: Vec<&str> = g.parameters.iter().map(|p| p.name.as_str()).collect();
+            assert_eq!(names, vec!["p1", "p2"]);
+            assert!(g.parameters.iter().all(|p| p.prior == 0.0));
+            assert!((g.parameters[0].undetermined - 0.5).abs() < 1e-9);
+            assert_eq!(c.describe(), format!("p1 + {ratio:.4}·p2"));
+        }
+    }
+}
+
+#[test]
+fn gauge_with_a_prior_is_the_projection_onto_the_prior() {
+    let ratio = 2.0;
+    let (model, _) = sum_problem(ratio, 8);
+    let prior = vec![10.0, 0.3, -0.7, 5.0];
+    for strategy in [Strategy::Dense, Strategy::NormalEquations] {
+        let opts = Options {
+            strategy,
+            gauge: Gauge::Prior(prior.clone()),
+            ..Options::default()
+        };
+        let rep = fit(&model, &[0.0; 4], &opts).unwrap();
+        let pivoted = fit(
+            &model,
+            &[0.0; 4],
+            &Options {
+                strategy,
+                gauge: Gauge::Pivoted,
+                ..Options::default()
+            },
+        )
+        .unwrap();
+        // Independently: scaled variables y = D·θ with D the column norms;
+        // the null vector in y is n = (0, 1, −1, 0)/√2 (scaled columns 1 and
+        // 2 are equal); y* = y − n·nᵀ·(y − y_p) from the pivoted solution.
+        let d: Vec<f64> = (0..4).map(|c| norm_of(&model.a, c)).collect();
+        let h = 0.5f64.sqrt();
+        let nv = [0.0, h, -h, 0.0];
+        let y: Vec<f64> = (0..4).map(|j| d[j] * pivoted.theta[j]).collect();
+        let yp: Vec<f64> = (0..4).map(|j| d[j] * prior[j]).collect();
+        let a: f64 = (0..4).map(|j| nv[j] * (y[j] - yp[j])).sum();
+        for j in 0..4 {
+            let expect = (y[j] - a * nv[j]) / d[j];
+            assert!(
+                (rep.theta[j] - expect).abs() < 1e-9,
+                "{strategy:?} {j}: {} vs {expect}",
+                rep.theta[j]
+            );
+        }
+        // The prior of the determined parameters 0 and 3 is irrelevant.
+        assert!((rep.theta[0] - pivoted.theta[0]).abs() < 1e-9);
+        let g = rep.gauge.as_ref().unwrap();
+        assert_eq!(g.kind, "prior");
+        assert_eq!(g.parameters[0].prior, 0.3);
+        assert_eq!(g.parameters[1].prior, -0.7);
+        let (pa, pb) = (apply(&model.a, &rep.theta), apply(&model.a, &pivoted.theta));
+        let dmax = pa
+            .iter()
+            .zip(&pb)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(dmax < 1e-10, "{dmax}");
+    }
+    // A prior of the wrong length is an error.
+    let opts = Options {
+        gauge: Gauge::Prior(vec![0.0; 3]),
+        ..Options::default()
+    };
+    assert!(matches!(
+        fit(&model, &[0.0; 4], &opts),
+        Err(FitError::ParameterCount { .. })
+    ));
+}
+
+/// `r_i = A·exp(−(k1 + k2)·t_i) + c − y_i`: k1 and k2 only as their sum, a
+/// nonlinear model.
+struct SumDecay {
+    t: Vec<f64>,
+    y: Vec<f64>,
+}
+
+impl Model for SumDecay {
+    fn parameters(&self) -> Vec<Parameter> {
+        ["A", "k1", "k2", "c"].map(Parameter::new).to_vec()
+    }
+    fn layout(&self) -> BlockLayout {
+        BlockLayout::uniform("decay", self.t.len(), 1)
+    }
+    fn residuals(&self, th: &[f64], rows: Range<usize>, out: &mut [f64]) {
+        for (o, i) in out.iter_mut().zip(rows) {
+            *o = th[0] * (-(th[1] + th[2]) * self.t[i]).exp() + th[3] - self.y[i];
+        }
+    }
+    fn jacobian(&self, th: &[f64], rows: Range<usize>, mut out: MatMut<'_, f64>) {
+        for (k, i) in rows.enumerate() {
+            let e = (-(th[1] + th[2]) * self.t[i]).exp();
+            out[(k, 0)] = e;
+            out[(k, 1)] = -th[0] * self.t[i] * e;
+            out[(k, 2)] = -th[0] * self.t[i] * e;
+            out[(k, 3)] = 1.0;
+        }
+    }
+}
+
+#[test]
+fn gauge_on_a_nonlinear_model_keeps_the_predictions() {
+    let t: Vec<f64> = (0..40).map(|i| i as f64 * 0.25).collect();
+    let mut rng = StdRng::seed_from_u64(9);
+    let nd = Normal::new(0.0, 1e-3).unwrap();
+    let y = t
+        .iter()
+        .map(|&t| 5.0 * (-0.7 * t).exp() - 1.0 + nd.sample(&mut rng))
+        .collect();
+    let model = SumDecay { t, y };
+    let start = [1.0, 0.5, 0.0, 0.0];
+    let pivoted = fit(
+        &model,
+        &start,
+        &Options {
+            gauge: Gauge::Pivoted,
+            ..dense()
+        },
+    )
+    .unwrap();
+    let gauged = Options {
+        gauge: Gauge::Start,
+        ..dense()
+    };
+    let rep = fit(&model, &start, &gauged).unwrap();
+    // k1 + k2 is the rate; the split is closest to the start (0.5, 0): the
+    // columns are equal, so k1 − 0.5 = k2 − 0, i.e. k1 = (rate + 0.5)/2.
+    let rate = pivoted.theta[1] + pivoted.theta[2];
+    assert!((rep.theta[1] + rep.theta[2] - rate).abs() < 1e-9);
+    assert!(
+        (rep.theta[1] - (rate + 0.5) / 2.0).abs() < 1e-9,
+        "{:?}",
+        rep.theta
+    );
+    let dmax = rep
+        .residuals
+        .iter()
+        .zip(&pivoted.residuals)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(dmax < 1e-10, "{dmax}");
+}

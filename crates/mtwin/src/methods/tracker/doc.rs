@@ -9,7 +9,10 @@ use serde::{Deserialize, Serialize};
 use super::Identification;
 use super::compensate::CompensationMode;
 use super::validate::{ErrorStats, Stats, Validation};
-use crate::fit::{Convergence, Estimate, FitReport, Outlier, Warning};
+use crate::fit::{
+    ConfoundedGroup, Convergence, DeterminedCombination, Estimate, FitReport, GaugedParameter,
+    Outlier, Warning,
+};
 
 /// Scale and unit of a parameter by its name, for display: registration
 /// translations (`REG.tx` …) in mm, rotations (`EA…`, `EB…`, `EC…`,
@@ -34,6 +37,26 @@ pub fn unit_of(name: &str) -> (f64, &'static str) {
 pub struct TrackerIdentifyDoc {
     /// Condition number of the scaled Jacobian of the estimated parameters.
     pub condition_number: f64,
+    /// Per group of confounded parameters, the combinations the points
+    /// determine (value and standard uncertainty in the unit of the leading
+    /// parameter, fit units mm or rad); empty when every parameter is
+    /// determined.
+    #[serde(default)]
+    pub confounded_groups: Vec<ConfoundedGroup>,
+    /// How the tracker identify gauge was fixed: `start` (the errors pulled
+    /// to 0, the minimum-norm solution), `prior` (to a previous
+    /// calibration), `null` when every parameter is determined or no gauge
+    /// was fixed.
+    #[serde(default)]
+    pub gauge: Option<String>,
+    /// The parameters set by the gauge: name, prior, gauge-fixed value (fit
+    /// units) and the share the points do not determine.
+    #[serde(default)]
+    pub gauge_fixed: Vec<GaugedParameter>,
+    /// The determined combinations of every group, as sentences with
+    /// their value (display units).
+    #[serde(default)]
+    pub identifiable_combinations: Vec<String>,
     /// How the iteration ended.
     pub convergence: Convergence,
     /// Every parameter (errors, then registration), in the fit's units (mm, rad).
@@ -59,7 +82,8 @@ pub struct TrackerIdentifyDoc {
     pub rms_before: f64,
     /// Estimated standard deviation of the measurement (mm), when there are degrees of freedom.
     pub sigma: Option<f64>,
-    /// Names of the parameters left at their start value.
+    /// Names of the parameters not determined individually by the points
+    /// (their values are set by the gauge, see `gauge_fixed`).
     pub unidentifiable: Vec<String>,
     /// Things to know about the result.
     pub warnings: Vec<Warning>,
@@ -70,8 +94,17 @@ impl TrackerIdentifyDoc {
     pub fn new(id: &Identification, points: usize, out: &str) -> Self {
         let r: &FitReport = &id.report;
         let (rms_before, rms_after) = r.rms();
+        let g = r.gauge.as_ref();
+        let groups = g.map(|g| g.groups.clone()).unwrap_or_default();
         TrackerIdentifyDoc {
             condition_number: r.condition_number,
+            identifiable_combinations: groups
+                .iter()
+                .flat_map(|g| g.determined.iter().map(sentence))
+                .collect(),
+            confounded_groups: groups,
+            gauge: g.map(|g| g.kind.clone()),
+            gauge_fixed: g.map(|g| g.parameters.clone()).unwrap_or_default(),
             convergence: r.convergence.clone(),
             estimates: r.estimates.clone(),
             out: out.to_string(),
@@ -99,6 +132,16 @@ impl TrackerIdentifyDoc {
     }
 }
 
+/// `EXX.c0 + 1.0000·EX0Y = 12.345 ± 0.678 µm` (the unit of the leading
+/// parameter).
+pub fn sentence(c: &DeterminedCombination) -> String {
+    let (scale, unit) = c.terms.first().map_or((1.0, ""), |t| unit_of(&t.name));
+    let u = c
+        .uncertainty
+        .map_or(String::new(), |u| format!(" ± {:.3}", u * scale));
+    format!("{} = {:.3}{u} {unit}", c.describe(), c.value * scale)
+}
+
 impl fmt::Display for TrackerIdentifyDoc {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
@@ -111,11 +154,17 @@ impl fmt::Display for TrackerIdentifyDoc {
             "{:<10} {:>14} {:>14}  unit",
             "parameter", "value", "uncertainty"
         )?;
+        let gauged = |name: &str| self.gauge_fixed.iter().any(|g| g.name == name);
         for e in &self.estimates {
-            if e.unidentifiable.is_some() {
+            if e.unidentifiable.is_some() && !gauged(&e.name) {
                 continue;
             }
             let (scale, unit) = unit_of(&e.name);
+            let unit = if e.unidentifiable.is_some() {
+                format!("{unit} (gauge)")
+            } else {
+                unit.to_string()
+            };
             let u = e
                 .uncertainty
                 .map_or("-".to_string(), |u| format!("{:.3}", u * scale));
@@ -127,7 +176,7 @@ impl fmt::Display for TrackerIdentifyDoc {
                 u
             )?;
         }
-        if !self.unidentifiable.is_empty() {
+        if !self.unidentifiable.is_empty() && self.gauge.is_none() {
             writeln!(
                 f,
                 "not identifiable (kept at 0): {}",
@@ -135,6 +184,28 @@ impl fmt::Display for TrackerIdentifyDoc {
             )?;
             for c in &self.relations {
                 writeln!(f, "  {c}")?;
+            }
+        } else if !self.unidentifiable.is_empty() {
+            let prior = match self.gauge.as_deref() {
+                Some("prior") => "the prior calibration",
+                _ => "0 (minimum norm)",
+            };
+            writeln!(
+                f,
+                "not determined individually, set by the gauge (pulled to {prior}; marked (gauge)): {}",
+                self.unidentifiable.join(", ")
+            )?;
+            writeln!(f, "combinations the points determine:")?;
+            for g in &self.confounded_groups {
+                writeln!(
+                    f,
+                    "  group {} ({} undetermined):",
+                    g.parameters.join(", "),
+                    g.undetermined
+                )?;
+                for c in &g.determined {
+                    writeln!(f, "    {}", sentence(c))?;
+                }
             }
         }
         writeln!(

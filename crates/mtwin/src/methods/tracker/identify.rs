@@ -1,7 +1,9 @@
 //! Identification of the geometric errors from tool-tip measurements: checks
 //! the input, runs the least-squares engine on [`TrackerModel`] and writes the
-//! identified values into a copy of the machine (unidentifiable parameters
-//! stay 0).
+//! identified values into a copy of the machine. Parameters the points do
+//! not determine individually are gauge-fixed: set to the prior (0 by
+//! default, or a previous calibration) plus their share of the combinations
+//! the points determine (see [`crate::fit::gauge`]).
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -18,11 +20,20 @@ pub struct IdentifyOptions {
     pub registration: bool,
     /// Settings of the least-squares engine (including its parallelism,
     /// `fit.par`). The default excludes outlier points (a blocked beam)
-    /// from a second fit; they are reported in `report.outliers`.
+    /// from a second fit; they are reported in `report.outliers`; and it
+    /// gauge-fixes the solution (`fit.gauge` is [`fit::Gauge::Start`]: the
+    /// errors the points do not determine are pulled to 0, or to `prior`).
     pub fit: fit::Options,
     /// Name of the file the caller writes the identified machine to,
     /// reported by the document of [`run`].
     pub out: String,
+    /// The gauge's prior: a previous calibration of the same machine (same
+    /// axes) whose values of the fitted errors the unidentifiable
+    /// directions are pulled to. `None` (default): 0, the minimum-norm
+    /// solution in the scaled parameters. The registration is pulled to its
+    /// start (the best rigid fit) either way. Ignored when `fit.gauge` is
+    /// [`fit::Gauge::Pivoted`]. See the documentation of [`fit::gauge`].
+    pub prior: Option<Machine>,
 }
 
 /// The inputs of [`run`].
@@ -58,10 +69,13 @@ impl Default for IdentifyOptions {
     fn default() -> Self {
         let mut fit = fit::Options::default();
         fit.outliers.exclude = true;
+        // Gauge-fixed: the confounded errors are pulled to 0 (or `prior`).
+        fit.gauge = fit::Gauge::Start;
         Self {
             registration: false,
             fit,
             out: String::new(),
+            prior: None,
         }
     }
 }
@@ -117,6 +131,16 @@ pub enum TrackerIdentifyError {
         points: usize,
         /// Identifiable parameters (rank of the Jacobian).
         rank: usize,
+    },
+    /// The prior machine does not have the machine's axes.
+    #[error(
+        "the prior machine has axes {prior} but the machine has {machine}: a prior must be a calibration of the same machine"
+    )]
+    PriorAxes {
+        /// Axis names of the prior, comma-separated.
+        prior: String,
+        /// Axis names of the machine, comma-separated.
+        machine: String,
     },
     /// The least-squares engine failed.
     #[error(transparent)]
@@ -222,7 +246,28 @@ pub fn identify(
         let g = best_rigid(&from, &to);
         theta0[params.len()..].copy_from_slice(&g);
     }
-    let report = fit::fit_with_progress(&model, &theta0, &options.fit, progress)?;
+    let mut fit_options = options.fit.clone();
+    if let (Some(prior), fit::Gauge::Start | fit::Gauge::Prior(_)) =
+        (&options.prior, &options.fit.gauge)
+    {
+        let names = |m: &Machine| {
+            m.axes
+                .iter()
+                .map(|a| a.name.as_str())
+                .collect::<Vec<_>>()
+                .join(",")
+        };
+        if names(prior) != names(machine) {
+            return Err(TrackerIdentifyError::PriorAxes {
+                prior: names(prior),
+                machine: names(machine),
+            });
+        }
+        let mut p = theta0.clone();
+        p[..params.len()].copy_from_slice(&params.get(prior));
+        fit_options.gauge = fit::Gauge::Prior(p);
+    }
+    let report = fit::fit_with_progress(&model, &theta0, &fit_options, progress)?;
     let rank = report.identifiability.rank;
     if points.len() < rank || report.degrees_of_freedom == 0 {
         return Err(TrackerIdentifyError::TooFewPoints {

@@ -140,13 +140,11 @@ pub fn expected<R: Rng>(
 ) -> Result<FitReport, TrackerIdentifyError> {
     let nominal = machine.nominal();
     let points = simulate(&nominal, poses, noise, rng);
-    let id = identify(
-        &nominal,
-        params,
-        &points,
-        &IdentifyOptions::default(),
-        &|_| {},
-    )?;
+    // The pivoted basic solution: unidentifiable parameters get no expected
+    // uncertainty.
+    let mut options = IdentifyOptions::default();
+    options.fit.gauge = crate::fit::Gauge::Pivoted;
+    let id = identify(&nominal, params, &points, &options, &|_| {})?;
     let mut report = id.report;
     if let Some(s) = report.sigma.filter(|&s| s > 0.0) {
         for e in &mut report.estimates {

@@ -33,10 +33,11 @@ pub fn section_against(m: &Machine, truth: Option<&Machine>, id: &str, title: &s
         s.push(Block::Text(
             "Grey curves: the truth the data were simulated from. Error terms that the \
              measurements cannot tell apart (see the identifiability verdict) are \
-             identified as one representative of their group, the others kept at 0: \
-             such a curve can differ from the truth by a constant or a trend that \
-             another term makes up for, while the predicted tool tip agrees (see the \
-             validation)."
+             gauge-fixed: the parts the data do not see are pulled to 0 (the \
+             minimum-norm solution) and the determined combinations shared among the \
+             group. Such a curve can still differ from the truth by a constant or a \
+             trend that another term makes up for, while the predicted tool tip \
+             agrees (see the validation)."
                 .into(),
         ));
     }

@@ -32,7 +32,8 @@ pub fn identify_section(doc: &TrackerIdentifyDoc) -> Section {
             cond.map_or("—".into(), |c| format!("{c:.3e}"))
         ),
     ];
-    if !unident.is_empty() {
+    let gauged = doc.gauge.is_some();
+    if !unident.is_empty() && !gauged {
         lines.push(format!(
             "not identifiable, kept at their start value: {}",
             unident.join(", ")
@@ -42,6 +43,26 @@ pub fn identify_section(doc: &TrackerIdentifyDoc) -> Section {
         }
         if relations.len() > 20 {
             lines.push(format!("… and {} more relations", relations.len() - 20));
+        }
+    } else if !unident.is_empty() {
+        let prior = match doc.gauge.as_deref() {
+            Some("prior") => "the prior calibration",
+            _ => "0 (the minimum-norm solution)",
+        };
+        lines.push(format!(
+            "not determined individually, gauge-fixed (pulled to {prior} along the directions the \
+             points do not see; the predictions are unchanged): {}",
+            unident.join(", ")
+        ));
+        let combos = &doc.identifiable_combinations;
+        for c in combos.iter().take(20) {
+            lines.push(format!("determined: {c}"));
+        }
+        if combos.len() > 20 {
+            lines.push(format!(
+                "… and {} more determined combinations",
+                combos.len() - 20
+            ));
         }
     }
     if !outliers.is_empty() {
@@ -60,10 +81,17 @@ pub fn identify_section(doc: &TrackerIdentifyDoc) -> Section {
         title: if rank == params {
             "Every parameter is identifiable from these points.".into()
         } else {
-            format!(
-                "Identifiability: {} of {} parameters determined; the others are confounded or unseen and stay at their start value.",
-                rank, params
-            )
+            if gauged {
+                format!(
+                    "Identifiability: {} of {} independent directions determined; the confounded or unseen parameters are gauge-fixed (marked “gauge” below) and only their combinations are meaningful.",
+                    rank, params
+                )
+            } else {
+                format!(
+                    "Identifiability: {} of {} parameters determined; the others are confounded or unseen and stay at their start value.",
+                    rank, params
+                )
+            }
         },
         lines,
     });
@@ -73,11 +101,16 @@ pub fn identify_section(doc: &TrackerIdentifyDoc) -> Section {
     );
     for e in &doc.estimates {
         let (f, unit) = unit_of(&e.name);
-        if e.unidentifiable.is_some() {
+        let is_gauged = doc.gauge_fixed.iter().any(|g| g.name == e.name);
+        if e.unidentifiable.is_some() && !is_gauged {
             continue;
         }
         t.row(vec![
-            e.name.clone(),
+            if e.unidentifiable.is_some() {
+                format!("{} (gauge)", e.name)
+            } else {
+                e.name.clone()
+            },
             fmt(Some(e.value * f), 3),
             fmt(e.uncertainty.map(|v| v * f), 3),
             unit.into(),
