@@ -251,14 +251,16 @@ fn planned_time(
     opts.force_tcp = a.tcp;
     opts.check_travel = false;
     opts.plan = a.plan.options();
-    match gcode::interpolate(open(&a.program)?, m, &opts, |_| Ok(())) {
+    let f =
+        File::open(&a.program).with_context(|| format!("cannot read {}", a.program.display()))?;
+    match gcode::interpolate(BufReader::new(f), m, &opts, |_| Ok(())) {
         Ok(s) => Ok(Some(s.duration)),
         Err(InterpolateError::Plan(e)) => bail!("{e}"),
         Err(e) => {
             warn(format!(
                 "{}: the planned time is not available ({}); total_time_s is the estimate without accelerations",
                 a.program.display(),
-                located(&a.program, e.line(), e.column(), &e)
+                located(&a.program, e.line(), e.column(), e.message())
             ));
             Ok(None)
         }

@@ -244,7 +244,12 @@ pub enum PathMode {
     /// G64: blending, with the path tolerance `p` (mm, `None`: as fast as
     /// possible, no tolerance) and the naive-CAM tolerance `q` (mm,
     /// `None`: collinear straight feeds are not merged).
-    Blend { p: Option<f64>, q: Option<f64> },
+    Blend {
+        /// Path tolerance, mm.
+        p: Option<f64>,
+        /// Naive-CAM (collinear merge) tolerance, mm.
+        q: Option<f64>,
+    },
 }
 
 impl PathMode {

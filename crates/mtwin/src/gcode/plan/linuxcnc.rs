@@ -205,6 +205,7 @@ pub struct Side {
 /// How two blocks join and what it does to their accelerations.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JoinRule {
+    /// How the blocks join.
     pub join: Join,
     /// Factor on the acceleration of the block before (blend: 1/2; kink:
     /// `1 − ratio`).

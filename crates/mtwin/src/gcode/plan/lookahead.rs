@@ -25,11 +25,17 @@ pub enum Join {
     /// The machine stops at the junction.
     Stop,
     /// The speed is continuous through the junction, at most `v`.
-    Tangent { v: f64 },
+    Tangent {
+        /// Highest junction speed, length units per s.
+        v: f64,
+    },
     /// Parabolic blend: this block ends at rest and the next one starts from
     /// rest once this block's speed, on its final deceleration, falls below
     /// `v`; the displacements of both add while they overlap.
-    Blend { v: f64 },
+    Blend {
+        /// Speed below which the next block starts, length units per s.
+        v: f64,
+    },
 }
 
 /// The limits of one block along its path.
@@ -52,7 +58,9 @@ struct Item<P> {
 /// A planned block: its payload, profile and start time (s).
 #[derive(Debug, Clone)]
 pub struct Planned<P> {
+    /// What the caller queued with the block.
     pub payload: P,
+    /// Speed profile along the block's path.
     pub profile: Profile,
     /// Start time, s.
     pub t0: f64,
