@@ -241,7 +241,23 @@ fn gcode_stats(
         Some(c) => gcode::stats_with(input, &opts, c),
         None => gcode::stats(input, &opts),
     });
-    let st = st.map_err(|e| gcode_error(py, &program, &e))?;
+    let mut st = st.map_err(|e| gcode_error(py, &program, &e))?;
+    if let Some(m) = machine {
+        // The planned time, as `gcode stats --machine` gives it (the default planner).
+        let mut io = gcode::InterpolateOptions::new(1e9);
+        io.interp = opts.interp.clone();
+        io.force_tcp = tcp;
+        let file = std::fs::File::open(&program).map_err(|e| {
+            input_error(
+                py,
+                &Diagnostic::whole(&program, format!("cannot read the program: {e}")).into(),
+            )
+        })?;
+        let input = std::io::BufReader::new(file);
+        st.planned_time = py
+            .detach(|| gcode::planned_duration(input, &m.inner, &io))
+            .ok();
+    }
     let doc = gcode::GcodeStatsDoc::new(
         &program.display().to_string(),
         &st,

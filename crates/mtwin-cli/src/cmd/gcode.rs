@@ -245,16 +245,14 @@ fn planned_time(
     m: &mtwin::model::Machine,
     interp: &InterpOptions,
 ) -> anyhow::Result<Option<f64>> {
-    // One sample at the start and one at the end: the period only bounds the count.
     let mut opts = InterpolateOptions::new(1e9);
     opts.interp = interp.clone();
     opts.force_tcp = a.tcp;
-    opts.check_travel = false;
     opts.plan = a.plan.options();
     let f =
         File::open(&a.program).with_context(|| format!("cannot read {}", a.program.display()))?;
-    match gcode::interpolate(BufReader::new(f), m, &opts, |_| Ok(())) {
-        Ok(s) => Ok(Some(s.duration)),
+    match gcode::planned_duration(BufReader::new(f), m, &opts) {
+        Ok(t) => Ok(Some(t)),
         Err(InterpolateError::Plan(e)) => bail!("{e}"),
         Err(e) => {
             warn(format!(

@@ -1110,6 +1110,25 @@ impl<'m> Interpolator<'m> {
     }
 }
 
+/// The duration (s) of the program read from `input` on `machine` under the
+/// planner of `opts.plan` — accelerations, junctions and limits included —
+/// from the interpolator run without sampling (one sample at each end; the
+/// period only bounds the count, travels are not checked). This is
+/// `total_time_s` of `gcode stats` with a machine. An error of the planner's
+/// settings is [`InterpolateError::Plan`]; any other error means the program
+/// cannot be interpolated on the machine (an unreachable tip, …), and callers
+/// fall back to the estimate without accelerations.
+pub fn planned_duration<R: BufRead>(
+    input: R,
+    machine: &Machine,
+    opts: &InterpolateOptions,
+) -> Result<f64, InterpolateError> {
+    let mut o = opts.clone();
+    o.ts = 1e9;
+    o.check_travel = false;
+    interpolate(input, machine, &o, |_| Ok(())).map(|s| s.duration)
+}
+
 /// Interpolates the program read from `input` on `machine`, streaming:
 /// `sink` gets every sample in time order (see the module documentation).
 pub fn interpolate<R, F>(

@@ -95,6 +95,7 @@ pub use event::{
 pub use interp::{InterpOptions, Interpreter, ModalState, MotionMode, RetractMode, UnknownMCode};
 pub use interpolate::{
     InterpolateError, InterpolateOptions, InterpolationSummary, Interpolator, Sample, interpolate,
+    planned_duration,
 };
 pub use parameters::Parameters;
 pub use profile::Trapezoid;

@@ -1278,3 +1278,59 @@ fn corpus_total_times() {
         );
     }
 }
+
+/// Relative tolerance of mtwin's `linuxcnc` planner against the simulator's
+/// total time on the short programs. The motion issue's target is 1 %; the
+/// planner does not reproduce LinuxCNC's circular blends nor its task waits
+/// (spindle, M-codes) yet, and the figures printed by this test are those
+/// quoted in docs/gcode.md.
+const PLANNER_TOLERANCE: f64 = 0.05;
+
+/// mtwin's `linuxcnc` planner against the simulator: the square, the arcs
+/// and the feeds programs, on an mtwin machine with the sample
+/// configuration's limits (X Y Z 20 mm/s and 300 mm/s², A C 30 deg/s and
+/// 300 deg/s², `[TRAJ] MAX_LINEAR_VELOCITY` 35 mm/s as the rapid feed).
+#[test]
+fn mtwin_linuxcnc_planner_times_against_the_simulator() {
+    use mtwin::gcode::plan::{PlanOptions, Planner};
+    use mtwin::gcode::{InterpolateOptions, interpolate};
+    use mtwin::model::{AxisKind, read_machine};
+    if !available() {
+        return;
+    }
+    let mut m = read_machine(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/machines/ac-trunnion.toml"),
+    )
+    .unwrap();
+    for a in m.axes.iter_mut() {
+        let lin = a.kind == AxisKind::Linear;
+        a.max_velocity = Some(if lin { 20.0 } else { 30.0 });
+        a.max_acceleration = Some(300.0);
+    }
+    m.rapid_feed = 35.0 * 60.0;
+    for (name, prog) in [
+        ("square", square_program()),
+        ("arcs", arcs_program()),
+        ("feeds", feeds_program()),
+    ] {
+        let r =
+            reference(&prog, &SimSetup::default(), SHORT).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let mut opts = InterpolateOptions::new(1e6);
+        opts.plan = PlanOptions::new(Planner::Linuxcnc);
+        opts.check_travel = false;
+        let s = interpolate(prog.as_bytes(), &m, &opts, |_| Ok(())).unwrap();
+        let rel = s.duration / r.total_time - 1.0;
+        eprintln!(
+            "{name}: mtwin linuxcnc {:.3} s, LinuxCNC {:.3} s ({:+.2} %)",
+            s.duration,
+            r.total_time,
+            100.0 * rel
+        );
+        assert!(
+            rel.abs() < PLANNER_TOLERANCE,
+            "{name}: mtwin {} s against LinuxCNC {} s",
+            s.duration,
+            r.total_time
+        );
+    }
+}
