@@ -53,6 +53,12 @@ pub const MAX_TRACKER_CANDIDATES: u64 = 100_000;
 /// a minute on one core.
 pub const MAX_TRACKER_WORK: u64 = 200_000_000;
 
+/// Most repeats (L word) of one canned-cycle block: each repeat is a few
+/// moves held in memory until the block is done, so a bound keeps one block
+/// within a few tens of MB (real programs repeat a cycle a few hundred times
+/// at most).
+pub const MAX_CYCLE_REPEATS: u64 = 100_000;
+
 /// Most blocks one G-code program may execute, loops and subroutine calls
 /// counted each time they run (about a minute of interpretation): a program
 /// whose loop never ends stops with an error instead of running forever.

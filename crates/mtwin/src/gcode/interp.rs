@@ -1473,6 +1473,15 @@ impl Interpreter {
                 if n == 0 {
                     return Err(s.invalid(l.column, "Cannot do zero repeats of canned cycle"));
                 }
+                if u64::from(n) > crate::limits::MAX_CYCLE_REPEATS {
+                    return Err(s.invalid(
+                        l.column,
+                        format!(
+                            "L{n}: at most {} repeats of a canned cycle in one block (a bound of mtwin on the memory one block may take)",
+                            crate::limits::MAX_CYCLE_REPEATS
+                        ),
+                    ));
+                }
                 n
             }
         };
@@ -2936,15 +2945,16 @@ mod tests {
         );
         // LinuxCNC's errors.
         for bad in [
-            "G81 X1 Z-1 F10\n",       // no R
-            "G81 X1 R1 F10\n",        // no Z
-            "G81 X1 Z2 R1 F10\n",     // R below Z
-            "G81 X1 Z-1 R1\n",        // zero feed
-            "G81 X1 Z-1 R1 L0 F10\n", // zero repeats
-            "G83 X1 Z-1 R1 F10\n",    // no Q
-            "G82 X1 Z-1 R1 F10\n",    // no P
-            "G84 X1 Z-1 R1 F10\n",    // spindle stopped
-            "G81 X1 Z-1 R1 A5 F10\n", // rotary axis
+            "G81 X1 Z-1 F10\n",            // no R
+            "G81 X1 R1 F10\n",             // no Z
+            "G81 X1 Z2 R1 F10\n",          // R below Z
+            "G81 X1 Z-1 R1\n",             // zero feed
+            "G81 X1 Z-1 R1 L0 F10\n",      // zero repeats
+            "G81 X1 Z-1 R1 L100001 F10\n", // beyond MAX_CYCLE_REPEATS
+            "G83 X1 Z-1 R1 F10\n",         // no Q
+            "G82 X1 Z-1 R1 F10\n",         // no P
+            "G84 X1 Z-1 R1 F10\n",         // spindle stopped
+            "G81 X1 Z-1 R1 A5 F10\n",      // rotary axis
             "G93 G81 X1 Z-1 R1 F10\n",
         ] {
             assert!(run_with(bad, InterpOptions::default()).is_err(), "{bad}");
