@@ -1,5 +1,6 @@
 """Arrow in and out: ``pyarrow`` record batches (or tables) of poses in,
-predictions out; one machine's tracker measurements in, one result row out.
+predictions out; one machine's tracker measurements in, one result row out;
+the samples of a G-code program and the twin's prediction as record batches.
 
 Needs ``pyarrow`` (``pip install 'mtwin[arrow]'``). Columns are named as in the
 CLI's CSV files: one per axis (the machine file's names; mm, degrees), then
@@ -15,7 +16,7 @@ from typing import Any, Union
 
 import numpy as np
 
-from ._mtwin import Machine, tracker_identify
+from ._mtwin import TWIN_COLUMNS, Machine, gcode_interpolate, tracker_identify, twin_predict
 
 PREDICT_COLUMNS = ["x", "y", "z", "i", "j", "k"]
 
@@ -82,3 +83,26 @@ def tracker_identify_batch(
     out["warnings"] = [[w if isinstance(w, str) else json.dumps(w) for w in d["warnings"]]]
     out["doc_json"] = [doc.to_json()]
     return pa.RecordBatch.from_pydict(out)
+
+
+def _batch(table: np.ndarray, names) -> Any:
+    pa = _pa()
+    return pa.RecordBatch.from_arrays(
+        [pa.array(table[:, c]) for c in range(table.shape[1])], names=list(names)
+    )
+
+
+def interpolate(program: Any, machine: Machine, **options: Any) -> Any:
+    """``gcode_interpolate`` as a record batch of ``t_s`` and one column per axis
+    (the columns and numbers of ``mtwin gcode interpolate``'s CMD.csv); the
+    options are those of ``gcode_interpolate``."""
+    samples, _ = gcode_interpolate(program, machine, **options)
+    return _batch(samples, ["t_s"] + machine.axis_names)
+
+
+def twin(machine: Machine, **options: Any) -> Any:
+    """``twin_predict`` as a record batch of the ``TWIN_COLUMNS`` (the columns and
+    numbers of ``mtwin twin predict``'s PRED.csv); the options are those of
+    ``twin_predict``."""
+    table, _ = twin_predict(machine, **options)
+    return _batch(table, TWIN_COLUMNS)

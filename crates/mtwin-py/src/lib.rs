@@ -12,6 +12,7 @@ use pyo3::prelude::*;
 mod convert;
 mod machine;
 mod methods;
+mod motion;
 
 /// The extension module `mtwin._mtwin` (re-exported by the `mtwin` package).
 #[pymodule]
@@ -20,6 +21,7 @@ fn _mtwin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(machine::example_names, m)?)?;
     m.add_function(wrap_pyfunction!(machine::_rows_address, m)?)?;
     methods::register(m)?;
+    motion::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

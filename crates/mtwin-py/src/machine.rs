@@ -35,6 +35,34 @@ impl Machine {
         Machine { inner, path, kin }
     }
 
+    /// Tool poses of `kin` (this machine's kinematics, with or without its errors)
+    /// at the (N, axes) `poses`: an (N, 6) array of tip `x, y, z` and axis `i, j, k`,
+    /// computed in parallel with the GIL released.
+    fn tool_poses<'py>(
+        &self,
+        py: Python<'py>,
+        kin: &Kinematics,
+        poses: &PyReadonlyArray2<'py, f64>,
+        check_travel: bool,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let r = rows(poses, self.inner.n_axes(), "poses")?;
+        let qs = r.as_slice();
+        self.check_poses(qs, check_travel)?;
+        let out = py.detach(|| {
+            let tools = kin.poses(qs);
+            let mut flat = Vec::with_capacity(tools.len() * 6);
+            for p in &tools {
+                flat.extend_from_slice(p.tip.as_slice());
+                flat.extend_from_slice(p.axis.as_slice());
+            }
+            flat
+        });
+        let rows = out.len() / 6;
+        Ok(Array2::from_shape_vec((rows, 6), out)
+            .expect("6 values per pose")
+            .into_pyarray(py))
+    }
+
     /// Check that every pose is finite and (with `check_travel`) inside the travels,
     /// naming the row and axis of the first that is not.
     fn check_poses(&self, qs: &[f64], check_travel: bool) -> PyResult<()> {
@@ -232,24 +260,7 @@ impl Machine {
         poses: PyReadonlyArray2<'py, f64>,
         check_travel: bool,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let n = self.inner.n_axes();
-        let r = rows(&poses, n, "poses")?;
-        let qs = r.as_slice();
-        self.check_poses(qs, check_travel)?;
-        let kin = &self.kin;
-        let out = py.detach(|| {
-            let tools = kin.poses(qs);
-            let mut flat = Vec::with_capacity(tools.len() * 6);
-            for p in &tools {
-                flat.extend_from_slice(p.tip.as_slice());
-                flat.extend_from_slice(p.axis.as_slice());
-            }
-            flat
-        });
-        let rows = out.len() / 6;
-        Ok(Array2::from_shape_vec((rows, 6), out)
-            .expect("6 values per pose")
-            .into_pyarray(py))
+        self.tool_poses(py, &self.kin, &poses, check_travel)
     }
 
     /// Tool poses of the nominal machine (no errors) at `poses`, as `predict`.
@@ -260,24 +271,8 @@ impl Machine {
         poses: PyReadonlyArray2<'py, f64>,
         check_travel: bool,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let n = self.inner.n_axes();
-        let r = rows(&poses, n, "poses")?;
-        let qs = r.as_slice();
-        self.check_poses(qs, check_travel)?;
-        let m = &self.inner;
-        let out = py.detach(|| {
-            let tools = Kinematics::nominal(m).poses(qs);
-            let mut flat = Vec::with_capacity(tools.len() * 6);
-            for p in &tools {
-                flat.extend_from_slice(p.tip.as_slice());
-                flat.extend_from_slice(p.axis.as_slice());
-            }
-            flat
-        });
-        let rows = out.len() / 6;
-        Ok(Array2::from_shape_vec((rows, 6), out)
-            .expect("6 values per pose")
-            .into_pyarray(py))
+        let nominal = Kinematics::nominal(&self.inner);
+        self.tool_poses(py, &nominal, &poses, check_travel)
     }
 
     /// Exact derivatives of the tool pose with respect to the axis positions at `poses`

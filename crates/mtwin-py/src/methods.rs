@@ -26,6 +26,11 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(thermal_predict, m)?)?;
     m.add_function(wrap_pyfunction!(gcode_stats, m)?)?;
     m.add_function(wrap_pyfunction!(ballbar_setup_error, m)?)?;
+    m.add_function(wrap_pyfunction!(ballbar_identify, m)?)?;
+    m.add_function(wrap_pyfunction!(ballbar_circular, m)?)?;
+    m.add_function(wrap_pyfunction!(skiving_setup_error, m)?)?;
+    m.add_function(wrap_pyfunction!(servo_fit, m)?)?;
+    m.add_function(wrap_pyfunction!(positioning_evaluate, m)?)?;
     Ok(())
 }
 
@@ -193,7 +198,7 @@ fn thermal_predict<'py>(
 }
 
 /// A G-code error as `InputError` at its file, line and column.
-fn gcode_error(py: Python<'_>, program: &Path, e: &GcodeError) -> PyErr {
+pub fn gcode_error(py: Python<'_>, program: &Path, e: &GcodeError) -> PyErr {
     let file = e.file().unwrap_or(program);
     let d = match e.location() {
         Some(at) => Diagnostic::at(
@@ -291,4 +296,279 @@ fn ballbar_setup_error(
     )
     .map_err(value_error)?;
     document(py, "BallbarSetupDoc", &doc)
+}
+
+/// `mtwin ballbar identify`: the eight position-independent errors (PIGEs) of
+/// the A and C axes of a trunnion from static ballbar readings. `mode1` … `mode4`
+/// are the mode files (CSV `angle_deg,length_mm`; at least one); `machine` the
+/// nominal model (default: the example `ac-trunnion`); `length`, `zb1c`, `zb1a`
+/// the rig (mm) and `ex`, `ey` the tool ball's set-up error (mm, from
+/// `ballbar_setup_error`). Returns `(identified, doc)`: the machine with the
+/// identified PIGEs (what `--out` writes) and the `BallbarIdentifyDoc`.
+#[pyfunction]
+#[pyo3(signature = (mode1 = None, mode2 = None, mode3 = None, mode4 = None, machine = None, length = 100.0, zb1c = 100.0, zb1a = 100.0, ex = 0.0, ey = 0.0))]
+#[allow(clippy::too_many_arguments)]
+fn ballbar_identify(
+    py: Python<'_>,
+    mode1: Option<PathBuf>,
+    mode2: Option<PathBuf>,
+    mode3: Option<PathBuf>,
+    mode4: Option<PathBuf>,
+    machine: Option<&Machine>,
+    length: f64,
+    zb1c: f64,
+    zb1a: f64,
+    ex: f64,
+    ey: f64,
+) -> PyResult<(Machine, Py<PyAny>)> {
+    use mtwin::methods::ballbar::{self, IdentifyInputs, IdentifyOptions, Rig};
+    let files = [mode1, mode2, mode3, mode4];
+    if files.iter().all(|f| f.is_none()) {
+        return Err(PyValueError::new_err("give at least one of mode1 … mode4"));
+    }
+    let bundled;
+    let m = match machine {
+        Some(m) => &m.inner,
+        None => {
+            bundled = diag(py, mtwin::examples::machine("ac-trunnion.toml"))?;
+            &bundled
+        }
+    };
+    let mut data = Vec::new();
+    let mut problems = Diagnostics::default();
+    for f in &files {
+        data.push(match f {
+            Some(p) => match ballbar::read_mode_file(p) {
+                Ok(d) => Some(d),
+                Err(d) => {
+                    problems.0.extend(d.0);
+                    None
+                }
+            },
+            None => None,
+        });
+    }
+    if !problems.is_empty() {
+        return Err(input_error(py, &problems));
+    }
+    let modes = [0, 1, 2, 3].map(|i| data[i].as_ref());
+    let rig = Rig {
+        length,
+        zb1c,
+        zb1a,
+        setup: ballbar::SetupError { ex, ey },
+    };
+    let inputs = IdentifyInputs {
+        machine: m,
+        rig,
+        modes,
+    };
+    let (id, doc) = py
+        .detach(|| ballbar::identify::run(&inputs, &IdentifyOptions::default()))
+        .map_err(value_error)?;
+    let text = machine_to_toml(&id.machine, &[]).map_err(value_error)?;
+    let path = PathBuf::from("identified from ballbar readings");
+    let identified = diag(py, mtwin::model::parse_machine(&path, &text))?;
+    Ok((
+        Machine::new(identified, path),
+        document(py, "BallbarIdentifyDoc", &doc)?,
+    ))
+}
+
+/// One circular-test trace: a CSV file `angle_deg,deviation_um` or an (N, 2) array.
+fn circular_trace(
+    py: Python<'_>,
+    data: &Bound<'_, PyAny>,
+) -> PyResult<mtwin::methods::ballbar::circular::Trace> {
+    let rows: Vec<Vec<f64>> = if let Ok(a) = data.extract::<PyReadonlyArray2<'_, f64>>() {
+        let r = rows(&a, 2, "trace")?;
+        r.as_slice().chunks_exact(2).map(<[f64]>::to_vec).collect()
+    } else {
+        let path: PathBuf = data.extract().map_err(|_| {
+            PyValueError::new_err("a trace must be a CSV file path or an (N, 2) float64 array")
+        })?;
+        let t = diag(py, Table::read(&path))?;
+        diag(py, t.number_rows(&mtwin::io::columns::BALLBAR_CIRCULAR))?
+    };
+    Ok(mtwin::methods::ballbar::circular::Trace {
+        angle_deg: rows.iter().map(|r| r[0]).collect(),
+        deviation_um: rows.iter().map(|r| r[1]).collect(),
+    })
+}
+
+/// `mtwin ballbar circular`: ISO 230-4 circular test — circular hysteresis H,
+/// circular deviations G and F and the diagnosis (backlash, squareness, …) from
+/// the clockwise (`cw`) and/or counter-clockwise (`ccw`) trace, each a CSV file
+/// `angle_deg,deviation_um` or an (N, 2) array of the same columns (angle
+/// counter-clockwise from +X in the test plane, degrees; deviation µm).
+/// `radius` (the bar length) and `cyclic_pitch` (screw lead) in mm,
+/// `spike_width` (decay angle of a reversal spike) in degrees. Returns the
+/// `CircularDoc`.
+#[pyfunction]
+#[pyo3(signature = (radius, cw = None, ccw = None, cyclic_pitch = 10.0, spike_width = 3.0))]
+fn ballbar_circular(
+    py: Python<'_>,
+    radius: f64,
+    cw: Option<&Bound<'_, PyAny>>,
+    ccw: Option<&Bound<'_, PyAny>>,
+    cyclic_pitch: f64,
+    spike_width: f64,
+) -> PyResult<Py<PyAny>> {
+    use mtwin::methods::ballbar::circular::{CircularOptions, circular};
+    let cw = cw.map(|d| circular_trace(py, d)).transpose()?;
+    let ccw = ccw.map(|d| circular_trace(py, d)).transpose()?;
+    let o = CircularOptions {
+        radius_mm: radius,
+        cyclic_pitch_mm: cyclic_pitch,
+        spike_width_deg: spike_width,
+    };
+    let doc = circular(cw.as_ref(), ccw.as_ref(), &o).map_err(PyValueError::new_err)?;
+    document(py, "CircularDoc", &doc)
+}
+
+/// `mtwin skiving setup-error`: the four set-up errors (δgx, δgy mm; εxz, εzy
+/// rad) of a power-skiving workpiece from touch-offs. `data` is the touches CSV
+/// (`x,y,z,a,b,c,point,contact`; mm, degrees); `h` clamping height, `l` swing
+/// length, `rt` tool tip radius, `rg` workpiece radius (mm); `noise` the known
+/// standard deviation of one touch (mm; `None`: estimated); `tolerance` the
+/// largest distance of a touch from its surface (mm). Returns the
+/// `SkivingSetupDoc` (rows carry their CSV line numbers).
+#[pyfunction]
+#[pyo3(signature = (data, h, l, rt, rg, noise = None, tolerance = mtwin::methods::skiving::touch::DEFAULT_PLAUSIBILITY_MM))]
+#[allow(clippy::too_many_arguments)]
+fn skiving_setup_error(
+    py: Python<'_>,
+    data: PathBuf,
+    h: f64,
+    l: f64,
+    rt: f64,
+    rg: f64,
+    noise: Option<f64>,
+    tolerance: f64,
+) -> PyResult<Py<PyAny>> {
+    use mtwin::methods::skiving::{self, Geometry, Options, touch::read_touches};
+    let g = Geometry::new(h, l, rt, rg)
+        .map_err(|e| PyValueError::new_err(format!("invalid machine dimensions: {e}")))?;
+    let t = diag(py, Table::read(&data))?;
+    let touches = diag(py, read_touches(&t, &g, tolerance))?;
+    let (_, _, mut doc) = py
+        .detach(|| skiving::run(&touches, &g, &Options::with_noise(noise)))
+        .map_err(|e| {
+            PyValueError::new_err(format!(
+                "{}: cannot identify the set-up error: {e}",
+                data.display()
+            ))
+        })?;
+    doc.source = Some(data.display().to_string());
+    for (i, row) in doc.rows.iter_mut().enumerate() {
+        row.line = t.line(i);
+    }
+    document(py, "SkivingSetupDoc", &doc)
+}
+
+/// `mtwin servo fit`: the command-to-encoder transfer function of one axis from a
+/// servo log (CSV `t_s,command_mm,feedback_mm`, evenly sampled). ARX orders up to
+/// `max_order`, input delays up to `max_delay` samples; the steady following
+/// error is reported at `feed` (mm/min). Returns `(servo_toml, doc)`: the SERVO.toml
+/// text (`ts`, `b`, `a`, `nk`: the keys of `[axes.servo]`) and the `ServoFitDoc`.
+/// Problems in the log raise `InputError` with file and line.
+#[pyfunction]
+#[pyo3(signature = (data, max_order = 4, max_delay = 3, feed = 1000.0))]
+fn servo_fit(
+    py: Python<'_>,
+    data: PathBuf,
+    max_order: usize,
+    max_delay: usize,
+    feed: f64,
+) -> PyResult<(String, Py<PyAny>)> {
+    use mtwin::sysid::{self, FitRunOptions, ServoFitError};
+    let mut options = FitRunOptions::default();
+    options.fit.max_order = max_order;
+    options.fit.max_delay = max_delay;
+    options.feed_mm_min = Some(feed);
+    let (fit, doc) = py
+        .detach(|| sysid::run_fit(&data, &options))
+        .map_err(|e| match e {
+            ServoFitError::Input(d) => input_error(py, &d),
+            e => value_error(e),
+        })?;
+    let text = fit.to_toml().map_err(value_error)?;
+    Ok((text, document(py, "ServoFitDoc", &doc)?))
+}
+
+/// `mtwin positioning evaluate`: ISO 230-2 evaluation of a positioning run
+/// (A, B, E, M, R per direction and per target; µm). `data` is a CSV table
+/// (`target_mm,direction[,cycle],measured_mm|deviation_mm|deviation_um`), an
+/// ecmc `.dat`, a Renishaw `.rtx` capture or a raw log (`input_format`:
+/// `"auto"` from the name, `"csv"`, `"dat"`, `"rtx"`, `"log"`); the other
+/// arguments are those of the CLI for logs and captures (mm, s). Returns the
+/// `PositioningDoc`.
+#[pyfunction]
+#[pyo3(signature = (data, input_format = "auto", ref_channel = None, cmd_channel = None, ref_gain = 1.0, ref_offset = 0.0, targets = None, dwell_band = 0.005, min_dwell_samples = 3, min_dwell_s = 0.5, reach_tol = 0.1))]
+#[allow(clippy::too_many_arguments)]
+fn positioning_evaluate(
+    py: Python<'_>,
+    data: PathBuf,
+    input_format: &str,
+    ref_channel: Option<String>,
+    cmd_channel: Option<String>,
+    ref_gain: f64,
+    ref_offset: f64,
+    targets: Option<Vec<f64>>,
+    dwell_band: f64,
+    min_dwell_samples: usize,
+    min_dwell_s: f64,
+    reach_tol: f64,
+) -> PyResult<Py<PyAny>> {
+    use mtwin::methods::positioning::{self, InputFormat, LogOptions, Options};
+    for (name, v) in [
+        ("dwell_band", dwell_band),
+        ("min_dwell_s", min_dwell_s),
+        ("reach_tol", reach_tol),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "{name} must be positive, not {v}"
+            )));
+        }
+    }
+    if !(ref_gain.is_finite() && ref_gain != 0.0 && ref_offset.is_finite()) {
+        return Err(PyValueError::new_err(
+            "ref_gain must be a non-zero number and ref_offset a number",
+        ));
+    }
+    if targets
+        .as_ref()
+        .is_some_and(|t| t.iter().any(|v| !v.is_finite()))
+    {
+        return Err(PyValueError::new_err("targets must be numbers"));
+    }
+    let format = match input_format {
+        "auto" => InputFormat::Auto,
+        "csv" => InputFormat::Csv,
+        "dat" => InputFormat::Dat,
+        "rtx" => InputFormat::Rtx,
+        "log" => InputFormat::Log,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "input_format must be \"auto\", \"csv\", \"dat\", \"rtx\" or \"log\", got {other:?}"
+            )));
+        }
+    };
+    let opts = Options {
+        format,
+        log: LogOptions {
+            reference: ref_channel,
+            command: cmd_channel,
+            gain: ref_gain,
+            offset: ref_offset,
+            targets_mm: targets,
+            dwell_band_mm: dwell_band,
+            min_dwell_samples,
+            min_dwell_s,
+            reach_tol_mm: reach_tol,
+        },
+    };
+    let doc = diag(py, py.detach(|| positioning::run(&data, &opts)))?;
+    document(py, "PositioningDoc", &doc)
 }
