@@ -9,10 +9,9 @@ use mtwin::gcode::{
     self, Axes, Axis, InterpOptions, InterpolateError, InterpolateOptions, StatsOptions,
     TravelCheck,
 };
-use mtwin::io::write_csv_row;
 
 use super::common::{DialectArgs, PlanArgs, load_machine, located_error};
-use crate::output::{Format, warn};
+use crate::output::{Format, TableWriter, warn};
 
 #[derive(Debug, clap::Subcommand)]
 pub enum Command {
@@ -39,7 +38,8 @@ pub struct InterpolateArgs {
     /// Sample period, s.
     #[arg(long, default_value_t = 0.001)]
     ts: f64,
-    /// Output CSV: `t_s` and one column per machine axis (mm, deg).
+    /// Output CSV: `t_s` and one column per machine axis (mm, deg) (a Parquet
+    /// file of the same columns when the name ends in `.parquet`).
     #[arg(long)]
     out: PathBuf,
     /// Treat every move as a TCP move (XYZ = tool tip in W) from the start.
@@ -197,20 +197,20 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
     let mut failure: Option<InterpolateError> = None;
     let mut summary = None;
     let written = out.write_with(&a.out, |w| -> std::io::Result<()> {
-        let mut header = vec![mtwin::io::columns::T_S.to_string()];
-        header.extend(m.axis_names().iter().map(|s| s.to_string()));
-        writeln!(w, "{}", header.join(","))?;
+        let mut header = vec![mtwin::io::columns::T_S];
+        header.extend(m.axis_names());
+        let mut table = TableWriter::new(&a.out, w, &header)?;
         let mut row = Vec::with_capacity(m.n_axes() + 1);
         let r = gcode::interpolate(input, &m, &opts, |s| {
             row.clear();
             row.push(s.t);
             row.extend_from_slice(s.q);
-            write_csv_row(w, &row)
+            table.row(&row)
         });
         match r {
             Ok(s) => {
                 summary = Some(s);
-                Ok(())
+                table.finish()
             }
             Err(InterpolateError::Sink(e)) => Err(e),
             Err(e) => {

@@ -8,13 +8,12 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use mtwin::gcode::InterpolateOptions;
-use mtwin::io::write_csv_row;
 use mtwin::methods::twin::{self, Commands, PredictOptions, Progress, Sources, TwinError};
 
 use super::common::load_machine;
 use super::common::{DialectArgs, PlanArgs};
 use super::gcode::{interp_options, located};
-use crate::output::{Format, print_doc, progress};
+use crate::output::{Format, TableWriter, print_doc, progress};
 
 #[derive(Debug, clap::Subcommand)]
 pub enum Command {
@@ -62,7 +61,8 @@ pub struct PredictArgs {
     /// Interpolate samples outside the axis travels instead of stopping.
     #[arg(long, requires = "gcode")]
     no_travel_check: bool,
-    /// Output PRED.csv: t_s, command and actual tool tip (mm) and axis in W, tip_error (mm), axis_error (rad).
+    /// Output PRED.csv: t_s, command and actual tool tip (mm) and axis in W, tip_error (mm), axis_error (rad)
+    /// (a Parquet file of the same columns when the name ends in `.parquet`).
     #[arg(long)]
     out: PathBuf,
     /// Keep only one error source: `servo` (nominal geometry) or `geometry` (axes follow exactly).
@@ -190,17 +190,18 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
     let mut result = None;
     out.write_with(&a.out, |w| -> anyhow::Result<()> {
         // The PRED.csv columns, defined once beside the reader of the report.
-        writeln!(w, "{}", mtwin::report::twin::COLUMNS.join(","))?;
+        let mut table = TableWriter::new(&a.out, w, &mtwin::report::twin::COLUMNS)?;
         let r = twin::run(
             &machine,
             commands,
             || std::fs::File::open(path).map(std::io::BufReader::new),
             &options,
-            |r| write_csv_row(w, &twin::pred_row(r)),
+            |r| table.row(&twin::pred_row(r)),
             &mut |sources, p| bars.show(sources, p),
         );
         bars.finish();
         result = Some(r.map_err(|e| twin_error(&a, e))?);
+        table.finish()?;
         Ok(())
     })?;
     let r = result.context("the twin produced no summary")?;
