@@ -27,6 +27,7 @@ pub mod log;
 mod model;
 mod predict;
 mod program;
+pub mod run;
 mod speed_model;
 mod synthetic;
 
@@ -36,7 +37,8 @@ pub use compensate::{
 };
 pub use data::{TrainingData, read_training, training_from_table};
 pub use doc::{
-    InputChannelDoc, PredictedHeightDoc, SpeedModelDoc, ThermalCompensateDoc, ThermalFitDoc,
+    InputChannelDoc, LogChannelDoc, LogPredictedChannelDoc, LogSelectionStepDoc, LogTestDoc,
+    ThermalLogFitDoc, ThermalLogPredictDoc, PredictedHeightDoc, SpeedModelDoc, ThermalCompensateDoc, ThermalFitDoc,
     ThermalHeightDoc, ThermalPredictDoc, ThermalSimulateDoc,
 };
 pub use file::{model_from_toml_str, read_model};
@@ -46,6 +48,11 @@ pub use model::{
 pub use predict::{
     HeightReport, Prediction, Programme, SimulatedData, ThermalFit, ThermalFitOptions, fit,
     fit_csv, predict, read_programme, simulate,
+};
+pub use run::{
+    FitRun, FitRunOptions, LogFitProgress, LogFitRun, LogFitRunOptions, LogPredictRun,
+    LogPredictRunOptions, PredictRun, PredictRunOptions, plot_file_name, run_fit, run_fit_log,
+    run_predict, run_predict_log,
 };
 pub use program::{
     BallArray, ProbeMotion, ThermalProgram, ThermalProgramError, pass_seconds, thermal_program,
@@ -77,6 +84,10 @@ pub enum ThermalError {
     /// An option outside its domain or beyond a bound of [`crate::limits`].
     #[error("{0}")]
     Options(String),
+    /// A prediction overflowed (an unstable model, or coefficients too
+    /// large): nothing is to be written. The text names the model file.
+    #[error("{0}")]
+    Diverged(String),
     /// `auto` could not compare the speed models.
     #[error("cannot choose the speed model: {0}")]
     SpeedModel(String),
