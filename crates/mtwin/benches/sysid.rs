@@ -124,7 +124,10 @@ fn benches(c: &mut Criterion) {
         text.push_str(&format!("{},{speed}", 15 * k));
         for i in 1..=5 {
             let w = i as f64;
-            text.push_str(&format!(",{}", -w * fast - 3.0 * slow + 0.1 * ((k * i) % 7) as f64));
+            text.push_str(&format!(
+                ",{}",
+                -w * fast - 3.0 * slow + 0.1 * ((k * i) % 7) as f64
+            ));
         }
         for i in 1..=16 {
             let w = i as f64 / 16.0;
@@ -132,8 +135,8 @@ fn benches(c: &mut Criterion) {
         }
         text.push('\n');
     }
-    let table = mtwin::io::Table::from_reader(std::path::Path::new("LOG.csv"), text.as_bytes())
-        .unwrap();
+    let table =
+        mtwin::io::Table::from_reader(std::path::Path::new("LOG.csv"), text.as_bytes()).unwrap();
     let channels: Vec<ChannelSpec> = (1..=5)
         .map(|i| ChannelSpec::parse(&format!("ch{i}_um:Z")).unwrap())
         .collect();

@@ -120,7 +120,10 @@ fn fit_log_then_predict_log_recovers_the_machine_on_a_new_log() {
     // The test span: the last 120 minutes, predicted from the start.
     let t = doc.test.as_ref().unwrap();
     assert_eq!((t.from_min, t.samples), (480.0, 120));
-    assert!(t.channels.iter().all(|s| s.error_over_drift_rms < 1e-4), "{t:?}");
+    assert!(
+        t.channels.iter().all(|s| s.error_over_drift_rms < 1e-4),
+        "{t:?}"
+    );
     assert!(doc.warnings.is_empty(), "{:?}", doc.warnings);
 
     // A new log, other speeds and a cooler machine, without the drift
@@ -148,8 +151,18 @@ fn fit_log_then_predict_log_recovers_the_machine_on_a_new_log() {
     for (k, r) in rows.iter().enumerate() {
         // Period centres; µm for the first channel, mm for the second.
         assert!((r[0] - (k as f64 + 0.5)).abs() < 1e-12);
-        assert!((r[1] - d[k].0).abs() < 1e-3, "minute {k}: {} vs {}", r[1], d[k].0);
-        assert!((r[2] - d[k].1).abs() < 1e-6, "minute {k}: {} vs {}", r[2], d[k].1);
+        assert!(
+            (r[1] - d[k].0).abs() < 1e-3,
+            "minute {k}: {} vs {}",
+            r[1],
+            d[k].0
+        );
+        assert!(
+            (r[2] - d[k].1).abs() < 1e-6,
+            "minute {k}: {} vs {}",
+            r[2],
+            d[k].1
+        );
         largest_a = largest_a.max(d[k].0.abs());
         largest_b = largest_b.max(d[k].1.abs());
     }
@@ -171,13 +184,24 @@ fn predict_log_scores_a_measured_column_against_its_rows() {
     let u = inputs(600, &[0.0, 2000.0, 5000.0, 3500.0, 1000.0], 1.0);
     let d = truth(&u);
     let half_steps = |f: &dyn Fn(&(f64, f64)) -> f64| {
-        d.windows(2).map(|w| (f(&w[1]) - f(&w[0])).abs() / 2.0).sum::<f64>() / d.len() as f64
+        d.windows(2)
+            .map(|w| (f(&w[1]) - f(&w[0])).abs() / 2.0)
+            .sum::<f64>()
+            / d.len() as f64
     };
     let o = mtwin(
         p,
         &[
-            "thermal", "predict", "--model", "log-model.toml", "--log", "log.csv", "--out",
-            "pred.csv", "--format", "json",
+            "thermal",
+            "predict",
+            "--model",
+            "log-model.toml",
+            "--log",
+            "log.csv",
+            "--out",
+            "pred.csv",
+            "--format",
+            "json",
         ],
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
@@ -186,7 +210,11 @@ fn predict_log_scores_a_measured_column_against_its_rows() {
     let want = [half_steps(&|e| e.0), half_steps(&|e| e.1)];
     for (c, w) in doc.channels.iter().zip(want) {
         let mae = c.mae.unwrap();
-        assert!((mae - w).abs() < 1e-6 * w.max(1e-9) + 1e-9, "{}: {mae} vs {w}", c.column);
+        assert!(
+            (mae - w).abs() < 1e-6 * w.max(1e-9) + 1e-9,
+            "{}: {mae} vs {w}",
+            c.column
+        );
     }
 }
 
@@ -245,11 +273,22 @@ fn bad_logs_and_options_name_the_place_exit_1_and_write_nothing() {
     assert_eq!(mtwin(p, &a).status.code(), Some(2));
 
     // Predict: a model that is not one, a log without an input column.
-    std::fs::write(p.join("bad-model.toml"), "period_min = -1\ninputs = []\nchannels = []\n").unwrap();
+    std::fs::write(
+        p.join("bad-model.toml"),
+        "period_min = -1\ninputs = []\nchannels = []\n",
+    )
+    .unwrap();
     expect_failure(
         p,
         &[
-            "thermal", "predict", "--model", "bad-model.toml", "--log", "log.csv", "--out", "pred.csv",
+            "thermal",
+            "predict",
+            "--model",
+            "bad-model.toml",
+            "--log",
+            "log.csv",
+            "--out",
+            "pred.csv",
         ],
         "bad-model.toml",
         "pred.csv",
@@ -261,7 +300,14 @@ fn bad_logs_and_options_name_the_place_exit_1_and_write_nothing() {
     expect_failure(
         p,
         &[
-            "thermal", "predict", "--model", "log-model.toml", "--log", "nospeed.csv", "--out", "pred.csv",
+            "thermal",
+            "predict",
+            "--model",
+            "log-model.toml",
+            "--log",
+            "nospeed.csv",
+            "--out",
+            "pred.csv",
         ],
         "nospeed.csv:1",
         "pred.csv",

@@ -733,7 +733,11 @@ impl std::fmt::Display for ThermalLogFitDoc {
                 "test from t = {} min ({} samples), predicted from the log's start with the inputs alone:",
                 t.from_min, t.samples
             )?;
-            writeln!(f, "{:<12} {:>10} {:>16}", "channel", "MAE", "error/drift RMS")?;
+            writeln!(
+                f,
+                "{:<12} {:>10} {:>16}",
+                "channel", "MAE", "error/drift RMS"
+            )?;
             for (s, c) in t.channels.iter().zip(&self.channels) {
                 writeln!(
                     f,

@@ -38,8 +38,8 @@ pub use compensate::{
 pub use data::{TrainingData, read_training, training_from_table};
 pub use doc::{
     InputChannelDoc, LogChannelDoc, LogPredictedChannelDoc, LogSelectionStepDoc, LogTestDoc,
-    ThermalLogFitDoc, ThermalLogPredictDoc, PredictedHeightDoc, SpeedModelDoc, ThermalCompensateDoc, ThermalFitDoc,
-    ThermalHeightDoc, ThermalPredictDoc, ThermalSimulateDoc,
+    PredictedHeightDoc, SpeedModelDoc, ThermalCompensateDoc, ThermalFitDoc, ThermalHeightDoc,
+    ThermalLogFitDoc, ThermalLogPredictDoc, ThermalPredictDoc, ThermalSimulateDoc,
 };
 pub use file::{model_from_toml_str, read_model};
 pub use model::{
@@ -49,13 +49,13 @@ pub use predict::{
     HeightReport, Prediction, Programme, SimulatedData, ThermalFit, ThermalFitOptions, fit,
     fit_csv, predict, read_programme, simulate,
 };
+pub use program::{
+    BallArray, ProbeMotion, ThermalProgram, ThermalProgramError, pass_seconds, thermal_program,
+};
 pub use run::{
     FitRun, FitRunOptions, LogFitProgress, LogFitRun, LogFitRunOptions, LogPredictRun,
     LogPredictRunOptions, PredictRun, PredictRunOptions, plot_file_name, run_fit, run_fit_log,
     run_predict, run_predict_log,
-};
-pub use program::{
-    BallArray, ProbeMotion, ThermalProgram, ThermalProgramError, pass_seconds, thermal_program,
 };
 pub use speed_model::{REQUIRED_GAIN, SpeedModel, SpeedModelChoice, choose_speed_model};
 pub use synthetic::TruthMachine;

@@ -308,7 +308,12 @@ pub fn run_fit_log(
 ) -> Result<LogFitRun, ThermalError> {
     options.validate()?;
     let table = Table::read(log)?;
-    let data = read_log(&table, &options.channels, &options.inputs, options.period_min)?;
+    let data = read_log(
+        &table,
+        &options.channels,
+        &options.inputs,
+        options.period_min,
+    )?;
     let n_train = options
         .train_until_min
         .map(|t| ((t / data.period_min).floor() as usize).min(data.len()));
