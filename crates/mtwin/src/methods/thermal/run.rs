@@ -519,3 +519,61 @@ pub fn run_predict_log(
     };
     Ok(LogPredictRun { columns, rows, doc })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn options() -> LogFitRunOptions {
+        let mut o = LogFitRunOptions::default();
+        o.channels = vec![ChannelSpec::parse("d_um:Z").unwrap()];
+        o.inputs = vec![
+            InputSpec::parse("speed_rpm").unwrap(),
+            InputSpec::parse("t1_c").unwrap(),
+        ];
+        o
+    }
+
+    #[test]
+    fn log_fit_options_are_checked_before_any_file_is_read() {
+        assert!(options().validate().is_ok());
+        let refused = |o: LogFitRunOptions, what: &str| {
+            let e = o.validate().unwrap_err().to_string();
+            assert!(e.contains(what), "{e}");
+            // The file is never opened: a missing one is not the error.
+            let e = run_fit_log(Path::new("/nonexistent/LOG.csv"), &o, &mut |_| {})
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(what), "{e}");
+        };
+        let mut o = options();
+        o.channels.clear();
+        refused(o, "drift channel");
+        let mut o = options();
+        o.inputs.clear();
+        refused(o, "input column");
+        let mut o = options();
+        o.inputs.push(InputSpec::parse("d_um").unwrap());
+        refused(o, "`d_um` is named twice");
+        let mut o = options();
+        o.period_min = 0.0;
+        refused(o, "period");
+        let mut o = options();
+        o.train_until_min = Some(f64::NAN);
+        refused(o, "training time");
+        let mut o = options();
+        o.fit.max_inputs = 0;
+        refused(o, "at least one input");
+    }
+
+    #[test]
+    fn predict_refuses_missing_or_non_finite_heights_before_reading() {
+        let mut o = PredictRunOptions::default();
+        let none = Path::new("/nonexistent/x.csv");
+        for heights in [vec![], vec![f64::NAN]] {
+            o.heights = heights;
+            let e = run_predict(none, none, &o).unwrap_err().to_string();
+            assert!(e.contains("height"), "{e}");
+        }
+    }
+}
