@@ -525,13 +525,14 @@ mod tests {
     use super::*;
 
     fn options() -> LogFitRunOptions {
-        let mut o = LogFitRunOptions::default();
-        o.channels = vec![ChannelSpec::parse("d_um:Z").unwrap()];
-        o.inputs = vec![
-            InputSpec::parse("speed_rpm").unwrap(),
-            InputSpec::parse("t1_c").unwrap(),
-        ];
-        o
+        LogFitRunOptions {
+            channels: vec![ChannelSpec::parse("d_um:Z").unwrap()],
+            inputs: vec![
+                InputSpec::parse("speed_rpm").unwrap(),
+                InputSpec::parse("t1_c").unwrap(),
+            ],
+            ..LogFitRunOptions::default()
+        }
     }
 
     #[test]
