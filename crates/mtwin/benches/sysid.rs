@@ -104,6 +104,50 @@ fn benches(c: &mut Criterion) {
     c.bench_function("thermal drift_history 10k samples x 4 heights", |b| {
         b.iter(|| model.drift_history(black_box(&prog)))
     });
+
+    // A wide log the size of the real record: 6 669 rows every 15 s, five
+    // channels, speed and sixteen temperatures, averaged to 1-min periods.
+    use mtwin::methods::thermal::log::{ChannelSpec, InputSpec, LogFitOptions, fit_log, read_log};
+    let mut text = String::from("t_s,speed_rpm");
+    for i in 1..=5 {
+        text.push_str(&format!(",ch{i}_um"));
+    }
+    for i in 1..=16 {
+        text.push_str(&format!(",t{i}_c"));
+    }
+    text.push('\n');
+    let (mut slow, mut fast) = (0.0f64, 0.0f64);
+    for k in 0..6669usize {
+        let speed = [0.0, 1000.0, 3000.0, 5000.0][(k / 240) % 4];
+        fast += (speed / 5000.0 - fast) / 80.0;
+        slow += (speed / 5000.0 - slow) / 1200.0;
+        text.push_str(&format!("{},{speed}", 15 * k));
+        for i in 1..=5 {
+            let w = i as f64;
+            text.push_str(&format!(
+                ",{}",
+                -w * fast - 3.0 * slow + 0.1 * ((k * i) % 7) as f64
+            ));
+        }
+        for i in 1..=16 {
+            let w = i as f64 / 16.0;
+            text.push_str(&format!(",{}", 25.0 + 4.0 * (w * fast + (1.0 - w) * slow)));
+        }
+        text.push('\n');
+    }
+    let table =
+        mtwin::io::Table::from_reader(std::path::Path::new("LOG.csv"), text.as_bytes()).unwrap();
+    let channels: Vec<ChannelSpec> = (1..=5)
+        .map(|i| ChannelSpec::parse(&format!("ch{i}_um:Z")).unwrap())
+        .collect();
+    let mut inputs = vec![InputSpec::parse("speed_rpm").unwrap()];
+    inputs.extend((1..=16).map(|i| InputSpec::parse(&format!("t{i}_c")).unwrap()));
+    c.bench_function("thermal fit_log 5 channels x 17 inputs x 6669 rows", |b| {
+        b.iter(|| {
+            let log = read_log(black_box(&table), &channels, &inputs, 1.0).unwrap();
+            fit_log(&log, &channels, &inputs, None, &LogFitOptions::default()).unwrap()
+        })
+    });
 }
 
 criterion_group!(sysid, benches);

@@ -8,26 +8,29 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use mtwin::methods::thermal::log::{ChannelSpec, InputSpec};
 use mtwin::methods::thermal::{
-    self, Programme, SpeedModel, ThermalFitOptions, ThermalModel, TrainingData, read_training,
+    self, FitRunOptions, LogFitRunOptions, LogPredictRunOptions, PredictRunOptions, SpeedModel,
+    ThermalFitOptions,
 };
-use mtwin::report::svg::{Series, xy};
 use serde_json::json;
 
 use super::common::DialectArg;
 use super::common::diag;
-use crate::output::{Format, note, print_json, warn};
+use crate::output::{Format, note, print_json, progress, warn};
 
 #[derive(Debug, clap::Subcommand)]
 pub enum Command {
-    /// Fit one ARX drift model per measured height from TRAIN.csv (orders by FPE).
+    /// Fit one ARX drift model per measured height from TRAIN.csv (orders by FPE), or one model
+    /// per drift channel of a wide machine log (--log; inputs and orders by held-out simulation error).
     #[command(
-        after_help = "Example:\n  mtwin thermal fit --data train.csv --max-order 3 --out thermal.toml --plot plots"
+        after_help = "Examples:\n  mtwin thermal fit --data train.csv --max-order 3 --out thermal.toml --plot plots\n  mtwin thermal fit --log log.csv --drift ch1_um:Z --inputs speed_rpm,t1_c,t2_c --train-until-min 1000 --out log-model.toml"
     )]
     Fit(FitArgs),
-    /// Predict the drift of a spindle-speed programme at given heights (from cold).
+    /// Predict the drift of a spindle-speed programme at given heights (from cold), or the drift
+    /// channels of a wide log from its inputs (--log, a model of `thermal fit --log`).
     #[command(
-        after_help = "Example:\n  mtwin thermal predict --model thermal.toml --speed speed.csv --z -100,-300 --out drift.csv"
+        after_help = "Examples:\n  mtwin thermal predict --model thermal.toml --speed speed.csv --z -100,-300 --out drift.csv\n  mtwin thermal predict --model log-model.toml --log log.csv --out predicted.csv"
     )]
     Predict(PredictArgs),
     /// Simulate probing data (TRAIN.csv layout) of a model for a speed programme.
@@ -105,25 +108,48 @@ pub struct ProgramArgs {
 #[command(allow_negative_numbers = true)]
 pub struct FitArgs {
     /// Training data: `t_min,speed_rpm,z_mm,drift_mm` (optional `run` column), one row per time and height.
+    #[arg(long, required_unless_present = "log", conflicts_with = "log")]
+    data: Option<PathBuf>,
+    /// A wide machine log instead: a `t_s` or `t_min` column, the --drift channels and the --inputs
+    /// columns, one row per time stamp (models chosen by held-out simulation error; docs/thermal.md).
     #[arg(long)]
-    data: PathBuf,
-    /// Largest ARX order tried (na in 1..=N, nb in 0..=N).
-    #[arg(long, default_value_t = 4)]
-    max_order: usize,
+    log: Option<PathBuf>,
+    /// Drift channels of --log: COLUMN:AXIS or COLUMN:UNIT:AXIS (unit um or mm, axis X, Y or Z),
+    /// comma separated, e.g. `ch1_um:X,ch2_um:Z`.
+    #[arg(long, value_delimiter = ',', requires = "log")]
+    drift: Vec<String>,
+    /// Input columns of --log, comma separated (`COLUMN`, `COLUMN:rise` or `COLUMN:level`; a
+    /// column ending in `_c` is a temperature and enters as its rise since the start).
+    #[arg(long, value_delimiter = ',', requires = "log")]
+    inputs: Vec<String>,
+    /// Model period for --log: the log is averaged over periods of this length, min.
+    #[arg(long, default_value_t = 1.0, requires = "log")]
+    period_min: f64,
+    /// With --log: fit on the samples before this time (min from the log's start) and report how
+    /// the model predicts the rest from the start (mean absolute error, error/drift RMS).
+    #[arg(long, requires = "log")]
+    train_until_min: Option<f64>,
+    /// With --log: most inputs one channel's model may use (forward selection).
+    #[arg(long, default_value_t = 6, requires = "log")]
+    max_inputs: usize,
+    /// Largest ARX order tried: na in 1..=N, nb in 0..=N (default 4); with --log na and nb in
+    /// 0..=N (default 2).
+    #[arg(long)]
+    max_order: Option<usize>,
     /// How the spindle speed enters the model: `linear` (the model of [R4]), `quadratic` (speed and
     /// speed², for heat that grows faster than the speed), or `auto` (quadratic only if it predicts
     /// held-out runs better: each run predicted by the model of the others; needs two runs or more).
-    #[arg(long, default_value = "linear", value_parser = parse_speed_model)]
+    #[arg(long, default_value = "linear", value_parser = parse_speed_model, conflicts_with = "log")]
     speed_model: SpeedModel,
     /// Further input columns of the training data (temperatures, …) that enter the model beside
     /// the speed, comma separated; `thermal predict` then needs them in SPEED.csv too.
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', conflicts_with = "log")]
     extra_inputs: Vec<String>,
     /// Output model file (TOML).
     #[arg(long)]
     out: PathBuf,
     /// Also write one SVG plot per height (measured and modelled drift over time) into this folder.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "log")]
     plot: Option<PathBuf>,
     /// Output format of the summary.
     #[arg(long, value_enum, default_value_t)]
@@ -175,11 +201,23 @@ pub struct PredictArgs {
     #[arg(long)]
     model: PathBuf,
     /// Speed programme: `t_min,speed_rpm` on the model's sample grid.
+    #[arg(long, required_unless_present = "log", conflicts_with = "log")]
+    speed: Option<PathBuf>,
+    /// A wide log with the input columns of a model fitted with `thermal fit --log`: writes
+    /// `t_min` (period centres) and one predicted column per drift channel, in its unit.
     #[arg(long)]
-    speed: PathBuf,
-    #[command(flatten)]
-    heights: Heights,
-    /// Output CSV: `t_min,z_mm,drift_mm`, one row per time and height.
+    log: Option<PathBuf>,
+    /// Heights z (mm), comma separated, e.g. `--z -100,-300` (with --speed).
+    #[arg(
+        long = "z",
+        value_delimiter = ',',
+        allow_hyphen_values = true,
+        required_unless_present = "log",
+        conflicts_with = "log"
+    )]
+    z: Vec<String>,
+    /// Output CSV: `t_min,z_mm,drift_mm`, one row per time and height (with --log: `t_min` and
+    /// one column per drift channel).
     #[arg(long)]
     out: PathBuf,
     /// Output format of the summary.
@@ -287,77 +325,146 @@ fn parse_speed_model(s: &str) -> Result<SpeedModel, String> {
 }
 
 fn fit(a: FitArgs) -> anyhow::Result<()> {
-    let options = ThermalFitOptions {
-        max_order: a.max_order,
+    if let Some(log) = a.log.clone() {
+        return fit_log(&log, a);
+    }
+    let Some(data) = a.data.clone() else {
+        anyhow::bail!("give --data TRAIN.csv or --log LOG.csv");
+    };
+    let mut options = FitRunOptions::default();
+    options.fit = ThermalFitOptions {
+        max_order: a.max_order.unwrap_or(4),
         speed_model: a.speed_model,
         extra_inputs: a.extra_inputs.clone(),
         ..ThermalFitOptions::default()
     };
-    options.validate()?;
-    let data = read_training(&a.data, &options.extra_inputs).map_err(diag)?;
-    // The plot files are named after the heights of the data.
-    let plot_files: Vec<PathBuf> = a
+    options.plot = a.plot.is_some();
+    options.out = a.out.display().to_string();
+    options.fit.validate()?;
+    let run = thermal::run_fit(&data, &options)?;
+    let plots: Vec<(PathBuf, &String)> = a
         .plot
         .iter()
-        .flat_map(|dir| data.heights.iter().map(|h| plot_path(dir, h.z_mm)))
+        .flat_map(|dir| run.plots.iter().map(|(name, svg)| (dir.join(name), svg)))
         .collect();
+    let plot_files: Vec<PathBuf> = plots.iter().map(|(p, _)| p.clone()).collect();
     let mut out = mtwin::io::Outputs::plan()
-        .input(&a.data)
+        .input(&data)
         .output(&a.out)
         .folders(&a.plot)
         .outputs(&plot_files)
         .begin()?;
-    let fit = thermal::fit(&data, &options)?;
-    out.write(&a.out, fit.model.to_toml()?.as_bytes())
+    out.write(&a.out, run.model_toml.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
-    let mut plots = Vec::new();
-    if let Some(dir) = &a.plot {
-        plots = write_plots(&mut out, dir, &data, &fit.model)?;
+    for (path, svg) in &plots {
+        out.write(path, svg.as_bytes())
+            .with_context(|| format!("cannot write {}", path.display()))?;
     }
     out.commit()?;
-    for w in &fit.warnings {
+    for w in &run.doc.warnings {
         warn(w);
     }
-    let plots: Vec<String> = plots.iter().map(|p| p.display().to_string()).collect();
-    let doc = thermal::ThermalFitDoc::new(&fit, &a.out.display().to_string(), &plots);
+    let mut doc = run.doc;
+    doc.plots = plot_files.iter().map(|p| p.display().to_string()).collect();
     crate::output::print_doc(&doc, a.format)?;
     if a.format == Format::Human {
-        for p in &plots {
+        for p in &doc.plots {
             note(format!("plot written: {p}"));
         }
     }
     Ok(())
 }
 
-fn predict(a: PredictArgs) -> anyhow::Result<()> {
-    let heights = a.heights.parse()?;
+/// `thermal fit --log`: flags to [`LogFitRunOptions`], a progress bar over
+/// the forward selection steps of every channel.
+fn fit_log(log: &Path, a: FitArgs) -> anyhow::Result<()> {
+    if a.drift.is_empty() {
+        anyhow::bail!("--drift: give the drift channels, e.g. --drift ch1_um:X,ch2_um:Z");
+    }
+    if a.inputs.is_empty() {
+        anyhow::bail!("--inputs: give the input columns, e.g. --inputs speed_rpm,t1_c");
+    }
+    let mut options = LogFitRunOptions::default();
+    options.channels = a
+        .drift
+        .iter()
+        .map(|s| ChannelSpec::parse(s).map_err(|e| anyhow::anyhow!("--drift: {e}")))
+        .collect::<anyhow::Result<_>>()?;
+    options.inputs = a
+        .inputs
+        .iter()
+        .map(|s| InputSpec::parse(s).map_err(|e| anyhow::anyhow!("--inputs: {e}")))
+        .collect::<anyhow::Result<_>>()?;
+    options.period_min = a.period_min;
+    options.train_until_min = a.train_until_min;
+    options.fit.max_order = a.max_order.unwrap_or(options.fit.max_order);
+    options.fit.max_inputs = a.max_inputs;
+    options.out = a.out.display().to_string();
+    options.validate()?;
     let mut out = mtwin::io::Outputs::plan()
-        .input(&a.model)
-        .input(&a.speed)
+        .input(log)
         .output(&a.out)
         .begin()?;
-    let model = thermal::read_model(&a.model).map_err(diag)?;
-    let programme = thermal::read_programme(&a.speed, &model).map_err(diag)?;
-    let p = thermal::predict(&model, &programme, &heights);
-    // An unstable model diverges: never write inf or NaN with exit 0.
-    if let Some(r) = p.rows.iter().find(|r| r.iter().any(|v| !v.is_finite())) {
-        anyhow::bail!(
-            "{}: the predicted drift overflows at t = {} min, z = {} mm (the model is unstable or \
-             its coefficients too large); nothing written",
-            a.model.display(),
-            mtwin::limits::fmt_message_number(r[0]),
-            mtwin::limits::fmt_message_number(r[1])
-        );
-    }
-    out.write_with(&a.out, |w| p.write_csv_to(w))
+    let steps = (options.fit.max_inputs.min(options.inputs.len()) + 1) as u64;
+    let bar = progress(options.channels.len() as u64 * steps, "selecting");
+    let run = thermal::run_fit_log(log, &options, &mut |p| {
+        let c = p.channel as u64 * steps;
+        bar.set_position(match p.step {
+            Some(s) => c + s as u64,
+            None => c + steps,
+        });
+    });
+    bar.finish_and_clear();
+    let run = run?;
+    out.write(&a.out, run.model_toml.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     out.commit()?;
-    let warnings = p.warnings(&model);
-    for w in &warnings {
+    for n in &run.doc.notes {
+        note(n);
+    }
+    for w in &run.doc.warnings {
         warn(w);
     }
-    let doc = thermal::ThermalPredictDoc::new(&p, &heights, &a.out.display().to_string(), warnings);
-    crate::output::print_doc(&doc, a.format)
+    crate::output::print_doc(&run.doc, a.format)
+}
+
+fn predict(a: PredictArgs) -> anyhow::Result<()> {
+    if let Some(log) = &a.log {
+        let mut out = mtwin::io::Outputs::plan()
+            .input(&a.model)
+            .input(log)
+            .output(&a.out)
+            .begin()?;
+        let mut options = LogPredictRunOptions::default();
+        options.out = a.out.display().to_string();
+        let run = thermal::run_predict_log(&a.model, log, &options)?;
+        out.write_with(&a.out, |w| run.write_csv_to(w))
+            .with_context(|| format!("cannot write {}", a.out.display()))?;
+        out.commit()?;
+        for n in &run.doc.notes {
+            note(n);
+        }
+        return crate::output::print_doc(&run.doc, a.format);
+    }
+    let Some(speed) = a.speed.clone() else {
+        anyhow::bail!("give --speed SPEED.csv or --log LOG.csv");
+    };
+    let mut options = PredictRunOptions::default();
+    options.heights = parse_heights(&a.z)?;
+    options.out = a.out.display().to_string();
+    let mut out = mtwin::io::Outputs::plan()
+        .input(&a.model)
+        .input(&speed)
+        .output(&a.out)
+        .begin()?;
+    let run = thermal::run_predict(&a.model, &speed, &options)?;
+    out.write_with(&a.out, |w| run.prediction.write_csv_to(w))
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    out.commit()?;
+    for w in &run.doc.warnings {
+        warn(w);
+    }
+    crate::output::print_doc(&run.doc, a.format)
 }
 
 fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
@@ -389,68 +496,6 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
         &a.out.display().to_string(),
     );
     crate::output::print_doc(&doc, a.format)
-}
-
-/// One SVG per measured height: the measured drift (dots) and the model
-/// simulated from cold with the run's own speeds (line), every run after the
-/// previous one on the time axis. Returns the files written.
-fn write_plots(
-    out: &mut mtwin::io::Outputs,
-    dir: &Path,
-    data: &TrainingData,
-    model: &ThermalModel,
-) -> anyhow::Result<Vec<PathBuf>> {
-    let period = model.period_min();
-    let mut written = Vec::new();
-    for (hi, h) in data.heights.iter().enumerate() {
-        let mut measured = Vec::new();
-        let mut modelled = Vec::new();
-        let mut t0 = 0.0;
-        for s in &h.series {
-            let n = s.drift.len();
-            let samples: Vec<Vec<f64>> = (0..n)
-                .map(|k| s.inputs.iter().map(|u| u[k]).collect())
-                .collect();
-            let history = model.drift_history(&Programme::new(samples));
-            let mut line = Vec::with_capacity(n);
-            for (k, (&d, e)) in s.drift.iter().zip(&history).enumerate() {
-                let t = t0 + k as f64 * period;
-                measured.push((t, d * 1e3));
-                line.push((t, e[hi] * 1e3));
-            }
-            modelled.push(line);
-            t0 += n as f64 * period;
-        }
-        let title = format!("Thermal drift at z = {} mm", h.z_mm);
-        let mut series = vec![Series {
-            name: "measured".into(),
-            points: measured,
-            color: "#1f77b4".into(),
-            markers: true,
-        }];
-        let runs = modelled.len();
-        series.extend(modelled.into_iter().enumerate().map(|(r, points)| Series {
-            name: if runs == 1 {
-                "model (from cold)".into()
-            } else {
-                format!("model run {} (from cold)", r + 1)
-            },
-            points,
-            color: "#d62728".into(),
-            markers: false,
-        }));
-        let svg = xy(&title, "t (min)", "drift (µm)", &series);
-        let path = plot_path(dir, h.z_mm);
-        out.write(&path, svg.as_bytes())
-            .with_context(|| format!("cannot write {}", path.display()))?;
-        written.push(path);
-    }
-    Ok(written)
-}
-
-/// The plot file of one height.
-fn plot_path(dir: &Path, z_mm: f64) -> PathBuf {
-    dir.join(format!("drift_z{z_mm}.svg"))
 }
 
 #[cfg(test)]

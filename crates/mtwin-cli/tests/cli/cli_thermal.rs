@@ -868,3 +868,53 @@ fn extra_input_columns_enter_the_model_and_predict_needs_them() {
         "drift.csv",
     );
 }
+
+/// Fit (with plots) and predict: `--format json` is the library's document
+/// and the human output its text; the plots the document names are written.
+#[test]
+fn fit_and_predict_documents_round_trip_and_print_their_text() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    setup(p);
+    let (fit, _) = json_round_trip::<mtwin::methods::thermal::ThermalFitDoc>(
+        p,
+        &[
+            "thermal",
+            "fit",
+            "--data",
+            "train.csv",
+            "--max-order",
+            "2",
+            "--out",
+            "thermal.toml",
+            "--plot",
+            "plots",
+        ],
+    );
+    assert_eq!(fit.plots.len(), HEIGHTS.len());
+    for (plot, z) in fit.plots.iter().zip(HEIGHTS) {
+        assert_eq!(
+            Path::new(plot),
+            Path::new("plots").join(format!("drift_z{z}.svg"))
+        );
+        assert!(p.join(plot).exists(), "{plot}");
+    }
+    let (pred, _) = json_round_trip::<mtwin::methods::thermal::ThermalPredictDoc>(
+        p,
+        &[
+            "thermal",
+            "predict",
+            "--model",
+            "thermal.toml",
+            "--speed",
+            "speed.csv",
+            "--z",
+            "-300,-100",
+            "--out",
+            "drift.csv",
+        ],
+    );
+    let zs: Vec<f64> = pred.heights.iter().map(|h| h.z_mm).collect();
+    assert_eq!(zs, [-300.0, -100.0]);
+    assert_eq!(pred.samples, new_programme().len());
+}

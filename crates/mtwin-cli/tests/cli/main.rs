@@ -25,6 +25,7 @@ mod cli_skiving;
 mod cli_testpiece;
 mod cli_thermal;
 mod cli_thermal_compensate;
+mod cli_thermal_log;
 mod cli_tracker;
 mod cli_twin;
 mod docs;

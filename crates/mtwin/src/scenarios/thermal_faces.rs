@@ -10,6 +10,7 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use super::{Inner, Result, ScenarioError, since};
+use crate::gcode::{Dialect, ProgramEnd, ProgramWriter, WriteError};
 use crate::io::Table;
 use crate::methods::thermal::{
     self, Compensation, ThermalFitOptions, ThermalModel, TruthMachine, ZBlock,
@@ -131,33 +132,56 @@ pub struct ThermalFacesRun {
 }
 
 /// A face milled at [`FACE_Z`] (20 passes tagged `(face n)`).
-fn face(n: u32, out: &mut String) {
-    out.push_str(&format!("G0 X0 Y0\nG1 Z{FACE_Z} F500\n"));
+fn face(n: u32, w: &mut ProgramWriter) -> std::result::Result<(), WriteError> {
+    w.rapid(&[('X', 0.0), ('Y', 0.0)])?;
+    w.linear(&[('Z', FACE_Z)], Some(500.0))?;
     for i in 0..20 {
-        let x = if i % 2 == 0 { 200 } else { 0 };
-        out.push_str(&format!("G1 X{x} F2000 (face {n})\nG1 Y{}\n", (i + 1) * 5));
+        let x = if i % 2 == 0 { 200.0 } else { 0.0 };
+        w.block()
+            .g(1)
+            .axes(&[('X', x)])
+            .feed(2000.0)
+            .comment(&format!("face {n}"))
+            .write()?;
+        w.linear(&[('Y', f64::from((i + 1) * 5))], None)?;
     }
-    out.push_str("G0 Z5\n");
+    w.rapid(&[('Z', 5.0)])
 }
 
-/// The check of the source paper [R4] as a program: a face at 6000 rev/min,
-/// an hour of dwells at varying speed, the same face again.
-pub fn faces_program() -> String {
-    let mut program = String::from("%\nG21 G90 G94 G17\nG0 Z5\nS6000 M3\n");
-    face(1, &mut program);
-    for (rpm, seconds) in [
-        (3000, 600),
-        (8000, 900),
-        (5000, 600),
-        (7000, 900),
-        (2000, 600),
-    ] {
-        program.push_str(&format!("S{rpm}\nG4 P{seconds}\n"));
+/// The speed changes of [`faces_program`] between the faces: rev/min and
+/// the dwell at each, s (an hour in all).
+pub const FACES_SPEED_STEPS: [(f64, f64); 5] = [
+    (3000.0, 600.0),
+    (8000.0, 900.0),
+    (5000.0, 600.0),
+    (7000.0, 900.0),
+    (2000.0, 600.0),
+];
+
+/// The check of the source paper [R4] as a program in `dialect` (through
+/// the one G-code writer, [`ProgramWriter`]): a face at 6000 rev/min, an
+/// hour of dwells at the speeds of [`FACES_SPEED_STEPS`], the same face
+/// again.
+///
+/// # Errors
+/// None for the dialects of [`Dialect`] (every value fits); the writer's
+/// error otherwise.
+pub fn faces_program(dialect: Dialect) -> std::result::Result<String, WriteError> {
+    let mut w = ProgramWriter::new(dialect);
+    w.start(None)?;
+    w.block().g(21).g(90).g(94).g(17).write()?;
+    w.rapid(&[('Z', 5.0)])?;
+    w.block().spindle_speed(6000.0).m(3).write()?;
+    face(1, &mut w)?;
+    for (rpm, seconds) in FACES_SPEED_STEPS {
+        w.block().spindle_speed(rpm).write()?;
+        w.dwell(seconds)?;
     }
-    program.push_str("S6000\n");
-    face(2, &mut program);
-    program.push_str("M5\nM30\n%\n");
-    program
+    w.block().spindle_speed(6000.0).write()?;
+    face(2, &mut w)?;
+    w.block().m(5).write()?;
+    w.end(ProgramEnd::M30)?;
+    Ok(w.finish())
 }
 
 /// Simulates the probing runs on `truth`, fits the thermal model, compensates
@@ -180,7 +204,7 @@ fn run_inner(opts: &Options) -> Inner<ThermalFacesRun> {
     let data = thermal::training_from_table(&table, &[])?;
     let fit = thermal::fit(&data, &ThermalFitOptions::default())?;
     let model = fit.model;
-    let program = faces_program();
+    let program = faces_program(Dialect::LinuxCnc)?;
     let comp = thermal::compensate(
         &model,
         program.as_bytes(),

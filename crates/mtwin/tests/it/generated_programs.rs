@@ -509,3 +509,51 @@ fn s_shape_programs_read_back_in_every_dialect() {
         }
     }
 }
+
+#[test]
+fn thermal_faces_program_reads_back_in_every_dialect() {
+    use mtwin::scenarios::thermal_faces::{FACE_Z, faces_program};
+    // By hand: up to Z5, then per face a rapid to X0 Y0, the plunge to the
+    // face height at F500, 20 passes along X (200 mm, F2000) each followed
+    // by a 5 mm step in Y, and the retract to Z5; between the faces an
+    // hour of dwells: 600, 900, 600, 900, 600 s.
+    let mut targets = vec![vec![(Axis::Z, 5.0)]];
+    let mut kinds = vec![(true, None)];
+    for _ in 0..2 {
+        targets.push(vec![(Axis::X, 0.0), (Axis::Y, 0.0)]);
+        kinds.push((true, None));
+        targets.push(vec![(Axis::Z, FACE_Z)]);
+        kinds.push((false, Some(500.0)));
+        for i in 0..20 {
+            targets.push(vec![(Axis::X, if i % 2 == 0 { 200.0 } else { 0.0 })]);
+            kinds.push((false, Some(2000.0)));
+            targets.push(vec![(Axis::Y, 5.0 * f64::from(i + 1))]);
+            kinds.push((false, Some(2000.0)));
+        }
+        targets.push(vec![(Axis::Z, 5.0)]);
+        kinds.push((true, None));
+    }
+    let want = ends(&targets);
+    for (dialect, readings) in dialects() {
+        let text = faces_program(dialect).unwrap();
+        for reading in readings {
+            let steps = read(&text, reading);
+            let got = moves(&steps);
+            assert_eq!(got.len(), want.len(), "{reading:?}");
+            for (k, ((to, rapid, feed), (w, (want_rapid, want_feed)))) in
+                got.iter().zip(want.iter().zip(&kinds)).enumerate()
+            {
+                assert_close(to, w, 1e-9, &format!("{reading:?} move {k}"));
+                assert_eq!(rapid, want_rapid, "{reading:?} move {k}");
+                if let Some(f) = want_feed {
+                    assert_eq!(*feed, Feed::PerMinute(*f), "{reading:?} move {k}");
+                }
+            }
+            assert_eq!(
+                dwells(&steps),
+                [600.0, 900.0, 600.0, 900.0, 600.0],
+                "{reading:?}"
+            );
+        }
+    }
+}

@@ -603,3 +603,216 @@ mod fit_predict_tests {
         assert_eq!(back, d);
     }
 }
+
+/// One step of a channel's input selection.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LogSelectionStepDoc {
+    /// The input added (`-name`: removed by the backward pass).
+    pub input: String,
+    /// Held-out simulation RMS after the step (mm).
+    pub heldout_rms_mm: f64,
+}
+
+/// The model chosen for one drift channel of a wide log.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LogChannelDoc {
+    /// The column.
+    pub column: String,
+    /// Unit of the column's values.
+    pub unit: super::log::LengthUnit,
+    /// The axis the channel displaces the tool along.
+    pub axis: super::log::Axis,
+    /// Denominator order.
+    pub na: usize,
+    /// Numerator order (one for every input of the channel; delay 1).
+    pub nb: usize,
+    /// The inputs the channel's model uses.
+    pub inputs: Vec<String>,
+    /// Held-out simulation RMS the structure was chosen by (mm).
+    pub heldout_rms_mm: f64,
+    /// RMS of the drift on the held-out block (mm).
+    pub heldout_drift_rms_mm: f64,
+    /// Simulation RMS of the final model over the training samples (mm).
+    pub training_rms_mm: f64,
+    /// Output-error refinement replaced the least-squares estimate.
+    pub output_error: bool,
+    /// The selection path.
+    pub selection: Vec<LogSelectionStepDoc>,
+}
+
+/// The prediction of the log after the training time, from the log's start
+/// with the inputs alone.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LogTestDoc {
+    /// Start of the test span (min since the log's start).
+    pub from_min: f64,
+    /// Samples (periods) of the test span.
+    pub samples: usize,
+    /// Per channel: MAE (channel unit) and error/drift RMS.
+    pub channels: Vec<super::log::ChannelScore>,
+}
+
+/// `mtwin thermal fit --log`: the models chosen per drift channel.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ThermalLogFitDoc {
+    /// The model file written.
+    pub out: String,
+    /// Sample period (min).
+    pub period_min: f64,
+    /// Samples (periods) of the log.
+    pub samples: usize,
+    /// Samples used for training.
+    pub training_samples: usize,
+    /// Training samples, at their end, held out to choose the structures by.
+    pub heldout_samples: usize,
+    /// Every candidate input with its scale.
+    pub inputs: Vec<super::log::LogInput>,
+    /// One model per drift channel.
+    pub channels: Vec<LogChannelDoc>,
+    /// The test span's scores, when the fit stopped before the log's end.
+    pub test: Option<LogTestDoc>,
+    /// Notes from reading and fitting.
+    pub notes: Vec<String>,
+    /// Reservations (a held-out error large compared with the drift, …).
+    pub warnings: Vec<String>,
+}
+
+fn axis_name(a: super::log::Axis) -> &'static str {
+    match a {
+        super::log::Axis::X => "X",
+        super::log::Axis::Y => "Y",
+        super::log::Axis::Z => "Z",
+    }
+}
+
+fn unit_name(u: super::log::LengthUnit) -> &'static str {
+    match u {
+        super::log::LengthUnit::Mm => "mm",
+        super::log::LengthUnit::Um => "µm",
+    }
+}
+
+/// The summary, one line per channel (orders, held-out error in µm and as %
+/// of the held-out drift, training error, inputs), then the test scores.
+/// Notes and warnings go to stderr.
+impl std::fmt::Display for ThermalLogFitDoc {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "{} channel(s), {} samples of {} min ({} for training, the last {} of them held out to choose by) → {}",
+            self.channels.len(),
+            self.samples,
+            self.period_min,
+            self.training_samples,
+            self.heldout_samples,
+            self.out
+        )?;
+        writeln!(
+            f,
+            "{:<12} {:>4} {:>3} {:>3} {:>12} {:>8} {:>12} {:>3}  inputs",
+            "channel", "axis", "na", "nb", "held-out µm", "% drift", "training µm", "OE"
+        )?;
+        for c in &self.channels {
+            writeln!(
+                f,
+                "{:<12} {:>4} {:>3} {:>3} {:>12.3} {:>8.1} {:>12.3} {:>3}  {}",
+                c.column,
+                axis_name(c.axis),
+                c.na,
+                c.nb,
+                c.heldout_rms_mm * 1e3,
+                100.0 * c.heldout_rms_mm / c.heldout_drift_rms_mm.max(1e-300),
+                c.training_rms_mm * 1e3,
+                if c.output_error { "yes" } else { "no" },
+                c.inputs.join(",")
+            )?;
+        }
+        if let Some(t) = &self.test {
+            writeln!(
+                f,
+                "test from t = {} min ({} samples), predicted from the log's start with the inputs alone:",
+                t.from_min, t.samples
+            )?;
+            writeln!(
+                f,
+                "{:<12} {:>10} {:>16}",
+                "channel", "MAE", "error/drift RMS"
+            )?;
+            for (s, c) in t.channels.iter().zip(&self.channels) {
+                writeln!(
+                    f,
+                    "{:<12} {:>7.3} {:<2} {:>16.3}",
+                    s.column,
+                    s.mae,
+                    unit_name(c.unit),
+                    s.error_over_drift_rms
+                )?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One drift channel predicted from a log.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LogPredictedChannelDoc {
+    /// The column.
+    pub column: String,
+    /// Unit of the predicted values.
+    pub unit: super::log::LengthUnit,
+    /// The axis.
+    pub axis: super::log::Axis,
+    /// Largest |change since the first period| predicted (channel unit).
+    pub largest_abs_drift: f64,
+    /// Change at the last period (channel unit).
+    pub final_drift: f64,
+    /// Mean absolute error against the log's rows of this column, when the
+    /// log has it (channel unit).
+    pub mae: Option<f64>,
+}
+
+/// `mtwin thermal predict --log`: the drift channels predicted from a log's inputs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ThermalLogPredictDoc {
+    /// The CSV written.
+    pub out: String,
+    /// Sample period (min).
+    pub period_min: f64,
+    /// Samples (periods) predicted.
+    pub samples: usize,
+    /// One summary per channel of the model.
+    pub channels: Vec<LogPredictedChannelDoc>,
+    /// Notes from reading the log.
+    pub notes: Vec<String>,
+}
+
+/// One line of counts, then per channel its largest and final drift and
+/// the MAE when measured. Notes go to stderr.
+impl std::fmt::Display for ThermalLogPredictDoc {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "{} samples of {} min × {} channel(s), predicted from the log's start with the inputs alone → {}",
+            self.samples,
+            self.period_min,
+            self.channels.len(),
+            self.out
+        )?;
+        for c in &self.channels {
+            let u = unit_name(c.unit);
+            write!(
+                f,
+                "{} ({}): largest |drift| {:.3} {u}, final drift {:.3} {u}",
+                c.column,
+                axis_name(c.axis),
+                c.largest_abs_drift,
+                c.final_drift
+            )?;
+            match c.mae {
+                Some(m) => writeln!(f, ", MAE against the log {m:.3} {u}")?,
+                None => writeln!(f)?,
+            }
+        }
+        Ok(())
+    }
+}

@@ -792,17 +792,19 @@ pub fn fit_log(
     n_train: Option<usize>,
     options: &LogFitOptions,
 ) -> Result<LogFit, ThermalError> {
-    fit_log_with(log, channels, inputs, n_train, options, &mut || {})
+    fit_log_with(log, channels, inputs, n_train, options, &mut |_, _| {})
 }
 
-/// [`fit_log`], calling `channel_done` after each channel (for a progress bar).
+/// [`fit_log`], calling `progress(channel, Some(steps))` after each forward
+/// selection step of a channel and `progress(channel, None)` when the
+/// channel is finished (for a progress bar).
 pub fn fit_log_with(
     log: &LogData,
     channels: &[ChannelSpec],
     inputs: &[InputSpec],
     n_train: Option<usize>,
     options: &LogFitOptions,
-    channel_done: &mut dyn FnMut(),
+    progress: &mut dyn FnMut(usize, Option<usize>),
 ) -> Result<LogFit, ThermalError> {
     options.validate(channels.len(), inputs.len())?;
     let n_train = n_train.unwrap_or(log.len()).min(log.len());
@@ -836,7 +838,7 @@ pub fn fit_log_with(
     let mut models = Vec::new();
     let mut selection = Vec::new();
     let mut warnings = Vec::new();
-    for (spec, values) in channels.iter().zip(&log.channels) {
+    for (ci, (spec, values)) in channels.iter().zip(&log.channels).enumerate() {
         let base = values[0];
         let y: Vec<f64> = values.iter().map(|v| (v - base) * spec.unit.mm()).collect();
         let y_max = y[..n_train].iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -865,6 +867,7 @@ pub fn fit_log_with(
             path.push((model_inputs[j].column.clone(), cand.heldout_rms));
             remaining.retain(|&r| r != j);
             chosen = Some(cand);
+            progress(ci, Some(path.len()));
         }
         // Backward pass: an input whose removal costs less than `min_gain`
         // (an input picked early that a later one made redundant) goes.
@@ -955,7 +958,7 @@ pub fn fit_log_with(
             output_error,
         });
         selection.push(path);
-        channel_done();
+        progress(ci, None);
     }
     Ok(LogFit {
         model: LogModel {
@@ -972,7 +975,7 @@ pub fn fit_log_with(
 }
 
 /// How well a model predicts a test span of a log it was not fitted on.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ChannelScore {
     /// Channel column.
     pub column: String,

@@ -27,6 +27,7 @@ pub mod log;
 mod model;
 mod predict;
 mod program;
+pub mod run;
 mod speed_model;
 mod synthetic;
 
@@ -36,8 +37,9 @@ pub use compensate::{
 };
 pub use data::{TrainingData, read_training, training_from_table};
 pub use doc::{
-    InputChannelDoc, PredictedHeightDoc, SpeedModelDoc, ThermalCompensateDoc, ThermalFitDoc,
-    ThermalHeightDoc, ThermalPredictDoc, ThermalSimulateDoc,
+    InputChannelDoc, LogChannelDoc, LogPredictedChannelDoc, LogSelectionStepDoc, LogTestDoc,
+    PredictedHeightDoc, SpeedModelDoc, ThermalCompensateDoc, ThermalFitDoc, ThermalHeightDoc,
+    ThermalLogFitDoc, ThermalLogPredictDoc, ThermalPredictDoc, ThermalSimulateDoc,
 };
 pub use file::{model_from_toml_str, read_model};
 pub use model::{
@@ -49,6 +51,11 @@ pub use predict::{
 };
 pub use program::{
     BallArray, ProbeMotion, ThermalProgram, ThermalProgramError, pass_seconds, thermal_program,
+};
+pub use run::{
+    FitRun, FitRunOptions, LogFitProgress, LogFitRun, LogFitRunOptions, LogPredictRun,
+    LogPredictRunOptions, PredictRun, PredictRunOptions, plot_file_name, run_fit, run_fit_log,
+    run_predict, run_predict_log,
 };
 pub use speed_model::{REQUIRED_GAIN, SpeedModel, SpeedModelChoice, choose_speed_model};
 pub use synthetic::TruthMachine;
@@ -77,6 +84,10 @@ pub enum ThermalError {
     /// An option outside its domain or beyond a bound of [`crate::limits`].
     #[error("{0}")]
     Options(String),
+    /// A prediction overflowed (an unstable model, or coefficients too
+    /// large): nothing is to be written. The text names the model file.
+    #[error("{0}")]
+    Diverged(String),
     /// `auto` could not compare the speed models.
     #[error("cannot choose the speed model: {0}")]
     SpeedModel(String),

@@ -1,0 +1,315 @@
+//! `mtwin thermal fit --log` and `thermal predict --log` end to end: a wide
+//! log of a known machine (two first-order drifts, one driven by the spindle
+//! speed along Z in µm, one by a temperature rise along X in mm, beside a
+//! temperature that does not act) → fit → predict a new log from its inputs
+//! alone → compared with the machine's exact drift; the documents through
+//! JSON; bad input.
+
+use crate::common::*;
+
+use std::path::Path;
+
+/// Poles of the two drifts per 1-min sample.
+const P_SPEED: f64 = 0.95;
+const P_TEMP: f64 = 0.9;
+/// Static gains: µm per rev/min, mm per K of rise.
+const G_SPEED: f64 = -0.004;
+const G_TEMP: f64 = 0.002;
+
+/// Inputs of the known machine for `n` minutes: speed held for 40 min at a
+/// level of `levels`, a temperature rising towards +3 K with a 100-min time
+/// constant (scaled by `warm`), a distractor temperature.
+fn inputs(n: usize, levels: &[f64], warm: f64) -> Vec<[f64; 3]> {
+    (0..n)
+        .map(|k| {
+            let kf = k as f64;
+            [
+                levels[(k / 40) % levels.len()],
+                20.0 + warm * 3.0 * (1.0 - (-kf / 100.0).exp()) + 0.2 * (kf / 23.0).sin(),
+                22.0 + 0.5 * (kf / 37.0).sin(),
+            ]
+        })
+        .collect()
+}
+
+/// The exact drift of the machine (ARX with `nk = 1`: the input of minute
+/// `k` acts from minute `k + 1`), from rest: `(speed drift µm, temperature
+/// drift mm)` per minute.
+fn truth(u: &[[f64; 3]]) -> Vec<(f64, f64)> {
+    let (mut a, mut b) = (0.0, 0.0);
+    let t0 = u[0][1];
+    u.iter()
+        .map(|r| {
+            let now = (a, b);
+            a = P_SPEED * a + (1.0 - P_SPEED) * G_SPEED * r[0];
+            b = P_TEMP * b + (1.0 - P_TEMP) * G_TEMP * (r[1] - t0);
+            now
+        })
+        .collect()
+}
+
+/// A log with one row per minute (`t_min`), with or without the drift columns.
+fn log_csv(u: &[[f64; 3]], drift: Option<&[(f64, f64)]>) -> String {
+    let mut s = String::from("t_min,speed_rpm,t1_c,t2_c");
+    if drift.is_some() {
+        s.push_str(",grow_um,shift_mm");
+    }
+    s.push('\n');
+    for (k, r) in u.iter().enumerate() {
+        s.push_str(&format!("{k},{},{},{}", r[0], r[1], r[2]));
+        if let Some(d) = drift {
+            s.push_str(&format!(",{},{}", d[k].0, d[k].1));
+        }
+        s.push('\n');
+    }
+    s
+}
+
+const FIT: [&str; 12] = [
+    "thermal",
+    "fit",
+    "--log",
+    "log.csv",
+    "--drift",
+    "grow_um:Z,shift_mm:X",
+    "--inputs",
+    "speed_rpm,t1_c,t2_c",
+    "--train-until-min",
+    "480",
+    "--out",
+    "log-model.toml",
+];
+
+fn setup(dir: &Path) -> Vec<[f64; 3]> {
+    let u = inputs(600, &[0.0, 2000.0, 5000.0, 3500.0, 1000.0], 1.0);
+    let d = truth(&u);
+    std::fs::write(dir.join("log.csv"), log_csv(&u, Some(&d))).unwrap();
+    u
+}
+
+/// `t_min` and the other columns of a CSV written by the tool.
+fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    (header, rows)
+}
+
+#[test]
+fn fit_log_then_predict_log_recovers_the_machine_on_a_new_log() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    setup(p);
+    let (doc, v) = json_round_trip::<mtwin::methods::thermal::ThermalLogFitDoc>(p, &FIT);
+    assert_eq!(v["out"], "log-model.toml");
+    assert_eq!((doc.samples, doc.training_samples), (600, 480));
+    // A third of the training samples held out to choose by.
+    assert_eq!(doc.heldout_samples, 160);
+    let names: Vec<&str> = doc.channels.iter().map(|c| c.column.as_str()).collect();
+    assert_eq!(names, ["grow_um", "shift_mm"]);
+    // Each channel picks its own input first, and its model reproduces the
+    // noise-free drift.
+    assert_eq!(doc.channels[0].selection[0].input, "speed_rpm");
+    assert_eq!(doc.channels[1].selection[0].input, "t1_c");
+    for c in &doc.channels {
+        assert!(c.heldout_rms_mm < 1e-7, "{c:?}");
+    }
+    // The test span: the last 120 minutes, predicted from the start.
+    let t = doc.test.as_ref().unwrap();
+    assert_eq!((t.from_min, t.samples), (480.0, 120));
+    assert!(
+        t.channels.iter().all(|s| s.error_over_drift_rms < 1e-4),
+        "{t:?}"
+    );
+    assert!(doc.warnings.is_empty(), "{:?}", doc.warnings);
+
+    // A new log, other speeds and a cooler machine, without the drift
+    // columns: predicted from 0 with the inputs alone.
+    let u = inputs(300, &[4500.0, 0.0, 3000.0], 0.5);
+    let d = truth(&u);
+    std::fs::write(p.join("new.csv"), log_csv(&u, None)).unwrap();
+    let args = [
+        "thermal",
+        "predict",
+        "--model",
+        "log-model.toml",
+        "--log",
+        "new.csv",
+        "--out",
+        "pred.csv",
+    ];
+    let (pd, _) = json_round_trip::<mtwin::methods::thermal::ThermalLogPredictDoc>(p, &args);
+    assert_eq!(pd.samples, 300);
+    assert!(pd.channels.iter().all(|c| c.mae.is_none()));
+    let (header, rows) = read_csv(&p.join("pred.csv"));
+    assert_eq!(header, ["t_min", "grow_um", "shift_mm"]);
+    assert_eq!(rows.len(), 300);
+    let (mut largest_a, mut largest_b) = (0.0f64, 0.0f64);
+    for (k, r) in rows.iter().enumerate() {
+        // Period centres; µm for the first channel, mm for the second.
+        assert!((r[0] - (k as f64 + 0.5)).abs() < 1e-12);
+        assert!(
+            (r[1] - d[k].0).abs() < 1e-3,
+            "minute {k}: {} vs {}",
+            r[1],
+            d[k].0
+        );
+        assert!(
+            (r[2] - d[k].1).abs() < 1e-6,
+            "minute {k}: {} vs {}",
+            r[2],
+            d[k].1
+        );
+        largest_a = largest_a.max(d[k].0.abs());
+        largest_b = largest_b.max(d[k].1.abs());
+    }
+    assert!((pd.channels[0].largest_abs_drift - largest_a).abs() < 1e-3);
+    assert!((pd.channels[1].largest_abs_drift - largest_b).abs() < 1e-6);
+}
+
+#[test]
+fn predict_log_scores_a_measured_column_against_its_rows() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    setup(p);
+    let o = mtwin(p, &FIT);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // The training log itself, its drift columns present: the prediction
+    // (exact on the grid) is placed at the period centres, so a row at the
+    // start of minute k is read halfway between samples k − 1 and k (the
+    // first row at sample 0): the MAE is the mean of |e_k − e_{k−1}| / 2.
+    let u = inputs(600, &[0.0, 2000.0, 5000.0, 3500.0, 1000.0], 1.0);
+    let d = truth(&u);
+    let half_steps = |f: &dyn Fn(&(f64, f64)) -> f64| {
+        d.windows(2)
+            .map(|w| (f(&w[1]) - f(&w[0])).abs() / 2.0)
+            .sum::<f64>()
+            / d.len() as f64
+    };
+    let o = mtwin(
+        p,
+        &[
+            "thermal",
+            "predict",
+            "--model",
+            "log-model.toml",
+            "--log",
+            "log.csv",
+            "--out",
+            "pred.csv",
+            "--format",
+            "json",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let doc: mtwin::methods::thermal::ThermalLogPredictDoc =
+        serde_json::from_str(&stdout(&o)).unwrap();
+    let want = [half_steps(&|e| e.0), half_steps(&|e| e.1)];
+    for (c, w) in doc.channels.iter().zip(want) {
+        let mae = c.mae.unwrap();
+        assert!(
+            (mae - w).abs() < 1e-6 * w.max(1e-9) + 1e-9,
+            "{}: {mae} vs {w}",
+            c.column
+        );
+    }
+}
+
+fn expect_failure(dir: &Path, args: &[&str], message: &str, out: &str) {
+    let o = mtwin(dir, args);
+    assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
+    assert!(
+        stderr(&o).contains(message),
+        "want `{message}` in:\n{}",
+        stderr(&o)
+    );
+    assert!(stdout(&o).is_empty(), "{}", stdout(&o));
+    assert!(!dir.join(out).exists(), "{out} must not be written");
+}
+
+#[test]
+fn bad_logs_and_options_name_the_place_exit_1_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    let u = setup(p);
+    let d = truth(&u);
+    let fit_args = |log: &'static str| -> Vec<&'static str> {
+        let mut a = FIT.to_vec();
+        a[3] = log;
+        a
+    };
+    // A cell that is not a number: line 12 (the header is line 1), column 2.
+    let mut bad = log_csv(&u, Some(&d));
+    let mut lines: Vec<String> = bad.lines().map(String::from).collect();
+    let mut cells: Vec<&str> = lines[11].split(',').collect();
+    cells[1] = "fast";
+    lines[11] = cells.join(",");
+    bad = lines.join("\n") + "\n";
+    std::fs::write(p.join("cell.csv"), &bad).unwrap();
+    expect_failure(p, &fit_args("cell.csv"), "cell.csv:12:2:", "log-model.toml");
+    // A gap of 5 minutes at 1-min periods (t = 96 … 99 left out): the
+    // error names the row after it, t = 100, now line 98.
+    let mut gap: Vec<String> = log_csv(&u, Some(&d)).lines().map(String::from).collect();
+    gap.drain(97..101);
+    std::fs::write(p.join("gap.csv"), gap.join("\n") + "\n").unwrap();
+    expect_failure(p, &fit_args("gap.csv"), "gap.csv:98:", "log-model.toml");
+    // A missing input column names the header line.
+    let no_t2 = log_csv(&u, Some(&d)).replace("t2_c", "t9_c");
+    std::fs::write(p.join("cols.csv"), no_t2).unwrap();
+    expect_failure(p, &fit_args("cols.csv"), "cols.csv:1", "log-model.toml");
+    // Options: a drift channel without an axis, a non-positive period.
+    let mut a = FIT.to_vec();
+    a[5] = "grow_um";
+    expect_failure(p, &a, "--drift", "log-model.toml");
+    let mut a = FIT.to_vec();
+    a.extend(["--period-min", "0"]);
+    expect_failure(p, &a, "period", "log-model.toml");
+    // --log with --data, or --plot, is refused by the argument parser (exit 2).
+    let mut a = FIT.to_vec();
+    a.extend(["--data", "train.csv"]);
+    assert_eq!(mtwin(p, &a).status.code(), Some(2));
+
+    // Predict: a model that is not one, a log without an input column.
+    std::fs::write(
+        p.join("bad-model.toml"),
+        "period_min = -1\ninputs = []\nchannels = []\n",
+    )
+    .unwrap();
+    expect_failure(
+        p,
+        &[
+            "thermal",
+            "predict",
+            "--model",
+            "bad-model.toml",
+            "--log",
+            "log.csv",
+            "--out",
+            "pred.csv",
+        ],
+        "bad-model.toml",
+        "pred.csv",
+    );
+    let o = mtwin(p, &FIT);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let no_speed = log_csv(&u, None).replace("speed_rpm", "spindle");
+    std::fs::write(p.join("nospeed.csv"), no_speed).unwrap();
+    expect_failure(
+        p,
+        &[
+            "thermal",
+            "predict",
+            "--model",
+            "log-model.toml",
+            "--log",
+            "nospeed.csv",
+            "--out",
+            "pred.csv",
+        ],
+        "nospeed.csv:1",
+        "pred.csv",
+    );
+}
