@@ -1159,6 +1159,166 @@ where
     ip.finish(&mut sink)
 }
 
+/// A chain of programmed moves between two stops, sampled densely in joint
+/// space: the input of a planner that times a whole chain at once (a
+/// jerk-limited one).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct DensePath {
+    /// Path parameter at each point: the cumulative path length along the
+    /// chain, each move counting its XYZ length (else UVW, else ABC, as the
+    /// feed does), mm (deg for rotary-only moves). Starts at 0, increasing.
+    pub s: Vec<f64>,
+    /// Axis positions at each point, machine axis order (mm, deg); under
+    /// TCP from the nominal inverse kinematics, the tip exactly on the
+    /// programmed path.
+    pub q: Vec<Vec<f64>>,
+    /// Highest path speed at each point, path units per s: the programmed
+    /// feed (× feed override; G93 and G95 as speeds), the machine's
+    /// `rapid_feed` for rapids and as the trajectory limit of non-rotary
+    /// moves. The point closes the move it ends; the first point takes the
+    /// first move's cap.
+    pub v_cap: Vec<f64>,
+    /// Source line of the move each point ends (the first: the first move's).
+    pub line: Vec<u64>,
+}
+
+/// Splits the program read from `input` into chains of moves between stops
+/// and hands each to `sink` as a [`DensePath`] with points at most `step`
+/// path units apart (every move end is a point). A chain ends at G61.1
+/// (exact stop: one move per chain), a dwell, a change of TCP or of work
+/// and tool offsets, a move that starts away from the last one's end (TCP
+/// switched on: the axis-space transition is not included), and the end of
+/// the program. Memory holds one chain.
+pub fn dense_paths<R, F>(
+    input: R,
+    machine: &Machine,
+    opts: &InterpolateOptions,
+    step: f64,
+    mut sink: F,
+) -> Result<(), InterpolateError>
+where
+    R: BufRead,
+    F: FnMut(&DensePath) -> Result<(), InterpolateError>,
+{
+    if !(step > 0.0 && step.is_finite()) {
+        return Err(InterpolateError::Plan(format!(
+            "the dense path step must be a positive length, not {step}"
+        )));
+    }
+    let mut ip = Interpolator::new(machine, opts)?;
+    let iopts = ip.options().interp.clone();
+    let force = ip.opts.force_tcp;
+    let mut interp = Interpreter::new(iopts.clone());
+    let mut chain = DensePath::default();
+    let mut key: Option<(bool, Axes)> = None;
+    let mut mode = PathMode::DEFAULT;
+    let mut flush = |chain: &mut DensePath| -> Result<(), InterpolateError> {
+        if chain.s.len() > 1 {
+            sink(chain)?;
+        }
+        *chain = DensePath::default();
+        Ok(())
+    };
+    run_program(
+        input,
+        &mut interp,
+        &iopts.program,
+        iopts.dialect,
+        |st: &Step<'_>| -> Result<(), InterpolateError> {
+            for e in st.events {
+                ip.line = e.at.line;
+                let (geom, offset, feed, tcp, d) = match &e.kind {
+                    EventKind::Traverse(m) | EventKind::Feed(m) => (
+                        Geom::Line {
+                            from: m.from,
+                            to: m.to,
+                        },
+                        m.offset,
+                        m.feed,
+                        m.tcp || force,
+                        m.to.sub(&m.from),
+                    ),
+                    EventKind::Arc(a) => (
+                        Geom::Arc {
+                            arc: *a,
+                            g: arc::geometry(a),
+                        },
+                        a.offset,
+                        a.feed,
+                        a.tcp || force,
+                        a.to.sub(&a.from),
+                    ),
+                    EventKind::PathControl(m) => {
+                        mode = *m;
+                        continue;
+                    }
+                    EventKind::Dwell { .. } | EventKind::ProgramEnd | EventKind::Tcp(_) => {
+                        flush(&mut chain)?;
+                        key = None;
+                        continue;
+                    }
+                    _ => continue,
+                };
+                let ml = linuxcnc::straight(&d, &ip.world);
+                let len = match geom {
+                    Geom::Arc { g, .. } => g.xyz_length(),
+                    Geom::Line { .. } => ml.len,
+                };
+                if !(len > 0.0) {
+                    continue;
+                }
+                let path = Path::Work {
+                    geom: Box::new(geom),
+                    offset,
+                    tcp,
+                };
+                let mut q = ip.q.clone();
+                ip.eval(&path, 0.0, &mut q)?;
+                let gap = q
+                    .iter()
+                    .zip(&ip.q)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max);
+                if key != Some((tcp, offset)) || gap > SAME_POSITION || mode == PathMode::ExactStop
+                {
+                    flush(&mut chain)?;
+                }
+                key = Some((tcp, offset));
+                let xyz = match geom {
+                    Geom::Arc { g, .. } => g.xyz_length(),
+                    Geom::Line { .. } => d.xyz_norm(),
+                };
+                let mut v = match feed {
+                    Feed::Rapid => ip.world.v_traj,
+                    _ => len / ip.feed_seconds(feed, xyz, &d)? * ip.opts.plan.feed_override,
+                };
+                if !ml.pure_rotary {
+                    v = v.min(ip.world.v_traj);
+                }
+                if chain.s.is_empty() {
+                    chain.s.push(0.0);
+                    chain.q.push(q.clone());
+                    chain.v_cap.push(v);
+                    chain.line.push(ip.line);
+                }
+                let n = (len / step).ceil().max(1.0) as usize;
+                let s0 = *chain.s.last().unwrap_or(&0.0);
+                for j in 1..=n {
+                    let u = j as f64 / n as f64;
+                    ip.eval(&path, u, &mut q)?;
+                    chain.s.push(s0 + len * u);
+                    chain.q.push(q.clone());
+                    chain.v_cap.push(v);
+                    chain.line.push(ip.line);
+                }
+                ip.q.copy_from_slice(&q);
+            }
+            Ok(())
+        },
+    )?;
+    flush(&mut chain)
+}
+
 #[cfg(test)]
 mod tests {
     use std::path::{Path as FsPath, PathBuf};
@@ -1423,6 +1583,32 @@ mod tests {
             .map(|x| kin.pose(&x.1).tip.z)
             .fold(f64::INFINITY, f64::min);
         assert!(lowest > end.z.min(150.0) - 1.0, "dived to z = {lowest}");
+    }
+
+    #[test]
+    fn dense_paths_split_at_stops_and_follow_the_path() {
+        let m = xyz(Some(20.0), Some(300.0));
+        let opts = InterpolateOptions::new(0.001);
+        let prog = "G1 X10 F600\nX10 Y5\nG4 P1\nG61.1\nG1 X0 Y0\nX-1\n";
+        let mut chains = Vec::new();
+        dense_paths(prog.as_bytes(), &m, &opts, 1.0, |c| {
+            chains.push(c.clone());
+            Ok(())
+        })
+        .unwrap();
+        // The dwell ends the first chain; G61.1 makes one chain per move.
+        assert_eq!(chains.len(), 3);
+        let c = &chains[0];
+        // 10 mm then 5 mm in 1 mm steps: 16 points, s up to 15, caps 10 mm/s.
+        assert_eq!(c.s.len(), 16);
+        assert!((c.s[15] - 15.0).abs() < 1e-12);
+        assert_eq!(c.q[15], vec![10.0, 5.0, 0.0]);
+        assert_eq!(c.q[4], vec![4.0, 0.0, 0.0]);
+        assert!(c.v_cap.iter().all(|&v| (v - 10.0).abs() < 1e-12));
+        assert_eq!(c.line[15], 2);
+        // X10 Y5 -> X0 Y0: √125 mm, 12 points.
+        assert!((chains[1].s.last().unwrap() - 125f64.sqrt()).abs() < 1e-12);
+        assert_eq!(chains[1].s.len(), 13);
     }
 
     fn corpus(name: &str) -> Option<PathBuf> {
