@@ -16,6 +16,7 @@ mod cli_dialects;
 mod cli_export;
 mod cli_gcode;
 mod cli_model;
+mod cli_planner;
 mod cli_positioning;
 mod cli_predict;
 mod cli_report;

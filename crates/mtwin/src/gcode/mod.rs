@@ -95,7 +95,7 @@ pub use event::{
 pub use interp::{InterpOptions, Interpreter, ModalState, MotionMode, RetractMode, UnknownMCode};
 pub use interpolate::{
     DensePath, InterpolateError, InterpolateOptions, InterpolationSummary, Interpolator, Sample,
-    dense_paths, interpolate, planned_duration,
+    dense_paths, interpolate, jerk_limits, planned_duration,
 };
 pub use parameters::Parameters;
 pub use profile::Trapezoid;
