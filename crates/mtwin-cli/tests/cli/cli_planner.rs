@@ -20,7 +20,15 @@ fn jerk_planner_times_a_rotary_move_by_the_closed_form_in_stats_and_interpolate(
     let o = mtwin(
         dir.path(),
         &[
-            "gcode", "stats", "c.nc", "--machine", &m, "--planner", "jerk", "--format", "json",
+            "gcode",
+            "stats",
+            "c.nc",
+            "--machine",
+            &m,
+            "--planner",
+            "jerk",
+            "--format",
+            "json",
         ],
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
@@ -78,7 +86,15 @@ fn jerk_planner_refuses_a_machine_without_max_jerk_naming_file_axis_and_key() {
     }
     std::fs::write(dir.path().join("nojerk.toml"), out.join("\n")).unwrap();
     for args in [
-        &["gcode", "stats", "c.nc", "--machine", "nojerk.toml", "--planner", "jerk"][..],
+        &[
+            "gcode",
+            "stats",
+            "c.nc",
+            "--machine",
+            "nojerk.toml",
+            "--planner",
+            "jerk",
+        ][..],
         &[
             "gcode",
             "interpolate",

@@ -125,7 +125,11 @@ fn straight_move_through_gcode_is_the_7_phase_closed_form() {
     );
     for (t, q, _) in &s {
         let want = seven_phase(l, v, a, j, *t);
-        assert!((q[0] - want).abs() < 1e-6, "t = {t}: x = {}, closed form {want}", q[0]);
+        assert!(
+            (q[0] - want).abs() < 1e-6,
+            "t = {t}: x = {}, closed form {want}",
+            q[0]
+        );
         assert_eq!((q[1], q[2]), (0.0, 0.0));
     }
     assert_eq!(s.len() as u64, (best / TS).ceil() as u64 + 1);
@@ -134,7 +138,11 @@ fn straight_move_through_gcode_is_the_7_phase_closed_form() {
     let (s, sum) = run_jerk("G1 X60 Y-80 F6000\n", &m, 0.1).unwrap();
     let (vt, at, jt) = (v / 0.8, a / 0.8, j / 0.8);
     let best = l / vt + vt / at + at / jt;
-    assert!((sum.duration - best).abs() < 1e-9 * best, "{}", sum.duration);
+    assert!(
+        (sum.duration - best).abs() < 1e-9 * best,
+        "{}",
+        sum.duration
+    );
     for (t, q, _) in &s {
         let want = seven_phase(l, vt, at, jt, *t);
         assert!((q[0] - 0.6 * want).abs() < 1e-6 && (q[1] + 0.8 * want).abs() < 1e-6);
@@ -189,7 +197,10 @@ fn assert_rest(s: &Samples, m: &Machine) {
     for (i, ax) in m.axes.iter().enumerate() {
         let bound = ax.max_jerk.unwrap() * TS.powi(3) / 6.0 + 1e-9;
         assert!((s[1].1[i] - s[0].1[i]).abs() <= bound, "start not at rest");
-        assert!((s[n - 1].1[i] - s[n - 2].1[i]).abs() <= bound, "end not at rest");
+        assert!(
+            (s[n - 1].1[i] - s[n - 2].1[i]).abs() <= bound,
+            "end not at rest"
+        );
     }
 }
 
@@ -221,13 +232,7 @@ impl Seg {
                 };
                 (p - (a + d * t)).norm()
             }
-            Seg::Arc {
-                c,
-                r,
-                a0,
-                sweep,
-                z,
-            } => {
+            Seg::Arc { c, r, a0, sweep, z } => {
                 let n = ((sweep.abs() * 2000.0).ceil() as usize).max(2);
                 let at = |k: usize| {
                     let u = k as f64 / n as f64;
@@ -340,9 +345,10 @@ fn moves_strategy() -> impl Strategy<Value = Vec<(u8, [f64; 3], [f64; 2], f64, [
             120.0..6000.0f64,
             [-30.0..30.0f64, -90.0..90.0f64],
         )
-            .prop_filter("arc radius ≥ 1 mm and sweep ≥ 0.2 rad", |(k, to, ij, _, _)| {
-                *k != 2 || (ij[0].hypot(ij[1]) >= 1.0 && to[0].abs() >= 0.2)
-            })
+            .prop_filter(
+                "arc radius ≥ 1 mm and sweep ≥ 0.2 rad",
+                |(k, to, ij, _, _)| *k != 2 || (ij[0].hypot(ij[1]) >= 1.0 && to[0].abs() >= 0.2),
+            )
             .prop_map(|(k, mut to, ij, f, ac)| {
                 if k == 2 {
                     // An arc's first coordinate is its sweep: ±(0.2..π) rad.
@@ -370,7 +376,10 @@ fn check_program(prog: &str, segs: &[Seg], m: &Machine, tcp: bool, first_line: u
         } else {
             Vector3::new(q[0], q[1], q[2])
         };
-        let d = segs.iter().map(|g| g.dist(&tip)).fold(f64::INFINITY, f64::min);
+        let d = segs
+            .iter()
+            .map(|g| g.dist(&tip))
+            .fold(f64::INFINITY, f64::min);
         worst = worst.max(d);
     }
     assert!(worst <= PATH_TOL, "path off by {worst} mm\n{prog}");
@@ -417,7 +426,11 @@ fn g61_stops_at_corners_and_g61_1_at_every_block() {
     for mode in ["G61", "G61.1"] {
         let prog = format!("{mode}\nG1 X10 F6000\nY10\n");
         let (s, sum) = run_jerk(&prog, &m, 0.1).unwrap();
-        assert!((sum.duration - 2.0 * alone).abs() < 1e-9, "{mode}: {}", sum.duration);
+        assert!(
+            (sum.duration - 2.0 * alone).abs() < 1e-9,
+            "{mode}: {}",
+            sum.duration
+        );
         // The machine passes the corner at rest: the sample nearest to that
         // moment (within ts) is within j·ts³/6 of the corner.
         let near = s
