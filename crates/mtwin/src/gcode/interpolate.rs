@@ -1391,7 +1391,7 @@ impl<'m> Walker<'m> {
             Geom::Arc { g, .. } => g.xyz_length(),
             Geom::Line { .. } => ml.len,
         };
-        if !(len > 0.0) {
+        if len.is_nan() || len <= 0.0 {
             return Ok(());
         }
         let exact_path = self.mode == PathMode::ExactPath;
@@ -1656,7 +1656,7 @@ where
                     }
                 }
                 let len = if lin > 0.0 { lin.sqrt() } else { rot.sqrt() };
-                if !(len > 0.0) {
+                if len.is_nan() || len <= 0.0 {
                     return Ok(());
                 }
                 let v = self.machine.rapid_feed / 60.0;
