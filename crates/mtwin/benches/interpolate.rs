@@ -4,7 +4,8 @@
 //! consumed by a counter; and planning plus sampling the boat
 //! (`boat-xyzac.ngc`, M428 TCP) at 1 ms under `--planner linuxcnc` with
 //! xyzac-trt's limits, once and repeated 10 times (look-ahead cost linear in
-//! the program length: the ×10 run should take ten times as long).
+//! the program length: the ×10 run should take ten times as long), and the
+//! same under `--planner jerk` (jerk limits 3000 mm/s³ and deg/s³).
 //!
 //!     cargo bench -p mtwin --bench interpolate
 //!
@@ -52,20 +53,26 @@ fn bench(c: &mut Criterion) {
             let lin = a.kind == AxisKind::Linear;
             a.max_velocity = Some(if lin { 20.0 } else { 30.0 });
             a.max_acceleration = Some(300.0);
+            a.max_jerk = Some(3000.0);
         }
         m.rapid_feed = 35.0 * 60.0;
-        let mut opts = InterpolateOptions::new(0.001);
-        opts.plan = PlanOptions::new(Planner::Linuxcnc);
-        opts.check_travel = false;
         // Repeating the program body: M2 only at the end, M428 once.
         let body: String = text
             .lines()
             .filter(|l| !l.trim_start().starts_with('%') && !l.contains("M2") && !l.contains("M30"))
             .map(|l| format!("{l}\n"))
             .collect();
-        for reps in [1usize, 10] {
+        for (planner, reps) in [
+            (Planner::Linuxcnc, 1usize),
+            (Planner::Linuxcnc, 10),
+            (Planner::Jerk, 1),
+            (Planner::Jerk, 10),
+        ] {
+            let mut opts = InterpolateOptions::new(0.001);
+            opts.plan = PlanOptions::new(planner);
+            opts.check_travel = false;
             let prog = body.repeat(reps) + "M2\n";
-            g.bench_function(format!("boat_linuxcnc_1ms_x{reps}"), |b| {
+            g.bench_function(format!("boat_{planner}_1ms_x{reps}"), |b| {
                 b.iter(|| {
                     let mut n = 0u64;
                     let s = interpolate(prog.as_bytes(), &m, &opts, |s| {

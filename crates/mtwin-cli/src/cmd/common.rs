@@ -190,14 +190,19 @@ pub enum PlannerArg {
     ExactStop,
     /// LinuxCNC 2.9's planner: world-axis limits, look-ahead, G61/G61.1/G64 blending.
     Linuxcnc,
+    /// Jerk-limited: joint velocity, acceleration and jerk limits (`max_jerk`
+    /// on every axis of the machine file), also under TCP.
+    Jerk,
 }
 
 /// How a program's moves are planned, shared by the commands that time a
 /// program (`--planner`, `--feed-override`, `--derivative-margin`).
 #[derive(Debug, Clone, clap::Args)]
 pub struct PlanArgs {
-    /// Trajectory planner: `exact-stop` (stop at every block, joint limits) or
-    /// `linuxcnc` (LinuxCNC 2.9: world-axis limits, look-ahead, G64 blends).
+    /// Trajectory planner: `exact-stop` (stop at every block, joint limits),
+    /// `linuxcnc` (LinuxCNC 2.9: world-axis limits, look-ahead, G64 blends) or
+    /// `jerk` (jerk-limited through chains of moves: joint velocity,
+    /// acceleration and jerk limits, `max_jerk` needed on every axis).
     #[arg(long, value_enum, default_value_t)]
     pub planner: PlannerArg,
     /// Feed override, a fraction of the programmed feed (feed moves only).
@@ -215,9 +220,25 @@ impl PlanArgs {
         let mut o = mtwin::gcode::plan::PlanOptions::new(match self.planner {
             PlannerArg::ExactStop => mtwin::gcode::plan::Planner::ExactStop,
             PlannerArg::Linuxcnc => mtwin::gcode::plan::Planner::Linuxcnc,
+            PlannerArg::Jerk => mtwin::gcode::plan::Planner::Jerk,
         });
         o.feed_override = self.feed_override;
         o.derivative_margin = self.derivative_margin;
         o
+    }
+
+    /// Refuses a machine that lacks a limit the planner needs (`jerk`:
+    /// `max_acceleration` and `max_jerk` on every axis), naming the machine
+    /// file, the axis and the key.
+    pub fn check_machine(
+        &self,
+        path: &std::path::Path,
+        m: &mtwin::model::Machine,
+    ) -> anyhow::Result<()> {
+        if self.planner == PlannerArg::Jerk {
+            mtwin::gcode::jerk_limits(m)
+                .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.message()))?;
+        }
+        Ok(())
     }
 }

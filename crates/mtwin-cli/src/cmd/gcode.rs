@@ -17,12 +17,12 @@ use crate::output::{Format, TableWriter, warn};
 pub enum Command {
     /// Sample a program in time: axis commands at a fixed period (CMD.csv).
     #[command(
-        after_help = "Example:\n  mtwin gcode interpolate --machine examples/machines/ac-trunnion.toml part.nc --ts 0.001 --out cmd.csv --tcp\n  mtwin gcode interpolate --machine examples/machines/ac-trunnion.toml part.nc --planner linuxcnc --feed-override 0.8 --out cmd.csv"
+        after_help = "Example:\n  mtwin gcode interpolate --machine examples/machines/ac-trunnion.toml part.nc --ts 0.001 --out cmd.csv --tcp\n  mtwin gcode interpolate --machine examples/machines/ac-trunnion.toml part.nc --planner linuxcnc --feed-override 0.8 --out cmd.csv\n  mtwin gcode interpolate --machine examples/machines/ac-trunnion.toml part.nc --planner jerk --ts 0.001 --out cmd.csv"
     )]
     Interpolate(InterpolateArgs),
     /// Program statistics: blocks, path length, estimated time, axis ranges, travel checks.
     #[command(
-        after_help = "Example:\n  mtwin gcode stats part.nc --machine examples/machines/ac-trunnion.toml\n  mtwin gcode stats part.nc --machine examples/machines/ac-trunnion.toml --planner linuxcnc --format json"
+        after_help = "Example:\n  mtwin gcode stats part.nc --machine examples/machines/ac-trunnion.toml\n  mtwin gcode stats part.nc --machine examples/machines/ac-trunnion.toml --planner linuxcnc --format json\n  mtwin gcode stats part.nc --machine examples/machines/ac-trunnion.toml --planner jerk"
     )]
     Stats(StatsArgs),
 }
@@ -187,6 +187,7 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
         .output(&a.out)
         .begin()?;
     let m = load_machine(&a.machine)?;
+    a.plan.check_machine(&a.machine, &m)?;
     let mut opts = InterpolateOptions::new(a.ts);
     opts.interp = interp_options(&a.offsets, &a.dialect, &a.program)?;
     opts.force_tcp = a.tcp;
@@ -285,7 +286,8 @@ fn stats(a: StatsArgs) -> anyhow::Result<()> {
     };
     bar.finish_and_clear();
     let mut st = st.map_err(|e| located_error(&a.program, &e))?;
-    if let Some(m) = &machine {
+    if let (Some(m), Some(path)) = (&machine, &a.machine) {
+        a.plan.check_machine(path, m)?;
         st.planned_time = planned_time(&a, m, &opts.interp)?;
     }
     let doc = gcode::GcodeStatsDoc::new(

@@ -180,6 +180,7 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
             opts.interp.tcp_at_start = a.tcp;
             opts.check_travel = !a.no_travel_check;
             opts.plan = a.plan.options();
+            a.plan.check_machine(&a.machine, &machine)?;
             Some(opts)
         }
         None => None,

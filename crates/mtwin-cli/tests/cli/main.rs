@@ -17,6 +17,7 @@ mod cli_export;
 mod cli_gcode;
 mod cli_model;
 mod cli_parquet;
+mod cli_planner;
 mod cli_positioning;
 mod cli_predict;
 mod cli_report;

@@ -48,6 +48,7 @@ use super::axes::{Axes, Axis, AxisLetterError};
 use super::error::GcodeError;
 use super::event::{ArcMove, Event, EventKind, Feed, Linear, PathMode};
 use super::interp::{InterpOptions, Interpreter};
+use super::plan::jerk::{self, JointLimits, JointPath};
 use super::plan::linuxcnc;
 use super::plan::lookahead::{Limits, Lookahead, Planned};
 use super::plan::{PlanOptions, Planner};
@@ -177,6 +178,18 @@ pub enum InterpolateError {
     /// The planner settings are out of range.
     #[error("{0}")]
     Plan(String),
+    /// The planner needs a limit the machine file does not give.
+    #[error(
+        "axis `{axis}` has no `{key}` ({unit}), which the jerk planner needs on every axis: add it to the axis in the machine file"
+    )]
+    MissingLimit {
+        /// Axis name.
+        axis: String,
+        /// The machine-file key.
+        key: &'static str,
+        /// Its unit.
+        unit: String,
+    },
     /// The sample callback failed.
     #[error("writing samples failed: {0}")]
     Sink(#[source] io::Error),
@@ -408,6 +421,11 @@ impl<'m> Interpolator<'m> {
                     .into(),
             ));
         }
+        if p.planner == Planner::Jerk {
+            return Err(InterpolateError::Plan(
+                "the jerk planner plans whole chains of moves at once: use `interpolate` or `dense_paths`, not an `Interpolator`".into(),
+            ));
+        }
         let letters = Axis::of_machine(machine)?;
         let q: Vec<f64> = letters
             .iter()
@@ -570,22 +588,7 @@ impl<'m> Interpolator<'m> {
             Geom::Line { .. } => d.0.iter().all(|&x| x == 0.0),
             Geom::Arc { g, .. } => g.sweep == 0.0 && d.0.iter().all(|&x| x == 0.0),
         };
-        // Axes the program moves must exist.
-        for axis in Axis::ALL {
-            let moved = match geom {
-                Geom::Arc { arc, .. } => {
-                    let (p, q, _) = arc.plane.axes();
-                    d[axis] != 0.0 || axis == p || axis == q
-                }
-                Geom::Line { .. } => d[axis] != 0.0,
-            };
-            if moved && !still && !self.letters.contains(&axis) {
-                return Err(InterpolateError::MissingAxis {
-                    line: self.line,
-                    letter: char::from(axis.letter()),
-                });
-            }
-        }
+        self.check_axes(&geom, &d, still)?;
         let path = Path::Work {
             geom: Box::new(geom),
             offset,
@@ -725,6 +728,26 @@ impl<'m> Interpolator<'m> {
         self.check_travel(&end, 0.0)?;
         self.q.copy_from_slice(&end);
         self.summary.moves += 1;
+        Ok(())
+    }
+
+    /// Axes the program moves must exist on the machine.
+    fn check_axes(&self, geom: &Geom, d: &Axes, still: bool) -> Result<(), InterpolateError> {
+        for axis in Axis::ALL {
+            let moved = match geom {
+                Geom::Arc { arc, .. } => {
+                    let (p, q, _) = arc.plane.axes();
+                    d[axis] != 0.0 || axis == p || axis == q
+                }
+                Geom::Line { .. } => d[axis] != 0.0,
+            };
+            if moved && !still && !self.letters.contains(&axis) {
+                return Err(InterpolateError::MissingAxis {
+                    line: self.line,
+                    letter: char::from(axis.letter()),
+                });
+            }
+        }
         Ok(())
     }
 
@@ -1141,6 +1164,9 @@ where
     R: BufRead,
     F: FnMut(&Sample<'_>) -> io::Result<()>,
 {
+    if opts.plan.planner == Planner::Jerk {
+        return interpolate_jerk(input, machine, opts, sink);
+    }
     let mut ip = Interpolator::new(machine, opts)?;
     let iopts = ip.options().interp.clone();
     let mut interp = Interpreter::new(iopts.clone());
@@ -1157,6 +1183,567 @@ where
         },
     )?;
     ip.finish(&mut sink)
+}
+
+/// A chain of programmed moves between two stops, sampled densely in joint
+/// space: the input of a planner that times a whole chain at once (a
+/// jerk-limited one).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct DensePath {
+    /// Path parameter at each point: the cumulative path length along the
+    /// chain, each move counting its XYZ length (else UVW, else ABC, as the
+    /// feed does), mm (deg for rotary-only moves). Starts at 0, increasing.
+    pub s: Vec<f64>,
+    /// Axis positions at each point, machine axis order (mm, deg); under
+    /// TCP from the nominal inverse kinematics, the tip exactly on the
+    /// programmed path.
+    pub q: Vec<Vec<f64>>,
+    /// Highest path speed at each point, path units per s: the programmed
+    /// feed (× feed override; G93 and G95 as speeds), the machine's
+    /// `rapid_feed` for rapids and as the trajectory limit of non-rotary
+    /// moves. The point closes the move it ends; the first point takes the
+    /// first move's cap.
+    pub v_cap: Vec<f64>,
+    /// Source line of the move each point ends (the first: the first move's).
+    pub line: Vec<u64>,
+}
+
+/// One stretch of a program under the `jerk` planner: the machine is at rest
+/// before and after it.
+#[derive(Debug, Clone, Copy)]
+enum Stretch<'a> {
+    /// A chain of programmed moves.
+    Chain(&'a DensePath),
+    /// A straight axis-space move at the rapid rate (see the module
+    /// documentation on transitions).
+    Transition {
+        q0: &'a [f64],
+        q1: &'a [f64],
+        line: u64,
+    },
+    /// Standing still at `q` for `seconds` (a dwell).
+    Dwell {
+        q: &'a [f64],
+        seconds: f64,
+        line: u64,
+    },
+}
+
+/// Joint-space direction change (rad) above which G61 (exact path) stops
+/// between two moves under the `jerk` planner.
+const CORNER_ANGLE: f64 = 1.0f64.to_radians();
+/// Smallest dense-path step that `G64 P` may ask for.
+const MIN_JERK_STEP: f64 = 1e-3;
+
+/// Cuts a program into [`Stretch`]es for the `jerk` planner (see
+/// [`dense_paths`]).
+struct Walker<'m> {
+    ip: Interpolator<'m>,
+    chain: DensePath,
+    /// (TCP, offset) of the chain's moves.
+    key: Option<(bool, Axes)>,
+    mode: PathMode,
+    /// Joint-space direction at the end of the chain's last move.
+    end_dir: Vec<f64>,
+    step: f64,
+}
+
+impl<'m> Walker<'m> {
+    fn new(machine: &'m Machine, opts: &InterpolateOptions) -> Result<Self, InterpolateError> {
+        let step = opts.plan.jerk_step;
+        if !(step > 0.0 && step.is_finite()) {
+            return Err(InterpolateError::Plan(format!(
+                "the dense path step must be a positive length, not {step}"
+            )));
+        }
+        let mut o = opts.clone();
+        o.plan.planner = Planner::ExactStop;
+        let ip = Interpolator::new(machine, &o)?;
+        Ok(Walker {
+            ip,
+            chain: DensePath::default(),
+            key: None,
+            mode: PathMode::DEFAULT,
+            end_dir: Vec::new(),
+            step,
+        })
+    }
+
+    fn flush<F>(&mut self, sink: &mut F) -> Result<(), InterpolateError>
+    where
+        F: FnMut(Stretch<'_>) -> Result<(), InterpolateError>,
+    {
+        if self.chain.s.len() > 1 {
+            sink(Stretch::Chain(&self.chain))?;
+        }
+        self.chain = DensePath::default();
+        Ok(())
+    }
+
+    /// Unit joint-space direction of `path` at `u` (0 or 1), from a
+    /// one-sided difference; zero when the joints do not move there.
+    fn direction(&self, path: &Path, u: f64) -> Result<Vec<f64>, InterpolateError> {
+        let h = 1e-6;
+        let (a, b) = if u >= 1.0 { (1.0 - h, 1.0) } else { (0.0, h) };
+        let mut qa = self.ip.q.clone();
+        let mut qb = self.ip.q.clone();
+        self.ip.eval(path, a, &mut qa)?;
+        self.ip.eval(path, b, &mut qb)?;
+        let d: Vec<f64> = qb.iter().zip(&qa).map(|(x, y)| x - y).collect();
+        let n = d.iter().map(|x| x * x).sum::<f64>().sqrt();
+        Ok(if n > 0.0 {
+            d.iter().map(|x| x / n).collect()
+        } else {
+            d
+        })
+    }
+
+    fn event<F>(&mut self, e: &Event, sink: &mut F) -> Result<(), InterpolateError>
+    where
+        F: FnMut(Stretch<'_>) -> Result<(), InterpolateError>,
+    {
+        self.ip.line = e.at.line;
+        let force = self.ip.opts.force_tcp;
+        let (geom, offset, feed, tcp) = match &e.kind {
+            EventKind::Traverse(m) | EventKind::Feed(m) => (
+                Geom::Line {
+                    from: m.from,
+                    to: m.to,
+                },
+                m.offset,
+                m.feed,
+                m.tcp || force,
+            ),
+            EventKind::Arc(a) => (
+                Geom::Arc {
+                    arc: *a,
+                    g: arc::geometry(a),
+                },
+                a.offset,
+                a.feed,
+                a.tcp || force,
+            ),
+            EventKind::PathControl(m) => {
+                self.mode = *m;
+                return Ok(());
+            }
+            EventKind::Dwell { seconds } if *seconds > 0.0 => {
+                self.flush(sink)?;
+                self.key = None;
+                self.ip.summary.dwell_time += seconds;
+                return sink(Stretch::Dwell {
+                    q: &self.ip.q,
+                    seconds: *seconds,
+                    line: self.ip.line,
+                });
+            }
+            EventKind::ProgramEnd | EventKind::Tcp(_) => {
+                self.flush(sink)?;
+                self.key = None;
+                return Ok(());
+            }
+            _ => return Ok(()),
+        };
+        let (from, to) = match geom {
+            Geom::Line { from, to } => (from, to),
+            Geom::Arc { arc, .. } => (arc.from, arc.to),
+        };
+        let d = to.sub(&from);
+        let still = match geom {
+            Geom::Line { .. } => d.0.iter().all(|&x| x == 0.0),
+            Geom::Arc { g, .. } => g.sweep == 0.0 && d.0.iter().all(|&x| x == 0.0),
+        };
+        self.ip.check_axes(&geom, &d, still)?;
+        let path = Path::Work {
+            geom: Box::new(geom),
+            offset,
+            tcp,
+        };
+        let mut start = self.ip.q.clone();
+        self.ip.eval(&path, 0.0, &mut start)?;
+        let gap = start
+            .iter()
+            .zip(&self.ip.q)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        if gap > SAME_POSITION && tcp && matches!(feed, Feed::Rapid) && !still {
+            // As `exact-stop` does: the first rapid after TCP is switched on
+            // goes straight in axis space to its end.
+            self.flush(sink)?;
+            self.key = None;
+            let mut end = self.ip.q.clone();
+            self.ip.eval(&path, 1.0, &mut end)?;
+            self.transition(end, sink)?;
+            self.ip.summary.moves += 1;
+            return Ok(());
+        }
+        if gap > SAME_POSITION {
+            self.flush(sink)?;
+            self.key = None;
+            self.transition(start.clone(), sink)?;
+        }
+        self.ip.q.copy_from_slice(&start);
+        if still {
+            return Ok(());
+        }
+        let ml = linuxcnc::straight(&d, &self.ip.world);
+        let len = match geom {
+            Geom::Arc { g, .. } => g.xyz_length(),
+            Geom::Line { .. } => ml.len,
+        };
+        if len.is_nan() || len <= 0.0 {
+            return Ok(());
+        }
+        let exact_path = self.mode == PathMode::ExactPath;
+        let corner = exact_path
+            && !self.end_dir.is_empty()
+            && self
+                .direction(&path, 0.0)?
+                .iter()
+                .zip(&self.end_dir)
+                .map(|(a, b)| a * b)
+                .sum::<f64>()
+                < CORNER_ANGLE.cos();
+        if self.key != Some((tcp, offset)) || self.mode == PathMode::ExactStop || corner {
+            self.flush(sink)?;
+        }
+        self.key = Some((tcp, offset));
+        let xyz = match geom {
+            Geom::Arc { g, .. } => g.xyz_length(),
+            Geom::Line { .. } => d.xyz_norm(),
+        };
+        let mut v = match feed {
+            Feed::Rapid => self.ip.world.v_traj,
+            _ => len / self.ip.feed_seconds(feed, xyz, &d)? * self.ip.opts.plan.feed_override,
+        };
+        if !ml.pure_rotary {
+            v = v.min(self.ip.world.v_traj);
+        }
+        let step = match self.mode {
+            PathMode::Blend { p: Some(p), .. } if p > 0.0 => {
+                self.step.min(4.0 * p).max(MIN_JERK_STEP.min(self.step))
+            }
+            _ => self.step,
+        };
+        let ip = &mut self.ip;
+        let chain = &mut self.chain;
+        if chain.s.is_empty() {
+            chain.s.push(0.0);
+            chain.q.push(ip.q.clone());
+            chain.v_cap.push(v);
+            chain.line.push(ip.line);
+        }
+        // At most a step apart in path length and in every joint (mm, deg).
+        let mut q = ip.q.clone();
+        ip.eval(&path, 1.0, &mut q)?;
+        let spread = q
+            .iter()
+            .zip(&ip.q)
+            .map(|(a, b)| (a - b).abs())
+            .fold(len, f64::max);
+        let n = (spread / step).ceil().max(1.0) as usize;
+        let s0 = *chain.s.last().unwrap_or(&0.0);
+        q.copy_from_slice(&ip.q);
+        for j in 1..=n {
+            let u = j as f64 / n as f64;
+            ip.eval(&path, u, &mut q)?;
+            chain.s.push(s0 + len * u);
+            chain.q.push(q.clone());
+            chain.v_cap.push(v);
+            chain.line.push(ip.line);
+        }
+        ip.check_travel(&q, 0.0)?;
+        ip.q.copy_from_slice(&q);
+        ip.summary.moves += 1;
+        self.end_dir = if exact_path {
+            self.direction(&path, 1.0)?
+        } else {
+            Vec::new()
+        };
+        Ok(())
+    }
+
+    /// A transition from the current position to `end`, as its own stretch.
+    fn transition<F>(&mut self, end: Vec<f64>, sink: &mut F) -> Result<(), InterpolateError>
+    where
+        F: FnMut(Stretch<'_>) -> Result<(), InterpolateError>,
+    {
+        self.ip.check_travel(&end, 0.0)?;
+        sink(Stretch::Transition {
+            q0: &self.ip.q,
+            q1: &end,
+            line: self.ip.line,
+        })?;
+        self.ip.q.copy_from_slice(&end);
+        self.ip.summary.transitions += 1;
+        self.end_dir.clear();
+        Ok(())
+    }
+
+    /// Runs the program through the walker; returns the moves, transitions
+    /// and dwell time counted.
+    fn run<R, F>(mut self, input: R, mut sink: F) -> Result<InterpolationSummary, InterpolateError>
+    where
+        R: BufRead,
+        F: FnMut(Stretch<'_>) -> Result<(), InterpolateError>,
+    {
+        let iopts = self.ip.options().interp.clone();
+        let mut interp = Interpreter::new(iopts.clone());
+        run_program(
+            input,
+            &mut interp,
+            &iopts.program,
+            iopts.dialect,
+            |st: &Step<'_>| -> Result<(), InterpolateError> {
+                for e in st.events {
+                    self.event(e, &mut sink)?;
+                }
+                Ok(())
+            },
+        )?;
+        self.flush(&mut sink)?;
+        Ok(self.ip.summary)
+    }
+}
+
+/// Splits the program read from `input` into chains of moves between stops
+/// and hands each to `sink` as a [`DensePath`] with points at most
+/// `opts.plan.jerk_step` apart in path length and in every joint (mm, deg;
+/// every move end is a point; `G64 P` makes the step at most 4·P). A chain ends at every move under G61.1
+/// (exact stop), at a corner under G61 (a joint-space direction change of
+/// more than 1°), at a dwell, a change of TCP or of work and tool offsets, a
+/// move that starts away from the last one's end (TCP switched on: the
+/// axis-space transition between the two is not part of either chain), and
+/// at the end of the program. The points of a chain are the axis positions
+/// of the programmed path (under TCP from the nominal inverse kinematics).
+/// Memory holds one chain.
+pub fn dense_paths<R, F>(
+    input: R,
+    machine: &Machine,
+    opts: &InterpolateOptions,
+    mut sink: F,
+) -> Result<(), InterpolateError>
+where
+    R: BufRead,
+    F: FnMut(&DensePath) -> Result<(), InterpolateError>,
+{
+    Walker::new(machine, opts)?.run(input, |st| match st {
+        Stretch::Chain(c) => sink(c),
+        _ => Ok(()),
+    })?;
+    Ok(())
+}
+
+/// The joint limits of `machine` for the `jerk` planner: every axis needs
+/// `max_acceleration` and `max_jerk` (`max_velocity` may be absent: no
+/// limit). The error names the first axis and key missing.
+pub fn jerk_limits(machine: &Machine) -> Result<JointLimits, InterpolateError> {
+    let mut lim = JointLimits {
+        v: Vec::new(),
+        a: Vec::new(),
+        j: Vec::new(),
+    };
+    for axis in &machine.axes {
+        let unit = match axis.kind {
+            AxisKind::Linear => "mm",
+            AxisKind::Rotary => "deg",
+        };
+        for (key, value, power) in [
+            ("max_acceleration", axis.max_acceleration, "²"),
+            ("max_jerk", axis.max_jerk, "³"),
+        ] {
+            if value.is_none() {
+                return Err(InterpolateError::MissingLimit {
+                    axis: axis.name.clone(),
+                    key,
+                    unit: format!("{unit}/s{power}"),
+                });
+            }
+        }
+        lim.v.push(axis.max_velocity.unwrap_or(f64::INFINITY));
+        lim.a.push(axis.max_acceleration.unwrap_or(f64::INFINITY));
+        lim.j.push(axis.max_jerk.unwrap_or(f64::INFINITY));
+    }
+    Ok(lim)
+}
+
+/// Plans and samples the stretches of the `jerk` planner on one clock.
+struct JerkRun<'a, F> {
+    machine: &'a Machine,
+    limits: JointLimits,
+    opts: &'a InterpolateOptions,
+    /// Index of the next sample.
+    k: u64,
+    /// Start of the next stretch, s.
+    t0: f64,
+    q: Vec<f64>,
+    line: u64,
+    samples: u64,
+    sink: F,
+}
+
+impl<F> JerkRun<'_, F>
+where
+    F: FnMut(&Sample<'_>) -> io::Result<()>,
+{
+    /// Plans `path` and emits its samples before its end.
+    fn law(&mut self, path: &JointPath, lines: &[u64]) -> Result<(), InterpolateError> {
+        let law = jerk::plan(path, &self.limits, &self.opts.plan.jerk)
+            .map_err(|e| InterpolateError::Plan(format!("line {}: {e}", lines[0])))?;
+        let end = self.t0 + law.duration();
+        self.bound(end, *lines.last().unwrap_or(&0))?;
+        let mut cur = law.cursor();
+        let mut out = vec![0.0; path.joints()];
+        let s = path.s();
+        let mut idx = 0;
+        loop {
+            let t = self.k as f64 * self.opts.ts;
+            if t >= end {
+                break;
+            }
+            let sp = cur.at(t - self.t0, &mut out);
+            while idx + 1 < s.len() && s[idx] < sp {
+                idx += 1;
+            }
+            self.emit(t, &out, lines[idx])?;
+        }
+        self.t0 = end;
+        self.q.copy_from_slice(path.q(path.points() - 1));
+        self.line = *lines.last().unwrap_or(&self.line);
+        Ok(())
+    }
+
+    fn bound(&self, end: f64, line: u64) -> Result<(), InterpolateError> {
+        if end / self.opts.ts >= self.opts.max_samples as f64 {
+            return Err(InterpolateError::TooManySamples {
+                line,
+                t: end,
+                ts: self.opts.ts,
+                max: self.opts.max_samples,
+            });
+        }
+        Ok(())
+    }
+
+    fn emit(&mut self, t: f64, q: &[f64], line: u64) -> Result<(), InterpolateError> {
+        if self.opts.check_travel {
+            travel_error(self.machine, q, t, line)?;
+        }
+        (self.sink)(&Sample { t, q, line }).map_err(InterpolateError::Sink)?;
+        self.k += 1;
+        self.samples += 1;
+        Ok(())
+    }
+
+    fn stretch(&mut self, st: Stretch<'_>) -> Result<(), InterpolateError> {
+        match st {
+            Stretch::Chain(c) => {
+                let n = self.q.len();
+                let q: Vec<f64> = c.q.iter().flatten().copied().collect();
+                let path = JointPath::new(n, c.s.clone(), q, c.v_cap.clone())
+                    .map_err(|e| InterpolateError::Plan(format!("line {}: {e}", c.line[0])))?;
+                self.law(&path, &c.line)
+            }
+            Stretch::Transition { q0, q1, line } => {
+                // Path length as the rapid rate counts it: the linear axes,
+                // else the rotary ones.
+                let (mut lin, mut rot) = (0.0f64, 0.0f64);
+                for (i, (a, b)) in q0.iter().zip(q1).enumerate() {
+                    if self.machine.axes[i].kind == AxisKind::Linear {
+                        lin += (b - a).powi(2);
+                    } else {
+                        rot += (b - a).powi(2);
+                    }
+                }
+                let len = if lin > 0.0 { lin.sqrt() } else { rot.sqrt() };
+                if len.is_nan() || len <= 0.0 {
+                    return Ok(());
+                }
+                let v = self.machine.rapid_feed / 60.0;
+                let q: Vec<f64> = q0.iter().chain(q1).copied().collect();
+                let path = JointPath::new(q0.len(), vec![0.0, len], q, vec![v, v])
+                    .map_err(|e| InterpolateError::Plan(format!("line {line}: {e}")))?;
+                self.law(&path, &[line, line])
+            }
+            Stretch::Dwell { q, seconds, line } => {
+                let end = self.t0 + seconds;
+                self.bound(end, line)?;
+                self.q.copy_from_slice(q);
+                loop {
+                    let t = self.k as f64 * self.opts.ts;
+                    if t >= end {
+                        break;
+                    }
+                    let q = self.q.clone();
+                    self.emit(t, &q, line)?;
+                }
+                self.t0 = end;
+                self.line = line;
+                Ok(())
+            }
+        }
+    }
+}
+
+/// An [`InterpolateError::OutOfTravel`] when `q` leaves an axis travel.
+fn travel_error(machine: &Machine, q: &[f64], t: f64, line: u64) -> Result<(), InterpolateError> {
+    for (axis, &value) in machine.axes.iter().zip(q) {
+        if !axis.in_travel(value) {
+            return Err(InterpolateError::OutOfTravel {
+                line,
+                axis: axis.name.clone(),
+                value,
+                unit: match axis.kind {
+                    AxisKind::Linear => "mm",
+                    AxisKind::Rotary => "deg",
+                },
+                t,
+                lo: axis.travel[0],
+                hi: axis.travel[1],
+            });
+        }
+    }
+    Ok(())
+}
+
+/// [`interpolate`] under the `jerk` planner: each stretch between stops is
+/// one jerk-limited motion ([`jerk::plan`]) along its dense joint path.
+fn interpolate_jerk<R, F>(
+    input: R,
+    machine: &Machine,
+    opts: &InterpolateOptions,
+    sink: F,
+) -> Result<InterpolationSummary, InterpolateError>
+where
+    R: BufRead,
+    F: FnMut(&Sample<'_>) -> io::Result<()>,
+{
+    let limits = jerk_limits(machine)?;
+    let walker = Walker::new(machine, opts)?;
+    let q = walker.ip.q.clone();
+    let mut run = JerkRun {
+        machine,
+        limits,
+        opts,
+        k: 0,
+        t0: 0.0,
+        q,
+        line: 0,
+        samples: 0,
+        sink,
+    };
+    let mut summary = walker.run(input, |st| run.stretch(st))?;
+    let t = run.k as f64 * opts.ts;
+    let q = run.q.clone();
+    (run.sink)(&Sample {
+        t,
+        q: &q,
+        line: run.line,
+    })
+    .map_err(InterpolateError::Sink)?;
+    summary.samples = run.samples + 1;
+    summary.duration = run.t0;
+    Ok(summary)
 }
 
 #[cfg(test)]
@@ -1423,6 +2010,33 @@ mod tests {
             .map(|x| kin.pose(&x.1).tip.z)
             .fold(f64::INFINITY, f64::min);
         assert!(lowest > end.z.min(150.0) - 1.0, "dived to z = {lowest}");
+    }
+
+    #[test]
+    fn dense_paths_split_at_stops_and_follow_the_path() {
+        let m = xyz(Some(20.0), Some(300.0));
+        let mut opts = InterpolateOptions::new(0.001);
+        opts.plan.jerk_step = 1.0;
+        let prog = "G1 X10 F600\nX10 Y5\nG4 P1\nG61.1\nG1 X0 Y0\nX-1\n";
+        let mut chains = Vec::new();
+        dense_paths(prog.as_bytes(), &m, &opts, |c| {
+            chains.push(c.clone());
+            Ok(())
+        })
+        .unwrap();
+        // The dwell ends the first chain; G61.1 makes one chain per move.
+        assert_eq!(chains.len(), 3);
+        let c = &chains[0];
+        // 10 mm then 5 mm in 1 mm steps: 16 points, s up to 15, caps 10 mm/s.
+        assert_eq!(c.s.len(), 16);
+        assert!((c.s[15] - 15.0).abs() < 1e-12);
+        assert_eq!(c.q[15], vec![10.0, 5.0, 0.0]);
+        assert_eq!(c.q[4], vec![4.0, 0.0, 0.0]);
+        assert!(c.v_cap.iter().all(|&v| (v - 10.0).abs() < 1e-12));
+        assert_eq!(c.line[15], 2);
+        // X10 Y5 -> X0 Y0: √125 mm, 12 points.
+        assert!((chains[1].s.last().unwrap() - 125f64.sqrt()).abs() < 1e-12);
+        assert_eq!(chains[1].s.len(), 13);
     }
 
     fn corpus(name: &str) -> Option<PathBuf> {

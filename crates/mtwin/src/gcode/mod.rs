@@ -94,8 +94,8 @@ pub use event::{
 };
 pub use interp::{InterpOptions, Interpreter, ModalState, MotionMode, RetractMode, UnknownMCode};
 pub use interpolate::{
-    InterpolateError, InterpolateOptions, InterpolationSummary, Interpolator, Sample, interpolate,
-    planned_duration,
+    DensePath, InterpolateError, InterpolateOptions, InterpolationSummary, Interpolator, Sample,
+    dense_paths, interpolate, jerk_limits, planned_duration,
 };
 pub use parameters::Parameters;
 pub use profile::Trapezoid;

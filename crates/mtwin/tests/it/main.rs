@@ -19,6 +19,7 @@ mod gcode_props;
 mod generated_programs;
 mod linuxcnc_sim;
 mod planner;
+mod planner_jerk;
 mod positioning;
 mod rs274;
 mod thermal_inputs;

@@ -194,7 +194,7 @@ pub struct JointLimits {
 /// What the planner keeps in reserve and how it splits the limits; every
 /// default is documented.
 #[non_exhaustive]
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JerkOptions {
     /// Fraction of every joint limit the plan may use, in (0, 1].
     /// Default 1.0: the full limits, nothing held back.
@@ -870,6 +870,17 @@ impl TimeLaw {
         }
     }
 
+    /// A cursor for positions at increasing times (amortised constant cost
+    /// per call, as [`TimeLaw::sampler`], at any times).
+    pub fn cursor(&self) -> Cursor<'_> {
+        Cursor {
+            law: self,
+            h0: 0,
+            h1: 0,
+            hs: 0,
+        }
+    }
+
     /// All samples of [`TimeLaw::sampler`], one after the other
     /// (`joints` values each).
     pub fn sample(&self, ts: f64) -> Vec<f64> {
@@ -920,6 +931,28 @@ impl Sampler<'_> {
         self.hs = law.spline.locate(s, self.hs);
         law.spline.eval(self.hs, s, out);
         Some(t)
+    }
+}
+
+/// Positions of a [`TimeLaw`] at times given in increasing order (any
+/// order works; going back costs a binary search).
+#[derive(Debug, Clone)]
+pub struct Cursor<'a> {
+    law: &'a TimeLaw,
+    h0: usize,
+    h1: usize,
+    hs: usize,
+}
+
+impl Cursor<'_> {
+    /// Joint positions at time `t` into `out` (length: the joints); returns
+    /// the path parameter there (as [`TimeLaw::s`]).
+    pub fn at(&mut self, t: f64, out: &mut [f64]) -> f64 {
+        let law = self.law;
+        let s = filtered(&law.raw, law.tj, t, &mut self.h0, &mut self.h1)[0].clamp(0.0, law.raw.l);
+        self.hs = law.spline.locate(s, self.hs);
+        law.spline.eval(self.hs, s, out);
+        law.s_first + s
     }
 }
 

@@ -12,6 +12,13 @@
 //!   [`PlanOptions::lookahead`] blocks ([`lookahead`]), tangent junctions
 //!   without stopping, parabolic blends under G64 within the P tolerance,
 //!   G61/G61.1 stops at corners/every block.
+//! * [`Planner::Jerk`] (`jerk`): the jerk-limited time law of [`jerk`] along
+//!   each chain of moves between stops, sampled densely in joint space
+//!   (`crate::gcode::dense_paths`, points at most [`PlanOptions::jerk_step`]
+//!   apart); limits on the **joints** (`max_velocity`, `max_acceleration`,
+//!   `max_jerk` of every machine axis), also under TCP; G61.1 stops at every
+//!   block, G61 at corners, G64 rounds corners within about a quarter of the
+//!   step (and within P when given).
 //!
 //! Nothing is kept in reserve beyond what [`PlanOptions`] states.
 
@@ -32,11 +39,13 @@ pub enum Planner {
     ExactStop,
     /// LinuxCNC 2.9's trajectory planner (see [`linuxcnc`]).
     Linuxcnc,
+    /// Jerk-limited, time-optimal within the joint limits (see [`jerk`]).
+    Jerk,
 }
 
 impl Planner {
     /// The names accepted by [`FromStr`], in order.
-    pub const NAMES: &'static [&'static str] = &["exact-stop", "linuxcnc"];
+    pub const NAMES: &'static [&'static str] = &["exact-stop", "linuxcnc", "jerk"];
 }
 
 impl fmt::Display for Planner {
@@ -44,13 +53,14 @@ impl fmt::Display for Planner {
         f.write_str(match self {
             Planner::ExactStop => "exact-stop",
             Planner::Linuxcnc => "linuxcnc",
+            Planner::Jerk => "jerk",
         })
     }
 }
 
 /// An unknown planner name.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown planner `{0}` (expected one of: exact-stop, linuxcnc)")]
+#[error("unknown planner `{0}` (expected one of: exact-stop, linuxcnc, jerk)")]
 pub struct UnknownPlanner(pub String);
 
 impl FromStr for Planner {
@@ -59,6 +69,7 @@ impl FromStr for Planner {
         match s {
             "exact-stop" => Ok(Planner::ExactStop),
             "linuxcnc" => Ok(Planner::Linuxcnc),
+            "jerk" => Ok(Planner::Jerk),
             _ => Err(UnknownPlanner(s.to_string())),
         }
     }
@@ -87,6 +98,15 @@ pub struct PlanOptions {
     pub cycle_time: f64,
     /// `linuxcnc`: LinuxCNC's `[TRAJ] ARC_BLEND_KINK_RATIO` (default 0.1).
     pub kink_ratio: f64,
+    /// `jerk`: largest distance between the points of the dense joint path
+    /// of a chain of moves, in path units (mm; deg for rotary-only moves).
+    /// Default 0.1. Under G64 a corner is rounded by the joint spline
+    /// through these points, by at most about a quarter of the step; with
+    /// `G64 P` the step is at most 4·P (never below 0.001).
+    pub jerk_step: f64,
+    /// `jerk`: the time-law settings ([`jerk::JerkOptions`]; by default
+    /// the full joint limits, nothing held back).
+    pub jerk: jerk::JerkOptions,
 }
 
 impl Default for PlanOptions {
@@ -98,6 +118,8 @@ impl Default for PlanOptions {
             lookahead: 50,
             cycle_time: 0.001,
             kink_ratio: 0.1,
+            jerk_step: 0.1,
+            jerk: jerk::JerkOptions::default(),
         }
     }
 }

