@@ -527,7 +527,11 @@ fn identify_prior_sets_the_undetermined_split() {
     std::fs::remove_file(d.join("id.toml")).unwrap();
     let o = identify_with(d, spec, &["--truncate", "rcond=5"]);
     assert_ne!(o.status.code(), Some(0));
-    assert!(stderr(&o).contains("not a truncation rule"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("not a truncation rule"),
+        "{}",
+        stderr(&o)
+    );
     assert!(!d.join("id.toml").exists());
 
     let (px, py) = (0.004, -0.001);

@@ -165,10 +165,13 @@ impl DeterminedCombination {
 pub struct ConfoundedGroup {
     /// The parameters of the group, in the model's order.
     pub parameters: Vec<String>,
-    /// Null directions inside the group (how many values the gauge chose).
+    /// Directions inside the group the gauge set (how many values it
+    /// chose): the null directions, and the badly determined ones a
+    /// [`Truncation`] rule dropped.
     pub undetermined: usize,
     /// The `undetermined` directions along which the residuals do not
-    /// change, each with few dominant terms (a sparse basis, see
+    /// change (or, for a direction a [`Truncation`] rule dropped, change by
+    /// no more than its reported cost), each with few dominant terms (a sparse basis, see
     /// [`sparsify`]): moving the parameters by `t·coefficient` for any `t`
     /// leaves the predictions at the measured points unchanged.
     #[serde(default)]

@@ -663,8 +663,10 @@ mod tests {
         let g = cut.report.gauge.as_ref().unwrap();
         assert_eq!(g.kind, "prior");
         assert_eq!(g.null_dimension, 0);
-        assert!(g.groups.is_empty());
         assert_eq!(g.dropped.len(), 1, "{:?}", g.dropped);
+        // The groups hold what the gauge set: here the dropped direction.
+        let set: usize = g.groups.iter().map(|x| x.undetermined).sum();
+        assert_eq!(set, 1, "{:?}", g.groups);
         let dd = &g.dropped[0];
         assert!(dd.relative_singular_value < rcond, "{dd:?}");
         let j = cut
