@@ -151,6 +151,13 @@ pub struct IdentifyArgs {
     /// Write polar SVG plots of measured and fitted ΔL per mode into this folder.
     #[arg(long)]
     plot: Option<PathBuf>,
+    /// Rank rule for badly determined directions (truncated SVD toward the
+    /// prior: PIGEs 0, bar lengths their start): `std=X` drops directions
+    /// whose standard uncertainty would exceed X typical scales (10 µm,
+    /// 100 µrad), `rcond=X` those with relative singular value below X,
+    /// `off` (default) none. See docs/ballbar.md.
+    #[arg(long, value_name = "RULE")]
+    truncate: Option<mtwin::fit::Truncation>,
     #[arg(long, value_enum, default_value_t)]
     format: Format,
 }
@@ -354,6 +361,9 @@ fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
     let refs: [Option<&ModeData>; 4] = [0, 1, 2, 3].map(|i| data[i].as_ref());
     let mut options = IdentifyOptions::default();
     options.out = a.out.as_ref().map(|p| p.display().to_string());
+    if let Some(t) = a.truncate {
+        options.fit.truncation = t;
+    }
     let (id, mut doc) = ballbar::identify::run(
         &IdentifyInputs {
             machine: &machine,

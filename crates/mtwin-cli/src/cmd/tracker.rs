@@ -92,6 +92,15 @@ pub struct IdentifyArgs {
     /// docs/tracker.md, "Gauge fixing".
     #[arg(long, value_name = "MACHINE.toml")]
     prior: Option<PathBuf>,
+    /// Rank rule for badly determined directions (truncated SVD toward the
+    /// prior): `std=X` drops the directions whose standard uncertainty
+    /// would exceed X typical scales (1 µm, 10 µrad) in some error,
+    /// `rcond=X` those whose relative singular value is below X, `off`
+    /// keeps every direction the data see. The bias each dropped direction
+    /// introduces is reported. Default: the library's (see docs/tracker.md,
+    /// "Badly determined directions").
+    #[arg(long, value_name = "RULE")]
+    truncate: Option<mtwin::fit::Truncation>,
     #[arg(long, value_enum, default_value_t)]
     format: Format,
 }
@@ -254,6 +263,9 @@ pub fn run_identify(a: IdentifyArgs) -> anyhow::Result<()> {
     options.registration = a.registration;
     if let Some(p) = &a.prior {
         options.prior = Some(load_machine(p)?);
+    }
+    if let Some(t) = a.truncate {
+        options.fit.truncation = t;
     }
     options.out = a.out.display().to_string();
     // A progress bar once the identification has run for a second: the

@@ -512,6 +512,27 @@ fn identify_prior_sets_the_undetermined_split() {
     let text = combos[0].as_str().unwrap();
     assert!(text.contains("EXX.c0") && text.contains("EXY.c0"), "{text}");
     assert!(text.contains("10.000"), "{text}");
+    // The rank rule: `std=10` by default; noise-free data leave no badly
+    // determined direction, so nothing is dropped. `--truncate` picks
+    // another rule; a rule that is not one is refused, nothing written.
+    assert_eq!(j["truncation"], "std=10");
+    assert_eq!(j["dropped_directions"].as_array().unwrap().len(), 0);
+    let free = j["confounded_groups"][0]["undetermined_directions"]
+        .as_array()
+        .unwrap();
+    assert_eq!(free.len(), 1, "{free:?}");
+    let o = identify_with(d, spec, &["--truncate", "rcond=1e-3", "--format", "json"]);
+    ok(&o);
+    assert_eq!(json(&o)["truncation"], "rcond=0.001");
+    std::fs::remove_file(d.join("id.toml")).unwrap();
+    let o = identify_with(d, spec, &["--truncate", "rcond=5"]);
+    assert_ne!(o.status.code(), Some(0));
+    assert!(
+        stderr(&o).contains("not a truncation rule"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!d.join("id.toml").exists());
 
     let (px, py) = (0.004, -0.001);
     let prior = std::fs::read_to_string(example("afp-gantry.toml"))

@@ -35,10 +35,19 @@
 //! What the data determine is reported per *confounded group*: parameters
 //! are linked when the null-space projector `P = N·Nᵀ` (independent of the
 //! arbitrary choice of basis) couples them (`|P_ij| > 10⁻⁶`); within a group
-//! of `c` parameters carrying `q` null directions, the `c − q` unit vectors
+//! of `c` parameters carrying `q` null directions, the `c − q` vectors
 //! orthogonal to the null space (eigenvectors of `I − P` restricted to the
-//! group) are the determined combinations, each with its value and standard
-//! uncertainty — unchanged by the gauge.
+//! group) span the determined combinations, each with its value and
+//! standard uncertainty — unchanged by the gauge. An orthonormal basis of a
+//! large group is dense (every vector mixes all its parameters), so both
+//! the determined combinations and the `q` undetermined directions are
+//! reported in a sparse basis of the same subspaces: the reduced row
+//! echelon form by Gauss–Jordan elimination with complete pivoting
+//! ([`sparsify`]). Each vector then has 1 on its own pivot parameter and 0
+//! on the other vectors' pivots, so it involves its pivot and the group's
+//! non-pivot parameters only, and a simple confound (an offset and a
+//! constant term that add) comes out exactly as `a + b` determined, `a − b`
+//! undetermined.
 
 use faer::{Mat, Side};
 use serde::{Deserialize, Serialize};
@@ -48,6 +57,7 @@ use super::evaluate::{Need, Pass};
 use super::lm::{self, Outcome};
 use super::problem::Parameter;
 use super::scaling::Scaled;
+use super::truncation::{self, DroppedDirection, Truncation};
 use super::{FitError, Options};
 
 /// Where the parameters the data do not determine are put.
@@ -106,7 +116,8 @@ pub struct CombinationTerm {
     pub name: String,
     /// Coefficient in parameter units (1 for the leading term).
     pub coefficient: f64,
-    /// Coefficient of the unit vector in the scaled variables.
+    /// Coefficient in the scaled variables, relative to the leading term's
+    /// (1 for the leading term).
     pub scaled: f64,
 }
 
@@ -154,10 +165,43 @@ impl DeterminedCombination {
 pub struct ConfoundedGroup {
     /// The parameters of the group, in the model's order.
     pub parameters: Vec<String>,
-    /// Null directions inside the group (how many values the gauge chose).
+    /// Directions inside the group the gauge set (how many values it
+    /// chose): the null directions, and the badly determined ones a
+    /// [`Truncation`] rule dropped.
     pub undetermined: usize,
-    /// The `parameters − undetermined` combinations the data determine.
+    /// The `undetermined` directions along which the residuals do not
+    /// change (or, for a direction a [`Truncation`] rule dropped, change by
+    /// no more than its reported cost), each with few dominant terms (a sparse basis, see
+    /// [`sparsify`]): moving the parameters by `t·coefficient` for any `t`
+    /// leaves the predictions at the measured points unchanged.
+    #[serde(default)]
+    pub undetermined_directions: Vec<UndeterminedDirection>,
+    /// The `parameters − undetermined` combinations the data determine, in
+    /// a sparse basis (each has one pivot parameter that no other
+    /// combination of the group contains).
     pub determined: Vec<DeterminedCombination>,
+}
+
+/// A direction the data do not determine: `Σ coefficient·δθ` changes no
+/// prediction at the measured points.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct UndeterminedDirection {
+    /// Terms led by the largest in the scaled variables (coefficient 1),
+    /// coefficients in parameter units.
+    pub terms: Vec<CombinationTerm>,
+}
+
+impl UndeterminedDirection {
+    /// Text such as `EXX.c0 − 1.0000·EX0Y` (terms below a tenth of the
+    /// leading one's scaled weight summarised).
+    pub fn describe(&self) -> String {
+        DeterminedCombination {
+            terms: self.terms.clone(),
+            value: 0.0,
+            uncertainty: None,
+        }
+        .describe()
+    }
 }
 
 /// What the gauge fixing did (see the module documentation).
@@ -171,6 +215,17 @@ pub struct GaugeReport {
     /// Largest change of a residual caused by the gauge fixing (residual
     /// unit): 0 up to rounding and the model's curvature.
     pub max_residual_change: f64,
+    /// The rank rule for badly determined directions (`off`, `rcond=X`,
+    /// `std=X`; see [`super::truncation`]).
+    #[serde(default)]
+    pub truncation: String,
+    /// The badly determined directions the rule set to the prior, with the
+    /// bias each introduces.
+    #[serde(default)]
+    pub dropped: Vec<DroppedDirection>,
+    /// RMS change of the residuals the truncation caused (residual unit).
+    #[serde(default)]
+    pub truncation_rms_change: f64,
     /// Every parameter the gauge set, in the model's order.
     pub parameters: Vec<GaugedParameter>,
     /// The confounded groups and what the data determine in each.
@@ -182,11 +237,19 @@ pub(crate) struct Fixed {
     /// Decomposition over the non-zero columns at the final θ (same scales
     /// as the identifiability analysis).
     pub scaled: Scaled,
-    /// Estimated columns' count (the rank used).
+    /// Directions treated as determined: the first `rank` of `scaled`
+    /// (the estimated columns' count less the truncated directions).
     pub rank: usize,
+    /// The numerical rank (estimated columns' count).
+    pub numerical_rank: usize,
     pub prior: Vec<f64>,
     pub zero: Vec<bool>,
     pub max_residual_change: f64,
+    /// The rule and the directions it dropped.
+    pub truncation: Truncation,
+    pub dropped: Vec<DroppedDirection>,
+    /// RMS change of the residuals caused by the truncation.
+    pub truncation_rms_change: f64,
 }
 
 /// The null basis (`k × (k − rank)`, scaled variables) of `s`.
@@ -227,6 +290,8 @@ pub(crate) fn fix(
     prior: Vec<f64>,
     options: &Options,
     dense: bool,
+    params: &[Parameter],
+    rows: usize,
 ) -> Result<Fixed, FitError> {
     let need = if dense { Need::Dense } else { Need::Normal };
     let before = outcome.eval.r.clone();
@@ -251,16 +316,48 @@ pub(crate) fn fix(
     let polished = lm::minimise(pass, theta, e2, kept, lm::Start::Scales(kd), options, dense)?;
     let e3 = pass.run(&polished.theta, need)?;
     let scaled = Scaled::new(&e3, nonzero, d)?;
-    let (passes, factorizations) = (
+    let (mut passes, mut factorizations) = (
         2 + polished.convergence.evaluations,
         2 + polished.convergence.factorizations,
     );
-    let (theta, eval) = (polished.theta, e3);
+    let (mut theta, mut eval) = (polished.theta, e3);
     let max_residual_change = before
         .iter()
         .zip(&eval.r)
         .map(|(a, b)| (a - b).abs())
         .fold(0.0, f64::max);
+    // The rank rule for badly determined directions (truncated SVD toward
+    // the prior), see [`super::truncation`].
+    let dof = rows.saturating_sub(rank);
+    let sigma = (dof > 0).then(|| (2.0 * eval.cost / dof as f64).sqrt());
+    let drop = truncation::select(options.truncation, &scaled, rank, sigma, params);
+    let (scaled, kept_directions, dropped, truncation_rms_change) = if drop.is_empty() {
+        (scaled, rank, Vec::new(), 0.0)
+    } else {
+        let keep: Vec<usize> = (0..rank).filter(|i| !drop.contains(i)).collect();
+        let (dropped, used) = truncation::apply(
+            pass, need, &mut theta, &scaled, &keep, &drop, &prior, sigma, rows, params,
+        )?;
+        passes += used;
+        let e4 = pass.run(&theta, need)?;
+        passes += 1;
+        let change = (eval
+            .r
+            .iter()
+            .zip(&e4.r)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum::<f64>()
+            / rows.max(1) as f64)
+            .sqrt();
+        eval = e4;
+        factorizations += used;
+        (
+            truncation::reorder(&scaled, &keep, &drop, rank),
+            keep.len(),
+            dropped,
+            change,
+        )
+    };
     outcome.convergence.evaluations += passes;
     outcome.convergence.factorizations += factorizations;
     outcome.convergence.final_cost = eval.cost;
@@ -268,10 +365,14 @@ pub(crate) fn fix(
     outcome.eval = eval;
     Ok(Fixed {
         scaled,
-        rank,
+        rank: kept_directions,
+        numerical_rank: rank,
         prior,
         zero: zero.to_vec(),
         max_residual_change,
+        truncation: options.truncation,
+        dropped,
+        truncation_rms_change,
     })
 }
 
@@ -343,11 +444,122 @@ pub(crate) fn report(
             Gauge::Prior(_) => "prior".into(),
             _ => "start".into(),
         },
-        null_dimension: (k - fixed.rank) + fixed.zero.iter().filter(|&&z| z).count(),
+        null_dimension: (k - fixed.numerical_rank) + fixed.zero.iter().filter(|&&z| z).count(),
         max_residual_change: fixed.max_residual_change,
+        truncation: fixed.truncation.to_string(),
+        dropped: fixed.dropped.clone(),
+        truncation_rms_change: fixed.truncation_rms_change,
         parameters,
         groups,
     }
+}
+
+/// Reduced row echelon form of the rows of `b` (an `r × c` basis of a
+/// subspace, one vector per row) by Gauss–Jordan elimination with complete
+/// pivoting: a basis of the same subspace in which every vector has 1 on
+/// its own pivot parameter and 0 on the others' pivots, so each vector
+/// involves its pivot and the non-pivot parameters only — the sparsest
+/// readable basis this construction gives (column-pivoted QR chooses the
+/// same pivots). Rows that vanish to rounding are dropped.
+pub(crate) fn sparsify(b: &Mat<f64>) -> Vec<Vec<f64>> {
+    let (r, c) = (b.nrows(), b.ncols());
+    let mut m: Vec<Vec<f64>> = (0..r)
+        .map(|i| (0..c).map(|j| b[(i, j)]).collect())
+        .collect();
+    let scale = m.iter().flatten().fold(0.0f64, |a, x| a.max(x.abs()));
+    let mut used = vec![false; c];
+    let mut t = 0;
+    while t < r {
+        let mut best = (0.0, 0, 0);
+        for (i, row) in m.iter().enumerate().skip(t) {
+            for (j, x) in row.iter().enumerate() {
+                if !used[j] && x.abs() > best.0 {
+                    best = (x.abs(), i, j);
+                }
+            }
+        }
+        if best.0 <= 1e-10 * scale {
+            break;
+        }
+        let (_, i, j) = best;
+        m.swap(t, i);
+        let p = m[t][j];
+        for x in &mut m[t] {
+            *x /= p;
+        }
+        let pivot = m[t].clone();
+        for (i2, row) in m.iter_mut().enumerate() {
+            if i2 != t {
+                let f = row[j];
+                if f != 0.0 {
+                    for (x, pv) in row.iter_mut().zip(&pivot) {
+                        *x -= f * pv;
+                    }
+                    row[j] = 0.0;
+                }
+            }
+        }
+        used[j] = true;
+        t += 1;
+    }
+    m.truncate(t);
+    // Entries that are rounding of an exact zero.
+    for row in &mut m {
+        let big = row.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        for x in row.iter_mut() {
+            if x.abs() < 1e-9 * big {
+                *x = 0.0;
+            }
+        }
+    }
+    m
+}
+
+/// What a scaled vector stands for.
+#[derive(Clone, Copy)]
+enum Kind {
+    /// A linear combination of the parameters (a row).
+    Combination,
+    /// A direction in parameter space (a column).
+    Direction,
+}
+
+/// Index of the largest `|w_i|` (the first of ties).
+fn lead_of(w: &[f64]) -> usize {
+    (0..w.len()).fold(0, |b, i| if w[i].abs() > w[b].abs() { i } else { b })
+}
+
+/// The terms of the scaled vector `w` over the group `members` (terms
+/// below 10⁻⁶ of the largest left out), led by the largest: coefficients
+/// in parameter units relative to it.
+fn terms_of(
+    w: &[f64],
+    members: &[usize],
+    s: &Scaled,
+    params: &[Parameter],
+    kind: Kind,
+) -> Vec<CombinationTerm> {
+    let lead = lead_of(w);
+    let c = w.len();
+    // A combination Σ w_i·y_i is Σ w_i·D_i·θ_i; a direction δy = w is
+    // δθ_i = w_i/D_i.
+    let unit = |i: usize| match kind {
+        Kind::Combination => w[i] * s.d[members[i]],
+        Kind::Direction => w[i] / s.d[members[i]],
+    };
+    let norm = unit(lead);
+    let mut order: Vec<usize> = (0..c)
+        .filter(|&i| w[i] != 0.0 && w[i].abs() >= 1e-6 * w[lead].abs())
+        .collect();
+    order.sort_by(|&a, &b| w[b].abs().total_cmp(&w[a].abs()).then(a.cmp(&b)));
+    order
+        .iter()
+        .map(|&i| CombinationTerm {
+            name: params[s.cols[members[i]]].name.clone(),
+            coefficient: if i == lead { 1.0 } else { unit(i) / norm },
+            scaled: w[i] / w[lead],
+        })
+        .collect()
 }
 
 /// One group: `members` are positions in the scaled columns.
@@ -367,27 +579,25 @@ fn confounded_group(
         id - p[(members[a], members[b])]
     });
     let mut determined = Vec::new();
+    let mut directions = Vec::new();
     let mut undetermined = c;
     if let Ok(evd) = q.self_adjoint_eigen(Side::Lower) {
         let ev = evd.S().column_vector();
         let u = evd.U();
-        for e in 0..c {
-            if ev[e] <= 0.5 {
-                continue;
-            }
-            undetermined -= 1;
-            // Scaled vector w: the combination Σ w_i·y_i = Σ w_i·D_i·θ_i.
-            let coef: Vec<f64> = (0..c).map(|i| u[(i, e)] * s.d[members[i]]).collect();
-            let w: Vec<f64> = (0..c).map(|i| u[(i, e)]).collect();
-            let lead = (0..c).fold(0, |b, i| if w[i].abs() > w[b].abs() { i } else { b });
-            let norm = coef[lead];
-            let mut order: Vec<usize> = (0..c)
-                .filter(|&i| w[i].abs() >= 1e-6 * w[lead].abs())
-                .collect();
-            order.sort_by(|&a, &b| w[b].abs().total_cmp(&w[a].abs()).then(a.cmp(&b)));
-            let full: Vec<(usize, f64)> = order
-                .iter()
-                .map(|&i| (s.cols[members[i]], coef[i] / norm))
+        let pick = |keep: bool| {
+            let cols: Vec<usize> = (0..c).filter(|&e| (ev[e] > 0.5) == keep).collect();
+            Mat::<f64>::from_fn(cols.len(), c, |r, i| u[(i, cols[r])])
+        };
+        let (det, null) = (pick(true), pick(false));
+        undetermined = null.nrows();
+        // Scaled vector w: the combination Σ w_i·y_i = Σ w_i·D_i·θ_i.
+        for w in sparsify(&det) {
+            let terms = terms_of(&w, members, s, params, Kind::Combination);
+            let lead = lead_of(&w);
+            let norm = w[lead] * s.d[members[lead]];
+            let full: Vec<(usize, f64)> = (0..c)
+                .filter(|&i| w[i] != 0.0)
+                .map(|i| (s.cols[members[i]], w[i] * s.d[members[i]] / norm))
                 .collect();
             let value = full.iter().map(|(j, a)| a * theta[*j]).sum();
             let uncertainty = covariance.map(|cv| {
@@ -400,16 +610,14 @@ fn confounded_group(
                 v.max(0.0).sqrt()
             });
             determined.push(DeterminedCombination {
-                terms: order
-                    .iter()
-                    .map(|&i| CombinationTerm {
-                        name: params[s.cols[members[i]]].name.clone(),
-                        coefficient: coef[i] / norm,
-                        scaled: w[i] * w[lead].signum(),
-                    })
-                    .collect(),
+                terms,
                 value,
                 uncertainty,
+            });
+        }
+        for w in sparsify(&null) {
+            directions.push(UndeterminedDirection {
+                terms: terms_of(&w, members, s, params, Kind::Direction),
             });
         }
     }
@@ -419,6 +627,7 @@ fn confounded_group(
             .map(|&i| params[s.cols[i]].name.clone())
             .collect(),
         undetermined,
+        undetermined_directions: directions,
         determined,
     }
 }

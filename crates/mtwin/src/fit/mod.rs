@@ -14,7 +14,10 @@
 //! 3. when parameters are unidentifiable and [`Options::gauge`] asks for
 //!    it, moves the solution along the null space only, to the point
 //!    closest to a stated prior (e.g. the start values: minimum norm) and
-//!    reports the combinations the data determine ([`gauge`]);
+//!    reports the combinations the data determine ([`gauge`]); with a
+//!    [`Options::truncation`] rule, badly determined directions are set
+//!    to the prior too, and the bias this introduces is reported
+//!    ([`truncation`]);
 //! 4. reports standard uncertainties and correlations ([`covariance`]),
 //!    per-group residual RMS, outlier blocks ([`outliers`]) and warnings,
 //!    optionally refitting without the outliers.
@@ -51,6 +54,7 @@ pub mod outliers;
 pub mod problem;
 pub mod report;
 pub mod scaling;
+pub mod truncation;
 
 use serde::Serialize;
 
@@ -58,12 +62,14 @@ pub use check::{JacobianCheck, check_jacobian};
 pub use covariance::Covariance;
 pub use gauge::{
     CombinationTerm, ConfoundedGroup, DeterminedCombination, Gauge, GaugeReport, GaugedParameter,
+    UndeterminedDirection,
 };
 pub use identifiability::{Combination, Identifiability, RankRule, Term, Unidentifiable};
 pub use lm::{Convergence, StopReason};
 pub use outliers::{Outlier, OutlierRule, OutlierScan, block_norms};
 pub use problem::{BlockLayout, FactorGroup, Factored, Model, Parameter, Stack};
 pub use report::{Estimate, FitReport, GroupStats, Warning};
+pub use truncation::{DroppedDirection, Truncation, TruncationParseError};
 
 use evaluate::{Need, Pass};
 use scaling::Scaled;
@@ -200,6 +206,11 @@ pub struct Options {
     /// identification chooses [`Gauge::Start`] (closest to the start values
     /// in the scaled variables, the minimum-norm solution when they are 0).
     pub gauge: Gauge,
+    /// Rank rule for badly determined (not null) directions: which of them
+    /// are set to the gauge's prior as well (a truncated SVD; see
+    /// [`truncation`]). Default [`Truncation::Off`]. Ignored with
+    /// [`Gauge::Pivoted`].
+    pub truncation: Truncation,
     /// Parallelism of the evaluation and the decompositions:
     /// [`Par::Seq`](crate::par::Par::Seq) on the calling thread only,
     /// `Par::rayon(_)` (default `Par::rayon(0)`) on the rayon pool the call
@@ -226,6 +237,7 @@ impl Default for Options {
             outliers: OutlierRule::default(),
             ill_conditioned_above: 1e6,
             gauge: Gauge::Pivoted,
+            truncation: Truncation::Off,
             par: crate::par::Par::rayon(0),
         }
     }
@@ -371,8 +383,13 @@ impl Stage {
         let initial_r = eval0.r.clone();
         let mut outcome =
             lm::minimise(&pass, theta0.to_vec(), eval0, &kept, start, options, dense)?;
+        let rows_in: usize = (0..layout.blocks())
+            .filter(|&b| included[b])
+            .map(|b| layout.block_rows(b).len())
+            .sum();
+        let truncating = options.truncation != truncation::Truncation::Off;
         let fixed = match options.gauge.prior(theta0) {
-            Some(prior) if kept.len() < n => {
+            Some(prior) if kept.len() < n || truncating => {
                 if prior.len() != n {
                     return Err(FitError::ParameterCount {
                         expected: n,
@@ -390,6 +407,8 @@ impl Stage {
                     prior,
                     options,
                     dense,
+                    params,
+                    rows_in,
                 )?)
             }
             _ => None,

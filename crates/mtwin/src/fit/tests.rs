@@ -875,3 +875,254 @@ fn gauge_on_a_nonlinear_model_keeps_the_predictions() {
         .fold(0.0, f64::max);
     assert!(dmax < 1e-10, "{dmax}");
 }
+
+/// Columns `1, 1, x, x + 1, sin x, 2·sin x, x²` (parameters p0 … p6) on
+/// `x ∈ [−1, 1]`: p0 (an offset) and p1 (a constant term) add; p3 = x + 1
+/// is p2's column plus the constant; p5's column is twice p4's. Two groups:
+/// {p0, p1, p2, p3} with two null directions (p0 − p1, and p1 + p2 − p3 or
+/// an equivalent sparse pair) and {p4, p5} with one (p4 − 0.5·p5).
+fn confounded_model(truth: &[f64; 7]) -> Linear {
+    let m = 40;
+    let a = Mat::<f64>::from_fn(m, 7, |i, j| {
+        let x = -1.0 + 2.0 * i as f64 / (m - 1) as f64;
+        match j {
+            0 | 1 => 1.0,
+            2 => x,
+            3 => x + 1.0,
+            4 => (2.0 * x).sin(),
+            5 => 2.0 * (2.0 * x).sin(),
+            _ => x * x,
+        }
+    });
+    let y = apply(&a, truth);
+    Linear::new(a, y, 2)
+}
+
+#[test]
+fn sparse_combinations_of_known_confounds_are_found_exactly() {
+    let truth = [0.4, -1.5, 2.0, 0.7, 0.3, -0.8, 1.1];
+    let model = confounded_model(&truth);
+    let rep = fit(
+        &model,
+        &[0.0; 7],
+        &Options {
+            gauge: Gauge::Start,
+            ..dense()
+        },
+    )
+    .unwrap();
+    let g = rep.gauge.as_ref().unwrap();
+    assert_eq!(g.null_dimension, 3);
+    assert_eq!(g.groups.len(), 2, "{:?}", g.groups);
+    let index = |name: &str| name[1..].parse::<usize>().unwrap();
+    for grp in &g.groups {
+        // Every undetermined direction, in parameter units, is a null
+        // vector of the model matrix, with at most 3 terms.
+        for d in &grp.undetermined_directions {
+            assert!(d.terms.len() <= 3, "{}", d.describe());
+            let mut dt = [0.0; 7];
+            for t in &d.terms {
+                dt[index(&t.name)] = t.coefficient;
+            }
+            let r = apply(&model.a, &dt);
+            assert!(r.iter().all(|v| v.abs() < 1e-9), "{}: {r:?}", d.describe());
+        }
+        assert_eq!(grp.undetermined_directions.len(), grp.undetermined);
+        // Every determined combination has the truth's value (noise-free
+        // data) and involves its pivot plus the group's free parameters.
+        for c in &grp.determined {
+            let want: f64 = c
+                .terms
+                .iter()
+                .map(|t| t.coefficient * truth[index(&t.name)])
+                .sum();
+            assert!((c.value - want).abs() < 1e-9, "{c:?} vs {want}");
+            assert!(c.terms.len() <= 1 + grp.undetermined, "{c:?}");
+        }
+    }
+    // The pair with different scales: p4 + 2·p5 determined, p4 − 0.5·p5 free.
+    let pair = g
+        .groups
+        .iter()
+        .find(|x| x.parameters == ["p4", "p5"])
+        .expect("group {p4, p5}");
+    assert_eq!(pair.undetermined, 1);
+    let c = &pair.determined[0];
+    let coef = |terms: &[CombinationTerm], name: &str| {
+        let lead = terms[0].coefficient;
+        terms.iter().find(|t| t.name == name).unwrap().coefficient / lead
+    };
+    let (a4, a5) = (coef(&c.terms, "p4"), coef(&c.terms, "p5"));
+    assert!((a5 / a4 - 2.0).abs() < 1e-12, "{c:?}");
+    let d = &pair.undetermined_directions[0];
+    let (b4, b5) = (coef(&d.terms, "p4"), coef(&d.terms, "p5"));
+    assert!((b5 / b4 + 0.5).abs() < 1e-12, "{d:?}");
+    // The offset and the constant: two undetermined directions in a
+    // four-parameter group, two determined combinations (the constant
+    // p0 + p1 + p3 and the slope p2 + p3, in some sparse basis).
+    let four = g
+        .groups
+        .iter()
+        .find(|x| x.parameters == ["p0", "p1", "p2", "p3"])
+        .expect("group {p0 … p3}");
+    assert_eq!(four.undetermined, 2);
+    assert_eq!(four.determined.len(), 2);
+}
+
+#[test]
+fn sparsify_gives_the_reduced_row_echelon_form() {
+    // Span of (1, −1, 0, 0) and (1, 0, 1, −1), given as a mixed
+    // orthonormal-ish basis: their sum and difference.
+    let b = Mat::<f64>::from_fn(2, 4, |r, c| {
+        let u = [1.0, -1.0, 0.0, 0.0][c];
+        let v = [1.0, 0.0, 1.0, -1.0][c];
+        if r == 0 { u + v } else { u - v }
+    });
+    let rows = gauge::sparsify(&b);
+    assert_eq!(rows.len(), 2);
+    // Each row lies in the span (orthogonal to its complement: (1, 1, 0, 1)
+    // and (0, 0, 1, 1)) and has a 1 where the other has a 0.
+    for r in &rows {
+        let d1 = r[0] + r[1] + r[3];
+        let d2 = r[2] + r[3];
+        assert!(d1.abs() < 1e-12 && d2.abs() < 1e-12, "{r:?}");
+        assert!(r.iter().filter(|x| **x != 0.0).count() <= 3, "{r:?}");
+    }
+    // Reduced row echelon form: each row has 1 on a pivot column where the
+    // other row has 0.
+    let pivot = |r: &Vec<f64>| r.iter().position(|x| (x - 1.0).abs() < 1e-12).unwrap();
+    let (p0, p1) = (pivot(&rows[0]), pivot(&rows[1]));
+    assert_ne!(p0, p1, "{rows:?}");
+    assert_eq!(rows[1][p0], 0.0, "{rows:?}");
+    assert_eq!(rows[0][p1], 0.0, "{rows:?}");
+}
+
+/// Columns `u + ε·w`, `u − ε·w`, `z1`, `z2` with `u, w, z1, z2`
+/// orthonormal (disjoint row supports): p0 and p1 are told apart only by
+/// the ε-weak direction `(1, −1)`.
+fn weak_pair(eps: f64, truth: &[f64; 4], noise: f64, seed: u64) -> Linear {
+    let m = 40;
+    let unit = |i: usize, k: usize| {
+        if i / 10 == k { 1.0 / 10f64.sqrt() } else { 0.0 }
+    };
+    let a = Mat::<f64>::from_fn(m, 4, |i, j| match j {
+        0 => unit(i, 0) + eps * unit(i, 1),
+        1 => unit(i, 0) - eps * unit(i, 1),
+        2 => unit(i, 2),
+        _ => unit(i, 3),
+    });
+    let mut rng = StdRng::seed_from_u64(seed);
+    let nd = Normal::new(0.0, noise.max(f64::MIN_POSITIVE)).unwrap();
+    let y = apply(&a, truth)
+        .into_iter()
+        .map(|v| {
+            if noise > 0.0 {
+                v + nd.sample(&mut rng)
+            } else {
+                v
+            }
+        })
+        .collect();
+    Linear::new(a, y, 2)
+}
+
+#[test]
+fn truncation_drops_a_weak_direction_toward_the_prior_with_the_stated_cost() {
+    let eps = 1e-3;
+    let truth = [1.0, 3.0, 0.5, -0.25];
+    let model = weak_pair(eps, &truth, 0.0, 1);
+    for strategy in [Strategy::Dense, Strategy::NormalEquations] {
+        let base = Options {
+            strategy,
+            gauge: Gauge::Start,
+            ..Options::default()
+        };
+        // Without truncation: the exact solution (full rank).
+        let full = fit(&model, &[0.0; 4], &base).unwrap();
+        for j in 0..4 {
+            assert!((full.theta[j] - truth[j]).abs() < 1e-6, "{:?}", full.theta);
+        }
+        // rcond between the weak direction's ε and the strong ones' ≥ 1/√2.
+        let rep = fit(
+            &model,
+            &[0.0; 4],
+            &Options {
+                truncation: Truncation::Relative(1e-2),
+                ..base.clone()
+            },
+        )
+        .unwrap();
+        // Closed form: the weak direction (1, −1) goes to the prior 0, the
+        // strong sum p0 + p1 = 4 stays: p0 = p1 = 2; p2, p3 untouched.
+        let t = &rep.theta;
+        assert!(
+            (t[0] - 2.0).abs() < 1e-9 && (t[1] - 2.0).abs() < 1e-9,
+            "{t:?}"
+        );
+        assert!((t[2] - 0.5).abs() < 1e-9 && (t[3] + 0.25).abs() < 1e-9);
+        let g = rep.gauge.as_ref().unwrap();
+        assert_eq!(g.truncation, "rcond=0.01");
+        assert_eq!(g.dropped.len(), 1);
+        let d = &g.dropped[0];
+        // Relative singular value: ‖(u + εw) − (u − εw)‖/‖(u+εw) + (u−εw)‖ = ε.
+        assert!(
+            (d.relative_singular_value - eps).abs() < 1e-6 * eps,
+            "{d:?}"
+        );
+        // The residual change: A·(θ_ls − θ_T) = A·(−1, 1, 0, 0) = −2ε·w,
+        // RMS 2ε/√40.
+        let rms = 2.0 * eps / 40f64.sqrt();
+        assert!((d.rms_change - rms).abs() < 1e-6 * rms, "{d:?} vs {rms}");
+        assert!((g.truncation_rms_change - rms).abs() < 1e-6 * rms);
+        // p0 and p1 move by ∓1; the bound is at least the move.
+        assert!((d.shift.abs() - 1.0).abs() < 1e-9, "{d:?}");
+        assert!(d.bias_bound >= d.shift.abs() - 1e-12);
+        // The reported covariance is the truncated one: p0 and p1 share the
+        // sum's uncertainty, fully correlated.
+        let c = rep.covariance.as_ref().unwrap();
+        let (s0, s1) = (c.std(0).unwrap(), c.std(1).unwrap());
+        assert!((c.get(0, 1).unwrap() - s0 * s1).abs() <= 1e-9 * s0 * s1 + 1e-30);
+    }
+}
+
+#[test]
+fn truncation_by_uncertainty_uses_the_noise_level() {
+    // σ = 1e-3, ε = 1e-3: along (1, −1) p0 scatters by σ/(2ε) = 0.5; the
+    // strong directions by about σ.
+    let truth = [1.0, 3.0, 0.5, -0.25];
+    let model = weak_pair(1e-3, &truth, 1e-3, 4);
+    let run = |bound: f64| {
+        fit(
+            &model,
+            &[0.0; 4],
+            &Options {
+                gauge: Gauge::Start,
+                truncation: Truncation::Uncertainty(bound),
+                ..dense()
+            },
+        )
+        .unwrap()
+    };
+    let kept = run(5.0);
+    assert!(kept.gauge.as_ref().unwrap().dropped.is_empty());
+    let u0 = kept.estimates[0].uncertainty.unwrap();
+    assert!((u0 / 0.5 - 1.0).abs() < 0.5, "{u0}");
+    let dropped = run(0.05);
+    let g = dropped.gauge.as_ref().unwrap();
+    assert_eq!(g.dropped.len(), 1, "{g:?}");
+    let d = &g.dropped[0];
+    let s = d.component_uncertainty.unwrap();
+    // The component's uncertainty in scaled units is σ/s_i; in p0 that is
+    // the parameter's scatter 0.5 (within the estimate of σ).
+    assert!(d.bias_bound >= 2.0 * 0.5 * 0.5, "{d:?} {s}");
+    assert!((dropped.theta[0] - dropped.theta[1]).abs() < 1e-9);
+    // A rule that is not one is an input error.
+    for bad in ["rcond=2", "std=-1", "tikhonov", "std=x"] {
+        assert!(bad.parse::<Truncation>().is_err(), "{bad}");
+    }
+    assert_eq!(
+        "std=10".parse::<Truncation>(),
+        Ok(Truncation::Uncertainty(10.0))
+    );
+    assert_eq!("off".parse::<Truncation>(), Ok(Truncation::Off));
+}

@@ -11,6 +11,7 @@ use serde::ser::SerializeMap;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use super::{BallbarMode, Compensation, Identification, Pige, SensitivityRow, SetupError};
+use crate::fit::{ConfoundedGroup, DeterminedCombination, DroppedDirection};
 use crate::io::fmt_f64;
 
 /// Something with a fixed set of names: the eight PIGEs or the four modes.
@@ -169,6 +170,23 @@ pub struct BallbarIdentifyDoc {
     pub unidentified: BTreeMap<String, String>,
     /// Warnings about the fit.
     pub warnings: Vec<String>,
+    /// How the gauge was fixed: `prior` (PIGEs pulled to 0, bar lengths to
+    /// their start; see `mtwin::fit::gauge`), absent without gauge fixing.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gauge: Option<String>,
+    /// The rank rule for badly determined directions (`off`, `rcond=X`,
+    /// `std=X`), absent without gauge fixing.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub truncation: Option<String>,
+    /// Groups of parameters (PIGEs, bar lengths `L.modeN`) the readings
+    /// determine only in combination, with the combinations they determine
+    /// (fit units mm, rad); absent when every parameter is determined.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub confounded_groups: Vec<ConfoundedGroup>,
+    /// The badly determined directions the truncation rule set to the
+    /// prior, with the bias each introduces (fit units).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub dropped_directions: Vec<DroppedDirection>,
 }
 
 impl BallbarIdentifyDoc {
@@ -189,6 +207,20 @@ impl BallbarIdentifyDoc {
                 .map(|u| (u.pige.name().to_string(), u.reason.clone()))
                 .collect(),
             warnings: id.warnings.clone(),
+            gauge: id.report.gauge.as_ref().map(|g| g.kind.clone()),
+            truncation: id.report.gauge.as_ref().map(|g| g.truncation.clone()),
+            confounded_groups: id
+                .report
+                .gauge
+                .as_ref()
+                .map(|g| g.groups.clone())
+                .unwrap_or_default(),
+            dropped_directions: id
+                .report
+                .gauge
+                .as_ref()
+                .map(|g| g.dropped.clone())
+                .unwrap_or_default(),
         }
     }
 
@@ -236,6 +268,39 @@ impl fmt::Display for BallbarIdentifyDoc {
             fmt_f64(c.c_x),
             fmt_f64(c.c_y)
         )?;
+        if !self.confounded_groups.is_empty() {
+            writeln!(
+                f,
+                "Combinations the readings determine (the rest set by the gauge):"
+            )?;
+            for g in &self.confounded_groups {
+                for c in &g.determined {
+                    writeln!(f, "  {}", combination_sentence(c))?;
+                }
+                for d in &g.undetermined_directions {
+                    writeln!(f, "  {} (free)", d.describe())?;
+                }
+            }
+        }
+        if !self.dropped_directions.is_empty() {
+            writeln!(
+                f,
+                "Badly determined directions set to the prior ({}):",
+                self.truncation.as_deref().unwrap_or("off")
+            )?;
+            for d in &self.dropped_directions {
+                let (k, unit) = pige_unit(&d.parameter);
+                writeln!(
+                    f,
+                    "  s/s_max {:.2e}: {} moved by {:.2} {unit} (bias ≤ {:.2} {unit}); keeping it changes the readings by {:.3} µm RMS",
+                    d.relative_singular_value,
+                    d.parameter,
+                    d.shift * k,
+                    d.bias_bound * k,
+                    d.rms_change * 1e3
+                )?;
+            }
+        }
         if let Some(out) = &self.out {
             writeln!(f, "identified machine → {out}")?;
         }
@@ -244,6 +309,25 @@ impl fmt::Display for BallbarIdentifyDoc {
         }
         Ok(())
     }
+}
+
+/// Display scale and unit of a fit parameter: tilts in µrad, offsets and
+/// bar lengths in µm.
+fn pige_unit(name: &str) -> (f64, &'static str) {
+    if Pige::from_name(name).is_some_and(Pige::is_tilt) {
+        (1e6, "µrad")
+    } else {
+        (1e3, "µm")
+    }
+}
+
+/// `EX0C + 1.0000·L.mode1 = 12.34 ± 0.56 µm` (unit of the leading term).
+fn combination_sentence(c: &DeterminedCombination) -> String {
+    let (k, unit) = c.terms.first().map_or((1.0, ""), |t| pige_unit(&t.name));
+    let u = c
+        .uncertainty
+        .map_or(String::new(), |u| format!(" ± {:.2}", u * k));
+    format!("{} = {:.2}{u} {unit}", c.describe(), c.value * k)
 }
 
 /// Peak `|ΔL|` of one mode per PIGE (mm), keyed `mode1` … `mode4`.

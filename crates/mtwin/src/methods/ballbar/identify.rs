@@ -13,6 +13,16 @@
 //!    each mode as a nuisance parameter (subtracting the single
 //!    noisy 0° reading instead roughly triples the uncertainty of EC0A).
 //!    Standard uncertainties come from the residual variance.
+//! 4. **Gauge** ([`crate::fit::gauge`], as for the tracker): with
+//!    [`IdentifyOptions::default`] (`fit.gauge` = [`fit::Gauge::Start`])
+//!    any direction the fit cannot determine at the actual configuration
+//!    is pulled to the prior — 0 for the PIGEs, the closed-form start for
+//!    the bar lengths — the covariance is the gauge-fixed pseudo-inverse,
+//!    and the confounded groups with their determined combinations are
+//!    reported; a [`fit::Truncation`] rule (`fit.truncation`) sets badly
+//!    determined directions to the same prior and reports the bias. The
+//!    structurally unresolved PIGEs of step 1 are the zero columns of this
+//!    gauge: held at 0.
 
 use super::closed_form::start_values;
 use super::data::ModeData;
@@ -180,13 +190,25 @@ pub struct IdentifyInputs<'a> {
 }
 
 /// Options of [`run`].
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 #[non_exhaustive]
 pub struct IdentifyOptions {
-    /// Options of the least-squares engine (including its parallelism, `fit.par`).
+    /// Options of the least-squares engine (including its parallelism,
+    /// `fit.par`). The default gauge-fixes the solution (`fit.gauge` is
+    /// [`fit::Gauge::Start`]: PIGEs the fit cannot determine are pulled to
+    /// 0, bar lengths to their closed-form start) with the engine's default
+    /// truncation rule (off).
     pub fit: Options,
     /// Name of the file the caller writes the identified machine to, reported by the document.
     pub out: Option<String>,
+}
+
+impl Default for IdentifyOptions {
+    fn default() -> Self {
+        let mut fit = Options::default();
+        fit.gauge = fit::Gauge::Start;
+        Self { fit, out: None }
+    }
 }
 
 /// `mtwin ballbar identify`: the identification ([`identify`]) and its
@@ -297,7 +319,14 @@ pub fn identify(
         .collect();
     let parts: Vec<&dyn Model> = models.iter().map(|m| m as &dyn Model).collect();
     let stack = Stack::new(parts)?;
-    let report = fit::fit(&stack, &theta0, options)?;
+    // The gauge's prior: 0 for the PIGEs, the start for the bar lengths.
+    let mut fit_options = options.clone();
+    if fit_options.gauge == fit::Gauge::Start {
+        let mut prior = theta0.clone();
+        prior[..unknowns.free.len()].fill(0.0);
+        fit_options.gauge = fit::Gauge::Prior(prior);
+    }
+    let report = fit::fit(&stack, &theta0, &fit_options)?;
 
     let piges = unknowns.piges(&report.theta);
     let mut uncertainty = [None; 8];
@@ -470,8 +499,11 @@ fn analyse(
     let parts: Vec<&dyn Model> = models.iter().map(|m| m as &dyn Model).collect();
     let stack = Stack::new(parts)?;
     let theta0 = unknowns.theta(&Piges::default(), &[rig.length; 4]);
+    // Only the analysis is wanted: no gauge fixing or truncation.
     let opts = Options {
         max_iterations: 1,
+        gauge: fit::Gauge::Pivoted,
+        truncation: fit::Truncation::Off,
         ..options.clone()
     };
     let report = fit::fit(&stack, &theta0, &opts)?;
@@ -590,6 +622,85 @@ mod tests {
             setup: SetupError { ex, ey },
             ..Rig::source_paper()
         }
+    }
+
+    #[test]
+    fn gauge_fixed_identification_reports_and_truncates_against_the_truth() {
+        let rig = rig(0.1, -0.1);
+        let d = simulate(&TRUTH, &rig, 3e-4, 11);
+        let pivoted = identify(&nominal(), &rig, &all(&d), &Options::default()).unwrap();
+        // The default options gauge-fix; all four modes determine every
+        // PIGE, so the gauge changes nothing (no null space).
+        let opts = IdentifyOptions::default();
+        assert_eq!(opts.fit.gauge, fit::Gauge::Start);
+        let gauged = identify(&nominal(), &rig, &all(&d), &opts.fit).unwrap();
+        // Nothing to fix: no gauge report, the same solution.
+        assert_eq!(
+            gauged.report.identifiability.rank,
+            gauged.report.theta.len()
+        );
+        assert!(gauged.report.gauge.is_none());
+        for p in Pige::ALL {
+            let (a, b) = (gauged.piges.get(p), pivoted.piges.get(p));
+            assert!((a - b).abs() < 1e-9, "{p}: {a} vs {b}");
+            let (ua, ub) = (
+                gauged.uncertainty[p.index()].unwrap(),
+                pivoted.uncertainty[p.index()].unwrap(),
+            );
+            assert!((ua - ub).abs() < 1e-6 * ub, "{p}: {ua} vs {ub}");
+        }
+        // A truncation that drops the weakest direction only (rcond between
+        // the two smallest relative singular values): it is pulled to the
+        // prior, the PIGE it moves most moves by the reported shift, and the
+        // truth lies within the reported bias bound (plus the scatter of the
+        // kept directions, 3σ of the full fit).
+        let sv = &gauged.report.identifiability.singular_values;
+        let k = sv.len();
+        let rcond = (sv[k - 1] * sv[k - 2]).sqrt() / sv[0];
+        let mut t = opts.fit.clone();
+        t.truncation = fit::Truncation::Relative(rcond);
+        let cut = identify(&nominal(), &rig, &all(&d), &t).unwrap();
+        let g = cut.report.gauge.as_ref().unwrap();
+        assert_eq!(g.kind, "prior");
+        assert_eq!(g.null_dimension, 0);
+        assert_eq!(g.dropped.len(), 1, "{:?}", g.dropped);
+        // The groups hold what the gauge set: here the dropped direction.
+        let set: usize = g.groups.iter().map(|x| x.undetermined).sum();
+        assert_eq!(set, 1, "{:?}", g.groups);
+        let dd = &g.dropped[0];
+        assert!(dd.relative_singular_value < rcond, "{dd:?}");
+        let j = cut
+            .report
+            .estimates
+            .iter()
+            .position(|e| e.name == dd.parameter)
+            .unwrap();
+        let moved = cut.report.theta[j] - pivoted.report.theta[j];
+        let sj = pivoted.report.estimates[j].uncertainty.unwrap();
+        // Exact for a linear model; the polish of the kept directions
+        // moves it by a second-order amount.
+        assert!(
+            (moved - dd.shift).abs() < 1e-2 * dd.shift.abs() + 0.05 * sj,
+            "{moved} vs {dd:?}"
+        );
+        if let Some(p) = Pige::from_name(&dd.parameter) {
+            let err = (cut.piges.get(p) - TRUTH.get(p)).abs();
+            let su = pivoted.uncertainty[p.index()].unwrap();
+            assert!(err <= dd.bias_bound + 3.0 * su, "{p}: {err} vs {dd:?}");
+        }
+        let rms = |id: &Identification| {
+            let r = &id.report.residuals;
+            (r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt()
+        };
+        let (r0, r1) = (rms(&pivoted), rms(&cut));
+        let expect = (r0 * r0 + g.truncation_rms_change.powi(2)).sqrt();
+        assert!(r1 >= r0 - 1e-12, "{r1} vs {r0}");
+        assert!((r1 - expect).abs() < 0.05 * expect, "{r1} vs {expect}");
+        // The document carries it.
+        let doc = crate::methods::ballbar::BallbarIdentifyDoc::new(&cut, None, Vec::new());
+        assert_eq!(doc.gauge.as_deref(), Some("prior"));
+        assert_eq!(doc.dropped_directions.len(), g.dropped.len());
+        assert!(doc.to_string().contains("Badly determined directions"));
     }
 
     #[test]

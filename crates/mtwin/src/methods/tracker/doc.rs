@@ -10,8 +10,8 @@ use super::Identification;
 use super::compensate::CompensationMode;
 use super::validate::{ErrorStats, Stats, Validation};
 use crate::fit::{
-    ConfoundedGroup, Convergence, DeterminedCombination, Estimate, FitReport, GaugedParameter,
-    Outlier, Warning,
+    ConfoundedGroup, Convergence, DeterminedCombination, DroppedDirection, Estimate, FitReport,
+    GaugedParameter, Outlier, UndeterminedDirection, Warning,
 };
 
 /// Scale and unit of a parameter by its name, for display: registration
@@ -57,6 +57,19 @@ pub struct TrackerIdentifyDoc {
     /// their value (display units).
     #[serde(default)]
     pub identifiable_combinations: Vec<String>,
+    /// The rank rule for badly determined directions (`off`, `rcond=X`,
+    /// `std=X`), `null` without gauge fixing.
+    #[serde(default)]
+    pub truncation: Option<String>,
+    /// The badly determined directions the rule set to the prior: relative
+    /// singular value, component and its uncertainty, the residual change
+    /// RMS keeping it would have bought (mm), the error it moves most, the
+    /// move and the bias bound (fit units).
+    #[serde(default)]
+    pub dropped_directions: Vec<DroppedDirection>,
+    /// RMS change of the residuals the truncation caused (mm).
+    #[serde(default)]
+    pub truncation_rms_change: f64,
     /// How the iteration ended.
     pub convergence: Convergence,
     /// Every parameter (errors, then registration), in the fit's units (mm, rad).
@@ -105,6 +118,9 @@ impl TrackerIdentifyDoc {
             confounded_groups: groups,
             gauge: g.map(|g| g.kind.clone()),
             gauge_fixed: g.map(|g| g.parameters.clone()).unwrap_or_default(),
+            truncation: g.map(|g| g.truncation.clone()),
+            dropped_directions: g.map(|g| g.dropped.clone()).unwrap_or_default(),
+            truncation_rms_change: g.map_or(0.0, |g| g.truncation_rms_change),
             convergence: r.convergence.clone(),
             estimates: r.estimates.clone(),
             out: out.to_string(),
@@ -130,6 +146,25 @@ impl TrackerIdentifyDoc {
             warnings: r.warnings.clone(),
         }
     }
+}
+
+/// `EXX.c0 − 1.0000·EX0Y (free)`: a direction the points do not see.
+pub fn free_sentence(d: &UndeterminedDirection) -> String {
+    format!("{} (free)", d.describe())
+}
+
+/// `s/s_max 1.2e-5: EXX.c0 moved by −73.000 µm (bias ≤ 90.000 µm); keeping
+/// it changes the residuals by 0.300 µm RMS` (display units).
+pub fn dropped_sentence(d: &DroppedDirection) -> String {
+    let (scale, unit) = unit_of(&d.parameter);
+    format!(
+        "s/s_max {:.2e}: {} moved by {:.3} {unit} (bias ≤ {:.3} {unit}); keeping it changes the residuals by {:.3} µm RMS",
+        d.relative_singular_value,
+        d.parameter,
+        d.shift * scale,
+        d.bias_bound * scale,
+        d.rms_change * 1e3
+    )
 }
 
 /// `EXX.c0 + 1.0000·EX0Y = 12.345 ± 0.678 µm` (the unit of the leading
@@ -206,6 +241,21 @@ impl fmt::Display for TrackerIdentifyDoc {
                 for c in &g.determined {
                     writeln!(f, "    {}", sentence(c))?;
                 }
+                for d in &g.undetermined_directions {
+                    writeln!(f, "    {}", free_sentence(d))?;
+                }
+            }
+        }
+        if !self.dropped_directions.is_empty() {
+            writeln!(
+                f,
+                "badly determined directions set to the prior ({}): {}, residual change {:.3} µm RMS",
+                self.truncation.as_deref().unwrap_or("off"),
+                self.dropped_directions.len(),
+                self.truncation_rms_change * 1e3
+            )?;
+            for d in &self.dropped_directions {
+                writeln!(f, "  {}", dropped_sentence(d))?;
             }
         }
         writeln!(

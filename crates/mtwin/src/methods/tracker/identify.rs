@@ -22,7 +22,10 @@ pub struct IdentifyOptions {
     /// `fit.par`). The default excludes outlier points (a blocked beam)
     /// from a second fit; they are reported in `report.outliers`; and it
     /// gauge-fixes the solution (`fit.gauge` is [`fit::Gauge::Start`]: the
-    /// errors the points do not determine are pulled to 0, or to `prior`).
+    /// errors the points do not determine are pulled to 0, or to `prior`)
+    /// and sets badly determined directions to the same prior
+    /// (`fit.truncation` is `std=10`, see [`DEFAULT_TRUNCATION_STD`] and
+    /// [`fit::truncation`]).
     pub fit: fit::Options,
     /// Name of the file the caller writes the identified machine to,
     /// reported by the document of [`run`].
@@ -35,6 +38,11 @@ pub struct IdentifyOptions {
     /// [`fit::Gauge::Pivoted`]. See the documentation of [`fit::gauge`].
     pub prior: Option<Machine>,
 }
+
+/// The default rank rule's bound ([`fit::Truncation::Uncertainty`]): a
+/// direction whose standard uncertainty would exceed 10 typical scales
+/// (10 µm, 100 µrad) in some error is set to the prior.
+pub const DEFAULT_TRUNCATION_STD: f64 = 10.0;
 
 /// The inputs of [`run`].
 #[derive(Debug, Clone, Copy)]
@@ -69,8 +77,13 @@ impl Default for IdentifyOptions {
     fn default() -> Self {
         let mut fit = fit::Options::default();
         fit.outliers.exclude = true;
-        // Gauge-fixed: the confounded errors are pulled to 0 (or `prior`).
+        // Gauge-fixed: the confounded errors are pulled to 0 (or `prior`),
+        // and so are the directions whose standard uncertainty would exceed
+        // 10 typical scales (10 µm, 100 µrad) in some error: on the demo
+        // gantry this drops the same 8 directions for every bound from 10
+        // to 100 (docs/tracker.md, "Badly determined directions").
         fit.gauge = fit::Gauge::Start;
+        fit.truncation = fit::Truncation::Uncertainty(DEFAULT_TRUNCATION_STD);
         Self {
             registration: false,
             fit,
