@@ -71,8 +71,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         format!("Set from the tables: {}.", names.join(", ")),
     ];
     let header: Vec<&str> = header.iter().map(String::as_str).collect();
-    out.write(&a.out, machine_to_toml(&imported.machine, &header)?.as_bytes())
-        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    out.write(
+        &a.out,
+        machine_to_toml(&imported.machine, &header)?.as_bytes(),
+    )
+    .with_context(|| format!("cannot write {}", a.out.display()))?;
     out.commit()?;
     match a.format {
         Format::Json => print_out(format_args!(

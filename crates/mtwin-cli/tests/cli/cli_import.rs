@@ -100,7 +100,13 @@ fn predicted(dir: &Path, machine: &str, out: &str) -> Vec<[f64; 6]> {
     let o = mtwin(
         dir,
         &[
-            "predict", "--machine", machine, "--data", "poses.csv", "--out", out,
+            "predict",
+            "--machine",
+            machine,
+            "--data",
+            "poses.csv",
+            "--out",
+            out,
         ],
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
@@ -118,7 +124,14 @@ fn predicted(dir: &Path, machine: &str, out: &str) -> Vec<[f64; 6]> {
 /// (names in the export folder; for linuxcnc `AXIS=` prefixes allowed) into
 /// the nominal machine, predict both: the tips agree within the bound plus
 /// `rounding` per error, and the tool axes exactly to 1e-12.
-fn round_trip(to: &str, errors: &[Cubic], extra: &[(&str, &str)], files: &[&str], h: f64, rounding: f64) {
+fn round_trip(
+    to: &str,
+    errors: &[Cubic],
+    extra: &[(&str, &str)],
+    files: &[&str],
+    h: f64,
+    rounding: f64,
+) {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     std::fs::write(d.join("truth.toml"), machine_text(errors, extra)).unwrap();
@@ -126,7 +139,14 @@ fn round_trip(to: &str, errors: &[Cubic], extra: &[(&str, &str)], files: &[&str]
     let o = mtwin(
         d,
         &[
-            "export", "--machine", "truth.toml", "--to", to, "--out", "tables", "--spacing",
+            "export",
+            "--machine",
+            "truth.toml",
+            "--to",
+            to,
+            "--out",
+            "tables",
+            "--spacing",
             &h.to_string(),
         ],
     );
@@ -175,7 +195,10 @@ fn round_trip(to: &str, errors: &[Cubic], extra: &[(&str, &str)], files: &[&str]
         let d = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
         worst = worst.max(d);
         for k in 3..6 {
-            assert!((a[k] - b[k]).abs() < 1e-12, "{to}: tool axis {a:?} vs {b:?}");
+            assert!(
+                (a[k] - b[k]).abs() < 1e-12,
+                "{to}: tool axis {a:?} vs {b:?}"
+            );
         }
     }
     eprintln!("{to}: tip difference {worst:.3e} mm, bound {tol:.3e} mm");
@@ -207,7 +230,14 @@ fn linuxcnc_export_import_predicts_within_the_interpolation_bound() {
 
 #[test]
 fn siemens_eec_export_import_predicts_within_the_interpolation_bound() {
-    round_trip("siemens-eec", &positioning(), &[], &["AX_EEC.INI"], 15.0, 1e-6);
+    round_trip(
+        "siemens-eec",
+        &positioning(),
+        &[],
+        &["AX_EEC.INI"],
+        15.0,
+        1e-6,
+    );
 }
 
 #[test]
@@ -220,7 +250,14 @@ fn siemens_cec_export_import_predicts_within_the_interpolation_bound() {
         cubic("EXZ", "Z", -6e-6, 4e-8, 2e-11),
         cubic("EYZ", "Z", 5e-6, 6e-8, -3e-11),
     ];
-    round_trip("siemens-cec", &straightness, &[], &["NC_CEC.INI"], 20.0, 1e-6);
+    round_trip(
+        "siemens-cec",
+        &straightness,
+        &[],
+        &["NC_CEC.INI"],
+        20.0,
+        1e-6,
+    );
 }
 
 /// Translational errors of every axis, rotary ones too, and location errors
@@ -255,12 +292,22 @@ fn etalon_export_import_predicts_within_the_interpolation_bound() {
 fn bad_table_is_refused_at_its_line_and_nothing_is_written() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    std::fs::write(d.join("comp_X.txt"), "-10 0.001 0.001\n0 0.002\n10 0.003 0.003\n").unwrap();
+    std::fs::write(
+        d.join("comp_X.txt"),
+        "-10 0.001 0.001\n0 0.002\n10 0.003 0.003\n",
+    )
+    .unwrap();
     let o = mtwin(
         d,
         &[
-            "import", "--from", "linuxcnc", "--into", &example("ac-trunnion.toml"), "--out",
-            "new.toml", "comp_X.txt",
+            "import",
+            "--from",
+            "linuxcnc",
+            "--into",
+            &example("ac-trunnion.toml"),
+            "--out",
+            "new.toml",
+            "comp_X.txt",
         ],
     );
     assert_eq!(o.status.code(), Some(1));
@@ -273,7 +320,14 @@ fn bad_table_is_refused_at_its_line_and_nothing_is_written() {
     let o = mtwin(
         d,
         &[
-            "import", "--from", "linuxcnc", "--into", "m.toml", "--out", "m.toml", "comp_X.txt",
+            "import",
+            "--from",
+            "linuxcnc",
+            "--into",
+            "m.toml",
+            "--out",
+            "m.toml",
+            "comp_X.txt",
         ],
     );
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
@@ -288,7 +342,13 @@ fn bad_table_is_refused_at_its_line_and_nothing_is_written() {
     let o = mtwin(
         d,
         &[
-            "import", "--from", "siemens-eec", "--into", "m.toml", "--out", "new.toml",
+            "import",
+            "--from",
+            "siemens-eec",
+            "--into",
+            "m.toml",
+            "--out",
+            "new.toml",
             "AX_EEC.INI",
         ],
     );

@@ -42,7 +42,11 @@ pub struct Imported {
 /// * `SiemensEec`, `SiemensCec`: initialisation programs; machine axes
 ///   `AX1`, `AX2`, … are the machine's axes in the order X Y Z A B C, as
 ///   `mtwin export` numbers them.
-pub fn import(format: Format, files: &[PathBuf], machine: &Machine) -> Result<Imported, Diagnostic> {
+pub fn import(
+    format: Format,
+    files: &[PathBuf],
+    machine: &Machine,
+) -> Result<Imported, Diagnostic> {
     let mut m = machine.clone();
     for f in files {
         match format {
@@ -148,7 +152,10 @@ pub fn import(format: Format, files: &[PathBuf], machine: &Machine) -> Result<Im
         }
     }
     let changed = changed(machine, &m);
-    Ok(Imported { machine: m, changed })
+    Ok(Imported {
+        machine: m,
+        changed,
+    })
 }
 
 fn read(p: &Path) -> Result<String, Diagnostic> {

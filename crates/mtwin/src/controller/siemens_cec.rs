@@ -105,7 +105,10 @@ pub fn parse(text: &str, file: &Path) -> Result<Vec<CecTable>, Diagnostic> {
                     return Err(Diagnostic::at_line(
                         file,
                         a.line,
-                        format!("$AN_CEC_MULT_BY_TABLE must be a table number, got {}", a.value),
+                        format!(
+                            "$AN_CEC_MULT_BY_TABLE must be a table number, got {}",
+                            a.value
+                        ),
                     ));
                 }
                 tb.mult_by_table = v as usize;

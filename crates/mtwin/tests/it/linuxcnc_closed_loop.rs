@@ -122,6 +122,28 @@ fn exported_comp_files_and_trunnion_parameters_drive_linuxcnc_as_mtwin_predicts(
     };
     let (mut worst_joint, mut worst_motor, mut worst_table) = (0.0f64, 0.0f64, 0.0f64);
     let (mut settled, mut compared, mut turned) = (0usize, 0usize, 0usize);
+    // LinuxCNC starts applying a joint's table when the joint first moves
+    // (`backlash-corr` is 0 before): compare from there on.
+    let first_move: Vec<usize> = (0..3)
+        .map(|j| {
+            t.samples
+                .iter()
+                .position(|s| s.joint_vel[j] != 0.0)
+                .expect("every linear joint moves")
+        })
+        .collect();
+    let before: Vec<f64> = (0..3)
+        .map(|j| {
+            t.samples[..first_move[j]]
+                .iter()
+                .map(|s| s.corr[j].abs())
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    eprintln!(
+        "closed loop: first motion of X Y Z at samples {first_move:?}, largest correction before it {before:?} mm"
+    );
+    let mut worst_at = (0, 0);
     for i in 3..t.samples.len() {
         let s = &t.samples[i];
         let q = interpolated(&raw, i);
@@ -129,10 +151,14 @@ fn exported_comp_files_and_trunnion_parameters_drive_linuxcnc_as_mtwin_predicts(
         for j in 0..5 {
             worst_joint = worst_joint.max((q[j] - s.joint[j]).abs());
         }
-        for j in 0..3 {
+        for j in (0..3).filter(|&j| i >= first_move[j]) {
             // The correction LinuxCNC took from the exported file at its
             // own joint command: the table mtwin holds, interpolated there.
-            worst_table = worst_table.max((s.corr[j] - table(j).eval(s.joint[j])).abs());
+            let d = (s.corr[j] - table(j).eval(s.joint[j])).abs();
+            if d > worst_table {
+                worst_table = d;
+                worst_at = (i, j);
+            }
             compared += 1;
             // Slew limiting of the correction (backlash-filt) lags a fast
             // change; compare the drive command where it has settled.
@@ -150,6 +176,15 @@ fn exported_comp_files_and_trunnion_parameters_drive_linuxcnc_as_mtwin_predicts(
         "closed loop: {} samples ({turned} with A turned), {settled} of {compared} settled; \
          joint {worst_joint:.2e}, table {worst_table:.2e}, motor {worst_motor:.2e} mm",
         t.samples.len()
+    );
+    let (wi, wj) = worst_at;
+    let w = &t.samples[wi];
+    eprintln!(
+        "closed loop: largest table difference at sample {wi}, joint {wj}: command {}, velocity {}, correction {}, table {}",
+        w.joint[wj],
+        w.joint_vel[wj],
+        w.corr[wj],
+        table(wj).eval(w.joint[wj])
     );
     assert!(turned > 1000, "only {turned} samples with the table tilted");
     assert!(settled > compared * 9 / 10, "{settled} of {compared}");

@@ -762,7 +762,12 @@ fn max_axis_speed(t: &Trace) -> [f64; 5] {
     v
 }
 
-pub(crate) fn run_or_panic(name: &str, program: &str, setup: &SimSetup, timeout: Duration) -> Trace {
+pub(crate) fn run_or_panic(
+    name: &str,
+    program: &str,
+    setup: &SimSetup,
+    timeout: Duration,
+) -> Trace {
     let t = run(program, setup, timeout).unwrap_or_else(|e| panic!("{name}: {e}"));
     eprintln!(
         "linuxcnc_sim {name}: total time {:.3} s ({} samples, {} in motion, wall {:.1} s)",
