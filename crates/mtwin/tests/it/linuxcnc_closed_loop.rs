@@ -92,7 +92,7 @@ fn exported_comp_files_and_trunnion_parameters_drive_linuxcnc_as_mtwin_predicts(
         .iter()
         .map(|a| kinematics.axis_index(&a.to_uppercase()).unwrap())
         .collect();
-    let tip0 = kin.pose(&vec![0.0; 5]).tip;
+    let tip0 = kin.pose(&[0.0; 5]).tip;
     let mut opts = IkOptions::default();
     opts.check_travel = false;
     let raw: Vec<[f64; 5]> = t
@@ -148,8 +148,8 @@ fn exported_comp_files_and_trunnion_parameters_drive_linuxcnc_as_mtwin_predicts(
         let s = &t.samples[i];
         let q = interpolated(&raw, i);
         turned += usize::from(s.world[3].abs() > 1.0);
-        for j in 0..5 {
-            worst_joint = worst_joint.max((q[j] - s.joint[j]).abs());
+        for (qj, sj) in q.iter().zip(&s.joint) {
+            worst_joint = worst_joint.max((qj - sj).abs());
         }
         for j in (0..3).filter(|&j| i >= first_move[j]) {
             // The correction LinuxCNC took from the exported file at its
