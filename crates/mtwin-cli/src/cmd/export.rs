@@ -27,7 +27,7 @@ pub enum To {
 }
 
 impl To {
-    fn table(self) -> Table {
+    pub(crate) fn table(self) -> Table {
         match self {
             To::Isg => Table::Isg,
             To::Etalon => Table::Etalon,

@@ -10,6 +10,7 @@ mod completions;
 mod demo;
 mod export;
 mod gcode;
+mod import;
 mod model;
 mod positioning;
 mod predict;
@@ -41,6 +42,11 @@ pub enum Command {
     /// Read G-code: interpolate it into axis commands, program statistics.
     #[command(subcommand)]
     Gcode(gcode::Command),
+    /// Read controller compensation tables (ISG, Etalon, LinuxCNC, Siemens) into a machine model.
+    #[command(
+        after_help = "Example:\n  mtwin import --from linuxcnc --into examples/machines/ac-trunnion.toml --out imported.toml comp/comp_X.txt comp/comp_Y.txt comp/comp_Z.txt"
+    )]
+    Import(import::Args),
     /// Inspect and check machine model files.
     #[command(subcommand)]
     Model(model::Command),
@@ -110,6 +116,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Demo(a) => demo::run(a),
         Command::Export(a) => export::run(a),
         Command::Gcode(c) => gcode::run(c),
+        Command::Import(a) => import::run(a),
         Command::Model(c) => model::run(c),
         Command::Positioning(c) => positioning::run(c),
         Command::Predict(a) => predict::run(a),

@@ -147,6 +147,10 @@ fn isg_writes_the_list_and_the_files_it_names() {
     assert_eq!(named, ["volcomp.csv"]);
     assert!(lis.lines().any(|l| l == "file_format[0] ISG_CSV"));
     assert!(lis.lines().any(|l| l == "workpiece_axes 2"));
+    // The vendor's spelling, and the chain from the workpiece (C on A) to the
+    // base and on to the tool (Y, X, Z).
+    assert!(lis.lines().any(|l| l == "Interpolation GRID"));
+    assert!(lis.lines().any(|l| l == "chain CAYXZ"));
     let csv = std::fs::read_to_string(dir.path().join("out/isg").join(named[0])).unwrap();
     assert!(csv.lines().any(|l| l == "X EXX EYX EZX EAX EBX ECX"));
     assert!(dir.path().join("out/siemens-eec/AX_EEC.INI").exists());

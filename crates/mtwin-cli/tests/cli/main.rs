@@ -15,6 +15,7 @@ mod cli_compensate;
 mod cli_dialects;
 mod cli_export;
 mod cli_gcode;
+mod cli_import;
 mod cli_model;
 mod cli_parquet;
 mod cli_planner;

@@ -439,12 +439,32 @@ pub(crate) fn lis_text(machine: &Machine, files: &[(&str, &str)]) -> String {
         .count();
     s.push_str("# Number of axes on the workpiece side of the kinematic chain\n");
     s.push_str(&format!("workpiece_axes {n_wp}\n"));
-    s.push_str("interpolation GRID\n");
+    s.push_str(&format!(
+        "# Axes in the order from the workpiece to the machine base and on to the tool\n\
+         chain {}\n",
+        chain(machine)
+    ));
+    s.push_str("Interpolation GRID\n");
     for (k, (name, fmt)) in files.iter().enumerate() {
         s.push_str(&format!("file[{k}] {name}\nfile_format[{k}] {fmt}\n"));
     }
     s.push_str("# Switch on in the part program with #VOLCOMP ON\n");
     s
+}
+
+/// The `chain` of a compensation list: the axis letters from the workpiece
+/// down to the machine base, then from the base up to the tool (the
+/// sequence the vendor documents for a table machine's kinematic chain,
+/// `C A X Y Z`; `chain XYZCA` for a head machine).
+pub fn chain(machine: &Machine) -> String {
+    let name = |&i: &usize| machine.axes[i].name.clone();
+    machine
+        .workpiece_chain
+        .iter()
+        .rev()
+        .map(name)
+        .chain(machine.tool_chain.iter().map(name))
+        .collect()
 }
 
 /// `--to isg`.

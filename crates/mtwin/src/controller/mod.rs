@@ -21,9 +21,10 @@
 //! at zero). That is a combination the measurement determines even when the
 //! individual errors of an identification are confounded. The volumetric
 //! formats (ISG, Etalon) carry the individual errors; [`residual`] says what
-//! either leaves.
+//! either leaves. [`import()`] reads every format back into a machine model.
 
 pub mod etalon;
+pub mod import;
 pub mod isg_csv;
 pub mod linuxcnc_comp;
 pub mod residual;
@@ -35,6 +36,7 @@ use nalgebra::{DMatrix, Vector3};
 use crate::kinematics::Kinematics;
 use crate::model::{AxisKind, Component, ErrorFunction, ErrorName, Machine};
 
+pub use import::{Imported, import};
 pub use residual::{Residual, ResidualOptions, residual};
 
 /// A controller table format mtwin writes.

@@ -48,6 +48,10 @@ pub struct CecTable {
     pub direction: i32,
     /// Compensation values at `min + k·step`, mm, added to the output axis.
     pub values: Vec<f64>,
+    /// `$AN_CEC_MULT_BY_TABLE`: 0, or the table this one is multiplied by.
+    pub mult_by_table: usize,
+    /// 1-based line of the table's first assignment.
+    pub line: usize,
 }
 
 /// Read a CEC initialisation program.
@@ -67,6 +71,8 @@ pub fn parse(text: &str, file: &Path) -> Result<Vec<CecTable>, Diagnostic> {
                     step: f64::NAN,
                     direction: 0,
                     values: Vec::new(),
+                    mult_by_table: 0,
+                    line: a.line,
                 });
                 tables.len() - 1
             }
@@ -93,7 +99,21 @@ pub fn parse(text: &str, file: &Path) -> Result<Vec<CecTable>, Diagnostic> {
             "$AN_CEC_MIN" => tb.min = number(&a, file)?,
             "$AN_CEC_MAX" => tb.max = number(&a, file)?,
             "$AN_CEC_DIRECTION" => tb.direction = number(&a, file)? as i32,
-            "$AN_CEC_MULT_BY_TABLE" | "$AN_CEC_IS_MODULO" => {}
+            "$AN_CEC_MULT_BY_TABLE" => {
+                let v = number(&a, file)?;
+                if v < 0.0 || v.fract() != 0.0 {
+                    return Err(Diagnostic::at_line(
+                        file,
+                        a.line,
+                        format!(
+                            "$AN_CEC_MULT_BY_TABLE must be a table number, got {}",
+                            a.value
+                        ),
+                    ));
+                }
+                tb.mult_by_table = v as usize;
+            }
+            "$AN_CEC_IS_MODULO" => {}
             other => {
                 return Err(Diagnostic::at_line(
                     file,

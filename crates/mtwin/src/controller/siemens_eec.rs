@@ -114,6 +114,8 @@ pub struct EecTable {
     pub step: f64,
     /// Compensation values at `min + k·step` (the error: positive moves the axis negative), mm.
     pub values: Vec<f64>,
+    /// 1-based line of the table's first assignment.
+    pub line: usize,
 }
 
 /// Read an EEC initialisation program.
@@ -135,6 +137,7 @@ pub fn parse(text: &str, file: &Path) -> Result<Vec<EecTable>, Diagnostic> {
                     max: f64::NAN,
                     step: f64::NAN,
                     values: Vec::new(),
+                    line: a.line,
                 });
                 tables.len() - 1
             }

@@ -220,3 +220,155 @@ fn volumetric_residual_is_within_the_interpolation_bound() {
     );
     assert!(r.max_um < r.uncompensated_max_um / 10.0);
 }
+
+/// Siemens EEC: export → import gives back the positioning errors within the
+/// interpolation bound (the values are the errors themselves, 1e-6 mm
+/// rounding).
+#[test]
+fn siemens_eec_round_trip_within_interpolation_bound() {
+    let (m, cubics) = positioning_model();
+    let h = 15.0;
+    let opts = ExportOptions {
+        spacing_mm: Some(h),
+        ..Default::default()
+    };
+    let e = controller::export(&m, Format::SiemensEec, &opts).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    write_all(dir.path(), &e.files);
+    let back = controller::import(
+        Format::SiemensEec,
+        &[dir.path().join(&e.files[0].0)],
+        &m.nominal(),
+    )
+    .unwrap();
+    let names: Vec<String> = back.changed.iter().map(|n| n.to_string()).collect();
+    assert_eq!(names, ["EYY", "EXX", "EZZ"], "in axis order Y X Z");
+    for (name, c) in &cubics {
+        let ax = &m.axes[m.axis_index(&name.axis).unwrap()];
+        let tol = bound(c, ax.travel, h) + 1e-6;
+        for k in 0..=500 {
+            let q = ax.travel[0] + (ax.travel[1] - ax.travel[0]) * k as f64 / 500.0;
+            let d = (back.machine.error_value(name, q).unwrap() - m.error_value(name, q).unwrap())
+                .abs();
+            assert!(d <= tol, "{name} at {q}: {d:e} > {tol:e}");
+        }
+    }
+}
+
+/// Siemens CEC: straightness cubics that are zero at the middle of their
+/// axis' range (CEC tables are zero at the reference pose) come back within
+/// the interpolation bound.
+#[test]
+fn siemens_cec_round_trip_within_interpolation_bound() {
+    let mut m = mtwin::examples::machine("ac-trunnion").unwrap();
+    let mut cubics = Vec::new();
+    for (n, c1, c2, c3) in [
+        ("EYX", 1e-5, -4e-8, 6e-11),
+        ("EZX", -2e-5, 5e-8, 3e-11),
+        ("EXY", 8e-6, 3e-8, -5e-11),
+        ("EZY", 3e-6, -2e-8, 4e-11),
+        ("EXZ", -6e-6, 4e-8, 2e-11),
+        ("EYZ", 5e-6, 6e-8, -3e-11),
+    ] {
+        let n: ErrorName = n.parse().unwrap();
+        let i = m.axis_index(&n.axis).unwrap();
+        let mid = 0.5 * (m.axes[i].travel[0] + m.axes[i].travel[1]);
+        let c0 = -(c1 * mid + c2 * mid * mid + c3 * mid * mid * mid);
+        let c = [c0, c1, c2, c3];
+        m.axes[i].errors.pdge[n.component.index()] = Some(ErrorFunction::Poly(c.to_vec()));
+        cubics.push((n, c));
+    }
+    let h = 20.0;
+    let opts = ExportOptions {
+        spacing_mm: Some(h),
+        ..Default::default()
+    };
+    let e = controller::export(&m, Format::SiemensCec, &opts).unwrap();
+    assert!(e.dropped.is_empty(), "{:?}", e.dropped);
+    let dir = tempfile::tempdir().unwrap();
+    write_all(dir.path(), &e.files);
+    let back = controller::import(
+        Format::SiemensCec,
+        &[dir.path().join(&e.files[0].0)],
+        &m.nominal(),
+    )
+    .unwrap();
+    assert_eq!(back.changed.len(), 6);
+    for (name, c) in &cubics {
+        let ax = &m.axes[m.axis_index(&name.axis).unwrap()];
+        let tol = bound(c, ax.travel, h) + 1e-6;
+        let mut worst: f64 = 0.0;
+        for k in 0..=500 {
+            let q = ax.travel[0] + (ax.travel[1] - ax.travel[0]) * k as f64 / 500.0;
+            let d = (back.machine.error_value(name, q).unwrap() - m.error_value(name, q).unwrap())
+                .abs();
+            worst = worst.max(d);
+        }
+        assert!(worst <= tol, "{name}: {worst:e} > {tol:e}");
+    }
+}
+
+/// An EEC program in the layout of the vendor's documentation, written by
+/// hand: three points 1 mm apart from −200 mm on the first axis.
+#[test]
+fn siemens_eec_documented_layout_reads_into_the_positioning_error() {
+    let text = "%_N_AX_EEC_INI\n\
+                CHANDATA(1)\n\
+                $AA_ENC_COMP[0,0,AX1]=0.003 ; 1st compensation value\n\
+                $AA_ENC_COMP[0,1,AX1]=0.01\n\
+                $AA_ENC_COMP[0,2,AX1]=0.012\n\
+                $AA_ENC_COMP_STEP[0,AX1]=1.0\n\
+                $AA_ENC_COMP_MIN[0,AX1]=-200.0\n\
+                $AA_ENC_COMP_MAX[0,AX1]=-198.0\n\
+                $AA_ENC_COMP_IS_MODULO[0,AX1]=0\n\
+                M17\n";
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("AX_EEC.INI");
+    std::fs::write(&p, text).unwrap();
+    let m = mtwin::examples::machine("ac-trunnion").unwrap();
+    let back = controller::import(Format::SiemensEec, std::slice::from_ref(&p), &m).unwrap();
+    // AX1 is X (axes numbered X Y Z A C); the value is the error to take out.
+    let exx: ErrorName = "EXX".parse().unwrap();
+    let x = back.machine.axis_index("X").unwrap();
+    assert_eq!(
+        back.machine.axes[x].errors.pdge[exx.component.index()],
+        Some(ErrorFunction::Table {
+            q: vec![-200.0, -199.0, -198.0],
+            e: vec![0.003, 0.01, 0.012],
+        })
+    );
+    // A step that does not fit MIN/MAX and the point count: file:line.
+    let bad = text.replace("STEP[0,AX1]=1.0", "STEP[0,AX1]=1.5");
+    std::fs::write(&p, bad).unwrap();
+    let err = controller::import(Format::SiemensEec, std::slice::from_ref(&p), &m)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("AX_EEC.INI:3:"), "{err}");
+    assert!(err.contains("_STEP is 1.5"), "{err}");
+}
+
+/// A CEC table applying in one direction of travel has no place in a machine
+/// model: refused at its line.
+#[test]
+fn siemens_cec_one_direction_table_is_refused() {
+    let text = "%_N_NC_CEC_INI\nCHANDATA(1)\n\
+                $AN_CEC[0,0]=0.0\n$AN_CEC[0,1]=0.002\n\
+                $AN_CEC_INPUT_AXIS[0]=AX1\n$AN_CEC_OUTPUT_AXIS[0]=AX3\n\
+                $AN_CEC_STEP[0]=100.0\n$AN_CEC_MIN[0]=0.0\n$AN_CEC_MAX[0]=100.0\n\
+                $AN_CEC_DIRECTION[0]=1\nM17\n";
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("NC_CEC.INI");
+    std::fs::write(&p, text).unwrap();
+    let m = mtwin::examples::machine("ac-trunnion").unwrap();
+    let err = controller::import(Format::SiemensCec, std::slice::from_ref(&p), &m)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("NC_CEC.INI:3:"), "{err}");
+    assert!(err.contains("one direction"), "{err}");
+    // Both directions: Z over X, the value added to Z cancels EZX = −value.
+    std::fs::write(&p, text.replace("DIRECTION[0]=1", "DIRECTION[0]=0")).unwrap();
+    let back = controller::import(Format::SiemensCec, std::slice::from_ref(&p), &m).unwrap();
+    let ezx: ErrorName = "EZX".parse().unwrap();
+    assert!((back.machine.error_value(&ezx, 100.0).unwrap() + 0.002).abs() < 1e-15);
+    assert!((back.machine.error_value(&ezx, 50.0).unwrap() + 0.001).abs() < 1e-15);
+}

@@ -705,7 +705,7 @@ pub fn reference(
 // Tests.
 
 /// Real-time bound of the short programs below.
-const SHORT: Duration = Duration::from_secs(120);
+pub(crate) const SHORT: Duration = Duration::from_secs(120);
 
 /// Path tolerance (G64 P) of the test programs, mm.
 const TOL: f64 = 0.01;
@@ -762,7 +762,12 @@ fn max_axis_speed(t: &Trace) -> [f64; 5] {
     v
 }
 
-fn run_or_panic(name: &str, program: &str, setup: &SimSetup, timeout: Duration) -> Trace {
+pub(crate) fn run_or_panic(
+    name: &str,
+    program: &str,
+    setup: &SimSetup,
+    timeout: Duration,
+) -> Trace {
     let t = run(program, setup, timeout).unwrap_or_else(|e| panic!("{name}: {e}"));
     eprintln!(
         "linuxcnc_sim {name}: total time {:.3} s ({} samples, {} in motion, wall {:.1} s)",
@@ -1029,7 +1034,7 @@ fn boat_excerpt(text: &str) -> String {
 /// interpolator (servo rate = trajectory rate here) sends the uniform cubic
 /// B-spline through them, i.e. `(raw[i-3] + 4 raw[i-2] + raw[i-1]) / 6` —
 /// the joint commands trail `axis.L.pos-cmd` by two periods.
-fn interpolated(raw: &[[f64; 5]], i: usize) -> [f64; 5] {
+pub(crate) fn interpolated(raw: &[[f64; 5]], i: usize) -> [f64; 5] {
     std::array::from_fn(|j| (raw[i - 3][j] + 4.0 * raw[i - 2][j] + raw[i - 1][j]) / 6.0)
 }
 

@@ -17,6 +17,7 @@ mod gcode_conformance;
 mod gcode_corpus;
 mod gcode_props;
 mod generated_programs;
+mod linuxcnc_closed_loop;
 mod linuxcnc_sim;
 mod planner;
 mod planner_jerk;
