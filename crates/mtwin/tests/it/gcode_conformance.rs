@@ -83,6 +83,8 @@ const SKIPPED: &[(&str, &str)] = &[
     ("g71-endless-loop2", "constant surface speed G96"),
     ("g71-endless-loop_2", "lathe diameter/radius mode G7"),
     ("g71-with-g70", "lathe cycle G71.1"),
+    ("g72-facing", "lathe cycle G72"),
+    ("g72-missing-iteration", "lathe cycle G72"),
     ("g76", "spindle-synchronised motion G76"),
     ("inside-corners", "cutter radius compensation G41.1"),
     ("inverse-time-with-comp", "cutter radius compensation G42.1"),
