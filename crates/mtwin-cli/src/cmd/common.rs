@@ -65,6 +65,12 @@ pub struct DialectArgs {
     /// writes it back.
     #[arg(long, value_name = "FILE")]
     pub var_file: Option<PathBuf>,
+    /// LinuxCNC INI file: its numeric entries are the program's
+    /// `#<_ini[section]name>` parameters and its `[RS274NGC] SUBROUTINE_PATH`
+    /// (relative directories from the INI's folder) is searched after
+    /// `--subroutine-path`.
+    #[arg(long, value_name = "FILE")]
+    pub ini: Option<PathBuf>,
     /// Directory searched for `NAME.ngc` of a called subroutine the program
     /// does not define (LinuxCNC's SUBROUTINE_PATH); repeatable, searched in order.
     #[arg(long = "subroutine-path", value_name = "DIR")]
@@ -96,6 +102,12 @@ impl DialectArgs {
             o.parameters = Arc::new(p);
         }
         o.subroutine_path = self.subroutine_path.clone();
+        if let Some(path) = &self.ini {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read {}", path.display()))?;
+            let dir = path.parent().unwrap_or(Path::new("."));
+            o.apply_ini(&text, dir);
+        }
         o.max_blocks = self.max_blocks;
         let program = program.to_path_buf();
         o.messages = MessageSink::new(move |m: &Message| {
@@ -103,6 +115,7 @@ impl DialectArgs {
             let kind = match m.kind {
                 MessageKind::Debug => "DEBUG",
                 MessageKind::Print => "PRINT",
+                MessageKind::Abort => "ABORT",
             };
             eprintln!("{}:{}: {kind}: {}", file.display(), m.line, m.text);
         });

@@ -318,6 +318,49 @@ M2\n";
     }
 
     #[test]
+    fn ini_file_values_subroutine_path_and_abort() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir_all(dir.path().join("cfg/subs")).unwrap();
+        write(
+            dir.path(),
+            "cfg/m.ini",
+            "[RS274NGC]\nSUBROUTINE_PATH = subs\n[VARS]\nSAFE_Z = 12.5\n",
+        );
+        write(
+            dir.path(),
+            "cfg/subs/up.ngc",
+            "o<up> sub\nG0 Z#<_ini[vars]safe_z>\no<up> endsub\n",
+        );
+        write(
+            dir.path(),
+            "p.ngc",
+            "G0 X#<_ini[VARS]SAFE_Z>\no<up> call\nM2\n",
+        );
+        let v = stats_json(dir.path(), &["p.ngc", "--ini", "cfg/m.ini"]);
+        // X to 12.5, then Z up 12.5: the INI value, the subroutine found on
+        // the INI's path relative to the INI's folder.
+        assert!((v["rapid_length_mm"].as_f64().unwrap() - 25.0).abs() < 1e-9);
+        assert_eq!(v["axes"]["Z"]["work"][1], 12.5);
+        write(
+            dir.path(),
+            "a.ngc",
+            "G0 X1\n(ABORT, z=#<_ini[vars]safe_z>)\nG0 X2\nM2\n",
+        );
+        let o = mtwin(
+            dir.path(),
+            &["gcode", "stats", "a.ngc", "--ini", "cfg/m.ini"],
+        );
+        assert_eq!(o.status.code(), Some(1));
+        assert!(
+            stderr(&o).contains("a.ngc:2: ABORT:  z=12.500000"),
+            "{}",
+            stderr(&o)
+        );
+        assert!(stderr(&o).contains("a.ngc:2:1: "), "{}", stderr(&o));
+        assert!(o.stdout.is_empty());
+    }
+
+    #[test]
     fn bad_flow_is_located() {
         let dir = tempfile::tempdir().unwrap();
         for (name, text, at, what) in [

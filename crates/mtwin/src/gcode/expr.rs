@@ -375,17 +375,40 @@ impl Parser<'_> {
         }
         let name = self.b[start..self.i].to_ascii_uppercase();
         if name == b"EXISTS" {
-            // EXISTS[#<name>]: whether a named parameter is defined.
+            // EXISTS[#<name>]: whether a named parameter is defined;
+            // EXISTS[#n] (n a number, `[expr]` or `#..`): whether n is a
+            // valid parameter number (LinuxCNC's rule).
             self.expect(b'[')?;
             self.expect(b'#')?;
-            let t = self.reference()?;
-            self.expect(b']')?;
-            return match t {
-                Target::Named(n) => Ok(if self.params.exists(&n) { 1.0 } else { 0.0 }),
-                Target::Numbered(_) => Err(ExprError::Invalid(
-                    "EXISTS takes a named parameter: EXISTS[#<name>]".into(),
-                )),
+            let exists = if self.peek() == Some(b'<') {
+                match self.reference()? {
+                    Target::Named(n) => self.params.exists(&n),
+                    Target::Numbered(_) => false,
+                }
+            } else {
+                let n = match self.peek() {
+                    Some(b'[') => self.bracketed()?,
+                    Some(b'#') => {
+                        self.i += 1;
+                        let t = self.reference()?;
+                        self.read(&t)?
+                    }
+                    Some(b'0'..=b'9' | b'.') => self.number()?,
+                    _ => {
+                        return Err(ExprError::Invalid(format!(
+                            "'#' must be followed by a parameter number or <name> at byte {}",
+                            self.i + 1
+                        )));
+                    }
+                };
+                let r = n.round();
+                if (n - r).abs() > 1e-4 {
+                    return Err(ExprError::Param(ParamError::NotInteger(n)));
+                }
+                (1.0..f64::from(super::parameters::MAX_NUMBERED)).contains(&r)
             };
+            self.expect(b']')?;
+            return Ok(if exists { 1.0 } else { 0.0 });
         }
         let x = self.bracketed()?;
         let deg = |r: f64| r.to_degrees();
@@ -492,6 +515,10 @@ mod tests {
             ev_with("EXISTS[1]", &p),
             Err(ExprError::Invalid(_))
         ));
+        assert!(matches!(
+            ev_with("EXISTS[#1+#2]", &p),
+            Err(ExprError::Invalid(_))
+        ));
         assert!(matches!(ev_with("[#5602]", &p), Err(ExprError::Param(_))));
         assert!(matches!(ev_with("[1/0]", &p), Err(ExprError::Invalid(_))));
         assert!(matches!(
@@ -524,6 +551,12 @@ mod tests {
         assert_eq!(ev_with("[#<_safe> - #<depth>]", &p), Ok(6.25));
         assert_eq!(ev_with("EXISTS[#<_safe>]", &p), Ok(1.0));
         assert_eq!(ev_with("exists[#<_other>]", &p), Ok(0.0));
+        // A number: whether it is a valid parameter number (1 to 5601).
+        assert_eq!(ev_with("EXISTS[#1]", &p), Ok(1.0));
+        assert_eq!(ev_with("EXISTS[#5601]", &p), Ok(1.0));
+        assert_eq!(ev_with("EXISTS[#5602]", &p), Ok(0.0));
+        assert_eq!(ev_with("EXISTS[#[#1 * 0]]", &p), Ok(0.0));
+        assert_eq!(ev_with("EXISTS[##10]", &p), Ok(1.0), "#2 exists");
         assert_eq!(
             ev_with("[#2]", &p),
             Ok(0.0),

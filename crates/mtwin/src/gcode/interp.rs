@@ -923,8 +923,18 @@ impl Interpreter {
         if v.value < 0.0 {
             return Err(s.invalid(v.column, "negative dwell time"));
         }
+        // Fanuc `G4 X` without a decimal point (and without decimal point
+        // programming) is in least increments of 0.001 s, as a dimension
+        // word of a metric program: `G4 X2500` is 2.5 s.
+        let value = match word {
+            DwellWord::XSeconds => self
+                .opts
+                .dialect
+                .dimension(v.value, v.has_point, false, false),
+            _ => v.value,
+        };
         s.emit(EventKind::Dwell {
-            seconds: word.seconds(v.value),
+            seconds: word.seconds(value),
         });
         Ok(())
     }
@@ -1800,8 +1810,8 @@ impl Interpreter {
         let mut target = [0.0; 9];
         for axis in Axis::ALL {
             if let Some(a) = w.get(axis.letter()) {
-                if dwell && dialect != Dialect::LinuxCnc && axis == Axis::X {
-                    continue; // Fanuc G4 X: the dwell time.
+                if dwell && dialect != Dialect::LinuxCnc && matches!(axis, Axis::X | Axis::U) {
+                    continue; // Fanuc G4 X or U: the dwell time.
                 }
                 axes.insert(axis);
                 let v = dialect.dimension(
@@ -2512,7 +2522,11 @@ mod tests {
             },
             ..Default::default()
         };
-        let ev = run_with("G4 P1500\nG4 X2.5\nG0 X10 Y10.\n", fanuc.clone()).unwrap();
+        let ev = run_with(
+            "G4 P1500\nG4 X2.5\nG4 X2500\nG4 U750\nG0 X10 Y10.\n",
+            fanuc.clone(),
+        )
+        .unwrap();
         let dwell: Vec<f64> = ev
             .iter()
             .filter_map(|e| {
@@ -2523,7 +2537,8 @@ mod tests {
                 }
             })
             .collect();
-        assert_eq!(dwell, [1.5, 2.5]);
+        // P in ms; X/U with a point in s, without one in 0.001 s.
+        assert_eq!(dwell, [1.5, 2.5, 2.5, 0.75]);
         let l = lin(&moves(&ev)[0]).to;
         assert!(close(l[Axis::X], 0.01) && close(l[Axis::Y], 10.0));
         assert!(matches!(

@@ -9,11 +9,17 @@
 //! * named local parameters `#<name>`: local to the subroutine call (or to the
 //!   main program) that set them; reading one that was never set is an error.
 //! * named global parameters `#<_name>` (leading underscore): visible
-//!   everywhere. `#<_value>` and `#<_value_returned>` are set by `return` /
-//!   `endsub` (LinuxCNC 2.9). The predefined read-only globals `#<_vmajor>`
+//!   everywhere. `#<_value>` and `#<_value_returned>` are 0 at start and
+//!   set by every `return` / `endsub` (the value, or 0 when none is
+//!   returned; LinuxCNC 2.9). The predefined read-only globals `#<_vmajor>`
 //!   (2) and `#<_vminor>` (9) are provided; LinuxCNC's other predefined
 //!   state parameters (`#<_x>`, `#<_line>`, ...) are not, and reading one is
 //!   the "not defined" error.
+//! * INI values `#<_ini[section]name>` (read only): the number of entry
+//!   `NAME` in the first `[SECTION]` of the INI file given with
+//!   [`Parameters::load_ini`], section and name upper-cased as LinuxCNC
+//!   looks them up; an entry that is missing or not a plain number is "not
+//!   defined", as in LinuxCNC.
 //!
 //! Names are read as LinuxCNC reads them: case-insensitive, spaces and tabs
 //! inside `<>` removed.
@@ -89,15 +95,23 @@ pub struct Parameters {
     /// required persistent ones (LinuxCNC keeps every parameter its var file
     /// lists).
     listed: BTreeSet<u32>,
+    /// INI values by `SECTION]NAME` (upper case): the numeric entries of the
+    /// first section of each name.
+    ini: HashMap<String, f64>,
 }
 
 impl Default for Parameters {
     fn default() -> Self {
         Parameters {
             numbered: vec![0.0; MAX_NUMBERED as usize],
-            globals: HashMap::new(),
+            // LinuxCNC starts with both return globals at 0.
+            globals: HashMap::from([
+                ("_value".to_string(), 0.0),
+                ("_value_returned".to_string(), 0.0),
+            ]),
             locals: vec![HashMap::new()],
             listed: BTreeSet::new(),
+            ini: HashMap::new(),
         }
     }
 }
@@ -135,10 +149,73 @@ impl Parameters {
         Ok(())
     }
 
+    /// Makes the entries of an INI file (its text) readable as
+    /// `#<_ini[section]name>`, replacing those of an earlier one. Lines are
+    /// `[SECTION]` headers and `NAME = VALUE` entries; lines starting with
+    /// `#` or `;` are comments. Only the first section of a name is read
+    /// and, in it, the first entry of a name (LinuxCNC's INI lookup); only
+    /// values that are a plain decimal number (an exponent allowed) are
+    /// kept.
+    pub fn load_ini(&mut self, text: &str) {
+        self.ini.clear();
+        let mut seen_sections = BTreeSet::new();
+        let mut section: Option<String> = None;
+        for line in text.lines() {
+            let t = line.trim();
+            if let Some(rest) = t.strip_prefix('[') {
+                let name = rest.split(']').next().unwrap_or("").trim().to_string();
+                // A repeated section is not searched (its first one is).
+                section = seen_sections.insert(name.clone()).then_some(name);
+                continue;
+            }
+            if t.starts_with(['#', ';']) {
+                continue;
+            }
+            let (Some(sec), Some((key, value))) = (&section, t.split_once('=')) else {
+                continue;
+            };
+            let key = format!("{sec}]{}", key.trim());
+            let value = value.trim();
+            let plain = !value.is_empty()
+                && value
+                    .bytes()
+                    .all(|c| c.is_ascii_digit() || matches!(c, b'+' | b'-' | b'.' | b'e' | b'E'));
+            let number = value.parse::<f64>().ok().filter(|v| plain && v.is_finite());
+            if let std::collections::hash_map::Entry::Vacant(e) = self.ini.entry(key) {
+                // The first entry of a name counts even when it is not a number.
+                if let Some(v) = number {
+                    e.insert(v);
+                } else {
+                    e.insert(f64::NAN);
+                }
+            }
+        }
+    }
+
+    /// The INI value behind a normalised `_ini[section]name` parameter name.
+    fn ini_value(&self, name: &str) -> Option<Result<f64, ParamError>> {
+        let rest = name.strip_prefix("_ini[")?;
+        let undefined = || ParamError::Undefined(name.to_string());
+        let Some((section, key)) = rest.split_once(']') else {
+            return Some(Err(undefined()));
+        };
+        let k = format!("{}]{}", section.to_uppercase(), key.to_uppercase());
+        Some(
+            self.ini
+                .get(&k)
+                .copied()
+                .filter(|v| v.is_finite())
+                .ok_or_else(undefined),
+        )
+    }
+
     /// Value of a named parameter (name already normalised).
     pub fn get_named(&self, name: &str) -> Result<f64, ParamError> {
         if let Some(&(_, v)) = PREDEFINED.iter().find(|(n, _)| *n == name) {
             return Ok(v);
+        }
+        if let Some(v) = self.ini_value(name) {
+            return v;
         }
         let found = if name.starts_with('_') {
             self.globals.get(name)
@@ -159,7 +236,7 @@ impl Parameters {
     /// Sets a named parameter (name already normalised): a global when it
     /// starts with `_`, else a local of the current call.
     pub fn set_named(&mut self, name: &str, value: f64) -> Result<(), ParamError> {
-        if PREDEFINED.iter().any(|(n, _)| *n == name) {
+        if PREDEFINED.iter().any(|(n, _)| *n == name) || name.starts_with("_ini[") {
             return Err(ParamError::ReadOnly(name.to_string()));
         }
         if name.starts_with('_') {
@@ -267,6 +344,38 @@ mod tests {
         assert_eq!(p.get_named("_vmajor"), Ok(2.0));
         assert!(p.set_named("_vmajor", 3.0).is_err());
         assert!(p.exists("_g") && !p.exists("_h"));
+    }
+
+    #[test]
+    fn ini_values_are_read_only_numbers_of_the_first_section() {
+        let mut p = Parameters::new();
+        p.load_ini(
+            "[EMC]\nX = 1\n[VARS]\nTOOLCHANGE_X = 10\n  B =  -2.5  \nC = 0x10\nD = 20 ; c\n\
+             E = 1.5e1\nB = 99\n; B = 7\nlower = 3\n[VARS]\nF = 4\n",
+        );
+        let get = |n: &str| p.get_named(&normalise_name(n));
+        assert_eq!(get("_ini[vars]toolchange_x"), Ok(10.0));
+        assert_eq!(get("_InI[ V ars]b"), Ok(-2.5), "the first entry of a name");
+        assert_eq!(get("_ini[vars]e"), Ok(15.0));
+        assert_eq!(get("_ini[emc]x"), Ok(1.0));
+        for undefined in [
+            "_ini[vars]c",
+            "_ini[vars]d",
+            "_ini[vars]lower",
+            "_ini[vars]f",
+            "_ini[nosuch]x",
+            "_ini[vars",
+        ] {
+            assert!(
+                matches!(get(undefined), Err(ParamError::Undefined(_))),
+                "{undefined}"
+            );
+        }
+        assert!(matches!(
+            p.set_named("_ini[vars]toolchange_x", 1.0),
+            Err(ParamError::ReadOnly(_))
+        ));
+        assert_eq!(Parameters::new().get_named("_value"), Ok(0.0));
     }
 
     #[test]

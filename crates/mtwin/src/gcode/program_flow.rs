@@ -20,9 +20,11 @@
 //!   L3` calls it three times (the `P` form with the repeat count in front
 //!   of four program digits is not read). `M99` in the main program (endless
 //!   repeat) is refused.
-//! * `(DEBUG,…)` and `(PRINT,…)` comments go to [`ProgramOptions::messages`]
+//! * `(DEBUG,…)`, `(PRINT,…)` and `(ABORT,…)` comments go to [`ProgramOptions::messages`]
 //!   with `#n` / `#<name>` replaced by their values (six decimals, as
-//!   LinuxCNC prints them; an undefined name prints `######`).
+//!   LinuxCNC prints them; an undefined name prints `######`); an
+//!   `(ABORT,…)` comment then stops the program with an error naming its
+//!   line, before the block's other words run.
 //! * Every executed block counts against [`ProgramOptions::max_blocks`]; a
 //!   program that runs longer (an endless loop) stops with an error naming
 //!   the line. Subroutine calls nest at most [`MAX_CALL_DEPTH`] deep.
@@ -69,6 +71,8 @@ pub enum MessageKind {
     Debug,
     /// `(PRINT,…)`: printed on LinuxCNC's standard error.
     Print,
+    /// `(ABORT,…)`: the message, then the program stops with an error.
+    Abort,
 }
 
 /// Where messages go: a callback (the CLI prints them on stderr), or nowhere.
@@ -141,6 +145,36 @@ impl Default for ProgramOptions {
             max_blocks: DEFAULT_MAX_BLOCKS,
             messages: MessageSink::default(),
             keep_rest: false,
+        }
+    }
+}
+
+impl ProgramOptions {
+    /// Applies a LinuxCNC INI file (its text; `dir` is its folder): its
+    /// numeric entries become readable as `#<_ini[section]name>` (see
+    /// [`Parameters::load_ini`]) and the directories of its
+    /// `[RS274NGC] SUBROUTINE_PATH` (separated by `:`, a relative one taken
+    /// from `dir`, where LinuxCNC runs) are searched after those already in
+    /// [`ProgramOptions::subroutine_path`].
+    pub fn apply_ini(&mut self, text: &str, dir: &std::path::Path) {
+        Arc::make_mut(&mut self.parameters).load_ini(text);
+        let mut section = "";
+        for line in text.lines() {
+            let t = line.trim();
+            if let Some(rest) = t.strip_prefix('[') {
+                section = rest.split(']').next().unwrap_or("").trim();
+                continue;
+            }
+            let Some((key, value)) = t.split_once('=') else {
+                continue;
+            };
+            if section == "RS274NGC" && key.trim() == "SUBROUTINE_PATH" {
+                for d in value.trim().split(':').filter(|d| !d.trim().is_empty()) {
+                    self.subroutine_path.push(dir.join(d.trim()));
+                }
+                // LinuxCNC reads the first entry only.
+                break;
+            }
         }
     }
 }
@@ -253,7 +287,9 @@ where
                 .iter()
                 .any(|i| matches!(i, Item::OWord { .. }))
         {
-            // The program number at the top: nothing to execute.
+            // The program number at the top: nothing to execute (but
+            // nothing else may stand on its line).
+            parse_stmt(&block, true)?;
             summary.executed += 1;
             sink(&Step {
                 block: &block,
@@ -267,7 +303,7 @@ where
         summary.executed += 1;
         events.clear();
         if !interp.ended() {
-            messages(&block, interp.parameters(), opts, None);
+            messages(&block, interp.parameters(), opts, None)?;
         }
         interp.execute(&block, &mut events)?;
         sink(&Step {
@@ -302,8 +338,14 @@ fn word_value(block: &Block, w: &super::syntax::Word, params: &Parameters) -> Re
     }
 }
 
-/// Sends the `(DEBUG,…)` / `(PRINT,…)` comments of a block.
-fn messages(block: &Block, params: &Parameters, opts: &ProgramOptions, file: Option<&PathBuf>) {
+/// Sends the `(DEBUG,…)` / `(PRINT,…)` / `(ABORT,…)` comments of a block;
+/// an `(ABORT,…)` one then stops the program with its text as the error.
+fn messages(
+    block: &Block,
+    params: &Parameters,
+    opts: &ProgramOptions,
+    file: Option<&PathBuf>,
+) -> Result<(), GcodeError> {
     for item in block.items() {
         let Item::Comment {
             kind: CommentKind::Paren,
@@ -319,15 +361,25 @@ fn messages(block: &Block, params: &Parameters, opts: &ProgramOptions, file: Opt
         let kind = match upper.as_deref() {
             Some("DEBUG,") => MessageKind::Debug,
             Some("PRINT,") => MessageKind::Print,
+            Some("ABORT,") => MessageKind::Abort,
             _ => continue,
         };
+        let text = substitute(&trimmed[6..], params);
         opts.messages.send(&Message {
             kind,
-            text: substitute(&trimmed[6..], params),
+            text: text.clone(),
             file: file.cloned(),
             line: block.line(),
         });
+        if kind == MessageKind::Abort {
+            return Err(GcodeError::invalid(
+                block.line(),
+                span.start + 1,
+                format!("program aborted by (ABORT,…):{text}"),
+            ));
+        }
     }
+    Ok(())
 }
 
 /// The text with `#n` and `#<name>` replaced by their values.
@@ -778,15 +830,33 @@ fn parse_stmt(block: &Block, fanuc: bool) -> Result<Option<Stmt>, GcodeError> {
     };
     skip(&mut i);
     let kw_start = i;
-    while text.get(i).is_some_and(u8::is_ascii_alphabetic) {
-        i += 1;
+    // LinuxCNC removes blanks before reading a line, so `end sub` is
+    // `endsub` and `else if` is `elseif`.
+    let mut kw = Vec::new();
+    let mut j = i;
+    while let Some(&c) = text.get(j) {
+        if c.is_ascii_alphabetic() {
+            kw.push(c.to_ascii_lowercase());
+            i = j + 1;
+        } else if !matches!(c, b' ' | b'\t') {
+            break;
+        }
+        j += 1;
     }
-    let kw = text[kw_start..i].to_ascii_lowercase();
     let kind = KEYWORDS
         .iter()
         .find(|(w, _)| w.as_bytes() == kw.as_slice())
         .map(|(_, k)| *k);
     let Some(kind) = kind else {
+        if fanuc {
+            return Err(GcodeError::syntax(
+                line,
+                kw_start + 1,
+                format!(
+                    "a program number line (O{label}) holds nothing but the number and comments"
+                ),
+            ));
+        }
         return Err(GcodeError::syntax(
             line,
             kw_start + 1,
@@ -978,7 +1048,8 @@ impl Flow<'_> {
                     .checked_sub(1)
                     .and_then(|k| self.files.get(k as usize))
                     .cloned();
-                messages(block, interp.parameters(), self.opts, path.as_ref());
+                messages(block, interp.parameters(), self.opts, path.as_ref())
+                    .map_err(|e| fail(&self.files, e))?;
                 interp
                     .execute(block, &mut events)
                     .map_err(|e| fail(&self.files, e))?;
@@ -1055,9 +1126,8 @@ impl Flow<'_> {
                         p.leave_call(saved);
                     }
                     let _ = p.set_named("_value_returned", if v.is_empty() { 0.0 } else { 1.0 });
-                    if let Some(x) = v.first() {
-                        let _ = p.set_named("_value", *x);
-                    }
+                    // LinuxCNC clears the value when none is returned.
+                    let _ = p.set_named("_value", v.first().copied().unwrap_or(0.0));
                     loops.truncate(f.loops_base);
                     c = f.ret_code;
                     pc = f.ret;
@@ -1402,6 +1472,93 @@ mod tests {
     }
 
     #[test]
+    fn value_starts_at_zero_and_a_plain_return_clears_it() {
+        // LinuxCNC: #<_value> is 0 before any call; a return without a value
+        // sets it (and #<_value_returned>) back to 0.
+        let src = "o<f> sub\no1 if [#1 GT 0]\no<f> return [#1 * 2]\no1 endif\no<f> end sub\n\
+                   G0 X#<_value> Y#<_value_returned>\no<f> call [3]\nG0 X#<_value> Y#<_value_returned>\n\
+                   o<f> call [-1]\nG0 X#<_value> Y#<_value_returned> Z1\nM2\n";
+        let m = moves_with(src, InterpOptions::default()).unwrap();
+        let ends: Vec<[f64; 3]> = m.iter().map(|(p, _)| *p).collect();
+        assert_eq!(ends, vec![[0.0; 3], [6.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+    }
+
+    #[test]
+    fn keywords_may_hold_blanks() {
+        let src = "#1=0\no1 while [#1 LT 2]\nG0 X#1\n#1=[#1+1]\no1 end while\n\
+                   o2 if [#1 EQ 5]\nG0 Y1\no2 else if [#1 EQ 2]\nG0 Y2\no2 end if\n";
+        let m = moves_with(src, InterpOptions::default()).unwrap();
+        let ends: Vec<[f64; 3]> = m.iter().map(|(p, _)| *p).collect();
+        assert_eq!(ends, vec![[0.0; 3], [1.0, 0.0, 0.0], [1.0, 2.0, 0.0]]);
+    }
+
+    #[test]
+    fn abort_comment_prints_and_stops() {
+        let got: Arc<Mutex<Vec<(MessageKind, String)>>> = Arc::default();
+        let sink = got.clone();
+        let mut opts = InterpOptions::default();
+        opts.program.messages = MessageSink::new(move |m: &Message| {
+            sink.lock().unwrap().push((m.kind, m.text.clone()));
+        });
+        // The abort fires on the third run of the loop body, before the
+        // move of its own line.
+        let src = "#42=0\no1 while [#42 LT 5]\nG0 X#42\no2 if [#42 EQ 2]\n(abort, at #42)G0 Y9\no2 endif\n\
+                   #42=[#42+1]\no1 endwhile\nM2\n";
+        let mut xs = Vec::new();
+        let e = interpret(src.as_bytes(), opts, |_, events| {
+            for ev in events {
+                if let EventKind::Traverse(m) = ev.kind {
+                    xs.push((m.to[Axis::X], m.to[Axis::Y]));
+                }
+            }
+            Ok(())
+        })
+        .unwrap_err();
+        assert_eq!(xs, vec![(0.0, 0.0), (1.0, 0.0), (2.0, 0.0)]);
+        assert_eq!(e.location().map(|l| (l.line, l.column)), Some((5, 1)));
+        assert!(
+            e.to_string().contains("aborted") && e.to_string().contains(" at 2.000000"),
+            "{e}"
+        );
+        assert_eq!(
+            got.lock().unwrap().clone(),
+            vec![(MessageKind::Abort, " at 2.000000".to_string())]
+        );
+    }
+
+    #[test]
+    fn ini_values_and_subroutine_path() {
+        let dir = std::env::temp_dir().join(format!("mtwin-ini-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("subs")).unwrap();
+        std::fs::write(
+            dir.join("subs/tc.ngc"),
+            "o<tc> sub\nG53 G0 Z#<_ini[vars]toolchange_z>\no<tc> endsub\nM2\n",
+        )
+        .unwrap();
+        let mut opts = InterpOptions::default();
+        opts.program.apply_ini(
+            "[RS274NGC]\nSUBROUTINE_PATH = nope:subs\n[VARS]\nTOOLCHANGE_X = 10\nTOOLCHANGE_Z = -2.5\n",
+            &dir,
+        );
+        assert_eq!(
+            opts.program.subroutine_path,
+            vec![dir.join("nope"), dir.join("subs")]
+        );
+        let m = moves_with(
+            "G0 X#<_INI[Vars]ToolChange_X>\no<tc> call\nM2\n",
+            opts.clone(),
+        )
+        .unwrap();
+        let ends: Vec<[f64; 3]> = m.iter().map(|(p, _)| *p).collect();
+        assert_eq!(ends, vec![[10.0, 0.0, 0.0], [10.0, 0.0, -2.5]]);
+        let e = moves_with("#<_ini[vars]toolchange_x> = 1\n", opts.clone()).unwrap_err();
+        assert!(e.to_string().contains("read-only"), "{e}");
+        let e = moves_with("G0 X#<_ini[vars]nosuch>\n", opts).unwrap_err();
+        assert!(e.to_string().contains("not defined"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
     fn if_elseif_else() {
         let prog = |v: f64| {
             format!(
@@ -1536,6 +1693,20 @@ mod tests {
             ]
         );
         assert_eq!(m[0].1, 9);
+        // The program number line at the top, in its forms; nothing else on it.
+        for src in [
+            "O1234\nG0 X1.\nM30\n",
+            "%\nO1234 (PART)\nG0 X1.\nM30\n%\n",
+            "O1234(X)\nG0 X1.\nM30\n",
+            "N1 O0001\nG0 X1.\nM30\n",
+        ] {
+            let m = moves_with(src, opts.clone()).unwrap();
+            assert_eq!(m.len(), 1, "{src:?}");
+            assert_eq!(m[0].0[0], 1.0, "{src:?}");
+        }
+        let e = moves_with("O1234 G0 X1.\nM30\n", opts.clone()).unwrap_err();
+        assert!(e.to_string().contains("program number line"), "{e}");
+        assert_eq!(e.location().unwrap().line, 1);
         let e = moves_with("G0 X1\nM99\n", opts.clone()).unwrap_err();
         assert!(e.to_string().contains("M99 in the main program"), "{e}");
         let e = moves_with("M98 P7\nM30\n", opts).unwrap_err();

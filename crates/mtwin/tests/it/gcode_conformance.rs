@@ -5,6 +5,14 @@
 //! the trace's own USE_LENGTH_UNITS), every `good/` program must be accepted
 //! and every `bad/` program must be rejected.
 //!
+//! A case whose trace ends without PROGRAM_END or FINISH is one LinuxCNC
+//! refuses: mtwin must refuse it too, after the same motion.
+//!
+//! The corpus keeps each case's program, trace and subroutine folder but not
+//! the `test.ini` LinuxCNC's test runs `rs274` with; [`case_ini`] gives the
+//! INI text those cases use (`[RS274NGC] SUBROUTINE_PATH = subs`, the
+//! `#<_ini[…]>` values), read through `ProgramOptions::apply_ini`.
+//!
 //! Cases whose programs use what this interpreter does not implement are
 //! rejected by it with an "unsupported" error; they are listed in
 //! [`SKIPPED`] with the reason, and the test checks that this list is
@@ -20,10 +28,7 @@ use mtwin::gcode::{self, EventKind, GcodeError, InterpOptions, UnknownMCode};
 /// result yet, with the reason; each must still fail, so the list cannot go
 /// stale.
 const KNOWN_FAILURES: &[(&str, &str)] = &[
-    ("exists", "EXISTS of a numbered parameter is refused"),
     ("flowsnake", "the recursion differs from call 3"),
-    ("g72-", "`o… end` is not an O-word statement mtwin knows"),
-    ("iniparam", "INI parameters #<_ini[…]> are not read"),
     (
         "m98m99/1",
         "O-number programs and O expressions in the LinuxCNC dialect",
@@ -34,8 +39,9 @@ const KNOWN_FAILURES: &[(&str, &str)] = &[
     ),
     ("namedparam-bug424", "a `#` form the lexer refuses"),
     (
-        "nested-sub-",
-        "the case's subroutine file is not found next to the program",
+        "nested-sub-in-file-error",
+        "LinuxCNC after 2.9 refuses a call of a second subroutine defined in a \
+         subroutine file; rs274 2.9 (the differential reference) and mtwin run it",
     ),
     (
         "oword-unwind",
@@ -44,18 +50,10 @@ const KNOWN_FAILURES: &[(&str, &str)] = &[
     ("pymove", "Python (remap) subroutines are not run"),
     ("python-self", "Python (remap) subroutines are not run"),
     (
-        "sub-call-from-sub",
-        "the case's subroutine file is not found next to the program",
-    ),
-    (
         "value-returned",
-        "the case's subroutine file is not found next to the program",
+        "its o<returns4711> and others are Python subroutines (remap), not run",
     ),
     ("oword-bug315-p2", "an O-word label form mtwin refuses"),
-    (
-        "return-value",
-        "#<_value> read before any return is undefined in mtwin",
-    ),
     (
         "rotation/abs-pts",
         "moves before the unsupported block differ",
@@ -85,6 +83,8 @@ const SKIPPED: &[(&str, &str)] = &[
     ("g71-endless-loop2", "constant surface speed G96"),
     ("g71-endless-loop_2", "lathe diameter/radius mode G7"),
     ("g71-with-g70", "lathe cycle G71.1"),
+    ("g72-facing", "lathe cycle G72"),
+    ("g72-missing-iteration", "lathe cycle G72"),
     ("g76", "spindle-synchronised motion G76"),
     ("inside-corners", "cutter radius compensation G41.1"),
     ("inverse-time-with-comp", "cutter radius compensation G42.1"),
@@ -123,6 +123,37 @@ const SKIPPED: &[(&str, &str)] = &[
     ("rotation/g28", "coordinate system rotation (G10 L2 R)"),
     ("rotation/g53", "coordinate system rotation (G10 L2 R)"),
 ];
+
+/// The INI sections (besides `[RS274NGC]`) of LinuxCNC's `test.ini` of a
+/// case (not kept in the corpus): the values its `#<_ini[…]>` parameters
+/// read.
+pub(crate) fn case_ini_sections(name: &str) -> &'static str {
+    match name {
+        "iniparam" | "iniparam-failassign" => {
+            "[VARS]\nTOOLCHANGE_X = 10\nTOOLCHANGE_Y = 20\nTOOLCHANGE_Z = 30\n"
+        }
+        "abort-hot-comment" => "[A]\nVALUE= 3.14\n",
+        _ => "",
+    }
+}
+
+/// The INI text a case runs with: `SUBROUTINE_PATH = subs` for a case with
+/// a `subs` folder (as LinuxCNC's test INIs of those cases say) and the
+/// sections of [`case_ini_sections`].
+fn case_ini(name: &str, dir: &Path) -> Option<String> {
+    let subs = if dir.join("subs").is_dir() {
+        "[RS274NGC]\nSUBROUTINE_PATH=subs\n"
+    } else {
+        ""
+    };
+    let text = format!("{subs}{}", case_ini_sections(name));
+    (!text.is_empty()).then_some(text)
+}
+
+/// Whether LinuxCNC refused the case: its trace has no program end.
+fn expected_refused(trace: &str) -> bool {
+    !(trace.contains("PROGRAM_END()") || trace.contains("FINISH()"))
+}
 
 fn root() -> Option<PathBuf> {
     crate::shared::shared_dir("corpus/gcode-conformance/linuxcnc-interp")
@@ -176,7 +207,11 @@ fn expected_motion(text: &str) -> Vec<Call> {
 
 /// Motion calls of our interpreter, in LinuxCNC's argument order: all of
 /// them, or those before the block that failed and the error.
-fn our_motion(program: &[u8], dir: &Path) -> Result<Vec<Call>, (Vec<Call>, GcodeError)> {
+fn our_motion(
+    program: &[u8],
+    dir: &Path,
+    ini: Option<&str>,
+) -> Result<Vec<Call>, (Vec<Call>, GcodeError)> {
     // The tool lengths LinuxCNC's test tool table gives (USE_TOOL_LENGTH_OFFSET
     // in the traces of g72-facing, in mm, and g76, 0.7 in).
     // Tool 1 with zero offsets: the test.tbl of LinuxCNC's g10 cases.
@@ -186,6 +221,9 @@ fn our_motion(program: &[u8], dir: &Path) -> Result<Vec<Call>, (Vec<Call>, Gcode
     opts.tools = tools;
     // Subroutine files of a case sit next to its program.
     opts.program.subroutine_path = vec![dir.to_path_buf()];
+    if let Some(ini) = ini {
+        opts.program.apply_ini(ini, dir);
+    }
     let mut calls = Vec::new();
     let result = gcode::interpret(program, opts, |_, events| {
         for e in events {
@@ -303,7 +341,11 @@ fn linuxcnc_conformance() {
         let bytes = std::fs::read(&program).unwrap();
         let expected_text =
             String::from_utf8_lossy(&std::fs::read(dir.join("expected")).unwrap()).into_owned();
-        match our_motion(&bytes, dir) {
+        let refused = expected_refused(&expected_text);
+        match our_motion(&bytes, dir, case_ini(name, dir).as_deref()) {
+            Ok(_) if refused => {
+                failures.push(format!("{name}: accepted, but LinuxCNC refuses it"));
+            }
             Ok(ours) => match same(&ours, &expected_motion(&expected_text)) {
                 Ok(()) => passed.push(name.clone()),
                 Err(e) => failures.push(format!("{name}: {e}")),
@@ -321,6 +363,11 @@ fn linuxcnc_conformance() {
                 }
                 skipped.insert(name.clone(), e.to_string());
             }
+            // Refused by both: the motion before must be LinuxCNC's.
+            Err((ours, _)) if refused => match same(&ours, &expected_motion(&expected_text)) {
+                Ok(()) => passed.push(name.clone()),
+                Err(e) => failures.push(format!("{name}: refused by both, but {e}")),
+            },
             Err((_, e)) => failures.push(format!("{name}: rejected: {e}")),
         }
     }
@@ -336,7 +383,7 @@ fn linuxcnc_conformance() {
         for f in files {
             let name = format!("{folder}/{}", f.file_name().unwrap().to_string_lossy());
             match (
-                our_motion(&std::fs::read(&f).unwrap(), &root.join(folder)),
+                our_motion(&std::fs::read(&f).unwrap(), &root.join(folder), None),
                 must_fail,
             ) {
                 (Err((_, e @ GcodeError::Unsupported { .. })), _) => {

@@ -68,12 +68,23 @@ const WORK_OFFSETS: [[f64; 3]; 9] = [
 ];
 
 fn ini_text(subs: &Path) -> String {
+    case_ini_text(subs, None, "")
+}
+
+/// The INI of a program: [`ini_text`]'s, with the program's own `subs`
+/// folder searched after the shared one and the extra sections a
+/// conformance case reads (`#<_ini[…]>` values). mtwin reads the same text.
+fn case_ini_text(subs: &Path, case_subs: Option<&Path>, sections: &str) -> String {
+    let path = match case_subs {
+        Some(c) => format!("{}:{}", subs.display(), c.display()),
+        None => subs.display().to_string(),
+    };
     format!(
         "[RS274NGC]\nSUBROUTINE_PATH = {}\n\
          REMAP = M428 modalgroup=10 ngc=m428\n\
          REMAP = M429 modalgroup=10 ngc=m429\n\
-         REMAP = M430 modalgroup=10 ngc=m430\n",
-        subs.display()
+         REMAP = M430 modalgroup=10 ngc=m430\n{sections}",
+        path
     )
 }
 
@@ -115,6 +126,8 @@ struct Setup {
     ini: PathBuf,
     tbl: PathBuf,
     root: PathBuf,
+    /// The shared subroutine folder (the M428–M430 remaps).
+    subs: PathBuf,
 }
 
 fn rs274_exe() -> Option<PathBuf> {
@@ -162,6 +175,7 @@ fn setup() -> Option<Setup> {
         ini,
         tbl,
         root,
+        subs,
     })
 }
 
@@ -283,14 +297,22 @@ fn parse_canon(text: &str) -> Vec<Step> {
 }
 
 /// Runs rs274 on `program`; `work` is a private scratch folder.
-fn run_rs274(s: &Setup, program: &Path, work: &Path) -> Outcome {
+fn run_rs274(s: &Setup, program: &Path, work: &Path, ini: Option<&str>) -> Outcome {
+    let ini = match ini {
+        Some(text) => {
+            let p = work.join("case.ini");
+            std::fs::write(&p, text).unwrap();
+            p
+        }
+        None => s.ini.clone(),
+    };
     let var = work.join("params.var");
     std::fs::write(&var, var_text()).unwrap();
     let out_path = work.join("canon.txt");
     let err_path = work.join("stderr.txt");
     let mut child = Command::new(&s.exe)
         .arg("-i")
-        .arg(&s.ini)
+        .arg(&ini)
         .arg("-t")
         .arg(&s.tbl)
         .arg("-v")
@@ -372,13 +394,17 @@ fn canonical_feed(feed: Feed, xyz_mm: f64, abc_deg: f64, scale: f64) -> Option<f
     }
 }
 
-fn run_mtwin(program: &[u8]) -> Outcome {
+fn run_mtwin(program: &[u8], ini: Option<(&str, &Path)>) -> Outcome {
     let mut steps = Vec::new();
+    let mut opts = mtwin_options();
+    if let Some((text, dir)) = ini {
+        opts.program.apply_ini(text, dir);
+    }
     // The last end in program coordinates: a move that ends where the last
     // one did is left out, by the same rule as the rs274 side (a change of
     // work offset between them moves the machine, not the program point).
     let mut at = [0.0; 6];
-    let result = gcode::interpret(program, mtwin_options(), |_, events| {
+    let result = gcode::interpret(program, opts, |_, events| {
         for e in events {
             match &e.kind {
                 EventKind::Traverse(m) | EventKind::Feed(m) => {
@@ -521,20 +547,13 @@ const KNOWN_DIFFERENCES: &[(&str, &str)] = &[
 /// for later; each must still disagree, so the list cannot go stale.
 const KNOWN_FLOW_DIFFERENCES: &[(&str, &str)] = &[
     (
-        "linuxcnc-interp/abort-hot-comment/",
-        "(ABORT,…) comments are not run (mtwin accepts what rs274 aborts)",
-    ),
-    (
-        "linuxcnc-interp/exists/",
-        "EXISTS of a numbered parameter is refused",
-    ),
-    (
         "linuxcnc-interp/flowsnake/",
         "the flowsnake subroutine recursion differs from step 3",
     ),
     (
-        "linuxcnc-interp/g72-",
-        "`o… end` is not an O-word statement mtwin knows",
+        "linuxcnc-interp/nested-sub-error/",
+        "a subroutine defined inside a subroutine: rs274 2.9 runs it (and reads the \
+         caller's arguments in it), mtwin refuses it as LinuxCNC after 2.9 does",
     ),
     (
         "linuxcnc-interp/m98m99/1",
@@ -547,10 +566,6 @@ const KNOWN_FLOW_DIFFERENCES: &[(&str, &str)] = &[
     (
         "linuxcnc-interp/oword-bug315-p2/",
         "an O-word label form mtwin refuses",
-    ),
-    (
-        "linuxcnc-interp/return-value/",
-        "#<_value> read before any return is undefined in mtwin (0 in LinuxCNC)",
     ),
 ];
 
@@ -1062,6 +1077,9 @@ fn generate(seed: u64) -> String {
 struct Case {
     name: String,
     path: PathBuf,
+    /// The program's own INI text (a conformance case with a `subs` folder
+    /// or `#<_ini[…]>` values), else the shared one.
+    ini: Option<String>,
 }
 
 fn ngc_files(dir: &Path, out: &mut Vec<PathBuf>) {
@@ -1095,7 +1113,17 @@ fn differential_against_linuxcnc_rs274() {
                 .unwrap()
                 .to_string_lossy()
                 .into_owned();
-            cases.push(Case { name, path });
+            // A conformance case: its folder name relative to the suite.
+            let case = path
+                .parent()
+                .and_then(|p| p.strip_prefix(&dir).ok())
+                .map(|p| p.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let case_subs = path.parent().map(|p| p.join("subs")).filter(|p| p.is_dir());
+            let sections = crate::gcode_conformance::case_ini_sections(&case);
+            let ini = (case_subs.is_some() || !sections.is_empty())
+                .then(|| case_ini_text(&setup.subs, case_subs.as_deref(), sections));
+            cases.push(Case { name, path, ini });
         }
     }
     let gen_dir = setup.root.join("generated");
@@ -1106,6 +1134,7 @@ fn differential_against_linuxcnc_rs274() {
         cases.push(Case {
             name: format!("generated seed {:#x}", SEED + k),
             path,
+            ini: None,
         });
     }
 
@@ -1124,8 +1153,9 @@ fn differential_against_linuxcnc_rs274() {
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     let Some(case) = cases.get(i) else { break };
                     let bytes = std::fs::read(&case.path).unwrap();
-                    let theirs = run_rs274(setup, &case.path, &work);
-                    let ours = run_mtwin(&bytes);
+                    let theirs = run_rs274(setup, &case.path, &work, case.ini.as_deref());
+                    let dir = case.path.parent().unwrap_or(Path::new("."));
+                    let ours = run_mtwin(&bytes, case.ini.as_deref().map(|t| (t, dir)));
                     let v = classify(&ours, &theirs);
                     if let (Verdict::Disagree(_), Some(keep)) =
                         (&v, std::env::var_os("MTWIN_RS274_KEEP"))
