@@ -18,6 +18,7 @@
 pub mod jerk;
 pub mod linuxcnc;
 pub mod lookahead;
+pub mod naive_cam;
 pub mod profile;
 
 use std::fmt;
@@ -87,6 +88,22 @@ pub struct PlanOptions {
     pub cycle_time: f64,
     /// `linuxcnc`: LinuxCNC's `[TRAJ] ARC_BLEND_KINK_RATIO` (default 0.1).
     pub kink_ratio: f64,
+    /// `linuxcnc`: the highest feed override the blend arcs are sized for
+    /// (LinuxCNC's `[DISPLAY] MAX_FEED_OVERRIDE`, default 1; its
+    /// simulator configurations use 2). It sets the arcs' size, not their
+    /// speed, which stays the programmed feed.
+    pub max_feed_override: f64,
+    /// `linuxcnc`: seconds the machine stands still where LinuxCNC's task
+    /// waits for the motion queue to empty before a spindle start or stop
+    /// or a TCP switch (M428/M429) and then queues motion again; default
+    /// 0.02 (two cycles of LinuxCNC's 10 ms task, as measured on its
+    /// simulator, see docs/linuxcnc.md); 0 for none.
+    pub task_wait: f64,
+    /// `linuxcnc`: spindle acceleration, rev/min per s: a spindle start
+    /// or speed change waits `|Δ speed| / spindle_accel` (LinuxCNC's feed
+    /// moves wait for the spindle to be at speed); infinite (the default)
+    /// for no wait. LinuxCNC's simulated spindle: 5000.
+    pub spindle_accel: f64,
 }
 
 impl Default for PlanOptions {
@@ -98,6 +115,9 @@ impl Default for PlanOptions {
             lookahead: 50,
             cycle_time: 0.001,
             kink_ratio: 0.1,
+            max_feed_override: 1.0,
+            task_wait: 0.02,
+            spindle_accel: f64::INFINITY,
         }
     }
 }
