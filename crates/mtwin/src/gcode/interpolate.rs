@@ -49,8 +49,8 @@ use super::error::GcodeError;
 use super::event::{ArcMove, Event, EventKind, Feed, Linear, PathMode, SpindleState};
 use super::interp::{InterpOptions, Interpreter};
 use super::plan::linuxcnc;
-use super::plan::naive_cam::NaiveCam;
 use super::plan::lookahead::{Join, Limits, Lookahead, Planned};
+use super::plan::naive_cam::NaiveCam;
 use super::plan::{PlanOptions, Planner};
 use super::program_flow::{Step, run_program};
 use super::timing::{self, lerp};
@@ -244,8 +244,14 @@ impl InterpolateError {
 /// The geometry of a move in work coordinates as a function of `s ∈ [0, 1]`.
 #[derive(Debug, Clone, Copy)]
 enum Geom {
-    Line { from: Axes, to: Axes },
-    Arc { arc: ArcMove, g: Geometry },
+    Line {
+        from: Axes,
+        to: Axes,
+    },
+    Arc {
+        arc: ArcMove,
+        g: Geometry,
+    },
     /// A `linuxcnc` blend arc: XYZ = `center + r (cos(φs) e1 + sin(φs) e2)`,
     /// the other axes at `from`.
     Blend {

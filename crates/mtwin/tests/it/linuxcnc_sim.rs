@@ -1403,8 +1403,8 @@ fn compare(name: &str, program: &str, setup: &SimSetup) -> Compared {
     opts.plan.spindle_accel = 5000.0;
     opts.check_travel = false;
     // Machine axis index of X Y Z A C (the example lists Y before X).
-    let idx: [usize; 5] = ["X", "Y", "Z", "A", "C"]
-        .map(|n| m.axes.iter().position(|a| a.name == n).unwrap());
+    let idx: [usize; 5] =
+        ["X", "Y", "Z", "A", "C"].map(|n| m.axes.iter().position(|a| a.name == n).unwrap());
     let mut mtwin_path = Vec::new();
     let s = interpolate(program.as_bytes(), &m, &opts, |x| {
         mtwin_path.push(idx.map(|i| x.q[i]));
@@ -1500,7 +1500,10 @@ fn feed_override_leaves_rapids_alone() {
     eprintln!("override: per line {per_line:?}");
     // Rapid: 30/20 + 20/300 = 1.567 s (not 3.03 s); feed: 30/5 + 5/300.
     let (rapid, feed) = (secs(3), secs(4));
-    assert!((rapid - (1.5 + 20.0 / 300.0)).abs() < 0.01, "rapid {rapid} s");
+    assert!(
+        (rapid - (1.5 + 20.0 / 300.0)).abs() < 0.01,
+        "rapid {rapid} s"
+    );
     assert!((feed - (6.0 + 5.0 / 300.0)).abs() < 0.01, "feed {feed} s");
     let c = compare("override", prog, &setup);
     assert!(c.rel().abs() < PLANNER_TOLERANCE);

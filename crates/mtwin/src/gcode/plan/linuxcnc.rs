@@ -652,7 +652,10 @@ mod tests {
         // XY plane: the smaller of the X and Y bounds; a plane at 45° about
         // Y between X and Z: X's bound stretched by √2 (its axis lies at
         // 45° in the plane), Z's too: min(300√2, 200√2).
-        assert_eq!(planar_bound(&[0.0, 0.0, 1.0], &[300.0, 200.0, 100.0]), 200.0);
+        assert_eq!(
+            planar_bound(&[0.0, 0.0, 1.0], &[300.0, 200.0, 100.0]),
+            200.0
+        );
         let h = std::f64::consts::FRAC_1_SQRT_2;
         let b = planar_bound(&[h, 0.0, h], &[300.0, 500.0, 200.0]);
         assert!((b - 200.0 * 2f64.sqrt()).abs() < 1e-9, "{b}");

@@ -159,7 +159,11 @@ mod tests {
         let mut sent = Vec::new();
         for (k, y) in [0.004, -0.004, 0.004, 0.0, 0.03].iter().enumerate() {
             let to = [(k + 1) as f64, *y, 0.0];
-            for m in cam.see(&line(from, to), k as u64 + 1, 0.01).into_iter().flatten() {
+            for m in cam
+                .see(&line(from, to), k as u64 + 1, 0.01)
+                .into_iter()
+                .flatten()
+            {
                 sent.push(m);
             }
             from = to;
