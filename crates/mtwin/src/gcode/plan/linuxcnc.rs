@@ -18,11 +18,12 @@
 //!   rotary or UVW motion whose directions differ so little that the
 //!   direction change at full speed needs less than `kink_ratio` of the
 //!   axis accelerations join tangentially (no stop, also under G61); under
-//!   G64 other corners blend: parabolically (both blocks at half
-//!   acceleration, the next starting while this one slows down, the blend
-//!   speed within the P tolerance) or tangentially at a reduced speed,
-//!   whichever LinuxCNC's estimate finds faster. Blocks with rotary motion
-//!   always blend parabolically under G64.
+//!   G64 other corners blend by the fastest of: a circular blend arc between
+//!   two straight blocks ([`line_line_blend`]), a parabolic blend (both
+//!   blocks at half acceleration, the next starting while this one slows
+//!   down, the blend speed within the P tolerance), or a tangent junction at
+//!   a reduced speed. Blocks with rotary motion always blend parabolically
+//!   under G64.
 
 use super::lookahead::Join;
 use crate::gcode::axes::{Axes, Axis};

@@ -10,8 +10,9 @@
 //!   ([`linuxcnc`]): limits on the **world** axes (the program's X Y Z A B C
 //!   U V W, i.e. the tool tip in W under TCP), look-ahead over
 //!   [`PlanOptions::lookahead`] blocks ([`lookahead`]), tangent junctions
-//!   without stopping, parabolic blends under G64 within the P tolerance,
-//!   G61/G61.1 stops at corners/every block.
+//!   without stopping, circular blend arcs or parabolic blends under G64
+//!   within the P tolerance, G64 Q merging ([`naive_cam`]), G61/G61.1 stops
+//!   at corners/every block, task waits at spindle and TCP commands.
 //!
 //! Nothing is kept in reserve beyond what [`PlanOptions`] states.
 

@@ -176,7 +176,7 @@ mod tests {
         assert_eq!(xyz(&sent[1].0.from), [4.0, 0.0, 0.0]);
         assert_eq!(xyz(&sent[1].0.to), [5.0, 0.03, 0.0]);
         assert_eq!(sent[1].1, 5);
-        // A feed change or a rotary move ends the chain.
+        // A feed change ends the chain; so does a rotary move.
         let mut cam = NaiveCam::new();
         assert!(cam.see(&line([0.0; 3], [1.0, 0.0, 0.0]), 1, 0.1)[0].is_none());
         let mut m = line([1.0, 0.0, 0.0], [2.0, 0.0, 0.0]);
@@ -186,7 +186,13 @@ mod tests {
         r.to[Axis::A] = 5.0;
         r.feed = Feed::PerMinute(300.0);
         let out = cam.see(&r, 3, 0.1);
-        assert!(out[0].is_none() && out[1].is_some(), "{out:?}");
+        // It cannot join (A changes): the chain goes first, then the
+        // rotary block alone.
+        let (Some(a), Some(b)) = (out[0], out[1]) else {
+            panic!("{out:?}")
+        };
+        assert_eq!((xyz(&a.0.to), a.1), ([2.0, 0.0, 0.0], 2));
+        assert_eq!((b.0.to[Axis::A], b.1), (5.0, 3));
         assert!(cam.is_empty());
     }
 }
