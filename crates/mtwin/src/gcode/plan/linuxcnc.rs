@@ -356,7 +356,7 @@ pub fn line_line_blend(prev: &Side, next: &Side, set: &JoinSettings) -> Option<B
     let r_blend = (s_blend / phi).min(r_geom);
     let radius = (v_plan * v_plan / a_n).max(r_blend);
     let s_arc = radius * phi;
-    if !(radius >= 1e-12 && s_arc >= 1e-6) || !v_plan.is_finite() {
+    if !(radius >= 1e-12 && s_arc >= 1e-6 && v_plan.is_finite()) {
         return None;
     }
     Some(BlendArc {

@@ -129,10 +129,8 @@ mod tests {
     fn line(from: [f64; 3], to: [f64; 3]) -> Linear {
         let mut a = Axes::default();
         let mut b = Axes::default();
-        for i in 0..3 {
-            a.0[i] = from[i];
-            b.0[i] = to[i];
-        }
+        a.0[..3].copy_from_slice(&from);
+        b.0[..3].copy_from_slice(&to);
         Linear {
             from: a,
             to: b,
