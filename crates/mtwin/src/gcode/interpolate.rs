@@ -46,11 +46,12 @@ use nalgebra::Vector3;
 use super::arc::{self, Geometry};
 use super::axes::{Axes, Axis, AxisLetterError};
 use super::error::GcodeError;
-use super::event::{ArcMove, Event, EventKind, Feed, Linear, PathMode};
+use super::event::{ArcMove, Event, EventKind, Feed, Linear, PathMode, SpindleState};
 use super::interp::{InterpOptions, Interpreter};
 use super::plan::jerk::{self, JointLimits, JointPath};
 use super::plan::linuxcnc;
-use super::plan::lookahead::{Limits, Lookahead, Planned};
+use super::plan::lookahead::{Join, Limits, Lookahead, Planned};
+use super::plan::naive_cam::NaiveCam;
 use super::plan::{PlanOptions, Planner};
 use super::program_flow::{Step, run_program};
 use super::timing::{self, lerp};
@@ -256,8 +257,24 @@ impl InterpolateError {
 /// The geometry of a move in work coordinates as a function of `s ∈ [0, 1]`.
 #[derive(Debug, Clone, Copy)]
 enum Geom {
-    Line { from: Axes, to: Axes },
-    Arc { arc: ArcMove, g: Geometry },
+    Line {
+        from: Axes,
+        to: Axes,
+    },
+    Arc {
+        arc: ArcMove,
+        g: Geometry,
+    },
+    /// A `linuxcnc` blend arc: XYZ = `center + r (cos(φs) e1 + sin(φs) e2)`,
+    /// the other axes at `from`.
+    Blend {
+        from: Axes,
+        center: [f64; 3],
+        e1: [f64; 3],
+        e2: [f64; 3],
+        r: f64,
+        phi: f64,
+    },
 }
 
 impl Geom {
@@ -274,6 +291,21 @@ impl Geom {
                 let r = g.radius + (g.end_radius - g.radius) * s;
                 x[p] = g.center[0] + r * ang.cos();
                 x[q] = g.center[1] + r * ang.sin();
+                x
+            }
+            Geom::Blend {
+                from,
+                center,
+                e1,
+                e2,
+                r,
+                phi,
+            } => {
+                let mut x = *from;
+                let (c, sn) = ((phi * s).cos(), (phi * s).sin());
+                for (i, a) in [Axis::X, Axis::Y, Axis::Z].into_iter().enumerate() {
+                    x[a] = center[i] + r * (c * e1[i] + sn * e2[i]);
+                }
                 x
             }
         }
@@ -393,6 +425,9 @@ pub struct Interpolator<'m> {
     active: VecDeque<Planned<Block>>,
     mode: PathMode,
     tail: Option<Tail>,
+    cam: NaiveCam,
+    /// Spindle turning, and its programmed speed (rev/min).
+    spindle: (bool, f64),
 }
 
 impl<'m> Interpolator<'m> {
@@ -476,6 +511,8 @@ impl<'m> Interpolator<'m> {
             active: VecDeque::new(),
             mode: PathMode::DEFAULT,
             tail: None,
+            cam: NaiveCam::new(),
+            spindle: (false, 0.0),
         })
     }
 
@@ -498,6 +535,26 @@ impl<'m> Interpolator<'m> {
     {
         self.line = event.at.line;
         let force = self.opts.force_tcp;
+        // G64 Q under `linuxcnc`: straight feeds merge (plan::naive_cam).
+        if let (Planner::Linuxcnc, PathMode::Blend { q: Some(q), .. }) =
+            (self.opts.plan.planner, self.mode)
+            && q > 0.0
+            && let EventKind::Feed(m) = &event.kind
+            && !matches!(m.feed, Feed::InverseTime(_))
+        {
+            for (m, line) in self.cam.see(m, self.line, q).into_iter().flatten() {
+                self.line = line;
+                self.linear_move(&m, force, sink)?;
+            }
+            return Ok(());
+        }
+        if !matches!(event.kind, EventKind::FeedRate(_))
+            && let Some((m, line)) = self.cam.flush()
+        {
+            self.line = line;
+            self.linear_move(&m, force, sink)?;
+            self.line = event.at.line;
+        }
         match &event.kind {
             EventKind::Traverse(m) | EventKind::Feed(m) => self.linear_move(m, force, sink),
             EventKind::Arc(a) => {
@@ -525,6 +582,57 @@ impl<'m> Interpolator<'m> {
                 self.mode = *mode;
                 Ok(())
             }
+            EventKind::SpindleSpeed { rpm } => {
+                let before = self.spindle.1;
+                self.spindle.1 = *rpm;
+                if self.spindle.0 && before != *rpm {
+                    let wait = (rpm - before).abs() / self.opts.plan.spindle_accel;
+                    return self.task_pause(wait, sink);
+                }
+                Ok(())
+            }
+            EventKind::Spindle(state) => {
+                let on = !matches!(state, SpindleState::Stopped);
+                let ramp = if on && !self.spindle.0 {
+                    self.spindle.1.abs() / self.opts.plan.spindle_accel
+                } else {
+                    0.0
+                };
+                self.spindle.0 = on;
+                self.task_pause(self.opts.plan.task_wait.max(ramp), sink)
+            }
+            EventKind::Tcp(_) => self.task_pause(self.opts.plan.task_wait, sink),
+            _ => Ok(()),
+        }
+    }
+
+    /// `linuxcnc`: the machine stops and stands still for `wait` s (LinuxCNC's
+    /// task waiting for the motion queue to empty before a spindle or TCP
+    /// command, and for the spindle to reach its speed).
+    fn task_pause<F>(&mut self, wait: f64, sink: &mut F) -> Result<(), InterpolateError>
+    where
+        F: FnMut(&Sample<'_>) -> io::Result<()>,
+    {
+        match self.opts.plan.planner {
+            // Before the first move the machine has not started: LinuxCNC's
+            // run time counts from the first motion.
+            Planner::Linuxcnc
+                if wait > 0.0
+                    && wait.is_finite()
+                    && self.summary.moves + self.summary.transitions > 0 =>
+            {
+                let block = Block {
+                    path: Path::Hold { q: self.q.clone() },
+                    len: wait,
+                    line: self.line,
+                };
+                let lim = Limits {
+                    len: wait,
+                    v: 1.0,
+                    a: f64::INFINITY,
+                };
+                self.enqueue(block, lim, None, sink)
+            }
             _ => Ok(()),
         }
     }
@@ -535,6 +643,11 @@ impl<'m> Interpolator<'m> {
     where
         F: FnMut(&Sample<'_>) -> io::Result<()>,
     {
+        if let Some((m, line)) = self.cam.flush() {
+            self.line = line;
+            let force = self.opts.force_tcp;
+            self.linear_move(&m, force, sink)?;
+        }
         self.end_chain();
         while let Some(p) = self.queue.pop_flush() {
             self.start(p, sink)?;
@@ -585,7 +698,7 @@ impl<'m> Interpolator<'m> {
     {
         let d = to.sub(from);
         let still = match geom {
-            Geom::Line { .. } => d.0.iter().all(|&x| x == 0.0),
+            Geom::Line { .. } | Geom::Blend { .. } => d.0.iter().all(|&x| x == 0.0),
             Geom::Arc { g, .. } => g.sweep == 0.0 && d.0.iter().all(|&x| x == 0.0),
         };
         self.check_axes(&geom, &d, still)?;
@@ -621,7 +734,7 @@ impl<'m> Interpolator<'m> {
             return Ok(());
         }
         let xyz = match geom {
-            Geom::Line { .. } => d.xyz_norm(),
+            Geom::Line { .. } | Geom::Blend { .. } => d.xyz_norm(),
             Geom::Arc { g, .. } => g.xyz_length(),
         };
         let mut seconds = self.feed_seconds(feed, xyz, &d)?;
@@ -640,7 +753,7 @@ impl<'m> Interpolator<'m> {
             }
             _ => {
                 let ml = match geom {
-                    Geom::Line { .. } => linuxcnc::straight(&d, &self.world),
+                    Geom::Line { .. } | Geom::Blend { .. } => linuxcnc::straight(&d, &self.world),
                     Geom::Arc { arc, g } => {
                         let (p, q, n) = arc.plane.axes();
                         let shape = linuxcnc::ArcShape {
@@ -683,7 +796,7 @@ impl<'m> Interpolator<'m> {
                             }
                             .effective_radius(),
                         ),
-                        Geom::Line { .. } => None,
+                        Geom::Line { .. } | Geom::Blend { .. } => None,
                     },
                     halved: false,
                     kink: 0.0,
@@ -696,6 +809,13 @@ impl<'m> Interpolator<'m> {
                     v: lim.v,
                     a: lim.a,
                     len,
+                    nominal: len,
+                    v_req,
+                    v_max: v_ini,
+                    tolerance: match self.mode {
+                        PathMode::Blend { p: Some(p), .. } => p,
+                        _ => 0.0,
+                    },
                 };
                 let tail = Tail {
                     side,
@@ -739,7 +859,7 @@ impl<'m> Interpolator<'m> {
                     let (p, q, _) = arc.plane.axes();
                     d[axis] != 0.0 || axis == p || axis == q
                 }
-                Geom::Line { .. } => d[axis] != 0.0,
+                Geom::Line { .. } | Geom::Blend { .. } => d[axis] != 0.0,
             };
             if moved && !still && !self.letters.contains(&axis) {
                 return Err(InterpolateError::MissingAxis {
@@ -801,8 +921,13 @@ impl<'m> Interpolator<'m> {
                 cycle_time: self.opts.plan.cycle_time,
                 kink_ratio: self.opts.plan.kink_ratio,
                 acc_xyz: [self.world.acc[0], self.world.acc[1], self.world.acc[2]],
+                vel_xyz: [self.world.vel[0], self.world.vel[1], self.world.vel[2]],
+                max_feed_scale: self.opts.plan.max_feed_override,
             };
             let rule = linuxcnc::join(prev.mode, &prev.side, &next.side, &set);
+            if let Some(arc) = rule.arc {
+                return self.blend_arc(block, tail, arc, sink);
+            }
             for (t, f) in [(&mut *prev, rule.a_prev), (&mut *next, rule.a_next)] {
                 if f == 0.5 {
                     t.speed.halved = true;
@@ -818,6 +943,116 @@ impl<'m> Interpolator<'m> {
             }
         }
         self.tail = tail;
+        self.queue.push(block, lim);
+        while let Some(p) = self.queue.pop_ready() {
+            self.start(p, sink)?;
+        }
+        Ok(())
+    }
+
+    /// Queues a `linuxcnc` blend arc between the last queued straight block
+    /// and `block` (straight too), trimming both by `arc.trim`, then
+    /// `block`; all joins tangent.
+    fn blend_arc<F>(
+        &mut self,
+        mut block: Block,
+        tail: Option<Tail>,
+        arc: linuxcnc::BlendArc,
+        sink: &mut F,
+    ) -> Result<(), InterpolateError>
+    where
+        F: FnMut(&Sample<'_>) -> io::Result<()>,
+    {
+        let (Some(prev), Some(mut next)) = (self.tail.take(), tail) else {
+            return Ok(());
+        };
+        let mut prev = prev;
+        let (u1, u2) = (prev.side.dir, next.side.dir);
+        let trim = arc.trim;
+        let cycle = self.opts.plan.cycle_time;
+        let v_arc = arc.v_max;
+        let shorten = |t: &mut Tail, b: &mut Block| {
+            let rest = t.speed.len - trim;
+            // What is left shorter than 4 cycles at the arc's speed LinuxCNC
+            // runs as part of the arc: no per-cycle speed cap on it.
+            if rest > 4.0 * cycle * v_arc {
+                t.speed.v_ini = t.speed.v_ini.min(rest / cycle);
+            }
+            t.speed.len = rest.max(1e-9);
+            t.side.len = t.speed.len;
+            b.len = t.speed.len;
+        };
+        // The corner and the arc's start and end, work coordinates.
+        let corner = match self.queue.last_mut() {
+            Some((b, _, _)) => match &mut b.path {
+                Path::Work { geom, .. } => match geom.as_mut() {
+                    Geom::Line { to, .. } => {
+                        let c = [to[Axis::X], to[Axis::Y], to[Axis::Z]];
+                        for (i, a) in [Axis::X, Axis::Y, Axis::Z].into_iter().enumerate() {
+                            to[a] = c[i] - u1[i] * trim;
+                        }
+                        c
+                    }
+                    _ => return Err(InterpolateError::Plan("blend arc after a non-line".into())),
+                },
+                _ => return Err(InterpolateError::Plan("blend arc after a non-line".into())),
+            },
+            None => return Err(InterpolateError::Plan("blend arc without a block".into())),
+        };
+        let from = match &mut block.path {
+            Path::Work { geom, .. } => match geom.as_mut() {
+                Geom::Line { from, .. } => {
+                    let f0 = *from;
+                    for (i, a) in [Axis::X, Axis::Y, Axis::Z].into_iter().enumerate() {
+                        from[a] = corner[i] + u2[i] * trim;
+                    }
+                    f0
+                }
+                _ => return Err(InterpolateError::Plan("blend arc before a non-line".into())),
+            },
+            _ => return Err(InterpolateError::Plan("blend arc before a non-line".into())),
+        };
+        let dist = arc.radius / (arc.phi / 2.0).cos();
+        let center: [f64; 3] = std::array::from_fn(|i| corner[i] + arc.normal[i] * dist);
+        let start: [f64; 3] = std::array::from_fn(|i| corner[i] - u1[i] * trim);
+        let e1: [f64; 3] = std::array::from_fn(|i| (start[i] - center[i]) / arc.radius);
+        let geom = Geom::Blend {
+            from,
+            center,
+            e1,
+            e2: u1,
+            r: arc.radius,
+            phi: arc.phi,
+        };
+        let (v, a) = arc.limits();
+        let arc_block = Block {
+            path: Path::Work {
+                geom: Box::new(geom),
+                offset: prev.offset,
+                tcp: prev.tcp,
+            },
+            len: arc.len(),
+            line: self.queue.last_mut().map_or(self.line, |(b, _, _)| b.line),
+        };
+        if let Some((b, l, j)) = self.queue.last_mut() {
+            shorten(&mut prev, b);
+            *l = prev.speed.limits();
+            *j = Some(Join::Tangent { v });
+        }
+        self.queue.push(
+            arc_block,
+            Limits {
+                len: arc.len(),
+                v,
+                a,
+            },
+        );
+        if let Some((_, _, j)) = self.queue.last_mut() {
+            *j = Some(Join::Tangent { v });
+        }
+        shorten(&mut next, &mut block);
+        let lim = next.speed.limits();
+        self.tail = Some(next);
         self.queue.push(block, lim);
         while let Some(p) = self.queue.pop_ready() {
             self.start(p, sink)?;
@@ -956,9 +1191,18 @@ impl<'m> Interpolator<'m> {
                 let (from, to) = match geom.as_ref() {
                     Geom::Line { from, to } => (from, to),
                     Geom::Arc { arc, .. } => (&arc.from, &arc.to),
+                    Geom::Blend { from, .. } => (from, from),
                 };
                 for (i, &l) in self.letters.iter().enumerate() {
                     d1[i] = (to[l] - from[l]).abs();
+                }
+                if let Geom::Blend { r, phi, .. } = geom.as_ref() {
+                    for (i, &l) in self.letters.iter().enumerate() {
+                        if matches!(l, Axis::X | Axis::Y | Axis::Z) {
+                            d1[i] = r * phi;
+                            d2[i] = r * phi * phi;
+                        }
+                    }
                 }
                 if let Geom::Arc { arc, g } = geom.as_ref() {
                     // q = c + r(s)·cos(a0 + φ s): |q'| ≤ |Δr| + r·|φ|,

@@ -282,15 +282,14 @@ proptest! {
     }
 }
 
-/// The boat program under `--planner linuxcnc` with the limits of
+/// A corpus program under `--planner linuxcnc` with the limits of
 /// LinuxCNC's xyzac-trt simulation (X Y Z 20 mm/s, 300 mm/s²; A C 30 deg/s,
-/// 300 deg/s²; trajectory 35 mm/s); LinuxCNC 2.9 runs it in 562.938 s.
-#[test]
-fn boat_under_linuxcnc_limits() {
-    let Some(dir) = crate::shared::shared_dir("corpus/gcode/linuxcnc") else {
-        return;
-    };
-    let text = std::fs::read_to_string(dir.join("boat-xyzac.ngc")).unwrap();
+/// 300 deg/s², C unlimited; trajectory 35 mm/s; its `MAX_FEED_OVERRIDE` 2
+/// and simulated spindle ramp): mtwin's time relative to `reference`
+/// (LinuxCNC 2.9's simulator, docs/linuxcnc.md), minus one.
+fn corpus_under_linuxcnc_limits(name: &str, reference: f64) -> Option<f64> {
+    let dir = crate::shared::shared_dir("corpus/gcode/linuxcnc")?;
+    let text = std::fs::read_to_string(dir.join(name)).unwrap();
     let mut m = read_machine(
         &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/machines/ac-trunnion.toml"),
     )
@@ -306,20 +305,39 @@ fn boat_under_linuxcnc_limits() {
     m.rapid_feed = 35.0 * 60.0;
     let mut opts = InterpolateOptions::new(1e6);
     opts.plan = PlanOptions::new(Planner::Linuxcnc);
+    opts.plan.max_feed_override = 2.0;
+    opts.plan.spindle_accel = 5000.0;
     opts.check_travel = false;
     let s = interpolate(text.as_bytes(), &m, &opts, |_| Ok(())).unwrap();
-    let reference = 562.938;
+    let rel = s.duration / reference - 1.0;
     eprintln!(
-        "boat linuxcnc: {:.3} s vs LinuxCNC {reference} s ({:+.2} %)",
+        "{name} linuxcnc: {:.3} s vs LinuxCNC {reference} s ({:+.2} %)",
         s.duration,
-        100.0 * (s.duration / reference - 1.0)
+        100.0 * rel
     );
-    assert!(
-        (s.duration / reference - 1.0).abs() < BOAT_TOLERANCE,
-        "{} s",
-        s.duration
-    );
+    Some(rel)
 }
 
-/// Relative tolerance of the boat's time against LinuxCNC's.
-const BOAT_TOLERANCE: f64 = 0.05;
+/// The boat: LinuxCNC 2.9's simulator runs it in 562.952 s.
+#[test]
+fn boat_under_linuxcnc_limits() {
+    if let Some(rel) = corpus_under_linuxcnc_limits("boat-xyzac.ngc", 562.952) {
+        assert!(rel.abs() < BOAT_TOLERANCE, "{:+.2} %", 100.0 * rel);
+    }
+}
+
+/// The impeller: LinuxCNC 2.9's simulator runs it in 1163.001 s.
+#[test]
+fn impeller_under_linuxcnc_limits() {
+    if let Some(rel) = corpus_under_linuxcnc_limits("impeller-7bl-xyzac.ngc", 1163.001) {
+        assert!(rel.abs() < IMPELLER_TOLERANCE, "{:+.2} %", 100.0 * rel);
+    }
+}
+
+/// Relative tolerance of the boat's time against LinuxCNC's: the motion
+/// issue's 1 % (measured +0.71 %, docs/gcode.md).
+const BOAT_TOLERANCE: f64 = 0.01;
+
+/// Relative tolerance of the impeller's time against LinuxCNC's: the
+/// motion issue's 1 % (measured +0.40 %, docs/gcode.md).
+const IMPELLER_TOLERANCE: f64 = 0.01;

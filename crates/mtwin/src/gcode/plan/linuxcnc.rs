@@ -18,11 +18,12 @@
 //!   rotary or UVW motion whose directions differ so little that the
 //!   direction change at full speed needs less than `kink_ratio` of the
 //!   axis accelerations join tangentially (no stop, also under G61); under
-//!   G64 other corners blend: parabolically (both blocks at half
-//!   acceleration, the next starting while this one slows down, the blend
-//!   speed within the P tolerance) or tangentially at a reduced speed,
-//!   whichever LinuxCNC's estimate finds faster. Blocks with rotary motion
-//!   always blend parabolically under G64.
+//!   G64 other corners blend by the fastest of: a circular blend arc between
+//!   two straight blocks ([`line_line_blend`]), a parabolic blend (both
+//!   blocks at half acceleration, the next starting while this one slows
+//!   down, the blend speed within the P tolerance), or a tangent junction at
+//!   a reduced speed. Blocks with rotary motion always blend parabolically
+//!   under G64.
 
 use super::lookahead::Join;
 use crate::gcode::axes::{Axes, Axis};
@@ -198,8 +199,16 @@ pub struct Side {
     pub v: f64,
     /// Acceleration before any blend or kink reduction, per s².
     pub a: f64,
-    /// Path length.
+    /// Path length (what is left of the block after earlier trims).
     pub len: f64,
+    /// Programmed length of the block (LinuxCNC's `nominal_length`).
+    pub nominal: f64,
+    /// Requested speed (feed), per s.
+    pub v_req: f64,
+    /// Highest speed by the axis limits and the cycle (LinuxCNC's `maxvel`), per s.
+    pub v_max: f64,
+    /// The block's G64 P tolerance, mm (0: none given).
+    pub tolerance: f64,
 }
 
 /// How two blocks join and what it does to their accelerations.
@@ -212,6 +221,153 @@ pub struct JoinRule {
     pub a_prev: f64,
     /// Factor on the acceleration of the block after.
     pub a_next: f64,
+    /// A circular blend arc replaces the corner: the block before ends
+    /// `trim` before it, the block after starts `trim` after it, and the arc
+    /// joins them tangentially (`join` is then the tangent junction speed).
+    pub arc: Option<BlendArc>,
+}
+
+/// A circular blend arc between two straight blocks (LinuxCNC 2.9's
+/// line–line blend arc): tangent to both, within the blend tolerance of
+/// the corner.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BlendArc {
+    /// Radius, mm.
+    pub radius: f64,
+    /// Distance from the corner to the arc's ends along each block, mm.
+    pub trim: f64,
+    /// Swept angle, rad (π minus the angle between the blocks).
+    pub phi: f64,
+    /// Unit direction from the corner to the arc's centre (the bisector).
+    pub normal: [f64; 3],
+    /// Highest speed on the arc (its normal acceleration within
+    /// `√3/2 · a`, and at most its length per cycle), mm/s.
+    pub v_max: f64,
+    /// Requested speed (the faster of the two blocks' feeds), mm/s.
+    pub v_req: f64,
+    /// Acceleration limit in the arc's plane, mm/s² (half of it tangential).
+    pub a: f64,
+}
+
+impl BlendArc {
+    /// Arc length, mm.
+    pub fn len(&self) -> f64 {
+        self.radius * self.phi
+    }
+
+    /// The arc's limits along its path (tangential acceleration `a/2`).
+    pub fn limits(&self) -> (f64, f64) {
+        (self.v_req.min(self.v_max), self.a * TANGENTIAL_RATIO)
+    }
+}
+
+/// The largest circle centred in the box `±bounds` cut by the plane of unit
+/// normal `n` (LinuxCNC's inscribed-diameter rule for the limits in a
+/// blend's plane): `min_i bounds_i / √(1 − n_i²)` over the axes with a bound.
+pub fn planar_bound(n: &[f64; 3], bounds: &[f64; 3]) -> f64 {
+    let mut out = f64::INFINITY;
+    for i in 0..3 {
+        if bounds[i] > 0.0 && bounds[i].is_finite() {
+            let scale = (1.0 - n[i] * n[i]).max(0.0).sqrt().max(1e-12);
+            out = out.min(bounds[i] / scale);
+        }
+    }
+    out
+}
+
+fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn unit(a: [f64; 3]) -> Option<[f64; 3]> {
+    let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    (n > 1e-300).then(|| [a[0] / n, a[1] / n, a[2] / n])
+}
+
+/// The blend tolerance of two blocks (LinuxCNC's rule): each block's G64 P
+/// (a quarter of its programmed length when none is given), at most a
+/// quarter of either block's programmed length.
+pub fn blend_tolerance(prev: &Side, next: &Side) -> f64 {
+    let own = |s: &Side| {
+        if s.tolerance > 0.0 {
+            s.tolerance
+        } else {
+            s.nominal * 0.25
+        }
+    };
+    own(prev)
+        .min(own(next))
+        .min(prev.nominal * 0.25)
+        .min(next.nominal * 0.25)
+}
+
+/// LinuxCNC 2.9's circular blend arc between the straight blocks `prev` and
+/// `next` (`None` when the blocks are (anti)parallel or the arc would be
+/// degenerate). The arc may use at most half of either block (its distance
+/// from the corner at most half of `next`, and half of `prev`'s programmed
+/// length or what is left of it), deviates from the corner by at most the
+/// blend tolerance, and its speed keeps the normal acceleration within
+/// `√3/2` of the acceleration limit in its plane; its radius is then
+/// enlarged towards the size of the equivalent parabolic blend.
+pub fn line_line_blend(prev: &Side, next: &Side, set: &JoinSettings) -> Option<BlendArc> {
+    let (u1, u2) = (prev.dir, next.dir);
+    let dot: f64 = (0..3).map(|i| u1[i] * u2[i]).sum();
+    let theta = (-dot.clamp(-1.0, 1.0)).acos() / 2.0;
+    let eps = 1e-6;
+    if std::f64::consts::FRAC_PI_2 - theta < eps || theta < eps {
+        return None;
+    }
+    let binormal = unit(cross(&u1, &u2))?;
+    let normal = unit([u2[0] - u1[0], u2[1] - u1[1], u2[2] - u1[2]])?;
+    let phi = std::f64::consts::PI - 2.0 * theta;
+    let tolerance = blend_tolerance(prev, next);
+    let a_max = planar_bound(&binormal, &set.acc_xyz);
+    let a_n = a_max * NORMAL_RATIO;
+    let scale = set.max_feed_scale;
+    let v_req = prev.v_req.max(next.v_req);
+    let mut v_goal = (prev.v_req * scale)
+        .min(prev.v_max)
+        .max((next.v_req * scale).min(next.v_max));
+    let v_planar = planar_bound(&binormal, &set.vel_xyz);
+    let phi_eff = phi.min(std::f64::consts::PI * 0.49);
+    let v1 = prev.v_max.min(next.v_max / phi_eff.cos());
+    let v2 = next.v_max.min(prev.v_max / phi_eff.cos());
+    let area = v1 * v2 / 2.0 * phi.sin();
+    let base = (0..3)
+        .map(|i| (u2[i] * v2 - u1[i] * v1).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let v_alt = if base > 0.0 { 2.0 * area / base } else { 0.0 };
+    v_goal = v_goal.min(v_alt.max(v_planar));
+    let l1 = prev.len.min(prev.nominal * 0.5);
+    let l2 = next.len * 0.5;
+    let h_tol = tolerance / (1.0 - theta.sin());
+    let d_tol = theta.cos() * h_tol;
+    let d_geom = l1.min(l2).min(d_tol);
+    let r_geom = theta.tan() * d_geom;
+    let v_plan = (a_n * r_geom).sqrt().min(v_goal);
+    let a_par = a_max * 0.5;
+    let v_tri = (2.0 * a_par * d_geom).sqrt();
+    let s_blend = v_tri.min(v_plan) / a_par * v_plan;
+    let r_blend = (s_blend / phi).min(r_geom);
+    let radius = (v_plan * v_plan / a_n).max(r_blend);
+    let s_arc = radius * phi;
+    if !(radius >= 1e-12 && s_arc >= 1e-6 && v_plan.is_finite()) {
+        return None;
+    }
+    Some(BlendArc {
+        radius,
+        trim: radius / theta.tan(),
+        phi,
+        normal,
+        v_max: v_plan.min(s_arc / set.cycle_time),
+        v_req,
+        a: a_max,
+    })
 }
 
 /// Settings of the join rules.
@@ -225,6 +381,11 @@ pub struct JoinSettings {
     pub kink_ratio: f64,
     /// XYZ acceleration limits, mm/s² (for the direction-change check).
     pub acc_xyz: [f64; 3],
+    /// XYZ velocity limits, mm/s (blend arcs).
+    pub vel_xyz: [f64; 3],
+    /// Highest feed override the blend arcs are sized for (LinuxCNC's
+    /// `[DISPLAY] MAX_FEED_OVERRIDE`).
+    pub max_feed_scale: f64,
 }
 
 fn stop() -> JoinRule {
@@ -232,6 +393,7 @@ fn stop() -> JoinRule {
         join: Join::Stop,
         a_prev: 1.0,
         a_next: 1.0,
+        arc: None,
     }
 }
 
@@ -275,6 +437,7 @@ pub fn join(mode: PathMode, prev: &Side, next: &Side, set: &JoinSettings) -> Joi
             join: Join::Blend { v },
             a_prev: 0.5,
             a_next: 0.5,
+            arc: None,
         }
     };
     if prev.rotary || next.rotary {
@@ -307,6 +470,7 @@ pub fn join(mode: PathMode, prev: &Side, next: &Side, set: &JoinSettings) -> Joi
             join: Join::Tangent { v: v_max },
             a_prev: 1.0 - scale,
             a_next: 1.0 - scale,
+            arc: None,
         };
     }
     let Some(tol) = blend_mode else {
@@ -318,13 +482,31 @@ pub fn join(mode: PathMode, prev: &Side, next: &Side, set: &JoinSettings) -> Joi
     a.a *= 0.5;
     b.a *= 0.5;
     let (_, net) = parabolic_blend_speed(&a, &b, tol);
-    if net / 2.0 >= kink_v {
-        parabolic(tol)
+    // LinuxCNC's choice: the fastest of the parabolic blend (its net speed
+    // halved, for the halved accelerations), the tangent kink and the blend
+    // arc (straight blocks only here); the first on a tie.
+    let arc = if prev.circular || next.circular {
+        None
     } else {
+        line_line_blend(prev, next, set)
+    };
+    let perf_arc = arc.map_or(0.0, |a| a.v_max);
+    let perf_par = net / 2.0;
+    if perf_par >= kink_v && perf_par >= perf_arc {
+        parabolic(tol)
+    } else if kink_v >= perf_arc {
         JoinRule {
             join: Join::Tangent { v: kink_v },
             a_prev: 1.0 - k,
             a_next: 1.0 - k,
+            arc: None,
+        }
+    } else {
+        JoinRule {
+            join: Join::Tangent { v: perf_arc },
+            a_prev: 1.0,
+            a_next: 1.0,
+            arc,
         }
     }
 }
@@ -390,16 +572,26 @@ mod tests {
             v: 10.0,
             a: 300.0,
             len: 10.0,
+            nominal: 10.0,
+            v_req: 10.0,
+            v_max: 20.0,
+            tolerance: 0.01,
+        }
+    }
+
+    fn settings() -> JoinSettings {
+        JoinSettings {
+            cycle_time: 0.001,
+            kink_ratio: 0.1,
+            acc_xyz: [300.0; 3],
+            vel_xyz: [20.0; 3],
+            max_feed_scale: 1.0,
         }
     }
 
     #[test]
     fn collinear_blocks_join_tangentially_even_under_g61() {
-        let s = JoinSettings {
-            cycle_time: 0.001,
-            kink_ratio: 0.1,
-            acc_xyz: [300.0; 3],
-        };
+        let s = settings();
         let a = side([1.0, 0.0, 0.0]);
         for mode in [PathMode::ExactPath, PathMode::DEFAULT] {
             let r = join(mode, &a, &a, &s);
@@ -418,11 +610,55 @@ mod tests {
             &b,
             &s,
         );
-        // Parabolic at half acceleration: tolerance cap 2√(150·0.01/cos 45°).
-        let cap = 2.0 * (150.0 * 0.01 / std::f64::consts::FRAC_PI_4.cos()).sqrt();
-        match r.join {
-            Join::Blend { v } => assert!((v - cap).abs() < 1e-9, "{v} {cap}"),
-            j => panic!("{j:?}"),
-        }
+        assert!(r.arc.is_some(), "{r:?}");
+    }
+
+    /// A right-angle corner under G64 P0.01: the arc tangent to both lines
+    /// whose midpoint is 0.01 from the corner has radius `T/(√2 − 1)`
+    /// (centre on the bisector at `R√2` from the corner), its ends `R` from
+    /// the corner; its speed `√(√3/2·a·R)`; the parabolic blend (net speed
+    /// about 1 mm/s) and the kink (0.03 mm/s) are slower.
+    #[test]
+    fn right_angle_blend_arc_touches_the_tolerance() {
+        let s = settings();
+        let a = side([1.0, 0.0, 0.0]);
+        let b = side([0.0, 1.0, 0.0]);
+        let arc = line_line_blend(&a, &b, &s).unwrap();
+        let r = 0.01 / (2f64.sqrt() - 1.0);
+        assert!((arc.radius - r).abs() < 1e-12, "{} {r}", arc.radius);
+        assert!((arc.trim - r).abs() < 1e-12);
+        assert!((arc.phi - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        let v = (3f64.sqrt() / 2.0 * 300.0 * r).sqrt();
+        assert!((arc.v_max - v).abs() < 1e-9, "{} {v}", arc.v_max);
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        assert!((arc.normal[0] + h).abs() < 1e-12 && (arc.normal[1] - h).abs() < 1e-12);
+        // Without P the tolerance is a quarter of the shorter block: 2.5,
+        // the arc then limited by half the block (5) and sized by speed.
+        let mut a2 = a;
+        let mut b2 = b;
+        a2.tolerance = 0.0;
+        b2.tolerance = 0.0;
+        assert_eq!(blend_tolerance(&a2, &b2), 2.5);
+        let big = line_line_blend(&a2, &b2, &s).unwrap();
+        assert!(big.radius > arc.radius && big.trim <= 5.0 + 1e-12);
+        // Its speed is at most the requested feed's goal (10 mm/s here).
+        assert!(big.limits().0 <= 10.0 + 1e-12);
+        // Parallel and reversed blocks have no arc.
+        assert!(line_line_blend(&a, &a, &s).is_none());
+        assert!(line_line_blend(&a, &side([-1.0, 0.0, 0.0]), &s).is_none());
+    }
+
+    #[test]
+    fn planar_bound_is_the_inscribed_circle() {
+        // XY plane: the smaller of the X and Y bounds; a plane at 45° about
+        // Y between X and Z: X's bound stretched by √2 (its axis lies at
+        // 45° in the plane), Z's too: min(300√2, 200√2).
+        assert_eq!(
+            planar_bound(&[0.0, 0.0, 1.0], &[300.0, 200.0, 100.0]),
+            200.0
+        );
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let b = planar_bound(&[h, 0.0, h], &[300.0, 500.0, 200.0]);
+        assert!((b - 200.0 * 2f64.sqrt()).abs() < 1e-9, "{b}");
     }
 }

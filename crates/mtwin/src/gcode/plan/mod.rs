@@ -10,8 +10,9 @@
 //!   ([`linuxcnc`]): limits on the **world** axes (the program's X Y Z A B C
 //!   U V W, i.e. the tool tip in W under TCP), look-ahead over
 //!   [`PlanOptions::lookahead`] blocks ([`lookahead`]), tangent junctions
-//!   without stopping, parabolic blends under G64 within the P tolerance,
-//!   G61/G61.1 stops at corners/every block.
+//!   without stopping, circular blend arcs or parabolic blends under G64
+//!   within the P tolerance, G64 Q merging ([`naive_cam`]), G61/G61.1 stops
+//!   at corners/every block, task waits at spindle and TCP commands.
 //! * [`Planner::Jerk`] (`jerk`): the jerk-limited time law of [`jerk`] along
 //!   each chain of moves between stops, sampled densely in joint space
 //!   (`crate::gcode::dense_paths`, points at most [`PlanOptions::jerk_step`]
@@ -25,6 +26,7 @@
 pub mod jerk;
 pub mod linuxcnc;
 pub mod lookahead;
+pub mod naive_cam;
 pub mod profile;
 
 use std::fmt;
@@ -107,6 +109,22 @@ pub struct PlanOptions {
     /// `jerk`: the time-law settings ([`jerk::JerkOptions`]; by default
     /// the full joint limits, nothing held back).
     pub jerk: jerk::JerkOptions,
+    /// `linuxcnc`: the highest feed override the blend arcs are sized for
+    /// (LinuxCNC's `[DISPLAY] MAX_FEED_OVERRIDE`, default 1; its
+    /// simulator configurations use 2). It sets the arcs' size, not their
+    /// speed, which stays the programmed feed.
+    pub max_feed_override: f64,
+    /// `linuxcnc`: seconds the machine stands still where LinuxCNC's task
+    /// waits for the motion queue to empty before a spindle start or stop
+    /// or a TCP switch (M428/M429) and then queues motion again; default
+    /// 0.02 (two cycles of LinuxCNC's 10 ms task, as measured on its
+    /// simulator, see docs/linuxcnc.md); 0 for none.
+    pub task_wait: f64,
+    /// `linuxcnc`: spindle acceleration, rev/min per s: a spindle start
+    /// or speed change waits `|Δ speed| / spindle_accel` (LinuxCNC's feed
+    /// moves wait for the spindle to be at speed); infinite (the default)
+    /// for no wait. LinuxCNC's simulated spindle: 5000.
+    pub spindle_accel: f64,
 }
 
 impl Default for PlanOptions {
@@ -120,6 +138,9 @@ impl Default for PlanOptions {
             kink_ratio: 0.1,
             jerk_step: 0.1,
             jerk: jerk::JerkOptions::default(),
+            max_feed_override: 1.0,
+            task_wait: 0.02,
+            spindle_accel: f64::INFINITY,
         }
     }
 }

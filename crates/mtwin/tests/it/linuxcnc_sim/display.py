@@ -9,7 +9,9 @@ of the FIFOs of the `sampler` component the test's HAL file sets up (their
 type strings in MTWIN_SIM_CFG, comma-separated; all enabled together by the
 signal `mtwin-sample-on`, off until now), enables the samplers, runs the program to its end, disables the sampler
 and writes MTWIN_SIM_OUT/result.json: {"ok", "stage", "errors", "messages"}.
-MTWIN_SIM_TIMEOUT bounds the run in seconds (real time).
+MTWIN_SIM_TIMEOUT bounds the run in seconds (real time);
+MTWIN_SIM_FEED_OVERRIDE and MTWIN_SIM_RAPID_OVERRIDE (fractions, default 1)
+are set before the run.
 """
 import json
 import os
@@ -25,6 +27,9 @@ OUT = os.environ["MTWIN_SIM_OUT"]
 PROGRAM = os.environ["MTWIN_SIM_PROGRAM"]
 TIMEOUT = float(os.environ.get("MTWIN_SIM_TIMEOUT", "600"))
 CFGS = os.environ["MTWIN_SIM_CFG"].split(",")
+# Feed and rapid overrides set before the run (fractions, 1 = none).
+FEED_OVERRIDE = float(os.environ.get("MTWIN_SIM_FEED_OVERRIDE", "1"))
+RAPID_OVERRIDE = float(os.environ.get("MTWIN_SIM_RAPID_OVERRIDE", "1"))
 
 result = {"ok": False, "stage": "connect", "errors": [], "messages": []}
 
@@ -137,6 +142,9 @@ def main():
     try:
         subprocess.run(["halcmd", "sets", "mtwin-sample-on", "1"], check=True)
         result["stage"] = "run"
+        c.feedrate(FEED_OVERRIDE)
+        c.rapidrate(RAPID_OVERRIDE)
+        c.wait_complete()
         c.auto(linuxcnc.AUTO_RUN, 0)
         wait(lambda: s.interp_state != linuxcnc.INTERP_IDLE, "the program to start", 10)
         wait(
