@@ -1591,11 +1591,13 @@ impl<'m> Walker<'m> {
         let (from, to) = match geom {
             Geom::Line { from, to } => (from, to),
             Geom::Arc { arc, .. } => (arc.from, arc.to),
+            Geom::Blend { .. } => (geom.at(0.0), geom.at(1.0)),
         };
         let d = to.sub(&from);
         let still = match geom {
             Geom::Line { .. } => d.0.iter().all(|&x| x == 0.0),
             Geom::Arc { g, .. } => g.sweep == 0.0 && d.0.iter().all(|&x| x == 0.0),
+            Geom::Blend { r, phi, .. } => r * phi == 0.0,
         };
         self.ip.check_axes(&geom, &d, still)?;
         let path = Path::Work {
@@ -1633,6 +1635,7 @@ impl<'m> Walker<'m> {
         let ml = linuxcnc::straight(&d, &self.ip.world);
         let len = match geom {
             Geom::Arc { g, .. } => g.xyz_length(),
+            Geom::Blend { r, phi, .. } => r * phi,
             Geom::Line { .. } => ml.len,
         };
         if len.is_nan() || len <= 0.0 {
@@ -1654,6 +1657,7 @@ impl<'m> Walker<'m> {
         self.key = Some((tcp, offset));
         let xyz = match geom {
             Geom::Arc { g, .. } => g.xyz_length(),
+            Geom::Blend { r, phi, .. } => r * phi,
             Geom::Line { .. } => d.xyz_norm(),
         };
         let mut v = match feed {

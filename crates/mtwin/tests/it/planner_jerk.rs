@@ -336,7 +336,12 @@ fn program(
 /// ends rounded to 1e-4 mm).
 const PATH_TOL: f64 = 0.1 / 4.0 + 2e-4;
 
-fn moves_strategy() -> impl Strategy<Value = Vec<(u8, [f64; 3], [f64; 2], f64, [f64; 2])>> {
+/// One random move of `moves_strategy`, as `program` reads it: kind (0 G1,
+/// 1 G0, 2 arc; for an arc the first coordinate is the sweep), XYZ, arc
+/// centre offset IJ, feed (mm/min), A C.
+type RandomMove = (u8, [f64; 3], [f64; 2], f64, [f64; 2]);
+
+fn moves_strategy() -> impl Strategy<Value = Vec<RandomMove>> {
     prop::collection::vec(
         (
             0u8..3,
