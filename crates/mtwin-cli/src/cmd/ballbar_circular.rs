@@ -8,8 +8,8 @@ use anyhow::Context;
 use mtwin::io::{Diagnostic, Table};
 use mtwin::methods::ballbar::circular::{CircularOptions, Plane, Trace, circular, plot_svg};
 use mtwin::methods::ballbar::circular_model::update_machine;
-use mtwin::model::machine_to_toml;
 use mtwin::methods::ballbar::circular_sim::{CircularErrors, ServoPair, simulate_circular};
+use mtwin::model::machine_to_toml;
 
 use super::common::{diag, load_machine};
 use crate::output::{Format, note, print_doc};

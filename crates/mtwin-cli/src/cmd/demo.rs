@@ -15,9 +15,9 @@ use mtwin::io::Outputs;
 use mtwin::model::machine_to_toml;
 use mtwin::report::html::{Report, Section, render};
 use mtwin::scenarios::{
-    DEMO_HEADING, DemoDoc, axis_positioning, circular_test, five_axis_compensation, five_axis_twin, gantry_tracker,
-    servo_identification, skiving_setup, step_text, thermal_faces, trunnion_ballbar,
-    volumetric_error,
+    DEMO_HEADING, DemoDoc, axis_positioning, circular_test, five_axis_compensation, five_axis_twin,
+    gantry_tracker, servo_identification, skiving_setup, step_text, thermal_faces,
+    trunnion_ballbar, volumetric_error,
 };
 
 use crate::bundled;

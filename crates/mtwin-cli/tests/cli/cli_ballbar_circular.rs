@@ -172,7 +172,11 @@ fn plane_plot_and_model_update_through_the_cli() {
     // the model as its own output
     let o = mtwin(p, &args("xy", Box::leak(model.clone().into_boxed_str())));
     assert_eq!(o.status.code(), Some(1));
-    assert!(stderr(&o).contains("same file as the input"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("same file as the input"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]
@@ -184,7 +188,11 @@ fn servo_models_through_simulate_circular() {
         let q = (-ts / tau).exp();
         std::fs::write(
             p.join(name),
-            format!("ts = {ts}\nb = [0.0, {}]\na = [1.0, {}]\nnk = 0\n", 1.0 - q, -q),
+            format!(
+                "ts = {ts}\nb = [0.0, {}]\na = [1.0, {}]\nnk = 0\n",
+                1.0 - q,
+                -q
+            ),
         )
         .unwrap();
     };

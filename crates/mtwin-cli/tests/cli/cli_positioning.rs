@@ -224,7 +224,13 @@ fn update_model_puts_the_mean_deviation_into_exx_predict_and_linuxcnc_carry_it()
     let o = mtwin(
         p,
         &[
-            "export", "--machine", "new.toml", "--to", "linuxcnc", "--out", "lc",
+            "export",
+            "--machine",
+            "new.toml",
+            "--to",
+            "linuxcnc",
+            "--out",
+            "lc",
         ],
     );
     assert!(o.status.success(), "{}", stderr(&o));
@@ -242,7 +248,10 @@ fn update_model_puts_the_mean_deviation_into_exx_predict_and_linuxcnc_carry_it()
             .find(|r| (r[0] - x).abs() < 1e-9)
             .unwrap_or_else(|| panic!("no comp line at {x}: {comp}"));
         for c in [r[1], r[2]] {
-            assert!((c * 1000.0 + want).abs() < 1e-5, "at {x}: {c} mm vs −{want} µm");
+            assert!(
+                (c * 1000.0 + want).abs() < 1e-5,
+                "at {x}: {c} mm vs −{want} µm"
+            );
         }
     }
 }
@@ -273,17 +282,17 @@ fn update_model_refusals_write_nothing() {
     // the input as output
     let o = mtwin(p, &args("X", "m.toml"));
     assert_eq!(o.status.code(), Some(1));
-    assert!(stderr(&o).contains("same file as the input"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("same file as the input"),
+        "{}",
+        stderr(&o)
+    );
     // an axis the model has not
     let o = mtwin(p, &args("W", "new.toml"));
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("no axis W"), "{}", stderr(&o));
     // targets beyond the travel of A (±120°)
-    std::fs::write(
-        p.join("run.csv"),
-        synthetic_run().replace("300,", "400,"),
-    )
-    .unwrap();
+    std::fs::write(p.join("run.csv"), synthetic_run().replace("300,", "400,")).unwrap();
     let o = mtwin(p, &args("A", "new.toml"));
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("outside the travel"), "{}", stderr(&o));

@@ -116,7 +116,11 @@ impl fmt::Display for CircularTestDoc {
             })
             .collect();
         writeln!(f, "{}", parts.join(", "))?;
-        writeln!(f, "into the nominal model: {}", self.model_changes.join("; "))
+        writeln!(
+            f,
+            "into the nominal model: {}",
+            self.model_changes.join("; ")
+        )
     }
 }
 

@@ -239,7 +239,10 @@ fn demo_scenarios_recover_their_truths_and_the_doc_round_trips() {
     assert!(p.largest_table_error_um < 5.0 * 0.5 / 10f64.sqrt(), "{p:?}");
     assert!(p.largest_truth_um > 5.0, "{p:?}");
     // Reversal B within 5σ of the 4 µm simulated (σ of a difference of two means of 5).
-    assert!((p.b_um - 4.0).abs() < 5.0 * 0.5 * (0.4f64).sqrt() + 0.5, "{p:?}");
+    assert!(
+        (p.b_um - 4.0).abs() < 5.0 * 0.5 * (0.4f64).sqrt() + 0.5,
+        "{p:?}"
+    );
     // Circular test through the identified servos: each diagnostic within 5 % or 0.5 µm.
     let circ = circular_test::run(&servo.twin, &trunnion, &Default::default()).unwrap();
     for r in &circ.doc.recovered {

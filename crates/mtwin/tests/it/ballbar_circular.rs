@@ -33,17 +33,61 @@ fn within(got: Option<f64>, want: f64, what: &str) {
 fn check_all(d: &CircularDoc, e: &CircularErrors) {
     within(d.get("backlash_x_um"), e.backlash_x_um, "backlash x");
     within(d.get("backlash_y_um"), e.backlash_y_um, "backlash y");
-    within(d.get("lateral_play_x_um"), e.lateral_play_x_um, "lateral play x");
-    within(d.get("lateral_play_y_um"), e.lateral_play_y_um, "lateral play y");
-    within(d.get("reversal_spike_x_um"), e.reversal_spike_x_um, "spike x");
-    within(d.get("reversal_spike_y_um"), e.reversal_spike_y_um, "spike y");
-    within(d.get("cyclic_error_x_um"), e.cyclic_error_x_um.abs(), "cyclic x");
-    within(d.get("cyclic_error_y_um"), e.cyclic_error_y_um.abs(), "cyclic y");
-    within(d.get("servo_mismatch_um"), e.servo_mismatch_um, "servo mismatch");
-    within(d.get("squareness_um_per_m"), e.squareness_um_per_m, "squareness");
-    within(d.get("straightness_x_um"), e.straightness_x_um, "straightness x");
-    within(d.get("straightness_y_um"), e.straightness_y_um, "straightness y");
-    within(d.get("scale_mismatch_um"), e.scale_mismatch_um, "scale mismatch");
+    within(
+        d.get("lateral_play_x_um"),
+        e.lateral_play_x_um,
+        "lateral play x",
+    );
+    within(
+        d.get("lateral_play_y_um"),
+        e.lateral_play_y_um,
+        "lateral play y",
+    );
+    within(
+        d.get("reversal_spike_x_um"),
+        e.reversal_spike_x_um,
+        "spike x",
+    );
+    within(
+        d.get("reversal_spike_y_um"),
+        e.reversal_spike_y_um,
+        "spike y",
+    );
+    within(
+        d.get("cyclic_error_x_um"),
+        e.cyclic_error_x_um.abs(),
+        "cyclic x",
+    );
+    within(
+        d.get("cyclic_error_y_um"),
+        e.cyclic_error_y_um.abs(),
+        "cyclic y",
+    );
+    within(
+        d.get("servo_mismatch_um"),
+        e.servo_mismatch_um,
+        "servo mismatch",
+    );
+    within(
+        d.get("squareness_um_per_m"),
+        e.squareness_um_per_m,
+        "squareness",
+    );
+    within(
+        d.get("straightness_x_um"),
+        e.straightness_x_um,
+        "straightness x",
+    );
+    within(
+        d.get("straightness_y_um"),
+        e.straightness_y_um,
+        "straightness y",
+    );
+    within(
+        d.get("scale_mismatch_um"),
+        e.scale_mismatch_um,
+        "scale mismatch",
+    );
     within(d.get("centre_x_um"), e.centre_x_um, "centre x");
     within(d.get("centre_y_um"), e.centre_y_um, "centre y");
 }
@@ -228,9 +272,30 @@ fn squareness_and_scale_mismatch_into_the_machine_model() {
     };
     // (plane, axis rotated, its normal component, sign of γ against α, first, second axis)
     for (plane, rot, normal, sign, a, b) in [
-        (Plane::Xy, "X", Component::Rz, 1.0, ("X", Component::Tx), ("Y", Component::Ty)),
-        (Plane::Yz, "Z", Component::Rx, -1.0, ("Y", Component::Ty), ("Z", Component::Tz)),
-        (Plane::Zx, "Z", Component::Ry, 1.0, ("Z", Component::Tz), ("X", Component::Tx)),
+        (
+            Plane::Xy,
+            "X",
+            Component::Rz,
+            1.0,
+            ("X", Component::Tx),
+            ("Y", Component::Ty),
+        ),
+        (
+            Plane::Yz,
+            "Z",
+            Component::Rx,
+            -1.0,
+            ("Y", Component::Ty),
+            ("Z", Component::Tz),
+        ),
+        (
+            Plane::Zx,
+            "Z",
+            Component::Ry,
+            1.0,
+            ("Z", Component::Tz),
+            ("X", Component::Tx),
+        ),
     ] {
         let o = CircularOptions { plane, ..opts() };
         let cw = simulate_circular(&e, &o, false, 3600, 0.2, 11);

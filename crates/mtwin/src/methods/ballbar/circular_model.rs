@@ -214,9 +214,9 @@ pub fn update_machine(
     let want_sq = doc.get("squareness_um_per_m").ok_or(
         "the squareness is not separable in this set-up (one direction only?); the model is not updated",
     )?;
-    let want_k = doc.get("scale_mismatch_um").ok_or(
-        "the scale mismatch is not separable in this set-up; the model is not updated",
-    )?;
+    let want_k = doc
+        .get("scale_mismatch_um")
+        .ok_or("the scale mismatch is not separable in this set-up; the model is not updated")?;
     let setup = Setup::new(machine, doc.plane, doc.radius_mm)?;
     let normal = Component::ALL[3 + doc.plane.indices()[2]];
     let [(ia, _), (ib, _)] = setup.axes;
@@ -231,7 +231,9 @@ pub fn update_machine(
         (ia, sa)
     };
     if s_rot.abs() < 1e-3 {
-        return Err("no location rotation of the two axes changes their squareness in this machine".into());
+        return Err(
+            "no location rotation of the two axes changes their squareness in this machine".into(),
+        );
     }
     // Scale: responses of (mismatch, radius offset) to a unit slope of h on each axis.
     let mut m = machine.clone();

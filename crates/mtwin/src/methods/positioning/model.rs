@@ -134,14 +134,23 @@ mod tests {
         assert_eq!(u.error.to_string(), "EYY");
         assert!(!u.replaced);
         let y = m1.axis_index("Y").unwrap();
-        let f = m1.axes[y].errors.pdge[Component::Ty.index()].as_ref().unwrap();
-        for (q, want) in [(-100.0, 0.002), (0.0, -0.001), (50.0, 0.0015), (100.0, 0.004)] {
+        let f = m1.axes[y].errors.pdge[Component::Ty.index()]
+            .as_ref()
+            .unwrap();
+        for (q, want) in [
+            (-100.0, 0.002),
+            (0.0, -0.001),
+            (50.0, 0.0015),
+            (100.0, 0.004),
+        ] {
             assert!((f.eval(q, m1.axes[y].travel) - want).abs() < 1e-15, "{q}");
         }
         // the axis reversed: the table holds the opposite sign
         m.axes[y].direction = -m.axes[y].direction;
         let (m2, _) = update_machine(&m, "Y", &d).unwrap();
-        let f = m2.axes[y].errors.pdge[Component::Ty.index()].as_ref().unwrap();
+        let f = m2.axes[y].errors.pdge[Component::Ty.index()]
+            .as_ref()
+            .unwrap();
         assert!((f.eval(100.0, m2.axes[y].travel) + 0.004).abs() < 1e-15);
     }
 

@@ -36,7 +36,12 @@ pub fn section(doc: &CircularDoc, traces: Option<(Option<&Trace>, Option<&Trace>
     s.push(Block::Table(t));
     let mut d = Table::new(
         "Diagnosis, largest signature first",
-        &["key", "value", "± (standard uncertainty)", "peak on the trace (µm)"],
+        &[
+            "key",
+            "value",
+            "± (standard uncertainty)",
+            "peak on the trace (µm)",
+        ],
     );
     for r in &doc.ranking {
         d.row(vec![
@@ -49,8 +54,9 @@ pub fn section(doc: &CircularDoc, traces: Option<(Option<&Trace>, Option<&Trace>
     s.push(Block::Table(d));
     if let Some((cw, ccw)) = traces {
         s.push(Block::Figure {
-            caption: "Δr of each direction about the fitted centre (µm rings; 0 the nominal circle)."
-                .into(),
+            caption:
+                "Δr of each direction about the fitted centre (µm rings; 0 the nominal circle)."
+                    .into(),
             svg: plot_svg(cw, ccw, doc),
         });
     }
@@ -109,6 +115,13 @@ mod tests {
         assert!(html.contains("<svg"));
         let at = html.find("backlash_z_um").unwrap();
         let row = &html[at..at + html[at..].find("</tr>").unwrap()];
-        assert!(row.contains("8.00"), "{row}");
+        // the value cell: 8 µm put in, within 5 %
+        let v: f64 = row
+            .split("<td class=\"n\">")
+            .nth(1)
+            .and_then(|c| c.split('<').next())
+            .and_then(|c| c.parse().ok())
+            .unwrap_or_else(|| panic!("{row}"));
+        assert!((v - 8.0).abs() <= 0.4, "{row}");
     }
 }

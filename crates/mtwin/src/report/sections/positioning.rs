@@ -25,17 +25,32 @@ pub fn section(doc: &PositioningDoc, axis: Option<&str>) -> Section {
     )));
     let mut t = Table::new(
         "Axis figures (µm)",
-        &["figure", "bidirectional", "↑ (increasing)", "↓ (decreasing)"],
+        &[
+            "figure",
+            "bidirectional",
+            "↑ (increasing)",
+            "↓ (decreasing)",
+        ],
     );
     let f = |v: f64| fmt(Some(v), 2);
-    t.row(vec!["accuracy A".into(), f(doc.a_um), f(doc.a_up_um), f(doc.a_down_um)]);
+    t.row(vec![
+        "accuracy A".into(),
+        f(doc.a_um),
+        f(doc.a_up_um),
+        f(doc.a_down_um),
+    ]);
     t.row(vec![
         "systematic positioning error E".into(),
         f(doc.e_um),
         f(doc.e_up_um),
         f(doc.e_down_um),
     ]);
-    t.row(vec!["repeatability R".into(), f(doc.r_um), f(doc.r_up_um), f(doc.r_down_um)]);
+    t.row(vec![
+        "repeatability R".into(),
+        f(doc.r_um),
+        f(doc.r_up_um),
+        f(doc.r_down_um),
+    ]);
     t.row(vec![
         "reversal B (mean B̄)".into(),
         format!("{} ({})", f(doc.b_um), f(doc.b_mean_um)),
@@ -67,7 +82,8 @@ pub fn section(doc: &PositioningDoc, axis: Option<&str>) -> Section {
     }
     s.push(Block::Table(pt));
     s.push(Block::Figure {
-        caption: "Deviation against position per direction, mean ± 2s band and every reading.".into(),
+        caption: "Deviation against position per direction, mean ± 2s band and every reading."
+            .into(),
         svg: plot_svg(doc),
     });
     if !doc.notes.is_empty() {
