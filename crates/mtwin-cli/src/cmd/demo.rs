@@ -15,9 +15,9 @@ use mtwin::io::Outputs;
 use mtwin::model::machine_to_toml;
 use mtwin::report::html::{Report, Section, render};
 use mtwin::scenarios::{
-    DEMO_HEADING, DemoDoc, five_axis_compensation, five_axis_twin, gantry_tracker,
-    servo_identification, skiving_setup, step_text, thermal_faces, trunnion_ballbar,
-    volumetric_error,
+    DEMO_HEADING, DemoDoc, axis_positioning, circular_test, five_axis_compensation, five_axis_twin,
+    gantry_tracker, servo_identification, skiving_setup, step_text, thermal_faces,
+    trunnion_ballbar, volumetric_error,
 };
 
 use crate::bundled;
@@ -43,7 +43,7 @@ const FILES: [&str; 6] = [
 ];
 
 /// The steps, for the progress bar.
-const STEPS: [&str; 8] = [
+const STEPS: [&str; 10] = [
     "machine",
     "ballbar",
     "tracker",
@@ -52,6 +52,8 @@ const STEPS: [&str; 8] = [
     "servo",
     "compensate",
     "twin",
+    "positioning",
+    "circular",
 ];
 
 /// Prints step `k` (0-based) of `doc`'s summary when the output is for humans,
@@ -187,6 +189,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     )
     .with_context(|| step("twin"))?;
     p.step(five_axis_twin::TITLE, twin.doc.seconds, &twin.doc);
+
+    // 9. ISO 230-2 positioning of X, from the machine's known EXX.
+    let positioning = axis_positioning::run(&trunnion_errors, &trunnion, &Default::default())
+        .with_context(|| step("positioning"))?;
+    p.step(
+        axis_positioning::TITLE,
+        positioning.doc.seconds,
+        &positioning.doc,
+    );
+
+    // 10. ISO 230-4 circular test through the servos of step 6.
+    let circular = circular_test::run(&servo.twin, &trunnion, &Default::default())
+        .with_context(|| step("circular"))?;
+    p.step(circular_test::TITLE, circular.doc.seconds, &circular.doc);
     p.bar.finish_and_clear();
 
     // The report: the methods first; the machine model they ran on is reference material.
@@ -198,6 +214,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     sections.extend(servo.sections());
     sections.extend(compensate.sections());
     sections.extend(twin.sections());
+    sections.extend(positioning.sections());
+    sections.extend(circular.sections());
     sections.extend(machine.sections());
     let report = Report {
         title: "mtwin demo report".into(),
@@ -211,8 +229,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     out.commit()?;
     let doc = DemoDoc {
         ballbar: ballbar.doc,
+        circular: circular.doc,
         compensate: compensate.doc,
         machine: machine.doc,
+        positioning: positioning.doc,
         report: report_path.display().to_string(),
         seconds: t0.elapsed().as_secs_f64(),
         servo: servo.doc,

@@ -6,14 +6,16 @@ use std::path::PathBuf;
 use anyhow::Context;
 use mtwin::methods::positioning::{self, InputFormat, LogOptions, Options};
 
-use super::common::diag;
+use mtwin::model::machine_to_toml;
+
+use super::common::{diag, load_machine};
 use crate::output::{Format, note, print_doc};
 
 #[derive(Debug, clap::Subcommand)]
 pub enum Command {
     /// ISO 230-2 evaluation of a positioning run: A, B, E, M, R per direction and per target.
     #[command(
-        after_help = "Example:\n  mtwin positioning evaluate --data run.csv\n  mtwin positioning evaluate --data target_x_ISO230.dat --format json --plot x.svg\n  mtwin positioning evaluate --data x.log --ref-channel IOC_TEST:ILD_DownSample --cmd-channel TARGET_DU:X-PosCmd --ref-gain -1.0035779146 --ref-offset 50.3193131396"
+        after_help = "Example:\n  mtwin positioning evaluate --data run.csv\n  mtwin positioning evaluate --data target_x_ISO230.dat --format json --plot x.svg\n  mtwin positioning evaluate --data x.log --ref-channel IOC_TEST:ILD_DownSample --cmd-channel TARGET_DU:X-PosCmd --ref-gain -1.0035779146 --ref-offset 50.3193131396\n  mtwin positioning evaluate --data x.csv --update-model m.toml --axis X --out-model m-with-exx.toml"
     )]
     Evaluate(EvaluateArgs),
 }
@@ -73,6 +75,15 @@ pub struct EvaluateArgs {
     /// Largest |measured − target| of a dwell that reaches its target, mm.
     #[arg(long, default_value_t = 0.1)]
     reach_tol: f64,
+    /// Machine model (TOML) to receive the axis's positioning error (with --axis and --out-model; never overwritten).
+    #[arg(long, requires_all = ["axis", "out_model"])]
+    update_model: Option<PathBuf>,
+    /// Axis of --update-model the run measured (X gets EXX, Y EYY, C ECC, …).
+    #[arg(long, requires = "update_model")]
+    axis: Option<String>,
+    /// Where to write the updated machine model (a new file; not an input).
+    #[arg(long, requires = "update_model")]
+    out_model: Option<PathBuf>,
     /// Output format.
     #[arg(long, value_enum, default_value_t)]
     format: Format,
@@ -110,6 +121,9 @@ fn evaluate(a: EvaluateArgs) -> anyhow::Result<()> {
     if let Some(p) = &a.plot {
         plan = plan.output(p);
     }
+    if let (Some(m), Some(o)) = (&a.update_model, &a.out_model) {
+        plan = plan.input(m).output(o);
+    }
     let mut out = plan.begin()?;
     let opts = Options {
         format: match a.input_format {
@@ -132,6 +146,25 @@ fn evaluate(a: EvaluateArgs) -> anyhow::Result<()> {
         },
     };
     let doc = positioning::run(&a.data, &opts).map_err(diag)?;
+    let mut updated = None;
+    if let (Some(mpath), Some(axis), Some(opath)) = (&a.update_model, &a.axis, &a.out_model) {
+        let machine = load_machine(mpath)?;
+        let (m, u) = positioning::update_machine(&machine, axis, &doc)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", mpath.display()))?;
+        let header = [
+            format!(
+                "Machine model {} with {} from the ISO 230-2 run {}:",
+                mpath.display(),
+                u.error,
+                a.data.display()
+            ),
+            "the mean bidirectional deviation per target (actual - commanded), written by `mtwin positioning evaluate --update-model`.".to_string(),
+        ];
+        let header: Vec<&str> = header.iter().map(String::as_str).collect();
+        out.write(opath, machine_to_toml(&m, &header)?.as_bytes())
+            .with_context(|| format!("cannot write {}", opath.display()))?;
+        updated = Some((u, opath.clone()));
+    }
     if let Some(p) = &a.plot {
         out.write(p, positioning::plot_svg(&doc).as_bytes())
             .with_context(|| format!("cannot write {}", p.display()))?;
@@ -142,6 +175,19 @@ fn evaluate(a: EvaluateArgs) -> anyhow::Result<()> {
         && let Some(p) = &a.plot
     {
         note(format!("plot written to {}", p.display()));
+    }
+    if let Some((u, p)) = updated {
+        note(format!(
+            "{} of {} points{} written to {}",
+            u.error,
+            u.q.len(),
+            if u.replaced {
+                " (replacing the model's)"
+            } else {
+                ""
+            },
+            p.display()
+        ));
     }
     Ok(())
 }

@@ -47,6 +47,12 @@ pub struct Args {
     /// Saved output of `mtwin servo fit --format json` for one axis, as AXIS=FILE (repeatable).
     #[arg(long, value_name = "AXIS=FILE")]
     servo: Vec<String>,
+    /// Saved output of `mtwin positioning evaluate --format json` for one axis, as AXIS=FILE (repeatable).
+    #[arg(long, value_name = "AXIS=FILE")]
+    positioning: Vec<String>,
+    /// Saved output of `mtwin ballbar circular --format json` (repeatable, e.g. one per plane).
+    #[arg(long)]
+    circular: Vec<PathBuf>,
     /// Saved output of `mtwin compensate --format json`.
     #[arg(long)]
     compensate: Option<PathBuf>,
@@ -174,6 +180,19 @@ fn build(a: &Args) -> anyhow::Result<Vec<Section>> {
         }
         out.push(sections::servo::section(&fits));
     }
+    for s in &a.positioning {
+        let Some((axis, file)) = s.split_once('=') else {
+            bail!("--positioning {s}: give AXIS=FILE, e.g. --positioning X=x.json");
+        };
+        let doc: mtwin::methods::positioning::PositioningDoc =
+            read_doc(Path::new(file), "mtwin positioning evaluate --format json")?;
+        out.push(sections::positioning::section(&doc, Some(axis)));
+    }
+    for p in &a.circular {
+        let doc: mtwin::methods::ballbar::circular::CircularDoc =
+            read_doc(p, "mtwin ballbar circular --format json")?;
+        out.push(sections::circular::section(&doc, None));
+    }
     if let Some(p) = &a.compensate {
         out.push(sections::compensate::section(&read_doc(
             p,
@@ -221,6 +240,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .inputs(&a.thermal_model)
         .inputs(&a.thermal_drift)
         .inputs(servo_files)
+        .inputs(
+            a.positioning
+                .iter()
+                .filter_map(|s| s.split_once('=').map(|(_, f)| f)),
+        )
+        .inputs(&a.circular)
         .inputs(&a.compensate)
         .inputs(&a.twin)
         .inputs(&a.twin_compensated)
@@ -229,7 +254,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let sections = build(&a)?;
     if sections.is_empty() {
         bail!(
-            "nothing to report: give at least one input (--machine, --ballbar, --identify, --validate, --skiving, --thermal-model, --servo, --compensate, --twin)"
+            "nothing to report: give at least one input (--machine, --ballbar, --identify, --validate, --skiving, --thermal-model, --servo, --positioning, --circular, --compensate, --twin)"
         );
     }
     let figures: usize = sections.iter().map(Section::figures).sum();

@@ -1,6 +1,6 @@
 //! `mtwin positioning evaluate`: the JSON contract, the plot, bad input.
 
-use crate::common::{mtwin, stderr, stdout};
+use crate::common::{example, mtwin, stderr, stdout};
 
 fn json(out: &std::process::Output) -> serde_json::Value {
     assert!(out.status.success(), "{}", stderr(out));
@@ -128,4 +128,189 @@ fn bad_runs_exit_1_with_file_line_column_and_no_plot() {
         "{}",
         stderr(&o)
     );
+}
+
+/// The known positioning error of the synthetic run below, µm, at X = −300,
+/// −150, 0, 150, 300 mm; each target read three times per direction at
+/// `truth ± reversal/2 + spread`.
+const TRUTH_UM: [f64; 5] = [-4.0, 2.5, 0.0, 7.25, 12.0];
+
+fn synthetic_run() -> String {
+    let mut s = String::from("target_mm,direction,cycle,deviation_um\n");
+    let targets = [-300.0, -150.0, 0.0, 150.0, 300.0];
+    let spread = [0.5, -1.0, 0.5];
+    for (t, m) in targets.iter().zip(TRUTH_UM) {
+        for (dir, half_b) in [("up", 3.0), ("down", -3.0)] {
+            for (j, e) in spread.iter().enumerate() {
+                s.push_str(&format!("{t},{dir},{},{}\n", j + 1, m + half_b + e));
+            }
+        }
+    }
+    s
+}
+
+fn predicted_x(dir: &std::path::Path, machine: &str, xs: &[f64]) -> Vec<f64> {
+    let mut poses = String::from("X,Y,Z,A,C\n");
+    for x in xs {
+        poses.push_str(&format!("{x},0,0,0,0\n"));
+    }
+    std::fs::write(dir.join("poses.csv"), poses).unwrap();
+    let o = mtwin(
+        dir,
+        &[
+            "predict",
+            "--machine",
+            machine,
+            "--data",
+            "poses.csv",
+            "--out",
+            "pred.csv",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(dir.join("pred.csv")).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = head.iter().position(|h| *h == "x").unwrap();
+    lines
+        .map(|l| l.split(',').nth(col).unwrap().parse().unwrap())
+        .collect()
+}
+
+#[test]
+fn update_model_puts_the_mean_deviation_into_exx_predict_and_linuxcnc_carry_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    std::fs::write(p.join("run.csv"), synthetic_run()).unwrap();
+    let model = example("ac-trunnion.toml");
+    let o = mtwin(
+        p,
+        &[
+            "positioning",
+            "evaluate",
+            "--data",
+            "run.csv",
+            "--update-model",
+            &model,
+            "--axis",
+            "X",
+            "--out-model",
+            "new.toml",
+            "--format",
+            "json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("EXX of 5 points"), "{}", stderr(&o));
+    let text = std::fs::read_to_string(p.join("new.toml")).unwrap();
+    assert!(text.contains("EXX"), "{text}");
+
+    // predict: tool tip x of the updated model − nominal = the known deviation
+    // (X is on the tool chain along +x); between targets linear interpolation.
+    let xs = [-300.0, -150.0, 0.0, 150.0, 300.0, 90.0, -210.0];
+    let want_um: Vec<f64> = TRUTH_UM
+        .iter()
+        .copied()
+        .chain([0.6 * 7.25, -4.0 + 0.6 * (2.5 + 4.0)])
+        .collect();
+    let new = predicted_x(p, "new.toml", &xs);
+    let nominal = predicted_x(p, &model, &xs);
+    for ((n, o), want) in new.iter().zip(&nominal).zip(&want_um) {
+        let got = (n - o) * 1000.0;
+        assert!((got - want).abs() < 1e-9, "{got} vs {want} µm");
+    }
+
+    // export to LinuxCNC: comp_X.txt corrects by −EXX at each grid point.
+    let o = mtwin(
+        p,
+        &[
+            "export",
+            "--machine",
+            "new.toml",
+            "--to",
+            "linuxcnc",
+            "--out",
+            "lc",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let comp = std::fs::read_to_string(p.join("lc/comp_X.txt")).unwrap();
+    let rows: Vec<[f64; 3]> = comp
+        .lines()
+        .map(|l| {
+            let v: Vec<f64> = l.split_whitespace().map(|t| t.parse().unwrap()).collect();
+            [v[0], v[1], v[2]]
+        })
+        .collect();
+    for (x, want) in xs.iter().zip(&want_um) {
+        let r = rows
+            .iter()
+            .find(|r| (r[0] - x).abs() < 1e-9)
+            .unwrap_or_else(|| panic!("no comp line at {x}: {comp}"));
+        for c in [r[1], r[2]] {
+            assert!(
+                (c * 1000.0 + want).abs() < 1e-5,
+                "at {x}: {c} mm vs −{want} µm"
+            );
+        }
+    }
+}
+
+#[test]
+fn update_model_refusals_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    std::fs::write(p.join("run.csv"), synthetic_run()).unwrap();
+    std::fs::copy(example("ac-trunnion.toml"), p.join("m.toml")).unwrap();
+    let before = std::fs::read(p.join("m.toml")).unwrap();
+    let args = |axis: &'static str, out: &'static str| {
+        [
+            "positioning",
+            "evaluate",
+            "--data",
+            "run.csv",
+            "--update-model",
+            "m.toml",
+            "--axis",
+            axis,
+            "--out-model",
+            out,
+            "--plot",
+            "p.svg",
+        ]
+    };
+    // the input as output
+    let o = mtwin(p, &args("X", "m.toml"));
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("same file as the input"),
+        "{}",
+        stderr(&o)
+    );
+    // an axis the model has not
+    let o = mtwin(p, &args("W", "new.toml"));
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("no axis W"), "{}", stderr(&o));
+    // targets beyond the travel of A (±120°)
+    std::fs::write(p.join("run.csv"), synthetic_run().replace("300,", "400,")).unwrap();
+    let o = mtwin(p, &args("A", "new.toml"));
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("outside the travel"), "{}", stderr(&o));
+    // --update-model without --out-model is a usage error
+    let o = mtwin(
+        p,
+        &[
+            "positioning",
+            "evaluate",
+            "--data",
+            "run.csv",
+            "--update-model",
+            "m.toml",
+            "--axis",
+            "X",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(!p.join("new.toml").exists() && !p.join("p.svg").exists());
+    assert_eq!(std::fs::read(p.join("m.toml")).unwrap(), before);
 }

@@ -215,6 +215,8 @@ fn demo_recovers_its_truths_and_writes_the_report() {
         "thermal",
         "servo",
         "compensate",
+        "positioning-x",
+        "circular-xy",
     ] {
         assert!(html.contains(&format!("<section id=\"{id}\">")), "{id}");
     }

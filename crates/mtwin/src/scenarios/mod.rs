@@ -18,6 +18,8 @@
 //! | [`servo_identification`] | axis transfer functions from command/encoder logs | known second-order servos |
 //! | [`five_axis_compensation`] | geometric compensation of a five-axis program | the AC trunnion with errors |
 //! | [`five_axis_twin`] | the digital twin of trajectory errors ([R5]) | the identified servos and geometry |
+//! | [`axis_positioning`] | ISO 230-2 positioning of an axis, its table into the model | the positioning error `EXX` of the AC trunnion with errors |
+//! | [`circular_test`] | ISO 230-4 circular test and its diagnosis, into the model | known backlash, squareness, scale mismatch; the identified X and Y servos |
 //!
 //! [`DemoDoc`] gathers the documents of one `mtwin demo` run.
 //!
@@ -32,6 +34,8 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
+pub mod axis_positioning;
+pub mod circular_test;
 pub mod five_axis_compensation;
 pub mod five_axis_twin;
 pub mod gantry_tracker;
@@ -76,10 +80,14 @@ type Inner<T> = std::result::Result<T, Box<dyn std::error::Error + Send + Sync +
 pub struct DemoDoc {
     /// Step 2.
     pub ballbar: trunnion_ballbar::TrunnionBallbarDoc,
+    /// Step 10.
+    pub circular: circular_test::CircularTestDoc,
     /// Step 7.
     pub compensate: five_axis_compensation::FiveAxisCompensationDoc,
     /// Step 1.
     pub machine: volumetric_error::VolumetricErrorDoc,
+    /// Step 9.
+    pub positioning: axis_positioning::AxisPositioningDoc,
     /// The HTML report written.
     pub report: String,
     /// Wall-clock time of the whole demo, s.
@@ -115,7 +123,7 @@ pub fn step_text(n: usize, title: &str, seconds: f64, body: &dyn fmt::Display) -
 
 impl DemoDoc {
     /// The steps in the order the demo runs them: title, seconds, summary.
-    pub fn steps(&self) -> [(String, f64, &dyn fmt::Display); 8] {
+    pub fn steps(&self) -> [(String, f64, &dyn fmt::Display); 10] {
         [
             (self.machine.title(), self.machine.seconds, &self.machine),
             (
@@ -149,6 +157,16 @@ impl DemoDoc {
                 &self.compensate,
             ),
             (five_axis_twin::TITLE.into(), self.twin.seconds, &self.twin),
+            (
+                axis_positioning::TITLE.into(),
+                self.positioning.seconds,
+                &self.positioning,
+            ),
+            (
+                circular_test::TITLE.into(),
+                self.circular.seconds,
+                &self.circular,
+            ),
         ]
     }
 }

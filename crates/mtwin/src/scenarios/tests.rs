@@ -231,10 +231,36 @@ fn demo_scenarios_recover_their_truths_and_the_doc_round_trips() {
         t.samples - t.cutting_samples,
         (t.cutting_from_s / t.sample_period_s).round() as usize
     );
+    // Positioning: the table equals the truth EXX at the targets within the
+    // noise of a mean of 10 readings (0.5 µm / √10, 5σ).
+    let positioning = axis_positioning::run(&errors, &trunnion, &Default::default()).unwrap();
+    let p = &positioning.doc;
+    assert_eq!(p.error, "EXX");
+    assert!(p.largest_table_error_um < 5.0 * 0.5 / 10f64.sqrt(), "{p:?}");
+    assert!(p.largest_truth_um > 5.0, "{p:?}");
+    // Reversal B within 5σ of the 4 µm simulated (σ of a difference of two means of 5).
+    assert!(
+        (p.b_um - 4.0).abs() < 5.0 * 0.5 * (0.4f64).sqrt() + 0.5,
+        "{p:?}"
+    );
+    // Circular test through the identified servos: each diagnostic within 5 % or 0.5 µm.
+    let circ = circular_test::run(&servo.twin, &trunnion, &Default::default()).unwrap();
+    for r in &circ.doc.recovered {
+        let v = r.value.unwrap_or_else(|| panic!("{} not separable", r.key));
+        assert!(
+            (v - r.truth).abs() <= (0.05 * r.truth.abs()).max(0.5),
+            "{}: {v} vs {}",
+            r.key,
+            r.truth
+        );
+    }
+    assert_eq!(circ.doc.model_changes.len(), 3);
     let doc = DemoDoc {
         ballbar: trunnion_ballbar::run(&trunnion, &errors, &Default::default())
             .unwrap()
             .doc,
+        circular: circ.doc,
+        positioning: positioning.doc,
         compensate: compensate.doc,
         machine: volumetric_error::run(
             &errors,
@@ -274,14 +300,16 @@ fn demo_scenarios_recover_their_truths_and_the_doc_round_trips() {
         ("thermal", "face_difference_compensated_mm"),
         ("tracker", "diagonal_change_mean_percent"),
         ("twin", "geometry_only"),
+        ("positioning", "largest_table_error_um"),
+        ("circular", "recovered"),
     ] {
         assert!(v[step].get(key).is_some(), "{step}.{key}");
         assert!(v[step]["seconds"].is_number(), "{step}.seconds");
     }
-    // The printed summary: the heading, eight numbered steps, the report.
+    // The printed summary: the heading, ten numbered steps, the report.
     let text = doc.to_string();
     assert!(text.starts_with(DEMO_HEADING));
-    for k in 1..=8 {
+    for k in 1..=10 {
         assert!(text.contains(&format!("\n{k}. ")), "step {k}");
     }
     assert!(text.ends_with("report → out/report.html\n"));

@@ -4,7 +4,9 @@
 //! Input: per direction (clockwise, counter-clockwise) samples of the angle θ
 //! (degrees, counter-clockwise from the first axis, called X, in the test
 //! plane; the second axis is called Y) and the deviation Δr of the measured
-//! radius from the nominal radius R (µm).
+//! radius from the nominal radius R (µm). The test plane ([`Plane`]) names
+//! the two axes: the keys below are those of the XY plane; in YZ their `x`
+//! and `y` become `y` and `z`, in ZX `z` and `x` ([`Plane::key`]).
 //!
 //! **ISO 230-4 figures.** `G` circular deviation: the largest, over the two
 //! directions, of the radial spread of the trace about its least-squares
@@ -45,6 +47,8 @@
 
 use std::f64::consts::PI;
 
+use std::collections::BTreeMap;
+
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
@@ -57,6 +61,63 @@ pub struct Trace {
     pub deviation_um: Vec<f64>,
 }
 
+/// The test plane: its first and second axis (the angle θ runs
+/// counter-clockwise from the first towards the second, seen from the
+/// positive side of the third).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Plane {
+    /// First axis X, second Y (normal +z).
+    #[default]
+    Xy,
+    /// First axis Y, second Z (normal +x).
+    Yz,
+    /// First axis Z, second X (normal +y).
+    Zx,
+}
+
+impl Plane {
+    /// Indices (0 = x, 1 = y, 2 = z) of the first and second axis and of the normal.
+    pub fn indices(self) -> [usize; 3] {
+        match self {
+            Plane::Xy => [0, 1, 2],
+            Plane::Yz => [1, 2, 0],
+            Plane::Zx => [2, 0, 1],
+        }
+    }
+
+    /// Lower-case letters of the first and second axis (`x`, `y` for XY).
+    pub fn letters(self) -> [char; 2] {
+        let [a, b, _] = self.indices();
+        [['x', 'y', 'z'][a], ['x', 'y', 'z'][b]]
+    }
+
+    /// `xy`, `yz` or `zx`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Plane::Xy => "xy",
+            Plane::Yz => "yz",
+            Plane::Zx => "zx",
+        }
+    }
+
+    /// The key of a diagnostic in this plane: the `x` and `y` words of an
+    /// XY key (`backlash_x_um`) become the plane's first and second axis
+    /// (`backlash_y_um` and `backlash_z_um` in YZ).
+    pub fn key(self, xy_key: &str) -> String {
+        let [a, b] = self.letters();
+        xy_key
+            .split('_')
+            .map(|w| match w {
+                "x" => a.to_string(),
+                "y" => b.to_string(),
+                w => w.to_string(),
+            })
+            .collect::<Vec<_>>()
+            .join("_")
+    }
+}
+
 /// Settings of the diagnosis.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CircularOptions {
@@ -66,6 +127,8 @@ pub struct CircularOptions {
     pub cyclic_pitch_mm: f64,
     /// Decay angle of a reversal spike, degrees.
     pub spike_width_deg: f64,
+    /// Test plane: names the axes of the diagnostics.
+    pub plane: Plane,
 }
 
 impl Default for CircularOptions {
@@ -74,11 +137,13 @@ impl Default for CircularOptions {
             radius_mm: 100.0,
             cyclic_pitch_mm: 10.0,
             spike_width_deg: 3.0,
+            plane: Plane::Xy,
         }
     }
 }
 
-/// The JSON keys of the diagnostics and set-up terms of a [`CircularDoc`].
+/// The JSON keys of the diagnostics and set-up terms of a [`CircularDoc`] in
+/// the XY plane (other planes: [`Plane::key`]).
 pub const DIAGNOSTICS: [&str; 15] = [
     "backlash_x_um",
     "backlash_y_um",
@@ -161,6 +226,8 @@ pub struct Ranked {
 pub struct CircularDoc {
     /// Nominal radius, mm.
     pub radius_mm: f64,
+    /// Test plane (`xy`, `yz`, `zx`).
+    pub plane: Plane,
     /// Directions measured: "cw", "ccw" or both.
     pub directions: Vec<String>,
     /// Circular deviation G (ISO 230-4).
@@ -180,36 +247,12 @@ pub struct CircularDoc {
     pub f_max_um: f64,
     /// Smallest Δr.
     pub f_min_um: f64,
-    /// See the module documentation.
-    pub backlash_x_um: Option<f64>,
-    /// See the module documentation.
-    pub backlash_y_um: Option<f64>,
-    /// See the module documentation.
-    pub lateral_play_x_um: Option<f64>,
-    /// See the module documentation.
-    pub lateral_play_y_um: Option<f64>,
-    /// See the module documentation.
-    pub reversal_spike_x_um: Option<f64>,
-    /// See the module documentation.
-    pub reversal_spike_y_um: Option<f64>,
-    /// Amplitude; see the module documentation.
-    pub cyclic_error_x_um: Option<f64>,
-    /// Amplitude; see the module documentation.
-    pub cyclic_error_y_um: Option<f64>,
-    /// See the module documentation.
-    pub servo_mismatch_um: Option<f64>,
-    /// See the module documentation.
-    pub squareness_um_per_m: Option<f64>,
-    /// See the module documentation.
-    pub straightness_x_um: Option<f64>,
-    /// See the module documentation.
-    pub straightness_y_um: Option<f64>,
-    /// See the module documentation.
-    pub scale_mismatch_um: Option<f64>,
-    /// Centre offset of the trace (set-up), µm.
-    pub centre_x_um: Option<f64>,
-    /// Centre offset of the trace (set-up), µm.
-    pub centre_y_um: Option<f64>,
+    /// The diagnostics and the centre offset by their JSON keys in the test
+    /// plane ([`DIAGNOSTICS`] renamed by [`Plane::key`]; units in the keys;
+    /// `null` = not separable in this set-up). Read them with
+    /// [`CircularDoc::get`].
+    #[serde(flatten)]
+    pub diagnostics: BTreeMap<String, Option<f64>>,
     /// Radius offset (bar length and common scale error), µm.
     pub radius_offset_um: Option<f64>,
     /// RMS of the fit residual, µm.
@@ -222,6 +265,18 @@ pub struct CircularDoc {
     pub cyclic_pitch_mm: f64,
     /// Decay angle used for reversal spikes, degrees.
     pub spike_width_deg: f64,
+}
+
+impl CircularDoc {
+    /// The value of a diagnostic named by its XY key (`backlash_x_um` is the
+    /// first axis of the plane, `backlash_y_um` the second); `None` when it is
+    /// not separable in this set-up or not a key of [`DIAGNOSTICS`].
+    pub fn get(&self, xy_key: &str) -> Option<f64> {
+        self.diagnostics
+            .get(&self.plane.key(xy_key))
+            .copied()
+            .flatten()
+    }
 }
 
 fn param_names() -> [&'static str; NCOL] {
@@ -378,7 +433,7 @@ pub fn circular(
             if rho.abs() > 0.995 || dead || !rho.is_finite() {
                 bad[p] = true;
                 bad[q] = true;
-                let pair = vec![names[p].to_string(), names[q].to_string()];
+                let pair = vec![o.plane.key(names[p]), o.plane.key(names[q])];
                 if !groups.contains(&pair) {
                     groups.push(pair);
                 }
@@ -446,7 +501,7 @@ pub fn circular(
             (p[cols[0]], u[cols[0]])
         };
         ranking.push(Ranked {
-            key: key.to_string(),
+            key: o.plane.key(key),
             value,
             uncertainty: unc,
             peak_um: peak(cols),
@@ -488,6 +543,7 @@ pub fn circular(
     };
     Ok(CircularDoc {
         radius_mm: o.radius_mm,
+        plane: o.plane,
         directions: runs.iter().map(|r| r.2.to_string()).collect(),
         g_um: g,
         g_cw_um: g_cw,
@@ -496,21 +552,26 @@ pub fn circular(
         f_um: f_max.abs().max(f_min.abs()),
         f_max_um: f_max,
         f_min_um: f_min,
-        backlash_x_um: get(0),
-        backlash_y_um: get(1),
-        lateral_play_x_um: get(2),
-        lateral_play_y_um: get(3),
-        reversal_spike_x_um: get(4),
-        reversal_spike_y_um: get(5),
-        cyclic_error_x_um: amp(6),
-        cyclic_error_y_um: amp(8),
-        servo_mismatch_um: get(10),
-        squareness_um_per_m: get(11),
-        straightness_x_um: get(12),
-        straightness_y_um: get(13),
-        scale_mismatch_um: get(14),
-        centre_x_um: get(15),
-        centre_y_um: get(16),
+        diagnostics: [
+            ("backlash_x_um", get(0)),
+            ("backlash_y_um", get(1)),
+            ("lateral_play_x_um", get(2)),
+            ("lateral_play_y_um", get(3)),
+            ("reversal_spike_x_um", get(4)),
+            ("reversal_spike_y_um", get(5)),
+            ("cyclic_error_x_um", amp(6)),
+            ("cyclic_error_y_um", amp(8)),
+            ("servo_mismatch_um", get(10)),
+            ("squareness_um_per_m", get(11)),
+            ("straightness_x_um", get(12)),
+            ("straightness_y_um", get(13)),
+            ("scale_mismatch_um", get(14)),
+            ("centre_x_um", get(15)),
+            ("centre_y_um", get(16)),
+        ]
+        .into_iter()
+        .map(|(k, v)| (o.plane.key(k), v))
+        .collect(),
         radius_offset_um: get(17),
         residual_rms_um: resid.norm() / (n as f64).sqrt(),
         ranking,
@@ -525,7 +586,8 @@ impl std::fmt::Display for CircularDoc {
         let o = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.2}"));
         writeln!(
             f,
-            "ISO 230-4 circular test, R = {} mm ({}):",
+            "ISO 230-4 circular test, plane {}, R = {} mm ({}):",
+            self.plane.as_str().to_uppercase(),
             crate::io::fmt_f64(self.radius_mm),
             self.directions.join(" + ")
         )?;
@@ -549,8 +611,8 @@ impl std::fmt::Display for CircularDoc {
         writeln!(
             f,
             "  set-up: centre ({}, {}) µm, radius offset {} µm; residual RMS {:.2} µm",
-            o(self.centre_x_um),
-            o(self.centre_y_um),
+            o(self.get("centre_x_um")),
+            o(self.get("centre_y_um")),
             o(self.radius_offset_um),
             self.residual_rms_um
         )?;
@@ -559,4 +621,58 @@ impl std::fmt::Display for CircularDoc {
         }
         Ok(())
     }
+}
+
+/// Polar plot of the traces (`mtwin ballbar circular --plot`): Δr of each
+/// direction about the fitted centre (the set-up offset `centre_*_um` of
+/// `doc` taken out, as ballbar software shows it), at its angle in the test
+/// plane, µm rings; the title gives the plane, radius and G, H, F.
+pub fn plot_svg(cw: Option<&Trace>, ccw: Option<&Trace>, doc: &CircularDoc) -> String {
+    use crate::report::svg::{Series, polar};
+    let cx = doc.get("centre_x_um").unwrap_or(0.0);
+    let cy = doc.get("centre_y_um").unwrap_or(0.0);
+    let series: Vec<Series> = [
+        (cw, "clockwise", "#1f77b4"),
+        (ccw, "counter-clockwise", "#d62728"),
+    ]
+    .into_iter()
+    .filter_map(|(t, name, color)| {
+        let t = t?;
+        let mut pts: Vec<(f64, f64)> = t
+            .angle_deg
+            .iter()
+            .zip(&t.deviation_um)
+            .map(|(&th, &d)| {
+                let r = th.to_radians();
+                (th.rem_euclid(360.0), d - cx * r.cos() - cy * r.sin())
+            })
+            .collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        if let Some(&first) = pts.first() {
+            pts.push((first.0 + 360.0, first.1));
+        }
+        Some(Series {
+            name: format!("{name} Δr about the fitted centre"),
+            points: pts,
+            color: color.into(),
+            markers: false,
+        })
+    })
+    .collect();
+    let [a, b] = doc.plane.letters();
+    polar(
+        &format!(
+            "Circular test, plane {}{} (θ from +{}), R = {} mm: G = {:.2} µm, H = {} µm, F = {:.2} µm",
+            a.to_ascii_uppercase(),
+            b.to_ascii_uppercase(),
+            a.to_ascii_uppercase(),
+            crate::io::fmt_f64(doc.radius_mm),
+            doc.g_um,
+            doc.h_um.map_or("—".into(), |h| format!("{h:.2}")),
+            doc.f_um
+        ),
+        &series,
+        "µm",
+        1.0,
+    )
 }

@@ -3,6 +3,16 @@
 //! of the actual position (the error models of the table in
 //! [`super::circular`]), the ballbar reads the exact distance from the centre,
 //! and Gaussian noise is added.
+//!
+//! Servo dynamics: with [`CircularErrors::servos`] the commanded circle at
+//! the given feed (starting at rest at θ = 0, one turn of run-in, then the
+//! turn that is recorded) goes through each axis's servo model (the
+//! transfer functions of `mtwin servo fit`, docs/servo.md), and the axes
+//! stand where the models put them. Two first-order lags with velocity lags
+//! τ₁ and τ₂ then show as a servo mismatch of about `v·(τ₁ − τ₂)` (v the
+//! feed), the first axis lagging; equal servos show none.
+
+use crate::sysid::Servo;
 
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
@@ -46,6 +56,51 @@ pub struct CircularErrors {
     pub centre_y_um: f64,
     /// Bar length error, µm.
     pub radius_offset_um: f64,
+    /// Servo models of the two axes and the feed (in addition to
+    /// `servo_mismatch_um`).
+    pub servos: Option<ServoPair>,
+}
+
+/// The servo models of the plane's two axes (first, second) and the feed of
+/// the circle: [`simulate_circular`] runs the commanded circle through them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ServoPair {
+    /// Servo of the first axis (X in the XY plane): command to position, mm.
+    pub first: Servo,
+    /// Servo of the second axis.
+    pub second: Servo,
+    /// Feed along the circle, mm/min.
+    pub feed_mm_min: f64,
+}
+
+/// The following error `actual − command` (mm) of each axis at the `samples`
+/// angles of the recorded turn (see the module documentation).
+fn servo_errors(p: &ServoPair, r: f64, s: f64, samples: usize) -> [Vec<f64>; 2] {
+    let v = p.feed_mm_min / 60.0;
+    let omega = v / r;
+    let turn = 2.0 * std::f64::consts::PI / omega;
+    let one = |servo: &Servo, first: bool| -> Vec<f64> {
+        let ts = servo.ts();
+        let n = (2.0 * turn / ts).ceil() as usize + 2;
+        let u: Vec<f64> = (0..n)
+            .map(|j| {
+                let th = s * omega * j as f64 * ts;
+                if first { r * th.cos() } else { r * th.sin() }
+            })
+            .collect();
+        let y = servo.simulate(&u);
+        let e: Vec<f64> = y.iter().zip(&u).map(|(y, u)| y - u).collect();
+        (0..samples)
+            .map(|k| {
+                let t = turn * (1.0 + k as f64 / samples as f64);
+                let x = t / ts;
+                let j = (x.floor() as usize).min(n - 2);
+                let f = x - j as f64;
+                e[j] + f * (e[j + 1] - e[j])
+            })
+            .collect()
+    };
+    [one(&p.first, true), one(&p.second, false)]
 }
 
 /// One direction (`ccw` true: counter-clockwise) of `samples` points over a
@@ -64,6 +119,7 @@ pub fn simulate_circular(
     let noise = Normal::new(0.0, noise_um.max(0.0)).ok();
     let mut t = Trace::default();
     let um = 1e-3;
+    let servo = e.servos.as_ref().map(|p| servo_errors(p, r, s, samples));
     for k in 0..samples {
         let th_deg = s * 360.0 * k as f64 / samples as f64;
         let th_deg = th_deg.rem_euclid(360.0);
@@ -87,7 +143,8 @@ pub fn simulate_circular(
         // servo: X lags by the mismatch distance along the path
         let lag = e.servo_mismatch_um * um / r; // rad
         let xs = r * (th - s * lag).cos() - x;
-        let (ax, ay) = (x + xs + dx * um, y + dy * um);
+        let (sx, sy) = servo.as_ref().map_or((0.0, 0.0), |[a, b]| (a[k], b[k]));
+        let (ax, ay) = (x + xs + sx + dx * um, y + sy + dy * um);
         let mut d = (ax.hypot(ay) - r) / um + e.radius_offset_um;
         // reversal spikes: radial transients after each reversal
         for (h, at) in [

@@ -18,6 +18,8 @@
 #[warn(missing_docs)]
 pub mod circular;
 #[warn(missing_docs)]
+pub mod circular_model;
+#[warn(missing_docs)]
 pub mod circular_sim;
 pub mod closed_form;
 pub mod data;

@@ -11,13 +11,16 @@
 //!   files of the open-source ecmc motion tools), [`read_rtx`] (Renishaw
 //!   dynamic captures), [`read_log`] (raw continuous logs: `NAME date time
 //!   value` lines, the dwell at each target detected and averaged);
-//! * [`plot_svg`]: deviation against position per direction with the ±2s band.
+//! * [`plot_svg`]: deviation against position per direction with the ±2s band;
+//! * [`update_machine`]: the mean bidirectional deviation as the axis's
+//!   positioning error (a table) in a machine model.
 //!
 //! Units: positions in mm in the [`Run`]; every figure of the document in µm
 //! (`_um`) except the target positions (mm).
 
 pub mod doc;
 pub mod iso230_2;
+pub mod model;
 pub mod plot;
 pub mod read_dat;
 pub mod read_log;
@@ -28,6 +31,7 @@ use std::path::Path;
 
 pub use doc::{PositioningDoc, TargetRow};
 pub use iso230_2::{Run, evaluate};
+pub use model::{ModelUpdate, update_machine};
 pub use plot::plot_svg;
 pub use read_dat::read_dat;
 pub use read_log::{LogOptions, read_log};

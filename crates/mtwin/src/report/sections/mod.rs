@@ -5,8 +5,10 @@
 //! (documents in memory) build the same sections through the same functions.
 
 pub mod ballbar;
+pub mod circular;
 pub mod compensate;
 pub mod machine;
+pub mod positioning;
 pub mod servo;
 pub mod skiving;
 pub mod thermal;
