@@ -80,6 +80,7 @@ def ballbar_circular(
     ccw: Union[_Path, _F64, None] = None,
     cyclic_pitch: float = 10.0,
     spike_width: float = 3.0,
+    plane: str = "xy",
 ) -> Document: ...
 def skiving_setup_error(
     data: _Path,

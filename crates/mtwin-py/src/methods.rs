@@ -402,10 +402,11 @@ fn circular_trace(
 /// `angle_deg,deviation_um` or an (N, 2) array of the same columns (angle
 /// counter-clockwise from +X in the test plane, degrees; deviation µm).
 /// `radius` (the bar length) and `cyclic_pitch` (screw lead) in mm,
-/// `spike_width` (decay angle of a reversal spike) in degrees. Returns the
+/// `spike_width` (decay angle of a reversal spike) in degrees; `plane` `"xy"`,
+/// `"yz"` or `"zx"` names the axes of the diagnostics. Returns the
 /// `CircularDoc`.
 #[pyfunction]
-#[pyo3(signature = (radius, cw = None, ccw = None, cyclic_pitch = 10.0, spike_width = 3.0))]
+#[pyo3(signature = (radius, cw = None, ccw = None, cyclic_pitch = 10.0, spike_width = 3.0, plane = "xy"))]
 fn ballbar_circular(
     py: Python<'_>,
     radius: f64,
@@ -413,14 +414,26 @@ fn ballbar_circular(
     ccw: Option<&Bound<'_, PyAny>>,
     cyclic_pitch: f64,
     spike_width: f64,
+    plane: &str,
 ) -> PyResult<Py<PyAny>> {
-    use mtwin::methods::ballbar::circular::{CircularOptions, circular};
+    use mtwin::methods::ballbar::circular::{CircularOptions, Plane, circular};
+    let plane = match plane.to_ascii_lowercase().as_str() {
+        "xy" => Plane::Xy,
+        "yz" => Plane::Yz,
+        "zx" => Plane::Zx,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "plane `{other}`: expected xy, yz or zx"
+            )));
+        }
+    };
     let cw = cw.map(|d| circular_trace(py, d)).transpose()?;
     let ccw = ccw.map(|d| circular_trace(py, d)).transpose()?;
     let o = CircularOptions {
         radius_mm: radius,
         cyclic_pitch_mm: cyclic_pitch,
         spike_width_deg: spike_width,
+        plane,
     };
     let doc = circular(cw.as_ref(), ccw.as_ref(), &o).map_err(PyValueError::new_err)?;
     document(py, "CircularDoc", &doc)
