@@ -32,6 +32,7 @@
 //! Without LinuxCNC the tests print a note and pass, unless
 //! `MTWIN_REQUIRE_LINUXCNC=1` (as `.ci/run` sets), where they fail.
 
+use std::collections::BTreeMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -412,11 +413,31 @@ fn set_mode(p: &Path, mode: u32) -> std::io::Result<()> {
 
 /// Runs `program` (G-code text) on the simulator with `setup` and returns
 /// what it sampled. `timeout` bounds the program's real time.
+///
+/// A program run once with a set-up is not run again by this test binary:
+/// the trace is kept and handed to every later caller, so tests that check
+/// different things of the same program read the same run (runs are
+/// serialised and take real time).
 pub fn run(program: &str, setup: &SimSetup, timeout: Duration) -> Result<Trace, SimError> {
     if let Some(why) = missing() {
         return Err(SimError::Missing(why));
     }
     let _guard = RUN.lock().unwrap_or_else(|e| e.into_inner());
+    let key = format!("{setup:?}\n{program}");
+    let mut done = DONE.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(t) = done.get(&key) {
+        return Ok(t.clone());
+    }
+    let t = run_once(program, setup, timeout)?;
+    done.insert(key, t.clone());
+    Ok(t)
+}
+
+/// Traces of the runs made so far by this test binary, by set-up and program.
+static DONE: Mutex<BTreeMap<String, Trace>> = Mutex::new(BTreeMap::new());
+
+/// One simulator run (the caller holds [`RUN`]).
+fn run_once(program: &str, setup: &SimSetup, timeout: Duration) -> Result<Trace, SimError> {
     let setup_err = |e: std::io::Error| SimError::Setup(e.to_string());
     let tmp = tempfile::Builder::new()
         .prefix("mtwin-lcnc-")
