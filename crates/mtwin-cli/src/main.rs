@@ -120,24 +120,31 @@ mod tests {
                 .get_after_help()
                 .map(|h| h.to_string())
                 .unwrap_or_default();
-            let Some(example) = help.split("Example:").nth(1) else {
+            let Some(examples) = help
+                .split_once("Examples:")
+                .or_else(|| help.split_once("Example:"))
+                .map(|(_, rest)| rest)
+            else {
                 panic!("`{path}` has no `Example:` in its after_help");
             };
-            // The first example line is a real invocation of this very command.
-            let line = example
+            // Every example line is a real invocation of this very command.
+            let lines: Vec<&str> = examples
                 .lines()
                 .map(str::trim)
-                .find(|l| !l.is_empty())
-                .unwrap_or_default();
-            assert!(line.starts_with(&path), "`{path}`: example `{line}`");
-            let argv: Vec<&str> = line
-                .split(" > ")
-                .next()
-                .unwrap()
-                .split_whitespace()
+                .filter(|l| !l.is_empty())
                 .collect();
-            if let Err(e) = Cli::command().try_get_matches_from(&argv) {
-                panic!("`{path}`: the example does not parse: {e}");
+            assert!(!lines.is_empty(), "`{path}`: empty example");
+            for line in lines {
+                assert!(line.starts_with(&path), "`{path}`: example `{line}`");
+                let argv: Vec<&str> = line
+                    .split(" > ")
+                    .next()
+                    .unwrap()
+                    .split_whitespace()
+                    .collect();
+                if let Err(e) = Cli::command().try_get_matches_from(&argv) {
+                    panic!("`{path}`: the example `{line}` does not parse: {e}");
+                }
             }
         }
     }
