@@ -46,8 +46,8 @@ pub struct Change {
     /// linear term for a positioning error.
     pub added: f64,
     /// The change in words: the new and old value of a location rotation
-    /// (rad), the slope of the linear term added to a positioning error
-    /// (mm/m; its other terms are kept).
+    /// (µrad), the slope of the linear term added to a positioning error
+    /// (µm/m; its other terms are kept).
     pub note: String,
 }
 
@@ -264,19 +264,16 @@ pub fn update_machine(
         error: rot_name,
         added: gamma,
         note: format!(
-            "{} rad (was {})",
-            crate::io::fmt_f64(m.axes[rot_axis].errors.location[normal.index()]),
-            crate::io::fmt_f64(machine.axes[rot_axis].errors.location[normal.index()])
+            "{:.3} µrad (was {:.3})",
+            1e6 * m.axes[rot_axis].errors.location[normal.index()],
+            1e6 * machine.axes[rot_axis].errors.location[normal.index()]
         ),
     }];
     for (k, i) in [ia, ib].into_iter().enumerate() {
         changes.push(Change {
             error: ErrorName::pdge(own_component(machine, i), &machine.axes[i].name),
             added: slopes[k],
-            note: format!(
-                "linear term {} mm/m added",
-                crate::io::fmt_f64(slopes[k] * 1e3)
-            ),
+            note: format!("linear term {:.3} µm/m added", slopes[k] * 1e6),
         });
     }
     Ok((m, changes))
