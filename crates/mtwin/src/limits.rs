@@ -59,6 +59,11 @@ pub const MAX_TRACKER_WORK: u64 = 200_000_000;
 /// at most).
 pub const MAX_CYCLE_REPEATS: u64 = 100_000;
 
+/// At most this many pecks (G73/G83) in one canned-cycle block, all repeats
+/// together: a peck is three moves, and a block's moves are held until the
+/// block ends (a deep hole of 100 mm at Q 0.1 mm is 1 000 pecks).
+pub const MAX_CYCLE_PECKS: u64 = 100_000;
+
 /// Most blocks one G-code program may execute, loops and subroutine calls
 /// counted each time they run (about a minute of interpretation): a program
 /// whose loop never ends stops with an error instead of running forever.

@@ -1607,6 +1607,23 @@ impl Interpreter {
             RetractMode::RLevel => r,
             RetractMode::InitialLevel => old_cc,
         };
+        if matches!(code, GCode::G73 | GCode::G83) {
+            // Pecks of one hole times the repeats: bounded before any move
+            // is made, as the repeats are (huge R or tiny Q would otherwise
+            // expand one block without end).
+            let pecks = ((r - cc) / params.q).ceil() * f64::from(repeats);
+            if !(pecks <= crate::limits::MAX_CYCLE_PECKS as f64) {
+                let column = w.get(b'Q').map_or(0, |q| q.column);
+                return Err(s.invalid(
+                    column,
+                    format!(
+                        "{code} from R {r} to {cc} by Q {} ({repeats} repeats): more than {} pecks in one block (a bound of mtwin on the memory one block may take)",
+                        params.q,
+                        crate::limits::MAX_CYCLE_PECKS
+                    ),
+                ));
+            }
+        }
         for repeat in (1..=repeats).rev() {
             aa += da;
             bb += db;
@@ -1690,7 +1707,15 @@ impl Interpreter {
                         rapid(self, r, s)?;
                     }
                     rapid(self, depth + RAPID_DELTA, s)?;
-                    depth -= params.q;
+                    let next = depth - params.q;
+                    if next >= depth {
+                        // Q below the resolution of the depth's number.
+                        return Err(s.invalid(
+                            0,
+                            format!("Q {} too small to move from depth {depth}", params.q),
+                        ));
+                    }
+                    depth = next;
                 }
                 feed(self, bottom, s)?;
                 rapid(self, clear, s)?;
@@ -2966,10 +2991,15 @@ mod tests {
             "G81 X1 Z-1 R1\n",             // zero feed
             "G81 X1 Z-1 R1 L0 F10\n",      // zero repeats
             "G81 X1 Z-1 R1 L100001 F10\n", // beyond MAX_CYCLE_REPEATS
-            "G83 X1 Z-1 R1 F10\n",         // no Q
-            "G82 X1 Z-1 R1 F10\n",         // no P
-            "G84 X1 Z-1 R1 F10\n",         // spindle stopped
-            "G81 X1 Z-1 R1 A5 F10\n",      // rotary axis
+            // Beyond MAX_CYCLE_PECKS: a huge R, a tiny Q with repeats.
+            "G83 X1 Z-1 R100000000000000000000 Q1 F10\n",
+            "G83 X1 Z-1 R1 Q0.000001 L1000 F10\n",
+            // Q below the resolution of the depth (ulp of 1e20 is 16 384).
+            "G83 X1 Z100000000000000000000 R100000000000000016384 Q1 F10\n",
+            "G83 X1 Z-1 R1 F10\n",    // no Q
+            "G82 X1 Z-1 R1 F10\n",    // no P
+            "G84 X1 Z-1 R1 F10\n",    // spindle stopped
+            "G81 X1 Z-1 R1 A5 F10\n", // rotary axis
             "G93 G81 X1 Z-1 R1 F10\n",
         ] {
             assert!(run_with(bad, InterpOptions::default()).is_err(), "{bad}");
