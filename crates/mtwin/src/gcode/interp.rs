@@ -1612,7 +1612,7 @@ impl Interpreter {
             // is made, as the repeats are (huge R or tiny Q would otherwise
             // expand one block without end).
             let pecks = ((r - cc) / params.q).ceil() * f64::from(repeats);
-            if !(pecks <= crate::limits::MAX_CYCLE_PECKS as f64) {
+            if pecks.is_nan() || pecks > crate::limits::MAX_CYCLE_PECKS as f64 {
                 let column = w.get(b'Q').map_or(0, |q| q.column);
                 return Err(s.invalid(
                     column,
