@@ -1396,6 +1396,27 @@ pub fn planned_duration<R: BufRead>(
     interpolate(input, machine, &o, |_| Ok(())).map(|s| s.duration)
 }
 
+/// Runs the program `input` through the interpreter with `iopts` and hands
+/// every event, in program order, to `f` (the one driver loop of the
+/// planners).
+fn for_each_event<R: BufRead>(
+    input: R,
+    iopts: &InterpOptions,
+    mut f: impl FnMut(&Event) -> Result<(), InterpolateError>,
+) -> Result<(), InterpolateError> {
+    let mut interp = Interpreter::new(iopts.clone());
+    run_program(
+        input,
+        &mut interp,
+        &iopts.program,
+        iopts.dialect,
+        |step: &Step<'_>| -> Result<(), InterpolateError> {
+            step.events.iter().try_for_each(&mut f)
+        },
+    )?;
+    Ok(())
+}
+
 /// Interpolates the program read from `input` on `machine`, streaming:
 /// `sink` gets every sample in time order (see the module documentation).
 pub fn interpolate<R, F>(
@@ -1413,19 +1434,7 @@ where
     }
     let mut ip = Interpolator::new(machine, opts)?;
     let iopts = ip.options().interp.clone();
-    let mut interp = Interpreter::new(iopts.clone());
-    run_program(
-        input,
-        &mut interp,
-        &iopts.program,
-        iopts.dialect,
-        |step: &Step<'_>| -> Result<(), InterpolateError> {
-            for e in step.events {
-                ip.push(e, &mut sink)?;
-            }
-            Ok(())
-        },
-    )?;
+    for_each_event(input, &iopts, |e| ip.push(e, &mut sink))?;
     ip.finish(&mut sink)
 }
 
@@ -1736,19 +1745,7 @@ impl<'m> Walker<'m> {
         F: FnMut(Stretch<'_>) -> Result<(), InterpolateError>,
     {
         let iopts = self.ip.options().interp.clone();
-        let mut interp = Interpreter::new(iopts.clone());
-        run_program(
-            input,
-            &mut interp,
-            &iopts.program,
-            iopts.dialect,
-            |st: &Step<'_>| -> Result<(), InterpolateError> {
-                for e in st.events {
-                    self.event(e, &mut sink)?;
-                }
-                Ok(())
-            },
-        )?;
+        for_each_event(input, &iopts, |e| self.event(e, &mut sink))?;
         self.flush(&mut sink)?;
         Ok(self.ip.summary)
     }
