@@ -54,15 +54,16 @@ pub const MAX_TRACKER_CANDIDATES: u64 = 100_000;
 pub const MAX_TRACKER_WORK: u64 = 200_000_000;
 
 /// Most repeats (L word) of one canned-cycle block: each repeat is a few
-/// moves held in memory until the block is done, so a bound keeps one block
-/// within a few tens of MB (real programs repeat a cycle a few hundred times
-/// at most).
-pub const MAX_CYCLE_REPEATS: u64 = 100_000;
+/// moves held in memory until the block is done (a G84 repeat, seven moves,
+/// takes about 6.4 KB), so this bound keeps one block within about 64 MB
+/// (real programs repeat a cycle a few hundred times at most).
+pub const MAX_CYCLE_REPEATS: u64 = 10_000;
 
 /// At most this many pecks (G73/G83) in one canned-cycle block, all repeats
 /// together: a peck is three moves, and a block's moves are held until the
-/// block ends (a deep hole of 100 mm at Q 0.1 mm is 1 000 pecks).
-pub const MAX_CYCLE_PECKS: u64 = 100_000;
+/// block ends, so this bound keeps one block within a few tens of MB (a deep
+/// hole of 100 mm at Q 0.1 mm is 1 000 pecks).
+pub const MAX_CYCLE_PECKS: u64 = 10_000;
 
 /// Most blocks one G-code program may execute, loops and subroutine calls
 /// counted each time they run (about a minute of interpretation): a program

@@ -2983,17 +2983,25 @@ mod tests {
             ev.iter()
                 .any(|e| e.kind == EventKind::Dwell { seconds: 0.5 })
         );
+        // At the bounds themselves the blocks run.
+        for ok in [
+            "G81 X1 Z-1 R1 L10000 F10\n",
+            "G83 X1 Z-1 R1 Q0.5 L2500 F10\n", // 4 pecks a hole: 10 000
+        ] {
+            assert!(run_with(ok, InterpOptions::default()).is_ok(), "{ok}");
+        }
         // LinuxCNC's errors.
         for bad in [
-            "G81 X1 Z-1 F10\n",            // no R
-            "G81 X1 R1 F10\n",             // no Z
-            "G81 X1 Z2 R1 F10\n",          // R below Z
-            "G81 X1 Z-1 R1\n",             // zero feed
-            "G81 X1 Z-1 R1 L0 F10\n",      // zero repeats
-            "G81 X1 Z-1 R1 L100001 F10\n", // beyond MAX_CYCLE_REPEATS
+            "G81 X1 Z-1 F10\n",           // no R
+            "G81 X1 R1 F10\n",            // no Z
+            "G81 X1 Z2 R1 F10\n",         // R below Z
+            "G81 X1 Z-1 R1\n",            // zero feed
+            "G81 X1 Z-1 R1 L0 F10\n",     // zero repeats
+            "G81 X1 Z-1 R1 L10001 F10\n", // beyond MAX_CYCLE_REPEATS
             // Beyond MAX_CYCLE_PECKS: a huge R, a tiny Q with repeats.
             "G83 X1 Z-1 R100000000000000000000 Q1 F10\n",
-            "G83 X1 Z-1 R1 Q0.000001 L1000 F10\n",
+            "G83 X1 Z-1 R1 Q0.0001 L1000 F10\n",
+            "G83 X1 Z-1 R1 Q0.5 L2501 F10\n", // 4 pecks a hole: 10 004
             // Q below the resolution of the depth (ulp of 1e20 is 16 384).
             "G83 X1 Z100000000000000000000 R100000000000000016384 Q1 F10\n",
             "G83 X1 Z-1 R1 F10\n",    // no Q
