@@ -44,6 +44,10 @@
 //! servo mismatch and squareness from one direction only) are reported as
 //! not separable and left out (`null`), not guessed. The diagnostics are
 //! ranked by the peak of their fitted signature on the trace.
+//!
+//! **Traces.** The document keeps each direction's trace, decimated to at
+//! most [`TRACE_POINTS_MAX`] points ([`DocTrace`]), and [`plot_svg`] draws
+//! the polar plot from it: `--plot` and the report's section draw the same.
 
 use std::f64::consts::PI;
 
