@@ -234,7 +234,7 @@ pub fn run_circular(a: CircularArgs) -> anyhow::Result<()> {
         changes = ch;
     }
     if let Some(p) = &a.plot {
-        out.write(p, plot_svg(cw.as_ref(), ccw.as_ref(), &doc).as_bytes())
+        out.write(p, plot_svg(&doc).as_bytes())
             .with_context(|| format!("cannot write {}", p.display()))?;
     }
     out.commit()?;

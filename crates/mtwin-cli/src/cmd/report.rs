@@ -191,7 +191,7 @@ fn build(a: &Args) -> anyhow::Result<Vec<Section>> {
     for p in &a.circular {
         let doc: mtwin::methods::ballbar::circular::CircularDoc =
             read_doc(p, "mtwin ballbar circular --format json")?;
-        out.push(sections::circular::section(&doc, None));
+        out.push(sections::circular::section(&doc));
     }
     if let Some(p) = &a.compensate {
         out.push(sections::compensate::section(&read_doc(

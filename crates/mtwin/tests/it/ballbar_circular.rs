@@ -392,3 +392,76 @@ fn servo_models_give_the_servo_mismatch_of_their_lags() {
         within(d.get("squareness_um_per_m"), 0.0, "squareness");
     }
 }
+
+/// Scale mismatch from two servo models of different lags (closed form of
+/// `circular_sim::servo_signature`, recomputed here from the discrete
+/// first-order lag): on a circle at ω = v/R each axis follows its command
+/// through `H(e^{jw}) = (1 − p)e^{−jw}/(1 − p e^{−jw})`, `w = ω·ts`; the
+/// diagnosis sees `k = R·Re(H₁² − H₂²)/(2√μ)`, `μ = (|H₁|² + |H₂|²)/2`. The
+/// radius difference of the axes alone, `R·(|H₁| − |H₂|)`, is about a third
+/// of it and fails the check.
+#[test]
+fn servo_models_give_the_scale_mismatch_of_their_gains_and_phases() {
+    use mtwin::methods::ballbar::circular_sim::{ServoPair, servo_signature};
+    let ts = 0.001;
+    let (feed, r) = (6000.0, 50.0);
+    let omega = feed / 60.0 / r;
+    let h = |tau: f64| {
+        let p: f64 = (-ts / tau).exp();
+        let w = omega * ts;
+        let (c, s) = (w.cos(), w.sin());
+        // (1 − p)(c − i s) / (1 − p c + i p s)
+        let (nr, ni) = ((1.0 - p) * c, -(1.0 - p) * s);
+        let (dr, di) = (1.0 - p * c, p * s);
+        let den = dr * dr + di * di;
+        ((nr * dr + ni * di) / den, (ni * dr - nr * di) / den)
+    };
+    let o = CircularOptions {
+        radius_mm: r,
+        ..opts()
+    };
+    for (tau1, tau2) in [(0.012, 0.008), (0.006, 0.014)] {
+        let ((a1, b1), (a2, b2)) = (h(tau1), h(tau2));
+        let re_d = (a1 * a1 - b1 * b1) - (a2 * a2 - b2 * b2);
+        let mu = 0.5 * (a1 * a1 + b1 * b1 + a2 * a2 + b2 * b2);
+        let want = r * 1e3 * re_d / (2.0 * mu.sqrt());
+        let pair = ServoPair {
+            first: first_order(tau1, ts),
+            second: first_order(tau2, ts),
+            feed_mm_min: feed,
+        };
+        let sig = servo_signature(&pair, r);
+        assert!(
+            (sig.scale_mismatch_um - want).abs() < 1e-9 * want.abs(),
+            "{sig:?} vs {want}"
+        );
+        // the continuous first-order form with τ + ts/2 (the hold's delay)
+        let cont = |tau: f64| {
+            let u: f64 = omega * (tau + ts / 2.0);
+            (1.0 - u * u) / (1.0 + u * u).powi(2)
+        };
+        let approx = r * 1e3 * (cont(tau1) - cont(tau2)) / 2.0;
+        assert!(
+            (approx - want).abs() < 0.02 * want.abs(),
+            "{approx} vs {want}"
+        );
+        let e = CircularErrors {
+            servos: Some(pair),
+            ..Default::default()
+        };
+        let cw = simulate_circular(&e, &o, false, 3600, 0.1, 9);
+        let ccw = simulate_circular(&e, &o, true, 3600, 0.1, 9);
+        let d = circular(Some(&cw), Some(&ccw), &o).unwrap();
+        assert!(want.abs() > 10.0, "a scale effect to see: {want}");
+        within(d.get("scale_mismatch_um"), want, "scale mismatch");
+        within(
+            d.get("servo_mismatch_um"),
+            sig.servo_mismatch_um,
+            "servo mismatch",
+        );
+        // the amplitude ratios alone are not it
+        let amp = r * 1e3 * ((a1 * a1 + b1 * b1).sqrt() - (a2 * a2 + b2 * b2).sqrt());
+        let got = d.get("scale_mismatch_um").unwrap();
+        assert!((got - amp).abs() > 0.5 * amp.abs(), "{got} vs {amp}");
+    }
+}

@@ -44,6 +44,10 @@
 //! servo mismatch and squareness from one direction only) are reported as
 //! not separable and left out (`null`), not guessed. The diagnostics are
 //! ranked by the peak of their fitted signature on the trace.
+//!
+//! **Traces.** The document keeps each direction's trace, decimated to at
+//! most [`TRACE_POINTS_MAX`] points ([`DocTrace`]), and [`plot_svg`] draws
+//! the polar plot from it: `--plot` and the report's section draw the same.
 
 use std::f64::consts::PI;
 
@@ -207,6 +211,47 @@ fn row(theta_deg: f64, s: f64, o: &CircularOptions) -> [f64; NCOL] {
     ]
 }
 
+/// Largest number of points per direction kept in [`CircularDoc::traces`]:
+/// one every half degree on a full turn (the grid of H), so a document and a
+/// report stay small (a 3600-sample test: about 47 kB of JSON) whatever the
+/// sampling rate of the ballbar.
+pub const TRACE_POINTS_MAX: usize = 720;
+
+/// One direction's trace as kept in the document (the input of the polar
+/// plot): every `stride`-th input sample in the recorded order, starting at
+/// the first, `stride = ⌈n / TRACE_POINTS_MAX⌉` for `n` input samples (so at
+/// most [`TRACE_POINTS_MAX`] points; all of them when `n` is not above it);
+/// angles rounded to 0.001° and Δr to 0.001 µm.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DocTrace {
+    /// `cw` or `ccw`.
+    pub direction: String,
+    /// Every how many input samples one is kept.
+    pub stride: usize,
+    /// θ, degrees counter-clockwise from the plane's first axis, as recorded.
+    pub angle_deg: Vec<f64>,
+    /// Δr as measured (about the nominal centre), µm.
+    pub deviation_um: Vec<f64>,
+}
+
+impl DocTrace {
+    /// Decimate `t` as documented on [`DocTrace`].
+    pub fn decimate(direction: &str, t: &Trace) -> DocTrace {
+        let n = t.angle_deg.len().min(t.deviation_um.len());
+        let stride = n.div_ceil(TRACE_POINTS_MAX).max(1);
+        let r3 = |v: f64| (v * 1e3).round() / 1e3;
+        DocTrace {
+            direction: direction.into(),
+            stride,
+            angle_deg: (0..n).step_by(stride).map(|i| r3(t.angle_deg[i])).collect(),
+            deviation_um: (0..n)
+                .step_by(stride)
+                .map(|i| r3(t.deviation_um[i]))
+                .collect(),
+        }
+    }
+}
+
 /// One diagnostic in the ranking.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Ranked {
@@ -265,6 +310,10 @@ pub struct CircularDoc {
     pub cyclic_pitch_mm: f64,
     /// Decay angle used for reversal spikes, degrees.
     pub spike_width_deg: f64,
+    /// The traces, decimated ([`DocTrace`]; clockwise first): what the
+    /// polar plot draws. Empty in documents written before they were kept.
+    #[serde(default)]
+    pub traces: Vec<DocTrace>,
 }
 
 impl CircularDoc {
@@ -578,6 +627,10 @@ pub fn circular(
         inseparable: groups,
         cyclic_pitch_mm: o.cyclic_pitch_mm,
         spike_width_deg: o.spike_width_deg,
+        traces: runs
+            .iter()
+            .map(|(_, t, name)| DocTrace::decimate(name, t))
+            .collect(),
     })
 }
 
@@ -623,42 +676,36 @@ impl std::fmt::Display for CircularDoc {
     }
 }
 
-/// Polar plot of the traces (`mtwin ballbar circular --plot`): Δr of each
-/// direction about the fitted centre (the set-up offset `centre_*_um` of
-/// `doc` taken out, as ballbar software shows it), at its angle in the test
-/// plane, µm rings; the title gives the plane, radius and G, H, F.
-pub fn plot_svg(cw: Option<&Trace>, ccw: Option<&Trace>, doc: &CircularDoc) -> String {
+/// Polar plot of the document's traces ([`CircularDoc::traces`]; the one
+/// plot of `mtwin ballbar circular --plot` and of the report's circular
+/// section): Δr of each direction about the fitted centre (the set-up offset
+/// `centre_*_um` of `doc` taken out, as ballbar software shows it), at its
+/// angle in the test plane, on µm rings ([`crate::report::svg::polar`]: the
+/// middle ring is Δr = 0, radius `R·(0.5 + 0.45·Δr/v)`, `v` the largest |Δr|
+/// rounded up to 1, 2 or 5 × 10ⁿ µm); points sorted by angle in [0°, 360°),
+/// the first repeated at +360° to close the curve. The title gives the
+/// plane, radius and G, H, F.
+pub fn plot_svg(doc: &CircularDoc) -> String {
     use crate::report::svg::{Series, polar};
     let cx = doc.get("centre_x_um").unwrap_or(0.0);
     let cy = doc.get("centre_y_um").unwrap_or(0.0);
-    let series: Vec<Series> = [
-        (cw, "clockwise", "#1f77b4"),
-        (ccw, "counter-clockwise", "#d62728"),
-    ]
-    .into_iter()
-    .filter_map(|(t, name, color)| {
-        let t = t?;
-        let mut pts: Vec<(f64, f64)> = t
-            .angle_deg
-            .iter()
-            .zip(&t.deviation_um)
-            .map(|(&th, &d)| {
-                let r = th.to_radians();
-                (th.rem_euclid(360.0), d - cx * r.cos() - cy * r.sin())
-            })
-            .collect();
-        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        if let Some(&first) = pts.first() {
-            pts.push((first.0 + 360.0, first.1));
-        }
-        Some(Series {
-            name: format!("{name} Δr about the fitted centre"),
-            points: pts,
-            color: color.into(),
-            markers: false,
+    let series: Vec<Series> = doc
+        .traces
+        .iter()
+        .map(|t| {
+            let (name, color) = if t.direction == "cw" {
+                ("clockwise", "#1f77b4")
+            } else {
+                ("counter-clockwise", "#d62728")
+            };
+            Series {
+                name: format!("{name} Δr about the fitted centre"),
+                points: about_centre(t, cx, cy),
+                color: color.into(),
+                markers: false,
+            }
         })
-    })
-    .collect();
+        .collect();
     let [a, b] = doc.plane.letters();
     polar(
         &format!(
@@ -675,4 +722,23 @@ pub fn plot_svg(cw: Option<&Trace>, ccw: Option<&Trace>, doc: &CircularDoc) -> S
         "µm",
         1.0,
     )
+}
+
+/// The points `(θ in [0°, 360°), Δr − cx cos θ − cy sin θ)` of a trace
+/// sorted by angle, the first repeated at θ + 360°.
+fn about_centre(t: &DocTrace, cx: f64, cy: f64) -> Vec<(f64, f64)> {
+    let mut pts: Vec<(f64, f64)> = t
+        .angle_deg
+        .iter()
+        .zip(&t.deviation_um)
+        .map(|(&th, &d)| {
+            let r = th.to_radians();
+            (th.rem_euclid(360.0), d - cx * r.cos() - cy * r.sin())
+        })
+        .collect();
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if let Some(&first) = pts.first() {
+        pts.push((first.0 + 360.0, first.1));
+    }
+    pts
 }

@@ -10,7 +10,8 @@
 //! transfer functions of `mtwin servo fit`, docs/servo.md), and the axes
 //! stand where the models put them. Two first-order lags with velocity lags
 //! τ₁ and τ₂ then show as a servo mismatch of about `v·(τ₁ − τ₂)` (v the
-//! feed), the first axis lagging; equal servos show none.
+//! feed), the first axis lagging; equal servos show none. Different servos
+//! also show as a scale mismatch ([`servo_signature`]), second order in ω·τ.
 
 use crate::sysid::Servo;
 
@@ -71,6 +72,52 @@ pub struct ServoPair {
     pub second: Servo,
     /// Feed along the circle, mm/min.
     pub feed_mm_min: f64,
+}
+
+/// What two servo models put into the diagnosis of a circle, in its keys'
+/// units (µm): `scale_mismatch_um` and `servo_mismatch_um`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ServoSignature {
+    /// The `(k/2)·cos 2θ` term, µm.
+    pub scale_mismatch_um: f64,
+    /// The `(m/2)·s·sin 2θ` term, µm.
+    pub servo_mismatch_um: f64,
+}
+
+/// The scale and servo mismatch the servos of `p` put on a circle of
+/// radius `R` (mm), in closed form.
+///
+/// In the steady state at ω = v/R each axis follows its sinusoidal command
+/// through its frequency response `Gᵢ = Gᵢ(e^{jω·ts})`. Counter-clockwise,
+/// θ = ωt: `x = R·Re(G₁e^{iθ})`, `y = R·Im(G₂e^{iθ})`, so
+/// `|p|² = R²·(μ + Re(D·e^{2iθ})/2)` with `μ = (|G₁|² + |G₂|²)/2` and
+/// `D = G₁² − G₂²`; to first order in `D`
+/// `Δr = R·(√μ − 1) + R/(4√μ)·(Re D·cos 2θ − Im D·sin 2θ)`, and clockwise
+/// (the conjugate responses) the `sin 2θ` term changes sign. Matched to the
+/// signatures `(k/2)·cos 2θ` and `(m/2)·s·sin 2θ` of the diagnosis:
+///
+/// `k = R·Re D/(2√μ)`, `m = −R·Im D/(2√μ)`.
+///
+/// For first-order lags `G = 1/(1 + iu)`, `u = ωτ`: `Re G² = (1 − u²)/(1 + u²)²`,
+/// so `k ≈ −(3/2)·R·(u₁² − u₂²)` for small `u`. The amplitude ratios
+/// `|G| = 1/√(1 + u²)` alone (the radius difference of the two axes,
+/// `R·(|G₁| − |G₂|) ≈ −R·(u₁² − u₂²)/2`) give a third of it; the rest is the
+/// servo-mismatch ellipse turned by the common phase lag. With `m ≈ R·(φ₁ − φ₂)`
+/// the scale term is `k ≈ −3·m·ū`, `ū` the mean `ωτ`: small against `m`.
+pub fn servo_signature(p: &ServoPair, radius_mm: f64) -> ServoSignature {
+    let omega = p.feed_mm_min / 60.0 / radius_mm;
+    let f_hz = omega / (2.0 * std::f64::consts::PI);
+    let (g1, g2) = (
+        p.first.frequency_response(f_hz),
+        p.second.frequency_response(f_hz),
+    );
+    let mu = 0.5 * (g1.norm_sqr() + g2.norm_sqr());
+    let d = g1 * g1 - g2 * g2;
+    let r_um = radius_mm * 1e3;
+    ServoSignature {
+        scale_mismatch_um: r_um * d.re / (2.0 * mu.sqrt()),
+        servo_mismatch_um: -r_um * d.im / (2.0 * mu.sqrt()),
+    }
 }
 
 /// The following error `actual − command` (mm) of each axis at the `samples`

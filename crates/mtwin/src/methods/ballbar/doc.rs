@@ -187,6 +187,13 @@ pub struct BallbarIdentifyDoc {
     /// prior, with the bias each introduces (fit units).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub dropped_directions: Vec<DroppedDirection>,
+    /// PIGEs the modes given structurally cannot separate (mode 3 alone:
+    /// `EY0A` and `EY0C`), grouped: `determined` the combinations the
+    /// readings determine, with value and standard uncertainty (mm, rad; the
+    /// unit of the leading term), `undetermined_directions` the changes
+    /// they cannot see. Absent when no PIGE is confounded.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub unseparable_combinations: Vec<ConfoundedGroup>,
 }
 
 impl BallbarIdentifyDoc {
@@ -221,6 +228,7 @@ impl BallbarIdentifyDoc {
                 .as_ref()
                 .map(|g| g.dropped.clone())
                 .unwrap_or_default(),
+            unseparable_combinations: id.combinations.clone(),
         }
     }
 
@@ -279,6 +287,21 @@ impl fmt::Display for BallbarIdentifyDoc {
                 }
                 for d in &g.undetermined_directions {
                     writeln!(f, "  {} (free)", d.describe())?;
+                }
+            }
+        }
+        if !self.unseparable_combinations.is_empty() {
+            writeln!(
+                f,
+                "PIGEs the modes given cannot separate: only these combinations are measured \
+                 (the PIGE held at 0 counts 0 in the values above):"
+            )?;
+            for g in &self.unseparable_combinations {
+                for c in &g.determined {
+                    writeln!(f, "  {}", combination_sentence(c))?;
+                }
+                for d in &g.undetermined_directions {
+                    writeln!(f, "  {} (not seen: any amount)", d.describe())?;
                 }
             }
         }

@@ -23,6 +23,11 @@
 //!    determined directions to the same prior and reports the bias. The
 //!    structurally unresolved PIGEs of step 1 are the zero columns of this
 //!    gauge: held at 0.
+//! 5. **Combinations** of the structurally confounded PIGEs: the groups of
+//!    the analysis of step 1 (in the sparse basis of [`crate::fit::gauge`]),
+//!    each determined combination `Σ c_j·θ_j` evaluated at the solution with
+//!    its standard uncertainty ([`Identification::combinations`]): what the
+//!    readings tell about PIGEs they cannot separate.
 
 use super::closed_form::start_values;
 use super::data::ModeData;
@@ -30,7 +35,9 @@ use super::mode::{
     BallbarMode, ModeModel, Rig, Trunnion, TrunnionError, Unknowns, predicted_reading,
 };
 use super::{Pige, Piges};
-use crate::fit::{self, FitError, FitReport, Model, Options, Stack, Unidentifiable};
+use crate::fit::{
+    self, ConfoundedGroup, FitError, FitReport, Model, Options, Stack, Unidentifiable,
+};
 use crate::model::Machine;
 
 /// A mode whose residual RMS exceeds this factor times the median of the
@@ -108,6 +115,14 @@ pub struct Identification {
     pub uncertainty: [Option<f64>; 8],
     /// The PIGEs the modes cannot determine, with the reason.
     pub unresolved: Vec<Unresolved>,
+    /// The PIGEs the modes given structurally cannot separate (the
+    /// confounded ones of [`Identification::unresolved`] and their
+    /// partners), grouped, with the combinations the readings determine —
+    /// their value and standard uncertainty at the solution (where the held
+    /// PIGEs are 0 and their partners carry the whole combination) — and
+    /// the directions they cannot see (fit units mm, rad). Empty when no
+    /// PIGE is confounded.
+    pub combinations: Vec<ConfoundedGroup>,
     /// Fitted bar length of each mode taking part (mm).
     pub lengths: [Option<f64>; 4],
     /// Residual RMS of each mode taking part at the solution (mm).
@@ -280,7 +295,7 @@ pub fn identify(
     Piges::default().write_to(&mut base, &trunnion);
 
     // 1. Structural identifiability at the ideal configuration.
-    let unresolved = structural(&base, &trunnion, rig, data, &modes, options)?;
+    let (unresolved, structural_groups) = structural(&base, &trunnion, rig, data, &modes, options)?;
     let free: Vec<Pige> = Pige::ALL
         .into_iter()
         .filter(|p| !unresolved.iter().any(|u| u.pige == *p))
@@ -348,10 +363,12 @@ pub fn identify(
     warnings.extend(imbalance(&residual_rms));
     let mut identified = base.clone();
     piges.write_to(&mut identified, &trunnion);
+    let combinations = evaluate_groups(structural_groups, &unknowns, &report);
     Ok(Identification {
         piges,
         uncertainty,
         unresolved,
+        combinations,
         lengths,
         residual_rms,
         warnings,
@@ -375,8 +392,8 @@ fn structural(
     data: &[Option<&ModeData>; 4],
     modes: &[BallbarMode],
     options: &Options,
-) -> Result<Vec<Unresolved>, BallbarIdentifyError> {
-    let ident = analyse(base, trunnion, rig, data, modes, options)?;
+) -> Result<(Vec<Unresolved>, Vec<ConfoundedGroup>), BallbarIdentifyError> {
+    let (ident, groups) = analyse(base, trunnion, rig, data, modes, options)?;
     // Readings for the absent modes, used only for their sensitivity.
     let stand_in = |m: BallbarMode| -> ModeData {
         let angles = modes
@@ -406,7 +423,7 @@ fn structural(
             let mut more = modes.to_vec();
             more.push(m);
             more.sort();
-            let after = analyse(base, trunnion, rig, &with, &more, options)?;
+            let (after, _) = analyse(base, trunnion, rig, &with, &more, options)?;
             let still: Vec<Pige> = after
                 .unidentifiable
                 .iter()
@@ -452,19 +469,79 @@ fn structural(
                     .unwrap_or_default();
                 format!(
                     "{pige} acts exactly like other PIGEs in the modes given ({rel}); it is held \
-                     at 0, so the estimate it is confounded with absorbs it ({})",
+                     at 0, so the estimate it is confounded with absorbs it: only their \
+                     combination is determined (reported with its value) ({})",
                     hint(pige, "separate")
                 )
             }
         };
         out.push(Unresolved { pige, reason });
     }
-    Ok(out)
+    // The groups of confounded PIGEs (a zero column is in none); the ideal
+    // configuration's values mean nothing, only the terms are kept.
+    let confounded: Vec<&str> = out
+        .iter()
+        .filter(|u| {
+            ident.unidentifiable.iter().any(|&(j, why)| {
+                why == Unidentifiable::Confounded && Pige::ALL.get(j) == Some(&u.pige)
+            })
+        })
+        .map(|u| u.pige.name())
+        .collect();
+    let groups = groups
+        .into_iter()
+        .filter(|g| {
+            g.parameters
+                .iter()
+                .any(|p| confounded.contains(&p.as_str()))
+        })
+        .collect();
+    Ok((out, groups))
+}
+
+/// The structural groups with the value and standard uncertainty of each
+/// determined combination `Σ c_j·θ_j` at the fitted solution (a PIGE held at
+/// 0 counts 0; its variance and covariances are 0): value `Σ c_j·θ_j`,
+/// variance `Σ c_i·c_j·Cov(θ_i, θ_j)` over the estimated parameters.
+fn evaluate_groups(
+    mut groups: Vec<ConfoundedGroup>,
+    unknowns: &Unknowns,
+    report: &FitReport,
+) -> Vec<ConfoundedGroup> {
+    let params = unknowns.parameters();
+    let index = |name: &str| params.iter().position(|p| p.name == name);
+    for g in &mut groups {
+        for c in &mut g.determined {
+            let at: Vec<(Option<usize>, f64)> = c
+                .terms
+                .iter()
+                .map(|t| (index(&t.name), t.coefficient))
+                .collect();
+            c.value = at
+                .iter()
+                .filter_map(|&(j, k)| j.map(|j| k * report.theta[j]))
+                .sum();
+            c.uncertainty = report.covariance.as_ref().and_then(|cov| {
+                let mut v = 0.0;
+                for &(i, a) in &at {
+                    for &(j, b) in &at {
+                        if let (Some(i), Some(j)) = (i, j) {
+                            v += a * b * cov.get(i, j)?;
+                        }
+                    }
+                }
+                Some(v.max(0.0).sqrt())
+            });
+        }
+    }
+    groups
 }
 
 /// The engine's identifiability analysis of all PIGEs (and one bar length
 /// per mode) from the given modes at the ideal configuration; columns
-/// `0..Pige::ALL.len()` are the PIGEs in order.
+/// `0..Pige::ALL.len()` are the PIGEs in order. With it the confounded
+/// groups there (their terms; the values are those of one step at the ideal
+/// configuration and mean nothing).
 fn analyse(
     base: &Machine,
     trunnion: &Trunnion,
@@ -472,7 +549,7 @@ fn analyse(
     data: &[Option<&ModeData>; 4],
     modes: &[BallbarMode],
     options: &Options,
-) -> Result<crate::fit::Identifiability, BallbarIdentifyError> {
+) -> Result<(crate::fit::Identifiability, Vec<ConfoundedGroup>), BallbarIdentifyError> {
     let ideal = base.nominal();
     let ideal_rig = Rig {
         setup: Default::default(),
@@ -499,15 +576,17 @@ fn analyse(
     let parts: Vec<&dyn Model> = models.iter().map(|m| m as &dyn Model).collect();
     let stack = Stack::new(parts)?;
     let theta0 = unknowns.theta(&Piges::default(), &[rig.length; 4]);
-    // Only the analysis is wanted: no gauge fixing or truncation.
+    // The analysis and the confounded groups (the gauge's report: which
+    // combinations the modes determine); no truncation.
     let opts = Options {
         max_iterations: 1,
-        gauge: fit::Gauge::Pivoted,
+        gauge: fit::Gauge::Start,
         truncation: fit::Truncation::Off,
         ..options.clone()
     };
     let report = fit::fit(&stack, &theta0, &opts)?;
-    Ok(report.identifiability)
+    let groups = report.gauge.map(|g| g.groups).unwrap_or_default();
+    Ok((report.identifiability, groups))
 }
 
 /// Which modes a PIGE moves at first order (table 2 of \[R1\]).
@@ -880,6 +959,77 @@ mod tests {
             assert!(!u.reason.contains("mode2"), "{}", u.reason);
             assert!(!with1.unresolved.iter().any(|w| w.pige == u.pige));
         }
+    }
+
+    /// Mode 3 alone cannot separate `EY0A` from `EY0C`: at A = 0 both move
+    /// the line C turns about in y, by the same amount (the A line carries
+    /// the C line with it), so the readings see `EY0A + EY0C` only; the
+    /// document reports the combination `EY0A + EY0C` with the truth's value
+    /// and `EY0A − EY0C` as the direction the readings cannot see.
+    #[test]
+    fn unseparable_piges_are_reported_as_their_combination() {
+        let rig = rig(0.05, -0.03);
+        for seed in [5, 6] {
+            let d = simulate(&TRUTH, &rig, 3e-4, seed);
+            let id = identify(
+                &nominal(),
+                &rig,
+                &[None, None, Some(&d[2]), None],
+                &Options::default(),
+            )
+            .unwrap();
+            assert_eq!(id.combinations.len(), 1, "{:?}", id.combinations);
+            let g = &id.combinations[0];
+            assert_eq!(g.parameters, ["EY0A", "EY0C"]);
+            assert_eq!((g.determined.len(), g.undetermined), (1, 1));
+            let c = &g.determined[0];
+            let coef = |terms: &[crate::fit::CombinationTerm], n: &str| {
+                terms
+                    .iter()
+                    .find(|t| t.name == n)
+                    .map_or(0.0, |t| t.coefficient)
+            };
+            // EY0A + EY0C (coefficients 1, 1)
+            assert!((coef(&c.terms, "EY0A") - 1.0).abs() < 1e-9, "{c:?}");
+            assert!((coef(&c.terms, "EY0C") - 1.0).abs() < 1e-9, "{c:?}");
+            let truth = TRUTH.get(Pige::EY0A) + TRUTH.get(Pige::EY0C);
+            let u = c.uncertainty.unwrap();
+            assert!(u > 0.0 && u < 1e-3, "{u}");
+            assert!(
+                (c.value - truth).abs() < (4.0 * u).max(2e-4),
+                "{} vs {truth} ± {u}",
+                c.value
+            );
+            // the direction not seen: EY0A − EY0C
+            let n = &g.undetermined_directions[0];
+            let (a, b) = (coef(&n.terms, "EY0A"), coef(&n.terms, "EY0C"));
+            assert!(
+                (a + b).abs() < 1e-9 && (a.abs() - 1.0).abs() < 1e-9,
+                "{n:?}"
+            );
+            // in the document and its text
+            let doc = crate::methods::ballbar::BallbarIdentifyDoc::new(&id, None, Vec::new());
+            assert_eq!(doc.unseparable_combinations, id.combinations);
+            let back: crate::methods::ballbar::BallbarIdentifyDoc =
+                serde_json::from_str(&serde_json::to_string(&doc).unwrap()).unwrap();
+            assert_eq!(back, doc);
+            let text = doc.to_string();
+            let line = text
+                .lines()
+                .find(|l| l.contains("EY0C") && l.contains(" = "))
+                .unwrap_or_else(|| panic!("{text}"));
+            let shown: f64 = line
+                .split(" = ")
+                .nth(1)
+                .and_then(|v| v.split_whitespace().next())
+                .and_then(|v| v.parse().ok())
+                .unwrap();
+            assert!((shown - truth * 1e3).abs() < 0.5, "{line}");
+        }
+        // With all four modes nothing is confounded: no combination.
+        let d = simulate(&TRUTH, &rig, 3e-4, 5);
+        let id = identify(&nominal(), &rig, &all(&d), &Options::default()).unwrap();
+        assert!(id.combinations.is_empty());
     }
 
     #[test]
