@@ -6,7 +6,7 @@ checked with `mtwin.thermal_predict` on its held-out run inside
 stability, warnings and the model file text per machine); then the same
 machines one by one in this process, and the two results compared.
 
-    pip install pyspark pandas  # Java 17 on the machine
+    pip install pyspark "pandas<3"  # Java 17 on the machine
     python python/examples/spark_thermal_fleet.py --machines 500 --cores 2 --work thermal-work
 
 On a cluster the same script runs unchanged with `spark-submit --master
