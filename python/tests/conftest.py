@@ -73,5 +73,5 @@ try:
     import pyspark  # noqa: F401
 except ImportError:
     if os.environ.get("MTWIN_REQUIRE_SPARK") == "1":
-        raise RuntimeError("MTWIN_REQUIRE_SPARK=1 but pyspark is not installed (pip install pyspark pandas)")
+        raise RuntimeError("MTWIN_REQUIRE_SPARK=1 but pyspark is not installed (pip install pyspark 'pandas<3')")
     collect_ignore = ["test_spark.py"]
