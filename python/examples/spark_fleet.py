@@ -4,7 +4,7 @@ as a Parquet table of identified errors, fit and held-out residuals and
 warnings per machine; then the same machines one by one in this process, and
 the two results compared.
 
-    pip install pyspark pandas  # Java 17 on the machine
+    pip install pyspark "pandas<3"  # Java 17 on the machine
     python python/examples/spark_fleet.py --machines 500 --cores 2 --out fleet.parquet
 
 The job is plain Spark: on a cluster, the same script runs unchanged with

@@ -36,7 +36,26 @@ fn main() {
         best = best.min(t.elapsed().as_secs_f64());
         check += p[n / 2].tip.x;
     }
+    // The same, then the poses flattened into one (N, 6) float64 buffer of
+    // `x, y, z, i, j, k` rows, as the Python binding does before handing the
+    // buffer to NumPy (the part of Python's time that is not the library's call).
+    let mut best_flat = f64::INFINITY;
+    for _ in 0..runs {
+        let t = std::time::Instant::now();
+        let p = k.poses(&qs);
+        let mut flat = Vec::with_capacity(p.len() * 6);
+        for q in &p {
+            flat.extend_from_slice(q.tip.as_slice());
+            flat.extend_from_slice(q.axis.as_slice());
+        }
+        best_flat = best_flat.min(t.elapsed().as_secs_f64());
+        check += flat[3 * n];
+    }
     std::hint::black_box(check);
+    println!(
+        "rust: Kinematics::poses then flattened to (N, 6), best of {runs}: {:.1} ms",
+        best_flat * 1e3
+    );
     println!(
         "rust: Kinematics::poses {n} poses, best of {runs}: {:.1} ms",
         best * 1e3
