@@ -45,16 +45,39 @@ impl Machine {
         poses: &PyReadonlyArray2<'py, f64>,
         check_travel: bool,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let r = rows(poses, self.inner.n_axes(), "poses")?;
+        let n = self.inner.n_axes();
+        let r = rows(poses, n, "poses")?;
         let qs = r.as_slice();
         self.check_poses(qs, check_travel)?;
         let out = py.detach(|| {
-            let tools = kin.poses(qs);
-            let mut flat = Vec::with_capacity(tools.len() * 6);
-            for p in &tools {
-                flat.extend_from_slice(p.tip.as_slice());
-                flat.extend_from_slice(p.axis.as_slice());
+            if n == 0 {
+                return kin
+                    .poses(qs)
+                    .iter()
+                    .flat_map(|p| p.tip.iter().chain(p.axis.iter()).copied())
+                    .collect::<Vec<f64>>();
             }
+            // Straight into the (N, 6) buffer NumPy gets: blocks of BLOCK poses in
+            // parallel, each computed into a small buffer and copied while in cache
+            // (no second N-pose buffer, no serial pass over the results). The same
+            // blocks and `poses_into` as `Kinematics::poses`, so the same bits.
+            const BLOCK: usize = 1024;
+            let zero = mtwin::kinematics::ToolPose {
+                tip: Vector3::zeros(),
+                axis: Vector3::zeros(),
+            };
+            let mut flat = vec![0.0; qs.len() / n * 6];
+            flat.par_chunks_mut(6 * BLOCK)
+                .zip(qs.par_chunks(n * BLOCK))
+                .for_each(|(o, q)| {
+                    let mut buf = [zero; BLOCK];
+                    let buf = &mut buf[..q.len() / n];
+                    kin.poses_into(q, buf);
+                    for (dst, p) in o.chunks_exact_mut(6).zip(buf.iter()) {
+                        dst[..3].copy_from_slice(p.tip.as_slice());
+                        dst[3..].copy_from_slice(p.axis.as_slice());
+                    }
+                });
             flat
         });
         let rows = out.len() / 6;
