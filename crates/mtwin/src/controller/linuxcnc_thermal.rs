@@ -110,7 +110,10 @@ fn hal_text(model: &ThermalModel) -> String {
             );
         }
     }
-    s += &format!("setp axis.z.eoffset-scale {}\n", crate::io::fmt_f64(RESOLUTION_MM));
+    s += &format!(
+        "setp axis.z.eoffset-scale {}\n",
+        crate::io::fmt_f64(RESOLUTION_MM)
+    );
     s += &format!("net mtwin-thermal-counts {COMPONENT_NAME}.counts => axis.z.eoffset-counts\n");
     s += "setp axis.z.eoffset-enable 1\n";
     s
@@ -237,9 +240,15 @@ mod tests {
         assert_eq!(v["heights"][1]["nk"], serde_json::json!([1, 2]));
         assert!(py.contains("RESOLUTION_MM = 1e-6\n"));
         let hal = &files[1].1;
-        assert!(hal.contains("net mtwin-thermal-speed spindle.0.speed-out-abs => mtwin-thermal.in.speed_rpm\n"));
+        assert!(hal.contains(
+            "net mtwin-thermal-speed spindle.0.speed-out-abs => mtwin-thermal.in.speed_rpm\n"
+        ));
         assert!(hal.contains("setp axis.z.eoffset-scale 1e-6\n"));
-        assert!(hal.contains("net mtwin-thermal-counts mtwin-thermal.counts => axis.z.eoffset-counts\n"));
+        assert!(
+            hal.contains(
+                "net mtwin-thermal-counts mtwin-thermal.counts => axis.z.eoffset-counts\n"
+            )
+        );
         assert!(files[2].1.contains("OFFSET_AV_RATIO = 0.1"));
     }
 
