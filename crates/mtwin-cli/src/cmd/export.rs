@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use mtwin::controller::{ExportDoc, ExportOptions, Format as Table, ResidualOptions};
 
-use super::common::load_machine;
+use super::common::{diag, load_machine};
 use crate::output::{Format, print_out};
 
 /// A `--to` choice.
@@ -64,8 +64,13 @@ fn parse_range(s: &str) -> Result<(String, [f64; 2]), String> {
 #[command(allow_negative_numbers = true)]
 pub struct Args {
     /// Machine model file (TOML), usually an identified one.
+    #[arg(long, required_unless_present = "thermal")]
+    machine: Option<PathBuf>,
+    /// Thermal drift model of `mtwin thermal fit` (TOML): with `--to linuxcnc`, also
+    /// writes it as a live HAL component driving the Z external offset (mtwin_thermal.py,
+    /// thermal.hal, thermal-README.txt).
     #[arg(long)]
-    machine: PathBuf,
+    thermal: Option<PathBuf>,
     /// Table format(s); several (comma-separated) write one subfolder per format.
     #[arg(long, value_enum, value_delimiter = ',', required = true)]
     to: Vec<To>,
@@ -92,8 +97,30 @@ pub struct Args {
     format: Format,
 }
 
+/// What `--thermal` wrote (`--format json`: the key `thermal`).
+#[derive(Debug, serde::Serialize)]
+struct ThermalDoc {
+    files: Vec<String>,
+    component: &'static str,
+    period_min: f64,
+    inputs: Vec<String>,
+    heights_mm: Vec<f64>,
+}
+
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let machine = load_machine(&a.machine)?;
+    let machine = a.machine.as_deref().map(load_machine).transpose()?;
+    let thermal = match &a.thermal {
+        Some(p) => {
+            if a.to != [To::Linuxcnc] {
+                anyhow::bail!(
+                    "--thermal: only `--to linuxcnc` carries a live thermal model (a HAL component); \
+                     give it alone"
+                );
+            }
+            Some(mtwin::methods::thermal::read_model(p).map_err(diag)?)
+        }
+        None => None,
+    };
     let opts = ExportOptions {
         spacing_mm: Some(a.spacing),
         spacing_deg: Some(a.spacing_deg),
@@ -103,12 +130,21 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     to.dedup();
     let several = to.len() > 1;
     let mut exported = Vec::new();
-    for t in &to {
-        let e = mtwin::controller::export(&machine, t.table(), &opts)?;
-        exported.push(e);
+    if let Some(machine) = &machine {
+        for t in &to {
+            let e = mtwin::controller::export(machine, t.table(), &opts)?;
+            exported.push(e);
+        }
     }
+    let thermal_files = match &thermal {
+        Some(m) => mtwin::controller::linuxcnc_thermal::export(m)?,
+        None => Vec::new(),
+    };
     // Plan every output before writing any.
-    let mut plan = mtwin::io::Outputs::plan().input(&a.machine).folder(&a.out);
+    let mut plan = mtwin::io::Outputs::plan().folder(&a.out);
+    for input in a.machine.iter().chain(&a.thermal) {
+        plan = plan.input(input);
+    }
     let dir_of = |e: &mtwin::controller::Exported| {
         if several {
             a.out.join(e.format.name())
@@ -122,6 +158,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         for (name, _) in &e.files {
             plan = plan.output(dir.join(name));
         }
+    }
+    for (name, _) in &thermal_files {
+        plan = plan.output(a.out.join(name));
     }
     let mut out = plan.begin()?;
     let ropts = ResidualOptions {
@@ -137,7 +176,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             out.write(&p, text.as_bytes())
                 .with_context(|| format!("cannot write {}", p.display()))?;
         }
-        let r = mtwin::controller::residual(&machine, &e.correction, &ropts);
+        let machine = machine.as_ref().expect("tables come from a machine");
+        let r = mtwin::controller::residual(machine, &e.correction, &ropts);
         let prefix = if several {
             format!("{}/", e.format.name())
         } else {
@@ -146,12 +186,44 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         order.push(e.format.name().to_string());
         docs.insert(e.format.name().to_string(), ExportDoc::new(e, r, &prefix));
     }
+    for (name, text) in &thermal_files {
+        let p = a.out.join(name);
+        out.write(&p, text.as_bytes())
+            .with_context(|| format!("cannot write {}", p.display()))?;
+    }
     out.commit()?;
+    let thermal_doc = thermal.as_ref().map(|m| ThermalDoc {
+        files: thermal_files.iter().map(|f| f.0.clone()).collect(),
+        component: mtwin::controller::linuxcnc_thermal::COMPONENT_NAME,
+        period_min: m.period_min(),
+        inputs: m.columns().to_vec(),
+        heights_mm: m.heights().iter().map(|h| h.z_mm).collect(),
+    });
     match a.format {
-        Format::Json => print_out(format_args!("{}\n", serde_json::to_string_pretty(&docs)?)),
+        Format::Json => {
+            let mut v = serde_json::to_value(&docs)?;
+            if let Some(t) = &thermal_doc {
+                v["thermal"] = serde_json::to_value(t)?;
+            }
+            print_out(format_args!("{}\n", serde_json::to_string_pretty(&v)?))
+        }
         Format::Human => {
             for name in order {
                 print_out(format_args!("{}", docs[&name]));
+            }
+            if let Some(t) = &thermal_doc {
+                print_out(format_args!(
+                    "linuxcnc thermal: wrote {}\n  HAL component {} (model period {} min, inputs {}, heights {} mm); ini lines in thermal-README.txt\n",
+                    t.files.join(", "),
+                    t.component,
+                    mtwin::io::fmt_f64(t.period_min),
+                    t.inputs.join(", "),
+                    t.heights_mm
+                        .iter()
+                        .map(|z| mtwin::io::fmt_f64(*z))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ));
             }
         }
     }

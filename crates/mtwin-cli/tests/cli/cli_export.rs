@@ -199,3 +199,130 @@ fn bad_options_exit_1_and_write_nothing() {
     assert!(stderr(&o).contains("isg cannot carry"), "{}", stderr(&o));
     assert!(!dir.path().join("out").exists());
 }
+
+/// A thermal model file (the two-height model of docs/thermal-compensation.md).
+const THERMAL: &str = "period_min = 10.0\n\n[[inputs]]\nname = \"speed_rpm\"\nscale = 8000.0\n\n\
+[[heights]]\nz_mm = -350.0\na = [1.0, -1.605827, 0.627089]\nb = [[-0.0062836, 0.0057508]]\nnk = [1]\n\n\
+[[heights]]\nz_mm = -50.0\na = [1.0, -1.605827, 0.627089]\nb = [[-0.0070963, 0.0062955]]\nnk = [1]\n";
+
+#[test]
+fn thermal_model_becomes_a_hal_component_beside_the_tables() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("thermal.toml"), THERMAL).unwrap();
+    // The thermal model alone: no --machine, only its files.
+    let o = mtwin(
+        dir.path(),
+        &[
+            "export",
+            "--thermal",
+            "thermal.toml",
+            "--to",
+            "linuxcnc",
+            "--out",
+            "live",
+            "--format",
+            "json",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let t = &v["thermal"];
+    assert_eq!(t["component"], "mtwin-thermal");
+    assert_eq!(t["period_min"], 10.0);
+    assert_eq!(t["inputs"], serde_json::json!(["speed_rpm"]));
+    assert_eq!(t["heights_mm"], serde_json::json!([-350.0, -50.0]));
+    assert!(v.get("linuxcnc").is_none());
+    let mut names: Vec<String> = std::fs::read_dir(dir.path().join("live"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        ["mtwin_thermal.py", "thermal-README.txt", "thermal.hal"]
+    );
+    let py = std::fs::read_to_string(dir.path().join("live/mtwin_thermal.py")).unwrap();
+    // The coefficients of the file, as written there.
+    for c in [
+        "-1.605827",
+        "0.627089",
+        "-0.0062836",
+        "0.0057508",
+        "-0.0070963",
+        "0.0062955",
+    ] {
+        assert!(py.contains(c), "{c} missing from the component");
+    }
+    let hal = std::fs::read_to_string(dir.path().join("live/thermal.hal")).unwrap();
+    assert!(hal.contains("loadusr -Wn mtwin-thermal /usr/bin/python3 mtwin_thermal.py\n"));
+    // With a machine: the tables and the component together.
+    let o = mtwin(
+        dir.path(),
+        &[
+            "export",
+            "--machine",
+            &example("ac-trunnion-with-errors.toml"),
+            "--thermal",
+            "thermal.toml",
+            "--to",
+            "linuxcnc",
+            "--out",
+            "both",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    for f in [
+        "comp_X.txt",
+        "README.txt",
+        "mtwin_thermal.py",
+        "thermal.hal",
+    ] {
+        assert!(dir.path().join("both").join(f).exists(), "{f}");
+    }
+    // Only LinuxCNC takes a thermal model; nothing is written otherwise.
+    let o = mtwin(
+        dir.path(),
+        &[
+            "export",
+            "--machine",
+            &example("ac-trunnion-with-errors.toml"),
+            "--thermal",
+            "thermal.toml",
+            "--to",
+            "isg",
+            "--out",
+            "no",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("only `--to linuxcnc`"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!dir.path().join("no").exists());
+    // A bad model file: file:line:col, exit 1, nothing written.
+    std::fs::write(
+        dir.path().join("bad.toml"),
+        THERMAL.replace("period_min = 10.0", "period_min = -1.0"),
+    )
+    .unwrap();
+    let o = mtwin(
+        dir.path(),
+        &[
+            "export",
+            "--thermal",
+            "bad.toml",
+            "--to",
+            "linuxcnc",
+            "--out",
+            "no",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("bad.toml:1:"), "{}", stderr(&o));
+    assert!(!dir.path().join("no").exists());
+    // Neither a machine nor a thermal model.
+    let o = mtwin(dir.path(), &["export", "--to", "linuxcnc", "--out", "no"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}

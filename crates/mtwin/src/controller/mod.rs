@@ -8,6 +8,7 @@
 //! | Beckhoff / ISG volumetric (`ISG_CSV` + `.lis`) | [`isg_csv`] | every PDGE of every axis as a table, every location error |
 //! | Etalon exchange (vendor variant) | [`etalon`] | the same as ISG |
 //! | LinuxCNC `COMP_FILE` type 1 (+ trunnion kinematics) | [`linuxcnc_comp`] | one correction per linear joint along itself; the rotary axis-line offsets of a trunnion |
+//! | LinuxCNC live thermal compensation (a HAL component) | [`linuxcnc_thermal`] | a thermal drift model of `mtwin thermal fit` driving the Z external offset |
 //! | Siemens 840D sl EEC | [`siemens_eec`] | one correction per linear axis along itself |
 //! | Siemens 840D sl CEC | [`siemens_cec`] | one linear axis' correction as a function of another's position (straightness, sag, squareness) |
 //!
@@ -27,6 +28,7 @@ pub mod etalon;
 pub mod import;
 pub mod isg_csv;
 pub mod linuxcnc_comp;
+pub mod linuxcnc_thermal;
 pub mod residual;
 pub mod siemens_cec;
 pub mod siemens_eec;

@@ -75,6 +75,10 @@ pub struct SimSetup {
     pub feed_override: Option<f64>,
     /// Rapid override (`linuxcnc.command.rapidrate`) set before the run.
     pub rapid_override: Option<f64>,
+    /// Further HAL signals sampled every period, `(type, signal)` with type
+    /// `f` (float) or `s` (s32): the test's [`SimSetup::hal`] lines create
+    /// the signals; the values land in [`Trace::extra`], in this order.
+    pub sampled: Vec<(char, String)>,
 }
 
 impl SimSetup {
@@ -87,6 +91,11 @@ impl SimSetup {
     /// Adds a HAL command.
     pub fn hal(mut self, line: impl Into<String>) -> Self {
         self.hal.push(line.into());
+        self
+    }
+    /// Samples the HAL signal `signal` of type `ty` (see [`SimSetup::sampled`]).
+    pub fn sample(mut self, ty: char, signal: &str) -> Self {
+        self.sampled.push((ty, signal.into()));
         self
     }
     /// Adds a file beside the ini.
@@ -160,6 +169,8 @@ pub struct Trace {
     /// Servo period, s.
     pub period: f64,
     pub samples: Vec<Sample>,
+    /// Per sample, the values of [`SimSetup::sampled`].
+    pub extra: Vec<Vec<f64>>,
     /// Operator messages of the run (errors make [`run`] fail).
     pub messages: Vec<String>,
     /// Real time of the whole run (start-up and shut-down included).
@@ -366,9 +377,9 @@ fn headless_ini(text: &str, display: &Path, hal_file: &Path) -> String {
 fn hal_text(setup: &SimSetup) -> String {
     let pins = sampled_pins();
     let groups: Vec<&[(char, String)]> = pins.chunks(FIFO_COLUMNS).collect();
-    let cfg = fifo_cfgs();
+    let cfg = fifo_cfgs(setup);
     // 200 s of samples at 1 kHz: room for the reader falling behind.
-    let depth = vec!["200000"; groups.len()].join(",");
+    let depth = vec!["200000"; cfg.len()].join(",");
     let mut s = String::from("# written by mtwin's linuxcnc_sim tests\n");
     s += &format!("loadrt sampler depth={depth} cfg={}\n", cfg.join(","));
     s += "newsig mtwin-sample-on bit\nsets mtwin-sample-on 0\n";
@@ -388,6 +399,14 @@ fn hal_text(setup: &SimSetup) -> String {
     for l in &setup.hal {
         s += l;
         s += "\n";
+    }
+    // The test's own signals, in FIFOs after the standard ones.
+    for (g, group) in setup.sampled.chunks(FIFO_COLUMNS).enumerate() {
+        let k = groups.len() + g;
+        s += &format!("addf sampler.{k} servo-thread\nnet mtwin-sample-on => sampler.{k}.enable\n");
+        for (i, (_, sig)) in group.iter().enumerate() {
+            s += &format!("net {sig} => sampler.{k}.pin.{i}\n");
+        }
     }
     s
 }
@@ -488,7 +507,7 @@ fn run_once(program: &str, setup: &SimSetup, timeout: Duration) -> Result<Trace,
         .env("MTWIN_SIM_OUT", &dir)
         .env("MTWIN_SIM_PROGRAM", &prog)
         .env("MTWIN_SIM_TIMEOUT", format!("{}", timeout.as_secs_f64()))
-        .env("MTWIN_SIM_CFG", fifo_cfgs().join(","))
+        .env("MTWIN_SIM_CFG", fifo_cfgs(setup).join(","))
         .env(
             "MTWIN_SIM_FEED_OVERRIDE",
             format!("{}", setup.feed_override.unwrap_or(1.0)),
@@ -558,11 +577,11 @@ fn run_once(program: &str, setup: &SimSetup, timeout: Duration) -> Result<Trace,
         });
     }
     let mut files = Vec::new();
-    for k in 0..n_fifos() {
+    for k in 0..fifo_cfgs(setup).len() {
         files
             .push(std::fs::read_to_string(dir.join(format!("samples{k}.txt"))).map_err(setup_err)?);
     }
-    let samples = parse_samples(&join_fifos(&files)?)?;
+    let (samples, extra) = split_extra(&join_fifos(&files)?)?;
     if samples.len() < 2 {
         return Err(SimError::Samples(format!("only {} samples", samples.len())));
     }
@@ -573,6 +592,7 @@ fn run_once(program: &str, setup: &SimSetup, timeout: Duration) -> Result<Trace,
     Ok(Trace {
         period,
         samples,
+        extra,
         messages: strings("messages"),
         wall,
     })
@@ -587,16 +607,37 @@ fn servo_period(ini: &str) -> f64 {
         .map_or(0.001, |ns| ns * 1e-9)
 }
 
-fn n_fifos() -> usize {
-    sampled_pins().len().div_ceil(FIFO_COLUMNS)
+/// The sampler's type string of each FIFO: the standard pins, then the
+/// set-up's own signals.
+fn fifo_cfgs(setup: &SimSetup) -> Vec<String> {
+    let chunks = |v: &[(char, String)]| -> Vec<String> {
+        v.chunks(FIFO_COLUMNS)
+            .map(|g| g.iter().map(|p| p.0).collect())
+            .collect()
+    };
+    let mut c = chunks(&sampled_pins());
+    c.extend(chunks(&setup.sampled));
+    c
 }
 
-/// The sampler's type string of each FIFO.
-fn fifo_cfgs() -> Vec<String> {
-    sampled_pins()
-        .chunks(FIFO_COLUMNS)
-        .map(|g| g.iter().map(|p| p.0).collect())
-        .collect()
+/// The joined FIFO lines split into the standard samples and the values of
+/// the set-up's own signals (the columns after the standard ones).
+fn split_extra(text: &str) -> Result<(Vec<Sample>, Vec<Vec<f64>>), SimError> {
+    let n = sampled_pins().len() + 1;
+    let mut std_text = String::new();
+    let mut extra = Vec::new();
+    for (k, line) in text.lines().enumerate() {
+        let w: Vec<&str> = line.split_whitespace().collect();
+        if w.len() < n {
+            std_text += line;
+        } else {
+            std_text += &w[..n].join(" ");
+            let v: Result<Vec<f64>, _> = w[n..].iter().map(|x| x.parse::<f64>()).collect();
+            extra.push(v.map_err(|e| SimError::Samples(format!("samples.txt:{}: {e}", k + 1)))?);
+        }
+        std_text += "\n";
+    }
+    Ok((parse_samples(&std_text)?, extra))
 }
 
 /// Joins the FIFOs' files line by line (same sample numbers, enabled

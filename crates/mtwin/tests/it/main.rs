@@ -19,6 +19,7 @@ mod gcode_props;
 mod generated_programs;
 mod linuxcnc_closed_loop;
 mod linuxcnc_sim;
+mod linuxcnc_thermal;
 mod planner;
 mod planner_jerk;
 mod positioning;
