@@ -295,6 +295,12 @@ fn exported_thermal_component_drives_the_z_offset_as_mtwin_predicts() {
         worst_counts <= 0.5 * RESOLUTION_MM + 1e-12,
         "counts off by {worst_counts} mm"
     );
+    // The target the live compensation is held to: the offset LinuxCNC
+    // applies equals mtwin's prediction within 0.1 µm.
+    assert!(
+        worst_applied <= 1e-4,
+        "applied offset off mtwin by {worst_applied} mm (target 0.1 µm)"
+    );
 }
 
 /// Python for the check below: loads the exported component with a stand-in
