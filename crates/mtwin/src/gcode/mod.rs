@@ -57,6 +57,7 @@
 mod arc;
 mod axes;
 mod codes;
+mod cutter_comp;
 mod dialect;
 pub mod doc;
 mod error;

@@ -62,11 +62,7 @@ const KNOWN_FAILURES: &[(&str, &str)] = &[
 
 /// Cases skipped (the interpreter reports "unsupported") and why.
 const SKIPPED: &[(&str, &str)] = &[
-    ("bad/ccomp-arcexit.ngc", "cutter radius compensation G41.1"),
-    ("bad/ccomp-gouging.ngc", "cutter radius compensation G41.1"),
-    ("cam-nisley", "cutter radius compensation G42"),
     ("compile", "no single program file (several or none)"),
-    ("crazy-paths", "cutter radius compensation G41.1"),
     ("g10/g10-l1-l10", "coordinate system rotation (G10 L2 R)"),
     ("g10/g10-l11", "coordinate system rotation (G10 L2 R)"),
     (
@@ -86,8 +82,6 @@ const SKIPPED: &[(&str, &str)] = &[
     ("g72-facing", "lathe cycle G72"),
     ("g72-missing-iteration", "lathe cycle G72"),
     ("g76", "spindle-synchronised motion G76"),
-    ("inside-corners", "cutter radius compensation G41.1"),
-    ("inverse-time-with-comp", "cutter radius compensation G42.1"),
     ("m98m99/01-basics", "subprogram call M98"),
     ("m98m99/02-variables", "subprogram call M98"),
     ("m98m99/03-error-M98-no-P-word", "subprogram call M98"),
