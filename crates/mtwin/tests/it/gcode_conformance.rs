@@ -213,6 +213,11 @@ fn our_motion(
     let mut opts = InterpOptions::default();
     opts.unknown_m = UnknownMCode::Reject;
     opts.tools = tools;
+    // Tool 1's diameter, 1/16 in: the cutter radius compensation of
+    // cam-nisley (`G42 D1`) offsets its entry move by 1/32 in in the trace.
+    let mut t1 = opts.tools.get(1).unwrap().clone();
+    t1.diameter = 0.0625 * 25.4;
+    opts.tools.insert(t1);
     // Subroutine files of a case sit next to its program.
     opts.program.subroutine_path = vec![dir.to_path_buf()];
     if let Some(ini) = ini {
