@@ -382,7 +382,12 @@ impl CutterComp {
     }
 
     /// Checks LinuxCNC makes before reading the D word of G41/G42.
-    pub(crate) fn check_turn_on(&self, plane: Plane, line: u64, column: usize) -> Result<(), GcodeError> {
+    pub(crate) fn check_turn_on(
+        &self,
+        plane: Plane,
+        line: u64,
+        column: usize,
+    ) -> Result<(), GcodeError> {
         if plane == Plane::Yz {
             return Err(GcodeError::invalid(
                 line,
@@ -802,7 +807,11 @@ impl CutterComp {
             if dist(center, c) <= r && inside {
                 return Err(tool_not_less());
             }
-            let gamma = if inside { dir(e, center) } else { dir(center, e) };
+            let gamma = if inside {
+                dir(e, center)
+            } else {
+                dir(center, e)
+            };
             self.first_move = false;
             self.programmed = to;
             let end = polar(e, r, gamma);
@@ -872,7 +881,7 @@ impl CutterComp {
         let (line, column) = (info.at.line, info.column);
         let units = info.units;
         let end_pos = with_plane(to, plane, new_end);
-        if beta < -SMALL || beta > PI + SMALL || ((beta - PI).abs() < SMALL && !inside) {
+        if !(-SMALL..=PI + SMALL).contains(&beta) || ((beta - PI).abs() < SMALL && !inside) {
             // Inside corner.
             let mid = match self.front(out, plane) {
                 Front::Straight => {
@@ -889,7 +898,14 @@ impl CutterComp {
                         if !(-1.0..=1.0).contains(&l) {
                             return Err(gouge());
                         }
-                        (d, if turns > 0 { theta + l.asin() } else { theta - l.asin() })
+                        (
+                            d,
+                            if turns > 0 {
+                                theta + l.asin()
+                            } else {
+                                theta - l.asin()
+                            },
+                        )
                     } else {
                         let d = arc_radius + r;
                         let l = (cy - r) / d;
@@ -914,7 +930,11 @@ impl CutterComp {
                 } => {
                     // Arc to arc: where the two offset arcs meet.
                     let oldrad = dist(prev_center, prev_end);
-                    let newrad = if inside { arc_radius - r } else { arc_radius + r };
+                    let newrad = if inside {
+                        arc_radius - r
+                    } else {
+                        arc_radius + r
+                    };
                     let arc_cc = dist(prev_center, center);
                     if oldrad == 0.0 || arc_cc == 0.0 {
                         return Err(info.invalid(

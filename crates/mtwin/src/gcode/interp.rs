@@ -16,7 +16,7 @@
 //! assignments take effect after the whole line is read, before its codes
 //! run. O-word lines are program flow, run by
 //! [`run_program`](super::program_flow::run_program), not here. Anything
-//! else outside the supported language (cutter compensation, G33/G76,
+//! else outside the supported language (G33/G76,
 //! splines, coordinate system rotation, ...) is an
 //! [`GcodeError::Unsupported`] error naming the line: never skipped.
 
@@ -930,7 +930,11 @@ impl Interpreter {
     /// M6: the selected tool goes into the spindle.
     fn change_tool(&mut self, codes: &Codes, s: &Step) -> Result<(), GcodeError> {
         if codes.m_tool_change {
-            self.refuse_with_comp(s, 0, "Cannot change tools with cutter radius compensation on")?;
+            self.refuse_with_comp(
+                s,
+                0,
+                "Cannot change tools with cutter radius compensation on",
+            )?;
             self.state.tool = self.state.selected_tool;
         }
         Ok(())
@@ -2040,7 +2044,9 @@ impl Interpreter {
             Some(MotionMode::Cycle(code)) => {
                 if self.comp.is_on() {
                     self.state.motion = previous;
-                    return Err(s.invalid(0, "Cannot use canned cycles with cutter compensation on"));
+                    return Err(
+                        s.invalid(0, "Cannot use canned cycles with cutter compensation on")
+                    );
                 }
                 let r = self.canned_cycle(code, previous, w, axes, target, s);
                 if r.is_err() {
@@ -2214,9 +2220,14 @@ impl Interpreter {
                         f => f,
                     };
                     let info = self.move_info(s.at, column, words, feed);
-                    return self
-                        .comp
-                        .arc(turns, center, to, &info, &mut self.state.position, s.out);
+                    return self.comp.arc(
+                        turns,
+                        center,
+                        to,
+                        &info,
+                        &mut self.state.position,
+                        s.out,
+                    );
                 }
                 let st = &self.state;
                 EventKind::Arc(ArcMove {
@@ -2883,7 +2894,13 @@ mod tests {
     #[test]
     fn rejections_name_the_line() {
         let cases = [
-            ("G0 X0\nG41 X1 Z-1\n", 2, true),
+            ("G0 X0\nG33 X1 Z-1 K1\n", 2, true),
+            // Cutter radius compensation: entry not longer than the radius,
+            // plane change while on, G19, G41.1 without D.
+            ("G41.1 D4\nG0 X1\n", 2, false),
+            ("G41.1 D4\nG0 X10\nG18\n", 3, false),
+            ("G19 G41.1 D4\n", 1, false),
+            ("G41.1\n", 1, false),
             ("G1 X1\n", 1, false),             // zero feed
             ("G93\nG1 X1 F1\nX2\n", 3, false), // inverse time needs F each move
             ("X1\n", 1, false),                // no motion mode

@@ -26,10 +26,7 @@ fn to_polygon(p: [f64; 2], poly: &[[f64; 2]]) -> f64 {
 /// Runs `program`, returning the moves of the lines `lines` (inclusive)
 /// as sampled points and their total length, and the whole path's
 /// continuity error.
-fn compensated_path(
-    program: &str,
-    lines: (u64, u64),
-) -> (Vec<[f64; 2]>, f64, f64) {
+fn compensated_path(program: &str, lines: (u64, u64)) -> (Vec<[f64; 2]>, f64, f64) {
     let mut points = Vec::new();
     let mut length = 0.0;
     let mut last: Option<[f64; 2]> = None;
@@ -37,7 +34,9 @@ fn compensated_path(
     gcode::interpret(program.as_bytes(), InterpOptions::default(), |_, events| {
         for e in events {
             let (from, to) = match &e.kind {
-                EventKind::Feed(m) | EventKind::Traverse(m) => ([m.from.0[0], m.from.0[1]], [m.to.0[0], m.to.0[1]]),
+                EventKind::Feed(m) | EventKind::Traverse(m) => {
+                    ([m.from.0[0], m.from.0[1]], [m.to.0[0], m.to.0[1]])
+                }
                 EventKind::Arc(a) => ([a.from.0[0], a.from.0[1]], [a.to.0[0], a.to.0[1]]),
                 _ => continue,
             };
@@ -53,7 +52,10 @@ fn compensated_path(
                     length += (to[0] - from[0]).hypot(to[1] - from[1]);
                     for k in 0..=20 {
                         let t = f64::from(k) / 20.0;
-                        points.push([from[0] + t * (to[0] - from[0]), from[1] + t * (to[1] - from[1])]);
+                        points.push([
+                            from[0] + t * (to[0] - from[0]),
+                            from[1] + t * (to[1] - from[1]),
+                        ]);
                     }
                 }
                 EventKind::Arc(a) => {
@@ -106,7 +108,9 @@ fn program(poly: &[[f64; 2]], diameter: f64, left: bool) -> (String, (u64, u64))
     if left {
         order.reverse();
     }
-    let c = poly.iter().fold([0.0, 0.0], |s, p| [s[0] + p[0], s[1] + p[1]]);
+    let c = poly
+        .iter()
+        .fold([0.0, 0.0], |s, p| [s[0] + p[0], s[1] + p[1]]);
     let c = [c[0] / poly.len() as f64, c[1] / poly.len() as f64];
     let v0 = order[0];
     let start = [v0[0] + (v0[0] - c[0]), v0[1] + (v0[1] - c[1])];

@@ -1389,5 +1389,8 @@ fn cutter_compensation_agrees_with_rs274() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
-    assert_eq!(refused_by_both, 5, "the five error cases are refused by both");
+    assert_eq!(
+        refused_by_both, 5,
+        "the five error cases are refused by both"
+    );
 }
