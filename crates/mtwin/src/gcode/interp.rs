@@ -16,13 +16,14 @@
 //! assignments take effect after the whole line is read, before its codes
 //! run. O-word lines are program flow, run by
 //! [`run_program`](super::program_flow::run_program), not here. Anything
-//! else outside the supported language (cutter compensation, G33/G76,
+//! else outside the supported language (G33/G76,
 //! splines, coordinate system rotation, ...) is an
 //! [`GcodeError::Unsupported`] error naming the line: never skipped.
 
 use super::arc::{self, ArcError};
 use super::axes::{Axes, Axis, AxisMask};
 use super::codes::{GCode, ModalGroup};
+use super::cutter_comp::{self, CutterComp, MoveInfo, Side};
 use super::dialect::{Dialect, DwellWord};
 use super::error::GcodeError;
 use super::event::{
@@ -325,6 +326,10 @@ pub struct Interpreter {
     words: BlockWords,
     params: Parameters,
     assignments: Vec<(Target, f64, usize)>,
+    /// Cutter radius compensation and the moves it holds back.
+    comp: CutterComp,
+    /// The file of the blocks being executed (tagged on their events).
+    file: u32,
 }
 
 /// Whether the program uses `%` lines (LinuxCNC: the first non-blank line
@@ -418,6 +423,31 @@ impl Interpreter {
             words: BlockWords::default(),
             params: (*opts_params).clone(),
             assignments: Vec::new(),
+            comp: CutterComp::default(),
+            file: 0,
+        }
+    }
+
+    /// The file of the blocks executed next, tagged on their events
+    /// ([`SourcePos::file`]: 0 the program, n ≥ 1 the n-th subroutine
+    /// file); set by [`run_program`](super::program_flow::run_program).
+    pub fn set_source_file(&mut self, file: u32) {
+        self.file = file;
+    }
+
+    /// Called at the end of the input of a program that did not end with
+    /// M2, M30 or a closing `%`: refuses it when cutter radius
+    /// compensation still holds moves back (the last compensated moves
+    /// would never be made).
+    pub fn finish(&mut self) -> Result<(), GcodeError> {
+        match self.comp.held_line() {
+            Some(line) if !self.ended => Err(GcodeError::invalid(
+                line,
+                0,
+                "the program ends with cutter radius compensation on and no M2, M30 or G40: \
+                 the moves from this line on are held back for the next corner and never made",
+            )),
+            _ => Ok(()),
         }
     }
 
@@ -455,7 +485,7 @@ impl Interpreter {
         let at = SourcePos {
             line: block.line(),
             block: self.block_index,
-            file: 0,
+            file: self.file,
         };
         self.block_index += 1;
         if self.ended {
@@ -468,6 +498,15 @@ impl Interpreter {
             }
             self.percent = Percent::NotUsed;
         } else if self.percent == Percent::Used && block.is_percent() && block.items().len() == 1 {
+            if self.comp.held_line().is_some() {
+                // LinuxCNC stops reading there and never makes them.
+                return Err(GcodeError::unsupported(
+                    block.line(),
+                    1,
+                    "closing % while cutter radius compensation holds moves back (LinuxCNC drops \
+                     them; turn compensation off with G40, or end with M2 or M30, before the %)",
+                ));
+            }
             self.ended = true;
             return Ok(());
         }
@@ -485,6 +524,10 @@ impl Interpreter {
             r.map_err(|e| GcodeError::invalid(block.line(), column, e.to_string()))?;
         }
         let w = std::mem::take(&mut self.words);
+        // Moves held back by cutter compensation come first; what is still
+        // held after the block is kept for the next one.
+        let saved = self.comp.clone();
+        self.comp.begin_block(out);
         let mut step = Step {
             line: block.line(),
             at,
@@ -492,6 +535,10 @@ impl Interpreter {
         };
         let r = self.run(block, &w, &mut step);
         self.words = w;
+        match r {
+            Ok(()) => self.comp.end_block(out),
+            Err(_) => self.comp = saved,
+        }
         r
     }
 
@@ -541,25 +588,25 @@ impl Interpreter {
         self.set_feed_rate(w, s)?;
         self.set_spindle_speed(w, s)?;
         self.select_tool(w, s)?;
-        self.change_tool(&codes);
+        self.m_codes_with_comp(w, s)?;
+        self.change_tool(&codes, s)?;
         self.set_spindle_direction(&codes, s);
         self.switch_tcp_by_m_code(&codes, s);
         self.dwell(w, &codes, s)?;
-        self.set_plane(&codes);
+        self.set_plane(&codes, s)?;
         self.set_length_units(&codes, s);
-        // Cutter radius compensation: only G40 (off) is accepted, and it is
-        // always off.
+        self.cutter_compensation(w, &codes, s)?;
         self.set_tool_length_offset(w, &codes, s)?;
-        self.select_coordinate_system(&codes, s);
-        self.set_path_control(w, &codes, s);
+        self.select_coordinate_system(&codes, s)?;
+        self.set_path_control(w, &codes, s)?;
         self.set_distance_mode(&codes);
         self.set_arc_distance_mode(&codes);
-        self.set_retract_mode(&codes);
+        self.set_retract_mode(&codes, s)?;
         self.non_modal(w, &codes, s)?;
-        self.set_g92_applied(&codes);
+        self.set_g92_applied(&codes, s)?;
         self.check_g53(w, &codes, s)?;
         self.motion(w, &codes, s)?;
-        self.stop(&codes, s);
+        self.stop(&codes, s)?;
         Ok(())
     }
 
@@ -753,8 +800,13 @@ impl Interpreter {
                 }
             }
         }
+        let comp_on = codes.cutter_comp.is_some_and(|(c, _)| c != GCode::G40);
         let checks: [(u8, bool, &str); 6] = [
-            (b'D', false, "D word with no G41, G42 or G96 to use it"),
+            (
+                b'D',
+                comp_on,
+                "D word with no G41, G41.1, G42, G42.1 or G96 to use it",
+            ),
             (
                 b'E',
                 w.has_m(&[66, 67, 68]),
@@ -767,7 +819,7 @@ impl Interpreter {
             ),
             (
                 b'L',
-                w.has_m(&[66]) || g10 || cycle_now.is_some(),
+                w.has_m(&[66]) || g10 || cycle_now.is_some() || comp_on,
                 "L word with no G10, cutter compensation, canned cycle or M66 to use it",
             ),
             (
@@ -876,10 +928,54 @@ impl Interpreter {
     }
 
     /// M6: the selected tool goes into the spindle.
-    fn change_tool(&mut self, codes: &Codes) {
+    fn change_tool(&mut self, codes: &Codes, s: &Step) -> Result<(), GcodeError> {
         if codes.m_tool_change {
+            self.refuse_with_comp(
+                s,
+                0,
+                "Cannot change tools with cutter radius compensation on",
+            )?;
             self.state.tool = self.state.selected_tool;
         }
+        Ok(())
+    }
+
+    /// An error `message` at `column` while cutter radius compensation is
+    /// on (LinuxCNC refuses these codes then).
+    fn refuse_with_comp(&self, s: &Step, column: usize, message: &str) -> Result<(), GcodeError> {
+        if self.comp.is_on() {
+            return Err(s.invalid(column, message));
+        }
+        Ok(())
+    }
+
+    /// M-codes accepted without a motion meaning that LinuxCNC refuses
+    /// while cutter radius compensation is on (overrides, outputs, inputs).
+    fn m_codes_with_comp(&self, w: &BlockWords, s: &Step) -> Result<(), GcodeError> {
+        if !self.comp.is_on() {
+            return Ok(());
+        }
+        let enable = w.get(b'P').is_none_or(|p| p.value != 0.0);
+        for &(code, col) in &w.m {
+            let message = match code {
+                48 => "Cannot enable overrides with cutter radius compensation on",
+                49 => "Cannot disable overrides with cutter radius compensation on",
+                50..=53 if enable => "Cannot enable overrides with cutter radius compensation on",
+                50..=53 => "Cannot disable overrides with cutter radius compensation on",
+                62 => "Cannot set motion output with cutter radius compensation on",
+                63 => "Cannot set motion digital output with cutter radius compensation on",
+                64 | 65 => "Cannot set auxiliary digital output with cutter radius compensation on",
+                66 if w.get(b'P').is_some() => {
+                    "Cannot wait for digital input with cutter radius compensation on"
+                }
+                66 => "Cannot wait for analog input with cutter radius compensation on",
+                67 => "Cannot set motion analog output with cutter radius compensation on",
+                68 => "Cannot set auxiliary analog output with cutter radius compensation on",
+                _ => continue,
+            };
+            return Err(s.invalid(col, message));
+        }
+        Ok(())
     }
 
     /// M3, M4, M5.
@@ -940,22 +1036,41 @@ impl Interpreter {
     }
 
     /// G17, G18, G19.
-    fn set_plane(&mut self, codes: &Codes) {
-        if let Some((code, _)) = codes.plane {
-            self.state.plane = match code {
+    fn set_plane(&mut self, codes: &Codes, s: &Step) -> Result<(), GcodeError> {
+        if let Some((code, col)) = codes.plane {
+            let plane = match code {
                 GCode::G17 => Plane::Xy,
                 GCode::G18 => Plane::Zx,
                 _ => Plane::Yz,
             };
+            if plane != self.state.plane {
+                self.refuse_with_comp(
+                    s,
+                    col,
+                    "Cannot change planes with cutter radius compensation on",
+                )?;
+            }
+            self.state.plane = plane;
         }
+        Ok(())
     }
 
     /// G61, G61.1, G64 with its P and Q (program units, converted to mm;
     /// absent or zero means none, as in LinuxCNC).
-    fn set_path_control(&mut self, w: &BlockWords, codes: &Codes, s: &mut Step) {
-        let Some((code, _)) = codes.path_control else {
-            return;
+    fn set_path_control(
+        &mut self,
+        w: &BlockWords,
+        codes: &Codes,
+        s: &mut Step,
+    ) -> Result<(), GcodeError> {
+        let Some((code, col)) = codes.path_control else {
+            return Ok(());
         };
+        self.refuse_with_comp(
+            s,
+            col,
+            "Cannot change control mode with cutter radius compensation on",
+        )?;
         let mm = self.state.units.mm_per_unit();
         let tol = |letter: u8| {
             w.get(letter)
@@ -971,6 +1086,7 @@ impl Interpreter {
             },
         };
         s.emit(EventKind::PathControl(mode));
+        Ok(())
     }
 
     /// G20, G21.
@@ -997,6 +1113,11 @@ impl Interpreter {
         let Some((code, col)) = codes.tool_length else {
             return Ok(());
         };
+        self.refuse_with_comp(
+            s,
+            col,
+            "Cannot change tool offset with cutter radius compensation on",
+        )?;
         let table_offset = |this: &Self, tool: u32| -> Result<Axes, GcodeError> {
             if tool == 0 {
                 return Ok(Axes::ZERO);
@@ -1062,10 +1183,15 @@ impl Interpreter {
     }
 
     /// G54 ... G59.3.
-    fn select_coordinate_system(&mut self, codes: &Codes, s: &mut Step) {
-        let Some((code, _)) = codes.coord_system else {
-            return;
+    fn select_coordinate_system(&mut self, codes: &Codes, s: &mut Step) -> Result<(), GcodeError> {
+        let Some((code, col)) = codes.coord_system else {
+            return Ok(());
         };
+        self.refuse_with_comp(
+            s,
+            col,
+            "Cannot change coordinate systems with cutter radius compensation on",
+        )?;
         let system: u8 = match code {
             GCode::G54 => 1,
             GCode::G55 => 2,
@@ -1081,6 +1207,7 @@ impl Interpreter {
         let offset = self.state.work_offsets[usize::from(system - 1)];
         self.apply_offsets();
         s.emit(EventKind::WorkOffset { system, offset });
+        Ok(())
     }
 
     /// G90, G91.
@@ -1106,14 +1233,20 @@ impl Interpreter {
     }
 
     /// G98, G99.
-    fn set_retract_mode(&mut self, codes: &Codes) {
-        if let Some((code, _)) = codes.retract {
+    fn set_retract_mode(&mut self, codes: &Codes, s: &Step) -> Result<(), GcodeError> {
+        if let Some((code, col)) = codes.retract {
+            self.refuse_with_comp(
+                s,
+                col,
+                "Cannot change retract mode with cutter radius compensation on",
+            )?;
             self.state.retract = if code == GCode::G98 {
                 RetractMode::InitialLevel
             } else {
                 RetractMode::RLevel
             };
         }
+        Ok(())
     }
 
     /// The non-modal codes of group 0 that change state or move: G10, G28,
@@ -1122,6 +1255,19 @@ impl Interpreter {
         let Some((code, col)) = codes.non_modal else {
             return Ok(());
         };
+        const AXIS_OFFSETS: &str = "Cannot change axis offsets with cutter radius comp";
+        match code {
+            GCode::G28 | GCode::G30 => {
+                self.refuse_with_comp(s, col, "Cannot use g28 or g30 with cutter radius comp")?
+            }
+            GCode::G28_1 | GCode::G30_1 => self.refuse_with_comp(
+                s,
+                col,
+                "Cannot set reference point with cutter compensation in effect",
+            )?,
+            GCode::G52 | GCode::G92 => self.refuse_with_comp(s, col, AXIS_OFFSETS)?,
+            _ => {}
+        }
         match code {
             GCode::G10 => self.g10(w, codes, col, s),
             GCode::G28 | GCode::G30 => self.go_home(code, w, codes, s),
@@ -1261,7 +1407,7 @@ impl Interpreter {
             }
         };
         let lin = Linear {
-            from: st.position,
+            from: self.comp.physical_start(&st.position),
             to,
             offset: st.offset,
             feed,
@@ -1342,6 +1488,13 @@ impl Interpreter {
                 } else {
                     p_int as usize
                 };
+                if system == usize::from(st.work_system) {
+                    self.refuse_with_comp(
+                        s,
+                        col,
+                        "Cannot change the active coordinate system with cutter radius compensation on",
+                    )?;
+                }
                 let current = in_system(system, false);
                 let mut offset = st.work_offsets[system - 1];
                 for a in axes.iter() {
@@ -1413,10 +1566,11 @@ impl Interpreter {
 
     /// G92.1 and G92.2 (axis offsets to zero; G92.1 also clears the kept
     /// values), G92.3 (restore the kept values).
-    fn set_g92_applied(&mut self, codes: &Codes) {
-        let Some((code, _)) = codes.g92_applied else {
-            return;
+    fn set_g92_applied(&mut self, codes: &Codes, s: &Step) -> Result<(), GcodeError> {
+        let Some((code, col)) = codes.g92_applied else {
+            return Ok(());
         };
+        self.refuse_with_comp(s, col, "Cannot change axis offsets with cutter radius comp")?;
         if code == GCode::G92_3 {
             self.state.axis_offset = self.state.g92_saved;
             self.state.g92_applied = true;
@@ -1428,6 +1582,7 @@ impl Interpreter {
             }
         }
         self.apply_offsets();
+        Ok(())
     }
 
     /// A canned cycle (G73, G74, G81 ... G89) in the active plane, as the
@@ -1876,12 +2031,23 @@ impl Interpreter {
         if axes.is_empty() && codes.explicit_motion().is_none() {
             return Ok(());
         }
+        if let Some((code, col)) = codes.motion
+            && code.is_probe()
+        {
+            self.refuse_with_comp(s, col, "Cannot probe with cutter radius comp on")?;
+        }
         match self.state.motion {
             None if !axes.is_empty() => {
                 Err(s.invalid(0, "axis words without a motion mode (G0, G1, G2 or G3)"))
             }
             None => Ok(()),
             Some(MotionMode::Cycle(code)) => {
+                if self.comp.is_on() {
+                    self.state.motion = previous;
+                    return Err(
+                        s.invalid(0, "Cannot use canned cycles with cutter compensation on")
+                    );
+                }
                 let r = self.canned_cycle(code, previous, w, axes, target, s);
                 if r.is_err() {
                     self.state.motion = previous;
@@ -1895,7 +2061,9 @@ impl Interpreter {
         }
     }
 
-    /// One move of `mode` to the axis words.
+    /// One move of `mode` to the axis words. With cutter radius
+    /// compensation on, the words are read from the programmed position
+    /// and the move is made by [`CutterComp`].
     fn move_to(
         &mut self,
         mode: MotionMode,
@@ -1908,7 +2076,8 @@ impl Interpreter {
         let line = s.line;
         let st = &self.state;
         let from = st.position;
-        let mut to = from;
+        let base = self.comp.base(&from);
+        let mut to = base;
         if let Some(col) = g53 {
             if !matches!(mode, MotionMode::Rapid | MotionMode::Linear) {
                 return Err(s.invalid(col, "G53 needs G0 or G1"));
@@ -1922,7 +2091,7 @@ impl Interpreter {
             to[axis] = if g53.is_some() {
                 v - st.offset[axis]
             } else if st.distance == DistanceMode::Incremental {
-                from[axis] + v
+                base[axis] + v
             } else if self.opts.wrapped_rotary.contains(axis) {
                 unwrap_rotary(v, from[axis]).map_err(|m| {
                     GcodeError::invalid(line, w.get(axis.letter()).map_or(0, |l| l.column), m)
@@ -1938,17 +2107,26 @@ impl Interpreter {
             units: st.units,
             expanded: false,
         };
+        // The column an error of a compensated move names: its first axis word.
+        let column = axes
+            .iter()
+            .next()
+            .and_then(|a| w.get(a.letter()))
+            .map_or(0, |l| l.column);
         let kind = match mode {
             MotionMode::Rapid | MotionMode::Linear => {
-                if axes.is_empty() {
+                self.comp.straight_move_started();
+                let rapid = mode == MotionMode::Rapid;
+                let comp = self.comp.engaged();
+                if !comp && axes.is_empty() {
                     return Ok(());
                 }
-                let feed = if mode == MotionMode::Rapid {
+                let feed = if rapid {
                     Feed::Rapid
                 } else {
                     // A move of rotary axes only: F is deg/min (or deg/rev)
                     // whatever the length units.
-                    let d = to.sub(&from);
+                    let d = to.sub(&base);
                     let rotary_only =
                         d.xyz_norm() == 0.0 && d.uvw_norm() == 0.0 && d.abc_norm() > 0.0;
                     match self.feed(w, line)? {
@@ -1960,15 +2138,32 @@ impl Interpreter {
                         f => f,
                     }
                 };
+                if comp {
+                    if let Some(col) = g53 {
+                        return Err(s.invalid(col, "Cannot use g53 with cutter radius comp"));
+                    }
+                    let units = self.state.units;
+                    let feed = match feed {
+                        Feed::InverseTime(f) => {
+                            let (length, rotary) = cutter_comp::straight_length(&base, &to, units);
+                            cutter_comp::inverse_time_feed(f, length, rotary, units)
+                        }
+                        f => f,
+                    };
+                    let info = self.move_info(s.at, column, words, feed);
+                    return self
+                        .comp
+                        .straight(rapid, to, &info, &mut self.state.position, s.out);
+                }
                 let lin = Linear {
-                    from,
+                    from: self.comp.physical_start(&from),
                     to,
-                    offset: st.offset,
+                    offset: self.state.offset,
                     feed,
-                    tcp: st.tcp,
+                    tcp: self.state.tcp,
                     words,
                 };
-                if mode == MotionMode::Rapid {
+                if rapid {
                     EventKind::Traverse(lin)
                 } else {
                     EventKind::Feed(lin)
@@ -1978,6 +2173,12 @@ impl Interpreter {
                 return Err(s.invalid(0, format!("{code} is not a single move")));
             }
             MotionMode::ArcClockwise | MotionMode::ArcCounterClockwise => {
+                if self.comp.arc_not_allowed() {
+                    return Err(s.invalid(
+                        0,
+                        "The move just after exiting cutter compensation mode must be straight, not an arc",
+                    ));
+                }
                 // No axis words: with I, J or K a full circle about the
                 // current point (as LinuxCNC 2.9 runs it), else an error.
                 let ijk = [b'I', b'J', b'K'].iter().any(|&l| w.get(l).is_some());
@@ -1986,10 +2187,51 @@ impl Interpreter {
                 }
                 let feed = self.feed(w, line)?;
                 let ccw = mode == MotionMode::ArcCounterClockwise;
-                let (center, turns) = self.arc_center(w, &from, &to, ccw, line)?;
+                let comp = self.comp.engaged();
+                let plane = self.state.plane;
+                let (p, q, n) = plane.axes();
+                if comp && self.comp.first_move() {
+                    let scale = self.state.units.mm_per_unit();
+                    let r_word = w.get(b'R').map(|r| r.value * scale);
+                    let info = self.move_info(s.at, column, words, feed);
+                    self.comp.check_arc_entry(
+                        [base[p], base[q]],
+                        [to[p], to[q]],
+                        ccw,
+                        r_word,
+                        &info,
+                    )?;
+                }
+                let (center, turns) = self.arc_center(w, &base, &to, ccw, line)?;
+                if comp {
+                    let center = [center[p.index()], center[q.index()]];
+                    let units = self.state.units;
+                    let feed = match feed {
+                        Feed::InverseTime(f) => {
+                            let length = cutter_comp::arc_length(
+                                [base[p], base[q]],
+                                center,
+                                turns,
+                                [to[p], to[q]],
+                                to[n] - base[n],
+                            );
+                            cutter_comp::inverse_time_feed(f, length, false, units)
+                        }
+                        f => f,
+                    };
+                    let info = self.move_info(s.at, column, words, feed);
+                    return self.comp.arc(
+                        turns,
+                        center,
+                        to,
+                        &info,
+                        &mut self.state.position,
+                        s.out,
+                    );
+                }
                 let st = &self.state;
                 EventKind::Arc(ArcMove {
-                    from,
+                    from: self.comp.physical_start(&from),
                     to,
                     center,
                     plane: st.plane,
@@ -2004,6 +2246,22 @@ impl Interpreter {
         self.state.position = to;
         s.emit(kind);
         Ok(())
+    }
+
+    /// What a move of cutter radius compensation carries besides its
+    /// geometry.
+    fn move_info(&self, at: SourcePos, column: usize, words: Programmed, feed: Feed) -> MoveInfo {
+        let st = &self.state;
+        MoveInfo {
+            at,
+            column,
+            plane: st.plane,
+            units: st.units,
+            offset: st.offset,
+            tcp: st.tcp,
+            words,
+            feed,
+        }
     }
 
     /// The feed of a G1, G2 or G3 move in the current feed mode.
@@ -2057,11 +2315,139 @@ impl Interpreter {
     }
 
     /// M2, M30: end of program (M0, M1, M60 do not change the motion).
-    fn stop(&mut self, codes: &Codes, s: &mut Step) {
-        if let Some((2 | 30, _)) = codes.m_stop {
+    /// Every stop releases the moves cutter compensation holds back, as they
+    /// are; M2 and M30 also turn it off.
+    fn stop(&mut self, codes: &Codes, s: &mut Step) -> Result<(), GcodeError> {
+        let Some((code, _)) = codes.m_stop else {
+            return Ok(());
+        };
+        let end = matches!(code, 2 | 30);
+        let plane = self.state.plane;
+        self.comp
+            .stop(&self.state.position, plane, end, s.out, s.line)?;
+        if end {
             self.ended = true;
             s.emit(EventKind::ProgramEnd);
         }
+        Ok(())
+    }
+
+    /// G40, G41, G42, G41.1, G42.1: cutter radius compensation off or on,
+    /// with the radius of the D word's tool (G41, G42: the tool in the
+    /// spindle without D) or half the D word (G41.1, G42.1), as LinuxCNC
+    /// reads them. See [`cutter_comp`].
+    fn cutter_compensation(
+        &mut self,
+        w: &BlockWords,
+        codes: &Codes,
+        s: &mut Step,
+    ) -> Result<(), GcodeError> {
+        let Some((code, col)) = codes.cutter_comp else {
+            return Ok(());
+        };
+        let plane = self.state.plane;
+        if code == GCode::G40 {
+            return self
+                .comp
+                .turn_off(&mut self.state.position, plane, s.out, s.line, col);
+        }
+        if let Dialect::Fanuc { .. } = self.opts.dialect {
+            return Err(GcodeError::unsupported(
+                s.line,
+                col,
+                format!(
+                    "cutter radius compensation {code} in the Fanuc dialect (its offset numbers \
+                     and start-up rules are not LinuxCNC's)"
+                ),
+            ));
+        }
+        self.comp.check_turn_on(plane, s.line, col)?;
+        let left = matches!(code, GCode::G41 | GCode::G41_1);
+        let name = if left { 41 } else { 42 };
+        let radius = if matches!(code, GCode::G41_1 | GCode::G42_1) {
+            let d = w
+                .get(b'D')
+                .ok_or_else(|| s.invalid(col, format!("G{name}.1 with no D word")))?;
+            if let Some(l) = w.get(b'L') {
+                if plane != Plane::Zx {
+                    return Err(s.invalid(
+                        l.column,
+                        format!("G{name}.1 with L word, but plane is not G18"),
+                    ));
+                }
+                if l.value != 0.0 && l.value != 9.0 {
+                    return Err(GcodeError::unsupported(
+                        s.line,
+                        l.column,
+                        format!(
+                            "lathe tool orientation L{} with G{name}.1 (compensation about a \
+                             lathe tool's nose)",
+                            l.value
+                        ),
+                    ));
+                }
+            }
+            d.value / 2.0 * self.state.units.mm_per_unit()
+        } else {
+            let (tool, column) = match w.get(b'D') {
+                None => (self.state.tool, col),
+                Some(d) => {
+                    // LinuxCNC: the nearest integer, within 0.0001.
+                    let t = (d.value + 0.5).trunc();
+                    if (t - d.value).abs() >= 0.0001 {
+                        return Err(s.invalid(
+                            d.column,
+                            format!("G{name} requires D word to be a whole number"),
+                        ));
+                    }
+                    if t < 0.0 {
+                        return Err(s.invalid(d.column, "Negative d word tool radius index used"));
+                    }
+                    if t > f64::from(u32::MAX) {
+                        return Err(s.invalid(
+                            d.column,
+                            format!("Requested tool {t} not found in the tool table"),
+                        ));
+                    }
+                    // D0: the tool in the spindle.
+                    match t as u32 {
+                        0 => (self.state.tool, d.column),
+                        t => (t, d.column),
+                    }
+                }
+            };
+            let (diameter, orientation) = if tool == 0 {
+                (0.0, 0)
+            } else {
+                let t = self.tools.get(tool).ok_or_else(|| {
+                    s.invalid(
+                        column,
+                        format!("Requested tool {tool} not found in the tool table"),
+                    )
+                })?;
+                (t.diameter, t.orientation)
+            };
+            if orientation != 0 && orientation != 9 {
+                if plane != Plane::Zx {
+                    return Err(s.invalid(
+                        col,
+                        format!("G{name} with lathe tool, but plane is not G18"),
+                    ));
+                }
+                return Err(GcodeError::unsupported(
+                    s.line,
+                    col,
+                    format!(
+                        "cutter radius compensation G{name} of a lathe tool (orientation \
+                         {orientation}: compensation about the tool's nose)"
+                    ),
+                ));
+            }
+            diameter / 2.0
+        };
+        let side = if left { Side::Left } else { Side::Right };
+        self.comp.turn_on(side, radius);
+        Ok(())
     }
 
     /// Centre (work X Y Z) and signed turns of a G2/G3 block.
@@ -2508,7 +2894,13 @@ mod tests {
     #[test]
     fn rejections_name_the_line() {
         let cases = [
-            ("G0 X0\nG41 X1 Z-1\n", 2, true),
+            ("G0 X0\nG33 X1 Z-1 K1\n", 2, true),
+            // Cutter radius compensation: entry not longer than the radius,
+            // plane change while on, G19, G41.1 without D.
+            ("G41.1 D4\nG0 X1\n", 2, false),
+            ("G41.1 D4\nG0 X10\nG18\n", 3, false),
+            ("G19 G41.1 D4\n", 1, false),
+            ("G41.1\n", 1, false),
             ("G1 X1\n", 1, false),             // zero feed
             ("G93\nG1 X1 F1\nX2\n", 3, false), // inverse time needs F each move
             ("X1\n", 1, false),                // no motion mode

@@ -275,6 +275,7 @@ where
                 entering_elseif: false,
             };
             flow.run(interp, &mut sink)?;
+            interp.finish()?;
             summary.executed = flow.executed;
             summary.files = flow.files;
             summary.held = flow.codes.swap_remove(0).blocks;
@@ -305,6 +306,7 @@ where
         if !interp.ended() {
             messages(&block, interp.parameters(), opts, None)?;
         }
+        interp.set_source_file(0);
         interp.execute(&block, &mut events)?;
         sink(&Step {
             block: &block,
@@ -314,6 +316,7 @@ where
             held: false,
         })?;
     }
+    interp.finish()?;
     if interp.ended() && opts.keep_rest {
         std::io::Read::read_to_end(&mut reader.into_inner(), &mut summary.rest)
             .map_err(GcodeError::from)?;
@@ -1050,12 +1053,12 @@ impl Flow<'_> {
                     .cloned();
                 messages(block, interp.parameters(), self.opts, path.as_ref())
                     .map_err(|e| fail(&self.files, e))?;
+                // Events are tagged with their file (those cutter
+                // compensation held back keep the file they came from).
+                interp.set_source_file(file);
                 interp
                     .execute(block, &mut events)
                     .map_err(|e| fail(&self.files, e))?;
-                for e in &mut events {
-                    e.at.file = file;
-                }
                 sink(&Step {
                     block,
                     events: &events,

@@ -13,6 +13,7 @@ mod ballbar_circular;
 mod controller_demo;
 mod controller_formats;
 mod controller_roundtrip;
+mod cutter_comp;
 mod gcode_conformance;
 mod gcode_corpus;
 mod gcode_props;

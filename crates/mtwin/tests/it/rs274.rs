@@ -54,6 +54,9 @@ const SEED: u64 = 0x5eed_2024;
 /// Tool table: number and length, inch (as rs274 reads a `.tbl`).
 const TOOLS: &[(u32, f64)] = &[(1, 0.0), (2, 0.1), (4, 0.7)];
 
+/// Tool diameters (cutter radius compensation), same order, inch.
+const TOOL_DIAMETERS: [f64; 3] = [0.25, 0.5, 0.125];
+
 /// Work offsets G54..G59.3, X Y Z in inch (as rs274 reads its var file).
 const WORK_OFFSETS: [[f64; 3]; 9] = [
     [0.0, 0.0, 0.0],
@@ -91,7 +94,8 @@ fn case_ini_text(subs: &Path, case_subs: Option<&Path>, sections: &str) -> Strin
 fn tool_table_text() -> String {
     TOOLS
         .iter()
-        .map(|(t, z)| format!("T{t} P{t} Z{z}\n"))
+        .zip(TOOL_DIAMETERS)
+        .map(|((t, z), d)| format!("T{t} P{t} Z{z} D{d}\n"))
         .collect()
 }
 
@@ -115,6 +119,11 @@ fn mtwin_options() -> InterpOptions {
     let mut opts = InterpOptions::default();
     opts.unknown_m = UnknownMCode::Reject;
     opts.tools = TOOLS.iter().map(|&(t, z)| (t, z * 25.4)).collect();
+    for (&(t, _), d) in TOOLS.iter().zip(TOOL_DIAMETERS) {
+        let mut tool = opts.tools.get(t).unwrap().clone();
+        tool.diameter = d * 25.4;
+        opts.tools.insert(tool);
+    }
     opts.work_offsets = work_offsets;
     opts
 }
@@ -1285,4 +1294,103 @@ fn generated_programs_are_reproducible_and_varied() {
     ] {
         assert!(text.contains(needle), "no {needle:?} in 200 programs");
     }
+}
+
+/// Hand-written programs of cutter radius compensation (G40, G41, G42,
+/// G41.1, G42.1): each must agree with rs274 (same moves, or refused by
+/// both after the same moves) and none may be unsupported.
+const CUTTER_COMP_PROGRAMS: &[(&str, &str)] = &[
+    (
+        "square pocket, tool inside (G41.1, counter-clockwise)",
+        "G21 G17 G90 G94\nG0 X0 Y0 Z5\nG1 Z-1 F200\nG41.1 D6\nG1 X20 Y0\nX20 Y20\nX0 Y20\nX0 Y0\nX20 Y0\nG40\nG1 X10 Y10\nG0 Z5\nM2\n",
+    ),
+    (
+        "square, tool outside (G42.1, counter-clockwise): arcs at the corners",
+        "G21 G17 G90 G94 F300\nG0 X-10 Y-10\nG42.1 D6\nG1 X0 Y0\nX20\nY20\nX0\nY0\nG40 G0 X-10 Y-10\nM30\n",
+    ),
+    (
+        "profile with arcs both ways, tool from the table (G41 D2)",
+        "G20 G17 G90 G94 F20\nG0 X-1 Y-1\nG41 D2\nG1 X0 Y0\nG1 X2 Y0\nG3 X4 Y2 R2\nG2 X6 Y4 I2 J0\nG1 X6 Y6\nG3 X2 Y6 I-2 J0\nG1 X0 Y4\nG1 X0 Y0\nG40\nG1 X-1 Y-1\nM2\n",
+    ),
+    (
+        "tool in the spindle (T4 M6, G42 without D), incremental moves",
+        "G21 G17 G90 G94 F500\nT4 M6\nG0 X0 Y0\nG42\nG91 G1 X30 Y0\nY25\nX-30\nG90 G1 X0 Y0\nG40 G1 X-5\nM2\n",
+    ),
+    (
+        "arc entry, helix, Z moves and a bare G1 during compensation",
+        "G21 G17 G90 G94 F400\nG0 X0 Y0 Z2\nG41.1 D5\nG3 X20 Y0 R10\nG1 Z-2\nG1\nG1 X20 Y20\nG2 X40 Y20 Z-3 I10 J0\nG1 X40 Y0\nG4 P0.5\nG40\nG0 X50 Y-10\nM2\n",
+    ),
+    (
+        "XZ plane (G18) profile with a negative diameter (side switched)",
+        "G21 G18 G90 G94 F200\nG0 X0 Z0\nG41.1 D-4\nG1 Z10 X0\nG1 Z10 X10\nG2 Z20 X20 K10 I0\nG1 Z30 X20\nG40\nG1 Z40 X30\nM2\n",
+    ),
+    (
+        "inverse time feed with compensation (the programmed time)",
+        "G20 G17 G90\nG0 X0 Y0\nG42.1 D0.8\nG93 G1 X1 F30\nY1 F20\nX-1 F20\nG3 X-1 Y2 J0.5 F10\nG94 G40 G1 X0 Y3 F25\nM2\n",
+    ),
+    (
+        "M0 with compensation on, then an inside corner",
+        "G21 G17 G90 G94 F300\nG0 X0 Y0\nG41.1 D4\nG1 X10 Y0\nM0\nG1 X10 Y10\nX0 Y10\nG40 G1 X-5 Y-5\nM2\n",
+    ),
+    (
+        "error: a notch narrower than the tool (gouging)",
+        "G21 G17 G90 G94 F300\nG0 X0 Y0\nG41.1 D10\nG1 X20 Y0\nX20 Y2\nX22 Y2\nX22 Y0\nX40 Y0\nG40 G1 X50 Y-10\nM2\n",
+    ),
+    (
+        "error: an inside arc smaller than the tool",
+        "G21 G17 G90 G94 F300\nG0 X0 Y0\nG41.1 D10\nG1 X10 Y0\nG3 X10 Y6 R3\nG40 G1 X0 Y0\nM2\n",
+    ),
+    (
+        "error: plane change with compensation on",
+        "G21 G17 G90 G94 F300\nG0 X0 Y0\nG41.1 D2\nG1 X10 Y0\nG18\nG40\nM2\n",
+    ),
+    (
+        "error: entry move not longer than the radius",
+        "G21 G17 G90 G94 F300\nG0 X0 Y0\nG41.1 D10\nG1 X3 Y0\nG40\nM2\n",
+    ),
+    (
+        "error: an arc just after G40",
+        "G21 G17 G90 G94 F300\nG0 X0 Y0\nG41.1 D2\nG1 X10 Y0\nG40\nG2 X20 Y0 R5\nM2\n",
+    ),
+];
+
+#[test]
+fn cutter_compensation_agrees_with_rs274() {
+    let Some(setup) = setup() else { return };
+    let work = setup.root.join("comp");
+    std::fs::create_dir(&work).unwrap();
+    let mut failures = Vec::new();
+    let mut refused_by_both = 0;
+    for (k, (name, program)) in CUTTER_COMP_PROGRAMS.iter().enumerate() {
+        let path = work.join(format!("comp{k}.ngc"));
+        std::fs::write(&path, program).unwrap();
+        let theirs = run_rs274(&setup, &path, &work, None);
+        let ours = run_mtwin(program.as_bytes(), None);
+        // Each program makes compensated moves before its end.
+        assert!(
+            name.starts_with("error") || theirs.steps.len() >= 4,
+            "{name}: rs274 made {} moves ({:?})",
+            theirs.steps.len(),
+            theirs.refused
+        );
+        refused_by_both += usize::from(ours.refused.is_some() && theirs.refused.is_some());
+        match classify(&ours, &theirs) {
+            Verdict::Agree => {}
+            Verdict::Known(why) => failures.push(format!("{name}: known difference {why}")),
+            Verdict::Unsupported(f) => failures.push(format!("{name}: unsupported {f}")),
+            Verdict::Disagree(d) => failures.push(format!("{name}: {d}")),
+        }
+        if name.starts_with("error") {
+            assert!(
+                ours.refused.is_some(),
+                "{name}: mtwin accepts it ({:?})",
+                theirs.refused
+            );
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    assert_eq!(
+        refused_by_both, 5,
+        "the five error cases are refused by both"
+    );
 }

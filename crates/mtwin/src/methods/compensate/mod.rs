@@ -452,9 +452,6 @@ impl Compensator {
             let line = ev.at.line;
             match ev.kind {
                 EventKind::Traverse(m) | EventKind::Feed(m) if m.words.expanded => {
-                    // One block, several moves (canned cycle, G28/G30): no
-                    // word of the block ends this move, so a correction
-                    // cannot be written; refused unless none is needed.
                     let mv = Move {
                         path: NominalPath::line(&m),
                         tcp: m.tcp,
@@ -463,22 +460,18 @@ impl Compensator {
                         feed: m.feed,
                         line,
                     };
-                    let (_, end) = self.ends(&mv, run)?;
-                    if Axis::ALL
-                        .iter()
-                        .any(|&a| (end.new_p[a] - end.p[a]).abs() > 1e-6)
-                    {
-                        return Err(GcodeError::unsupported(
-                            line,
-                            0,
-                            "correction of a move a canned cycle or G28/G30 expands to \
-                             (one block, several moves: no word to rewrite); expand the cycle \
-                             into G0/G1 moves first",
-                        )
-                        .into());
-                    }
-                    run.q_nom.clone_from(&end.q_nom);
-                    run.last = Some(end);
+                    self.expanded_move(&mv, run)?;
+                }
+                EventKind::Arc(a) if a.words.expanded => {
+                    let mv = Move {
+                        path: NominalPath::arc(&a),
+                        tcp: a.tcp,
+                        words: a.words,
+                        offset: a.offset,
+                        feed: a.feed,
+                        line,
+                    };
+                    self.expanded_move(&mv, run)?;
                 }
                 EventKind::Traverse(m) | EventKind::Feed(m) => {
                     let split = matches!(ev.kind, EventKind::Feed(_));
@@ -768,6 +761,29 @@ impl Compensator {
             ));
         }
         Ok(e)
+    }
+
+    /// A move one block expands to (canned cycle, G28/G30, cutter radius
+    /// compensation): no word of the block ends it, so a correction cannot
+    /// be written; refused unless none is needed.
+    fn expanded_move(&self, mv: &Move, run: &mut RunState) -> Result<(), CompensateError> {
+        let (_, end) = self.ends(mv, run)?;
+        if Axis::ALL
+            .iter()
+            .any(|&a| (end.new_p[a] - end.p[a]).abs() > 1e-6)
+        {
+            return Err(GcodeError::unsupported(
+                mv.line,
+                0,
+                "correction of a move a canned cycle, G28/G30 or cutter radius compensation \
+                 expands to (one block, several moves or an offset path: no word to rewrite); \
+                 write the moves as G0/G1/G2/G3 without them first",
+            )
+            .into());
+        }
+        run.q_nom.clone_from(&end.q_nom);
+        run.last = Some(end);
+        Ok(())
     }
 
     /// The compensated start and end of a move.

@@ -544,6 +544,11 @@ fn z_move(
             }
             _ => continue,
         };
+        if e.at.line != block.line() {
+            return Err(unsafe_block(
+                "a move of another line that cutter radius compensation held back to this one",
+            ));
+        }
         if found.is_some() {
             return Err(unsafe_block("the block holds more than one move"));
         }
