@@ -57,6 +57,17 @@ struct Evaluation {
 }
 
 fn evaluate(path: &Path, inputs: &[&str], period_min: f64, folds: usize) -> Evaluation {
+    try_evaluate(path, inputs, period_min, folds).unwrap()
+}
+
+/// [`evaluate`], `Err` when the fit refuses (too few training samples for
+/// the period).
+fn try_evaluate(
+    path: &Path,
+    inputs: &[&str],
+    period_min: f64,
+    folds: usize,
+) -> Result<Evaluation, String> {
     let channels: Vec<ChannelSpec> = CHANNELS
         .iter()
         .map(|c| ChannelSpec::parse(&format!("{c}:Z")).unwrap())
@@ -71,7 +82,8 @@ fn evaluate(path: &Path, inputs: &[&str], period_min: f64, folds: usize) -> Eval
     let mut options = LogFitOptions::default();
     options.folds = folds;
     let start = std::time::Instant::now();
-    let fit = fit_log(&log, &channels, &inputs, Some(n_train), &options).unwrap();
+    let fit =
+        fit_log(&log, &channels, &inputs, Some(n_train), &options).map_err(|e| e.to_string())?;
     eprintln!(
         "{period_min} min, {folds} block(s): fit in {:.2} s: {:?}",
         start.elapsed().as_secs_f64(),
@@ -102,11 +114,11 @@ fn evaluate(path: &Path, inputs: &[&str], period_min: f64, folds: usize) -> Eval
         .map(|c| c.heldout_rms_mm * 1e3)
         .collect();
     eprintln!("MAE {mae:.3?} µm, error/drift RMS {ratio:.3?}, held-out {heldout_um:.3?} µm");
-    Evaluation {
+    Ok(Evaluation {
         mae,
         ratio,
         heldout_um,
-    }
+    })
 }
 
 fn temperatures() -> Vec<String> {
@@ -193,7 +205,8 @@ fn real_record_last_third_with_temperatures_at_five_minute_periods() {
 }
 
 /// Every setting chosen on the training span alone: the speed, its square
-/// and the sixteen temperatures as candidates, 4-block cross-validation,
+/// and the sixteen temperatures as candidates, cross-validation over 3
+/// held-out blocks (the default),
 /// and per channel the period (1, 2, 5 or 10 min) whose cross-validation
 /// RMS is lowest. The test span is looked at only to score the choice.
 #[test]
@@ -202,11 +215,13 @@ fn real_record_last_third_with_every_setting_chosen_by_cross_validation() {
     let mut inputs = vec!["speed_rpm".to_string(), "speed_rpm:square".to_string()];
     inputs.extend(temperatures());
     let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
-    let periods = [1.0, 2.0, 5.0, 10.0];
-    let runs: Vec<Evaluation> = periods
-        .iter()
-        .map(|&p| evaluate(&path, &inputs, p, 3))
-        .collect();
+    // 5- and 10-min periods leave 222 and 111 training samples: too few for
+    // the default options' four blocks (the fit refuses), so they drop out.
+    let (periods, runs): (Vec<f64>, Vec<Evaluation>) = [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .filter_map(|p| try_evaluate(&path, &inputs, p, 3).ok().map(|e| (p, e)))
+        .unzip();
+    assert_eq!(periods, [1.0, 2.0]);
     let mut period = Vec::new();
     let mut mae = Vec::new();
     let mut ratio = Vec::new();
@@ -222,96 +237,4 @@ fn real_record_last_third_with_every_setting_chosen_by_cross_validation() {
     assert_documented("chosen by cross-validation, period min", &period);
     assert_documented("chosen by cross-validation, MAE µm", &mae);
     assert_documented("chosen by cross-validation, error/drift RMS", &ratio);
-}
-
-#[cfg(test)]
-mod scratch {
-    use mtwin::io::Table;
-    use mtwin::methods::thermal::log::*;
-    use rand::{Rng, SeedableRng, rngs::StdRng};
-    use rand_distr::{Distribution, Normal};
-    use std::path::Path;
-    fn rms(v: impl Iterator<Item = f64>) -> f64 {
-        let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
-        (s / n as f64).sqrt()
-    }
-    fn truth_log(seed: u64, samples: usize, noise_um: f64) -> (String, Vec<f64>) {
-        let mut rng = StdRng::seed_from_u64(seed);
-        let (p1, p2) = ((-1.0f64 / 20.0).exp(), (-1.0f64 / 180.0).exp());
-        let (g1, g2, g3) = (-6.0, -10.0, 4.0); // µm per unit of speed/5000 or per K
-        let (mut x1, mut x2, mut x3) = (0.0, 0.0, 0.0);
-        let mut speed = 0.0;
-        let mut ambient = 20.0;
-        let mut distractors = [22.0, 25.0, 30.0];
-        let noise = Normal::new(0.0, noise_um).unwrap();
-        let mut text = String::from("t_min,d_um,speed_rpm,amb_c,s1_c,s2_c,s3_c\n");
-        let mut clean = Vec::new();
-        for k in 0..samples {
-            if k % 45 == 0 {
-                speed = [0.0, 1000.0, 2500.0, 4000.0, 5000.0][rng.gen_range(0..5)];
-            }
-            ambient += 0.01 * rng.gen_range(-1.0..1.0) + 0.002 * ((k as f64) / 300.0).sin();
-            for d in &mut distractors {
-                *d += 0.02 * rng.gen_range(-1.0..1.0);
-            }
-            let e = g1 * x1 + g2 * x2 + g3 * x3;
-            clean.push(e);
-            text.push_str(&format!(
-                "{k},{},{speed},{ambient},{},{},{}\n",
-                e + noise.sample(&mut rng),
-                distractors[0],
-                distractors[1],
-                distractors[2]
-            ));
-            let h = speed / 5000.0;
-            x1 = p1 * x1 + (1.0 - p1) * h;
-            x2 = p2 * x2 + (1.0 - p2) * h;
-            x3 = p2 * x3 + (1.0 - p2) * (ambient - 20.0);
-        }
-        (text, clean)
-    }
-    #[test]
-    #[ignore]
-    fn scratch_truth() {
-        for seed in [1u64, 2] {
-            let (text, clean) = truth_log(seed, 2400, 0.3);
-            let table = Table::from_reader(Path::new("LOG.csv"), text.as_bytes()).unwrap();
-            let c = vec![ChannelSpec::parse("d_um:Z").unwrap()];
-            for set in [
-                vec!["speed_rpm", "amb_c", "s1_c", "s2_c", "s3_c"],
-                vec!["speed_rpm", "amb_c"],
-                vec!["speed_rpm", "s3_c"],
-                vec!["speed_rpm", "amb_c", "s3_c"],
-            ] {
-                let i: Vec<InputSpec> = set.iter().map(|s| InputSpec::parse(s).unwrap()).collect();
-                let log = read_log(&table, &c, &i, 1.0).unwrap();
-                for folds in [1usize, 4, 8] {
-                    for mo in [2usize, 3] {
-                        let mut o = LogFitOptions::default();
-                        o.folds = folds;
-                        o.max_order = mo;
-                        let n_train = 1600;
-                        let fit = fit_log(&log, &c, &i, Some(n_train), &o).unwrap();
-                        let pred = predict_log(&fit.model, &log).unwrap();
-                        let m = &log.channels[0];
-                        let me = rms((n_train..log.len()).map(|k| pred[0][k] - m[k]));
-                        let te = rms((n_train..log.len()).map(|k| clean[k] - (m[k] - m[0])));
-                        let ch = &fit.model.channels[0];
-                        eprintln!(
-                            "seed {seed} {set:?} K={folds} mo={mo}: ratio {:.3} cv {:.3} na {} nb {} oe {} {:?}",
-                            me / te,
-                            ch.heldout_rms_mm * 1e3,
-                            ch.a.len() - 1,
-                            ch.b[0].len(),
-                            ch.output_error,
-                            fit.selection[0]
-                                .iter()
-                                .map(|(n, e)| format!("{n} {:.3}", e * 1e3))
-                                .collect::<Vec<_>>()
-                        );
-                    }
-                }
-            }
-        }
-    }
 }
