@@ -755,6 +755,8 @@ struct Fold {
 /// origin: every fold predicts its block from cold, as the model will
 /// predict the future, and every fold's fit is one run from rest, so it can
 /// be refined by output error).
+// One fit range per fold, kept a list (a fold may hold several runs).
+#[allow(clippy::single_range_in_vec_init)]
 fn make_folds(n_train: usize, options: &LogFitOptions) -> Vec<Fold> {
     if options.folds <= 1 {
         let n_fit = ((n_train as f64) * (1.0 - options.holdout)).round() as usize;
@@ -1332,9 +1334,12 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::single_range_in_vec_init)]
     fn cross_validation_blocks_roll_forward_over_the_training_samples() {
-        let mut o = LogFitOptions::default();
-        o.folds = 3;
+        let mut o = LogFitOptions {
+            folds: 3,
+            ..LogFitOptions::default()
+        };
         let folds = make_folds(10, &o);
         // Four blocks 0..2, 2..5, 5..7, 7..10 (edges j·10/4 rounded down);
         // each after the first is predicted by a fit on everything before it.
@@ -1372,8 +1377,10 @@ mod tests {
 
     #[test]
     fn the_fit_count_is_bounded_before_any_work() {
-        let mut o = LogFitOptions::default();
-        o.folds = 4;
+        let o = LogFitOptions {
+            folds: 4,
+            ..LogFitOptions::default()
+        };
         // Linear in the inputs: forward and backward x 5 channels x 6 steps x 17 inputs x 9 orders
         // x 4 cross-validation blocks.
         assert_eq!(o.validate(5, 17).unwrap(), 2 * 5 * 6 * 17 * 9 * 4);
