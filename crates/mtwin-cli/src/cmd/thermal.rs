@@ -132,6 +132,12 @@ pub struct FitArgs {
     /// With --log: most inputs one channel's model may use (forward selection).
     #[arg(long, default_value_t = 6, requires = "log")]
     max_inputs: usize,
+    /// With --log: inputs and orders are chosen by blocked cross-validation: the training samples
+    /// are cut into N + 1 contiguous blocks, each block after the first is predicted from the
+    /// start by a model fitted on the blocks before it, and the errors are pooled; 1: one
+    /// held-out block, the last third.
+    #[arg(long, default_value_t = 3, requires = "log")]
+    folds: usize,
     /// Largest ARX order tried: na in 1..=N, nb in 0..=N (default 4); with --log na and nb in
     /// 0..=N (default 2).
     #[arg(long)]
@@ -399,6 +405,7 @@ fn fit_log(log: &Path, a: FitArgs) -> anyhow::Result<()> {
     options.train_until_min = a.train_until_min;
     options.fit.max_order = a.max_order.unwrap_or(options.fit.max_order);
     options.fit.max_inputs = a.max_inputs;
+    options.fit.folds = a.folds;
     options.out = a.out.display().to_string();
     options.validate()?;
     let mut out = mtwin::io::Outputs::plan()

@@ -106,8 +106,9 @@ fn fit_log_then_predict_log_recovers_the_machine_on_a_new_log() {
     let (doc, v) = json_round_trip::<mtwin::methods::thermal::ThermalLogFitDoc>(p, &FIT);
     assert_eq!(v["out"], "log-model.toml");
     assert_eq!((doc.samples, doc.training_samples), (600, 480));
-    // A third of the training samples held out to choose by.
-    assert_eq!(doc.heldout_samples, 160);
+    // By default chosen by cross-validation over 4 blocks of 120 samples:
+    // the last three predicted in turn from the blocks before them.
+    assert_eq!((doc.folds, doc.heldout_samples), (3, 360));
     let names: Vec<&str> = doc.channels.iter().map(|c| c.column.as_str()).collect();
     assert_eq!(names, ["grow_um", "shift_mm"]);
     // Each channel picks its own input first, and its model reproduces the
@@ -168,6 +169,22 @@ fn fit_log_then_predict_log_recovers_the_machine_on_a_new_log() {
     }
     assert!((pd.channels[0].largest_abs_drift - largest_a).abs() < 1e-3);
     assert!((pd.channels[1].largest_abs_drift - largest_b).abs() < 1e-6);
+}
+
+/// `--folds 1`: one held-out block, the last third of the training samples
+/// (160 of 480), and the same machine recovered.
+#[test]
+fn fit_log_with_one_held_out_block() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    setup(p);
+    let mut a = FIT.to_vec();
+    a.extend(["--folds", "1"]);
+    let (doc, _) = json_round_trip::<mtwin::methods::thermal::ThermalLogFitDoc>(p, &a);
+    assert_eq!((doc.folds, doc.heldout_samples), (1, 160));
+    for c in &doc.channels {
+        assert!(c.heldout_rms_mm < 1e-7, "{c:?}");
+    }
 }
 
 #[test]
@@ -267,6 +284,9 @@ fn bad_logs_and_options_name_the_place_exit_1_and_write_nothing() {
     let mut a = FIT.to_vec();
     a.extend(["--period-min", "0"]);
     expect_failure(p, &a, "period", "log-model.toml");
+    let mut a = FIT.to_vec();
+    a.extend(["--folds", "0"]);
+    expect_failure(p, &a, "cross-validation blocks", "log-model.toml");
     // --log with --data, or --plot, is refused by the argument parser (exit 2).
     let mut a = FIT.to_vec();
     a.extend(["--data", "train.csv"]);

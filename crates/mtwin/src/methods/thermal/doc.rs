@@ -663,8 +663,13 @@ pub struct ThermalLogFitDoc {
     pub samples: usize,
     /// Samples used for training.
     pub training_samples: usize,
-    /// Training samples, at their end, held out to choose the structures by.
+    /// Training samples judged out of their fit to choose the structures by
+    /// (all of them with blocked cross-validation).
     pub heldout_samples: usize,
+    /// Blocks of the blocked cross-validation (1: one held-out block at the
+    /// end of the training samples).
+    #[serde(default = "one")]
+    pub folds: usize,
     /// Every candidate input with its scale.
     pub inputs: Vec<super::log::LogInput>,
     /// One model per drift channel.
@@ -675,6 +680,10 @@ pub struct ThermalLogFitDoc {
     pub notes: Vec<String>,
     /// Reservations (a held-out error large compared with the drift, …).
     pub warnings: Vec<String>,
+}
+
+fn one() -> usize {
+    1
 }
 
 fn axis_name(a: super::log::Axis) -> &'static str {
@@ -697,16 +706,29 @@ fn unit_name(u: super::log::LengthUnit) -> &'static str {
 /// Notes and warnings go to stderr.
 impl std::fmt::Display for ThermalLogFitDoc {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        writeln!(
-            f,
-            "{} channel(s), {} samples of {} min ({} for training, the last {} of them held out to choose by) → {}",
-            self.channels.len(),
-            self.samples,
-            self.period_min,
-            self.training_samples,
-            self.heldout_samples,
-            self.out
-        )?;
+        if self.folds > 1 {
+            writeln!(
+                f,
+                "{} channel(s), {} samples of {} min ({} for training, chosen by blocked cross-validation over {} blocks) → {}",
+                self.channels.len(),
+                self.samples,
+                self.period_min,
+                self.training_samples,
+                self.folds,
+                self.out
+            )?;
+        } else {
+            writeln!(
+                f,
+                "{} channel(s), {} samples of {} min ({} for training, the last {} of them held out to choose by) → {}",
+                self.channels.len(),
+                self.samples,
+                self.period_min,
+                self.training_samples,
+                self.heldout_samples,
+                self.out
+            )?;
+        }
         writeln!(
             f,
             "{:<12} {:>4} {:>3} {:>3} {:>12} {:>8} {:>12} {:>3}  inputs",

@@ -152,11 +152,18 @@ pub struct InputSpec {
     pub column: String,
     /// Use the change since the first sample (temperatures), not the value.
     pub rise: bool,
+    /// Use the square of the value (of each period mean), e.g. of the
+    /// spindle speed, for heat that grows faster than the speed.
+    #[serde(default)]
+    pub square: bool,
 }
 
 impl InputSpec {
-    /// `COLUMN`, `COLUMN:rise` or `COLUMN:level`; without a suffix a column
-    /// ending in `_c` (a temperature, °C) is taken as its rise since the start.
+    /// `COLUMN`, `COLUMN:rise`, `COLUMN:level` or `COLUMN:square`; without a
+    /// suffix a column ending in `_c` (a temperature, °C) is taken as its
+    /// rise since the start. `square` uses the square of the value (as a
+    /// level), so `speed_rpm,speed_rpm:square` offers the speed and its
+    /// square as two candidate inputs.
     pub fn parse(text: &str) -> Result<InputSpec, String> {
         let (column, kind) = match text.split_once(':') {
             Some((c, k)) => (c.trim(), Some(k.trim())),
@@ -165,16 +172,27 @@ impl InputSpec {
         if column.is_empty() {
             return Err(format!("`{text}`: the column name is empty"));
         }
-        let rise = match kind {
-            None => column.ends_with("_c"),
-            Some("rise") => true,
-            Some("level") => false,
-            Some(k) => return Err(format!("`{k}` in `{text}`: say rise or level")),
+        let (rise, square) = match kind {
+            None => (column.ends_with("_c"), false),
+            Some("rise") => (true, false),
+            Some("level") => (false, false),
+            Some("square") => (false, true),
+            Some(k) => return Err(format!("`{k}` in `{text}`: say rise, level or square")),
         };
         Ok(InputSpec {
             column: column.to_string(),
             rise,
+            square,
         })
+    }
+
+    /// The name the input is known by: its column, with `:square` when squared.
+    pub fn name(&self) -> String {
+        if self.square {
+            format!("{}:square", self.column)
+        } else {
+            self.column.clone()
+        }
     }
 }
 
@@ -447,8 +465,22 @@ pub struct LogInput {
     pub column: String,
     /// The change since the first sample is used.
     pub rise: bool,
+    /// The square of the value is used (before the scale).
+    #[serde(default)]
+    pub square: bool,
     /// The model sees the input divided by this (its largest training magnitude).
     pub scale: f64,
+}
+
+impl LogInput {
+    /// The name the input is known by: its column, with `:square` when squared.
+    pub fn name(&self) -> String {
+        if self.square {
+            format!("{}:square", self.column)
+        } else {
+            self.column.clone()
+        }
+    }
 }
 
 /// The model of one drift channel.
@@ -546,7 +578,7 @@ impl LogModel {
         self.inputs
             .iter()
             .zip(log_inputs)
-            .map(|(spec, u)| scaled(u, spec.rise, spec.scale))
+            .map(|(spec, u)| scaled(u, spec.rise, spec.square, spec.scale))
             .collect()
     }
 
@@ -573,13 +605,14 @@ impl LogModel {
     }
 }
 
-fn scaled(u: &[f64], rise: bool, scale: f64) -> Vec<f64> {
+fn scaled(u: &[f64], rise: bool, square: bool, scale: f64) -> Vec<f64> {
+    let f = |v: f64| if square { v * v } else { v };
     let base = if rise {
-        u.first().copied().unwrap_or(0.0)
+        u.first().copied().map_or(0.0, f)
     } else {
         0.0
     };
-    u.iter().map(|v| (v - base) / scale).collect()
+    u.iter().map(|&v| (f(v) - base) / scale).collect()
 }
 
 /// Options of [`fit_log`].
@@ -590,7 +623,15 @@ pub struct LogFitOptions {
     pub max_order: usize,
     /// Most inputs one channel may use.
     pub max_inputs: usize,
-    /// Fraction of the training samples, at their end, held out to choose by.
+    /// Held-out blocks of the blocked cross-validation the structures are
+    /// chosen by: the training samples are cut into this many + 1
+    /// contiguous blocks; each block after the first is held out in turn,
+    /// the model fitted on all blocks before it and simulated from the
+    /// start, and the held-out errors of all blocks pooled. `1`: a single
+    /// block of [`LogFitOptions::holdout`] at the end instead.
+    pub folds: usize,
+    /// With `folds` = 1: fraction of the training samples, at their end,
+    /// held out to choose by.
     pub holdout: f64,
     /// An input is added only if it lowers the held-out RMS by this fraction.
     pub min_gain: f64,
@@ -606,6 +647,7 @@ impl Default for LogFitOptions {
         LogFitOptions {
             max_order: 2,
             max_inputs: 6,
+            folds: 3,
             holdout: 1.0 / 3.0,
             min_gain: 0.02,
             gain_bound: 10.0,
@@ -635,6 +677,12 @@ impl LogFitOptions {
                 self.holdout
             )));
         }
+        if self.folds == 0 || self.folds > 50 {
+            return Err(ThermalError::Options(format!(
+                "the number of cross-validation blocks must be 1 to 50, not {}",
+                self.folds
+            )));
+        }
         if self.max_inputs == 0 {
             return Err(ThermalError::Options(
                 "a channel needs at least one input".into(),
@@ -644,11 +692,13 @@ impl LogFitOptions {
         let steps = self.max_inputs.min(inputs);
         // Forward steps try every remaining input; the backward pass at most
         // as many sets again.
-        let fits = 2 * channels * steps * inputs * orders;
+        let folds = self.folds;
+        let fits = 2 * channels * steps * inputs * orders * folds;
         if fits > MAX_LOG_FITS {
             return Err(ThermalError::Options(format!(
-                "{fits} candidate fits (2 x {channels} channels x {steps} selection steps x {inputs} inputs x {orders} orders) \
-                 exceed the limit of {MAX_LOG_FITS}: give fewer inputs, a smaller --max-inputs or --max-order"
+                "{fits} candidate fits (2 x {channels} channels x {steps} selection steps x {inputs} inputs x {orders} orders \
+                 x {folds} cross-validation blocks) exceed the limit of {MAX_LOG_FITS}: give fewer inputs, a smaller \
+                 --max-inputs, --max-order or --folds"
             )));
         }
         Ok(fits)
@@ -662,8 +712,12 @@ pub struct LogFit {
     pub model: LogModel,
     /// Training samples used.
     pub training_samples: usize,
-    /// Samples of the held-out block the structures were chosen by.
+    /// Training samples judged out of their fit (all of them with blocked
+    /// cross-validation; the last block with a single held-out block).
     pub heldout_samples: usize,
+    /// Cross-validation blocks the structures were chosen by (1: a single
+    /// held-out block at the end of the training samples).
+    pub folds: usize,
     /// Per channel: the selection path (inputs added, `-name` for one removed
     /// by the backward pass, held-out RMS after each step, mm).
     pub selection: Vec<Vec<(String, f64)>>,
@@ -684,33 +738,108 @@ struct Candidate {
     heldout_rms: f64,
 }
 
+/// One fold of the blocked cross-validation: the model is fitted on the
+/// samples of `fit` (one run per range) and judged on the samples of `test`,
+/// simulated from rest at sample 0 with the inputs alone.
+#[derive(Debug, Clone, PartialEq)]
+struct Fold {
+    fit: Vec<std::ops::Range<usize>>,
+    test: std::ops::Range<usize>,
+}
+
+/// The folds for `n_train` training samples: with `folds` = 1 the last
+/// `holdout` fraction of them is held out and the model fitted on the rest;
+/// with `folds` = K ≥ 2 the training samples are cut into K + 1 contiguous
+/// blocks of (nearly) equal length and each block after the first is held
+/// out in turn, the model fitted on all the blocks before it (a rolling
+/// origin: every fold predicts its block from cold, as the model will
+/// predict the future, and every fold's fit is one run from rest, so it can
+/// be refined by output error).
+// One fit range per fold, kept a list (a fold may hold several runs).
+#[allow(clippy::single_range_in_vec_init)]
+fn make_folds(n_train: usize, options: &LogFitOptions) -> Vec<Fold> {
+    if options.folds <= 1 {
+        let n_fit = ((n_train as f64) * (1.0 - options.holdout)).round() as usize;
+        return vec![Fold {
+            fit: vec![0..n_fit],
+            test: n_fit..n_train,
+        }];
+    }
+    let k = options.folds;
+    let edge = |j: usize| (j * n_train) / (k + 1);
+    (1..=k)
+        .map(|j| Fold {
+            fit: vec![0..edge(j)],
+            test: edge(j)..edge(j + 1),
+        })
+        .collect()
+}
+
+/// The least-squares ARX fit of one fold: its fit samples, one run from
+/// rest at sample 0.
+fn fit_fold(
+    y: &[f64],
+    u: &[Vec<f64>],
+    inputs: &[usize],
+    fold: &Fold,
+    orders: &ArxOrders,
+) -> Option<Arx> {
+    let runs: Vec<Run> = fold
+        .fit
+        .iter()
+        .map(|r| {
+            Run::new(
+                y[r.clone()].to_vec(),
+                inputs.iter().map(|&i| u[i][r.clone()].to_vec()).collect(),
+            )
+            .ok()
+        })
+        .collect::<Option<_>>()?;
+    fit_arx(&runs, orders, Start::AtRest).ok().map(|f| f.model)
+}
+
+/// Pooled simulation RMS of `model`-structures over the folds: each fold's
+/// model simulated from rest at sample 0 up to the end of its test block,
+/// the squared errors of all test blocks pooled. `None` when a fold's model
+/// is not admissible.
+fn cv_rms(
+    y: &[f64],
+    u: &[Vec<f64>],
+    inputs: &[usize],
+    folds: &[Fold],
+    models: &[Arx],
+    options: &LogFitOptions,
+    y_max: f64,
+) -> Option<f64> {
+    let (mut ss, mut n) = (0.0, 0usize);
+    for (fold, model) in folds.iter().zip(models) {
+        if !admissible(model, options, y_max) {
+            return None;
+        }
+        let full: Vec<&[f64]> = inputs.iter().map(|&i| &u[i][..fold.test.end]).collect();
+        let sim = model.simulate(&full).ok()?;
+        for k in fold.test.clone() {
+            ss += (sim[k] - y[k]).powi(2);
+            n += 1;
+        }
+    }
+    let e = (ss / n.max(1) as f64).sqrt();
+    e.is_finite().then_some(e)
+}
+
 /// Try every order pair for `inputs` (indices into `u`): least squares on
-/// the first `n_fit` samples, simulated from rest over `n_train`, RMS over
-/// the rest; the [`REFINED`] best structures are then refined by output
-/// error on the same samples and judged the same way.
+/// each fold's fit samples, simulated from rest, pooled RMS over the test
+/// blocks ([`cv_rms`]); with a single fold the [`REFINED`] best structures
+/// are then refined by output error on the same samples and judged the
+/// same way.
 fn best_orders(
     y: &[f64],
     u: &[Vec<f64>],
     inputs: &[usize],
-    n_fit: usize,
-    n_train: usize,
+    folds: &[Fold],
     options: &LogFitOptions,
     y_max: f64,
 ) -> Option<Candidate> {
-    let run = Run::new(
-        y[..n_fit].to_vec(),
-        inputs.iter().map(|&i| u[i][..n_fit].to_vec()).collect(),
-    )
-    .ok()?;
-    let full: Vec<&[f64]> = inputs.iter().map(|&i| &u[i][..n_train]).collect();
-    let heldout = |model: &Arx| -> Option<f64> {
-        if !admissible(model, options, y_max) {
-            return None;
-        }
-        let sim = model.simulate(&full).ok()?;
-        let e = rms((n_fit..n_train).map(|k| sim[k] - y[k]));
-        e.is_finite().then_some(e)
-    };
     let mut ranked: Vec<Candidate> = Vec::new();
     for na in 0..=options.max_order {
         for nb in 0..=options.max_order {
@@ -718,10 +847,14 @@ fn best_orders(
                 na,
                 inputs: inputs.iter().map(|_| InputOrder { nb, nk: 1 }).collect(),
             };
-            let Ok(fit) = fit_arx(std::slice::from_ref(&run), &orders, Start::AtRest) else {
+            let Some(models) = folds
+                .iter()
+                .map(|f| fit_fold(y, u, inputs, f, &orders))
+                .collect::<Option<Vec<Arx>>>()
+            else {
                 continue;
             };
-            if let Some(e) = heldout(&fit.model) {
+            if let Some(e) = cv_rms(y, u, inputs, folds, &models, options, y_max) {
                 ranked.push(Candidate {
                     inputs: inputs.to_vec(),
                     orders,
@@ -737,24 +870,54 @@ fn best_orders(
             best = Some(c);
         }
     };
-    let refine: Vec<ArxOrders> = ranked
+    // Output-error refinement needs one run from rest per fold.
+    let single = folds
         .iter()
-        .filter(|c| c.orders.na > 0)
-        .take(REFINED)
-        .map(|c| c.orders.clone())
-        .collect();
+        .all(|f| f.fit.len() == 1 && f.fit[0].start == 0);
+    let refine: Vec<ArxOrders> = match single {
+        true => ranked
+            .iter()
+            .filter(|c| c.orders.na > 0)
+            .take(REFINED)
+            .map(|c| c.orders.clone())
+            .collect(),
+        false => Vec::new(),
+    };
     if let Some(c) = ranked.into_iter().next() {
         keep(c);
     }
-    for orders in refine {
-        if let Ok(oe) = fit_output_error(&run, &orders, 0)
-            && let Some(e) = heldout(&oe.fit.model)
-        {
-            keep(Candidate {
-                inputs: inputs.to_vec(),
-                orders,
-                heldout_rms: e,
-            });
+    if single {
+        let runs: Vec<Run> = folds
+            .iter()
+            .map(|f| {
+                Run::new(
+                    y[f.fit[0].clone()].to_vec(),
+                    inputs
+                        .iter()
+                        .map(|&i| u[i][f.fit[0].clone()].to_vec())
+                        .collect(),
+                )
+                .ok()
+            })
+            .collect::<Option<_>>()?;
+        for orders in refine {
+            let models: Option<Vec<Arx>> = runs
+                .iter()
+                .map(|run| {
+                    fit_output_error(run, &orders, 0)
+                        .ok()
+                        .map(|oe| oe.fit.model)
+                })
+                .collect();
+            if let Some(models) = models
+                && let Some(e) = cv_rms(y, u, inputs, folds, &models, options, y_max)
+            {
+                keep(Candidate {
+                    inputs: inputs.to_vec(),
+                    orders,
+                    heldout_rms: e,
+                });
+            }
         }
     }
     best
@@ -808,24 +971,32 @@ pub fn fit_log_with(
 ) -> Result<LogFit, ThermalError> {
     options.validate(channels.len(), inputs.len())?;
     let n_train = n_train.unwrap_or(log.len()).min(log.len());
-    let n_fit = ((n_train as f64) * (1.0 - options.holdout)).round() as usize;
+    let folds = make_folds(n_train, options);
     let params = 2 * options.max_order + options.max_inputs * (options.max_order + 1);
-    if n_fit < 3 * params || n_train - n_fit < 3 {
+    let n_fit = folds
+        .iter()
+        .map(|f| f.fit.iter().map(|r| r.len()).sum::<usize>())
+        .min()
+        .unwrap_or(0);
+    let n_test = folds.iter().map(|f| f.test.len()).min().unwrap_or(0);
+    if n_fit < 3 * params || n_test < 3 {
         return Err(ThermalError::Options(format!(
             "{n_train} training samples are too few: the fit part ({n_fit}) needs at least {} samples for models of up \
-             to {params} parameters and the held-out part at least 3 (a longer log or a shorter period)",
+             to {params} parameters and each held-out block ({n_test}) at least 3 (a longer log or a shorter period)",
             3 * params
         )));
     }
+    let heldout_samples: usize = folds.iter().map(|f| f.test.len()).sum();
     let model_inputs: Vec<LogInput> = inputs
         .iter()
         .zip(&log.inputs)
         .map(|(spec, u)| {
-            let r = scaled(&u[..n_train], spec.rise, 1.0);
+            let r = scaled(&u[..n_train], spec.rise, spec.square, 1.0);
             let m = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             LogInput {
                 column: spec.column.clone(),
                 rise: spec.rise,
+                square: spec.square,
                 scale: if m > 0.0 { m } else { 1.0 },
             }
         })
@@ -833,7 +1004,7 @@ pub fn fit_log_with(
     let u: Vec<Vec<f64>> = model_inputs
         .iter()
         .zip(&log.inputs)
-        .map(|(spec, u)| scaled(u, spec.rise, spec.scale))
+        .map(|(spec, u)| scaled(u, spec.rise, spec.square, spec.scale))
         .collect();
     let mut models = Vec::new();
     let mut selection = Vec::new();
@@ -854,7 +1025,7 @@ pub fn fit_log_with(
                 .filter_map(|&j| {
                     let mut set = current.clone();
                     set.push(j);
-                    best_orders(&y, &u, &set, n_fit, n_train, options, y_max).map(|c| (j, c))
+                    best_orders(&y, &u, &set, &folds, options, y_max).map(|c| (j, c))
                 })
                 .min_by(|a, b| a.1.heldout_rms.total_cmp(&b.1.heldout_rms));
             let Some((j, cand)) = step else { break };
@@ -864,7 +1035,7 @@ pub fn fit_log_with(
             if !better {
                 break;
             }
-            path.push((model_inputs[j].column.clone(), cand.heldout_rms));
+            path.push((model_inputs[j].name(), cand.heldout_rms));
             remaining.retain(|&r| r != j);
             chosen = Some(cand);
             progress(ci, Some(path.len()));
@@ -877,12 +1048,12 @@ pub fn fit_log_with(
                 .iter()
                 .filter_map(|&j| {
                     let set: Vec<usize> = c.inputs.iter().copied().filter(|&i| i != j).collect();
-                    best_orders(&y, &u, &set, n_fit, n_train, options, y_max).map(|d| (j, d))
+                    best_orders(&y, &u, &set, &folds, options, y_max).map(|d| (j, d))
                 })
                 .min_by(|a, b| a.1.heldout_rms.total_cmp(&b.1.heldout_rms));
             match drop {
                 Some((j, d)) if (1.0 - options.min_gain) * d.heldout_rms <= c.heldout_rms => {
-                    path.push((format!("-{}", model_inputs[j].column), d.heldout_rms));
+                    path.push((format!("-{}", model_inputs[j].name()), d.heldout_rms));
                     chosen = Some(d);
                 }
                 _ => break,
@@ -924,20 +1095,21 @@ pub fn fit_log_with(
             }
         }
         if !admissible(&model, options, y_max) {
-            // The refit on all samples left the bounds: keep the fit-part model.
-            let r = Run::new(
-                y[..n_fit].to_vec(),
-                cand.inputs
-                    .iter()
-                    .map(|&i| u[i][..n_fit].to_vec())
-                    .collect(),
-            )
-            .map_err(|e| fail(spec, e))?;
-            model = fit_arx(std::slice::from_ref(&r), &cand.orders, Start::AtRest)
-                .map_err(|e| fail(spec, e))?
-                .model;
+            // The refit on all samples left the bounds: keep the first
+            // fold's model (admissible, as the candidate was judged so).
+            model = folds
+                .iter()
+                .filter_map(|f| fit_fold(&y, &u, &cand.inputs, f, &cand.orders))
+                .find(|m| admissible(m, options, y_max))
+                .ok_or_else(|| {
+                    ThermalError::Model(format!(
+                        "channel `{}` could not be modelled: no admissible refit",
+                        spec.column
+                    ))
+                })?;
+            output_error = false;
         }
-        let heldout_drift = rms(y[n_fit..n_train].iter().copied());
+        let heldout_drift = rms(folds.iter().flat_map(|f| y[f.test.clone()].iter().copied()));
         if cand.heldout_rms > options.warn_ratio * heldout_drift {
             warnings.push(format!(
                 "channel `{}`: the held-out simulation error ({:.2} µm RMS) is {:.0} % of the drift there: \
@@ -967,7 +1139,8 @@ pub fn fit_log_with(
             channels: models,
         },
         training_samples: n_train,
-        heldout_samples: n_train - n_fit,
+        heldout_samples,
+        folds: folds.len(),
         selection,
         notes: log.notes.clone(),
         warnings,
@@ -1161,10 +1334,56 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::single_range_in_vec_init)]
+    fn cross_validation_blocks_roll_forward_over_the_training_samples() {
+        let mut o = LogFitOptions {
+            folds: 3,
+            ..LogFitOptions::default()
+        };
+        let folds = make_folds(10, &o);
+        // Four blocks 0..2, 2..5, 5..7, 7..10 (edges j·10/4 rounded down);
+        // each after the first is predicted by a fit on everything before it.
+        let tests: Vec<_> = folds.iter().map(|f| f.test.clone()).collect();
+        assert_eq!(tests, vec![2..5, 5..7, 7..10]);
+        for f in &folds {
+            assert_eq!(f.fit, vec![0..f.test.start]);
+        }
+        o.folds = 1;
+        let one = make_folds(9, &o);
+        assert_eq!(
+            one,
+            vec![Fold {
+                fit: vec![0..6],
+                test: 6..9
+            }]
+        );
+    }
+
+    #[test]
+    fn square_inputs_are_squared_before_the_scale() {
+        let s = InputSpec::parse("speed_rpm:square").unwrap();
+        assert!(s.square && !s.rise);
+        assert_eq!(s.name(), "speed_rpm:square");
+        assert_eq!(
+            scaled(&[1.0, 2.0, 3.0], false, true, 9.0),
+            vec![1.0 / 9.0, 4.0 / 9.0, 1.0]
+        );
+        assert!(
+            InputSpec::parse("speed_rpm:cube")
+                .unwrap_err()
+                .contains("square")
+        );
+    }
+
+    #[test]
     fn the_fit_count_is_bounded_before_any_work() {
-        let o = LogFitOptions::default();
-        // Linear in the inputs: forward and backward x 5 channels x 6 steps x 17 inputs x 9 orders.
-        assert_eq!(o.validate(5, 17).unwrap(), 2 * 5 * 6 * 17 * 9);
+        let o = LogFitOptions {
+            folds: 4,
+            ..LogFitOptions::default()
+        };
+        // Linear in the inputs: forward and backward x 5 channels x 6 steps x 17 inputs x 9 orders
+        // x 4 cross-validation blocks.
+        assert_eq!(o.validate(5, 17).unwrap(), 2 * 5 * 6 * 17 * 9 * 4);
         let e = o.validate(5, 20_000).unwrap_err().to_string();
         assert!(e.contains("limit"), "{e}");
     }
@@ -1210,8 +1429,10 @@ mod tests {
     }
 
     #[test]
-    #[ignore = "not met yet: on seed 1 a random-walk sensor that does not act is picked on the single held-out \
-                block, and the held-out third is predicted 12 % above the truth's own error (10 % asked)"]
+    #[ignore = "not met: the distractor sensors are random walks like the ambient sensor, and on seed 1 one of \
+                them (s3) explains the ambient's slow effect on the training span as well as the ambient does: with \
+                one held-out block the selection takes s3 then the ambient (12 % above the truth's error), with the \
+                default 3 rolling blocks it stops at speed + s3 (far above); seed 2 passes with one block"]
     fn forward_selection_recovers_a_multi_input_truth_within_ten_percent_of_its_own_error() {
         let (c, i) = specs(&["d_um:Z"], &["speed_rpm", "amb_c", "s1_c", "s2_c", "s3_c"]);
         for seed in [1, 2] {

@@ -237,8 +237,8 @@ impl LogFitRunOptions {
         if self.inputs.is_empty() {
             return bad("give at least one input column".into());
         }
-        let mut names: Vec<&str> = self.channels.iter().map(|c| c.column.as_str()).collect();
-        names.extend(self.inputs.iter().map(|c| c.column.as_str()));
+        let mut names: Vec<String> = self.channels.iter().map(|c| c.column.clone()).collect();
+        names.extend(self.inputs.iter().map(InputSpec::name));
         for (i, n) in names.iter().enumerate() {
             if names[..i].contains(n) {
                 return bad(format!("column `{n}` is named twice"));
@@ -349,6 +349,7 @@ pub fn run_fit_log(
         samples: data.len(),
         training_samples: fit.training_samples,
         heldout_samples: fit.heldout_samples,
+        folds: fit.folds,
         inputs: fit.model.inputs.clone(),
         channels: fit
             .model
@@ -364,7 +365,7 @@ pub fn run_fit_log(
                 inputs: c
                     .inputs
                     .iter()
-                    .map(|&i| fit.model.inputs[i].column.clone())
+                    .map(|&i| fit.model.inputs[i].name())
                     .collect(),
                 heldout_rms_mm: c.heldout_rms_mm,
                 heldout_drift_rms_mm: c.heldout_drift_rms_mm,
@@ -443,6 +444,7 @@ pub fn run_predict_log(
         .map(|i| InputSpec {
             column: i.column.clone(),
             rise: i.rise,
+            square: i.square,
         })
         .collect();
     let table = Table::read(log)?;
