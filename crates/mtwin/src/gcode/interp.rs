@@ -1379,6 +1379,27 @@ impl Interpreter {
                 };
                 let active = system == usize::from(st.work_system);
                 let rotated = st.rotation != 0.0 || st.work_rotations[system - 1] != 0.0;
+                // LinuxCNC's interpreter re-reads the current point
+                // without the G92 offset when the rotation of the active
+                // system changes (or G10 L20 sets a rotated one), while its
+                // motion keeps the machine point: the two disagree, so
+                // mtwin refuses rather than pick one.
+                let g92 = st.axis_offset[Axis::X] != 0.0 || st.axis_offset[Axis::Y] != 0.0;
+                let new_rotation = rotation.is_some_and(|r| r != st.rotation);
+                if active && g92 && (new_rotation || (l == 20 && rotated)) {
+                    return Err(GcodeError::unsupported(
+                        s.line,
+                        col,
+                        format!(
+                            "G10 L{l} {} of the active coordinate system while a G92 offset is in force",
+                            if l == 20 {
+                                "in a rotated system"
+                            } else {
+                                "changing the rotation"
+                            }
+                        ),
+                    ));
+                }
                 if l == 20 && rotated && !active {
                     return Err(GcodeError::unsupported(
                         s.line,
@@ -2992,6 +3013,8 @@ mod tests {
             "G10 L2 P1 R30\nG18 G2 X1 Z1 R1 F100\n",
             "G10 L2 P1 R30\nM428\nG0 X1\n",
             "G10 L2 P1 R30\nG10 L10 P1 Z1\n",
+            "G0 X1\nG92 X0\nG10 L2 P0 R30\n",
+            "G10 L2 P1 R30\nG92 Y2\nG10 L20 P1 X0\n",
         ] {
             assert!(
                 matches!(

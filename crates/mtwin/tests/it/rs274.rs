@@ -1363,10 +1363,22 @@ fn differential_against_linuxcnc_rs274() {
         agree_generated * 10 >= GENERATED as usize * 9,
         "too few generated programs agree: {agree_generated} of {GENERATED}"
     );
-    // Every rotated program runs in mtwin (nothing in them is unsupported).
+    // Programs in rotated systems agree, or mtwin refuses them for a G10
+    // that changes the rotation of the active system (or G10 L20 in it)
+    // under a G92 offset, where LinuxCNC's interpreter and motion disagree.
+    let unsupported_rotated: usize = unsupported
+        .iter()
+        .filter(|(f, _)| f.contains("while a offset is in force"))
+        .map(|(_, names)| names.iter().filter(|n| n.starts_with("rotated")).count())
+        .sum();
     assert_eq!(
-        agree_rotated, ROTATED as usize,
-        "programs in rotated systems that agree"
+        agree_rotated + unsupported_rotated,
+        ROTATED as usize,
+        "programs in rotated systems that agree or are refused as documented"
+    );
+    assert!(
+        agree_rotated * 10 >= ROTATED as usize * 8,
+        "too few programs in rotated systems agree: {agree_rotated} of {ROTATED}"
     );
 }
 
