@@ -585,7 +585,7 @@ fn moves_in_a_rotated_system_round_trip_but_are_not_corrected() {
     .unwrap_err();
     let msg = err.to_string();
     assert!(
-        (msg.starts_with("line 3:") || msg.starts_with("line 4:"))
+        (msg.ends_with("at line 3") || msg.ends_with("at line 4"))
             && msg.contains("rotated coordinate system"),
         "{msg}"
     );
