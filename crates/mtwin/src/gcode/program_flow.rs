@@ -1615,7 +1615,7 @@ impl Flow<'_> {
 fn computed_label(text: &[u8], params: &Parameters) -> Result<String, String> {
     let v = expr::eval(text, params).map_err(|e| e.to_string())?;
     let r = v.round();
-    if (v - r).abs() > 1e-4 || r < 0.0 || r > 1e15 {
+    if (v - r).abs() > 1e-4 || !(0.0..=1e15).contains(&r) {
         return Err(format!(
             "O-word label {} is {v}: not a non-negative integer",
             String::from_utf8_lossy(text)

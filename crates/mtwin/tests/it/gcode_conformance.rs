@@ -415,14 +415,14 @@ fn linuxcnc_conformance() {
             Ok(_) if refused => {
                 failures.push(format!("{name}: accepted, but LinuxCNC refuses it"));
             }
-            Ok(ours) => match same(&ours, &expected_motion(&expected_text)) {
+            Ok(ours) => match same(&ours, &expected_motion(expected_text)) {
                 Ok(()) => passed.push(name.clone()),
                 Err(e) => failures.push(format!("{name}: {e}")),
             },
             // Unsupported: the motion up to the unsupported block must still
             // be the start of LinuxCNC's.
             Err((ours, e @ GcodeError::Unsupported { .. })) => {
-                let expected = expected_motion(&expected_text);
+                let expected = expected_motion(expected_text);
                 let n = ours.len().min(expected.len());
                 if let Err(m) = same(&ours, &expected[..n]) {
                     failures.push(format!("{name}: before the unsupported block: {m}"));
@@ -433,7 +433,7 @@ fn linuxcnc_conformance() {
                 skipped.insert(name.clone(), e.to_string());
             }
             // Refused by both: the motion before must be LinuxCNC's.
-            Err((ours, _)) if refused => match same(&ours, &expected_motion(&expected_text)) {
+            Err((ours, _)) if refused => match same(&ours, &expected_motion(expected_text)) {
                 Ok(()) => passed.push(name.clone()),
                 Err(e) => failures.push(format!("{name}: refused by both, but {e}")),
             },
