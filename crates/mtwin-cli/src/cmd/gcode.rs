@@ -145,6 +145,7 @@ pub(super) fn interp_options(
     if dialect.var_file.is_some() {
         // LinuxCNC starts with the coordinate systems of its var file.
         o.work_offsets = o.program.parameters.work_offsets();
+        o.work_rotations = o.program.parameters.work_rotations();
     }
     o.work_offsets[0] = parse_offsets(offsets, o.work_offsets[0])?;
     Ok(o)

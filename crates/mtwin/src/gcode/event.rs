@@ -298,6 +298,9 @@ pub enum EventKind {
         system: u8,
         /// Its offset, mm (degree for rotary axes).
         offset: Axes,
+        /// Its rotation about Z (G10 L2 R), degrees: move events give X Y
+        /// rotated by it (machine = position + offset).
+        rotation: f64,
     },
     /// G43/G43.4/G49: tool length offset along Z now in force, mm.
     ToolLengthOffset {

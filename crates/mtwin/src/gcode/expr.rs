@@ -221,6 +221,12 @@ impl Parser<'_> {
                 let n = self.number()?;
                 Ok(Target::Numbered(Parameters::index(n)?))
             }
+            // LinuxCNC reads any value after `#`, a function call too:
+            // `#atan[1]/[1]` is `#45`.
+            Some(c) if c.is_ascii_alphabetic() => {
+                let n = self.function()?;
+                Ok(Target::Numbered(Parameters::index(n)?))
+            }
             _ => Err(ExprError::Invalid(format!(
                 "'#' must be followed by a parameter number or <name> at byte {}",
                 self.i + 1

@@ -17,7 +17,7 @@
 //! run. O-word lines are program flow, run by
 //! [`run_program`](super::program_flow::run_program), not here. Anything
 //! else outside the supported language (G33/G76,
-//! splines, coordinate system rotation, ...) is an
+//! splines, ...) is an
 //! [`GcodeError::Unsupported`] error naming the line: never skipped.
 
 use super::arc::{self, ArcError};
@@ -58,6 +58,10 @@ pub struct InterpOptions {
     /// Offsets of G54, G55, G56, G57, G58, G59, G59.1, G59.2, G59.3
     /// (machine coordinates of the work origin), mm and degree.
     pub work_offsets: [Axes; 9],
+    /// Rotations about Z of the XY plane of G54 … G59.3 (G10 L2 R;
+    /// LinuxCNC's parameters 5230, 5250, …, 5390), degrees,
+    /// counter-clockwise seen from +Z.
+    pub work_rotations: [f64; 9],
     /// Tool table (LinuxCNC's `.tbl`, [`ToolTable::parse`]) for T, M6,
     /// G43, G43.2, G43.4 and G10 L1/L10/L11 (which change the
     /// interpreter's copy).
@@ -89,6 +93,7 @@ impl Default for InterpOptions {
         InterpOptions {
             dialect: Dialect::LinuxCnc,
             work_offsets: [Axes::ZERO; 9],
+            work_rotations: [0.0; 9],
             tools: ToolTable::new(),
             tcp_on_m: Some(428),
             tcp_off_m: Some(429),
@@ -162,12 +167,18 @@ pub struct ModalState {
     pub tcp: bool,
     /// Current position in work coordinates, mm/deg.
     pub position: Axes,
-    /// Work offset plus G92 offset plus tool offset (machine = position +
-    /// offset).
+    /// Work offset plus G92 offset plus tool offset: machine = position +
+    /// offset, the position's X Y rotated first by `rotation` (and the
+    /// G92 offset in the offset rotated too: LinuxCNC's machine point is
+    /// R·(position + G92) + work offset + tool offset).
     pub offset: Axes,
     /// Offsets of G54 ... G59.3 in force: the options' ones as changed by
     /// G10 L2/L20 (parameters 5221 ... 5389), mm/deg.
     pub work_offsets: [Axes; 9],
+    /// Rotations about Z of G54 ... G59.3 (G10 L2 R), degrees.
+    pub work_rotations: [f64; 9],
+    /// Rotation about Z of the selected system in force, degrees.
+    pub rotation: f64,
     /// G92 axis offsets in force, mm/deg.
     pub axis_offset: Axes,
     /// The G92 offsets kept for G92.3 (parameters 5211–5219), mm/deg.
@@ -384,6 +395,9 @@ impl Interpreter {
     pub fn new(opts: InterpOptions) -> Self {
         let opts_params = opts.program.parameters.clone();
         let offset = opts.work_offsets[0];
+        let rotation = opts.work_rotations[0];
+        let mut position = opts.initial_machine_position.sub(&offset);
+        rotate_xy(&mut position, -rotation);
         let state = ModalState {
             units: opts.initial_units,
             distance: DistanceMode::Absolute,
@@ -399,9 +413,11 @@ impl Interpreter {
             tool: 0,
             selected_tool: 0,
             tcp: opts.tcp_at_start,
-            position: opts.initial_machine_position.sub(&offset),
+            position,
             offset,
             work_offsets: opts.work_offsets,
+            work_rotations: opts.work_rotations,
+            rotation,
             axis_offset: Axes::ZERO,
             g92_saved: Axes::ZERO,
             g92_applied: false,
@@ -472,6 +488,12 @@ impl Interpreter {
     /// text after the end is never an error).
     pub fn ended(&self) -> bool {
         self.ended
+    }
+
+    /// Whether the program started with a `%` line (so that the next `%`
+    /// line ends it).
+    pub(crate) fn percent_opened(&self) -> bool {
+        self.percent == Percent::Used
     }
 
     /// The tool table as the program has changed it (G10 L1/L10/L11).
@@ -1206,7 +1228,11 @@ impl Interpreter {
         self.state.work_system = system;
         let offset = self.state.work_offsets[usize::from(system - 1)];
         self.apply_offsets();
-        s.emit(EventKind::WorkOffset { system, offset });
+        s.emit(EventKind::WorkOffset {
+            system,
+            offset,
+            rotation: self.state.rotation,
+        });
         Ok(())
     }
 
@@ -1323,7 +1349,7 @@ impl Interpreter {
     /// The machine position G28.1/G30.1 store (wrapped rotary axes in
     /// [0, 360)).
     fn home_to_store(&self) -> Axes {
-        let mut m = self.state.position.add(&self.state.offset);
+        let mut m = self.to_machine(&self.state.position);
         for a in self.opts.wrapped_rotary.iter() {
             m[a] = m[a].rem_euclid(360.0);
         }
@@ -1363,12 +1389,24 @@ impl Interpreter {
         } else {
             self.state.g30_home
         };
-        let home_work = home.sub(&self.state.offset);
         let mut end = waypoint;
-        for a in Axis::ALL {
-            if axes.is_empty() || axes.contains(a) {
-                end[a] = home_work[a];
+        if self.state.rotation == 0.0 {
+            let home_work = home.sub(&self.state.offset);
+            for a in Axis::ALL {
+                if axes.is_empty() || axes.contains(a) {
+                    end[a] = home_work[a];
+                }
             }
+        } else {
+            // The axes named go to their machine home, the others keep
+            // their machine position; back to the rotated frame.
+            let mut m = self.to_machine(&waypoint);
+            for a in Axis::ALL {
+                if axes.is_empty() || axes.contains(a) {
+                    m[a] = home[a];
+                }
+            }
+            end = self.to_work(&m);
         }
         self.push_straight(true, end, self.programmed(AxisMask::EMPTY, true), s)
     }
@@ -1406,9 +1444,10 @@ impl Interpreter {
                 _ => Feed::PerMinute(st.feed),
             }
         };
+        self.check_rotation(s)?;
         let lin = Linear {
-            from: self.comp.physical_start(&st.position),
-            to,
+            from: self.event_point(&self.comp.physical_start(&st.position)),
+            to: self.event_point(&to),
             offset: st.offset,
             feed,
             tcp: st.tcp,
@@ -1468,18 +1507,14 @@ impl Interpreter {
                 if w.get(b'I').is_some() || w.get(b'J').is_some() {
                     return Err(s.invalid(col, "I J words not allowed with G10 L2"));
                 }
-                if let Some(r) = w.get(b'R') {
-                    if l == 20 {
+                let rotation = match w.get(b'R') {
+                    Some(r) if l == 20 => {
                         return Err(s.invalid(r.column, "R not allowed in G10 L20"));
                     }
-                    if r.value != 0.0 {
-                        return Err(GcodeError::unsupported(
-                            s.line,
-                            r.column,
-                            "coordinate system rotation (G10 L2 R)",
-                        ));
-                    }
-                }
+                    // Degrees, whatever the length units.
+                    Some(r) => Some(r.value),
+                    None => None,
+                };
                 if l == 20 {
                     self.check_wrapped(w, axes, &values, s)?;
                 }
@@ -1488,29 +1523,75 @@ impl Interpreter {
                 } else {
                     p_int as usize
                 };
-                if system == usize::from(st.work_system) {
+                let active = system == usize::from(st.work_system);
+                if active {
                     self.refuse_with_comp(
                         s,
                         col,
                         "Cannot change the active coordinate system with cutter radius compensation on",
                     )?;
                 }
+                let rotated = st.rotation != 0.0 || st.work_rotations[system - 1] != 0.0;
+                // LinuxCNC's interpreter re-reads the current point
+                // without the G92 offset when the rotation of the active
+                // system changes (or G10 L20 sets a rotated one), while its
+                // motion keeps the machine point: the two disagree, so
+                // mtwin refuses rather than pick one.
+                let g92 = st.axis_offset[Axis::X] != 0.0 || st.axis_offset[Axis::Y] != 0.0;
+                let new_rotation = rotation.is_some_and(|r| r != st.rotation);
+                if active && g92 && (new_rotation || (l == 20 && rotated)) {
+                    return Err(GcodeError::unsupported(
+                        s.line,
+                        col,
+                        format!(
+                            "G10 L{l} {} of the active coordinate system while a G92 offset is in force",
+                            if l == 20 {
+                                "in a rotated system"
+                            } else {
+                                "changing the rotation"
+                            }
+                        ),
+                    ));
+                }
+                if l == 20 && rotated && !active {
+                    return Err(GcodeError::unsupported(
+                        s.line,
+                        col,
+                        "G10 L20 of a coordinate system other than the active one with a rotation (G10 L2 R) in force",
+                    ));
+                }
                 let current = in_system(system, false);
                 let mut offset = st.work_offsets[system - 1];
-                for a in axes.iter() {
-                    let v = values[a.index()];
-                    offset[a] = if l == 20 {
-                        current[a] + offset[a] - v
-                    } else {
-                        v
-                    };
+                if l == 20 && rotated {
+                    // The active system: the origin moves by the rotated
+                    // difference between the current point and the values
+                    // (LinuxCNC: the machine point stays, reading them).
+                    let mut delta = Axes::ZERO;
+                    for a in axes.iter() {
+                        delta[a] = current[a] - values[a.index()];
+                    }
+                    rotate_xy(&mut delta, st.rotation);
+                    offset = offset.add(&delta);
+                } else {
+                    for a in axes.iter() {
+                        let v = values[a.index()];
+                        offset[a] = if l == 20 {
+                            current[a] + offset[a] - v
+                        } else {
+                            v
+                        };
+                    }
                 }
                 self.state.work_offsets[system - 1] = offset;
-                if system == usize::from(self.state.work_system) {
+                if let Some(r) = rotation {
+                    self.state.work_rotations[system - 1] = r;
+                }
+                if active {
                     self.apply_offsets();
                     s.emit(EventKind::WorkOffset {
                         system: system as u8,
                         offset,
+                        rotation: self.state.rotation,
                     });
                 }
                 Ok(())
@@ -1520,6 +1601,13 @@ impl Interpreter {
                     return Err(s.invalid(col, format!("P value out of range with G10 L{l}")));
                 }
                 let tool = p_int as u32;
+                if l != 1 && st.rotation != 0.0 {
+                    return Err(GcodeError::unsupported(
+                        s.line,
+                        col,
+                        format!("G10 L{l} with a coordinate system rotation (G10 L2 R) in force"),
+                    ));
+                }
                 if axes.is_empty() && [b'R', b'Q', b'I', b'J'].iter().all(|&c| w.get(c).is_none()) {
                     return Err(s.invalid(col, "G10 L1 without offsets has no effect"));
                 }
@@ -1973,13 +2061,50 @@ impl Interpreter {
     /// Sets the total offset from the work, G92 and tool offsets in force,
     /// keeping the machine position.
     fn apply_offsets(&mut self) {
+        let machine = self.to_machine(&self.state.position);
         let st = &mut self.state;
-        let machine = st.position.add(&st.offset);
+        st.rotation = st.work_rotations[usize::from(st.work_system - 1)];
+        let mut g92 = st.axis_offset;
+        rotate_xy(&mut g92, st.rotation);
         let offset = st.work_offsets[usize::from(st.work_system - 1)]
-            .add(&st.axis_offset)
+            .add(&g92)
             .add(&st.tool_offset);
         st.offset = offset;
-        st.position = machine.sub(&offset);
+        self.state.position = self.to_work(&machine);
+    }
+
+    /// Machine coordinates of a work position (identity kinematics).
+    fn to_machine(&self, p: &Axes) -> Axes {
+        let mut m = *p;
+        rotate_xy(&mut m, self.state.rotation);
+        m.add(&self.state.offset)
+    }
+
+    /// Work coordinates of a machine position (identity kinematics).
+    fn to_work(&self, m: &Axes) -> Axes {
+        let mut p = m.sub(&self.state.offset);
+        rotate_xy(&mut p, -self.state.rotation);
+        p
+    }
+
+    /// A work position as the events give it: X Y rotated by the rotation
+    /// in force, so that machine = event position + offset.
+    fn event_point(&self, p: &Axes) -> Axes {
+        let mut q = *p;
+        rotate_xy(&mut q, self.state.rotation);
+        q
+    }
+
+    /// Refuses what this interpreter does not run in a rotated system.
+    fn check_rotation(&self, s: &Step) -> Result<(), GcodeError> {
+        if self.state.rotation != 0.0 && self.state.tcp {
+            return Err(GcodeError::unsupported(
+                s.line,
+                0,
+                "coordinate system rotation (G10 L2 R) with tool centre point control",
+            ));
+        }
+        Ok(())
     }
 
     /// The axis words of a block in canonical units (mm, degree).
@@ -2086,9 +2211,20 @@ impl Interpreter {
                 return Err(s.invalid(col, "G53 is not allowed with G91"));
             }
         }
+        if g53.is_some() && st.rotation != 0.0 {
+            // G53 in a rotated system: the named axes go to the machine
+            // position, the others keep theirs; X Y back to the rotated frame.
+            let mut m = self.to_machine(&from);
+            for axis in axes.iter() {
+                m[axis] = target[axis.index()];
+            }
+            to = self.to_work(&m);
+        }
         for axis in axes.iter() {
             let v = target[axis.index()];
-            to[axis] = if g53.is_some() {
+            to[axis] = if g53.is_some() && st.rotation != 0.0 {
+                to[axis]
+            } else if g53.is_some() {
                 v - st.offset[axis]
             } else if st.distance == DistanceMode::Incremental {
                 base[axis] + v
@@ -2138,6 +2274,7 @@ impl Interpreter {
                         f => f,
                     }
                 };
+                self.check_rotation(s)?;
                 if comp {
                     if let Some(col) = g53 {
                         return Err(s.invalid(col, "Cannot use g53 with cutter radius comp"));
@@ -2155,10 +2292,11 @@ impl Interpreter {
                         .comp
                         .straight(rapid, to, &info, &mut self.state.position, s.out);
                 }
+                let st = &self.state;
                 let lin = Linear {
-                    from: self.comp.physical_start(&from),
-                    to,
-                    offset: self.state.offset,
+                    from: self.event_point(&self.comp.physical_start(&from)),
+                    to: self.event_point(&to),
+                    offset: st.offset,
                     feed,
                     tcp: self.state.tcp,
                     words,
@@ -2202,7 +2340,7 @@ impl Interpreter {
                         &info,
                     )?;
                 }
-                let (center, turns) = self.arc_center(w, &base, &to, ccw, line)?;
+                let (mut center, turns) = self.arc_center(w, &base, &to, ccw, line)?;
                 if comp {
                     let center = [center[p.index()], center[q.index()]];
                     let units = self.state.units;
@@ -2229,10 +2367,24 @@ impl Interpreter {
                         s.out,
                     );
                 }
+                self.check_rotation(s)?;
                 let st = &self.state;
+                if st.rotation != 0.0 {
+                    if st.plane != Plane::Xy {
+                        return Err(GcodeError::unsupported(
+                            line,
+                            0,
+                            "coordinate system rotation (G10 L2 R) with an arc outside the XY plane",
+                        ));
+                    }
+                    let (sn, cs) = st.rotation.to_radians().sin_cos();
+                    let [x, y, _] = center;
+                    center[0] = x * cs - y * sn;
+                    center[1] = x * sn + y * cs;
+                }
                 EventKind::Arc(ArcMove {
-                    from: self.comp.physical_start(&from),
-                    to,
+                    from: self.event_point(&self.comp.physical_start(&from)),
+                    to: self.event_point(&to),
                     center,
                     plane: st.plane,
                     turns,
@@ -2358,6 +2510,15 @@ impl Interpreter {
                 format!(
                     "cutter radius compensation {code} in the Fanuc dialect (its offset numbers \
                      and start-up rules are not LinuxCNC's)"
+                ),
+            ));
+        }
+        if self.state.rotation != 0.0 {
+            return Err(GcodeError::unsupported(
+                s.line,
+                col,
+                format!(
+                    "cutter radius compensation {code} in a rotated coordinate system (G10 L2 R)"
                 ),
             ));
         }
@@ -2559,6 +2720,18 @@ fn motion_mode(code: GCode) -> MotionMode {
 
 /// LinuxCNC's `unwrap_rotary`: absolute target of a wrapped rotary axis,
 /// the sign of the programmed value giving the direction.
+/// Rotates X Y of `a` by `deg` degrees about Z (counter-clockwise seen
+/// from +Z, LinuxCNC's `rotate`); no change at all for 0.
+fn rotate_xy(a: &mut Axes, deg: f64) {
+    if deg == 0.0 {
+        return;
+    }
+    let (sn, cs) = deg.to_radians().sin_cos();
+    let (x, y) = (a[Axis::X], a[Axis::Y]);
+    a[Axis::X] = x * cs - y * sn;
+    a[Axis::Y] = x * sn + y * cs;
+}
+
 fn unwrap_rotary(commanded: f64, current: f64) -> Result<f64, String> {
     if commanded <= -360.0 || commanded >= 360.0 {
         return Err(format!(
@@ -3171,11 +3344,6 @@ mod tests {
         }
         assert_eq!(it.state().work_offsets[0][Axis::X], 7.0);
         assert_eq!(it.state().position[Axis::X], 3.0);
-        // Rotation is refused clearly, R = 0 is fine.
-        assert!(matches!(
-            run_with("G10 L2 P1 R30\n", InterpOptions::default()),
-            Err(GcodeError::Unsupported { .. })
-        ));
         run("G10 L2 P1 X1 R0\n");
         for bad in [
             "G10 L2 P10 X1\n",
@@ -3184,6 +3352,78 @@ mod tests {
             "G0 G10 L2 P1 X1\n",
         ] {
             assert!(run_with(bad, InterpOptions::default()).is_err(), "{bad}");
+        }
+    }
+
+    /// The state after running `src` (work position, machine position).
+    fn state_after(src: &str) -> ModalState {
+        let mut it = Interpreter::new(InterpOptions::default());
+        let mut ev = Vec::new();
+        for b in &Program::parse(src.as_bytes()).unwrap().blocks {
+            it.execute(b, &mut ev).unwrap();
+        }
+        it.state().clone()
+    }
+
+    #[test]
+    fn g10_l2_r_rotates_the_xy_plane() {
+        let near = |a: f64, b: f64| (a - b).abs() < 1e-12;
+        let xy = |v: &Axes| (v[Axis::X], v[Axis::Y]);
+        // Machine = R·program + offset: R90 takes (3, 4) to (-4, 3).
+        let m = moves(&run("G10 L2 P1 X2 R90\nG0 X3 Y4\n"));
+        let l = lin(&m[0]);
+        let machine = l.to.add(&l.offset);
+        assert!(near(machine[Axis::X], -2.0) && near(machine[Axis::Y], 3.0));
+        assert!(near(l.to[Axis::X], -4.0) && near(l.to[Axis::Y], 3.0));
+        // Setting the rotation of the active system keeps the machine point:
+        // (3, 4) in an unrotated G54 reads R(-90)·((3, 4) - (2, 0)) = (4, -1).
+        let st = state_after("G0 X3 Y4\nG10 L2 P1 X2 R90\n");
+        let (x, y) = xy(&st.position);
+        assert!(near(x, 4.0) && near(y, -1.0), "{x} {y}");
+        assert_eq!(st.rotation, 90.0);
+        // Switching systems: machine (10, 0) in G55 (X5, R90) reads (0, -5).
+        let st = state_after("G10 L2 P2 X5 R90\nG0 X10 Y0\nG55\n");
+        let (x, y) = xy(&st.position);
+        assert!(near(x, 0.0) && near(y, -5.0), "{x} {y}");
+        // G92 is in the rotated frame: machine = R·(program + G92) + G5x.
+        let st = state_after("G10 L2 P1 R90\nG0 X1 Y0\nG92 X0 Y0\nG0 X1\nG10 L2 P2 R0\nG55\n");
+        let (x, y) = xy(&st.position);
+        // Machine R90·(2, 0) = (0, 2); G55 has the G92 offset (1, 0) too.
+        assert!(near(x, -1.0) && near(y, 2.0), "{x} {y}");
+        // G53 to machine (10, 0) with G54 at X2 R90: R(-90)·(8, 0) = (0, -8).
+        let st = state_after("G10 L2 P1 X2 R90\nG53 G0 X10 Y0\n");
+        let (x, y) = xy(&st.position);
+        assert!(near(x, 0.0) && near(y, -8.0), "{x} {y}");
+        // G10 L20 in a rotated system: the current point reads the values.
+        let st = state_after("G10 L2 P1 X2 R90\nG0 X3 Y4\nG10 L20 P1 X0 Y0\n");
+        let (x, y) = xy(&st.work_offsets[0]);
+        assert!(near(x, -2.0) && near(y, 3.0), "{x} {y}");
+        // G28 to machine zero: R(-90)·((0, 0) - (2, 0)) = (0, 2).
+        let st = state_after("G10 L2 P1 X2 R90\nG0 X3 Y4\nG28\n");
+        let (x, y) = xy(&st.position);
+        assert!(near(x, 0.0) && near(y, 2.0), "{x} {y}");
+        // An XY arc turns with the plane: centre (1, 0) -> (0, 1), end
+        // (1, 1) -> (-1, 1); its turns are unchanged.
+        let m = moves(&run("G10 L2 P1 R90\nG0 X2 Y0\nG3 X1 Y1 I-1 F100\n"));
+        let a = arc(&m[1]);
+        assert!(near(a.center[0], 0.0) && near(a.center[1], 1.0));
+        assert!(near(a.to[Axis::X], -1.0) && near(a.to[Axis::Y], 1.0));
+        assert_eq!(a.turns, 1);
+        // Refused: arcs of other planes, TCP, L10/L11 while rotated.
+        for bad in [
+            "G10 L2 P1 R30\nG18 G2 X1 Z1 R1 F100\n",
+            "G10 L2 P1 R30\nM428\nG0 X1\n",
+            "G10 L2 P1 R30\nG10 L10 P1 Z1\n",
+            "G0 X1\nG92 X0\nG10 L2 P0 R30\n",
+            "G10 L2 P1 R30\nG92 Y2\nG10 L20 P1 X0\n",
+        ] {
+            assert!(
+                matches!(
+                    run_with(bad, InterpOptions::default()),
+                    Err(GcodeError::Unsupported { .. })
+                ),
+                "{bad}"
+            );
         }
     }
 

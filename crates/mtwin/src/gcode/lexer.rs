@@ -65,6 +65,14 @@ pub(crate) fn lex(text: &[u8], line: u64, items: &mut Vec<Item>) -> Result<(), G
                 items.push(Item::BlockDelete { at: start });
                 lx.i += 1;
             }
+            // Fanuc: `:1234` is the program number line `O1234` (ISO code);
+            // read as an O-word, which the LinuxCNC dialect refuses.
+            b':' if at_start => {
+                items.push(Item::OWord {
+                    span: Span::new(start, text.len()),
+                });
+                lx.i = text.len();
+            }
             b'#' => {
                 lx.parameter()?;
                 lx.skip_space();
@@ -213,31 +221,7 @@ impl Lexer<'_> {
                 Ok((Value::Parameter, Span::new(start, self.i), false))
             }
             Some(c) if c.is_ascii_alphabetic() => {
-                let name_end = j + self.b[j..]
-                    .iter()
-                    .take_while(|c| c.is_ascii_alphabetic())
-                    .count();
-                let name = self.b[j..name_end].to_ascii_uppercase();
-                if !FUNCTIONS.contains(&name.as_slice()) {
-                    return Err(self.err("a word letter must be followed by a number"));
-                }
-                self.i = name_end;
-                self.skip_space();
-                if self.peek() != Some(b'[') {
-                    return Err(self.err("a function name must be followed by '['"));
-                }
-                self.bracket()?;
-                if name == b"ATAN" {
-                    self.skip_space();
-                    if self.peek() == Some(b'/') {
-                        self.i += 1;
-                        self.skip_space();
-                        if self.peek() != Some(b'[') {
-                            return Err(self.err("ATAN[..] must be followed by /[..]"));
-                        }
-                        self.bracket()?;
-                    }
-                }
+                self.function_call(j, "a word letter must be followed by a number")?;
                 Ok((Value::Expression, Span::new(start, self.i), false))
             }
             _ => {
@@ -245,6 +229,38 @@ impl Lexer<'_> {
                 Err(self.err("a word letter must be followed by a number"))
             }
         }
+    }
+
+    /// A function call `NAME[..]` (`ATAN[..]/[..]`) whose name starts at
+    /// `j`; `not_function` is the error when the letters there name none.
+    fn function_call(&mut self, j: usize, not_function: &str) -> Result<(), GcodeError> {
+        let name_end = j + self.b[j..]
+            .iter()
+            .take_while(|c| c.is_ascii_alphabetic())
+            .count();
+        let name = self.b[j..name_end].to_ascii_uppercase();
+        if !FUNCTIONS.contains(&name.as_slice()) {
+            self.i = j;
+            return Err(self.err(not_function));
+        }
+        self.i = name_end;
+        self.skip_space();
+        if self.peek() != Some(b'[') {
+            return Err(self.err("a function name must be followed by '['"));
+        }
+        self.bracket()?;
+        if name == b"ATAN" {
+            self.skip_space();
+            if self.peek() == Some(b'/') {
+                self.i += 1;
+                self.skip_space();
+                if self.peek() != Some(b'[') {
+                    return Err(self.err("ATAN[..] must be followed by /[..]"));
+                }
+                self.bracket()?;
+            }
+        }
+        Ok(())
     }
 
     /// A number starting at `start` (sign, digits, one '.', spaces allowed
@@ -344,7 +360,9 @@ impl Lexer<'_> {
         ))
     }
 
-    /// A parameter reference `#n`, `#<name>`, `#[..]` or `##n` at `self.i`.
+    /// A parameter reference `#n`, `#<name>`, `#[..]`, `##n` or, as
+    /// LinuxCNC reads any value after `#`, a function call
+    /// (`#atan[1]/[1]` is `#45`) at `self.i`.
     fn parameter(&mut self) -> Result<(), GcodeError> {
         self.i += 1; // '#'
         self.skip_space();
@@ -359,6 +377,10 @@ impl Lexer<'_> {
             Some(b'[') => self.bracket(),
             Some(b'#') => self.parameter(),
             Some(b'0'..=b'9') => self.number(self.i).map(|_| ()),
+            Some(c) if c.is_ascii_alphabetic() => self.function_call(
+                self.i,
+                "'#' must be followed by a parameter number or <name>",
+            ),
             _ => Err(self.err("'#' must be followed by a parameter number or <name>")),
         }
     }

@@ -21,13 +21,14 @@
 //!   named local and global, read from a LinuxCNC var file with
 //!   [`read_var_file`]) are evaluated as LinuxCNC does; everything outside
 //!   the supported language (G33/G76, splines,
-//!   coordinate system rotation, ...) is an [`GcodeError::Unsupported`]
+//!   ...) is an [`GcodeError::Unsupported`]
 //!   error naming the line. G-codes are the [`GCode`] type. Dialects:
 //!   [`Dialect`] (LinuxCNC, Fanuc).
 //! * [`run_program`] ([`program_flow`]): the one driver every command uses:
-//!   O-word subroutines and loops, external subroutine files, Fanuc
-//!   M98/M99, `(DEBUG,…)`/`(PRINT,…)` messages; a program without O-words
-//!   streams, one with them is held in memory from its first O-word line.
+//!   O-word subroutines and loops, external subroutine files, Fanuc-style
+//!   M98/M99 programs, `(DEBUG,…)`/`(PRINT,…)` messages; a program without
+//!   O-words and M98/M99 streams, one with them is held in memory from its
+//!   first such line.
 //!   `compensate` keeps the program's structure and refuses a line whose
 //!   runs need different corrections (see docs/gcode.md).
 //! * [`stats`]: counts, path lengths, axis travel and ranges, estimated time.

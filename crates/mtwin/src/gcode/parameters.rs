@@ -280,6 +280,12 @@ impl Parameters {
         out
     }
 
+    /// The rotations about Z of G54 … G59.3 as the parameters hold them
+    /// (5230 + 20·k, G10 L2 R), degrees.
+    pub fn work_rotations(&self) -> [f64; 9] {
+        std::array::from_fn(|k| self.get(5230 + 20 * k as u32))
+    }
+
     /// Marks `n` as listed in the var file (written back).
     pub(crate) fn mark_listed(&mut self, n: u32) {
         self.listed.insert(n);

@@ -16,10 +16,15 @@
 //!   [`ProgramOptions::subroutine_path`] that has it (LinuxCNC's
 //!   `SUBROUTINE_PATH`); its events carry the file's number
 //!   ([`SourcePos::file`], see [`RunSummary::files`]).
-//! * Fanuc: an `O1234` line starts a subprogram ending at `M99`; `M98 P1234
-//!   L3` calls it three times (the `P` form with the repeat count in front
-//!   of four program digits is not read). `M99` in the main program (endless
-//!   repeat) is refused.
+//! * Fanuc: an `O1234` (or `:1234`) line starts a subprogram ending at
+//!   `M99`; `M98 P1234 L3` calls it three times (the `P` form with the
+//!   repeat count in front of four program digits is not read). `M99` in
+//!   the main program (endless repeat) is refused.
+//! * LinuxCNC runs the same numbered programs its own way: M98 searches
+//!   forward from the call for the `O1234` line, a program line met in the
+//!   flow does nothing, and `M99` of the main program ends it (as M2, as
+//!   LinuxCNC's standalone interpreter). `o#<n> call` and `O[expr] call`
+//!   compute the label.
 //! * `(DEBUG,…)`, `(PRINT,…)` and `(ABORT,…)` comments go to [`ProgramOptions::messages`]
 //!   with `#n` / `#<name>` replaced by their values (six decimals, as
 //!   LinuxCNC prints them; an undefined name prints `######`); an
@@ -245,19 +250,29 @@ where
             seen_words |= block.words().next().is_some();
             t
         } else {
+            // LinuxCNC runs Fanuc-style M98/M99 subprograms too.
             block
                 .items()
                 .iter()
                 .any(|i| matches!(i, Item::OWord { .. }))
+                || has_m(&block, 98, interp.parameters())
+                || has_m(&block, 99, interp.parameters())
         };
         if trigger && !interp.ended() {
             let mut held = vec![std::mem::take(&mut block)];
             // A line that does not parse is an error only if it runs (text
             // after the program end is never read by LinuxCNC).
             let mut bad = HashMap::new();
+            // LinuxCNC reads nothing after the closing `%` of a program that
+            // opens with one (a subroutine defined there is not found).
+            let percent = interp.percent_opened();
             loop {
                 match reader.read_block(&mut block) {
                     Ok(false) => break,
+                    Ok(true) if percent && block.is_percent() && block.items().len() == 1 => {
+                        held.push(std::mem::take(&mut block));
+                        break;
+                    }
                     Ok(true) => held.push(std::mem::take(&mut block)),
                     Err(e @ GcodeError::Syntax { .. }) => {
                         bad.insert(held.len(), e);
@@ -273,6 +288,8 @@ where
                 fanuc,
                 executed: summary.executed,
                 entering_elseif: false,
+                m98_found: HashMap::new(),
+                recorded: std::collections::HashSet::new(),
             };
             flow.run(interp, &mut sink)?;
             interp.finish()?;
@@ -468,6 +485,9 @@ const KEYWORDS: [(&str, Kind); 16] = [
 #[derive(Debug, Clone)]
 struct Stmt {
     label: String,
+    /// A label computed when the statement runs (`o#<n> call`,
+    /// `O[#2 * 10] call`): the byte range of its expression in the block.
+    label_expr: Option<(usize, usize)>,
     kind: Kind,
     /// Byte offset in the block text of what follows the keyword.
     rest: usize,
@@ -486,6 +506,9 @@ struct Code {
     blocks: Vec<Block>,
     stmts: Vec<Option<Stmt>>,
     subs: HashMap<String, usize>,
+    /// LinuxCNC dialect: the `O1234` program lines and `sub` statements of
+    /// each label, in source order (what M98 searches forward for).
+    numbered: HashMap<String, Vec<usize>>,
     file: u32,
     /// Lines that did not parse (by index): their error if they run.
     bad: HashMap<usize, GcodeError>,
@@ -524,6 +547,7 @@ impl Code {
             blocks,
             stmts,
             subs: HashMap::new(),
+            numbered: HashMap::new(),
             file,
             bad,
         };
@@ -551,17 +575,16 @@ impl Code {
                     .and_then(|&j| stmts[j].as_ref())
                     .is_some_and(|o| o.label == st.label && kinds.contains(&o.kind))
             };
+            if !fanuc && matches!(st.kind, Kind::Program | Kind::Sub) {
+                self.numbered.entry(st.label.clone()).or_default().push(i);
+            }
             match st.kind {
                 Kind::Program => {
                     if !fanuc {
-                        return Err(self.err(
-                            i,
-                            col,
-                            format!(
-                                "O-word o{} without a statement (sub, call, if, while, ...)",
-                                st.label
-                            ),
-                        ));
+                        // LinuxCNC: a program line reached in the flow does
+                        // nothing; M98 runs from it to its M99.
+                        self.set(i, usize::MAX, usize::MAX);
+                        continue;
                     }
                     if !seen_words {
                         // The main program's name: nothing to skip.
@@ -775,6 +798,15 @@ fn parse_stmt(block: &Block, fanuc: bool) -> Result<Option<Stmt>, GcodeError> {
         return Ok(None);
     };
     let line = block.line();
+    let text = block.text();
+    let colon = text[span.start] == b':';
+    if colon && !fanuc {
+        return Err(GcodeError::syntax(
+            line,
+            span.start + 1,
+            "unexpected character ':' (a ':1234' program number line is Fanuc's; use O1234)",
+        ));
+    }
     if block.words().any(|w| w.letter != b'N') {
         return Err(GcodeError::invalid(
             line,
@@ -782,7 +814,6 @@ fn parse_stmt(block: &Block, fanuc: bool) -> Result<Option<Stmt>, GcodeError> {
             "an O-word statement cannot share its line with other words",
         ));
     }
-    let text = block.text();
     let mut i = span.start + 1;
     let skip = |i: &mut usize| {
         while text.get(*i).is_some_and(|c| matches!(c, b' ' | b'\t')) {
@@ -790,7 +821,18 @@ fn parse_stmt(block: &Block, fanuc: bool) -> Result<Option<Stmt>, GcodeError> {
         }
     };
     skip(&mut i);
+    let mut label_expr = None;
     let label = match text.get(i) {
+        // A computed label (LinuxCNC reads any value after O): `o#<n>`,
+        // `o#5`, `O[#2 * 10]`; evaluated when the statement runs.
+        Some(b'#' | b'[') => {
+            let s = i;
+            i = value_end(text, i, span.end).ok_or_else(|| {
+                GcodeError::syntax(line, s + 1, "O-word label expression is not closed")
+            })?;
+            label_expr = Some((s, i));
+            String::from_utf8_lossy(&text[s..i]).into_owned()
+        }
         Some(b'<') => {
             let Some(k) = text[i..span.end].iter().position(|&c| c == b'>') else {
                 return Err(GcodeError::syntax(
@@ -869,21 +911,84 @@ fn parse_stmt(block: &Block, fanuc: bool) -> Result<Option<Stmt>, GcodeError> {
             ),
         ));
     };
-    if kind == Kind::Program && !fanuc {
+    if colon && (kind != Kind::Program || !label.bytes().all(|c| c.is_ascii_digit())) {
         return Err(GcodeError::syntax(
             line,
-            kw_start + 1,
-            "an O-word needs a statement (sub, endsub, call, return, if, elseif, else, endif, while, endwhile, do, repeat, endrepeat, break, continue)",
+            span.start + 1,
+            "':' must be followed by a program number and nothing else (':1234' is O1234)",
+        ));
+    }
+    if label_expr.is_some() && kind != Kind::Call {
+        return Err(GcodeError::unsupported(
+            line,
+            span.start + 1,
+            format!(
+                "a computed O-word label (o{label}) other than on call (on {})",
+                if kind == Kind::Program {
+                    "a program number line"
+                } else {
+                    keyword(kind)
+                }
+            ),
         ));
     }
     Ok(Some(Stmt {
         label,
+        label_expr,
         kind,
         rest: i,
         column: span.start + 1,
         a: usize::MAX,
         b: usize::MAX,
     }))
+}
+
+/// End (exclusive) of the parameter reference (`#n`, `#<name>`, `#[..]`,
+/// `##..`) or `[..]` expression starting at `i`, within `text[..end]`.
+fn value_end(text: &[u8], mut i: usize, end: usize) -> Option<usize> {
+    match text.get(i)? {
+        b'[' => {
+            let mut depth = 0usize;
+            while i < end {
+                match text[i] {
+                    b'[' => depth += 1,
+                    b']' => {
+                        depth -= 1;
+                        if depth == 0 {
+                            return Some(i + 1);
+                        }
+                    }
+                    _ => {}
+                }
+                i += 1;
+            }
+            None
+        }
+        b'#' => {
+            i += 1;
+            while text.get(i).is_some_and(|c| matches!(c, b' ' | b'\t')) {
+                i += 1;
+            }
+            match text.get(i)? {
+                b'<' => {
+                    let k = text[i..end].iter().position(|&c| c == b'>')?;
+                    Some(i + k + 1)
+                }
+                b'[' | b'#' => value_end(text, i, end),
+                c if c.is_ascii_digit() => {
+                    while text
+                        .get(i)
+                        .is_some_and(|c| c.is_ascii_digit() || *c == b'.')
+                    {
+                        i += 1;
+                    }
+                    Some(i)
+                }
+                _ => None,
+            }
+        }
+        _ => None,
+    }
 }
 
 struct Frame {
@@ -912,6 +1017,12 @@ struct Flow<'a> {
     /// The next statement is an `elseif` reached because the branch before
     /// it was not taken (evaluate it) rather than after a taken branch.
     entering_elseif: bool,
+    /// LinuxCNC dialect: the programs M98 has found, by code and label
+    /// (later calls go back to them).
+    m98_found: HashMap<(usize, String), usize>,
+    /// LinuxCNC dialect: `sub` statements (code, index) the flow has
+    /// passed or called; reaching one again is an error, as in LinuxCNC.
+    recorded: std::collections::HashSet<(usize, usize)>,
 }
 
 impl Flow<'_> {
@@ -957,13 +1068,49 @@ impl Flow<'_> {
             let fail = |files: &[PathBuf], e: GcodeError| -> E { err_at(file, files, e).into() };
             let line = block.line();
             let Some(st) = self.codes[c].stmts[pc].clone() else {
-                // An ordinary block (or Fanuc M98/M99).
-                if self.fanuc
-                    && !interp.ended()
+                // An ordinary block (or Fanuc-style M98/M99).
+                if !interp.ended()
                     && let Some((call, col)) = self
                         .fanuc_call(block, interp.parameters())
                         .map_err(|e| fail(&self.files, e))?
                 {
+                    if matches!(call, FanucCall::M99) && !self.fanuc {
+                        match frames.last() {
+                            // LinuxCNC's standalone interpreter ends the
+                            // program at an M99 of the main program (its
+                            // task would run it again, endlessly).
+                            None => {
+                                let end =
+                                    Block::parse(b"M2", line).map_err(|e| fail(&self.files, e))?;
+                                events.clear();
+                                interp
+                                    .execute(&end, &mut events)
+                                    .map_err(|e| fail(&self.files, e))?;
+                                for e in &mut events {
+                                    e.at.file = file;
+                                }
+                                sink(&Step {
+                                    block,
+                                    events: &events,
+                                    interp,
+                                    file,
+                                    held: true,
+                                })?;
+                                continue;
+                            }
+                            Some(f) if f.saved.is_some() => {
+                                return Err(fail(
+                                    &self.files,
+                                    GcodeError::invalid(
+                                        line,
+                                        col,
+                                        "M99 inside an O-word subroutine (it ends with endsub or return)",
+                                    ),
+                                ));
+                            }
+                            Some(_) => {}
+                        }
+                    }
                     {
                         sink(&Step {
                             block,
@@ -974,16 +1121,16 @@ impl Flow<'_> {
                         })?;
                         match call {
                             FanucCall::M98(prog, count) => {
-                                let Some(&start) = self.codes[0].subs.get(&prog) else {
-                                    return Err(fail(
-                                        &self.files,
-                                        GcodeError::invalid(
-                                            line,
-                                            col,
-                                            format!("M98: no subprogram O{prog} in the program"),
-                                        ),
-                                    ));
+                                let target = if self.fanuc {
+                                    self.codes[0].subs.get(&prog).map(|&s| (0, s)).ok_or_else(
+                                        || format!("M98: no subprogram O{prog} in the program"),
+                                    )
+                                } else {
+                                    self.m98_target(c, pc, &prog)
                                 };
+                                let (tc, start) = target.map_err(|m| {
+                                    fail(&self.files, GcodeError::invalid(line, col, m))
+                                })?;
                                 if frames.len() >= MAX_CALL_DEPTH {
                                     return Err(fail(
                                         &self.files,
@@ -1001,7 +1148,7 @@ impl Flow<'_> {
                                     continue;
                                 }
                                 frames.push(Frame {
-                                    code: 0,
+                                    code: tc,
                                     ret: pc + 1,
                                     ret_code: c,
                                     saved: None,
@@ -1009,7 +1156,7 @@ impl Flow<'_> {
                                     repeat: count - 1,
                                     start: start + 1,
                                 });
-                                c = 0;
+                                c = tc;
                                 pc = start + 1;
                             }
                             FanucCall::M99 => {
@@ -1104,7 +1251,25 @@ impl Flow<'_> {
                 }
             };
             match st.kind {
-                Kind::Sub => pc = st.a + 1,
+                Kind::Sub => {
+                    // LinuxCNC records a definition when the flow passes it
+                    // or a call finds it; meeting it again is an error.
+                    if !self.fanuc && !self.recorded.insert((c, pc)) {
+                        return Err(fail(
+                            &self.files,
+                            GcodeError::invalid(
+                                line,
+                                col,
+                                format!(
+                                    "sub o{} found in illegal location: the program reaches a \
+                                     definition after calling it, or a second time",
+                                    st.label
+                                ),
+                            ),
+                        ));
+                    }
+                    pc = st.a + 1;
+                }
                 Kind::Program => {
                     pc = if st.a == usize::MAX { pc + 1 } else { st.a + 1 };
                 }
@@ -1137,6 +1302,11 @@ impl Flow<'_> {
                 }
                 Kind::Call => {
                     let v = args("call").map_err(|e| fail(&self.files, e))?;
+                    let label = match st.label_expr {
+                        None => st.label.clone(),
+                        Some((a, b)) => computed_label(&block.text()[a..b], params)
+                            .map_err(|m| fail(&self.files, GcodeError::invalid(line, a + 1, m)))?,
+                    };
                     if frames.len() >= MAX_CALL_DEPTH {
                         return Err(fail(
                             &self.files,
@@ -1151,8 +1321,9 @@ impl Flow<'_> {
                         ));
                     }
                     let (tc, start) = self
-                        .find_sub(c, &st.label)
+                        .find_sub(c, &label)
                         .map_err(|m| fail(&self.files, GcodeError::invalid(line, col, m)))?;
+                    self.recorded.insert((tc, start));
                     let saved = interp.parameters_mut().enter_call(&v);
                     let _ = interp.parameters_mut().set_named("_value_returned", 0.0);
                     frames.push(Frame {
@@ -1363,6 +1534,33 @@ impl Flow<'_> {
         )))
     }
 
+    /// LinuxCNC dialect: the code and statement index of the program line
+    /// `O<label>` an M98 in code `c` at `pc` runs: one an earlier M98 found,
+    /// else the first after the call (LinuxCNC searches the file forward).
+    fn m98_target(&mut self, c: usize, pc: usize, label: &str) -> Result<(usize, usize), String> {
+        if let Some(&s) = self.m98_found.get(&(c, label.to_string())) {
+            return Ok((c, s));
+        }
+        let code = &self.codes[c];
+        let Some(&s) = code
+            .numbered
+            .get(label)
+            .and_then(|v| v.iter().find(|&&k| k > pc))
+        else {
+            return Err(format!(
+                "M98 P{label}: no program line O{label} after the call (LinuxCNC searches \
+                 forward from the call to the end of the file)"
+            ));
+        };
+        if code.kind(s) == Kind::Sub {
+            return Err(format!(
+                "M98 P{label}: o{label} is an O-word subroutine, called with o{label} call"
+            ));
+        }
+        self.m98_found.insert((c, label.to_string()), s);
+        Ok((c, s))
+    }
+
     /// The code and statement index of subroutine `label`: the program's own
     /// definitions first, then the calling file's, then `label.ngc` on the
     /// search path (read once).
@@ -1375,6 +1573,16 @@ impl Flow<'_> {
         }
         if let Some(k) = (1..self.codes.len()).find(|&k| self.codes[k].subs.contains_key(label)) {
             return Ok((k, self.codes[k].subs[label]));
+        }
+        if !self.fanuc
+            && self.codes[from]
+                .numbered
+                .get(label)
+                .is_some_and(|v| v.iter().any(|&k| self.codes[from].kind(k) == Kind::Program))
+        {
+            return Err(format!(
+                "O{label} is a program line (Fanuc style), called with M98 P{label}, not o{label} call"
+            ));
         }
         let name = format!("{label}.ngc");
         let Some(path) = self
@@ -1403,6 +1611,20 @@ impl Flow<'_> {
         self.codes.push(code);
         Ok((self.codes.len() - 1, s))
     }
+}
+
+/// The label of a computed `o#<n> call` / `O[expr] call`: the value as an
+/// integer (within 0.0001, LinuxCNC's tolerance), written as a number label.
+fn computed_label(text: &[u8], params: &Parameters) -> Result<String, String> {
+    let v = expr::eval(text, params).map_err(|e| e.to_string())?;
+    let r = v.round();
+    if (v - r).abs() > 1e-4 || !(0.0..=1e15).contains(&r) {
+        return Err(format!(
+            "O-word label {} is {v}: not a non-negative integer",
+            String::from_utf8_lossy(text)
+        ));
+    }
+    Ok(format!("{}", r as u64))
 }
 
 fn located_text(e: &GcodeError) -> String {
@@ -1714,6 +1936,138 @@ mod tests {
         assert!(e.to_string().contains("M99 in the main program"), "{e}");
         let e = moves_with("M98 P7\nM30\n", opts).unwrap_err();
         assert!(e.to_string().contains("no subprogram O7"), "{e}");
+    }
+
+    #[test]
+    fn fanuc_colon_program_numbers() {
+        let opts = InterpOptions {
+            dialect: Dialect::Fanuc {
+                decimal_point_programming: true,
+            },
+            ..InterpOptions::default()
+        };
+        // `:1234` is `O1234`: the name at the top, a subprogram further on.
+        let src = "%\n:0001 (MAIN)\nG0 X1.\nM98 P2000 L2\nM30\n:2000\nG91 G0 Y5.\nG90\nM99\n%\n";
+        let m = moves_with(src, opts.clone()).unwrap();
+        let ends: Vec<[f64; 3]> = m.iter().map(|(p, _)| *p).collect();
+        assert_eq!(
+            ends,
+            vec![[1.0, 0.0, 0.0], [1.0, 5.0, 0.0], [1.0, 10.0, 0.0]]
+        );
+        for bad in [":12 G0 X1.\n", ":<name>\nM30\n", ":12 sub\nM30\n"] {
+            let e = moves_with(bad, opts.clone()).unwrap_err();
+            assert_eq!(e.location().unwrap().line, 1, "{bad:?}: {e}");
+        }
+        // The LinuxCNC dialect has no ':' program numbers.
+        let e = err(":1234\nG0 X1\nM2\n");
+        assert!(e.to_string().contains("':'"), "{e}");
+        assert_eq!(e.location().unwrap().column, 1);
+    }
+
+    #[test]
+    fn linuxcnc_numbered_programs_and_m98() {
+        // M98 P5 L2 runs O5 twice (X+1 each, incremental), then the main
+        // program goes on; O5 is found forward from the call.
+        let src = "G0 X1\nM98 P5 L2\nG0 Y2\nM2\nO5\nG91 G0 X1\nG90\nM99\n";
+        let m = moves_with(src, InterpOptions::default()).unwrap();
+        let ends: Vec<[f64; 3]> = m.iter().map(|(p, _)| *p).collect();
+        assert_eq!(
+            ends,
+            vec![
+                [1.0, 0.0, 0.0],
+                [2.0, 0.0, 0.0],
+                [3.0, 0.0, 0.0],
+                [3.0, 2.0, 0.0]
+            ]
+        );
+        // M98 passes #1..#30 as they are (no local copy).
+        assert_eq!(
+            xs("#1=5\nM98 P1\nG0 X#1\nM2\nO1\n#1=[#1+1]\nM99\n"),
+            vec![6.0]
+        );
+        // A program line met in the flow does nothing; M99 of the main
+        // program ends it (as M2: a program end event, nothing after).
+        let mut ended = false;
+        let mut xs_seen = Vec::new();
+        interpret(
+            "O1 (main)\nG0 X1\nO2\nG0 X2\nM99\nG0 X3\nM2\n".as_bytes(),
+            InterpOptions::default(),
+            |_, events| {
+                for e in events {
+                    match e.kind {
+                        EventKind::Traverse(m) => xs_seen.push(m.to[Axis::X]),
+                        EventKind::ProgramEnd => ended = true,
+                        _ => {}
+                    }
+                }
+                Ok(())
+            },
+        )
+        .unwrap();
+        assert_eq!(xs_seen, vec![1.0, 2.0]);
+        assert!(ended);
+        // Named program line.
+        assert_eq!(xs("O<part>\nG0 X4\nM30\n"), vec![4.0]);
+        // Backward M98 (LinuxCNC searches forward only), M98 of an O-word
+        // sub, o-call of a program line, M99 in an O-word sub.
+        for (src, what, line) in [
+            (
+                "M98 P6\nM2\nO5\nG0 Y1\nM99\nO6\nM98 P5\nM99\n",
+                "no program line O5 after the call",
+                7,
+            ),
+            ("M98 P5\nM2\nO5 sub\nO5 endsub\n", "called with o5 call", 1),
+            ("O5 call\nM2\nO5\nM99\n", "called with M98 P5", 1),
+            (
+                "O1 call\nM2\nO1 sub\nM99\nO1 endsub\n",
+                "M99 inside an O-word subroutine",
+                4,
+            ),
+        ] {
+            let e = err(src);
+            assert!(e.to_string().contains(what), "{src:?}: {e}");
+            assert_eq!(e.location().unwrap().line, line, "{src:?}");
+        }
+    }
+
+    #[test]
+    fn computed_call_labels() {
+        // O[#2 * 10] is o100; o#<s> with #<s> = 2 is o2.
+        let src = "#2=10\nO[#2*10] call\n#<s>=2\no#<s> call\nM2\n\
+                   O100 sub\nG0 X1\nO100 endsub\no2 sub\nG0 X2\no2 endsub\n";
+        assert_eq!(xs(src), vec![1.0, 2.0]);
+        let e = err("#2=2\nO[#2*1.25] call\nM2\nO2 sub\nO2 endsub\n");
+        assert!(e.to_string().contains("not a non-negative integer"), "{e}");
+        let e = err("#1=1\no#1 sub\no#1 endsub\n");
+        assert!(e.to_string().contains("computed O-word label"), "{e}");
+    }
+
+    #[test]
+    fn a_sub_reached_after_its_call_is_refused() {
+        // LinuxCNC: a forward call records the definition; the flow then
+        // reaching it is "found in illegal location".
+        let e = err("G0 X1\nO2 call\nO2 sub\nG0 Y1\nO2 endsub\nM2\n");
+        assert!(e.to_string().contains("illegal location"), "{e}");
+        assert_eq!(e.location().unwrap().line, 3);
+        // Defined first, called later: fine.
+        assert_eq!(
+            xs("O2 sub\nG91 G0 X7\nG90\nO2 endsub\nO2 call\nO2 call\nM2\n"),
+            vec![7.0, 14.0]
+        );
+    }
+
+    #[test]
+    fn function_values_after_hash() {
+        // LinuxCNC reads any value after '#': atan(1/1) = 45°, sin 90° = 1.
+        assert_eq!(
+            moves_with(
+                "#atan[1]/[1]=3\n#sin[90]=7\nG0 X#45 Y#1 Z#[atan[1]/[1]]\n",
+                InterpOptions::default()
+            )
+            .unwrap()[0]
+                .0,
+            [3.0, 7.0, 3.0]
+        );
     }
 
     #[test]

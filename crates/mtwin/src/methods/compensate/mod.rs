@@ -513,7 +513,18 @@ impl Compensator {
         {
             run.lost_arc = None;
         }
-        Ok(changed || block.text().len() != before)
+        let changed = changed || block.text().len() != before;
+        if (changed || !inserted.is_empty()) && interp.state().rotation != 0.0 {
+            // The words of a rotated system (G10 L2 R) are not along the
+            // machine axes the corrections are computed on.
+            return Err(GcodeError::unsupported(
+                events.first().map_or(0, |e| e.at.line),
+                0,
+                "correction of a move in a rotated coordinate system (G10 L2 R)",
+            )
+            .into());
+        }
+        Ok(changed)
     }
 
     /// Machine axis positions of program coordinates `p` (plain program).

@@ -563,3 +563,30 @@ fn cycles_round_trip_and_corrections_inside_them_are_refused() {
         other => panic!("expected a refusal, got {other}"),
     }
 }
+
+#[test]
+fn moves_in_a_rotated_system_round_trip_but_are_not_corrected() {
+    // A rotated system (G10 L2 R) with a zero-error model: copied byte for
+    // byte; with errors: refused naming the first corrected line (its X Y
+    // words are not along the machine axes the corrections are made on).
+    let prog = "G21 G90 G94\nG10 L2 P1 X5 R30\nG0 X10 Y20 Z-50\nG1 X100 Y-50 Z-60 F1000\nM30\n";
+    let (out, _) = run(
+        &example("ac-trunnion.toml"),
+        prog.as_bytes(),
+        &CompensateOptions::default(),
+    );
+    assert_eq!(out, prog.as_bytes());
+    let err = compensate(
+        &example("ac-trunnion-with-errors.toml"),
+        prog.as_bytes(),
+        Vec::new(),
+        &CompensateOptions::default(),
+    )
+    .unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        (msg.ends_with("at line 3") || msg.ends_with("at line 4"))
+            && msg.contains("rotated coordinate system"),
+        "{msg}"
+    );
+}
