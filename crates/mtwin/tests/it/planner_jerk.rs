@@ -499,6 +499,12 @@ fn boat_under_jerk_limits() {
     assert_limits(&s, &m);
     assert_rest(&s, &m);
     assert!(sum.duration >= st.feed_time);
+    // For docs/gcode.md: the same machine stopping at every block.
+    let mut o = InterpolateOptions::new(TS);
+    o.plan = PlanOptions::new(Planner::ExactStop);
+    let stop = mtwin::gcode::planned_duration(text.as_bytes(), &m, &o).unwrap();
+    eprintln!("boat exact-stop: {stop:.3} s");
+    assert!(stop >= st.feed_time);
 }
 
 /// The example trunnion with LinuxCNC's xyzac-trt limits and jerk 3000 /s³.

@@ -59,6 +59,16 @@
 //! * Starts and ends at rest (`ṡ = s̈ = 0`) at the first and last point.
 //! * Planning and sampling cost is linear in the number of points (plus a
 //!   sort of the interval ends).
+//!
+//! # Numerics
+//!
+//! The third differences of samples `ts` apart amplify position noise by
+//! `1/ts³` (1e9 at 1 ms), and a whole program can be one path of metres
+//! and many minutes. The filtered position is therefore integrated
+//! relative to the start of a nearby raw piece (not as the difference of a
+//! running integral, nor rounded to the magnitude of `s` before the spline
+//! is evaluated), and [`Cursor::at_clock`] / [`TimeLaw::sampler`] round
+//! the sample time once, inside the profile.
 
 use std::cmp::{Ordering, Reverse};
 use std::collections::BinaryHeap;
