@@ -2503,13 +2503,26 @@ mod tests {
         // The dwell ends the first chain; G61.1 makes one chain per move.
         assert_eq!(chains.len(), 3);
         let c = &chains[0];
-        // 10 mm then 5 mm in 1 mm steps: 16 points, s up to 15, caps 10 mm/s.
-        assert_eq!(c.s.len(), 16);
-        assert!((c.s[15] - 15.0).abs() < 1e-12);
-        assert_eq!(c.q[15], vec![10.0, 5.0, 0.0]);
+        // 10 mm then 5 mm in 1 mm steps, caps 10 mm/s; the G64 corner at
+        // (10, 0) blended within P = step/4 = 0.25 mm: d = 64 P / 7 of each
+        // move replaced by a curve at least the chord d√2 long.
+        let n = c.s.len();
+        let d = 64.0 * 0.25 / 7.0;
+        assert!(c.s.windows(2).all(|w| w[1] > w[0]));
+        assert!(c.s[n - 1] < 15.0 && c.s[n - 1] >= 15.0 - 2.0 * d + d * 2f64.sqrt());
+        assert_eq!(c.q[n - 1], vec![10.0, 5.0, 0.0]);
         assert_eq!(c.q[4], vec![4.0, 0.0, 0.0]);
+        for q in &c.q {
+            let d1 = (q[0].clamp(0.0, 10.0) - q[0]).hypot(q[1]);
+            let d2 = (q[0] - 10.0).hypot(q[1].clamp(0.0, 5.0) - q[1]);
+            assert!(d1.min(d2) <= 0.25 + 1e-12, "{q:?} off the path");
+        }
+        assert!(
+            c.q.iter()
+                .any(|q| (q[0] - 10.0).hypot(q[1]) > 0.01 && q[0] > 8.0 && q[1] < 2.0)
+        );
         assert!(c.v_cap.iter().all(|&v| (v - 10.0).abs() < 1e-12));
-        assert_eq!(c.line[15], 2);
+        assert_eq!(c.line[n - 1], 2);
         // X10 Y5 -> X0 Y0: √125 mm, 12 points.
         assert!((chains[1].s.last().unwrap() - 125f64.sqrt()).abs() < 1e-12);
         assert_eq!(chains[1].s.len(), 13);
