@@ -1870,7 +1870,7 @@ impl<'m> Walker<'m> {
         let c = cur.from;
         let pts: Vec<Axes> = pts_blend_iter(&c, &e1, &e2, d, nb).collect();
         let chords: Vec<f64> = pts.windows(2).map(|w| w[1].sub(&w[0]).xyz_norm()).collect();
-        if chords.iter().any(|x| !(*x > 0.0)) {
+        if chords.iter().any(|x| x.is_nan() || *x <= 0.0) {
             return Ok(Corner::None);
         }
         if let Some(lim) = &self.limits {
