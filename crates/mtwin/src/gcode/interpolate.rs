@@ -1488,11 +1488,80 @@ const CORNER_ANGLE: f64 = 1.0f64.to_radians();
 /// Smallest dense-path step that `G64 P` may ask for.
 const MIN_JERK_STEP: f64 = 1e-3;
 
+/// The last straight move of a chain (program coordinates), for the corner
+/// blend of the next one under G64.
+#[derive(Debug, Clone, Copy)]
+struct LastLine {
+    from: Axes,
+    to: Axes,
+    offset: Axes,
+    tcp: bool,
+    /// Path length (XYZ), mm.
+    len: f64,
+    /// Length taken from its start by a corner blend, mm.
+    cut0: f64,
+}
+
+/// What to do at a corner between two straight moves under G64.
+enum Corner {
+    /// No corner (collinear) or nothing to blend: go on.
+    None,
+    /// Blended: the fraction of the new move the blend took.
+    Blend(f64),
+    /// Stop at the corner: blending within the tolerance is slower.
+    Stop,
+}
+
+/// Points of a G64 corner blend between two straight moves under the `jerk`
+/// planner, at least.
+const BLEND_POINTS: usize = 16;
+
+/// The G64 corner blend of the `jerk` planner between a straight move along
+/// the unit direction `e1` (per mm of XYZ path) ending at the corner `c`
+/// and one along `e2` leaving it: the quintic Bézier curve with the control
+/// points `c − d e1`, `c − d e1 / 2`, `c`, `c`, `c + d e2 / 2`, `c + d e2`,
+/// at `λ` in [0, 1]. Three control points on each line make the curve
+/// meet the lines with the same tangent and zero curvature (C² with the
+/// lines, so the joint spline through it needs no speed drop at its ends).
+/// For `λ ≤ 1/2` the curve point is `x1 + d (b4/2 + b5) e2`, with `x1` on
+/// the incoming line within `d` of the corner and `b_k` the Bernstein
+/// polynomials; `b4/2 + b5 ≤ 7/64` there (at `λ = 1/2`); symmetrically for
+/// `λ ≥ 1/2`. So the curve stays within `7 d / 64` of the programmed path:
+/// `d = 64 P / 7` keeps it within the tolerance `P`.
+pub(crate) fn corner_blend(c: &Axes, e1: &Axes, e2: &Axes, d: f64, lambda: f64) -> Axes {
+    let (l, m) = (lambda, 1.0 - lambda);
+    let b0 = m.powi(5);
+    let b1 = 5.0 * l * m.powi(4);
+    let b4 = 5.0 * l.powi(4) * m;
+    let b5 = l.powi(5);
+    let (w1, w2) = (d * (b0 + b1 / 2.0), d * (b4 / 2.0 + b5));
+    Axes(std::array::from_fn(|i| {
+        c.0[i] - w1 * e1.0[i] + w2 * e2.0[i]
+    }))
+}
+
+/// The points of [`corner_blend`] at `λ = j / nb`, `j = 0..=nb`.
+fn pts_blend_iter<'a>(
+    c: &'a Axes,
+    e1: &'a Axes,
+    e2: &'a Axes,
+    d: f64,
+    nb: usize,
+) -> impl Iterator<Item = Axes> + 'a {
+    (0..=nb).map(move |j| corner_blend(c, e1, e2, d, j as f64 / nb as f64))
+}
+
 /// Cuts a program into [`Stretch`]es for the `jerk` planner (see
 /// [`dense_paths`]).
 struct Walker<'m> {
     ip: Interpolator<'m>,
     chain: DensePath,
+    /// The chain's last move when it is straight (for a G64 corner blend).
+    last: Option<LastLine>,
+    /// The joint limits, when the machine gives them all (a G64 corner
+    /// blend that is slower than a stop is not taken).
+    limits: Option<JointLimits>,
+    opts_jerk: jerk::JerkOptions,
     /// (TCP, offset) of the chain's moves.
     key: Option<(bool, Axes)>,
     mode: PathMode,
@@ -1515,6 +1584,9 @@ impl<'m> Walker<'m> {
         Ok(Walker {
             ip,
             chain: DensePath::default(),
+            last: None,
+            limits: jerk_limits(machine).ok(),
+            opts_jerk: opts.plan.jerk,
             key: None,
             mode: PathMode::DEFAULT,
             end_dir: Vec::new(),
@@ -1530,6 +1602,7 @@ impl<'m> Walker<'m> {
             sink(Stretch::Chain(&self.chain))?;
         }
         self.chain = DensePath::default();
+        self.last = None;
         Ok(())
     }
 
@@ -1682,14 +1755,56 @@ impl<'m> Walker<'m> {
             }
             _ => self.step,
         };
+        let mut line_now = match geom {
+            Geom::Line { from, to }
+                if d.xyz_norm() > 0.0 && (len - d.xyz_norm()).abs() <= 1e-12 * len =>
+            {
+                Some(LastLine {
+                    from,
+                    to,
+                    offset,
+                    tcp,
+                    len,
+                    cut0: 0.0,
+                })
+            }
+            _ => None,
+        };
+        // A G64 corner between two straight moves: the blend replaces the
+        // last `d` of the previous move and the first `d` of this one.
+        let corner = match (self.mode, self.last, line_now) {
+            (PathMode::Blend { p, .. }, Some(prev), Some(cur))
+                if prev.tcp == tcp && prev.offset == offset && self.chain.s.len() > 1 =>
+            {
+                let tol = match p {
+                    Some(p) if p > 0.0 => p,
+                    _ => self.step / 4.0,
+                };
+                let cap = v.min(*self.chain.v_cap.last().unwrap_or(&v));
+                self.blend(&prev, &cur, tol, cap)?
+            }
+            _ => Corner::None,
+        };
+        let u0 = match corner {
+            Corner::Blend(u0) => u0,
+            Corner::Stop => {
+                self.flush(sink)?;
+                0.0
+            }
+            Corner::None => 0.0,
+        };
+        if let Some(l) = line_now.as_mut() {
+            l.cut0 = u0 * len;
+        }
+        self.last = line_now;
+        if self.chain.s.is_empty() {
+            self.chain.s.push(0.0);
+            self.chain.q.push(self.ip.q.clone());
+            self.chain.v_cap.push(v);
+            self.chain.line.push(self.ip.line);
+        }
         let ip = &mut self.ip;
         let chain = &mut self.chain;
-        if chain.s.is_empty() {
-            chain.s.push(0.0);
-            chain.q.push(ip.q.clone());
-            chain.v_cap.push(v);
-            chain.line.push(ip.line);
-        }
         // At most a step apart in path length and in every joint (mm, deg).
         let mut q = ip.q.clone();
         ip.eval(&path, 1.0, &mut q)?;
@@ -1697,14 +1812,14 @@ impl<'m> Walker<'m> {
             .iter()
             .zip(&ip.q)
             .map(|(a, b)| (a - b).abs())
-            .fold(len, f64::max);
+            .fold(len * (1.0 - u0), f64::max);
         let n = (spread / step).ceil().max(1.0) as usize;
         let s0 = *chain.s.last().unwrap_or(&0.0);
         q.copy_from_slice(&ip.q);
         for j in 1..=n {
-            let u = j as f64 / n as f64;
+            let u = u0 + (1.0 - u0) * (j as f64 / n as f64);
             ip.eval(&path, u, &mut q)?;
-            chain.s.push(s0 + len * u);
+            chain.s.push(s0 + len * (u - u0));
             chain.q.push(q.clone());
             chain.v_cap.push(v);
             chain.line.push(ip.line);
@@ -1718,6 +1833,122 @@ impl<'m> Walker<'m> {
             Vec::new()
         };
         Ok(())
+    }
+
+    /// Replaces the end of the chain's last move `prev` by the corner blend
+    /// (see [`corner_blend`]) towards the straight move `cur`, within the
+    /// tolerance `tol` (mm) of the programmed path; the blend points take
+    /// the speed cap `v`. Returns the fraction of `cur` the blend took,
+    /// [`Corner::None`] when there is no corner to blend (collinear moves,
+    /// a reversal, too short a blend to sample), or [`Corner::Stop`] when
+    /// the jerk-limited motion through the blend is slower than stopping at
+    /// the corner: compared on the corner's neighbourhood (the blend and
+    /// up to `d` of straight path on each side), each alternative planned
+    /// rest to rest by the time law itself.
+    fn blend(
+        &mut self,
+        prev: &LastLine,
+        cur: &LastLine,
+        tol: f64,
+        v: f64,
+    ) -> Result<Corner, InterpolateError> {
+        let dir = |m: &LastLine| {
+            let d = m.to.sub(&m.from);
+            Axes(std::array::from_fn(|i| d.0[i] / m.len))
+        };
+        let (e1, e2) = (dir(prev), dir(cur));
+        let cos = (0..3).map(|i| e1.0[i] * e2.0[i]).sum::<f64>();
+        let turn = (0..9)
+            .map(|i| (e2.0[i] - e1.0[i]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        if turn <= 1e-12 || cos < -0.999 {
+            return Ok(Corner::None);
+        }
+        let d = (64.0 * tol / 7.0).min(prev.len / 2.0).min(cur.len / 2.0);
+        let nb = ((8.0 * d / self.step).ceil() as usize).max(BLEND_POINTS);
+        let c = cur.from;
+        let pts: Vec<Axes> = pts_blend_iter(&c, &e1, &e2, d, nb).collect();
+        let chords: Vec<f64> = pts.windows(2).map(|w| w[1].sub(&w[0]).xyz_norm()).collect();
+        if chords.iter().any(|x| x.is_nan() || *x <= 0.0) {
+            return Ok(Corner::None);
+        }
+        if let Some(lim) = &self.limits {
+            // The neighbourhood: `d1`, `d2` of straight path before and
+            // after the corner (at least the blend's `d`, up to `2d`).
+            let d1 = (2.0 * d).min(prev.len - prev.cut0).max(d);
+            let d2 = (2.0 * d).min(cur.len / 2.0).max(d);
+            let world = |p: &Axes| Axes(std::array::from_fn(|i| p.0[i] + prev.offset.0[i]));
+            let along = |e: &Axes, t: f64| Axes(std::array::from_fn(|i| c.0[i] + t * e.0[i]));
+            let n = self.ip.q.len();
+            let mut q = self.ip.q.clone();
+            let joints = |pts: &[Axes], q: &mut Vec<f64>| -> Result<Vec<f64>, InterpolateError> {
+                let mut out = Vec::with_capacity(pts.len() * n);
+                for p in pts {
+                    self.ip.joints(&world(p), prev.tcp, q)?;
+                    out.extend_from_slice(q);
+                }
+                Ok(out)
+            };
+            let plan = |s: Vec<f64>, q: Vec<f64>| -> Option<f64> {
+                let caps = vec![v; s.len()];
+                let path = JointPath::new(n, s, q, caps).ok()?;
+                jerk::plan(&path, lim, &self.opts_jerk)
+                    .ok()
+                    .map(|l| l.duration())
+            };
+            let mut pts = vec![along(&e1, -d1)];
+            let mut s = vec![0.0];
+            if d1 > d {
+                pts.push(along(&e1, -d));
+                s.push(d1 - d);
+            }
+            let s_blend = *s.last().unwrap_or(&0.0);
+            for (j, p) in pts_blend_iter(&c, &e1, &e2, d, nb).enumerate().skip(1) {
+                pts.push(p);
+                s.push(s_blend + chords[..j].iter().sum::<f64>());
+            }
+            if d2 > d {
+                pts.push(along(&e2, d2));
+                s.push(*s.last().unwrap_or(&0.0) + d2 - d);
+            }
+            let qb = joints(&pts, &mut q)?;
+            let mut q2 = self.ip.q.clone();
+            let qa = joints(&[along(&e1, -d1), c], &mut q2)?;
+            let qc = joints(&[c, along(&e2, d2)], &mut q2)?;
+            let through = plan(s, qb);
+            let stop_a = plan(vec![0.0, d1], qa);
+            let stop_b = plan(vec![0.0, d2], qc);
+            if let (Some(t), Some(a), Some(b)) = (through, stop_a, stop_b)
+                && t >= a + b
+            {
+                return Ok(Corner::Stop);
+            }
+        }
+        let chain = &mut self.chain;
+        let s_c = *chain.s.last().unwrap_or(&0.0);
+        let cut = s_c - d;
+        while chain.s.len() > 1 && *chain.s.last().unwrap_or(&0.0) >= cut - 1e-9 * d {
+            chain.s.pop();
+            chain.q.pop();
+            chain.v_cap.pop();
+            chain.line.pop();
+        }
+        let mut q = chain.q.last().cloned().unwrap_or_else(|| self.ip.q.clone());
+        let mut s = cut;
+        for (j, p) in pts.iter().enumerate() {
+            let w = Axes(std::array::from_fn(|i| p.0[i] + prev.offset.0[i]));
+            self.ip.joints(&w, prev.tcp, &mut q)?;
+            if j > 0 {
+                s += chords[j - 1];
+            }
+            chain.s.push(s);
+            chain.q.push(q.clone());
+            chain.v_cap.push(v);
+            chain.line.push(self.ip.line);
+        }
+        self.ip.q.copy_from_slice(&q);
+        Ok(Corner::Blend(d / cur.len))
     }
 
     /// A transition from the current position to `end`, as its own stretch.
@@ -1846,7 +2077,7 @@ where
             if t >= end {
                 break;
             }
-            let sp = cur.at(t - self.t0, &mut out);
+            let sp = cur.at_clock(self.k as f64, self.opts.ts, self.t0, &mut out);
             while idx + 1 < s.len() && s[idx] < sp {
                 idx += 1;
             }
@@ -2272,13 +2503,26 @@ mod tests {
         // The dwell ends the first chain; G61.1 makes one chain per move.
         assert_eq!(chains.len(), 3);
         let c = &chains[0];
-        // 10 mm then 5 mm in 1 mm steps: 16 points, s up to 15, caps 10 mm/s.
-        assert_eq!(c.s.len(), 16);
-        assert!((c.s[15] - 15.0).abs() < 1e-12);
-        assert_eq!(c.q[15], vec![10.0, 5.0, 0.0]);
+        // 10 mm then 5 mm in 1 mm steps, caps 10 mm/s; the G64 corner at
+        // (10, 0) blended within P = step/4 = 0.25 mm: d = 64 P / 7 of each
+        // move replaced by a curve at least the chord d√2 long.
+        let n = c.s.len();
+        let d = 64.0 * 0.25 / 7.0;
+        assert!(c.s.windows(2).all(|w| w[1] > w[0]));
+        assert!(c.s[n - 1] < 15.0 && c.s[n - 1] >= 15.0 - 2.0 * d + d * 2f64.sqrt());
+        assert_eq!(c.q[n - 1], vec![10.0, 5.0, 0.0]);
         assert_eq!(c.q[4], vec![4.0, 0.0, 0.0]);
+        for q in &c.q {
+            let d1 = (q[0].clamp(0.0, 10.0) - q[0]).hypot(q[1]);
+            let d2 = (q[0] - 10.0).hypot(q[1].clamp(0.0, 5.0) - q[1]);
+            assert!(d1.min(d2) <= 0.25 + 1e-12, "{q:?} off the path");
+        }
+        assert!(
+            c.q.iter()
+                .any(|q| (q[0] - 10.0).hypot(q[1]) > 0.01 && q[0] > 8.0 && q[1] < 2.0)
+        );
         assert!(c.v_cap.iter().all(|&v| (v - 10.0).abs() < 1e-12));
-        assert_eq!(c.line[15], 2);
+        assert_eq!(c.line[n - 1], 2);
         // X10 Y5 -> X0 Y0: √125 mm, 12 points.
         assert!((chains[1].s.last().unwrap() - 125f64.sqrt()).abs() < 1e-12);
         assert_eq!(chains[1].s.len(), 13);

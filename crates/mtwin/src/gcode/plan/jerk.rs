@@ -59,6 +59,16 @@
 //! * Starts and ends at rest (`ṡ = s̈ = 0`) at the first and last point.
 //! * Planning and sampling cost is linear in the number of points (plus a
 //!   sort of the interval ends).
+//!
+//! # Numerics
+//!
+//! The third differences of samples `ts` apart amplify position noise by
+//! `1/ts³` (1e9 at 1 ms), and a whole program can be one path of metres
+//! and many minutes. The filtered position is therefore integrated
+//! relative to the start of a nearby raw piece (not as the difference of a
+//! running integral, nor rounded to the magnitude of `s` before the spline
+//! is evaluated), and [`Cursor::at_clock`] / [`TimeLaw::sampler`] round
+//! the sample time once, inside the profile.
 
 use std::cmp::{Ordering, Reverse};
 use std::collections::BinaryHeap;
@@ -323,8 +333,10 @@ impl Spline {
         k
     }
 
-    fn eval(&self, k: usize, s: f64, out: &mut [f64]) {
-        let u = s - self.s[k];
+    /// Joint positions at `s = r + d` (interval `k`), with
+    /// `u = (r − s_k) + d` (no rounding of `r + d` to the magnitude of `s`).
+    fn eval_parts(&self, k: usize, r: f64, d: f64, out: &mut [f64]) {
+        let u = (r - self.s[k]) + d;
         for (j, o) in out.iter_mut().enumerate().take(self.n) {
             let [a, b, c, d] = self.c[k * self.n + j];
             *o = a + u * (b + u * (c + u * d));
@@ -357,8 +369,6 @@ struct Piece {
     s0: f64,
     v0: f64,
     a: f64,
-    /// ∫_0^{t0} s_r dτ.
-    i0: f64,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -366,7 +376,38 @@ struct RawState {
     s: f64,
     v: f64,
     a: f64,
-    i: f64,
+}
+
+/// A time `k·ts − off`, evaluated inside a piece of the raw profile as one
+/// fused multiply-add. Samples at `k = 0, 1, …` then lie on an exactly
+/// uniform grid: computing `k·ts` first would round each time to the
+/// resolution of its magnitude (1e-13 s after 15 min), and that noise,
+/// times a joint's speed, dominates the third differences of 1 ms samples.
+#[derive(Debug, Clone, Copy)]
+struct Clock {
+    k: f64,
+    ts: f64,
+    off: f64,
+}
+
+impl Clock {
+    fn at(t: f64) -> Clock {
+        Clock {
+            k: t,
+            ts: 1.0,
+            off: 0.0,
+        }
+    }
+
+    /// The time, rounded (to find pieces).
+    fn t(&self) -> f64 {
+        self.k * self.ts - self.off
+    }
+
+    /// The time minus `t0 + shift`, rounded once.
+    fn since(&self, t0: f64, shift: f64) -> f64 {
+        self.k.mul_add(self.ts, -(self.off + shift + t0))
+    }
 }
 
 /// f64 ordered by `total_cmp`, for the heaps.
@@ -392,8 +433,6 @@ struct Raw {
     t: f64,
     /// Length.
     l: f64,
-    /// ∫_0^t s_r dτ.
-    i: f64,
 }
 
 impl Raw {
@@ -416,17 +455,9 @@ impl Raw {
         }
         let mut pieces = Vec::with_capacity(2 * m);
         let mut t = 0.0;
-        let mut integral = 0.0;
         let mut push = |s0: f64, v0: f64, a: f64, dur: f64| {
             if dur > 0.0 {
-                pieces.push(Piece {
-                    t0: t,
-                    s0,
-                    v0,
-                    a,
-                    i0: integral,
-                });
-                integral += dur * (s0 + dur * (v0 / 2.0 + dur * a / 6.0));
+                pieces.push(Piece { t0: t, s0, v0, a });
                 t += dur;
             }
         };
@@ -446,12 +477,7 @@ impl Raw {
             }
             push(c.s1 - d_dec, vp, -a, (vp - ve) / a);
         }
-        Raw {
-            pieces,
-            t,
-            l,
-            i: integral,
-        }
+        Raw { pieces, t, l }
     }
 
     /// Index of the piece holding time `t` (in `[0, t)`), searching forward
@@ -475,7 +501,6 @@ impl Raw {
                 s: 0.0,
                 v: 0.0,
                 a: 0.0,
-                i: 0.0,
             };
         }
         if t >= self.t {
@@ -483,7 +508,6 @@ impl Raw {
                 s: self.l,
                 v: 0.0,
                 a: 0.0,
-                i: self.i + self.l * (t - self.t),
             };
         }
         let k = self.locate(t, *hint);
@@ -494,8 +518,68 @@ impl Raw {
             s: p.s0 + u * (p.v0 + u * p.a / 2.0),
             v: p.v0 + u * p.a,
             a: p.a,
-            i: p.i0 + u * (p.s0 + u * (p.v0 / 2.0 + u * p.a / 6.0)),
         }
+    }
+
+    /// The filtered position `s(t) = (1/T_j) ∫_{t−T_j}^{t} s_r dτ` as
+    /// `(S, Δ)` with `s = S + Δ`: `S` the start of the piece holding
+    /// `t − T_j` (0 before the start, the length after the end) and `Δ`
+    /// integrated piece by piece relative to `S`. The rounding error is then
+    /// of the order of `Δ`'s, not of `s`'s magnitude; in plain `s` (one ulp is
+    /// 1e-12 mm at 5 m of path) the noise, times a joint's `dq/ds` under TCP,
+    /// shows in the third differences of 1 ms samples.
+    fn window(&self, tj: f64, c: Clock, ha: &mut usize, hb: &mut usize) -> (f64, f64) {
+        let tb = c.t();
+        let ta = tb - tj;
+        if tb <= 0.0 {
+            return (0.0, 0.0);
+        }
+        if ta >= self.t {
+            return (self.l, 0.0);
+        }
+        let p = &self.pieces;
+        let ka = if ta > 0.0 { self.locate(ta, *ha) } else { 0 };
+        let kb = if tb < self.t {
+            self.locate(tb, *hb)
+        } else {
+            p.len() - 1
+        };
+        *ha = ka;
+        *hb = kb;
+        let reference = if ta > 0.0 { p[ka].s0 } else { 0.0 };
+        let mut w = 0.0;
+        if ta < 0.0 {
+            // At 0 before the start: (0 − S) over −ta.
+            w -= reference * (-c.since(0.0, tj)).min(tj);
+        }
+        if tb > self.t {
+            w += (self.l - reference) * c.since(self.t, 0.0).min(tj);
+        }
+        for k in ka..=kb {
+            let q = &p[k];
+            let span = if k + 1 < p.len() {
+                p[k + 1].t0 - q.t0
+            } else {
+                self.t - q.t0
+            };
+            let ua = if k == ka && ta > 0.0 {
+                c.since(q.t0, tj).max(0.0)
+            } else {
+                0.0
+            };
+            let ub = if k == kb && tb < self.t {
+                c.since(q.t0, 0.0).min(span)
+            } else {
+                span
+            };
+            let d = ub - ua;
+            if d > 0.0 {
+                let sa = (q.s0 - reference) + ua * (q.v0 + ua * q.a / 2.0);
+                let va = q.v0 + ua * q.a;
+                w += d * (sa + d * (va / 2.0 + d * q.a / 6.0));
+            }
+        }
+        (reference, w / tj)
     }
 
     /// Acceleration at `t` (the piece's, 0 outside `[0, t)`).
@@ -775,12 +859,41 @@ pub struct TimeLaw {
     fallback: bool,
 }
 
+/// Filtered position as `(S, Δ)`, `s = S + Δ` (see [`Raw::window`]),
+/// clamped to the path.
+fn position_parts(raw: &Raw, tj: f64, c: Clock, h0: &mut usize, h1: &mut usize) -> (f64, f64) {
+    let (r, d) = if tj == 0.0 {
+        let t = c.t();
+        if t <= 0.0 {
+            (0.0, 0.0)
+        } else if t >= raw.t {
+            (raw.l, 0.0)
+        } else {
+            let k = raw.locate(t, *h0);
+            *h0 = k;
+            let p = &raw.pieces[k];
+            let u = c.since(p.t0, 0.0);
+            (p.s0, u * (p.v0 + u * p.a / 2.0))
+        }
+    } else {
+        raw.window(tj, c, h1, h0)
+    };
+    if r + d > raw.l {
+        (raw.l, 0.0)
+    } else if r + d < 0.0 {
+        (0.0, 0.0)
+    } else {
+        (r, d)
+    }
+}
+
 /// Filtered state `(s, ṡ, s̈, s⃛)` (s relative to the first point).
 fn filtered(raw: &Raw, tj: f64, t: f64, h0: &mut usize, h1: &mut usize) -> [f64; 4] {
     if tj == 0.0 {
         let r = raw.state(t, h0);
         return [r.s, r.v, r.a, 0.0];
     }
+    let (sr, sd) = raw.window(tj, Clock::at(t), &mut h1.clone(), &mut h0.clone());
     let r1 = raw.state(t, h0);
     let r0 = raw.state(t - tj, h1);
     let a1 = if t >= 0.0 && t < raw.t { r1.a } else { 0.0 };
@@ -790,7 +903,7 @@ fn filtered(raw: &Raw, tj: f64, t: f64, h0: &mut usize, h1: &mut usize) -> [f64;
         0.0
     };
     [
-        (r1.i - r0.i) / tj,
+        sr + sd,
         (r1.s - r0.s) / tj,
         (r1.v - r0.v) / tj,
         (a1 - a0) / tj,
@@ -847,9 +960,18 @@ impl TimeLaw {
 
     /// Joint positions at time `t` into `out` (length: the joints).
     pub fn position(&self, t: f64, out: &mut [f64]) {
-        let s = self.state(t)[0].clamp(0.0, self.raw.l);
-        let k = self.spline.locate(s, usize::MAX);
-        self.spline.eval(k, s, out);
+        self.cursor().at(t, out);
+    }
+
+    /// Joint positions into `out` at the sample `t = k·ts − t0` of a clock
+    /// on which this motion starts at `t0` (the time rounded once inside
+    /// the profile: samples exactly uniform however far from the clock's
+    /// start).
+    fn position_parts(&self, c: Clock, h: &mut (usize, usize, usize), out: &mut [f64]) -> f64 {
+        let (r, d) = position_parts(&self.raw, self.tj, c, &mut h.0, &mut h.1);
+        h.2 = self.spline.locate(r + d, h.2);
+        self.spline.eval_parts(h.2, r, d, out);
+        r + d
     }
 
     /// Positions at `t = k·ts`, `k = 0, 1, …` up to the first sample at or
@@ -924,13 +1046,16 @@ impl Sampler<'_> {
         if self.k >= self.n {
             return None;
         }
-        let t = self.k as f64 * self.ts;
+        let c = Clock {
+            k: self.k as f64,
+            ts: self.ts,
+            off: 0.0,
+        };
         self.k += 1;
-        let law = self.law;
-        let s = filtered(&law.raw, law.tj, t, &mut self.h0, &mut self.h1)[0].clamp(0.0, law.raw.l);
-        self.hs = law.spline.locate(s, self.hs);
-        law.spline.eval(self.hs, s, out);
-        Some(t)
+        let mut h = (self.h0, self.h1, self.hs);
+        self.law.position_parts(c, &mut h, out);
+        (self.h0, self.h1, self.hs) = h;
+        Some(c.t())
     }
 }
 
@@ -948,11 +1073,21 @@ impl Cursor<'_> {
     /// Joint positions at time `t` into `out` (length: the joints); returns
     /// the path parameter there (as [`TimeLaw::s`]).
     pub fn at(&mut self, t: f64, out: &mut [f64]) -> f64 {
-        let law = self.law;
-        let s = filtered(&law.raw, law.tj, t, &mut self.h0, &mut self.h1)[0].clamp(0.0, law.raw.l);
-        self.hs = law.spline.locate(s, self.hs);
-        law.spline.eval(self.hs, s, out);
-        law.s_first + s
+        self.at_clock(t, 1.0, 0.0, out)
+    }
+
+    /// As [`Cursor::at`] at the time `t = k·ts − t0` (`k` a sample index
+    /// of a clock on which this motion starts at `t0`): the time is
+    /// rounded once inside the profile, so samples far from the clock's
+    /// start stay exactly uniform (computing `k·ts − t0` first rounds each
+    /// to the resolution of its magnitude, noise that the third differences
+    /// of the samples amplify by `1/ts³`).
+    pub fn at_clock(&mut self, k: f64, ts: f64, t0: f64, out: &mut [f64]) -> f64 {
+        let c = Clock { k, ts, off: t0 };
+        let mut h = (self.h0, self.h1, self.hs);
+        let s = self.law.position_parts(c, &mut h, out);
+        (self.h0, self.h1, self.hs) = h;
+        self.law.s_first + s
     }
 }
 
