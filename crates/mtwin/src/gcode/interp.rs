@@ -3074,6 +3074,8 @@ mod tests {
             ("G41.1 D4\nG0 X10\nG18\n", 3, false),
             ("G19 G41.1 D4\n", 1, false),
             ("G41.1\n", 1, false),
+            // Not with a coordinate system rotation (G10 L2 R) in force.
+            ("G10 L2 P1 R30\nG0 X1\nG41.1 D4\n", 3, true),
             ("G1 X1\n", 1, false),             // zero feed
             ("G93\nG1 X1 F1\nX2\n", 3, false), // inverse time needs F each move
             ("X1\n", 1, false),                // no motion mode
