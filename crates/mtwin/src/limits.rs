@@ -54,9 +54,10 @@ pub const MAX_TRACKER_CANDIDATES: u64 = 100_000;
 pub const MAX_TRACKER_WORK: u64 = 200_000_000;
 
 /// Most repeats (L word) of one canned-cycle block: each repeat is a few
-/// moves held in memory until the block is done (a G84 repeat, seven moves,
-/// takes about 6.4 KB), so this bound keeps one block within about 64 MB
-/// (real programs repeat a cycle a few hundred times at most).
+/// moves held in memory until the block is done (a G84 repeat takes about
+/// 7.4 KB: `G84 … L10000` peaks 74 MB above an empty program), so this bound
+/// keeps one block within about 75 MB (real programs repeat a cycle a few
+/// hundred times at most).
 pub const MAX_CYCLE_REPEATS: u64 = 10_000;
 
 /// At most this many pecks (G73/G83) in one canned-cycle block, all repeats
