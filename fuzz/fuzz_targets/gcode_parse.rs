@@ -16,7 +16,10 @@ fuzz_target!(|data: &[u8]| {
     for block in &program.blocks {
         events.clear();
         if interp.execute(block, &mut events).is_err() {
-            break;
+            return;
         }
     }
+    // The end of the input, as the program driver ends it (moves held back
+    // by cutter radius compensation).
+    let _ = interp.finish();
 });
