@@ -1445,8 +1445,9 @@ impl Interpreter {
             }
         };
         self.check_rotation(s)?;
+        let start = self.comp.physical_start(&st.position);
         let lin = Linear {
-            from: self.event_point(&self.comp.physical_start(&st.position)),
+            from: self.event_point(&start),
             to: self.event_point(&to),
             offset: st.offset,
             feed,
@@ -2292,9 +2293,10 @@ impl Interpreter {
                         .comp
                         .straight(rapid, to, &info, &mut self.state.position, s.out);
                 }
+                let start = self.comp.physical_start(&from);
                 let st = &self.state;
                 let lin = Linear {
-                    from: self.event_point(&self.comp.physical_start(&from)),
+                    from: self.event_point(&start),
                     to: self.event_point(&to),
                     offset: st.offset,
                     feed,
@@ -2368,6 +2370,7 @@ impl Interpreter {
                     );
                 }
                 self.check_rotation(s)?;
+                let start = self.comp.physical_start(&from);
                 let st = &self.state;
                 if st.rotation != 0.0 {
                     if st.plane != Plane::Xy {
@@ -2383,7 +2386,7 @@ impl Interpreter {
                     center[1] = x * sn + y * cs;
                 }
                 EventKind::Arc(ArcMove {
-                    from: self.event_point(&self.comp.physical_start(&from)),
+                    from: self.event_point(&start),
                     to: self.event_point(&to),
                     center,
                     plane: st.plane,
