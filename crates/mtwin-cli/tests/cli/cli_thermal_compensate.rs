@@ -293,7 +293,12 @@ fn documented_commands_run() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path();
     let ran = run_doc("thermal-compensation.md", p).len();
-    assert_eq!(ran, 3, "the documentation shows its commands");
+    assert_eq!(ran, 4, "the documentation shows its commands");
+    // The live compensation's export writes the HAL component beside its
+    // HAL file and instructions.
+    for f in ["mtwin_thermal.py", "thermal.hal", "thermal-README.txt"] {
+        assert!(p.join("live").join(f).is_file(), "live/{f}");
+    }
     // The plot's y range is the range of the corrections actually written:
     // original Z minus rewritten Z of every Z word (0.1 µm resolution).
     let z_words = |f: &str| -> Vec<f64> {
