@@ -452,48 +452,20 @@ impl Compensator {
             let line = ev.at.line;
             match ev.kind {
                 EventKind::Traverse(m) | EventKind::Feed(m) if m.words.expanded => {
-                    let mv = Move {
-                        path: NominalPath::line(&m),
-                        tcp: m.tcp,
-                        words: m.words,
-                        offset: m.offset,
-                        feed: m.feed,
-                        line,
-                    };
+                    let mv = Move::from_linear(&m, line);
                     self.expanded_move(&mv, run)?;
                 }
                 EventKind::Arc(a) if a.words.expanded => {
-                    let mv = Move {
-                        path: NominalPath::arc(&a),
-                        tcp: a.tcp,
-                        words: a.words,
-                        offset: a.offset,
-                        feed: a.feed,
-                        line,
-                    };
+                    let mv = Move::from_arc(&a, line);
                     self.expanded_move(&mv, run)?;
                 }
                 EventKind::Traverse(m) | EventKind::Feed(m) => {
                     let split = matches!(ev.kind, EventKind::Feed(_));
-                    let mv = Move {
-                        path: NominalPath::line(&m),
-                        tcp: m.tcp,
-                        words: m.words,
-                        offset: m.offset,
-                        feed: m.feed,
-                        line,
-                    };
+                    let mv = Move::from_linear(&m, line);
                     changed |= self.do_move(&mv, split, block, inserted, run)?;
                 }
                 EventKind::Arc(a) => {
-                    let mv = Move {
-                        path: NominalPath::arc(&a),
-                        tcp: a.tcp,
-                        words: a.words,
-                        offset: a.offset,
-                        feed: a.feed,
-                        line,
-                    };
+                    let mv = Move::from_arc(&a, line);
                     let arc_code = if a.turns > 0 { 3 } else { 2 };
                     if run.lost_arc.is_some() && motion_word(block).is_none() {
                         prepend(block, &format!("G{arc_code} "))?;
@@ -1071,6 +1043,32 @@ struct Move {
     offset: Axes,
     feed: Feed,
     line: u64,
+}
+
+impl Move {
+    /// A straight move (G0/G1) of the interpreter's events, from `line`.
+    fn from_linear(m: &crate::gcode::Linear, line: u64) -> Self {
+        Move {
+            path: NominalPath::line(m),
+            tcp: m.tcp,
+            words: m.words,
+            offset: m.offset,
+            feed: m.feed,
+            line,
+        }
+    }
+
+    /// An arc (G2/G3) of the interpreter's events, from `line`.
+    fn from_arc(a: &crate::gcode::ArcMove, line: u64) -> Self {
+        Move {
+            path: NominalPath::arc(a),
+            tcp: a.tcp,
+            words: a.words,
+            offset: a.offset,
+            feed: a.feed,
+            line,
+        }
+    }
 }
 
 /// State carried from block to block.
