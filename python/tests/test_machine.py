@@ -26,12 +26,19 @@ def random_poses(m: mtwin.Machine, n: int, seed: int) -> np.ndarray:
 
 
 @pytest.mark.parametrize(
-    "name", ["ac-trunnion-with-errors", "afp-gantry-with-errors", "skiving-with-errors"]
+    ("name", "n"),
+    [
+        ("ac-trunnion-with-errors", 257),
+        ("afp-gantry-with-errors", 257),
+        ("skiving-with-errors", 257),
+        # Several of the binding's parallel blocks of 1024 poses, the last one partial.
+        ("ac-trunnion-with-errors", 3 * 1024 + 37),
+    ],
 )
-def test_predict_equals_the_cli_bit_for_bit(name, cli, tmp_path):
+def test_predict_equals_the_cli_bit_for_bit(name, n, cli, tmp_path):
     path = MACHINES / f"{name}.toml"
     m = mtwin.Machine.from_file(path)
-    q = random_poses(m, 257, seed=3)
+    q = random_poses(m, n, seed=3)
     write_csv(tmp_path / "poses.csv", m.axis_names, q)
     cli.run("predict", "--machine", str(path), "--data", "poses.csv", "--out", "pred.csv", cwd=tmp_path)
     header, table = read_csv(tmp_path / "pred.csv")
@@ -39,7 +46,7 @@ def test_predict_equals_the_cli_bit_for_bit(name, cli, tmp_path):
     # The CLI read the very same positions (shortest round-trip text).
     assert np.array_equal(table[:, : m.n_axes], q)
     got = m.predict(q)
-    assert got.shape == (257, 6) and got.dtype == np.float64
+    assert got.shape == (n, 6) and got.dtype == np.float64
     assert np.array_equal(got, table[:, m.n_axes :]), "not bit for bit"
 
 
@@ -187,6 +194,47 @@ def test_bad_arrays_are_refused_with_a_reason():
         m.predict(q, check_travel=False)
     with pytest.raises(TypeError):
         m.predict(np.zeros((2, 5), dtype=np.int64))
+
+
+def test_the_first_bad_pose_is_named_though_blocks_run_in_parallel():
+    # `predict` checks and computes blocks of 1024 poses on several threads: the error
+    # still names the first bad pose of the array, whichever block is checked first.
+    m = mtwin.Machine.example("ac-trunnion")
+    q = random_poses(m, 10_000, seed=9)
+    q[9_999, 1] = 400.0  # X, beyond its travel [-300, 300]
+    q[7_000, 4] = np.nan  # C
+    q[5_000, 0] = -301.0  # Y
+    with pytest.raises(ValueError, match=r"^pose 5000: axis Y at -301(\.0)? mm is outside its travel \[-300(\.0)?, 300(\.0)?\]$"):
+        m.predict(q)
+    q[5_000, 0] = 0.0
+    with pytest.raises(ValueError, match=r"^pose 7000: axis C is NaN$"):
+        m.predict(q)
+    q[7_000, 4] = 0.0
+    with pytest.raises(ValueError, match=r"^pose 9999: axis X at 400(\.0)? mm"):
+        m.predict(q)
+    # Without the travel check the pose beyond the travel is computed, and is where
+    # the nominal machine puts it: 100 mm more of X than at the end of the travel.
+    far = m.predict(q, check_travel=False)
+    q2 = q.copy()
+    q2[9_999, 1] = 300.0
+    edge = m.predict(q2)
+    assert np.array_equal(far[:9_999], edge[:9_999])
+    # (X moves the tool in the machine frame; W turns with the table, so the tip moves
+    # 100 mm in some direction of W, and the tool axis does not change.)
+    assert abs(np.linalg.norm(far[9_999, :3] - edge[9_999, :3]) - 100.0) < 1e-9
+    assert np.allclose(far[9_999, 3:], edge[9_999, 3:], rtol=0, atol=1e-15)
+
+
+def test_predict_returns_a_new_c_ordered_array_it_owns():
+    m = mtwin.Machine.example("ac-trunnion-with-errors")
+    q = random_poses(m, 2_000, seed=10)
+    a = m.predict(q)
+    b = m.predict(q)
+    assert a.shape == (2_000, 6) and a.dtype == np.float64
+    assert a.flags.c_contiguous and a.flags.writeable and a.flags.owndata
+    assert not np.shares_memory(a, b) and not np.shares_memory(a, q)
+    assert np.array_equal(a, b)
+    assert m.predict(np.zeros((0, m.n_axes))).shape == (0, 6)
 
 
 def test_a_bad_machine_file_raises_input_error_with_file_line_and_column(tmp_path):

@@ -7,7 +7,8 @@ use mtwin::kinematics::{IkOptions, IkTarget, Kinematics};
 use mtwin::nalgebra::Vector3;
 use numpy::ndarray::{Array2, Array3};
 use numpy::{
-    IntoPyArray, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
+    IntoPyArray, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
+    PyUntypedArrayMethods,
 };
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -48,69 +49,102 @@ impl Machine {
         let n = self.inner.n_axes();
         let r = rows(poses, n, "poses")?;
         let qs = r.as_slice();
-        self.check_poses(qs, check_travel)?;
-        let out = py.detach(|| {
-            if n == 0 {
-                return kin
-                    .poses(qs)
+        if n == 0 {
+            let flat: Vec<f64> = py.detach(|| {
+                kin.poses(qs)
                     .iter()
                     .flat_map(|p| p.tip.iter().chain(p.axis.iter()).copied())
-                    .collect::<Vec<f64>>();
-            }
-            // Straight into the (N, 6) buffer NumPy gets: blocks of BLOCK poses in
-            // parallel, each computed into a small buffer and copied while in cache
-            // (no second N-pose buffer, no serial pass over the results). The same
-            // blocks and `poses_into` as `Kinematics::poses`, so the same bits.
-            const BLOCK: usize = 1024;
-            let zero = mtwin::kinematics::ToolPose {
-                tip: Vector3::zeros(),
-                axis: Vector3::zeros(),
-            };
-            let mut flat = vec![0.0; qs.len() / n * 6];
-            flat.par_chunks_mut(6 * BLOCK)
+                    .collect()
+            });
+            let rows = flat.len() / 6;
+            return Ok(Array2::from_shape_vec((rows, 6), flat)
+                .expect("6 values per pose")
+                .into_pyarray(py));
+        }
+        // The (N, 6) array NumPy gets, zero-filled by `calloc` (fresh pages from the
+        // kernel, no pass over them), computed into in place: blocks of BLOCK poses in
+        // parallel, each checked (finite, in travel) and then computed by
+        // `Kinematics::poses_into` straight into its rows, as `Kinematics::poses`
+        // does (the same blocks, so the same bits). No second buffer, no copy, one
+        // pass over the input.
+        const BLOCK: usize = 1024;
+        let count = qs.len() / n;
+        let array = PyArray2::<f64>::zeros(py, [count, 6], false);
+        let mut rw = array.readwrite();
+        let out = tool_pose_rows(rw.as_slice_mut().expect("a new C-contiguous array"));
+        let axes = &self.inner.axes;
+        let bad = py.detach(|| {
+            out.par_chunks_mut(BLOCK)
                 .zip(qs.par_chunks(n * BLOCK))
-                .for_each(|(o, q)| {
-                    let mut buf = [zero; BLOCK];
-                    let buf = &mut buf[..q.len() / n];
-                    kin.poses_into(q, buf);
-                    for (dst, p) in o.chunks_exact_mut(6).zip(buf.iter()) {
-                        dst[..3].copy_from_slice(p.tip.as_slice());
-                        dst[3..].copy_from_slice(p.axis.as_slice());
+                .enumerate()
+                .find_map_first(|(b, (o, q))| {
+                    if let Some(e) = pose_error(axes, b * BLOCK, q, check_travel) {
+                        return Some(e);
                     }
-                });
-            flat
+                    kin.poses_into(q, o);
+                    None
+                })
         });
-        let rows = out.len() / 6;
-        Ok(Array2::from_shape_vec((rows, 6), out)
-            .expect("6 values per pose")
-            .into_pyarray(py))
+        drop(rw);
+        match bad {
+            Some(e) => Err(PyValueError::new_err(e)),
+            None => Ok(array),
+        }
     }
 
     /// Check that every pose is finite and (with `check_travel`) inside the travels,
     /// naming the row and axis of the first that is not.
     fn check_poses(&self, qs: &[f64], check_travel: bool) -> PyResult<()> {
-        let n = self.inner.n_axes();
-        for (r, q) in qs.chunks_exact(n).enumerate() {
-            for (a, &v) in self.inner.axes.iter().zip(q) {
-                if !v.is_finite() {
-                    return Err(PyValueError::new_err(format!(
-                        "pose {r}: axis {} is {v}",
-                        a.name
-                    )));
-                }
-                if check_travel && !a.in_travel(v) {
-                    return Err(PyValueError::new_err(format!(
-                        "pose {r}: axis {} at {v} {} is outside its travel [{}, {}]",
-                        a.name,
-                        a.kind.unit(),
-                        a.travel[0],
-                        a.travel[1]
-                    )));
-                }
+        match pose_error(&self.inner.axes, 0, qs, check_travel) {
+            Some(e) => Err(PyValueError::new_err(e)),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The first of the poses `qs` (rows of one value per axis; the first is pose `first`)
+/// that is not finite or (with `check_travel`) outside a travel, as a message naming
+/// its row and axis.
+fn pose_error(
+    axes: &[mtwin::model::Axis],
+    first: usize,
+    qs: &[f64],
+    check_travel: bool,
+) -> Option<String> {
+    for (r, q) in qs.chunks_exact(axes.len().max(1)).enumerate() {
+        for (a, &v) in axes.iter().zip(q) {
+            if !v.is_finite() {
+                return Some(format!("pose {}: axis {} is {v}", first + r, a.name));
+            }
+            if check_travel && !a.in_travel(v) {
+                return Some(format!(
+                    "pose {}: axis {} at {v} {} is outside its travel [{}, {}]",
+                    first + r,
+                    a.name,
+                    a.kind.unit(),
+                    a.travel[0],
+                    a.travel[1]
+                ));
             }
         }
-        Ok(())
     }
+    None
+}
+
+/// `flat`, a C-contiguous (N, 6) float64 buffer, as N tool poses (`ToolPose` is
+/// `repr(C)`: tip `x, y, z` then axis `i, j, k`, six `f64` without padding).
+fn tool_pose_rows(flat: &mut [f64]) -> &mut [mtwin::kinematics::ToolPose] {
+    use mtwin::kinematics::ToolPose;
+    const _: () = assert!(
+        std::mem::size_of::<ToolPose>() == 6 * std::mem::size_of::<f64>()
+            && std::mem::align_of::<ToolPose>() == std::mem::align_of::<f64>()
+    );
+    assert!(flat.len() % 6 == 0 && flat.as_ptr().cast::<ToolPose>().is_aligned());
+    // SAFETY: ToolPose is six f64 (size and alignment checked above, `repr(C)` of two
+    // `repr(C)` nalgebra vectors of three f64), every bit pattern is a valid f64, the
+    // pointer is aligned, and the new slice covers exactly the memory of `flat`, whose
+    // unique borrow it takes over.
+    unsafe { std::slice::from_raw_parts_mut(flat.as_mut_ptr().cast(), flat.len() / 6) }
 }
 
 fn from_text(py: Python<'_>, text: &str, path: &str) -> PyResult<Machine> {

@@ -9,7 +9,12 @@ use super::transform::{Rigid, rot_sc};
 use crate::model::{AxisKind, ErrorFunction, Machine};
 
 /// Tool tip (mm) and unit tool axis in the workpiece frame W.
+///
+/// Laid out as six `f64` in the order `x, y, z, i, j, k` (`repr(C)` of two
+/// `repr(C)` vectors), so that a slice of poses can be viewed as rows of a flat
+/// (N, 6) float64 buffer: the Python binding computes straight into NumPy's array.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C)]
 pub struct ToolPose {
     /// Tool tip position in W, mm.
     pub tip: Vector3<f64>,
