@@ -67,7 +67,8 @@ def read_csv(path: Path):
 
 
 # The Spark fleet tests need pyspark (and Java), which the `cargo test` harness does
-# not install (a 300 MB download); they run wherever pyspark is installed, and
+# not install (a 300 MB download); they run wherever pyspark is installed (`cargo
+# test` runs them in their own pytest process when target/py-venv has it), and
 # `.ci/run` installs it and sets MTWIN_REQUIRE_SPARK=1, where a missing pyspark fails.
 try:
     import pyspark  # noqa: F401

@@ -7,6 +7,14 @@
 //! and passes, unless `MTWIN_REQUIRE_PYTHON=1` (set by `.ci/run`), where it fails.
 //! `MTWIN_PYTHON` names another interpreter. The virtual environment gets maturin,
 //! numpy, pyarrow and pytest from the package index once (or uses those already there).
+//!
+//! The Spark fleet tests (`python/tests/test_spark.py`, Spark in local mode) run in
+//! the same test, beside the rest of the suite (a second pytest process started as
+//! soon as the wheel is installed), when the virtual environment has pyspark and Java
+//! is on the machine; the test does not install pyspark (a 300 MB download): without
+//! it or Java the Spark tests are left out with a message, unless
+//! `MTWIN_REQUIRE_SPARK=1` (set by `.ci/run`, which installs both first), where
+//! that fails.
 
 use crate::common::*;
 
@@ -16,6 +24,64 @@ use std::time::Instant;
 
 fn require() -> bool {
     std::env::var("MTWIN_REQUIRE_PYTHON").is_ok_and(|v| v == "1")
+}
+
+fn require_spark() -> bool {
+    std::env::var("MTWIN_REQUIRE_SPARK").is_ok_and(|v| v == "1")
+}
+
+/// Why the Spark tests cannot run with the virtual environment's `python`, if they
+/// cannot: pyspark missing from it, or no Java (`$JAVA_HOME/bin/java` or `java`).
+fn spark_missing(python: &Path) -> Option<String> {
+    let pyspark = Command::new(python)
+        .args(["-c", "import pyspark, pandas"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !pyspark {
+        return Some(format!(
+            "pyspark or pandas is not installed in {} \
+             (`{} -m pip install \"pyspark>=4,<5\" \"pandas<3\"`)",
+            python.display(),
+            python.display()
+        ));
+    }
+    let java = std::env::var_os("JAVA_HOME")
+        .map(|h| PathBuf::from(h).join("bin/java"))
+        .unwrap_or_else(|| "java".into());
+    let ok = Command::new(&java)
+        .arg("-version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    (!ok).then(|| {
+        format!(
+            "no Java ({} -version fails; pyspark 4 needs Java 17+)",
+            java.display()
+        )
+    })
+}
+
+/// `python -m pytest -q` on `args` in the repository, against this build's `mtwin`.
+fn pytest(python: &Path, args: &[&str]) -> Command {
+    let mut c = Command::new(python);
+    c.current_dir(repo())
+        .args(["-m", "pytest", "-q", "-p", "no:cacheprovider"])
+        .args(args)
+        .env("MTWIN_BIN", env!("CARGO_BIN_EXE_mtwin"));
+    c
+}
+
+/// Check a finished pytest run: it passed and skipped nothing.
+fn check_pytest(what: &str, o: &std::process::Output, secs: f64) {
+    let out = String::from_utf8_lossy(&o.stdout);
+    eprintln!(
+        "python: {what} took {secs:.1} s\n{out}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(o.status.success(), "{what} failed ({})", o.status);
+    assert!(
+        out.contains(" passed") && !out.contains(" skipped"),
+        "every test of {what} must run: {out}"
+    );
 }
 
 /// The target folder `cargo test` builds into (shared with the wheel build).
@@ -140,29 +206,51 @@ fn python_package_builds_installs_and_passes_its_tests() {
             .arg(&wheel),
         "pip install the wheel",
     );
+    // The Spark tests start first, in their own pytest process: most of their time
+    // is the JVM's and Spark's start-up, which then overlaps the rest of the suite.
+    let spark = match spark_missing(&bin) {
+        None => {
+            // Its output goes to files (read at the end), so that a full pipe never
+            // holds it up while the other run goes on.
+            let log = |ext: &str| {
+                let p = target.join(format!("py-spark-pytest.{ext}"));
+                (std::fs::File::create(&p).unwrap(), p)
+            };
+            let ((out, out_path), (err, err_path)) = (log("out"), log("err"));
+            let child = pytest(&bin, &["python/tests/test_spark.py"])
+                .env("MTWIN_REQUIRE_SPARK", "1")
+                .stdout(out)
+                .stderr(err)
+                .spawn()
+                .expect("pytest (Spark) starts");
+            Some((child, Instant::now(), out_path, err_path))
+        }
+        Some(why) => {
+            assert!(!require_spark(), "MTWIN_REQUIRE_SPARK=1 but {why}");
+            eprintln!("SKIPPED the Spark fleet tests (python/tests/test_spark.py): {why}");
+            None
+        }
+    };
     let t0 = Instant::now();
-    let o = Command::new(&bin)
-        .current_dir(repo())
-        .args([
-            "-m",
-            "pytest",
-            "-q",
-            "-p",
-            "no:cacheprovider",
-            "python/tests",
-        ])
-        .env("MTWIN_BIN", env!("CARGO_BIN_EXE_mtwin"))
-        .output()
-        .expect("pytest runs");
-    let out = String::from_utf8_lossy(&o.stdout);
-    eprintln!(
-        "python: pytest took {:.1} s\n{out}{}",
-        t0.elapsed().as_secs_f64(),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    assert!(o.status.success(), "pytest failed ({})", o.status);
-    assert!(
-        out.contains(" passed") && !out.contains(" skipped"),
-        "every Python test must run: {out}"
-    );
+    let o = pytest(
+        &bin,
+        &["python/tests", "--ignore=python/tests/test_spark.py"],
+    )
+    .output()
+    .expect("pytest runs");
+    let secs = t0.elapsed().as_secs_f64();
+    // (The Spark run is waited for before either is checked: no process left behind.)
+    let spark = spark.map(|(mut child, t0, out_path, err_path)| {
+        let status = child.wait().expect("pytest (Spark) finishes");
+        let o = std::process::Output {
+            status,
+            stdout: std::fs::read(out_path).unwrap(),
+            stderr: std::fs::read(err_path).unwrap(),
+        };
+        (o, t0.elapsed().as_secs_f64())
+    });
+    check_pytest("pytest python/tests", &o, secs);
+    if let Some((o, secs)) = spark {
+        check_pytest("pytest python/tests/test_spark.py", &o, secs);
+    }
 }
