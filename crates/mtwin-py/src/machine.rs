@@ -139,7 +139,7 @@ fn tool_pose_rows(flat: &mut [f64]) -> &mut [mtwin::kinematics::ToolPose] {
         std::mem::size_of::<ToolPose>() == 6 * std::mem::size_of::<f64>()
             && std::mem::align_of::<ToolPose>() == std::mem::align_of::<f64>()
     );
-    assert!(flat.len() % 6 == 0 && flat.as_ptr().cast::<ToolPose>().is_aligned());
+    assert!(flat.len().is_multiple_of(6) && flat.as_ptr().cast::<ToolPose>().is_aligned());
     // SAFETY: ToolPose is six f64 (size and alignment checked above, `repr(C)` of two
     // `repr(C)` nalgebra vectors of three f64), every bit pattern is a valid f64, the
     // pointer is aligned, and the new slice covers exactly the memory of `flat`, whose
