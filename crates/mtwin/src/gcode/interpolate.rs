@@ -1969,48 +1969,75 @@ impl<'m> Walker<'m> {
         v: f64,
     ) -> Result<Corner, InterpolateError> {
         let (a, b) = (&prev.curve, &cur.curve);
-        let Some(d) = jblend::size(a, b, tol) else {
+        let Some(d_max) = jblend::size(a, b, tol) else {
             return Ok(Corner::None);
         };
-        let d = d.min(prev.len - prev.cut0);
-        let nb = ((8.0 * d / self.step).ceil() as usize).max(BLEND_POINTS);
-        let pts: Vec<Axes> = (0..=nb)
-            .map(|j| jblend::point(a, b, d, j as f64 / nb as f64))
-            .collect();
-        let chords: Vec<f64> = pts.windows(2).map(|w| w[1].sub(&w[0]).xyz_norm()).collect();
-        if chords.iter().any(|x| x.is_nan() || *x <= 0.0) {
-            return Ok(Corner::None);
-        }
-        if let Some(lim) = &self.limits {
-            // The neighbourhood: `d1`, `d2` of the moves before and after
-            // the corner (at least the blend's `d`, up to `2d`), sampled at
-            // most a step apart.
-            let d1 = (2.0 * d).min(prev.len - prev.cut0).max(d);
-            let d2 = (2.0 * d).min(cur.len / 2.0).max(d);
-            let step = self.step;
-            let stretch = |s0: f64, s1: f64| -> Vec<f64> {
-                let n = (((s1 - s0) / step).ceil() as usize).max(1);
-                (0..=n)
-                    .map(|k| s0 + (s1 - s0) * k as f64 / n as f64)
-                    .collect()
+        let d_max = d_max.min(prev.len - prev.cut0);
+        let step = self.step;
+        // The blend's points and chords at size `d`; `None` when degenerate.
+        let points = |d: f64| -> Option<(Vec<Axes>, Vec<f64>)> {
+            let nb = ((8.0 * d / step).ceil() as usize).max(BLEND_POINTS);
+            let pts: Vec<Axes> = (0..=nb)
+                .map(|j| jblend::point(a, b, d, j as f64 / nb as f64))
+                .collect();
+            let chords: Vec<f64> = pts.windows(2).map(|w| w[1].sub(&w[0]).xyz_norm()).collect();
+            (!chords.iter().any(|x| x.is_nan() || *x <= 0.0)).then_some((pts, chords))
+        };
+        let Some(lim) = self.limits.clone() else {
+            let Some((pts, chords)) = points(d_max) else {
+                return Ok(Corner::None);
             };
-            let world = |p: &Axes| Axes(std::array::from_fn(|i| p.0[i] + prev.offset.0[i]));
-            let n = self.ip.q.len();
+            self.splice(prev, d_max, &pts, &chords, v)?;
+            return Ok(Corner::Blend(d_max / cur.len));
+        };
+        // The neighbourhood: `d1` of the first move before the corner and
+        // `d2` of the second after it (up to `2d`, the second move whole
+        // where shorter: its curvature beyond the blend counts), sampled
+        // at most a step apart.
+        let d1 = (2.0 * d_max).min(prev.len - prev.cut0).max(d_max);
+        let d2 = (2.0 * d_max).min(cur.len).max(d_max);
+        let stretch = |s0: f64, s1: f64| -> Vec<f64> {
+            let n = (((s1 - s0) / step).ceil() as usize).max(1);
+            (0..=n)
+                .map(|k| s0 + (s1 - s0) * k as f64 / n as f64)
+                .collect()
+        };
+        let world = |p: &Axes| Axes(std::array::from_fn(|i| p.0[i] + prev.offset.0[i]));
+        let n = self.ip.q.len();
+        let joints = |pts: &[Axes]| -> Result<Vec<f64>, InterpolateError> {
             let mut q = self.ip.q.clone();
-            let joints = |pts: &[Axes], q: &mut Vec<f64>| -> Result<Vec<f64>, InterpolateError> {
-                let mut out = Vec::with_capacity(pts.len() * n);
-                for p in pts {
-                    self.ip.joints(&world(p), prev.tcp, q)?;
-                    out.extend_from_slice(q);
-                }
-                Ok(out)
-            };
-            let plan = |s: Vec<f64>, q: Vec<f64>| -> Option<f64> {
-                let caps = vec![v; s.len()];
-                let path = JointPath::new(n, s, q, caps).ok()?;
-                jerk::plan(&path, lim, &self.opts_jerk)
-                    .ok()
-                    .map(|l| l.duration())
+            let mut out = Vec::with_capacity(pts.len() * n);
+            for p in pts {
+                self.ip.joints(&world(p), prev.tcp, &mut q)?;
+                out.extend_from_slice(&q);
+            }
+            Ok(out)
+        };
+        let plan = |s: Vec<f64>, q: Vec<f64>| -> Option<f64> {
+            let caps = vec![v; s.len()];
+            let path = JointPath::new(n, s, q, caps).ok()?;
+            jerk::plan(&path, &lim, &self.opts_jerk)
+                .ok()
+                .map(|l| l.duration())
+        };
+        let sa = stretch(-d1, 0.0);
+        let pa: Vec<Axes> = sa.iter().map(|&x| a.from_end(x)).collect();
+        let sc = stretch(0.0, d2);
+        let pc: Vec<Axes> = sc.iter().map(|&x| b.from_start(x)).collect();
+        let stop = match (
+            plan(sa.iter().map(|x| x + d1).collect(), joints(&pa)?),
+            plan(sc, joints(&pc)?),
+        ) {
+            (Some(x), Some(y)) => x + y,
+            _ => f64::INFINITY,
+        };
+        // The largest blend within the tolerance, else a half or a quarter
+        // of it (a large blend of a tight turn can be slower than a smaller
+        // one), the first that is faster than stopping.
+        let mut chosen = None;
+        for d in [d_max, d_max / 2.0, d_max / 4.0] {
+            let Some((pts, chords)) = points(d) else {
+                continue;
             };
             let (mut pn, mut sn) = (Vec::new(), Vec::new());
             let before = stretch(-d1, -d);
@@ -2028,25 +2055,19 @@ impl<'m> Walker<'m> {
                 pn.push(b.from_start(x));
                 sn.push(s_after + x - d);
             }
-            let qb = joints(&pn, &mut q)?;
-            let sa = stretch(-d1, 0.0);
-            let pa: Vec<Axes> = sa.iter().map(|&x| a.from_end(x)).collect();
-            let sc = stretch(0.0, d2);
-            let pc: Vec<Axes> = sc.iter().map(|&x| b.from_start(x)).collect();
-            let mut q2 = self.ip.q.clone();
-            let qa = joints(&pa, &mut q2)?;
-            let qc = joints(&pc, &mut q2)?;
-            let through = plan(sn, qb);
-            let stop_a = plan(sa.iter().map(|x| x + d1).collect(), qa);
-            let stop_b = plan(sc, qc);
-            if let (Some(t), Some(sa), Some(sb)) = (through, stop_a, stop_b)
-                && t >= sa + sb
-            {
-                return Ok(Corner::Stop);
+            let through = plan(sn, joints(&pn)?);
+            if through.is_some_and(|t| t < stop) {
+                chosen = Some((d, pts, chords));
+                break;
             }
         }
-        self.splice(prev, d, &pts, &chords, v)?;
-        Ok(Corner::Blend(d / cur.len))
+        match chosen {
+            Some((d, pts, chords)) => {
+                self.splice(prev, d, &pts, &chords, v)?;
+                Ok(Corner::Blend(d / cur.len))
+            }
+            None => Ok(Corner::Stop),
+        }
     }
 
     /// Replaces the last `d` of the chain by the blend points `pts` (work
