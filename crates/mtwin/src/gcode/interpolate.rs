@@ -1505,7 +1505,7 @@ struct LastLine {
     curve: Curve,
 }
 
-/// What to do at a corner between two straight moves under G64.
+/// What to do at a corner between two moves under G64.
 enum Corner {
     /// No corner (collinear) or nothing to blend: go on.
     None,
