@@ -2021,9 +2021,9 @@ impl<'m> Walker<'m> {
                 .map(|l| l.duration())
         };
         let sa = stretch(-d1, 0.0);
-        let pa: Vec<Axes> = sa.iter().map(|&x| a.from_end(x)).collect();
+        let pa: Vec<Axes> = sa.iter().map(|&x| a.near_end(x)).collect();
         let sc = stretch(0.0, d2);
-        let pc: Vec<Axes> = sc.iter().map(|&x| b.from_start(x)).collect();
+        let pc: Vec<Axes> = sc.iter().map(|&x| b.near_start(x)).collect();
         let stop = match (
             plan(sa.iter().map(|x| x + d1).collect(), joints(&pa)?),
             plan(sc, joints(&pc)?),
@@ -2042,7 +2042,7 @@ impl<'m> Walker<'m> {
             let (mut pn, mut sn) = (Vec::new(), Vec::new());
             let before = stretch(-d1, -d);
             for &x in &before[..before.len() - 1] {
-                pn.push(a.from_end(x));
+                pn.push(a.near_end(x));
                 sn.push(x + d1);
             }
             let s_blend = d1 - d;
@@ -2052,7 +2052,7 @@ impl<'m> Walker<'m> {
             }
             let s_after = *sn.last().unwrap_or(&0.0);
             for &x in stretch(d, d2).iter().skip(1) {
-                pn.push(b.from_start(x));
+                pn.push(b.near_start(x));
                 sn.push(s_after + x - d);
             }
             let through = plan(sn, joints(&pn)?);

@@ -150,12 +150,12 @@ impl Curve {
     }
 
     /// The point `σ` mm of XYZ path from the end (negative: before it).
-    pub(crate) fn from_end(&self, sigma: f64) -> Axes {
+    pub(crate) fn near_end(&self, sigma: f64) -> Axes {
         self.at_u(1.0 + sigma / self.len)
     }
 
     /// The point `σ` mm of XYZ path from the start.
-    pub(crate) fn from_start(&self, sigma: f64) -> Axes {
+    pub(crate) fn near_start(&self, sigma: f64) -> Axes {
         self.at_u(sigma / self.len)
     }
 
@@ -186,7 +186,9 @@ pub(crate) fn size(a: &Curve, b: &Curve, tol: f64) -> Option<f64> {
         .sqrt();
     let (na, nb) = (ta.xyz_norm(), tb.xyz_norm());
     let cos = (0..3).map(|i| ta.0[i] * tb.0[i]).sum::<f64>() / (na * nb);
-    if !(turn > 1e-12) || !(cos >= -0.999) || !(tol > 0.0) {
+    // False for NaN too.
+    let corner = turn > 1e-12 && cos >= -0.999 && tol > 0.0;
+    if !corner {
         return None;
     }
     let delta = tb.sub(&ta).xyz_norm();
@@ -202,7 +204,7 @@ pub(crate) fn size(a: &Curve, b: &Curve, tol: f64) -> Option<f64> {
 pub(crate) fn point(a: &Curve, b: &Curve, d: f64, lambda: f64) -> Axes {
     let sigma = d * (2.0 * lambda - 1.0);
     let w = smoothstep(lambda);
-    let (pa, pb) = (a.from_end(sigma), b.from_start(sigma));
+    let (pa, pb) = (a.near_end(sigma), b.near_start(sigma));
     Axes(std::array::from_fn(|i| pa.0[i] + w * (pb.0[i] - pa.0[i])))
 }
 
