@@ -48,6 +48,7 @@ use super::axes::{Axes, Axis, AxisLetterError};
 use super::error::GcodeError;
 use super::event::{ArcMove, Event, EventKind, Feed, Linear, PathMode, SpindleState};
 use super::interp::{InterpOptions, Interpreter};
+use super::plan::jerk::blend::{self as jblend, Curve};
 use super::plan::jerk::{self, JointLimits, JointPath};
 use super::plan::linuxcnc;
 use super::plan::lookahead::{Join, Limits, Lookahead, Planned};
@@ -1500,9 +1501,11 @@ struct LastLine {
     len: f64,
     /// Length taken from its start by a corner blend, mm.
     cut0: f64,
+    /// The move as a curve (a line or an arc) for blends next to arcs.
+    curve: Curve,
 }
 
-/// What to do at a corner between two straight moves under G64.
+/// What to do at a corner between two moves under G64.
 enum Corner {
     /// No corner (collinear) or nothing to blend: go on.
     None,
@@ -1766,12 +1769,35 @@ impl<'m> Walker<'m> {
                     tcp,
                     len,
                     cut0: 0.0,
+                    curve: Curve::line(from, to, len),
+                })
+            }
+            Geom::Arc { arc, g } if len.is_finite() && g.radius > 0.0 => {
+                let (p, q, _) = arc.plane.axes();
+                Some(LastLine {
+                    from: arc.from,
+                    to: arc.to,
+                    offset,
+                    tcp,
+                    len,
+                    cut0: 0.0,
+                    curve: Curve::arc(
+                        arc.from,
+                        arc.to,
+                        (p, q),
+                        g.center,
+                        (g.radius, g.end_radius),
+                        g.start_angle,
+                        g.sweep,
+                        len,
+                    ),
                 })
             }
             _ => None,
         };
-        // A G64 corner between two straight moves: the blend replaces the
-        // last `d` of the previous move and the first `d` of this one.
+        // A G64 corner between two moves (lines or arcs): the blend
+        // replaces the last `d` of the previous move and the first `d` of
+        // this one.
         let corner = match (self.mode, self.last, line_now) {
             (PathMode::Blend { p, .. }, Some(prev), Some(cur))
                 if prev.tcp == tcp && prev.offset == offset && self.chain.s.len() > 1 =>
@@ -1852,6 +1878,9 @@ impl<'m> Walker<'m> {
         tol: f64,
         v: f64,
     ) -> Result<Corner, InterpolateError> {
+        if !(prev.curve.is_line() && cur.curve.is_line()) {
+            return self.blend_curves(prev, cur, tol, v);
+        }
         let dir = |m: &LastLine| {
             let d = m.to.sub(&m.from);
             Axes(std::array::from_fn(|i| d.0[i] / m.len))
@@ -1925,6 +1954,132 @@ impl<'m> Walker<'m> {
                 return Ok(Corner::Stop);
             }
         }
+        self.splice(prev, d, &pts, &chords, v)?;
+        Ok(Corner::Blend(d / cur.len))
+    }
+
+    /// As [`Walker::blend`] when `prev` or `cur` is an arc: the blend of
+    /// [`jblend`] (C² with both moves, within `tol` of them), its points
+    /// and the neighbourhood of the corner sampled at most a step apart.
+    fn blend_curves(
+        &mut self,
+        prev: &LastLine,
+        cur: &LastLine,
+        tol: f64,
+        v: f64,
+    ) -> Result<Corner, InterpolateError> {
+        let (a, b) = (&prev.curve, &cur.curve);
+        let Some(d_max) = jblend::size(a, b, tol) else {
+            return Ok(Corner::None);
+        };
+        let d_max = d_max.min(prev.len - prev.cut0);
+        let step = self.step;
+        // The blend's points and chords at size `d`; `None` when degenerate.
+        let points = |d: f64| -> Option<(Vec<Axes>, Vec<f64>)> {
+            let nb = ((8.0 * d / step).ceil() as usize).max(BLEND_POINTS);
+            let pts: Vec<Axes> = (0..=nb)
+                .map(|j| jblend::point(a, b, d, j as f64 / nb as f64))
+                .collect();
+            let chords: Vec<f64> = pts.windows(2).map(|w| w[1].sub(&w[0]).xyz_norm()).collect();
+            (!chords.iter().any(|x| x.is_nan() || *x <= 0.0)).then_some((pts, chords))
+        };
+        let Some(lim) = self.limits.clone() else {
+            let Some((pts, chords)) = points(d_max) else {
+                return Ok(Corner::None);
+            };
+            self.splice(prev, d_max, &pts, &chords, v)?;
+            return Ok(Corner::Blend(d_max / cur.len));
+        };
+        // The neighbourhood: `d1` of the first move before the corner and
+        // `d2` of the second after it (up to `2d`, the second move whole
+        // where shorter: its curvature beyond the blend counts), sampled
+        // at most a step apart.
+        let d1 = (2.0 * d_max).min(prev.len - prev.cut0).max(d_max);
+        let d2 = (2.0 * d_max).min(cur.len).max(d_max);
+        let stretch = |s0: f64, s1: f64| -> Vec<f64> {
+            let n = (((s1 - s0) / step).ceil() as usize).max(1);
+            (0..=n)
+                .map(|k| s0 + (s1 - s0) * k as f64 / n as f64)
+                .collect()
+        };
+        let world = |p: &Axes| Axes(std::array::from_fn(|i| p.0[i] + prev.offset.0[i]));
+        let n = self.ip.q.len();
+        let joints = |pts: &[Axes]| -> Result<Vec<f64>, InterpolateError> {
+            let mut q = self.ip.q.clone();
+            let mut out = Vec::with_capacity(pts.len() * n);
+            for p in pts {
+                self.ip.joints(&world(p), prev.tcp, &mut q)?;
+                out.extend_from_slice(&q);
+            }
+            Ok(out)
+        };
+        let plan = |s: Vec<f64>, q: Vec<f64>| -> Option<f64> {
+            let caps = vec![v; s.len()];
+            let path = JointPath::new(n, s, q, caps).ok()?;
+            jerk::plan(&path, &lim, &self.opts_jerk)
+                .ok()
+                .map(|l| l.duration())
+        };
+        let sa = stretch(-d1, 0.0);
+        let pa: Vec<Axes> = sa.iter().map(|&x| a.near_end(x)).collect();
+        let sc = stretch(0.0, d2);
+        let pc: Vec<Axes> = sc.iter().map(|&x| b.near_start(x)).collect();
+        let stop = match (
+            plan(sa.iter().map(|x| x + d1).collect(), joints(&pa)?),
+            plan(sc, joints(&pc)?),
+        ) {
+            (Some(x), Some(y)) => x + y,
+            _ => f64::INFINITY,
+        };
+        // The largest blend within the tolerance, else a half or a quarter
+        // of it (a large blend of a tight turn can be slower than a smaller
+        // one), the first that is faster than stopping.
+        let mut chosen = None;
+        for d in [d_max, d_max / 2.0, d_max / 4.0] {
+            let Some((pts, chords)) = points(d) else {
+                continue;
+            };
+            let (mut pn, mut sn) = (Vec::new(), Vec::new());
+            let before = stretch(-d1, -d);
+            for &x in &before[..before.len() - 1] {
+                pn.push(a.near_end(x));
+                sn.push(x + d1);
+            }
+            let s_blend = d1 - d;
+            for (j, p) in pts.iter().enumerate() {
+                pn.push(*p);
+                sn.push(s_blend + chords[..j].iter().sum::<f64>());
+            }
+            let s_after = *sn.last().unwrap_or(&0.0);
+            for &x in stretch(d, d2).iter().skip(1) {
+                pn.push(b.near_start(x));
+                sn.push(s_after + x - d);
+            }
+            let through = plan(sn, joints(&pn)?);
+            if through.is_some_and(|t| t < stop) {
+                chosen = Some((d, pts, chords));
+                break;
+            }
+        }
+        match chosen {
+            Some((d, pts, chords)) => {
+                self.splice(prev, d, &pts, &chords, v)?;
+                Ok(Corner::Blend(d / cur.len))
+            }
+            None => Ok(Corner::Stop),
+        }
+    }
+
+    /// Replaces the last `d` of the chain by the blend points `pts` (work
+    /// coordinates of `prev`'s offset and TCP; `chords` their distances).
+    fn splice(
+        &mut self,
+        prev: &LastLine,
+        d: f64,
+        pts: &[Axes],
+        chords: &[f64],
+        v: f64,
+    ) -> Result<(), InterpolateError> {
         let chain = &mut self.chain;
         let s_c = *chain.s.last().unwrap_or(&0.0);
         let cut = s_c - d;
@@ -1948,7 +2103,7 @@ impl<'m> Walker<'m> {
             chain.line.push(self.ip.line);
         }
         self.ip.q.copy_from_slice(&q);
-        Ok(Corner::Blend(d / cur.len))
+        Ok(())
     }
 
     /// A transition from the current position to `end`, as its own stretch.

@@ -70,6 +70,8 @@
 //! is evaluated), and [`Cursor::at_clock`] / [`TimeLaw::sampler`] round
 //! the sample time once, inside the profile.
 
+pub(crate) mod blend;
+
 use std::cmp::{Ordering, Reverse};
 use std::collections::BinaryHeap;
 

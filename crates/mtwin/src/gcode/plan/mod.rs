@@ -18,10 +18,11 @@
 //!   (`crate::gcode::dense_paths`, points at most [`PlanOptions::jerk_step`]
 //!   apart); limits on the **joints** (`max_velocity`, `max_acceleration`,
 //!   `max_jerk` of every machine axis), also under TCP; G61.1 stops at every
-//!   block, G61 at corners; under G64 a corner between two straight moves
-//!   is blended by a curve within P (a quarter of the step without P) where
-//!   that is faster than stopping, other corners are rounded by the joint
-//!   spline within about a quarter of the step (and within P when given).
+//!   block, G61 at corners; under G64 a corner between two moves (lines or
+//!   arcs) is blended by a curve within P (a quarter of the step without P)
+//!   where that is faster than stopping, other corners (reversals) are
+//!   rounded by the joint spline within about a quarter of the step (and
+//!   within P when given).
 //!
 //! Nothing is kept in reserve beyond what [`PlanOptions`] states.
 
@@ -104,11 +105,12 @@ pub struct PlanOptions {
     pub kink_ratio: f64,
     /// `jerk`: largest distance between the points of the dense joint path
     /// of a chain of moves, in path units (mm; deg for rotary-only moves).
-    /// Default 0.1. Under G64 a corner between two straight moves is
-    /// blended within P (a quarter of the step without `G64 P`, see
-    /// docs/gcode.md); a corner next to an arc is rounded by the joint
-    /// spline through these points, by at most about a quarter of the step;
-    /// with `G64 P` the step is at most 4·P (never below 0.001).
+    /// Default 0.1. Under G64 a corner between two moves (lines or arcs)
+    /// is blended within P (a quarter of the step without `G64 P`, see
+    /// docs/gcode.md) where that is faster than stopping; a reversal is
+    /// rounded by the joint spline through these points, by at most about
+    /// a quarter of the step; with `G64 P` the step is at most 4·P (never
+    /// below 0.001).
     pub jerk_step: f64,
     /// `jerk`: the time-law settings ([`jerk::JerkOptions`]; by default
     /// the full joint limits, nothing held back).
