@@ -808,18 +808,21 @@ fn fit_fold(
 /// Pooled simulation RMS of `model`-structures over the folds: each fold's
 /// model simulated from rest at sample 0 up to the end of its test block,
 /// the squared errors of all test blocks pooled. `None` when a fold's model
-/// is not admissible.
+/// cannot be fitted (`fit` gives `None`) or is not admissible: the folds are
+/// fitted one after the other by `fit(fold index, fold)` and the first
+/// failure ends the candidate (the later folds are not fitted).
 fn cv_rms(
     y: &[f64],
     u: &[Vec<f64>],
     inputs: &[usize],
     folds: &[Fold],
-    models: &[Arx],
+    mut fit: impl FnMut(usize, &Fold) -> Option<Arx>,
     options: &LogFitOptions,
     y_max: f64,
 ) -> Option<f64> {
     let (mut ss, mut n) = (0.0, 0usize);
-    for (fold, model) in folds.iter().zip(models) {
+    for (i, fold) in folds.iter().enumerate() {
+        let model = &fit(i, fold)?;
         if !admissible(model, options, y_max) {
             return None;
         }
@@ -854,14 +857,8 @@ fn best_orders(
                 na,
                 inputs: inputs.iter().map(|_| InputOrder { nb, nk: 1 }).collect(),
             };
-            let Some(models) = folds
-                .iter()
-                .map(|f| fit_fold(y, u, inputs, f, &orders))
-                .collect::<Option<Vec<Arx>>>()
-            else {
-                continue;
-            };
-            if let Some(e) = cv_rms(y, u, inputs, folds, &models, options, y_max) {
+            let fit = |_: usize, f: &Fold| fit_fold(y, u, inputs, f, &orders);
+            if let Some(e) = cv_rms(y, u, inputs, folds, fit, options, y_max) {
                 ranked.push(Candidate {
                     inputs: inputs.to_vec(),
                     orders,
@@ -908,17 +905,12 @@ fn best_orders(
             })
             .collect::<Option<_>>()?;
         for orders in refine {
-            let models: Option<Vec<Arx>> = runs
-                .iter()
-                .map(|run| {
-                    fit_output_error_par(run, &orders, 0, crate::par::Par::Seq)
-                        .ok()
-                        .map(|oe| oe.fit.model)
-                })
-                .collect();
-            if let Some(models) = models
-                && let Some(e) = cv_rms(y, u, inputs, folds, &models, options, y_max)
-            {
+            let fit = |i: usize, _: &Fold| {
+                fit_output_error_par(&runs[i], &orders, 0, crate::par::Par::Seq)
+                    .ok()
+                    .map(|oe| oe.fit.model)
+            };
+            if let Some(e) = cv_rms(y, u, inputs, folds, fit, options, y_max) {
                 keep(Candidate {
                     inputs: inputs.to_vec(),
                     orders,
