@@ -148,6 +148,43 @@ fn benches(c: &mut Criterion) {
             fit_log(&log, &channels, &inputs, None, &LogFitOptions::default()).unwrap()
         })
     });
+
+    // The real record itself (../shared, when present): five channels, speed,
+    // speed² and sixteen temperatures, 6 669 rows, the default blocked
+    // cross-validation (3 blocks), all samples for training; the candidate
+    // inputs of each selection step on one thread and on all of them.
+    let real = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data/real/fl-thermal-first60.csv");
+    if let Ok(table) = mtwin::io::Table::read(&real) {
+        let channels: Vec<ChannelSpec> = (1..=5)
+            .map(|i| ChannelSpec::parse(&format!("ch{i}_um:Z")).unwrap())
+            .collect();
+        let mut inputs = vec![
+            InputSpec::parse("speed_rpm").unwrap(),
+            InputSpec::parse("speed_rpm:square").unwrap(),
+        ];
+        inputs.extend((1..=16).map(|i| InputSpec::parse(&format!("t{i}_c")).unwrap()));
+        let log = read_log(&table, &channels, &inputs, 1.0).unwrap();
+        let mut g = c.benchmark_group("thermal fit_log real record");
+        g.sample_size(10);
+        for (name, par) in [
+            (
+                "5 channels x 18 inputs x 6669 rows, sequential",
+                mtwin::par::Par::Seq,
+            ),
+            (
+                "5 channels x 18 inputs x 6669 rows, parallel",
+                mtwin::par::Par::rayon(0),
+            ),
+        ] {
+            let mut options = LogFitOptions::default();
+            options.par = par;
+            g.bench_function(name, |b| {
+                b.iter(|| fit_log(black_box(&log), &channels, &inputs, None, &options).unwrap())
+            });
+        }
+        g.finish();
+    }
 }
 
 criterion_group!(sysid, benches);

@@ -44,6 +44,18 @@ pub struct Args {
     /// Drift written by `mtwin thermal predict` (t_min,z_mm,drift_mm), drawn over time.
     #[arg(long, requires = "thermal_model")]
     thermal_drift: Option<PathBuf>,
+    /// Saved output of `mtwin thermal fit --log ... --format json`: per drift channel the held-out
+    /// error, the chosen inputs and orders, the test span's scores.
+    #[arg(long)]
+    thermal_log_fit: Option<PathBuf>,
+    /// With --thermal-log-fit: the model it wrote (--out of `thermal fit --log`), to draw the
+    /// measured and predicted drift of --thermal-log.
+    #[arg(long, requires_all = ["thermal_log_fit", "thermal_log"])]
+    thermal_log_model: Option<PathBuf>,
+    /// With --thermal-log-model: the log (the fitted one or another with the same columns), its
+    /// drift channels drawn against the model's prediction from the log's start.
+    #[arg(long, requires = "thermal_log_model")]
+    thermal_log: Option<PathBuf>,
     /// Saved output of `mtwin servo fit --format json` for one axis, as AXIS=FILE (repeatable).
     #[arg(long, value_name = "AXIS=FILE")]
     servo: Vec<String>,
@@ -167,6 +179,36 @@ fn build(a: &Args) -> anyhow::Result<Vec<Section>> {
             "Predicted drift",
         ));
     }
+    if let Some(p) = &a.thermal_log_fit {
+        let doc: mtwin::methods::thermal::ThermalLogFitDoc =
+            read_doc(p, "mtwin thermal fit --log --format json")?;
+        let curves = match (&a.thermal_log_model, &a.thermal_log) {
+            (Some(m), Some(l)) => {
+                let model = mtwin::methods::thermal::log::LogModel::read(m).map_err(diag)?;
+                let specs: Vec<_> = model.channels.iter().map(|c| c.channel.clone()).collect();
+                let inputs: Vec<_> = model
+                    .inputs
+                    .iter()
+                    .map(|i| mtwin::methods::thermal::log::InputSpec {
+                        column: i.column.clone(),
+                        rise: i.rise,
+                        square: i.square,
+                    })
+                    .collect();
+                let log = mtwin::methods::thermal::log::read_log(
+                    &load_table(l)?,
+                    &specs,
+                    &inputs,
+                    model.period_min,
+                )
+                .map_err(diag)?;
+                sections::thermal::log_curves(&model, &log)
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", l.display()))?
+            }
+            _ => Vec::new(),
+        };
+        out.push(sections::thermal::log_section(&doc, &curves));
+    }
     if !a.servo.is_empty() {
         let mut fits = Vec::new();
         for s in &a.servo {
@@ -239,6 +281,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .inputs(&a.skiving)
         .inputs(&a.thermal_model)
         .inputs(&a.thermal_drift)
+        .inputs(&a.thermal_log_fit)
+        .inputs(&a.thermal_log_model)
+        .inputs(&a.thermal_log)
         .inputs(servo_files)
         .inputs(
             a.positioning
@@ -254,7 +299,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let sections = build(&a)?;
     if sections.is_empty() {
         bail!(
-            "nothing to report: give at least one input (--machine, --ballbar, --identify, --validate, --skiving, --thermal-model, --servo, --positioning, --circular, --compensate, --twin)"
+            "nothing to report: give at least one input (--machine, --ballbar, --identify, --validate, --skiving, --thermal-model, --thermal-log-fit, --servo, --positioning, --circular, --compensate, --twin)"
         );
     }
     let figures: usize = sections.iter().map(Section::figures).sum();

@@ -333,3 +333,66 @@ fn bad_logs_and_options_name_the_place_exit_1_and_write_nothing() {
         "pred.csv",
     );
 }
+
+/// `mtwin report --thermal-log-fit`: the fit's document as a section, its
+/// figures recomputed here from the saved document; with the model and the
+/// log, one chart of measured against predicted drift per channel.
+#[test]
+fn report_shows_a_log_fit_with_measured_and_predicted_drift() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    setup(p);
+    let mut a = FIT.to_vec();
+    a.extend(["--format", "json"]);
+    let o = mtwin(p, &a);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    std::fs::write(p.join("fit.json"), &o.stdout).unwrap();
+    let doc: mtwin::methods::thermal::ThermalLogFitDoc = serde_json::from_slice(&o.stdout).unwrap();
+    let o = mtwin(
+        p,
+        &[
+            "report",
+            "--out",
+            "r.html",
+            "--thermal-log-fit",
+            "fit.json",
+            "--thermal-log-model",
+            "log-model.toml",
+            "--thermal-log",
+            "log.csv",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let html = std::fs::read_to_string(p.join("r.html")).unwrap();
+    assert!(html.contains("Thermal drift from a machine log"));
+    for c in &doc.channels {
+        assert!(html.contains(&c.column));
+        assert!(html.contains(&c.inputs.join(", ")), "{:?}", c.inputs);
+        for v in [c.heldout_rms_mm, c.training_rms_mm] {
+            let cell = format!("{:.3}", v * 1e3);
+            assert!(html.contains(&format!(">{cell}</td>")), "{cell}");
+        }
+        assert!(html.contains(&format!("{}: measured and predicted drift", c.column)));
+    }
+    let t = doc.test.as_ref().unwrap();
+    for s in &t.channels {
+        let cell = format!("{:.3}", s.error_over_drift_rms);
+        assert!(html.contains(&format!(">{cell}</td>")), "{cell}");
+    }
+    let charts = html.matches("<svg").count();
+    // Without the model and the log: the tables, no chart.
+    let o = mtwin(
+        p,
+        &[
+            "report",
+            "--out",
+            "r2.html",
+            "--thermal-log-fit",
+            "fit.json",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let html = std::fs::read_to_string(p.join("r2.html")).unwrap();
+    assert!(html.contains("Model per channel"));
+    assert_eq!(charts - html.matches("<svg").count(), doc.channels.len());
+}

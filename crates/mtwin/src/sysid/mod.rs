@@ -44,7 +44,8 @@ pub use order::{
     Criterion, GridRow, GridRowDoc, InputGrid, OrderGrid, OrderSelection, grid_text, select_orders,
 };
 pub use output_error::{
-    OutputErrorFit, OutputErrorModel, fit_output_error, select_orders_output_error,
+    OutputErrorFit, OutputErrorModel, fit_output_error, fit_output_error_par,
+    select_orders_output_error,
 };
 pub use servo::{Servo, ServoStepper};
 pub use servo_doc::{OrdersDoc, ServoExcitationDoc, ServoFitDoc, ServoSimulateDoc};

@@ -235,6 +235,30 @@ impl<'a> OutputErrorModel<'a> {
             }
         }
     }
+
+    /// The Jacobian rows `rows` into `jm`, a column at a time (the copy of
+    /// [`Self::evaluate`] without an index check per element when the
+    /// columns are contiguous; the same values).
+    fn jacobian_into(&self, theta: &[f64], rows: Range<usize>, mut jm: MatMut<'_, f64>) {
+        let sim = self.simulation(theta, true);
+        let d = self.n_all();
+        let first = self.first + rows.start;
+        for c in 0..d {
+            match jm.as_mut().col_mut(c).try_as_col_major_mut() {
+                Some(col) => {
+                    let col = col.as_slice_mut();
+                    for (row, v) in col.iter_mut().enumerate() {
+                        *v = sim.psi[(first + row) * d + c];
+                    }
+                }
+                None => {
+                    for row in 0..rows.len() {
+                        jm[(row, c)] = sim.psi[(first + row) * d + c];
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// One simulation of [`OutputErrorModel`] at θ.
@@ -275,7 +299,7 @@ impl Model for OutputErrorModel<'_> {
     }
 
     fn jacobian(&self, theta: &[f64], rows: Range<usize>, out: MatMut<'_, f64>) {
-        self.evaluate(theta, rows, None, Some(out));
+        self.jacobian_into(theta, rows, out);
     }
 
     fn residuals_and_jacobian(
@@ -285,7 +309,8 @@ impl Model for OutputErrorModel<'_> {
         r: &mut [f64],
         j: MatMut<'_, f64>,
     ) {
-        self.evaluate(theta, rows, Some(r), Some(j));
+        self.evaluate(theta, rows.clone(), Some(r), None);
+        self.jacobian_into(theta, rows, j);
     }
 }
 
@@ -314,6 +339,19 @@ pub fn fit_output_error(
     orders: &ArxOrders,
     first: usize,
 ) -> Result<OutputErrorFit, SysidError> {
+    fit_output_error_par(run, orders, first, crate::par::Par::rayon(0))
+}
+
+/// [`fit_output_error`] with the parallelism `par` of the Levenberg–Marquardt
+/// engine: [`Par::Seq`](crate::par::Par::Seq) when the caller runs many
+/// small refinements in parallel itself (one engine per thread, no nested
+/// parallel loops).
+pub fn fit_output_error_par(
+    run: &Run,
+    orders: &ArxOrders,
+    first: usize,
+    par: crate::par::Par,
+) -> Result<OutputErrorFit, SysidError> {
     let model = OutputErrorModel::new(run, orders.clone(), first)?;
     let start = fit_arx(
         std::slice::from_ref(run),
@@ -329,6 +367,7 @@ pub fn fit_output_error(
         cost_tolerance: 1e-9,
         step_tolerance: 1e-8,
         max_iterations: 50,
+        par,
         ..fit::Options::default()
     };
     let cost = |theta: &[f64]| {

@@ -41,7 +41,7 @@ use serde::{Deserialize, Serialize};
 
 use super::ThermalError;
 use crate::io::{Diagnostic, Diagnostics, Table};
-use crate::sysid::{Arx, ArxOrders, InputOrder, Run, Start, fit_arx, fit_output_error};
+use crate::sysid::{Arx, ArxOrders, InputOrder, Run, Start, fit_arx, fit_output_error_par};
 
 /// The axis a drift channel displaces the tool along (relative to the work, +).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -640,6 +640,12 @@ pub struct LogFitOptions {
     pub gain_bound: f64,
     /// Held-out RMS above this fraction of the held-out drift RMS is warned about.
     pub warn_ratio: f64,
+    /// Parallelism: the candidate inputs of a selection step are judged in
+    /// parallel (each candidate's fits on one thread);
+    /// [`Par::Seq`](crate::par::Par::Seq) on the calling thread only. Both
+    /// give the same models (every candidate is computed alone and the best
+    /// taken in input order).
+    pub par: crate::par::Par,
 }
 
 impl Default for LogFitOptions {
@@ -652,6 +658,7 @@ impl Default for LogFitOptions {
             min_gain: 0.02,
             gain_bound: 10.0,
             warn_ratio: 0.5,
+            par: crate::par::Par::rayon(0),
         }
     }
 }
@@ -801,18 +808,21 @@ fn fit_fold(
 /// Pooled simulation RMS of `model`-structures over the folds: each fold's
 /// model simulated from rest at sample 0 up to the end of its test block,
 /// the squared errors of all test blocks pooled. `None` when a fold's model
-/// is not admissible.
+/// cannot be fitted (`fit` gives `None`) or is not admissible: the folds are
+/// fitted one after the other by `fit(fold index, fold)` and the first
+/// failure ends the candidate (the later folds are not fitted).
 fn cv_rms(
     y: &[f64],
     u: &[Vec<f64>],
     inputs: &[usize],
     folds: &[Fold],
-    models: &[Arx],
+    mut fit: impl FnMut(usize, &Fold) -> Option<Arx>,
     options: &LogFitOptions,
     y_max: f64,
 ) -> Option<f64> {
     let (mut ss, mut n) = (0.0, 0usize);
-    for (fold, model) in folds.iter().zip(models) {
+    for (i, fold) in folds.iter().enumerate() {
+        let model = &fit(i, fold)?;
         if !admissible(model, options, y_max) {
             return None;
         }
@@ -847,14 +857,8 @@ fn best_orders(
                 na,
                 inputs: inputs.iter().map(|_| InputOrder { nb, nk: 1 }).collect(),
             };
-            let Some(models) = folds
-                .iter()
-                .map(|f| fit_fold(y, u, inputs, f, &orders))
-                .collect::<Option<Vec<Arx>>>()
-            else {
-                continue;
-            };
-            if let Some(e) = cv_rms(y, u, inputs, folds, &models, options, y_max) {
+            let fit = |_: usize, f: &Fold| fit_fold(y, u, inputs, f, &orders);
+            if let Some(e) = cv_rms(y, u, inputs, folds, fit, options, y_max) {
                 ranked.push(Candidate {
                     inputs: inputs.to_vec(),
                     orders,
@@ -901,17 +905,12 @@ fn best_orders(
             })
             .collect::<Option<_>>()?;
         for orders in refine {
-            let models: Option<Vec<Arx>> = runs
-                .iter()
-                .map(|run| {
-                    fit_output_error(run, &orders, 0)
-                        .ok()
-                        .map(|oe| oe.fit.model)
-                })
-                .collect();
-            if let Some(models) = models
-                && let Some(e) = cv_rms(y, u, inputs, folds, &models, options, y_max)
-            {
+            let fit = |i: usize, _: &Fold| {
+                fit_output_error_par(&runs[i], &orders, 0, crate::par::Par::Seq)
+                    .ok()
+                    .map(|oe| oe.fit.model)
+            };
+            if let Some(e) = cv_rms(y, u, inputs, folds, fit, options, y_max) {
                 keep(Candidate {
                     inputs: inputs.to_vec(),
                     orders,
@@ -1020,14 +1019,18 @@ pub fn fit_log_with(
             && chosen.as_ref().map_or(0, |c| c.inputs.len()) < options.max_inputs
         {
             let current: Vec<usize> = chosen.as_ref().map_or(Vec::new(), |c| c.inputs.clone());
-            let step = remaining
-                .iter()
-                .filter_map(|&j| {
+            // Every candidate alone (in parallel), the best taken in input
+            // order: the same choice as a sequential loop.
+            let step = crate::par::here(options.par, || {
+                crate::par::map(&remaining, 1, |_, &j| {
                     let mut set = current.clone();
                     set.push(j);
                     best_orders(&y, &u, &set, &folds, options, y_max).map(|c| (j, c))
                 })
-                .min_by(|a, b| a.1.heldout_rms.total_cmp(&b.1.heldout_rms));
+            })
+            .into_iter()
+            .flatten()
+            .min_by(|a, b| a.1.heldout_rms.total_cmp(&b.1.heldout_rms));
             let Some((j, cand)) = step else { break };
             let better = chosen
                 .as_ref()
@@ -1043,14 +1046,15 @@ pub fn fit_log_with(
         // Backward pass: an input whose removal costs less than `min_gain`
         // (an input picked early that a later one made redundant) goes.
         while let Some(c) = chosen.as_ref().filter(|c| c.inputs.len() > 1) {
-            let drop = c
-                .inputs
-                .iter()
-                .filter_map(|&j| {
+            let drop = crate::par::here(options.par, || {
+                crate::par::map(&c.inputs, 1, |_, &j| {
                     let set: Vec<usize> = c.inputs.iter().copied().filter(|&i| i != j).collect();
                     best_orders(&y, &u, &set, &folds, options, y_max).map(|d| (j, d))
                 })
-                .min_by(|a, b| a.1.heldout_rms.total_cmp(&b.1.heldout_rms));
+            })
+            .into_iter()
+            .flatten()
+            .min_by(|a, b| a.1.heldout_rms.total_cmp(&b.1.heldout_rms));
             match drop {
                 Some((j, d)) if (1.0 - options.min_gain) * d.heldout_rms <= c.heldout_rms => {
                     path.push((format!("-{}", model_inputs[j].name()), d.heldout_rms));
@@ -1081,7 +1085,7 @@ pub fn fit_log_with(
         let mut training_rms = arx.stats.simulation_rms;
         let mut output_error = false;
         if cand.orders.na > 0
-            && let Ok(oe) = fit_output_error(&run, &cand.orders, 0)
+            && let Ok(oe) = fit_output_error_par(&run, &cand.orders, 0, crate::par::Par::Seq)
             && admissible(&oe.fit.model, options, y_max)
         {
             let sim = oe.fit.model.simulate(&run.input_slices()).ok();

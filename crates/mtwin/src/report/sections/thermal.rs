@@ -113,6 +113,163 @@ pub fn section(model: &ThermalModel, curves: &[DriftCurve], chart_title: &str) -
     s
 }
 
+/// Measured and predicted drift of one channel of a wide log, since the
+/// log's start, in µm over min (for [`log_section`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LogChannelCurves {
+    /// The channel's column.
+    pub column: String,
+    /// `(t_min, drift_um)`: the period means of the log, since its first.
+    pub measured: Vec<(f64, f64)>,
+    /// `(t_min, drift_um)`: the model's simulation from the log's start
+    /// with the inputs alone.
+    pub predicted: Vec<(f64, f64)>,
+}
+
+/// The curves of every channel of `model` present in `log` (read with the
+/// model's period): sample `k` placed at `(k + ½)·T`, both since sample 0.
+pub fn log_curves(
+    model: &crate::methods::thermal::log::LogModel,
+    log: &crate::methods::thermal::log::LogData,
+) -> Result<Vec<LogChannelCurves>, crate::methods::thermal::ThermalError> {
+    let pred = crate::methods::thermal::log::predict_log(model, log)?;
+    let t = |k: usize| (k as f64 + 0.5) * log.period_min;
+    Ok(model
+        .channels
+        .iter()
+        .zip(&pred)
+        .zip(&log.channels)
+        .map(|((c, p), m)| {
+            let um = c.channel.unit.mm() * 1e3;
+            let base = m.first().copied().unwrap_or(0.0);
+            LogChannelCurves {
+                column: c.channel.column.clone(),
+                measured: m
+                    .iter()
+                    .enumerate()
+                    .map(|(k, v)| (t(k), (v - base) * um))
+                    .collect(),
+                predicted: p
+                    .iter()
+                    .enumerate()
+                    .map(|(k, v)| (t(k), (v - base) * um))
+                    .collect(),
+            }
+        })
+        .collect())
+}
+
+/// The section of a wide-log fit (the JSON of `mtwin thermal fit --log
+/// --format json`): per channel the held-out error it was chosen by, the
+/// chosen inputs and orders, the test span's scores when the fit stopped
+/// before the log's end, and one chart per entry of `curves` (measured and
+/// predicted drift, µm over min).
+pub fn log_section(
+    doc: &crate::methods::thermal::ThermalLogFitDoc,
+    curves: &[LogChannelCurves],
+) -> Section {
+    let mut s = Section::new("thermal-log", "Thermal drift from a machine log");
+    let how = if doc.folds > 1 {
+        format!(
+            "blocked cross-validation over {} blocks (each block predicted from cold by a model fitted on the blocks before it)",
+            doc.folds
+        )
+    } else {
+        format!(
+            "one held-out block of {} samples at the end of the training time",
+            doc.heldout_samples
+        )
+    };
+    s.push(Block::Text(format!(
+        "One ARX model per drift channel, inputs chosen by forward selection and orders by the simulation \
+         error from cold on held-out data ({how}); sample period {} min, {} of {} samples for training. \
+         Drift = displacement of the tool relative to the workpiece along the channel's axis.",
+        doc.period_min, doc.training_samples, doc.samples
+    )));
+    let mut t = Table::new(
+        "Model per channel",
+        &[
+            "channel",
+            "axis",
+            "na, nb",
+            "inputs",
+            "held-out RMS (µm)",
+            "held-out / drift (%)",
+            "training RMS (µm)",
+            "output error",
+        ],
+    );
+    for c in &doc.channels {
+        t.row(vec![
+            c.column.clone(),
+            format!("{:?}", c.axis),
+            format!("{}, {}", c.na, c.nb),
+            c.inputs.join(", "),
+            fmt(Some(c.heldout_rms_mm * 1e3), 3),
+            fmt(
+                Some(100.0 * c.heldout_rms_mm / c.heldout_drift_rms_mm.max(1e-300)),
+                1,
+            ),
+            fmt(Some(c.training_rms_mm * 1e3), 3),
+            if c.output_error { "yes" } else { "no" }.into(),
+        ]);
+    }
+    s.push(Block::Table(t));
+    if let Some(test) = &doc.test {
+        let mut t = Table::new(
+            &format!(
+                "Test span from {} min ({} samples), predicted from the log's start",
+                fmt(Some(test.from_min), 1),
+                test.samples
+            ),
+            &["channel", "MAE (channel unit)", "error / drift RMS"],
+        );
+        for c in &test.channels {
+            t.row(vec![
+                c.column.clone(),
+                fmt(Some(c.mae), 3),
+                fmt(Some(c.error_over_drift_rms), 3),
+            ]);
+        }
+        s.push(Block::Table(t));
+    }
+    s.push(Block::Verdict {
+        verdict: if doc.warnings.is_empty() {
+            Verdict::Good
+        } else {
+            Verdict::Caution
+        },
+        title: if doc.warnings.is_empty() {
+            "Every channel's held-out error is small against its drift.".into()
+        } else {
+            "Channels with reservations:".into()
+        },
+        lines: doc.warnings.clone(),
+    });
+    for c in curves {
+        let series = vec![
+            Series {
+                name: "measured".into(),
+                points: decimate(&c.measured, 2000),
+                color: COLORS[0].into(),
+                markers: false,
+            },
+            Series {
+                name: "predicted".into(),
+                points: decimate(&c.predicted, 2000),
+                color: COLORS[1].into(),
+                markers: false,
+            },
+        ];
+        let title = format!("{}: measured and predicted drift", c.column);
+        s.push(Block::Figure {
+            caption: format!("{title} (µm over min, since the log's start)."),
+            svg: xy(&title, "t (min)", "drift (µm)", &series),
+        });
+    }
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -129,5 +286,112 @@ mod tests {
         assert_eq!(c.len(), 2);
         assert_eq!(c[0].name, "z = -100 mm");
         assert_eq!(c[1].points, vec![(0.0, 0.0), (10.0, 0.002)]);
+    }
+
+    #[test]
+    fn a_log_fit_section_shows_each_channel_and_draws_the_simulated_step() {
+        use crate::methods::thermal::ThermalLogFitDoc;
+        use crate::methods::thermal::log::{
+            Axis, ChannelModel, ChannelSpec, LengthUnit, LogData, LogInput, LogModel,
+        };
+        let doc: ThermalLogFitDoc = serde_json::from_value(serde_json::json!({
+            "out": "m.toml", "period_min": 1.0, "samples": 100, "training_samples": 60,
+            "heldout_samples": 45, "folds": 3,
+            "inputs": [{"column": "speed_rpm", "rise": false, "scale": 5000.0}],
+            "channels": [{"column": "ch1_um", "unit": "um", "axis": "X", "na": 1, "nb": 0,
+                "inputs": ["speed_rpm", "t4_c"], "heldout_rms_mm": 0.0015,
+                "heldout_drift_rms_mm": 0.006, "training_rms_mm": 0.0008, "output_error": true,
+                "selection": []}],
+            "test": {"from_min": 60.0, "samples": 40,
+                "channels": [{"column": "ch1_um", "mae": 2.5, "error_over_drift_rms": 0.25}]},
+            "notes": [], "warnings": ["ch1_um: large"]
+        }))
+        .unwrap();
+        // A first-order model e(k) = 0.5·e(k−1) + 0.5·u(k−1) (mm, level input
+        // 1 from sample 0): e(k) = 1 − 0.5^k mm = (1 − 0.5^k)·1000 µm.
+        let spec = ChannelSpec {
+            column: "ch1_um".into(),
+            unit: LengthUnit::Um,
+            axis: Axis::X,
+        };
+        let model = LogModel {
+            period_min: 2.0,
+            inputs: vec![LogInput {
+                column: "u".into(),
+                rise: false,
+                square: false,
+                scale: 1.0,
+            }],
+            channels: vec![ChannelModel {
+                channel: spec,
+                inputs: vec![0],
+                a: vec![1.0, -0.5],
+                b: vec![vec![0.5]],
+                heldout_rms_mm: 0.0,
+                heldout_drift_rms_mm: 0.0,
+                training_rms_mm: 0.0,
+                output_error: false,
+            }],
+        };
+        let log = LogData {
+            path: "LOG.csv".into(),
+            period_min: 2.0,
+            start_min: 0.0,
+            channels: vec![vec![10.0, 11.0, 13.0, 12.0]],
+            inputs: vec![vec![1.0; 4]],
+            raw: Vec::new(),
+            notes: Vec::new(),
+        };
+        let curves = log_curves(&model, &log).unwrap();
+        assert_eq!(curves.len(), 1);
+        assert_eq!(
+            curves[0].measured,
+            vec![(1.0, 0.0), (3.0, 1.0), (5.0, 3.0), (7.0, 2.0)]
+        );
+        for (k, &(t, v)) in curves[0].predicted.iter().enumerate() {
+            assert_eq!(t, 2.0 * k as f64 + 1.0);
+            let want = (1.0 - 0.5f64.powi(k as i32)) * 1000.0;
+            assert!((v - want).abs() < 1e-9, "{k}: {v} vs {want}");
+        }
+        let s = log_section(&doc, &curves);
+        let Block::Table(t) = &s.blocks[1] else {
+            panic!("no model table")
+        };
+        // 0.0015 mm = 1.500 µm; 1.5 / 6 = 25.0 %; 0.0008 mm = 0.800 µm.
+        assert_eq!(
+            t.rows[0],
+            vec![
+                "ch1_um",
+                "X",
+                "1, 0",
+                "speed_rpm, t4_c",
+                "1.500",
+                "25.0",
+                "0.800",
+                "yes"
+            ]
+        );
+        let Block::Table(t) = &s.blocks[2] else {
+            panic!("no test table")
+        };
+        assert_eq!(t.rows[0], vec!["ch1_um", "2.500", "0.250"]);
+        assert!(matches!(
+            &s.blocks[3],
+            Block::Verdict {
+                verdict: Verdict::Caution,
+                ..
+            }
+        ));
+        let figures: Vec<&String> = s
+            .blocks
+            .iter()
+            .filter_map(|b| match b {
+                Block::Figure { svg, .. } => Some(svg),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(figures.len(), 1);
+        assert!(figures[0].contains("ch1_um: measured and predicted drift"));
+        assert!(figures[0].contains("measured") && figures[0].contains("predicted"));
     }
 }
