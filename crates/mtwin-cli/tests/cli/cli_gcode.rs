@@ -209,8 +209,6 @@ fn stats_tcp_machine_ranges_are_the_inverse_kinematics_along_the_moves() {
             "--tcp",
             "--machine",
             &example("ac-trunnion.toml"),
-            "--format",
-            "json",
         ],
     );
     // The closed form, densely along the turn (the first rapid goes straight
