@@ -242,7 +242,10 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
 /// can be interpolated on the machine, else `None` with a warning (an
 /// unreachable tip, reported by the travel check); an error of the
 /// planner's settings stops the command.
-fn planned_time(a: &StatsArgs, planned: Result<f64, InterpolateError>) -> anyhow::Result<Option<f64>> {
+fn planned_time(
+    a: &StatsArgs,
+    planned: Result<f64, InterpolateError>,
+) -> anyhow::Result<Option<f64>> {
     match planned {
         Ok(t) => Ok(Some(t)),
         Err(InterpolateError::Plan(e)) => bail!("{e}"),

@@ -247,14 +247,25 @@ fn stats_strict_finds_a_tcp_move_beyond_travel_between_its_ends() {
     // 250) is (250, 250) and (−250, 250) at the ends, inside ±300 mm, but
     // Y = 250·√2 = 353.55 mm at C = 45°. At (200, 200, 0) the radius is
     // 282.8 mm: inside all along.
-    write(dir.path(), "mid.nc", "G0 X250 Y250 Z0 A0 C0\nG1 C90 F2000\n");
+    write(
+        dir.path(),
+        "mid.nc",
+        "G0 X250 Y250 Z0 A0 C0\nG1 C90 F2000\n",
+    );
     write(dir.path(), "ok.nc", "G0 X200 Y200 Z0 A0 C0\nG1 C90 F2000\n");
     let machine = example("ac-trunnion.toml");
     let stats = |prog: &str| {
         mtwin(
             dir.path(),
             &[
-                "gcode", "stats", prog, "--tcp", "--machine", &machine, "--strict", "--format",
+                "gcode",
+                "stats",
+                prog,
+                "--tcp",
+                "--machine",
+                &machine,
+                "--strict",
+                "--format",
                 "json",
             ],
         )
@@ -298,7 +309,11 @@ fn stats_strict_finds_a_tcp_move_beyond_travel_between_its_ends() {
 fn stats_with_a_machine_interprets_the_program_once() {
     let dir = tempfile::tempdir().unwrap();
     // Each run of the interpreter prints the message once on stderr.
-    write(dir.path(), "msg.nc", "G1 X10 F600\n(PRINT,interpreted)\nG1 X0\n");
+    write(
+        dir.path(),
+        "msg.nc",
+        "G1 X10 F600\n(PRINT,interpreted)\nG1 X0\n",
+    );
     let o = mtwin(
         dir.path(),
         &[
@@ -312,7 +327,12 @@ fn stats_with_a_machine_interprets_the_program_once() {
         ],
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert_eq!(stderr(&o).matches("interpreted").count(), 1, "{}", stderr(&o));
+    assert_eq!(
+        stderr(&o).matches("interpreted").count(),
+        1,
+        "{}",
+        stderr(&o)
+    );
     let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
     // The planned time (stops at both ends of each 10 mm move) is longer
     // than the 2 s at the programmed feed.

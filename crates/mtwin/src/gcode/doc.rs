@@ -102,9 +102,7 @@ impl GcodeStatsDoc {
                         let i = m.axis_index(&char::from(ax.letter()).to_string())?;
                         c.ranges.get(i).copied().flatten()
                     });
-                    let mr = checked
-                        .or(stats.machine_range[ax.index()])
-                        .unwrap_or(r);
+                    let mr = checked.or(stats.machine_range[ax.index()]).unwrap_or(r);
                     (
                         char::from(ax.letter()).to_string(),
                         AxisRangeDoc {

@@ -1100,14 +1100,21 @@ impl<'m> Interpolator<'m> {
     /// TCP: the tip plus the rotary axes) into `out`, which holds the
     /// previous positions (the IK start under TCP).
     fn joints(&self, w: &Axes, tcp: bool, out: &mut [f64]) -> Result<(), InterpolateError> {
-        travel::machine_position(&self.kin, |i| Some(self.letters[i]), &self.linear, w, tcp, out)
-            .map_err(|source| InterpolateError::Ik {
-                line: self.line,
-                x: w[Axis::X],
-                y: w[Axis::Y],
-                z: w[Axis::Z],
-                source,
-            })
+        travel::machine_position(
+            &self.kin,
+            |i| Some(self.letters[i]),
+            &self.linear,
+            w,
+            tcp,
+            out,
+        )
+        .map_err(|source| InterpolateError::Ik {
+            line: self.line,
+            x: w[Axis::X],
+            y: w[Axis::Y],
+            z: w[Axis::Z],
+            source,
+        })
     }
 
     /// Axis positions at `s ∈ [0, 1]` along `path` into `out` (which holds the
@@ -1455,7 +1462,9 @@ where
         Err(e) => return without_planner(input, opts, hook, e),
     };
     let iopts = ip.options().interp.clone();
-    for_each_event(input, &iopts, hook.as_deref_mut(), |e| ip.push(e, &mut sink))?;
+    for_each_event(input, &iopts, hook.as_deref_mut(), |e| {
+        ip.push(e, &mut sink)
+    })?;
     if let Some(e) = hook.and_then(|h| h.failed.take()) {
         return Err(e);
     }
@@ -2252,10 +2261,11 @@ where
     R: BufRead,
     F: FnMut(&Sample<'_>) -> io::Result<()>,
 {
-    let (limits, walker) = match jerk_limits(machine).and_then(|l| Ok((l, Walker::new(machine, opts)?))) {
-        Ok(x) => x,
-        Err(e) => return without_planner(input, opts, hook, e),
-    };
+    let (limits, walker) =
+        match jerk_limits(machine).and_then(|l| Ok((l, Walker::new(machine, opts)?))) {
+            Ok(x) => x,
+            Err(e) => return without_planner(input, opts, hook, e),
+        };
     let q = walker.ip.q.clone();
     let mut run = JerkRun {
         machine,

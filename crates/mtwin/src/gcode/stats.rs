@@ -12,9 +12,7 @@ use super::axes::{Axes, Axis};
 use super::error::GcodeError;
 use super::event::{ArcMove, Event, EventKind, Feed, Linear};
 use super::interp::{InterpOptions, Interpreter};
-use super::interpolate::{
-    InterpolateError, InterpolateOptions, planned_duration_with,
-};
+use super::interpolate::{InterpolateError, InterpolateOptions, planned_duration_with};
 use super::program_flow::{Step, run_program};
 use super::syntax::Block;
 use super::timing;

@@ -477,5 +477,4 @@ mod tests {
         .unwrap();
         assert_eq!((ok.count, ok.unreachable.len()), (0, 0));
     }
-
 }
