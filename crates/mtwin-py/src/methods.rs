@@ -214,7 +214,7 @@ pub fn gcode_error(py: Python<'_>, program: &Path, e: &GcodeError) -> PyErr {
 
 /// `mtwin gcode stats`: statistics and time estimate of the part program at
 /// `program` (LinuxCNC dialect). With `machine`, its rapid feed is used and every
-/// move end is checked against the travels (`tcp`: the program is in tool-tip
+/// move is checked against the travels along its length (`tcp`: the program is in tool-tip
 /// coordinates from the start, as `--tcp`). Returns the `GcodeStatsDoc`. Errors
 /// in the program raise `InputError` with the file, line and column.
 #[pyfunction]
@@ -242,27 +242,23 @@ fn gcode_stats(
         c.force_tcp = tcp;
         c
     });
-    let st = py.detach(|| match check.as_mut() {
-        Some(c) => gcode::stats_with(input, &opts, c),
-        None => gcode::stats(input, &opts),
+    // With a machine: statistics, travel check and the planned time (as
+    // `gcode stats --machine` gives it, the default planner) from one run of
+    // the interpreter.
+    let inner = machine.map(|m| &m.inner);
+    let st = py.detach(|| match (inner, check.as_mut()) {
+        (Some(m), Some(c)) => {
+            let mut io = gcode::InterpolateOptions::new(1e9);
+            io.interp = opts.interp.clone();
+            io.force_tcp = tcp;
+            gcode::stats_planned(input, &opts, c, m, &io).map(|(mut st, t)| {
+                st.planned_time = t.ok();
+                st
+            })
+        }
+        _ => gcode::stats(input, &opts),
     });
-    let mut st = st.map_err(|e| gcode_error(py, &program, &e))?;
-    if let Some(m) = machine {
-        // The planned time, as `gcode stats --machine` gives it (the default planner).
-        let mut io = gcode::InterpolateOptions::new(1e9);
-        io.interp = opts.interp.clone();
-        io.force_tcp = tcp;
-        let file = std::fs::File::open(&program).map_err(|e| {
-            input_error(
-                py,
-                &Diagnostic::whole(&program, format!("cannot read the program: {e}")).into(),
-            )
-        })?;
-        let input = std::io::BufReader::new(file);
-        st.planned_time = py
-            .detach(|| gcode::planned_duration(input, &m.inner, &io))
-            .ok();
-    }
+    let st = st.map_err(|e| gcode_error(py, &program, &e))?;
     let doc = gcode::GcodeStatsDoc::new(
         &program.display().to_string(),
         &st,

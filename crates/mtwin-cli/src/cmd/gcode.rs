@@ -238,22 +238,15 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
     crate::output::print_doc(&doc, a.format)
 }
 
-/// With a machine, the program's time under `--planner` (accelerations,
-/// junctions and limits included), from the interpolator run without
-/// sampling; `None` (with a warning) when the program cannot be interpolated
-/// on the machine (an unreachable tip, reported by the travel check).
+/// The planned time of `gcode stats` with a machine: `Some` when the program
+/// can be interpolated on the machine, else `None` with a warning (an
+/// unreachable tip, reported by the travel check); an error of the
+/// planner's settings stops the command.
 fn planned_time(
     a: &StatsArgs,
-    m: &mtwin::model::Machine,
-    interp: &InterpOptions,
+    planned: Result<f64, InterpolateError>,
 ) -> anyhow::Result<Option<f64>> {
-    let mut opts = InterpolateOptions::new(1e9);
-    opts.interp = interp.clone();
-    opts.force_tcp = a.tcp;
-    opts.plan = a.plan.options();
-    let f =
-        File::open(&a.program).with_context(|| format!("cannot read {}", a.program.display()))?;
-    match gcode::planned_duration(BufReader::new(f), m, &opts) {
+    match planned {
         Ok(t) => Ok(Some(t)),
         Err(InterpolateError::Plan(e)) => bail!("{e}"),
         Err(e) => {
@@ -271,25 +264,31 @@ fn stats(a: StatsArgs) -> anyhow::Result<()> {
     let machine = a.machine.as_deref().map(load_machine).transpose()?;
     let mut opts = StatsOptions::default();
     opts.interp = interp_options(&a.offsets, &a.dialect, &a.program)?;
-    if let Some(m) = &machine {
+    if let (Some(m), Some(path)) = (&machine, &a.machine) {
         opts.rapid_feed = m.rapid_feed;
+        a.plan.check_machine(path, m)?;
     }
     opts.interp.tcp_at_start = a.tcp;
     let (input, bar) = crate::output::open_with_progress(&a.program, "read")?;
-    let mut check = machine.as_ref().map(|m| {
-        let mut c = TravelCheck::new(m);
-        c.force_tcp = a.tcp;
-        c
-    });
-    let st = match check.as_mut() {
-        Some(c) => gcode::stats_with(input, &opts, c),
-        None => gcode::stats(input, &opts),
+    // With a machine: statistics, travel check and planned time from one
+    // run of the interpreter.
+    let result = match &machine {
+        Some(m) => {
+            let mut check = TravelCheck::new(m);
+            check.force_tcp = a.tcp;
+            let mut plan = InterpolateOptions::new(1e9);
+            plan.interp = opts.interp.clone();
+            plan.force_tcp = a.tcp;
+            plan.plan = a.plan.options();
+            gcode::stats_planned(input, &opts, &mut check, m, &plan)
+                .map(|(st, planned)| (st, Some(planned), Some(check)))
+        }
+        None => gcode::stats(input, &opts).map(|st| (st, None, None)),
     };
     bar.finish_and_clear();
-    let mut st = st.map_err(|e| located_error(&a.program, &e))?;
-    if let (Some(m), Some(path)) = (&machine, &a.machine) {
-        a.plan.check_machine(path, m)?;
-        st.planned_time = planned_time(&a, m, &opts.interp)?;
+    let (mut st, planned, check) = result.map_err(|e| located_error(&a.program, &e))?;
+    if let Some(planned) = planned {
+        st.planned_time = planned_time(&a, planned)?;
     }
     let doc = gcode::GcodeStatsDoc::new(
         &a.program.display().to_string(),
@@ -298,16 +297,38 @@ fn stats(a: StatsArgs) -> anyhow::Result<()> {
         check.as_ref(),
     );
     crate::output::print_doc(&doc, a.format)?;
-    if let Some(c) = check
-        .as_ref()
-        .filter(|c| a.strict && (c.count > 0 || !c.unreachable.is_empty()))
-    {
-        bail!(
-            "{}: {} move end(s) outside the travel and {} unreachable tool tip(s) (--strict)",
-            a.program.display(),
+    if let Some(c) = check.as_ref().filter(|_| a.strict) {
+        // The first move at fault (in program order), as `file:line:col`.
+        let first_violation = c.violations.iter().min_by_key(|v| v.line);
+        let first_unreachable = c.unreachable.iter().min();
+        let summary = format!(
+            "{} move(s) outside the travel and {} unreachable tool tip(s) (--strict)",
             c.count,
             c.unreachable.len()
         );
+        match (first_violation, first_unreachable) {
+            (Some(v), u) if u.is_none_or(|&l| v.line <= l) => {
+                return Err(located(
+                    &a.program,
+                    Some(v.line),
+                    0,
+                    format!(
+                        "axis {} reaches {} along the move, outside its travel [{}, {}]; {summary}",
+                        v.axis, v.value, v.travel[0], v.travel[1]
+                    ),
+                ));
+            }
+            (_, Some(&l)) => {
+                return Err(located(
+                    &a.program,
+                    Some(l),
+                    0,
+                    format!("the tool tip is not reachable; {summary}"),
+                ));
+            }
+            _ if c.count > 0 => bail!("{}: {summary}", a.program.display()),
+            _ => {}
+        }
     }
     Ok(())
 }

@@ -163,13 +163,181 @@ fn stats_reports_travel_violations() {
         stdout(&o)
     );
     assert!(
-        stderr(&o).contains("1 move end(s) outside the travel"),
+        stderr(&o).contains("far.nc:2:1: axis X reaches 400 along the move")
+            && stderr(&o).contains("1 move(s) outside the travel"),
         "{}",
         stderr(&o)
     );
     write(dir.path(), "near.nc", "G1 X10 F600\nG1 X0 Y0\n");
     let o = strict("near.nc");
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+/// Machine axes of the nominal `ac-trunnion` for the tool tip `tip` in W at
+/// A, C (deg), in closed form: tip_W = (0, 0, 150) + Rz(−C)·Rx(−A)·(X, Y, Z)
+/// (docs/machine-model.md), so (X, Y, Z) = Rx(A)·Rz(C)·(tip − (0, 0, 150)).
+fn trunnion_xyz(tip: [f64; 3], a_deg: f64, c_deg: f64) -> [f64; 3] {
+    let (a, c) = (a_deg.to_radians(), c_deg.to_radians());
+    let v = [tip[0], tip[1], tip[2] - 150.0];
+    let r = [
+        v[0] * c.cos() - v[1] * c.sin(),
+        v[0] * c.sin() + v[1] * c.cos(),
+        v[2],
+    ];
+    [
+        r[0],
+        r[1] * a.cos() - r[2] * a.sin(),
+        r[1] * a.sin() + r[2] * a.cos(),
+    ]
+}
+
+#[test]
+fn stats_tcp_machine_ranges_are_the_inverse_kinematics_along_the_moves() {
+    let dir = tempfile::tempdir().unwrap();
+    // Tip held at (10, 0, 5) in W, A = 30°, C turning from −45° to 45°.
+    write(
+        dir.path(),
+        "turn.nc",
+        "G0 X10 Y0 Z5 A30 C-45\nG1 C45 F1000\n",
+    );
+    let (_, v) = json_round_trip::<mtwin::gcode::GcodeStatsDoc>(
+        dir.path(),
+        &[
+            "gcode",
+            "stats",
+            "turn.nc",
+            "--tcp",
+            "--machine",
+            &example("ac-trunnion.toml"),
+        ],
+    );
+    // The closed form, densely along the turn (the first rapid goes straight
+    // in axis space from the start to its end, which is C = −45°).
+    let n = 200_000;
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for k in 0..=n {
+        let c = -45.0 + 90.0 * k as f64 / n as f64;
+        let q = trunnion_xyz([10.0, 0.0, 5.0], 30.0, c);
+        for i in 0..3 {
+            lo[i] = lo[i].min(q[i]);
+            hi[i] = hi[i].max(q[i]);
+        }
+    }
+    // X = 10 cos C peaks at C = 0 between the ends (7.07 mm at both ends).
+    assert!((hi[0] - 10.0).abs() < 1e-9 && (lo[0] - 50f64.sqrt()).abs() < 1e-9);
+    for (i, name) in ["X", "Y", "Z"].into_iter().enumerate() {
+        let m = &v["axes"][name]["machine"];
+        let (mlo, mhi) = (m[0].as_f64().unwrap(), m[1].as_f64().unwrap());
+        assert!(
+            (mlo - lo[i]).abs() < 1e-7 && (mhi - hi[i]).abs() < 1e-7,
+            "{name}: machine [{mlo}, {mhi}], closed form [{}, {}]",
+            lo[i],
+            hi[i]
+        );
+    }
+    // The program coordinates stay the tip's.
+    assert_eq!(v["axes"]["X"]["work"][1], 10.0);
+}
+
+#[test]
+fn stats_strict_finds_a_tcp_move_beyond_travel_between_its_ends() {
+    let dir = tempfile::tempdir().unwrap();
+    // The tip held at (250, 250, 0) while C turns 90°: X, Y = Rz(C)·(250,
+    // 250) is (250, 250) and (−250, 250) at the ends, inside ±300 mm, but
+    // Y = 250·√2 = 353.55 mm at C = 45°. At (200, 200, 0) the radius is
+    // 282.8 mm: inside all along.
+    write(
+        dir.path(),
+        "mid.nc",
+        "G0 X250 Y250 Z0 A0 C0\nG1 C90 F2000\n",
+    );
+    write(dir.path(), "ok.nc", "G0 X200 Y200 Z0 A0 C0\nG1 C90 F2000\n");
+    let machine = example("ac-trunnion.toml");
+    let stats = |prog: &str| {
+        mtwin(
+            dir.path(),
+            &[
+                "gcode",
+                "stats",
+                prog,
+                "--tcp",
+                "--machine",
+                &machine,
+                "--strict",
+                "--format",
+                "json",
+            ],
+        )
+    };
+    let o = stats("mid.nc");
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("mid.nc:2:1: axis Y reaches 353.55"),
+        "{}",
+        stderr(&o)
+    );
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(v["travel_violations"], 1);
+    let y = v["violations"][0]["value"].as_f64().unwrap();
+    assert!((y - 250.0 * 2f64.sqrt()).abs() < 1e-7, "{y}");
+    let o = stats("ok.nc");
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // `gcode interpolate` refuses and accepts the same two programs.
+    let interp = |prog: &str| {
+        mtwin(
+            dir.path(),
+            &[
+                "gcode",
+                "interpolate",
+                "--machine",
+                &machine,
+                prog,
+                "--tcp",
+                "--out",
+                "cmd.csv",
+            ],
+        )
+    };
+    let o = interp("mid.nc");
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("mid.nc:2:") && stderr(&o).contains("axis Y reaches"));
+    assert_eq!(interp("ok.nc").status.code(), Some(0));
+}
+
+#[test]
+fn stats_with_a_machine_interprets_the_program_once() {
+    let dir = tempfile::tempdir().unwrap();
+    // Each run of the interpreter prints the message once on stderr.
+    write(
+        dir.path(),
+        "msg.nc",
+        "G1 X10 F600\n(PRINT,interpreted)\nG1 X0\n",
+    );
+    let o = mtwin(
+        dir.path(),
+        &[
+            "gcode",
+            "stats",
+            "msg.nc",
+            "--machine",
+            &example("ac-trunnion.toml"),
+            "--format",
+            "json",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(
+        stderr(&o).matches("interpreted").count(),
+        1,
+        "{}",
+        stderr(&o)
+    );
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    // The planned time (stops at both ends of each 10 mm move) is longer
+    // than the 2 s at the programmed feed.
+    assert!(v["total_time_s"].as_f64().unwrap() > 2.0);
+    assert_eq!(v["blocks"], 3);
 }
 
 #[test]

@@ -169,6 +169,23 @@ pub(crate) fn geometry(arc: &ArcMove) -> Geometry {
     }
 }
 
+/// The point of `arc` at `s ∈ [0, 1]` of its sweep ([`geometry`] `g`): in
+/// the plane on the spiral from the start radius to the end radius, the
+/// other axes linear in `s`; exactly `arc.to` at `s ≥ 1`. The one place the
+/// interpolator and the travel check of statistics take arc points from.
+pub(crate) fn point_at(arc: &ArcMove, g: &Geometry, s: f64) -> Axes {
+    if s >= 1.0 {
+        return arc.to;
+    }
+    let (p, q, _) = arc.plane.axes();
+    let mut x = super::timing::lerp(&arc.from, &arc.to, s);
+    let ang = g.start_angle + g.sweep * s;
+    let r = g.radius + (g.end_radius - g.radius) * s;
+    x[p] = g.center[0] + r * ang.cos();
+    x[q] = g.center[1] + r * ang.sin();
+    x
+}
+
 fn plane_point(a: &Axes, p: super::axes::Axis, q: super::axes::Axis) -> [f64; 2] {
     [a[p], a[q]]
 }

@@ -10,7 +10,9 @@ use super::{Axis, InterpolationSummary, ProgramStats, TravelCheck};
 use crate::model::Machine;
 
 /// The range of one axis: program (work) coordinates and machine coordinates
-/// (work offsets and tool length applied), `[min, max]` in mm or degrees.
+/// (work offsets and tool length applied; with a machine, the axis positions
+/// of its travel check — under TCP from the inverse kinematics, along the
+/// whole move), `[min, max]` in mm or degrees.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct AxisRangeDoc {
     /// Machine coordinates.
@@ -19,7 +21,8 @@ pub struct AxisRangeDoc {
     pub work: [f64; 2],
 }
 
-/// A move end outside an axis travel.
+/// A move that takes an axis outside its travel (the farthest value along the
+/// move; one per move and axis).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TravelViolationDoc {
     /// Axis name.
@@ -62,7 +65,7 @@ pub struct GcodeStatsDoc {
     pub rapid_time_s: f64,
     /// Estimated total time (s).
     pub total_time_s: f64,
-    /// Move ends outside the travels (with a machine).
+    /// Moves outside the travels, counted per move and axis (with a machine).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub travel_violations: Option<u64>,
     /// Lines whose tool tip the machine cannot reach (with a machine).
@@ -93,7 +96,13 @@ impl GcodeStatsDoc {
             })
             .filter_map(|&ax| {
                 stats.work_range[ax.index()].map(|r| {
-                    let mr = stats.machine_range[ax.index()].unwrap_or(r);
+                    // With a travel check, the positions it tested (from the
+                    // inverse kinematics under TCP).
+                    let checked = machine.zip(check).and_then(|(m, c)| {
+                        let i = m.axis_index(&char::from(ax.letter()).to_string())?;
+                        c.ranges.get(i).copied().flatten()
+                    });
+                    let mr = checked.or(stats.machine_range[ax.index()]).unwrap_or(r);
                     (
                         char::from(ax.letter()).to_string(),
                         AxisRangeDoc {
@@ -170,7 +179,7 @@ impl std::fmt::Display for GcodeStatsDoc {
             let violations = self.violations.as_deref().unwrap_or_default();
             let unreachable = self.unreachable_lines.as_deref().unwrap_or_default();
             if count == 0 && unreachable.is_empty() {
-                writeln!(f, "travel: every move end is within the machine travels")?;
+                writeln!(f, "travel: every move is within the machine travels")?;
             } else {
                 for v in violations.iter().take(10) {
                     writeln!(

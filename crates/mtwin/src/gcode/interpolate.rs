@@ -41,8 +41,6 @@
 use std::collections::VecDeque;
 use std::io::{self, BufRead};
 
-use nalgebra::Vector3;
-
 use super::arc::{self, Geometry};
 use super::axes::{Axes, Axis, AxisLetterError};
 use super::error::GcodeError;
@@ -56,7 +54,8 @@ use super::plan::naive_cam::NaiveCam;
 use super::plan::{PlanOptions, Planner};
 use super::program_flow::{Step, run_program};
 use super::timing::{self, lerp};
-use crate::kinematics::{IkError, IkOptions, IkTarget, Kinematics};
+use super::travel;
+use crate::kinematics::{IkError, Kinematics};
 use crate::model::{AxisKind, Machine};
 
 /// Settings of [`interpolate`].
@@ -282,18 +281,7 @@ impl Geom {
     fn at(&self, s: f64) -> Axes {
         match self {
             Geom::Line { from, to } => lerp(from, to, s),
-            Geom::Arc { arc, g } => {
-                let (p, q, _) = arc.plane.axes();
-                let mut x = lerp(&arc.from, &arc.to, s);
-                if s >= 1.0 {
-                    return arc.to;
-                }
-                let ang = g.start_angle + g.sweep * s;
-                let r = g.radius + (g.end_radius - g.radius) * s;
-                x[p] = g.center[0] + r * ang.cos();
-                x[q] = g.center[1] + r * ang.sin();
-                x
-            }
+            Geom::Arc { arc, g } => arc::point_at(arc, g, s),
             Geom::Blend {
                 from,
                 center,
@@ -411,7 +399,6 @@ pub struct Interpolator<'m> {
     kin: Kinematics,
     letters: Vec<Axis>,
     linear: Vec<bool>,
-    ik: IkOptions,
     opts: InterpolateOptions,
     /// Axis positions at the end of the last queued block.
     q: Vec<f64>,
@@ -490,13 +477,6 @@ impl<'m> Interpolator<'m> {
                 .map(|a| a.kind == AxisKind::Linear)
                 .collect(),
             letters,
-            ik: IkOptions {
-                max_iterations: 20,
-                tip_tolerance: 1e-11,
-                axis_tolerance: 1e-13,
-                check_travel: false,
-                stall_ratio: None,
-            },
             buf: q.clone(),
             q,
             opts,
@@ -1121,31 +1101,21 @@ impl<'m> Interpolator<'m> {
     /// TCP: the tip plus the rotary axes) into `out`, which holds the
     /// previous positions (the IK start under TCP).
     fn joints(&self, w: &Axes, tcp: bool, out: &mut [f64]) -> Result<(), InterpolateError> {
-        if !tcp {
-            for (o, &l) in out.iter_mut().zip(&self.letters) {
-                *o = w[l];
-            }
-            return Ok(());
-        }
-        for (i, (o, &l)) in out.iter_mut().zip(&self.letters).enumerate() {
-            if !self.linear[i] {
-                *o = w[l];
-            }
-        }
-        let tip = Vector3::new(w[Axis::X], w[Axis::Y], w[Axis::Z]);
-        let target = IkTarget { tip, axis: None };
-        let q = self
-            .kin
-            .inverse(&target, out, &self.linear, &self.ik)
-            .map_err(|source| InterpolateError::Ik {
-                line: self.line,
-                x: tip.x,
-                y: tip.y,
-                z: tip.z,
-                source,
-            })?;
-        out.copy_from_slice(&q);
-        Ok(())
+        travel::machine_position(
+            &self.kin,
+            |i| Some(self.letters[i]),
+            &self.linear,
+            w,
+            tcp,
+            out,
+        )
+        .map_err(|source| InterpolateError::Ik {
+            line: self.line,
+            x: w[Axis::X],
+            y: w[Axis::Y],
+            z: w[Axis::Z],
+            source,
+        })
     }
 
     /// Axis positions at `s ∈ [0, 1]` along `path` into `out` (which holds the
@@ -1358,23 +1328,7 @@ impl<'m> Interpolator<'m> {
         if !self.opts.check_travel {
             return Ok(());
         }
-        for (axis, &value) in self.machine.axes.iter().zip(q) {
-            if !axis.in_travel(value) {
-                return Err(InterpolateError::OutOfTravel {
-                    line: self.line,
-                    axis: axis.name.clone(),
-                    value,
-                    unit: match axis.kind {
-                        AxisKind::Linear => "mm",
-                        AxisKind::Rotary => "deg",
-                    },
-                    t,
-                    lo: axis.travel[0],
-                    hi: axis.travel[1],
-                });
-            }
-        }
-        Ok(())
+        travel_error(self.machine, q, t, self.line)
     }
 }
 
@@ -1397,25 +1351,80 @@ pub fn planned_duration<R: BufRead>(
     interpolate(input, machine, &o, |_| Ok(())).map(|s| s.duration)
 }
 
+/// [`planned_duration`] in the same run of the interpreter that shows every
+/// step (block and events) to `on_step` — `gcode stats` with a machine reads
+/// and interprets the program once for its statistics and the planned time.
+/// The outer error is the interpreter's or `on_step`'s (the run stopped);
+/// the inner one the planner's: the planner stops at its first error while
+/// the run goes on to the end of the program for `on_step`.
+pub fn planned_duration_with<R: BufRead>(
+    input: R,
+    machine: &Machine,
+    opts: &InterpolateOptions,
+    on_step: &mut dyn FnMut(&Step<'_>) -> Result<(), GcodeError>,
+) -> Result<Result<f64, InterpolateError>, GcodeError> {
+    let mut o = opts.clone();
+    o.ts = 1e9;
+    o.check_travel = false;
+    let mut hook = Hook {
+        on_step,
+        failed: None,
+        run_error: None,
+    };
+    let r = drive(input, machine, &o, |_| Ok(()), Some(&mut hook));
+    if let Some(e) = hook.run_error {
+        return Err(e);
+    }
+    Ok(match hook.failed {
+        Some(e) => Err(e),
+        None => r.map(|s| s.duration),
+    })
+}
+
+/// The steps of a program run shown to someone besides the planner
+/// ([`planned_duration_with`]): planner errors are kept in `failed` (the run
+/// goes on without the planner), an error of the run in `run_error`.
+struct Hook<'h> {
+    on_step: &'h mut dyn FnMut(&Step<'_>) -> Result<(), GcodeError>,
+    failed: Option<InterpolateError>,
+    run_error: Option<GcodeError>,
+}
+
 /// Runs the program `input` through the interpreter with `iopts` and hands
 /// every event, in program order, to `f` (the one driver loop of the
-/// planners).
+/// planners), and every step to the `hook` if there is one.
 fn for_each_event<R: BufRead>(
     input: R,
     iopts: &InterpOptions,
+    mut hook: Option<&mut Hook<'_>>,
     mut f: impl FnMut(&Event) -> Result<(), InterpolateError>,
 ) -> Result<(), InterpolateError> {
     let mut interp = Interpreter::new(iopts.clone());
-    run_program(
+    let r = run_program(
         input,
         &mut interp,
         &iopts.program,
         iopts.dialect,
         |step: &Step<'_>| -> Result<(), InterpolateError> {
-            step.events.iter().try_for_each(&mut f)
+            let Some(h) = hook.as_deref_mut() else {
+                return step.events.iter().try_for_each(&mut f);
+            };
+            (h.on_step)(step)?;
+            if h.failed.is_none()
+                && let Err(e) = step.events.iter().try_for_each(&mut f)
+            {
+                h.failed = Some(e);
+            }
+            Ok(())
         },
-    )?;
-    Ok(())
+    );
+    match (r, hook) {
+        (Err(InterpolateError::Gcode(e)), Some(h)) => {
+            h.run_error = Some(e);
+            Err(InterpolateError::Plan("the program run failed".into()))
+        }
+        (r, _) => r.map(|_| ()),
+    }
 }
 
 /// Interpolates the program read from `input` on `machine`, streaming:
@@ -1424,19 +1433,61 @@ pub fn interpolate<R, F>(
     input: R,
     machine: &Machine,
     opts: &InterpolateOptions,
+    sink: F,
+) -> Result<InterpolationSummary, InterpolateError>
+where
+    R: BufRead,
+    F: FnMut(&Sample<'_>) -> io::Result<()>,
+{
+    drive(input, machine, opts, sink, None)
+}
+
+/// [`interpolate`], with the steps also shown to `hook` when there is one
+/// (then a planner that cannot start still lets the program run for it).
+fn drive<R, F>(
+    input: R,
+    machine: &Machine,
+    opts: &InterpolateOptions,
     mut sink: F,
+    mut hook: Option<&mut Hook<'_>>,
 ) -> Result<InterpolationSummary, InterpolateError>
 where
     R: BufRead,
     F: FnMut(&Sample<'_>) -> io::Result<()>,
 {
     if opts.plan.planner == Planner::Jerk {
-        return interpolate_jerk(input, machine, opts, sink);
+        return interpolate_jerk(input, machine, opts, sink, hook);
     }
-    let mut ip = Interpolator::new(machine, opts)?;
+    let mut ip = match Interpolator::new(machine, opts) {
+        Ok(ip) => ip,
+        Err(e) => return without_planner(input, opts, hook, e),
+    };
     let iopts = ip.options().interp.clone();
-    for_each_event(input, &iopts, |e| ip.push(e, &mut sink))?;
+    for_each_event(input, &iopts, hook.as_deref_mut(), |e| {
+        ip.push(e, &mut sink)
+    })?;
+    if let Some(e) = hook.and_then(|h| h.failed.take()) {
+        return Err(e);
+    }
     ip.finish(&mut sink)
+}
+
+/// A planner that could not start (`e`): without a hook its error; with one
+/// the program still runs for the hook.
+fn without_planner<R: BufRead>(
+    input: R,
+    opts: &InterpolateOptions,
+    hook: Option<&mut Hook<'_>>,
+    e: InterpolateError,
+) -> Result<InterpolationSummary, InterpolateError> {
+    let Some(h) = hook else {
+        return Err(e);
+    };
+    h.failed = Some(e);
+    let mut iopts = opts.interp.clone();
+    iopts.tcp_at_start |= opts.force_tcp;
+    for_each_event(input, &iopts, Some(h), |_| Ok(()))?;
+    Err(InterpolateError::Plan("the planner did not start".into()))
 }
 
 /// A chain of programmed moves between two stops, sampled densely in joint
@@ -2125,13 +2176,23 @@ impl<'m> Walker<'m> {
 
     /// Runs the program through the walker; returns the moves, transitions
     /// and dwell time counted.
-    fn run<R, F>(mut self, input: R, mut sink: F) -> Result<InterpolationSummary, InterpolateError>
+    fn run<R, F>(
+        mut self,
+        input: R,
+        mut sink: F,
+        mut hook: Option<&mut Hook<'_>>,
+    ) -> Result<InterpolationSummary, InterpolateError>
     where
         R: BufRead,
         F: FnMut(Stretch<'_>) -> Result<(), InterpolateError>,
     {
         let iopts = self.ip.options().interp.clone();
-        for_each_event(input, &iopts, |e| self.event(e, &mut sink))?;
+        for_each_event(input, &iopts, hook.as_deref_mut(), |e| {
+            self.event(e, &mut sink)
+        })?;
+        if let Some(e) = hook.and_then(|h| h.failed.take()) {
+            return Err(e);
+        }
         self.flush(&mut sink)?;
         Ok(self.ip.summary)
     }
@@ -2158,10 +2219,14 @@ where
     R: BufRead,
     F: FnMut(&DensePath) -> Result<(), InterpolateError>,
 {
-    Walker::new(machine, opts)?.run(input, |st| match st {
-        Stretch::Chain(c) => sink(c),
-        _ => Ok(()),
-    })?;
+    Walker::new(machine, opts)?.run(
+        input,
+        |st| match st {
+            Stretch::Chain(c) => sink(c),
+            _ => Ok(()),
+        },
+        None,
+    )?;
     Ok(())
 }
 
@@ -2318,12 +2383,14 @@ where
 
 /// An [`InterpolateError::OutOfTravel`] when `q` leaves an axis travel.
 fn travel_error(machine: &Machine, q: &[f64], t: f64, line: u64) -> Result<(), InterpolateError> {
-    for (axis, &value) in machine.axes.iter().zip(q) {
-        if !axis.in_travel(value) {
-            return Err(InterpolateError::OutOfTravel {
+    match travel::first_outside(machine, q) {
+        None => Ok(()),
+        Some(i) => {
+            let axis = &machine.axes[i];
+            Err(InterpolateError::OutOfTravel {
                 line,
                 axis: axis.name.clone(),
-                value,
+                value: q[i],
                 unit: match axis.kind {
                     AxisKind::Linear => "mm",
                     AxisKind::Rotary => "deg",
@@ -2331,10 +2398,9 @@ fn travel_error(machine: &Machine, q: &[f64], t: f64, line: u64) -> Result<(), I
                 t,
                 lo: axis.travel[0],
                 hi: axis.travel[1],
-            });
+            })
         }
     }
-    Ok(())
 }
 
 /// [`interpolate`] under the `jerk` planner: each stretch between stops is
@@ -2344,13 +2410,17 @@ fn interpolate_jerk<R, F>(
     machine: &Machine,
     opts: &InterpolateOptions,
     sink: F,
+    hook: Option<&mut Hook<'_>>,
 ) -> Result<InterpolationSummary, InterpolateError>
 where
     R: BufRead,
     F: FnMut(&Sample<'_>) -> io::Result<()>,
 {
-    let limits = jerk_limits(machine)?;
-    let walker = Walker::new(machine, opts)?;
+    let (limits, walker) =
+        match jerk_limits(machine).and_then(|l| Ok((l, Walker::new(machine, opts)?))) {
+            Ok(x) => x,
+            Err(e) => return without_planner(input, opts, hook, e),
+        };
     let q = walker.ip.q.clone();
     let mut run = JerkRun {
         machine,
@@ -2363,7 +2433,7 @@ where
         samples: 0,
         sink,
     };
-    let mut summary = walker.run(input, |st| run.stretch(st))?;
+    let mut summary = walker.run(input, |st| run.stretch(st), hook)?;
     let t = run.k as f64 * opts.ts;
     let q = run.q.clone();
     (run.sink)(&Sample {
@@ -2379,6 +2449,7 @@ where
 
 #[cfg(test)]
 mod tests {
+    use nalgebra::Vector3;
     use std::path::{Path as FsPath, PathBuf};
 
     use super::*;

@@ -99,7 +99,7 @@ pub use event::{
 pub use interp::{InterpOptions, Interpreter, ModalState, MotionMode, RetractMode, UnknownMCode};
 pub use interpolate::{
     DensePath, InterpolateError, InterpolateOptions, InterpolationSummary, Interpolator, Sample,
-    dense_paths, interpolate, jerk_limits, planned_duration,
+    dense_paths, interpolate, jerk_limits, planned_duration, planned_duration_with,
 };
 pub use parameters::Parameters;
 pub use profile::Trapezoid;
@@ -109,7 +109,9 @@ pub use program_flow::{
 pub use program_writer::{
     ArcDirection, BlockBuilder, ProgramEnd, ProgramWriter, WriteError, WriterOptions,
 };
-pub use stats::{AxisRange, MotionObserver, ProgramStats, StatsOptions, stats, stats_with};
+pub use stats::{
+    AxisRange, MotionObserver, ProgramStats, StatsOptions, stats, stats_planned, stats_with,
+};
 pub use stream::{BlockReader, BlockWriter, Program};
 pub use syntax::{Block, CommentKind, Item, LineEnd, NumberFormat, Span, Value, Word};
 pub use tool_table::{Tool, ToolTable, ToolTableError};

@@ -12,9 +12,11 @@ use super::axes::{Axes, Axis};
 use super::error::GcodeError;
 use super::event::{ArcMove, Event, EventKind, Feed, Linear};
 use super::interp::{InterpOptions, Interpreter};
+use super::interpolate::{InterpolateError, InterpolateOptions, planned_duration_with};
 use super::program_flow::{Step, run_program};
 use super::syntax::Block;
 use super::timing;
+use crate::model::Machine;
 
 /// Settings of [`stats`].
 #[derive(Debug, Clone, PartialEq)]
@@ -51,7 +53,7 @@ pub struct AxisRange {
 }
 
 impl AxisRange {
-    fn include(range: &mut Option<AxisRange>, v: f64) {
+    pub(crate) fn include(range: &mut Option<AxisRange>, v: f64) {
         match range {
             Some(r) => {
                 r.min = r.min.min(v);
@@ -226,22 +228,52 @@ pub fn stats_with<R: BufRead>(
         &mut interp,
         &opts.interp.program,
         opts.interp.dialect,
-        |step: &Step<'_>| -> Result<(), GcodeError> {
-            st.blocks += 1;
-            let mut moved = false;
-            for e in step.events {
-                moved |= matches!(
-                    e.kind,
-                    EventKind::Traverse(_) | EventKind::Feed(_) | EventKind::Arc(_)
-                );
-                st.add(e, opts)?;
-                observer.observe(step.block, e)?;
-            }
-            st.motion_blocks += u64::from(moved);
-            Ok(())
-        },
+        |step: &Step<'_>| st.step(step, opts, observer),
     )?;
     Ok(st)
+}
+
+/// [`stats_with`] and the program's
+/// [`planned_duration`](super::planned_duration) on `machine` under
+/// `plan` (its interpreter settings are `plan.interp`, which should be
+/// `opts.interp`) from one run of the interpreter. The planned time is an
+/// error when the program cannot be planned on the machine (the statistics
+/// are complete then); [`ProgramStats::planned_time`] is left unset.
+pub fn stats_planned<R: BufRead>(
+    input: R,
+    opts: &StatsOptions,
+    observer: &mut dyn MotionObserver,
+    machine: &Machine,
+    plan: &InterpolateOptions,
+) -> Result<(ProgramStats, Result<f64, InterpolateError>), GcodeError> {
+    let mut st = ProgramStats::default();
+    let planned = planned_duration_with(input, machine, plan, &mut |step: &Step<'_>| {
+        st.step(step, opts, observer)
+    })?;
+    Ok((st, planned))
+}
+
+impl ProgramStats {
+    /// Adds one step (a block and its events) and shows its events to `observer`.
+    fn step(
+        &mut self,
+        step: &Step<'_>,
+        opts: &StatsOptions,
+        observer: &mut dyn MotionObserver,
+    ) -> Result<(), GcodeError> {
+        self.blocks += 1;
+        let mut moved = false;
+        for e in step.events {
+            moved |= matches!(
+                e.kind,
+                EventKind::Traverse(_) | EventKind::Feed(_) | EventKind::Arc(_)
+            );
+            self.add(e, opts)?;
+            observer.observe(step.block, e)?;
+        }
+        self.motion_blocks += u64::from(moved);
+        Ok(())
+    }
 }
 
 #[cfg(test)]
