@@ -2,6 +2,12 @@
 //! test` links the library and the tool once): each module was once its own
 //! file under `tests/`. Run one family with a name filter, e.g.
 //! `cargo test -p mtwin-cli --test cli cli_gcode::`.
+//!
+//! The library's runs on LinuxCNC's simulator (`linuxcnc_sim`,
+//! `linuxcnc_closed_loop`, `linuxcnc_thermal`) live here, not in the library's
+//! `tests/it`: they mostly wait for the simulator's real time, and here that
+//! wait overlaps the Python wheel build and the CPU-bound command tests instead
+//! of adding to the run of `tests/it` (BENCHMARKS.md, "Test suite time").
 
 mod common;
 #[path = "../../../mtwin/src/test_support.rs"]
@@ -31,5 +37,8 @@ mod cli_thermal_log;
 mod cli_tracker;
 mod cli_twin;
 mod docs;
+mod linuxcnc_closed_loop;
+mod linuxcnc_sim;
+mod linuxcnc_thermal;
 mod outputs;
 mod python;

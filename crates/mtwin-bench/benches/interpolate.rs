@@ -7,7 +7,7 @@
 //! the program length: the ×10 run should take ten times as long), and the
 //! same under `--planner jerk` (jerk limits 3000 mm/s³ and deg/s³).
 //!
-//!     cargo bench -p mtwin --bench interpolate
+//!     cargo bench -p mtwin-bench --bench interpolate
 //!
 //! Skipped with a message when /work/shared (the corpus) is absent.
 

@@ -1311,7 +1311,7 @@ fn feed_modes_time_their_blocks() {
 }
 
 /// Total times of the square, arcs and feeds programs on the simulator (for
-/// the record: `cargo test -p mtwin --test it linuxcnc_sim::record -- --ignored --nocapture`).
+/// the record: `cargo test -p mtwin-cli --test cli linuxcnc_sim::record -- --ignored --nocapture`).
 #[test]
 #[ignore = "runs the three programs again only to print their times"]
 fn record_total_times() {
@@ -1336,7 +1336,7 @@ fn record_total_times() {
 
 /// Total times of the whole corpus programs on the simulator (about 10 min
 /// of real time each; figures in `docs/linuxcnc.md`):
-/// `cargo test -p mtwin --test it linuxcnc_sim::corpus_total_times -- --ignored --nocapture`.
+/// `cargo test -p mtwin-cli --test cli linuxcnc_sim::corpus_total_times -- --ignored --nocapture`.
 #[test]
 #[ignore = "about 20 minutes of real time"]
 fn corpus_total_times() {

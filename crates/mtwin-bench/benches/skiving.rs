@@ -1,7 +1,7 @@
 //! Skiving set-up error: exact identification from the six touches of the
 //! standard plan, and from 60 touches (ten repeats).
 //!
-//! `cargo bench -p mtwin --bench skiving`
+//! `cargo bench -p mtwin-bench --bench skiving`
 
 use std::hint::black_box;
 

@@ -1,6 +1,6 @@
 //! Forward kinematics with errors on the AC trunnion with all 41 error terms of the [R5] example (docs/references.md).
 //!
-//! `cargo bench -p mtwin --bench kinematics`
+//! `cargo bench -p mtwin-bench --bench kinematics`
 
 use std::hint::black_box;
 use std::path::Path;

@@ -18,7 +18,7 @@
 //!   `afp-gantry-with-errors.toml` (10 µm noise) and identify
 //!   `pdge:cheb3,location` (162 parameters, dense path).
 //!
-//! Run: `cargo bench -p mtwin --bench fit` (or name one benchmark).
+//! Run: `cargo bench -p mtwin-bench --bench fit` (or name one benchmark).
 
 use std::ops::Range;
 use std::sync::OnceLock;

@@ -3,7 +3,7 @@
 //! nodding one), planned, then sampled at 1 kHz (positions of every joint,
 //! consumed by a sum).
 //!
-//!     cargo bench -p mtwin --bench jerk
+//!     cargo bench -p mtwin-bench --bench jerk
 
 use std::hint::black_box;
 

@@ -4,7 +4,7 @@
 //! five-axis raster at 1 ms of 10k, 100k, 1M and 3.6M samples (an hour at 1 kHz; growth
 //! with length). Rows go to a sink that sums the errors (no CSV formatting).
 //!
-//!     cargo bench -p mtwin --bench twin
+//!     cargo bench -p mtwin-bench --bench twin
 
 use std::hint::black_box;
 use std::path::Path;

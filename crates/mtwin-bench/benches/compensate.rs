@@ -3,7 +3,7 @@
 //! AC trunnion error model; bytes of input per second on one core. Then the
 //! corpus's real five-axis TCP program (boat), when `../shared` is present.
 //!
-//!     cargo bench -p mtwin --bench compensate
+//!     cargo bench -p mtwin-bench --bench compensate
 
 use std::hint::black_box;
 use std::io::Write;

@@ -1,7 +1,7 @@
 //! Throughput of the G-code engine on a synthetic five-axis program
 //! (generated here: G93 moves with X Y Z A C words, comments, line numbers).
 //!
-//!     cargo bench -p mtwin --bench gcode
+//!     cargo bench -p mtwin-bench --bench gcode
 //!
 //! Times are the CPU time of the benchmark thread where Linux reports it
 //! (`/proc/thread-self/schedstat`), so a busy machine does not inflate them;
