@@ -225,6 +225,37 @@ struct Outcome {
     unsupported: Option<String>,
 }
 
+/// The offsets rs274 prints (mm and degree): machine X Y Z =
+/// R·(program + G92) + work offset + tool offset, R the XY rotation.
+#[derive(Default)]
+struct Frame {
+    g5x: [f64; 6],
+    g92: [f64; 6],
+    tool: [f64; 6],
+    /// Degrees about Z.
+    rotation: f64,
+}
+
+impl Frame {
+    fn to_machine(&self, p: &[f64; 6]) -> [f64; 6] {
+        let q: [f64; 6] = std::array::from_fn(|i| p[i] + self.g92[i]);
+        let (sn, cs) = self.rotation.to_radians().sin_cos();
+        let mut m = q;
+        m[0] = q[0] * cs - q[1] * sn;
+        m[1] = q[0] * sn + q[1] * cs;
+        std::array::from_fn(|i| m[i] + self.g5x[i] + self.tool[i])
+    }
+
+    fn from_machine(&self, m: &[f64; 6]) -> [f64; 6] {
+        let q: [f64; 6] = std::array::from_fn(|i| m[i] - self.g5x[i] - self.tool[i]);
+        let (sn, cs) = self.rotation.to_radians().sin_cos();
+        let mut p = q;
+        p[0] = q[0] * cs + q[1] * sn;
+        p[1] = -q[0] * sn + q[1] * cs;
+        std::array::from_fn(|i| p[i] - self.g92[i])
+    }
+}
+
 /// Parses rs274's canonical calls (`   12 N..... NAME(args)`). Feeds are
 /// made canonical as LinuxCNC's motion controller takes them: the rate of
 /// SET_FEED_RATE times the length unit in force when it was set (mm/min),
@@ -238,6 +269,12 @@ fn parse_canon(text: &str) -> Vec<Step> {
     let mut at = [0.0; 6];
     // Work axes of the arc plane: first, second, normal (X 0, Y 1, Z 2).
     let mut plane = [0, 1, 2];
+    // Spindle-synchronised (G33, G33.1): the advance per revolution, mm.
+    let mut sync: Option<f64> = None;
+    // The program point where the machine is (`at` is the last printed
+    // end): a change of work, G92 or tool offset or of rotation moves it.
+    let mut frame = Frame::default();
+    let mut pos = [0.0; 6];
     for line in text.lines() {
         let Some((head, args)) = line.split_once('(') else {
             continue;
@@ -263,6 +300,41 @@ fn parse_canon(text: &str) -> Vec<Step> {
                 }
             }
             "DWELL" => steps.push(Step::Dwell(nums()[0])),
+            "SET_G5X_OFFSET" | "SET_G92_OFFSET" | "USE_TOOL_LENGTH_OFFSET" | "SET_XY_ROTATION" => {
+                let machine = frame.to_machine(&pos);
+                let v = nums();
+                let mut o = [0.0; 6];
+                let first = usize::from(name == "SET_G5X_OFFSET");
+                for i in 0..6 {
+                    let x = v.get(first + i).copied().unwrap_or(0.0);
+                    o[i] = if i < 3 { x * scale } else { x };
+                }
+                match name {
+                    "SET_G5X_OFFSET" => frame.g5x = o,
+                    "SET_G92_OFFSET" => frame.g92 = o,
+                    "USE_TOOL_LENGTH_OFFSET" => frame.tool = o,
+                    _ => frame.rotation = v[0],
+                }
+                pos = frame.from_machine(&machine);
+            }
+            "START_SPEED_FEED_SYNC" => sync = Some(nums()[0] * scale),
+            "STOP_SPEED_FEED_SYNCH" => sync = None,
+            "RIGID_TAP" => {
+                // To X Y Z and back to the start (where the program point
+                // stays), at K per revolution: one step, its end the tap's.
+                let v = nums();
+                let mut end = at;
+                for i in 0..3 {
+                    end[i] = v[i] * scale;
+                }
+                steps.push(Step::Move {
+                    kind: "tap",
+                    end,
+                    arc: None,
+                    feed: sync,
+                    scale,
+                });
+            }
             "STRAIGHT_TRAVERSE" | "STRAIGHT_FEED" => {
                 let v = nums();
                 let mut end = [0.0; 6];
@@ -272,12 +344,20 @@ fn parse_canon(text: &str) -> Vec<Step> {
                 // Still: equal to the 4 printed decimals (of inch or mm).
                 let same = |i: usize| (end[i] - at[i]).abs() < 1.3e-3;
                 let (xyz_still, abc_still) = ((0..3).all(same), (3..6).all(same));
+                // The feed of a rotary-only move (deg/min) is told from the
+                // true start.
+                let xyz_moved = (0..3).any(|i| (end[i] - pos[i]).abs() >= 1.3e-3);
                 at = end;
+                pos = end;
                 if xyz_still && abc_still {
                     continue;
                 }
                 let traverse = name == "STRAIGHT_TRAVERSE";
-                let feed = if xyz_still { rate } else { rate * rate_scale };
+                let feed = match sync {
+                    Some(k) => k,
+                    None if !xyz_moved => rate,
+                    None => rate * rate_scale,
+                };
                 steps.push(Step::Move {
                     kind: if traverse { "traverse" } else { "feed" },
                     end,
@@ -303,6 +383,7 @@ fn parse_canon(text: &str) -> Vec<Step> {
                     at[i] = end[k];
                 }
                 at[3..].copy_from_slice(&end[3..]);
+                pos = at;
             }
             _ => {}
         }
@@ -433,9 +514,23 @@ fn run_mtwin(program: &[u8], ini: Option<(&str, &Path)>) -> Outcome {
     // The rotation in force (G10 L2 R): rs274 prints program coordinates.
     let mut rot = 0.0;
     let result = gcode::interpret(program, opts, |_, events| {
-        for e in events {
+        for (k, e) in events.iter().enumerate() {
             match &e.kind {
                 EventKind::WorkOffset { rotation, .. } => rot = *rotation,
+                // G33.1: the tap down is one step (as rs274's RIGID_TAP),
+                // the retract back to its start none.
+                EventKind::Feed(m)
+                    if m.words.expanded
+                        && matches!(m.feed, Feed::PerRevolution { .. })
+                        && k > 0
+                        && matches!(events[k - 1].kind, EventKind::Feed(p)
+                            if p.words.expanded && p.from == m.to && p.to == m.from) =>
+                {
+                    if let Some(Step::Move { kind, .. }) = steps.last_mut() {
+                        *kind = "tap";
+                    }
+                    at.copy_from_slice(&unrotate(&m.to, rot).0[..6]);
+                }
                 EventKind::Traverse(m) | EventKind::Feed(m) => {
                     let mut m = *m;
                     m.from = unrotate(&m.from, rot);
@@ -683,6 +778,8 @@ struct GenState {
     system: usize,
     /// Machine position X Y Z (mm, exact as written) and A B C (degree).
     machine: [f64; 6],
+    /// M3 or M4 with a spindle speed in force.
+    spindle: bool,
 }
 
 impl GenState {
@@ -993,9 +1090,50 @@ fn gen_feed_mode(g: &mut Gen) {
     let code = ["G94", "G93", "G95"][g.st.feed_mode];
     if g.st.feed_mode == 2 && g.rng.chance(0.7) {
         let s = *g.rng.pick(&[500, 1000, 2400]);
+        g.st.spindle = true;
         g.emit(format!("{code} S{s} M3"));
     } else {
         g.emit(code.into());
+    }
+}
+
+/// G33 (spindle-synchronised move) or G33.1 (rigid tap, back to the
+/// start), K per revolution, G33.1 now and then with I (retract speed
+/// factor); the spindle started first unless it turns (now and then left
+/// stopped or without a speed: both refuse, or mtwin cannot time it).
+fn gen_spindle_sync(g: &mut Gen) {
+    if !g.st.spindle || g.rng.chance(0.1) {
+        match g.rng.below(40) {
+            0 => g.emit("M5".into()),
+            1 => g.emit("S0 M3".into()),
+            k => {
+                let s = *g.rng.pick(&[300, 800, 1500]);
+                g.emit(format!("S{s} M{}", if k % 2 == 0 { 3 } else { 4 }));
+                g.st.spindle = true;
+            }
+        }
+    }
+    let k = *g.rng.pick(&[0.5, 1.0, 1.25, 2.0]) / if g.st.inch { 25.0 } else { 1.0 };
+    if g.rng.chance(0.4) {
+        // G33.1: along X Y Z (Z mostly), the position unchanged after.
+        let saved = g.st.machine;
+        let axes: Vec<usize> = if g.rng.chance(0.7) {
+            vec![2]
+        } else {
+            g.some_axes(false)
+        };
+        let t = g.target_words(&axes);
+        g.st.machine = saved;
+        let i = if g.rng.chance(0.3) {
+            format!(" I{}", num(*g.rng.pick(&[0.5, 1.0, 2.0, 3.5])))
+        } else {
+            String::new()
+        };
+        g.emit(format!("G33.1{t} K{}{i}", num(k)));
+    } else {
+        let axes = g.some_axes(false);
+        let t = g.target_words(&axes);
+        g.emit(format!("G33{t} K{}", num(k)));
     }
 }
 
@@ -1030,6 +1168,7 @@ const FEATURES: &[Feature] = &[
     ("G53", 1, gen_g53),
     ("feed mode", 2, gen_feed_mode),
     ("dwell", 1, gen_dwell),
+    ("spindle sync", 2, gen_spindle_sync),
     ("comment", 1, gen_comment),
 ];
 
@@ -1137,6 +1276,7 @@ fn generate(seed: u64) -> String {
             feed_set: false,
             system: 0,
             machine: [0.0; 6],
+            spindle: false,
         },
         lines: Vec::new(),
         line_number: 0,
@@ -1430,7 +1570,8 @@ fn generated_programs_are_reproducible_and_varied() {
     let text: String = (0..200).map(|k| generate(SEED + k)).collect();
     for needle in [
         "G0 ", "G1 ", "G2 ", "G3 ", " R", " I", " K", " P", "G18", "G19", "G20", "G91\n", "G90.1",
-        "G55", "G59.3", "G53 ", "G93", "G95", "G4 P", "/", "N10 ", ";", "M30", "M2\n",
+        "G55", "G59.3", "G53 ", "G93", "G95", "G4 P", "/", "N10 ", ";", "M30", "M2\n", "G33 ",
+        "G33.1 ",
     ] {
         assert!(text.contains(needle), "no {needle:?} in 200 programs");
     }
