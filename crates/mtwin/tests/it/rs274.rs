@@ -1172,6 +1172,157 @@ const FEATURES: &[Feature] = &[
     ("comment", 1, gen_comment),
 ];
 
+/// Number of generated programs of cutter radius compensation
+/// ([`generate_comp`]).
+const COMP: u64 = 150;
+/// Seed of the first of them.
+const COMP_SEED: u64 = 0xc0c0_2026;
+
+/// Program `seed` of cutter radius compensation on a shape that does not
+/// gouge: a convex polygon of 4 to 8 corners on a circle (gaps of 30° to
+/// 120°, radius 25 to 60 tool radii), some edges outward arcs (R format,
+/// 3° to 8° of bulge, so each corner stays convex), cut outside or inside,
+/// either way round; G17 or G18, mm or inch, absolute or incremental; the
+/// radius from G41.1/G42.1 D, from the tool table (G41/G42 Dn) or from the
+/// tool in the spindle (T M6, G41/G42); entry from one radial distance of
+/// 3 to 6 tool radii outside (or from the centre, inside), now and then an
+/// overlap past the first corner, exit after G40 (on its line or the next).
+fn generate_comp(seed: u64) -> String {
+    let mut rng = Rng(seed);
+    let inch = rng.chance(0.3);
+    // Program units per mm.
+    let u = if inch { 1.0 / 25.4 } else { 1.0 };
+    let g18 = rng.chance(0.2);
+    let (l1, l2, ln) = if g18 {
+        ('Z', 'X', 'Y')
+    } else {
+        ('X', 'Y', 'Z')
+    };
+    let mut out = format!(
+        "{} {} G90 G94 G40\n",
+        if inch { "G20" } else { "G21" },
+        if g18 { "G18" } else { "G17" }
+    );
+    // Tool radius (mm) and the words that give it.
+    let (r, comp_words) = match rng.below(3) {
+        0 => {
+            let d = *rng.pick(&[2.0, 4.0, 6.0, 10.0]);
+            (d / 2.0, format!(".1 D{}", num(d * u)))
+        }
+        k => {
+            let i = rng.below(3) as usize;
+            let (t, _) = TOOLS[i];
+            let r = TOOL_DIAMETERS[i] * 25.4 / 2.0;
+            if k == 1 {
+                (r, format!(" D{t}"))
+            } else {
+                writeln!(out, "T{t} M6").unwrap();
+                (r, String::new())
+            }
+        }
+    };
+    // Corners: n angles with gaps of 30° to 120°.
+    let n = 4 + rng.below(5) as usize;
+    let gaps = loop {
+        let raw: Vec<f64> = (0..n)
+            .map(|_| 1.0 + rng.below(1000) as f64 / 1000.0)
+            .collect();
+        let sum: f64 = raw.iter().sum();
+        let g: Vec<f64> = raw.iter().map(|x| x * 360.0 / sum).collect();
+        if g.iter().all(|&x| (30.0..=120.0).contains(&x)) {
+            break g;
+        }
+    };
+    let big = r * (25.0 + rng.below(36) as f64);
+    let c = [
+        (rng.below(1001) as f64 / 10.0 - 50.0),
+        (rng.below(1001) as f64 / 10.0 - 50.0),
+    ];
+    let phase = rng.below(360) as f64;
+    let ccw = rng.chance(0.5);
+    let mut angles = Vec::new();
+    let mut a = phase;
+    for g in &gaps {
+        angles.push(a);
+        a += g;
+    }
+    if !ccw {
+        angles.reverse();
+    }
+    // Corners in program units, as written (4 decimals).
+    let pt = |deg: f64, dist: f64| {
+        let t = deg.to_radians();
+        [
+            r4((c[0] + dist * t.cos()) * u),
+            r4((c[1] + dist * t.sin()) * u),
+        ]
+    };
+    let corners: Vec<[f64; 2]> = angles.iter().map(|&d| pt(d, big)).collect();
+    let inside = rng.chance(0.5);
+    // Tool left of a counter-clockwise path is inside.
+    let left = inside == ccw;
+    let entry_dist = big + r * (3.0 + rng.below(4) as f64);
+    let start = if inside {
+        [r4(c[0] * u), r4(c[1] * u)]
+    } else {
+        pt(angles[0], entry_dist)
+    };
+    let feed = *rng.pick(&[200.0, 500.0, 1200.0]) * u;
+    writeln!(out, "G0 {l1}{} {l2}{}", num(start[0]), num(start[1])).unwrap();
+    writeln!(out, "G0 {ln}{}", num(5.0 * u)).unwrap();
+    writeln!(out, "G1 {ln}{} F{}", num(-1.0 * u), num(feed)).unwrap();
+    writeln!(out, "G4{}{comp_words}", if left { "1" } else { "2" }).unwrap();
+    let incremental = rng.chance(0.25);
+    if incremental {
+        out.push_str("G91\n");
+    }
+    let mut at = start;
+    let mut to = |out: &mut String, code: &str, p: [f64; 2], tail: &str| {
+        let w = if incremental {
+            [p[0] - at[0], p[1] - at[1]]
+        } else {
+            p
+        };
+        writeln!(out, "{code} {l1}{} {l2}{}{tail}", num(w[0]), num(w[1])).unwrap();
+        at = p;
+    };
+    to(&mut out, "G1", corners[0], "");
+    let overlap = rng.chance(0.3);
+    let edges = n + usize::from(overlap);
+    for k in 0..edges {
+        let (a, b) = (corners[k % n], corners[(k + 1) % n]);
+        if rng.chance(0.3) {
+            // Bulging outward: centre on the inner side.
+            let chord = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+            let bulge = (3.0 + rng.below(6) as f64).to_radians();
+            let rho = chord / (2.0 * bulge.sin());
+            let code = if ccw { "G3" } else { "G2" };
+            to(&mut out, code, b, &format!(" R{}", num(rho)));
+        } else {
+            to(&mut out, "G1", b, "");
+        }
+    }
+    let last_angle = angles[edges % n];
+    let exit = if inside {
+        [r4(c[0] * u), r4(c[1] * u)]
+    } else {
+        pt(last_angle, entry_dist)
+    };
+    match rng.below(3) {
+        0 => {
+            out.push_str("G40\n");
+            to(&mut out, "G1", exit, "");
+        }
+        1 => to(&mut out, "G40 G1", exit, ""),
+        _ => to(&mut out, "G40 G0", exit, ""),
+    }
+    if incremental {
+        out.push_str("G90\n");
+    }
+    writeln!(out, "G0 {ln}{}\nM2", num(5.0 * u)).unwrap();
+    out
+}
+
 /// Program `seed` in rotated coordinate systems (G10 L2 R, mm): systems
 /// given offsets and rotations (of the active one too), traverses, feeds
 /// and incremental XY arcs in them, G92 on top (and G92.1), switches of
@@ -1406,14 +1557,28 @@ fn differential_against_linuxcnc_rs274() {
         });
     }
 
+    for k in 0..COMP {
+        let path = gen_dir.join(format!("c{k:05}.ngc"));
+        std::fs::write(&path, generate_comp(COMP_SEED + k)).unwrap();
+        cases.push(Case {
+            name: format!("compensation seed {:#x}", COMP_SEED + k),
+            path,
+            ini: None,
+        });
+    }
+
     let verdicts: Mutex<Vec<(usize, Verdict)>> = Mutex::new(Vec::new());
+    // Compensation programs rs274 refuses or runs with few moves (each
+    // must be a real compensated profile).
+    let comp_short: Mutex<Vec<String>> = Mutex::new(Vec::new());
     let next = AtomicUsize::new(0);
     // rs274 spends most of its run time idle (start-up and exit): more
     // processes than cores keep the test short.
     let workers = 8;
     std::thread::scope(|scope| {
         for w in 0..workers {
-            let (cases, setup, verdicts, next) = (&cases, &setup, &verdicts, &next);
+            let (cases, setup, verdicts, next, comp_short) =
+                (&cases, &setup, &verdicts, &next, &comp_short);
             scope.spawn(move || {
                 let work = setup.root.join(format!("work{w}"));
                 std::fs::create_dir(&work).unwrap();
@@ -1424,6 +1589,16 @@ fn differential_against_linuxcnc_rs274() {
                     let theirs = run_rs274(setup, &case.path, &work, case.ini.as_deref());
                     let dir = case.path.parent().unwrap_or(Path::new("."));
                     let ours = run_mtwin(&bytes, case.ini.as_deref().map(|t| (t, dir)));
+                    if case.name.starts_with("compensation")
+                        && (theirs.refused.is_some() || theirs.steps.len() < 8)
+                    {
+                        comp_short.lock().unwrap().push(format!(
+                            "{}: {} moves, {:?}",
+                            case.name,
+                            theirs.steps.len(),
+                            theirs.refused
+                        ));
+                    }
                     let v = classify(&ours, &theirs);
                     if let (Verdict::Disagree(_), Some(keep)) =
                         (&v, std::env::var_os("MTWIN_RS274_KEEP"))
@@ -1442,6 +1617,7 @@ fn differential_against_linuxcnc_rs274() {
     let mut agree = 0;
     let mut agree_generated = 0;
     let mut agree_rotated = 0;
+    let mut agree_comp = 0;
     let mut unsupported: BTreeMap<String, Vec<String>> = BTreeMap::new();
     let mut known: BTreeMap<&str, Vec<String>> = BTreeMap::new();
     let mut disagreements = Vec::new();
@@ -1466,6 +1642,7 @@ fn differential_against_linuxcnc_rs274() {
                 agree += 1;
                 agree_generated += usize::from(name.starts_with("generated"));
                 agree_rotated += usize::from(name.starts_with("rotated"));
+                agree_comp += usize::from(name.starts_with("compensation"));
             }
             Verdict::Known(why) => known.entry(why).or_default().push(name.clone()),
             Verdict::Unsupported(f) => unsupported.entry(f.clone()).or_default().push(name.clone()),
@@ -1481,12 +1658,13 @@ fn differential_against_linuxcnc_rs274() {
     }
     let n_unsupported: usize = unsupported.values().map(Vec::len).sum();
     eprintln!(
-        "rs274 differential: {} programs ({} generated, {} in rotated systems), {agree} agree \
-         ({agree_generated} generated, {agree_rotated} rotated), {n_unsupported} unsupported by \
-         mtwin, {} disagreements",
+        "rs274 differential: {} programs ({} generated, {} in rotated systems, {} of cutter \
+         compensation), {agree} agree ({agree_generated} generated, {agree_rotated} rotated, \
+         {agree_comp} compensation), {n_unsupported} unsupported by mtwin, {} disagreements",
         cases.len(),
         GENERATED,
         ROTATED,
+        COMP,
         disagreements.len()
     );
     for (f, names) in &unsupported {
@@ -1524,6 +1702,12 @@ fn differential_against_linuxcnc_rs274() {
         agree_rotated + unsupported_rotated,
         ROTATED as usize,
         "programs in rotated systems that agree or are refused as documented"
+    );
+    let comp_short = comp_short.into_inner().unwrap();
+    assert!(comp_short.is_empty(), "{}", comp_short.join("\n"));
+    assert_eq!(
+        agree_comp, COMP as usize,
+        "every generated program of cutter compensation agrees"
     );
     assert!(
         agree_rotated * 10 >= ROTATED as usize * 8,
@@ -1574,6 +1758,17 @@ fn generated_programs_are_reproducible_and_varied() {
         "G33.1 ",
     ] {
         assert!(text.contains(needle), "no {needle:?} in 200 programs");
+    }
+    assert_eq!(generate_comp(COMP_SEED), generate_comp(COMP_SEED));
+    let text: String = (0..COMP).map(|k| generate_comp(COMP_SEED + k)).collect();
+    for needle in [
+        "G41 D", "G42 D", "G41.1 D", "G42.1 D", "G41\n", "G42\n", "M6", "G18", "G20", "G91\n",
+        "G2 ", "G3 ", "G40\n", "G40 G1", "G40 G0",
+    ] {
+        assert!(
+            text.contains(needle),
+            "no {needle:?} in the compensation programs"
+        );
     }
 }
 
