@@ -246,7 +246,7 @@ impl Frame {
         std::array::from_fn(|i| m[i] + self.g5x[i] + self.tool[i])
     }
 
-    fn from_machine(&self, m: &[f64; 6]) -> [f64; 6] {
+    fn program_point(&self, m: &[f64; 6]) -> [f64; 6] {
         let q: [f64; 6] = std::array::from_fn(|i| m[i] - self.g5x[i] - self.tool[i]);
         let (sn, cs) = self.rotation.to_radians().sin_cos();
         let mut p = q;
@@ -305,9 +305,9 @@ fn parse_canon(text: &str) -> Vec<Step> {
                 let v = nums();
                 let mut o = [0.0; 6];
                 let first = usize::from(name == "SET_G5X_OFFSET");
-                for i in 0..6 {
+                for (i, oi) in o.iter_mut().enumerate() {
                     let x = v.get(first + i).copied().unwrap_or(0.0);
-                    o[i] = if i < 3 { x * scale } else { x };
+                    *oi = if i < 3 { x * scale } else { x };
                 }
                 match name {
                     "SET_G5X_OFFSET" => frame.g5x = o,
@@ -315,7 +315,7 @@ fn parse_canon(text: &str) -> Vec<Step> {
                     "USE_TOOL_LENGTH_OFFSET" => frame.tool = o,
                     _ => frame.rotation = v[0],
                 }
-                pos = frame.from_machine(&machine);
+                pos = frame.program_point(&machine);
             }
             "START_SPEED_FEED_SYNC" => sync = Some(nums()[0] * scale),
             "STOP_SPEED_FEED_SYNCH" => sync = None,
@@ -1270,7 +1270,7 @@ fn generate_comp(seed: u64) -> String {
     let feed = *rng.pick(&[200.0, 500.0, 1200.0]) * u;
     writeln!(out, "G0 {l1}{} {l2}{}", num(start[0]), num(start[1])).unwrap();
     writeln!(out, "G0 {ln}{}", num(5.0 * u)).unwrap();
-    writeln!(out, "G1 {ln}{} F{}", num(-1.0 * u), num(feed)).unwrap();
+    writeln!(out, "G1 {ln}{} F{}", num(-u), num(feed)).unwrap();
     writeln!(out, "G4{}{comp_words}", if left { "1" } else { "2" }).unwrap();
     let incremental = rng.chance(0.25);
     if incremental {
