@@ -139,7 +139,9 @@ pub struct Programmed {
     pub units: Units,
     /// The move is one of several that one block expands to (a canned
     /// cycle, the two moves of G28/G30): its end is not what the block's
-    /// words say, so no word can be rewritten to move it.
+    /// words say, so no word can be rewritten to move it. Also set for the
+    /// spindle-synchronised moves (G33, the tap and retract of G33.1),
+    /// which a rewriter must not split into G1 pieces.
     pub expanded: bool,
 }
 
@@ -268,7 +270,9 @@ impl Default for PathMode {
 pub enum EventKind {
     /// G0, or G53 G0.
     Traverse(Linear),
-    /// G1, or G53 G1.
+    /// G1, or G53 G1; also G33 and the tap and retract of G33.1, fed at
+    /// [`Feed::PerRevolution`] K at the spindle speed (the retract at I
+    /// times it).
     Feed(Linear),
     /// G2/G3.
     Arc(ArcMove),

@@ -16,7 +16,7 @@
 //! assignments take effect after the whole line is read, before its codes
 //! run. O-word lines are program flow, run by
 //! [`run_program`](super::program_flow::run_program), not here. Anything
-//! else outside the supported language (G33/G76,
+//! else outside the supported language (G76,
 //! splines, ...) is an
 //! [`GcodeError::Unsupported`] error naming the line: never skipped.
 
@@ -122,6 +122,10 @@ pub enum MotionMode {
     ArcCounterClockwise,
     /// A canned cycle: G73, G74, G81 ... G89.
     Cycle(GCode),
+    /// G33: spindle-synchronised straight motion (K per revolution).
+    SpindleSync,
+    /// G33.1: rigid tapping (to the end at K per revolution and back).
+    RigidTap,
 }
 
 /// Where a canned cycle retracts to at the end of each repeat.
@@ -147,7 +151,7 @@ pub struct ModalState {
     pub feed_mode: FeedMode,
     /// G17/G18/G19.
     pub plane: Plane,
-    /// G0..G3, `None` after G80 and at start.
+    /// G0..G3, G33, G33.1 or a canned cycle, `None` after G80 and at start.
     pub motion: Option<MotionMode>,
     /// Feed rate, canonical (mm/min, 1/min or mm/rev).
     pub feed: f64,
@@ -643,6 +647,14 @@ impl Interpreter {
             if let Some(why) = code.unsupported() {
                 return Err(GcodeError::unsupported(line, col, format!("{why} {code}")));
             }
+            if matches!(code, GCode::G33 | GCode::G33_1) && dialect != Dialect::LinuxCnc {
+                // Fanuc's G33 takes the lead from F, not K.
+                return Err(GcodeError::unsupported(
+                    line,
+                    col,
+                    format!("spindle-synchronised motion {code} in this dialect"),
+                ));
+            }
             let group = code.group(dialect);
             if group == ModalGroup::ArcDistance && !dialect.has_arc_distance_modes() {
                 return Err(GcodeError::unsupported(
@@ -788,6 +800,19 @@ impl Interpreter {
             _ => None,
         };
         let cycle_in = |cs: &[GCode]| cycle_now.is_some_and(|c| cs.contains(&c));
+        // G33 and G33.1 read K (and G33.1 I, the retract speed factor).
+        let sync_now =
+            moving && matches!(to_be, Some(MotionMode::SpindleSync | MotionMode::RigidTap));
+        let tap_now = sync_now && to_be == Some(MotionMode::RigidTap);
+        if let Some((GCode::G33 | GCode::G33_1, col)) = codes.motion
+            && !any_axis
+        {
+            return Err(GcodeError::invalid(
+                line,
+                col,
+                "All axes missing with motion code",
+            ));
+        }
         let g10 = codes.has(GCode::G10);
         if let Some(r) = w.get(b'R') {
             // R is read by G2/G3, G64 (blend tolerance) and M19 (orientation).
@@ -810,7 +835,7 @@ impl Interpreter {
         }
         if !arc_now && !cycle_in(&[GCode::G87]) {
             for l in [b'I', b'J', b'K'] {
-                if l != b'K' && g10 {
+                if (l != b'K' && g10) || (l == b'K' && sync_now) || (l == b'I' && tap_now) {
                     continue;
                 }
                 if let Some(x) = w.get(l) {
@@ -831,7 +856,7 @@ impl Interpreter {
             ),
             (
                 b'E',
-                w.has_m(&[66, 67, 68]),
+                w.has_m(&[66, 67, 68]) || sync_now,
                 "E word with no G76, M66, M67 or M68 to use it",
             ),
             (
@@ -870,6 +895,22 @@ impl Interpreter {
                 "Q word with no G64, M19, M61, M66, M67, M68 or canned cycle to use it",
             ),
         ];
+        if sync_now {
+            if w.get(b'K').is_none() {
+                return Err(GcodeError::invalid(
+                    line,
+                    0,
+                    "K word missing with g33/g33.1",
+                ));
+            }
+            if let Some(f) = w.get(b'F') {
+                return Err(GcodeError::invalid(
+                    line,
+                    f.column,
+                    "F word used with a g33/g33.1",
+                ));
+            }
+        }
         for (l, used, message) in checks {
             let Some(x) = w.get(l) else { continue };
             if used {
@@ -2312,6 +2353,9 @@ impl Interpreter {
             MotionMode::Cycle(code) => {
                 return Err(s.invalid(0, format!("{code} is not a single move")));
             }
+            MotionMode::SpindleSync | MotionMode::RigidTap => {
+                return self.spindle_sync(mode, w, axes, to, words, s);
+            }
             MotionMode::ArcClockwise | MotionMode::ArcCounterClockwise => {
                 if self.comp.arc_not_allowed() {
                     return Err(s.invalid(
@@ -2400,6 +2444,97 @@ impl Interpreter {
         };
         self.state.position = to;
         s.emit(kind);
+        Ok(())
+    }
+
+    /// G33 (a straight move at K per spindle revolution) and G33.1 (rigid
+    /// tapping: to the end at K per revolution, the spindle reversed, and
+    /// back to the start at I times the speed, I ≥ 1, default 1), as
+    /// LinuxCNC 2.9 runs them: the spindle must turn (M3 or M4); after
+    /// G33.1 the position is the start again. Refused as unsupported: a
+    /// zero spindle speed or K ≤ 0 (no time for the move), cutter radius
+    /// compensation on (LinuxCNC feeds such a move unsynchronised or
+    /// fails), and rotary or UVW words on G33.1 (LinuxCNC taps along X Y Z
+    /// and sets the other axes without moving them). Both kinds of move
+    /// are marked `expanded`: a rewriter must not split or re-code them.
+    fn spindle_sync(
+        &mut self,
+        mode: MotionMode,
+        w: &BlockWords,
+        axes: AxisMask,
+        to: Axes,
+        mut words: Programmed,
+        s: &mut Step,
+    ) -> Result<(), GcodeError> {
+        let tap = mode == MotionMode::RigidTap;
+        let name = if tap { "G33.1" } else { "G33" };
+        self.comp.straight_move_started();
+        if self.comp.engaged() {
+            return Err(GcodeError::unsupported(
+                s.line,
+                0,
+                format!("{name} with cutter radius compensation on"),
+            ));
+        }
+        let st = &self.state;
+        if st.spindle == SpindleState::Stopped {
+            return Err(s.invalid(0, format!("Spindle not turning in {name}")));
+        }
+        let k = w.get(b'K').map_or(0.0, |k| k.value) * st.units.mm_per_unit();
+        if !(k > 0.0 && k.is_finite()) {
+            return Err(GcodeError::unsupported(
+                s.line,
+                w.get(b'K').map_or(0, |k| k.column),
+                format!("{name} with K ≤ 0 (no advance per spindle revolution to time the move)"),
+            ));
+        }
+        let rpm = st.spindle_rpm;
+        if !(rpm > 0.0 && rpm.is_finite()) {
+            return Err(GcodeError::unsupported(
+                s.line,
+                0,
+                format!("{name} with the spindle speed at 0 (no S): the move cannot be timed"),
+            ));
+        }
+        if tap
+            && let Some(a) = axes
+                .iter()
+                .find(|a| !matches!(a, Axis::X | Axis::Y | Axis::Z))
+        {
+            return Err(GcodeError::unsupported(
+                s.line,
+                w.get(a.letter()).map_or(0, |l| l.column),
+                "G33.1 with an A, B, C, U, V or W word (LinuxCNC taps along X Y Z only)",
+            ));
+        }
+        self.check_rotation(s)?;
+        words.expanded = true;
+        let start = self.comp.physical_start(&st.position);
+        let feed = Feed::PerRevolution { mm_per_rev: k, rpm };
+        let lin = Linear {
+            from: self.event_point(&start),
+            to: self.event_point(&to),
+            offset: st.offset,
+            feed,
+            tcp: st.tcp,
+            words,
+        };
+        s.emit(EventKind::Feed(lin));
+        if tap {
+            // The retract: the spindle reversed at I times the speed.
+            let factor = w.get(b'I').map_or(1.0, |i| i.value).max(1.0);
+            s.emit(EventKind::Feed(Linear {
+                from: lin.to,
+                to: lin.from,
+                feed: Feed::PerRevolution {
+                    mm_per_rev: k,
+                    rpm: rpm * factor,
+                },
+                ..lin
+            }));
+        } else {
+            self.state.position = to;
+        }
         Ok(())
     }
 
@@ -2693,6 +2828,18 @@ impl Interpreter {
                 arc::center_from_radius(s, e, dim(rw), ccw, st.units).map_err(arc_err)?
             }
             (true, None) => {
+                if st.arc_distance == DistanceMode::Absolute {
+                    // G90.1: both centre words, as LinuxCNC requires.
+                    for (l, x) in [(lp, ip), (lq, iq)] {
+                        if x.is_none() {
+                            return Err(GcodeError::invalid(
+                                line,
+                                0,
+                                format!("{} word missing in absolute center arc", l as char),
+                            ));
+                        }
+                    }
+                }
                 let (op, oq) = (ip.map_or(0.0, dim), iq.map_or(0.0, dim));
                 let c = match st.arc_distance {
                     DistanceMode::Incremental => [s[0] + op, s[1] + oq],
@@ -2715,6 +2862,8 @@ fn motion_mode(code: GCode) -> MotionMode {
         GCode::G0 => MotionMode::Rapid,
         GCode::G2 => MotionMode::ArcClockwise,
         GCode::G3 => MotionMode::ArcCounterClockwise,
+        GCode::G33 => MotionMode::SpindleSync,
+        GCode::G33_1 => MotionMode::RigidTap,
         c if c.is_cycle() => MotionMode::Cycle(c),
         // G1 and the probing moves.
         _ => MotionMode::Linear,
@@ -3070,7 +3219,23 @@ mod tests {
     #[test]
     fn rejections_name_the_line() {
         let cases = [
-            ("G0 X0\nG33 X1 Z-1 K1\n", 2, true),
+            ("G0 X0\nG76 P1 Z-1 I-0.1 J0.1 K0.2\n", 2, true),
+            // G33/G33.1: K missing, F with it, spindle stopped, no axis,
+            // I with G33 (LinuxCNC's errors); no spindle speed, rotary
+            // word on G33.1, compensation on, K ≤ 0 (cannot be timed).
+            ("S100 M3\nG33 Z-1\n", 2, false),
+            ("S100 M3\nG33 Z-1 K1 F10\n", 2, false),
+            ("S100 M3\nM5\nG33.1 Z-1 K1\n", 3, false),
+            ("S100 M3\nG33 K1\n", 2, false),
+            ("S100 M3\nG33 I1 Z-1 K1\n", 2, false),
+            ("M3\nG33 Z-1 K1\n", 2, true),
+            ("S100 M3\nG33.1 Z-1 A1 K1\n", 2, true),
+            (
+                "S100 M3\nG0 X-5\nG41.1 D1\nG1 X5 F10\nG33 X10 K1\n",
+                5,
+                true,
+            ),
+            ("S100 M4\nG33 Z-1 K0\n", 2, true),
             // Cutter radius compensation: entry not longer than the radius,
             // plane change while on, G19, G41.1 without D.
             ("G41.1 D4\nG0 X1\n", 2, false),
@@ -3510,6 +3675,49 @@ mod tests {
         for bad in ["G43 H3\n", "G43.2\n", "G43.2 H1 Z1\n", "T1 M6 G43 H-1\n"] {
             assert!(run_with(bad, opts.clone()).is_err(), "{bad}");
         }
+    }
+
+    /// G33 moves at K per revolution of S; G33.1 taps to the end and back
+    /// (the retract at I times the speed), leaving the position where it
+    /// was; stats time them as length / (K × S).
+    #[test]
+    fn g33_and_rigid_tap_run_at_k_per_revolution() {
+        let src = "G21 S600 M3\nG0 X1 Z5\nG33 Z-10 K1.5\nG91 G33 X2 Z-3 K0.5\nG90 G20\n\
+                   G33.1 Z-1 K0.05 I2\nG33.1 Z-0.5 K0.05 I0.5\nG21 G1 X0 F10\n";
+        let m = moves(&run(src));
+        assert_eq!(m.len(), 8, "{m:?}");
+        let feed = |k: &EventKind| match lin(k).feed {
+            Feed::PerRevolution { mm_per_rev, rpm } => (mm_per_rev, rpm),
+            f => panic!("not per revolution: {f:?}"),
+        };
+        assert_eq!(lin(&m[1]).to.xyz(), [1.0, 0.0, -10.0]);
+        assert_eq!(feed(&m[1]), (1.5, 600.0));
+        let l2 = lin(&m[2]);
+        assert!(close(l2.to[Axis::X], 3.0) && close(l2.to[Axis::Z], -13.0));
+        assert_eq!(feed(&m[2]), (0.5, 600.0));
+        // Taps: 25.4 mm down at 0.05 in = 1.27 mm per revolution, back at
+        // twice the speed; I below 1 is 1.
+        let (down, up) = (lin(&m[3]), lin(&m[4]));
+        assert!(close(down.to[Axis::Z], -25.4) && close(down.from[Axis::Z], -13.0));
+        assert_eq!((down.from, down.to), (up.to, up.from));
+        let (k, rpm) = feed(&m[3]);
+        assert!(close(k, 1.27) && rpm == 600.0);
+        assert_eq!(feed(&m[4]).1, 1200.0);
+        assert_eq!(feed(&m[6]).1, 600.0);
+        assert!(close(lin(&m[5]).to[Axis::Z], -12.7));
+        assert!(m[3..7].iter().all(|k| lin(k).words.expanded));
+        // The feed after the taps starts where they started.
+        assert_eq!(lin(&m[7]).from, lin(&m[2]).to);
+
+        // Time: 15 mm at 1.5 mm/rev × 600 rev/min = 1 s; the tap 20 mm at
+        // 1 mm/rev × 600 down (2 s) and × 1200 up (1 s).
+        let opts = super::super::stats::StatsOptions::default();
+        let st = super::super::stats::stats(
+            "S600 M3\nG0 Z5\nG33 Z-10 K1.5\nG33.1 Z-30 K1 I2\nM2\n".as_bytes(),
+            &opts,
+        )
+        .unwrap();
+        assert!((st.feed_time - 4.0).abs() < 1e-9, "{}", st.feed_time);
     }
 
     /// The expansions of LinuxCNC's G-code manual (canned cycles), by hand.

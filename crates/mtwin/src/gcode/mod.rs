@@ -15,12 +15,13 @@
 //!   G92/G92.1/G92.2/G92.3, G52, G28/G30 and their .1), tools (T, M6, G43,
 //!   G43.1, G43.2, G49, G10 L1/L10/L11 with a [`ToolTable`] read from
 //!   LinuxCNC's `.tbl` format), cutter radius compensation (G40, G41, G42,
-//!   G41.1, G42.1: moves held back one block for the next corner) and
-//!   stops at M2/M30 or the closing `%`.
+//!   G41.1, G42.1: moves held back one block for the next corner),
+//!   spindle-synchronised moves (G33, G33.1 rigid tapping, fed at K per
+//!   spindle revolution) and stops at M2/M30 or the closing `%`.
 //!   Expressions and parameters ([`Parameters`]: numbered,
 //!   named local and global, read from a LinuxCNC var file with
 //!   [`read_var_file`]) are evaluated as LinuxCNC does; everything outside
-//!   the supported language (G33/G76, splines,
+//!   the supported language (G76, splines,
 //!   ...) is an [`GcodeError::Unsupported`]
 //!   error naming the line. G-codes are the [`GCode`] type. Dialects:
 //!   [`Dialect`] (LinuxCNC, Fanuc).

@@ -82,14 +82,13 @@ const SKIPPED: &[(&str, &str)] = &[
         "g10/g10-l11",
         "G10 L11 with a coordinate system rotation (G10 L2 R) in force",
     ),
-    ("g33.1", "spindle-synchronised motion G33.1"),
     ("g71-endless-loop", "lathe diameter/radius mode G8"),
     ("g71-endless-loop2", "constant surface speed G96"),
     ("g71-endless-loop_2", "lathe diameter/radius mode G7"),
     ("g71-with-g70", "lathe cycle G71.1"),
     ("g72-facing", "lathe cycle G72"),
     ("g72-missing-iteration", "lathe cycle G72"),
-    ("g76", "spindle-synchronised motion G76"),
+    ("g76", "threading cycle G76"),
     (
         "m98m99/09-disable-fanuc-subs",
         "no single program file (several or none)",
@@ -147,10 +146,14 @@ fn expected_motion(text: &str) -> Vec<Call> {
             inch = line.contains("INCHES");
             continue;
         }
-        let Some((name, args)) = ["STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "ARC_FEED"]
-            .iter()
-            .find_map(|n| line.split_once(&format!(" {n}(")).map(|(_, a)| (*n, a)))
-        else {
+        let Some((name, args)) = [
+            "STRAIGHT_TRAVERSE",
+            "STRAIGHT_FEED",
+            "ARC_FEED",
+            "RIGID_TAP",
+        ]
+        .iter()
+        .find_map(|n| line.split_once(&format!(" {n}(")).map(|(_, a)| (*n, a))) else {
             continue;
         };
         let args: Vec<f64> = args
@@ -204,15 +207,28 @@ fn our_motion(
     if let Some(ini) = ini {
         opts.program.apply_ini(ini, dir);
     }
-    let mut calls = Vec::new();
+    let mut calls: Vec<Call> = Vec::new();
     // The rotation (G10 L2 R) in force: events give X Y rotated by it,
     // LinuxCNC's canonical calls the program's.
     let mut rot = 0.0;
     let result = gcode::interpret(program, opts, |_, events| {
-        for e in events {
+        for (k, e) in events.iter().enumerate() {
             let abc = |p: &gcode::Axes| [p.0[3], p.0[4], p.0[5]];
             match &e.kind {
                 EventKind::WorkOffset { rotation, .. } => rot = *rotation,
+                // G33.1: the tap and its retract are LinuxCNC's one
+                // RIGID_TAP(x, y, z) call.
+                EventKind::Feed(m)
+                    if m.words.expanded
+                        && k > 0
+                        && matches!(events[k - 1].kind, EventKind::Feed(p)
+                            if p.words.expanded && p.from == m.to && p.to == m.from) =>
+                {
+                    if let Some(last) = calls.last_mut() {
+                        last.0 = "RIGID_TAP".to_string();
+                        last.1.truncate(3);
+                    }
+                }
                 EventKind::Traverse(m) | EventKind::Feed(m) => {
                     let mut m = *m;
                     m.to = crate::rs274::unrotate(&m.to, rot);

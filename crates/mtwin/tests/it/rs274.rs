@@ -225,6 +225,37 @@ struct Outcome {
     unsupported: Option<String>,
 }
 
+/// The offsets rs274 prints (mm and degree): machine X Y Z =
+/// R·(program + G92) + work offset + tool offset, R the XY rotation.
+#[derive(Default)]
+struct Frame {
+    g5x: [f64; 6],
+    g92: [f64; 6],
+    tool: [f64; 6],
+    /// Degrees about Z.
+    rotation: f64,
+}
+
+impl Frame {
+    fn to_machine(&self, p: &[f64; 6]) -> [f64; 6] {
+        let q: [f64; 6] = std::array::from_fn(|i| p[i] + self.g92[i]);
+        let (sn, cs) = self.rotation.to_radians().sin_cos();
+        let mut m = q;
+        m[0] = q[0] * cs - q[1] * sn;
+        m[1] = q[0] * sn + q[1] * cs;
+        std::array::from_fn(|i| m[i] + self.g5x[i] + self.tool[i])
+    }
+
+    fn program_point(&self, m: &[f64; 6]) -> [f64; 6] {
+        let q: [f64; 6] = std::array::from_fn(|i| m[i] - self.g5x[i] - self.tool[i]);
+        let (sn, cs) = self.rotation.to_radians().sin_cos();
+        let mut p = q;
+        p[0] = q[0] * cs + q[1] * sn;
+        p[1] = -q[0] * sn + q[1] * cs;
+        std::array::from_fn(|i| p[i] - self.g92[i])
+    }
+}
+
 /// Parses rs274's canonical calls (`   12 N..... NAME(args)`). Feeds are
 /// made canonical as LinuxCNC's motion controller takes them: the rate of
 /// SET_FEED_RATE times the length unit in force when it was set (mm/min),
@@ -238,6 +269,12 @@ fn parse_canon(text: &str) -> Vec<Step> {
     let mut at = [0.0; 6];
     // Work axes of the arc plane: first, second, normal (X 0, Y 1, Z 2).
     let mut plane = [0, 1, 2];
+    // Spindle-synchronised (G33, G33.1): the advance per revolution, mm.
+    let mut sync: Option<f64> = None;
+    // The program point where the machine is (`at` is the last printed
+    // end): a change of work, G92 or tool offset or of rotation moves it.
+    let mut frame = Frame::default();
+    let mut pos = [0.0; 6];
     for line in text.lines() {
         let Some((head, args)) = line.split_once('(') else {
             continue;
@@ -263,6 +300,41 @@ fn parse_canon(text: &str) -> Vec<Step> {
                 }
             }
             "DWELL" => steps.push(Step::Dwell(nums()[0])),
+            "SET_G5X_OFFSET" | "SET_G92_OFFSET" | "USE_TOOL_LENGTH_OFFSET" | "SET_XY_ROTATION" => {
+                let machine = frame.to_machine(&pos);
+                let v = nums();
+                let mut o = [0.0; 6];
+                let first = usize::from(name == "SET_G5X_OFFSET");
+                for (i, oi) in o.iter_mut().enumerate() {
+                    let x = v.get(first + i).copied().unwrap_or(0.0);
+                    *oi = if i < 3 { x * scale } else { x };
+                }
+                match name {
+                    "SET_G5X_OFFSET" => frame.g5x = o,
+                    "SET_G92_OFFSET" => frame.g92 = o,
+                    "USE_TOOL_LENGTH_OFFSET" => frame.tool = o,
+                    _ => frame.rotation = v[0],
+                }
+                pos = frame.program_point(&machine);
+            }
+            "START_SPEED_FEED_SYNC" => sync = Some(nums()[0] * scale),
+            "STOP_SPEED_FEED_SYNCH" => sync = None,
+            "RIGID_TAP" => {
+                // To X Y Z and back to the start (where the program point
+                // stays), at K per revolution: one step, its end the tap's.
+                let v = nums();
+                let mut end = at;
+                for i in 0..3 {
+                    end[i] = v[i] * scale;
+                }
+                steps.push(Step::Move {
+                    kind: "tap",
+                    end,
+                    arc: None,
+                    feed: sync,
+                    scale,
+                });
+            }
             "STRAIGHT_TRAVERSE" | "STRAIGHT_FEED" => {
                 let v = nums();
                 let mut end = [0.0; 6];
@@ -272,12 +344,20 @@ fn parse_canon(text: &str) -> Vec<Step> {
                 // Still: equal to the 4 printed decimals (of inch or mm).
                 let same = |i: usize| (end[i] - at[i]).abs() < 1.3e-3;
                 let (xyz_still, abc_still) = ((0..3).all(same), (3..6).all(same));
+                // The feed of a rotary-only move (deg/min) is told from the
+                // true start.
+                let xyz_moved = (0..3).any(|i| (end[i] - pos[i]).abs() >= 1.3e-3);
                 at = end;
+                pos = end;
                 if xyz_still && abc_still {
                     continue;
                 }
                 let traverse = name == "STRAIGHT_TRAVERSE";
-                let feed = if xyz_still { rate } else { rate * rate_scale };
+                let feed = match sync {
+                    Some(k) => k,
+                    None if !xyz_moved => rate,
+                    None => rate * rate_scale,
+                };
                 steps.push(Step::Move {
                     kind: if traverse { "traverse" } else { "feed" },
                     end,
@@ -303,6 +383,7 @@ fn parse_canon(text: &str) -> Vec<Step> {
                     at[i] = end[k];
                 }
                 at[3..].copy_from_slice(&end[3..]);
+                pos = at;
             }
             _ => {}
         }
@@ -433,9 +514,23 @@ fn run_mtwin(program: &[u8], ini: Option<(&str, &Path)>) -> Outcome {
     // The rotation in force (G10 L2 R): rs274 prints program coordinates.
     let mut rot = 0.0;
     let result = gcode::interpret(program, opts, |_, events| {
-        for e in events {
+        for (k, e) in events.iter().enumerate() {
             match &e.kind {
                 EventKind::WorkOffset { rotation, .. } => rot = *rotation,
+                // G33.1: the tap down is one step (as rs274's RIGID_TAP),
+                // the retract back to its start none.
+                EventKind::Feed(m)
+                    if m.words.expanded
+                        && matches!(m.feed, Feed::PerRevolution { .. })
+                        && k > 0
+                        && matches!(events[k - 1].kind, EventKind::Feed(p)
+                            if p.words.expanded && p.from == m.to && p.to == m.from) =>
+                {
+                    if let Some(Step::Move { kind, .. }) = steps.last_mut() {
+                        *kind = "tap";
+                    }
+                    at.copy_from_slice(&unrotate(&m.to, rot).0[..6]);
+                }
                 EventKind::Traverse(m) | EventKind::Feed(m) => {
                     let mut m = *m;
                     m.from = unrotate(&m.from, rot);
@@ -683,6 +778,8 @@ struct GenState {
     system: usize,
     /// Machine position X Y Z (mm, exact as written) and A B C (degree).
     machine: [f64; 6],
+    /// M3 or M4 with a spindle speed in force.
+    spindle: bool,
 }
 
 impl GenState {
@@ -993,9 +1090,50 @@ fn gen_feed_mode(g: &mut Gen) {
     let code = ["G94", "G93", "G95"][g.st.feed_mode];
     if g.st.feed_mode == 2 && g.rng.chance(0.7) {
         let s = *g.rng.pick(&[500, 1000, 2400]);
+        g.st.spindle = true;
         g.emit(format!("{code} S{s} M3"));
     } else {
         g.emit(code.into());
+    }
+}
+
+/// G33 (spindle-synchronised move) or G33.1 (rigid tap, back to the
+/// start), K per revolution, G33.1 now and then with I (retract speed
+/// factor); the spindle started first unless it turns (now and then left
+/// stopped or without a speed: both refuse, or mtwin cannot time it).
+fn gen_spindle_sync(g: &mut Gen) {
+    if !g.st.spindle || g.rng.chance(0.1) {
+        match g.rng.below(40) {
+            0 => g.emit("M5".into()),
+            1 => g.emit("S0 M3".into()),
+            k => {
+                let s = *g.rng.pick(&[300, 800, 1500]);
+                g.emit(format!("S{s} M{}", if k % 2 == 0 { 3 } else { 4 }));
+                g.st.spindle = true;
+            }
+        }
+    }
+    let k = *g.rng.pick(&[0.5, 1.0, 1.25, 2.0]) / if g.st.inch { 25.0 } else { 1.0 };
+    if g.rng.chance(0.4) {
+        // G33.1: along X Y Z (Z mostly), the position unchanged after.
+        let saved = g.st.machine;
+        let axes: Vec<usize> = if g.rng.chance(0.7) {
+            vec![2]
+        } else {
+            g.some_axes(false)
+        };
+        let t = g.target_words(&axes);
+        g.st.machine = saved;
+        let i = if g.rng.chance(0.3) {
+            format!(" I{}", num(*g.rng.pick(&[0.5, 1.0, 2.0, 3.5])))
+        } else {
+            String::new()
+        };
+        g.emit(format!("G33.1{t} K{}{i}", num(k)));
+    } else {
+        let axes = g.some_axes(false);
+        let t = g.target_words(&axes);
+        g.emit(format!("G33{t} K{}", num(k)));
     }
 }
 
@@ -1030,8 +1168,160 @@ const FEATURES: &[Feature] = &[
     ("G53", 1, gen_g53),
     ("feed mode", 2, gen_feed_mode),
     ("dwell", 1, gen_dwell),
+    ("spindle sync", 2, gen_spindle_sync),
     ("comment", 1, gen_comment),
 ];
+
+/// Number of generated programs of cutter radius compensation
+/// ([`generate_comp`]).
+const COMP: u64 = 150;
+/// Seed of the first of them.
+const COMP_SEED: u64 = 0xc0c0_2026;
+
+/// Program `seed` of cutter radius compensation on a shape that does not
+/// gouge: a convex polygon of 4 to 8 corners on a circle (gaps of 30° to
+/// 120°, radius 25 to 60 tool radii), some edges outward arcs (R format,
+/// 3° to 8° of bulge, so each corner stays convex), cut outside or inside,
+/// either way round; G17 or G18, mm or inch, absolute or incremental; the
+/// radius from G41.1/G42.1 D, from the tool table (G41/G42 Dn) or from the
+/// tool in the spindle (T M6, G41/G42); entry from one radial distance of
+/// 3 to 6 tool radii outside (or from the centre, inside), now and then an
+/// overlap past the first corner, exit after G40 (on its line or the next).
+fn generate_comp(seed: u64) -> String {
+    let mut rng = Rng(seed);
+    let inch = rng.chance(0.3);
+    // Program units per mm.
+    let u = if inch { 1.0 / 25.4 } else { 1.0 };
+    let g18 = rng.chance(0.2);
+    let (l1, l2, ln) = if g18 {
+        ('Z', 'X', 'Y')
+    } else {
+        ('X', 'Y', 'Z')
+    };
+    let mut out = format!(
+        "{} {} G90 G94 G40\n",
+        if inch { "G20" } else { "G21" },
+        if g18 { "G18" } else { "G17" }
+    );
+    // Tool radius (mm) and the words that give it.
+    let (r, comp_words) = match rng.below(3) {
+        0 => {
+            let d = *rng.pick(&[2.0, 4.0, 6.0, 10.0]);
+            (d / 2.0, format!(".1 D{}", num(d * u)))
+        }
+        k => {
+            let i = rng.below(3) as usize;
+            let (t, _) = TOOLS[i];
+            let r = TOOL_DIAMETERS[i] * 25.4 / 2.0;
+            if k == 1 {
+                (r, format!(" D{t}"))
+            } else {
+                writeln!(out, "T{t} M6").unwrap();
+                (r, String::new())
+            }
+        }
+    };
+    // Corners: n angles with gaps of 30° to 120°.
+    let n = 4 + rng.below(5) as usize;
+    let gaps = loop {
+        let raw: Vec<f64> = (0..n)
+            .map(|_| 1.0 + rng.below(1000) as f64 / 1000.0)
+            .collect();
+        let sum: f64 = raw.iter().sum();
+        let g: Vec<f64> = raw.iter().map(|x| x * 360.0 / sum).collect();
+        if g.iter().all(|&x| (30.0..=120.0).contains(&x)) {
+            break g;
+        }
+    };
+    let big = r * (25.0 + rng.below(36) as f64);
+    let c = [
+        (rng.below(1001) as f64 / 10.0 - 50.0),
+        (rng.below(1001) as f64 / 10.0 - 50.0),
+    ];
+    let phase = rng.below(360) as f64;
+    let ccw = rng.chance(0.5);
+    let mut angles = Vec::new();
+    let mut a = phase;
+    for g in &gaps {
+        angles.push(a);
+        a += g;
+    }
+    if !ccw {
+        angles.reverse();
+    }
+    // Corners in program units, as written (4 decimals).
+    let pt = |deg: f64, dist: f64| {
+        let t = deg.to_radians();
+        [
+            r4((c[0] + dist * t.cos()) * u),
+            r4((c[1] + dist * t.sin()) * u),
+        ]
+    };
+    let corners: Vec<[f64; 2]> = angles.iter().map(|&d| pt(d, big)).collect();
+    let inside = rng.chance(0.5);
+    // Tool left of a counter-clockwise path is inside.
+    let left = inside == ccw;
+    let entry_dist = big + r * (3.0 + rng.below(4) as f64);
+    let start = if inside {
+        [r4(c[0] * u), r4(c[1] * u)]
+    } else {
+        pt(angles[0], entry_dist)
+    };
+    let feed = *rng.pick(&[200.0, 500.0, 1200.0]) * u;
+    writeln!(out, "G0 {l1}{} {l2}{}", num(start[0]), num(start[1])).unwrap();
+    writeln!(out, "G0 {ln}{}", num(5.0 * u)).unwrap();
+    writeln!(out, "G1 {ln}{} F{}", num(-u), num(feed)).unwrap();
+    writeln!(out, "G4{}{comp_words}", if left { "1" } else { "2" }).unwrap();
+    let incremental = rng.chance(0.25);
+    if incremental {
+        out.push_str("G91\n");
+    }
+    let mut at = start;
+    let mut to = |out: &mut String, code: &str, p: [f64; 2], tail: &str| {
+        let w = if incremental {
+            [p[0] - at[0], p[1] - at[1]]
+        } else {
+            p
+        };
+        writeln!(out, "{code} {l1}{} {l2}{}{tail}", num(w[0]), num(w[1])).unwrap();
+        at = p;
+    };
+    to(&mut out, "G1", corners[0], "");
+    let overlap = rng.chance(0.3);
+    let edges = n + usize::from(overlap);
+    for k in 0..edges {
+        let (a, b) = (corners[k % n], corners[(k + 1) % n]);
+        if rng.chance(0.3) {
+            // Bulging outward: centre on the inner side.
+            let chord = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+            let bulge = (3.0 + rng.below(6) as f64).to_radians();
+            let rho = chord / (2.0 * bulge.sin());
+            let code = if ccw { "G3" } else { "G2" };
+            to(&mut out, code, b, &format!(" R{}", num(rho)));
+        } else {
+            to(&mut out, "G1", b, "");
+        }
+    }
+    let last_angle = angles[edges % n];
+    let exit = if inside {
+        [r4(c[0] * u), r4(c[1] * u)]
+    } else {
+        pt(last_angle, entry_dist)
+    };
+    match rng.below(3) {
+        0 => {
+            out.push_str("G40\n");
+            to(&mut out, "G1", exit, "");
+        }
+        1 => to(&mut out, "G40 G1", exit, ""),
+        _ => to(&mut out, "G40 G0", exit, ""),
+    }
+    if incremental {
+        out.push_str("G90\n");
+    }
+    writeln!(out, "G0 {ln}{}\nM2", num(5.0 * u)).unwrap();
+    out
+}
 
 /// Program `seed` in rotated coordinate systems (G10 L2 R, mm): systems
 /// given offsets and rotations (of the active one too), traverses, feeds
@@ -1137,6 +1427,7 @@ fn generate(seed: u64) -> String {
             feed_set: false,
             system: 0,
             machine: [0.0; 6],
+            spindle: false,
         },
         lines: Vec::new(),
         line_number: 0,
@@ -1266,14 +1557,28 @@ fn differential_against_linuxcnc_rs274() {
         });
     }
 
+    for k in 0..COMP {
+        let path = gen_dir.join(format!("c{k:05}.ngc"));
+        std::fs::write(&path, generate_comp(COMP_SEED + k)).unwrap();
+        cases.push(Case {
+            name: format!("compensation seed {:#x}", COMP_SEED + k),
+            path,
+            ini: None,
+        });
+    }
+
     let verdicts: Mutex<Vec<(usize, Verdict)>> = Mutex::new(Vec::new());
+    // Compensation programs rs274 refuses or runs with few moves (each
+    // must be a real compensated profile).
+    let comp_short: Mutex<Vec<String>> = Mutex::new(Vec::new());
     let next = AtomicUsize::new(0);
     // rs274 spends most of its run time idle (start-up and exit): more
     // processes than cores keep the test short.
     let workers = 8;
     std::thread::scope(|scope| {
         for w in 0..workers {
-            let (cases, setup, verdicts, next) = (&cases, &setup, &verdicts, &next);
+            let (cases, setup, verdicts, next, comp_short) =
+                (&cases, &setup, &verdicts, &next, &comp_short);
             scope.spawn(move || {
                 let work = setup.root.join(format!("work{w}"));
                 std::fs::create_dir(&work).unwrap();
@@ -1284,6 +1589,16 @@ fn differential_against_linuxcnc_rs274() {
                     let theirs = run_rs274(setup, &case.path, &work, case.ini.as_deref());
                     let dir = case.path.parent().unwrap_or(Path::new("."));
                     let ours = run_mtwin(&bytes, case.ini.as_deref().map(|t| (t, dir)));
+                    if case.name.starts_with("compensation")
+                        && (theirs.refused.is_some() || theirs.steps.len() < 8)
+                    {
+                        comp_short.lock().unwrap().push(format!(
+                            "{}: {} moves, {:?}",
+                            case.name,
+                            theirs.steps.len(),
+                            theirs.refused
+                        ));
+                    }
                     let v = classify(&ours, &theirs);
                     if let (Verdict::Disagree(_), Some(keep)) =
                         (&v, std::env::var_os("MTWIN_RS274_KEEP"))
@@ -1302,6 +1617,7 @@ fn differential_against_linuxcnc_rs274() {
     let mut agree = 0;
     let mut agree_generated = 0;
     let mut agree_rotated = 0;
+    let mut agree_comp = 0;
     let mut unsupported: BTreeMap<String, Vec<String>> = BTreeMap::new();
     let mut known: BTreeMap<&str, Vec<String>> = BTreeMap::new();
     let mut disagreements = Vec::new();
@@ -1326,6 +1642,7 @@ fn differential_against_linuxcnc_rs274() {
                 agree += 1;
                 agree_generated += usize::from(name.starts_with("generated"));
                 agree_rotated += usize::from(name.starts_with("rotated"));
+                agree_comp += usize::from(name.starts_with("compensation"));
             }
             Verdict::Known(why) => known.entry(why).or_default().push(name.clone()),
             Verdict::Unsupported(f) => unsupported.entry(f.clone()).or_default().push(name.clone()),
@@ -1341,12 +1658,13 @@ fn differential_against_linuxcnc_rs274() {
     }
     let n_unsupported: usize = unsupported.values().map(Vec::len).sum();
     eprintln!(
-        "rs274 differential: {} programs ({} generated, {} in rotated systems), {agree} agree \
-         ({agree_generated} generated, {agree_rotated} rotated), {n_unsupported} unsupported by \
-         mtwin, {} disagreements",
+        "rs274 differential: {} programs ({} generated, {} in rotated systems, {} of cutter \
+         compensation), {agree} agree ({agree_generated} generated, {agree_rotated} rotated, \
+         {agree_comp} compensation), {n_unsupported} unsupported by mtwin, {} disagreements",
         cases.len(),
         GENERATED,
         ROTATED,
+        COMP,
         disagreements.len()
     );
     for (f, names) in &unsupported {
@@ -1384,6 +1702,12 @@ fn differential_against_linuxcnc_rs274() {
         agree_rotated + unsupported_rotated,
         ROTATED as usize,
         "programs in rotated systems that agree or are refused as documented"
+    );
+    let comp_short = comp_short.into_inner().unwrap();
+    assert!(comp_short.is_empty(), "{}", comp_short.join("\n"));
+    assert_eq!(
+        agree_comp, COMP as usize,
+        "every generated program of cutter compensation agrees"
     );
     assert!(
         agree_rotated * 10 >= ROTATED as usize * 8,
@@ -1430,9 +1754,21 @@ fn generated_programs_are_reproducible_and_varied() {
     let text: String = (0..200).map(|k| generate(SEED + k)).collect();
     for needle in [
         "G0 ", "G1 ", "G2 ", "G3 ", " R", " I", " K", " P", "G18", "G19", "G20", "G91\n", "G90.1",
-        "G55", "G59.3", "G53 ", "G93", "G95", "G4 P", "/", "N10 ", ";", "M30", "M2\n",
+        "G55", "G59.3", "G53 ", "G93", "G95", "G4 P", "/", "N10 ", ";", "M30", "M2\n", "G33 ",
+        "G33.1 ",
     ] {
         assert!(text.contains(needle), "no {needle:?} in 200 programs");
+    }
+    assert_eq!(generate_comp(COMP_SEED), generate_comp(COMP_SEED));
+    let text: String = (0..COMP).map(|k| generate_comp(COMP_SEED + k)).collect();
+    for needle in [
+        "G41 D", "G42 D", "G41.1 D", "G42.1 D", "G41\n", "G42\n", "M6", "G18", "G20", "G91\n",
+        "G2 ", "G3 ", "G40\n", "G40 G1", "G40 G0",
+    ] {
+        assert!(
+            text.contains(needle),
+            "no {needle:?} in the compensation programs"
+        );
     }
 }
 

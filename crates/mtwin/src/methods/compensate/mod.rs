@@ -747,7 +747,8 @@ impl Compensator {
     }
 
     /// A move one block expands to (canned cycle, G28/G30, cutter radius
-    /// compensation): no word of the block ends it, so a correction cannot
+    /// compensation, G33/G33.1, whose moves must not be split or re-coded):
+    /// no word of the block ends it, so a correction cannot
     /// be written; refused unless none is needed.
     fn expanded_move(&self, mv: &Move, run: &mut RunState) -> Result<(), CompensateError> {
         let (_, end) = self.ends(mv, run)?;
@@ -758,8 +759,8 @@ impl Compensator {
             return Err(GcodeError::unsupported(
                 mv.line,
                 0,
-                "correction of a move a canned cycle, G28/G30 or cutter radius compensation \
-                 expands to (one block, several moves or an offset path: no word to rewrite); \
+                "correction of a move a canned cycle, G28/G30, cutter radius compensation \
+                 or a spindle-synchronised G33/G33.1 expands to (one block, several moves or an offset path: no word to rewrite); \
                  write the moves as G0/G1/G2/G3 without them first",
             )
             .into());
