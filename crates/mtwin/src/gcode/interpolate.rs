@@ -55,7 +55,7 @@ use super::plan::naive_cam::NaiveCam;
 use super::plan::{PlanOptions, Planner};
 use super::program_flow::{Step, run_program};
 use super::timing::{self, lerp};
-use crate::kinematics::{IkError, IkOptions, IkTarget, Kinematics};
+use crate::kinematics::{IkError, IkOptions, IkTarget, Kinematics, MAX_AXES};
 use crate::model::{AxisKind, Machine};
 
 /// Settings of [`interpolate`].
@@ -428,6 +428,9 @@ pub struct Interpolator<'m> {
     cam: NaiveCam,
     /// Spindle turning, and its programmed speed (rev/min).
     spindle: (bool, f64),
+    /// Indices of the linear axes when the machine has exactly three (and
+    /// at most `MAX_AXES` axes): the TCP solve is then [`affine_tip_solve`].
+    lin3: Option<[usize; 3]>,
 }
 
 impl<'m> Interpolator<'m> {
@@ -480,7 +483,15 @@ impl<'m> Interpolator<'m> {
             Planner::ExactStop => 1,
             _ => opts.plan.lookahead,
         };
+        let lin_idx: Vec<usize> = (0..machine.axes.len())
+            .filter(|&i| machine.axes[i].kind == AxisKind::Linear)
+            .collect();
+        let lin3 = match lin_idx[..] {
+            [a, b, c] if machine.axes.len() <= MAX_AXES => Some([a, b, c]),
+            _ => None,
+        };
         Ok(Interpolator {
+            lin3,
             machine,
             kin: Kinematics::nominal(machine),
             linear: machine
@@ -1132,19 +1143,21 @@ impl<'m> Interpolator<'m> {
             }
         }
         let tip = Vector3::new(w[Axis::X], w[Axis::Y], w[Axis::Z]);
+        if let Some(lin) = self.lin3
+            && affine_tip_solve(&self.kin, lin, &tip, out)
+        {
+            return Ok(());
+        }
         let target = IkTarget { tip, axis: None };
-        let q = self
-            .kin
-            .inverse(&target, out, &self.linear, &self.ik)
+        self.kin
+            .inverse_in_place(&target, out, &self.linear, &self.ik)
             .map_err(|source| InterpolateError::Ik {
                 line: self.line,
                 x: tip.x,
                 y: tip.y,
                 z: tip.z,
                 source,
-            })?;
-        out.copy_from_slice(&q);
-        Ok(())
+            })
     }
 
     /// Axis positions at `s ∈ [0, 1]` along `path` into `out` (which holds the
@@ -1375,6 +1388,44 @@ impl<'m> Interpolator<'m> {
         }
         Ok(())
     }
+}
+
+/// The TCP solve of [`Interpolator`] for a machine of three linear axes
+/// (`lin`, their indices), by the nominal kinematics `kin`: the linear axes
+/// that put the tool tip on `tip` (W, mm) with the rotary axes as `q` holds
+/// them, written into `q`. With the rotary axes fixed, the nominal tip is
+/// an affine function `A·x + b` of the linear positions `x` (every linear
+/// axis adds `dir·x` before fixed rotations), so one Newton step from the
+/// current `q` — the tip and its derivatives there, then the 3×3 system
+/// solved by Cramer's rule — is the exact solution up to rounding (about
+/// 1e-13 mm; `Kinematics::inverse` takes the same step by a least-squares
+/// factorisation, and then a second forward kinematics to check it).
+/// `false` (and `q` unchanged) when the columns of `A` are nearly dependent
+/// (|det A| below 1e-9 of the product of the column lengths) or the result
+/// is not finite: the caller then runs the general solver.
+fn affine_tip_solve(kin: &Kinematics, lin: [usize; 3], tip: &Vector3<f64>, q: &mut [f64]) -> bool {
+    let mut d = [[0.0; 6]; MAX_AXES];
+    let pose = kin.pose_and_position_derivatives(q, &mut d);
+    let col = |i: usize| Vector3::new(d[i][0], d[i][1], d[i][2]);
+    let (c0, c1, c2) = (col(lin[0]), col(lin[1]), col(lin[2]));
+    let r = tip - pose.tip;
+    let c12 = c1.cross(&c2);
+    let det = c0.dot(&c12);
+    if !(det.abs() > 1e-9 * c0.norm() * c1.norm() * c2.norm()) {
+        return false;
+    }
+    let x = [
+        r.dot(&c12) / det,
+        c0.dot(&r.cross(&c2)) / det,
+        c0.dot(&c1.cross(&r)) / det,
+    ];
+    if !x.iter().all(|v| v.is_finite()) {
+        return false;
+    }
+    for (&i, dx) in lin.iter().zip(x) {
+        q[i] += dx;
+    }
+    true
 }
 
 /// The duration (s) of the program read from `input` on `machine` under the
@@ -2425,6 +2476,64 @@ mod tests {
         let d = b - a;
         let t = ((p - a).dot(&d) / d.norm_squared()).clamp(0.0, 1.0);
         (p - (a + d * t)).norm()
+    }
+
+    /// The TCP solve by one affine step agrees with the general inverse
+    /// kinematics (Gauss–Newton to 1e-11 mm) and puts the nominal tip on the
+    /// target, over the trunnion's workspace from far starts; a machine whose
+    /// linear axes are dependent is left to the general solver.
+    #[test]
+    fn affine_tcp_solve_matches_the_general_inverse_kinematics() {
+        use rand::{Rng, SeedableRng};
+        let m = trunnion();
+        let kin = Kinematics::nominal(&m);
+        let lin: Vec<usize> = (0..m.axes.len())
+            .filter(|&i| m.axes[i].kind == AxisKind::Linear)
+            .collect();
+        let lin = [lin[0], lin[1], lin[2]];
+        let free: Vec<bool> = m.axes.iter().map(|a| a.kind == AxisKind::Linear).collect();
+        let opts = IkOptions {
+            max_iterations: 20,
+            tip_tolerance: 1e-11,
+            axis_tolerance: 1e-13,
+            check_travel: false,
+            stall_ratio: None,
+        };
+        let mut rng = rand::rngs::StdRng::seed_from_u64(21);
+        let mut worst = (0.0f64, 0.0f64);
+        for _ in 0..2000 {
+            let mut q: Vec<f64> = m
+                .axes
+                .iter()
+                .map(|a| rng.gen_range(a.travel[0]..a.travel[1]))
+                .collect();
+            let tip = Vector3::new(
+                rng.gen_range(-200.0..200.0),
+                rng.gen_range(-200.0..200.0),
+                rng.gen_range(-150.0..150.0),
+            );
+            let general = kin
+                .inverse(&IkTarget { tip, axis: None }, &q, &free, &opts)
+                .unwrap();
+            assert!(affine_tip_solve(&kin, lin, &tip, &mut q));
+            let diff = q
+                .iter()
+                .zip(&general)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            worst.0 = worst.0.max(diff);
+            worst.1 = worst.1.max((kin.pose(&q).tip - tip).norm());
+        }
+        assert!(worst.0 < 1e-11 && worst.1 < 1e-11, "{worst:?}");
+        // Y and Z along the same direction: no solution by this step.
+        let mut dep = m.clone();
+        let (iy, iz) = (lin[0], lin[2]);
+        dep.axes[iz].direction = dep.axes[iy].direction;
+        let kin = Kinematics::nominal(&dep);
+        let mut q = vec![1.0; dep.axes.len()];
+        let before = q.clone();
+        assert!(!affine_tip_solve(&kin, lin, &Vector3::new(1.0, 2.0, 3.0), &mut q));
+        assert_eq!(q, before);
     }
 
     #[test]

@@ -19,6 +19,8 @@ pub use jacobian::{PoseDerivative, PoseJacobian, SLOTS};
 pub use lanes::{LANES, sin_cos_deg};
 pub use predict::{PREDICT_COLUMNS, PredictDoc};
 pub use transform::Rigid;
+/// Most axes of the allocation-free pose-derivative path.
+pub(crate) use tangent::MAX_AXES;
 
 #[cfg(test)]
 mod tests;
