@@ -2532,7 +2532,12 @@ mod tests {
         let kin = Kinematics::nominal(&dep);
         let mut q = vec![1.0; dep.axes.len()];
         let before = q.clone();
-        assert!(!affine_tip_solve(&kin, lin, &Vector3::new(1.0, 2.0, 3.0), &mut q));
+        assert!(!affine_tip_solve(
+            &kin,
+            lin,
+            &Vector3::new(1.0, 2.0, 3.0),
+            &mut q
+        ));
         assert_eq!(q, before);
     }
 
