@@ -1411,7 +1411,7 @@ fn affine_tip_solve(kin: &Kinematics, lin: [usize; 3], tip: &Vector3<f64>, q: &m
     let r = tip - pose.tip;
     let c12 = c1.cross(&c2);
     let det = c0.dot(&c12);
-    if !(det.abs() > 1e-9 * c0.norm() * c1.norm() * c2.norm()) {
+    if det.is_nan() || det.abs() <= 1e-9 * c0.norm() * c1.norm() * c2.norm() {
         return false;
     }
     let x = [
