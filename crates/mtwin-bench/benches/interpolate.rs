@@ -3,9 +3,11 @@
 //! (C travel widened to ±36000° as in the corpus's xyzac-trt.ini), samples
 //! consumed by a counter; and planning plus sampling the boat
 //! (`boat-xyzac.ngc`, M428 TCP) at 1 ms under `--planner linuxcnc` with
-//! xyzac-trt's limits, once and repeated 10 times (look-ahead cost linear in
-//! the program length: the ×10 run should take ten times as long), and the
-//! same under `--planner jerk` (jerk limits 3000 mm/s³ and deg/s³).
+//! xyzac-trt's limits, once and repeated 10 and 100 times (look-ahead cost
+//! linear in the program length: the ×10 run should take ten times as long,
+//! the ×100 run a hundred times; the ×100 run, 56.7 M samples, is sampled
+//! flat: ten runs of one iteration each), and the same once and 10 times
+//! under `--planner jerk` (jerk limits 3000 mm/s³ and deg/s³).
 //!
 //!     cargo bench -p mtwin-bench --bench interpolate
 //!
@@ -14,7 +16,7 @@
 use std::hint::black_box;
 use std::path::Path;
 
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::{Criterion, SamplingMode, criterion_group, criterion_main};
 use mtwin::gcode::plan::{PlanOptions, Planner};
 use mtwin::gcode::{InterpolateOptions, interpolate};
 use mtwin::model::{AxisKind, read_machine};
@@ -67,11 +69,17 @@ fn bench(c: &mut Criterion) {
             (Planner::Linuxcnc, 10),
             (Planner::Jerk, 1),
             (Planner::Jerk, 10),
+            (Planner::Linuxcnc, 100),
         ] {
             let mut opts = InterpolateOptions::new(0.001);
             opts.plan = PlanOptions::new(planner);
             opts.check_travel = false;
+            // The ×100 boat needs more samples than the default bound.
+            opts.max_samples = u64::MAX;
             let prog = body.repeat(reps) + "M2\n";
+            if reps >= 100 {
+                g.sampling_mode(SamplingMode::Flat);
+            }
             g.bench_function(format!("boat_{planner}_1ms_x{reps}"), |b| {
                 b.iter(|| {
                     let mut n = 0u64;

@@ -308,3 +308,77 @@ fn bad_program_line_is_reported() {
     assert!(stderr(&o).contains("p.nc:2:"), "{}", stderr(&o));
     assert!(!dir.path().join("pred.csv").exists());
 }
+
+/// The servo errors of the S-piece and the boat under each planner, as
+/// docs/twin.md tabulates them ("Servo errors per planner"): every row of
+/// that table is run with the command the page gives and its figures
+/// (program time, ε_p max and RMS in µm, ε_o max in µrad, three decimals)
+/// must be what the command prints. The boat rows need ../shared.
+#[test]
+fn servo_errors_per_planner_are_as_documented() {
+    let page = std::fs::read_to_string(repo().join("docs/twin.md")).unwrap();
+    let rows: Vec<Vec<String>> = page
+        .split("### Servo errors per planner")
+        .nth(1)
+        .expect("docs/twin.md has the section")
+        .lines()
+        .filter(|l| l.starts_with("| `"))
+        .map(|l| {
+            l.trim_matches('|')
+                .split('|')
+                .map(|c| c.trim().trim_matches('`').to_string())
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), 6, "two programs × three planners: {rows:?}");
+    let dir = tempfile::tempdir().unwrap();
+    let m = example("ac-trunnion-twin.toml");
+    for row in &rows {
+        let [program, planner, time, max, rms, axis] = &row[..] else {
+            panic!("row {row:?}");
+        };
+        let path = match program.as_str() {
+            "s-curve-5axis.ngc" => repo().join("examples/programs/s-curve-5axis.ngc"),
+            "boat-xyzac.ngc" => {
+                match crate::shared::shared_dir("corpus/gcode/linuxcnc/boat-xyzac.ngc") {
+                    Some(p) => p,
+                    None => continue,
+                }
+            }
+            other => panic!("unknown program {other}"),
+        };
+        let p = path.display().to_string();
+        let v = json(&mtwin(
+            dir.path(),
+            &[
+                "twin",
+                "predict",
+                "--machine",
+                &m,
+                "--gcode",
+                &p,
+                "--planner",
+                planner,
+                "--ts",
+                "0.001",
+                "--only",
+                "servo",
+                "--out",
+                "pred.csv",
+                "--format",
+                "json",
+            ],
+        ));
+        let got = [
+            format!("{:.3} s", v["duration_s"].as_f64().unwrap()),
+            format!("{:.3}", v["tip_error_max"].as_f64().unwrap() * 1e3),
+            format!("{:.3}", v["tip_error_rms"].as_f64().unwrap() * 1e3),
+            format!("{:.3}", v["axis_error_max"].as_f64().unwrap() * 1e6),
+        ];
+        assert_eq!(
+            [time, max, rms, axis].map(String::as_str),
+            got.each_ref().map(String::as_str),
+            "{program} under {planner}"
+        );
+    }
+}
