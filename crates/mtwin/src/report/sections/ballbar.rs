@@ -282,9 +282,10 @@ mod tests {
                 term.coefficient * doc.value[p].unwrap_or(0.0) * 1e3
             })
             .sum();
-        let shown: f64 = row[2].parse().unwrap();
+        // The report writes a minus sign (U+2212).
+        let shown: f64 = row[2].replace('−', "-").parse().unwrap();
         assert!((shown - sum).abs() <= 0.005 + 1e-9, "{shown} vs {sum}");
-        assert_eq!(row[2], "-4.57");
+        assert_eq!(row[2], "−4.57");
         let unc: f64 = row[3].parse().unwrap();
         assert!((unc - 0.07).abs() < 1e-9);
         // The combination names both PIGEs with their coefficients.
