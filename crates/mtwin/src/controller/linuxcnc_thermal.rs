@@ -261,6 +261,18 @@ mod tests {
             "net mtwin-thermal-speed spindle.0.speed-out-abs => mtwin-thermal.in.speed_rpm\n"
         ));
         assert!(hal.contains("setp axis.z.eoffset-scale 1e-6\n"));
+        // The clock: an integ of 1 on the servo thread into clock-s, read
+        // with --clock-pin.
+        assert!(hal.contains("/usr/bin/python3 mtwin_thermal.py --clock-pin\n"));
+        for line in [
+            "loadrt integ names=mtwin-thermal-clock\n",
+            "addf mtwin-thermal-clock servo-thread\n",
+            "setp mtwin-thermal-clock.in 1\n",
+            "net mtwin-thermal-clock mtwin-thermal-clock.out => mtwin-thermal.clock-s\n",
+        ] {
+            assert!(hal.contains(line), "{line}");
+        }
+        assert!(files[2].1.contains("HALFILE = thermal.hal\n"));
         assert!(
             hal.contains(
                 "net mtwin-thermal-counts mtwin-thermal.counts => axis.z.eoffset-counts\n"
