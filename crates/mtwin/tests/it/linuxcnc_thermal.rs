@@ -354,7 +354,7 @@ fn exported_thermal_component_drives_the_z_offset_as_mtwin_predicts() {
     let speed: Vec<f64> = t.extra.iter().map(|r| r[0]).collect();
     assert_eq!(speed[0], 0.0, "the spindle is off when sampling starts");
     assert_eq!(speed[speed.len() - 1], 0.0, "and off at the end");
-    assert!(speed.iter().any(|&s| s == 6000.0) && speed.iter().any(|&s| s == 2000.0));
+    assert!(speed.contains(&6000.0) && speed.contains(&2000.0));
     let c = compare_with_predict(&t, &m, av_ratio(&setup));
     eprintln!(
         "thermal: {} rows, {} periods of {} s, poll gap {:.4} s, {} offset changes, largest offset \
