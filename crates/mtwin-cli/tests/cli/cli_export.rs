@@ -254,7 +254,12 @@ fn thermal_model_becomes_a_hal_component_beside_the_tables() {
         assert!(py.contains(c), "{c} missing from the component");
     }
     let hal = std::fs::read_to_string(dir.path().join("live/thermal.hal")).unwrap();
-    assert!(hal.contains("loadusr -Wn mtwin-thermal /usr/bin/python3 mtwin_thermal.py\n"));
+    assert!(
+        hal.contains("loadusr -Wn mtwin-thermal /usr/bin/python3 mtwin_thermal.py --clock-pin\n")
+    );
+    assert!(
+        hal.contains("net mtwin-thermal-clock mtwin-thermal-clock.out => mtwin-thermal.clock-s\n")
+    );
     // With a machine: the tables and the component together.
     let o = mtwin(
         dir.path(),

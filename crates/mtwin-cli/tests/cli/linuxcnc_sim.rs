@@ -64,6 +64,10 @@ pub struct SimSetup {
     /// file of [`SimSetup::files`] by its bare name (the run's folder is the
     /// ini's folder).
     pub ini: Vec<(String, String, String)>,
+    /// Ini entries `(section, key, value)` added after the section's last
+    /// line, the others kept (the way a user adds `[HAL] HALFILE = …`
+    /// lines); applied after [`SimSetup::ini`].
+    pub ini_added: Vec<(String, String, String)>,
     /// HAL commands run after the configuration's own (`setp`, `sets`, …).
     /// The kinematics' `y-offset`, `z-offset` and `tool-offset` are driven by
     /// the signals `:y-offset`, `:z-offset`, `:tool-offset`: set the first
@@ -85,6 +89,12 @@ impl SimSetup {
     /// Adds an ini entry (see [`SimSetup::ini`]).
     pub fn ini(mut self, section: &str, key: &str, value: impl fmt::Display) -> Self {
         self.ini
+            .push((section.into(), key.into(), value.to_string()));
+        self
+    }
+    /// Adds an ini line, keeping the others (see [`SimSetup::ini_added`]).
+    pub fn ini_add(mut self, section: &str, key: &str, value: impl fmt::Display) -> Self {
+        self.ini_added
             .push((section.into(), key.into(), value.to_string()));
         self
     }
@@ -324,6 +334,29 @@ pub fn edit_ini(text: &str, edits: &[(String, String, String)]) -> String {
     lines.join("\n") + "\n"
 }
 
+/// Adds `key = value` lines after the last line of their section (the
+/// section added at the end when absent), the other lines kept.
+pub fn add_ini(text: &str, added: &[(String, String, String)]) -> String {
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    for (sec, key, val) in added {
+        let header = format!("[{sec}]");
+        let Some(start) = lines.iter().position(|l| l.trim() == header) else {
+            lines.push(String::new());
+            lines.push(header);
+            lines.push(format!("{key} = {val}"));
+            continue;
+        };
+        let mut end = (start + 1..lines.len())
+            .find(|&i| lines[i].trim_start().starts_with('['))
+            .unwrap_or(lines.len());
+        while end > start + 1 && lines[end - 1].trim().is_empty() {
+            end -= 1;
+        }
+        lines.insert(end, format!("{key} = {val}"));
+    }
+    lines.join("\n") + "\n"
+}
+
 /// The installed ini adapted to run headless: `DISPLAY` is our script, the
 /// Tk GUIs are out, and `hal_file` is sourced after the configuration's
 /// own HAL commands.
@@ -488,7 +521,10 @@ fn run_once(program: &str, setup: &SimSetup, timeout: Duration) -> Result<Trace,
     let ini = dir.join(CONFIG_INI);
     std::fs::write(
         &ini,
-        edit_ini(&headless_ini(&ini_text, &display, &hal_file), &setup.ini),
+        add_ini(
+            &edit_ini(&headless_ini(&ini_text, &display, &hal_file), &setup.ini),
+            &setup.ini_added,
+        ),
     )
     .map_err(setup_err)?;
     let period = servo_period(&std::fs::read_to_string(&ini).map_err(setup_err)?);
@@ -865,6 +901,25 @@ fn ini_edits_replace_and_add() {
         &[e("A", "K", "9"), e("C", "M", "5"), e("B", "N", "6")],
     );
     assert_eq!(out, "[A]\nK = 9\nL = 2\n[B]\nN = 6\nK = 4\n\n[C]\nM = 5\n");
+}
+
+#[test]
+fn ini_lines_are_added_after_their_section() {
+    let text = "[HAL]\nHALFILE = a.hal\nHALCMD = source b.hal\n\n[AXIS_Z]\nMAX_VELOCITY = 20\n";
+    let added = [
+        (
+            "HAL".to_string(),
+            "HALFILE".to_string(),
+            "thermal.hal".to_string(),
+        ),
+        ("AXIS_Z".into(), "OFFSET_AV_RATIO".into(), "0.1".into()),
+        ("NEW".into(), "K".into(), "1".into()),
+    ];
+    assert_eq!(
+        add_ini(text, &added),
+        "[HAL]\nHALFILE = a.hal\nHALCMD = source b.hal\nHALFILE = thermal.hal\n\n[AXIS_Z]\n\
+         MAX_VELOCITY = 20\nOFFSET_AV_RATIO = 0.1\n\n[NEW]\nK = 1\n"
+    );
 }
 
 #[test]

@@ -1,38 +1,53 @@
-//! Live thermal compensation on LinuxCNC: the HAL component `mtwin export
-//! --thermal … --to linuxcnc` writes (`mtwin_thermal.py`, `thermal.hal`, the
-//! ini lines of `thermal-README.txt`) loaded into LinuxCNC 2.9's simulator;
-//! a program spins the spindle at known speeds while Z holds still, and the
-//! Z external offset LinuxCNC applies is compared with mtwin's own
-//! prediction of the drift for the same speed history
-//! ([`ThermalPredictor`](mtwin::methods::thermal::ThermalPredictor)).
+//! Live thermal compensation on LinuxCNC: the files `mtwin export --thermal
+//! … --to linuxcnc` writes (`mtwin_thermal.py`, `thermal.hal`,
+//! `thermal-README.txt`) put into LinuxCNC 2.9's simulator the way a user
+//! does: the files beside the ini, and the README's ini lines added to it
+//! (`[HAL] HALFILE = thermal.hal`, `[AXIS_Z] OFFSET_AV_RATIO`); the harness
+//! only adds sampling (and, for the replay, the streamer). The Z external
+//! offset LinuxCNC applies is compared with `mtwin thermal predict`
+//! ([`run_predict`]) on the period means of the inputs the simulator's pins
+//! held.
 //!
-//! The model's period is 10 min; the component runs it as a time lapse
-//! (`--period-s`) on the servo thread's clock (`--clock-pin`, an `integ` of
-//! 1 on the servo thread), so that a period is a fixed number of servo
+//! The test models have a period of 0.025 min (1.5 s), so a run of tens of
+//! seconds spans a dozen periods; the component's clock is the servo
+//! thread's time (`thermal.hal`'s `integ`), so a period is 1500 servo
 //! periods however late the non-realtime simulator runs.
 
-use mtwin::controller::linuxcnc_thermal::{self, RESOLUTION_MM};
-use mtwin::methods::thermal::{HeightModel, InputChannel, ThermalModel};
+use mtwin::controller::linuxcnc_thermal::{self, CLOCK_NAME, RESOLUTION_MM};
+use mtwin::methods::thermal::{
+    HeightModel, InputChannel, PredictRunOptions, ThermalModel, run_predict,
+};
 use mtwin::sysid::Arx;
 
-use crate::linuxcnc_sim::{SHORT, SimSetup, available, run_or_panic};
+use crate::linuxcnc_sim::{SHORT, SimSetup, Trace, available, run_or_panic};
 
-/// Model time lapse: one model period (10 min) lasts this long, s.
-const PERIOD_S: f64 = 1.5;
-/// The component's poll interval, s (wall clock).
-const POLL_S: f64 = 0.005;
+/// The test models' period, min (1.5 s).
+const PERIOD_MIN: f64 = 0.025;
+/// Z held by the programs, mm.
+const Z_MM: f64 = 20.0;
 
-/// The two-height model of docs/thermal-compensation.md, heights moved into
-/// the simulator's Z travel (±120 mm).
-fn model() -> ThermalModel {
-    let h = |z: f64, b: [f64; 2]| HeightModel {
-        z_mm: z,
-        model: Arx::new(vec![1.0, -1.605827, 0.627089], vec![(b.to_vec(), 1)]).unwrap(),
-        stats: None,
+/// The two-height model of docs/thermal-compensation.md (its 10 min period
+/// shortened to [`PERIOD_MIN`]), heights moved into the simulator's Z travel
+/// (±120 mm), with an optional temperature input `t5_c` (scale 40 °C).
+fn model(temperature: bool) -> ThermalModel {
+    let h = |z: f64, b: [f64; 2]| {
+        let mut inputs = vec![(b.to_vec(), 1)];
+        if temperature {
+            inputs.push((vec![0.0004, -0.0003], 1));
+        }
+        HeightModel {
+            z_mm: z,
+            model: Arx::new(vec![1.0, -1.605827, 0.627089], inputs).unwrap(),
+            stats: None,
+        }
     };
+    let mut inputs = vec![InputChannel::linear("speed_rpm", 8000.0)];
+    if temperature {
+        inputs.push(InputChannel::linear("t5_c", 40.0));
+    }
     ThermalModel::new(
-        10.0,
-        vec![InputChannel::linear("speed_rpm", 8000.0)],
+        PERIOD_MIN,
+        inputs,
         vec![
             h(-100.0, [-0.0062836, 0.0057508]),
             h(100.0, [-0.0070963, 0.0062955]),
@@ -41,111 +56,115 @@ fn model() -> ThermalModel {
     .unwrap()
 }
 
-/// The columns the test samples besides the standard ones, in order.
-const SPEED: usize = 0;
-const CLOCK: usize = 1;
-const COUNTS: usize = 2;
-const DRIFT: usize = 3;
-const SAMPLE: usize = 4;
-const TIME: usize = 5;
-const Z: usize = 6;
-const EOFFSET: usize = 7;
+/// The extra columns the tests sample, after one column per model input.
+const CLOCK: usize = 0;
+const COUNTS: usize = 1;
+const DRIFT: usize = 2;
+const SAMPLE: usize = 3;
+const TIME: usize = 4;
+const Z: usize = 5;
+const EOFFSET: usize = 6;
 
-/// The simulator set-up from the exported files: the component beside the
-/// ini, thermal.hal's lines (the `loadusr` line with the time-lapse
-/// options), the `[AXIS_Z]` lines of the README, the servo clock and the
-/// signals to sample.
-fn setup_from_export(files: &[(String, String)]) -> SimSetup {
+/// The simulator set-up from the exported files as a user installs them:
+/// the files beside the ini and the README's ini lines added to it. Then
+/// the test's `hal` lines (run after the configuration's HAL files), and
+/// sampling of the signals `inputs` (one per model input, in order), the
+/// component's clock and outputs and the applied offset.
+fn setup_from_export(files: &[(String, String)], hal: &[String], inputs: &[&str]) -> SimSetup {
     let mut setup = SimSetup::default();
     let mut section = String::new();
-    let mut loaded = false;
+    let mut readme = false;
     for (name, text) in files {
-        match name.as_str() {
-            "mtwin_thermal.py" => setup = setup.file(name, text.clone()),
-            "thermal.hal" => {
-                for line in text.lines().filter(|l| !l.starts_with('#')) {
-                    if line.starts_with("loadusr ") {
-                        loaded = true;
-                        setup = setup.hal(format!(
-                            "{line} --period-s {PERIOD_S} --clock-pin --poll-s {POLL_S}"
-                        ));
-                    } else {
-                        setup = setup.hal(line);
-                    }
+        setup = setup.file(name, text.clone());
+        if name == linuxcnc_thermal::README_FILE {
+            readme = true;
+            for line in text.lines().map(str::trim) {
+                if let Some(s) = line.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
+                    section = s.to_string();
+                } else if let Some((k, v)) = line.split_once(" = ")
+                    && !section.is_empty()
+                {
+                    setup = setup.ini_add(&section, k.trim(), v.trim());
                 }
             }
-            "thermal-README.txt" => {
-                for line in text.lines().map(str::trim) {
-                    if let Some(s) = line.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
-                        section = s.to_string();
-                    } else if let Some((k, v)) = line.split_once(" = ")
-                        && section == "AXIS_Z"
-                    {
-                        setup = setup.ini(&section, k.trim(), v.trim());
-                    }
-                }
-            }
-            other => panic!("unexpected file {other}"),
         }
     }
-    assert!(loaded, "thermal.hal loads the component");
+    assert!(readme, "the export writes the README");
     assert!(
-        setup.ini.iter().any(|e| e.1 == "OFFSET_AV_RATIO"),
+        setup.ini_added.iter().any(
+            |e| (e.0.as_str(), e.1.as_str(), e.2.as_str()) == ("HAL", "HALFILE", "thermal.hal")
+        ),
+        "the README adds [HAL] HALFILE = thermal.hal: {:?}",
+        setup.ini_added
+    );
+    assert!(
+        setup.ini_added.iter().any(|e| e.1 == "OFFSET_AV_RATIO"),
         "the README gives OFFSET_AV_RATIO"
     );
-    setup
-        .hal("loadrt integ names=mtwin-clock")
-        .hal("addf mtwin-clock servo-thread")
-        .hal("setp mtwin-clock.in 1")
-        .hal("net mtwin-thermal-clock mtwin-clock.out => mtwin-thermal.clock-s")
+    for l in hal {
+        setup = setup.hal(l.clone());
+    }
+    let setup = setup
         .hal("net mtwin-t-drift mtwin-thermal.drift-mm")
         .hal("net mtwin-t-sample mtwin-thermal.sample")
         .hal("net mtwin-t-time mtwin-thermal.time-s")
         .hal("net mtwin-t-z mtwin-thermal.z-mm")
-        .hal("net mtwin-t-eoffset axis.z.eoffset")
-        .sample('f', "mtwin-thermal-speed")
-        .sample('f', "mtwin-thermal-clock")
-        .sample('s', "mtwin-thermal-counts")
-        .sample('f', "mtwin-t-drift")
-        .sample('s', "mtwin-t-sample")
-        .sample('f', "mtwin-t-time")
-        .sample('f', "mtwin-t-z")
-        .sample('f', "mtwin-t-eoffset")
+        .hal("net mtwin-t-eoffset axis.z.eoffset");
+    let mut setup = inputs.iter().fold(setup, |s, sig| s.sample('f', sig));
+    for (ty, sig) in [
+        ('f', CLOCK_NAME),
+        ('s', "mtwin-thermal-counts"),
+        ('f', "mtwin-t-drift"),
+        ('s', "mtwin-t-sample"),
+        ('f', "mtwin-t-time"),
+        ('f', "mtwin-t-z"),
+        ('f', "mtwin-t-eoffset"),
+    ] {
+        setup = setup.sample(ty, sig);
+    }
+    setup
 }
 
-#[test]
-fn exported_thermal_component_drives_the_z_offset_as_mtwin_predicts() {
-    if !available() {
-        return;
-    }
-    let m = model();
-    let files = linuxcnc_thermal::export(&m).unwrap();
-    let setup = setup_from_export(&files);
-    // 6000 rev/min for 9 s (six periods), 2000 for 6 s, stopped for 6 s; Z
-    // holds at 20 mm (between the heights, weight 0.6 on z = 100).
-    let program = "G21 G90 G94\nG0 X0 Y0 Z20\nS6000 M3\nG4 P9\nS2000\nG4 P6\nM5\nG4 P6\nM2\n";
-    let t = run_or_panic("thermal", program, &setup, SHORT);
-    let x = &t.extra;
+/// What [`compare_with_predict`] measured.
+#[derive(Debug)]
+struct Compared {
+    /// Periods spanned by the run.
+    periods: usize,
+    /// Largest gap between the component's polls, s.
+    gap: f64,
+    /// Largest bound on the component's drift against the prediction, mm.
+    bound: f64,
+    /// Component's drift against `mtwin thermal predict`, mm.
+    model: f64,
+    /// Applied offset against minus the prediction on settled rows, mm.
+    applied: f64,
+    /// Rows where the offset had settled.
+    settled: usize,
+    /// Changes of the counts.
+    steps: usize,
+    /// Largest applied offset, mm.
+    max_offset: f64,
+    /// The period means of the inputs, one row per period.
+    means: Vec<Vec<f64>>,
+}
+
+/// Compares a run with `mtwin thermal predict`: the inputs the pins held
+/// (the first `m.columns().len()` extra columns, each value holding for one
+/// servo period from its clock value) are averaged over the model's
+/// periods, written as `SPEED.csv` beside the model file and predicted by
+/// [`run_predict`] at the model's heights and [`Z_MM`]. Asserts, row by row:
+/// the component's drift equals the prediction at its tool height within
+/// the bound its polls allow, its counts are minus the drift in nm, and once
+/// the offset has settled (0.1 s without a change of the counts) the offset
+/// LinuxCNC applies is minus the prediction within that bound plus half a
+/// count plus LinuxCNC's stopping tolerance, and the counts within the
+/// stopping tolerance.
+fn compare_with_predict(t: &Trace, m: &ThermalModel, av_ratio: f64) -> Compared {
+    let nin = m.columns().len();
+    let x: Vec<&[f64]> = t.extra.iter().map(|r| &r[nin..]).collect();
+    let u: Vec<&[f64]> = t.extra.iter().map(|r| &r[..nin]).collect();
     let dt = t.period;
     assert_eq!(x.len(), t.samples.len());
-    assert_eq!(x[0][SPEED], 0.0, "the spindle is off when sampling starts");
-    assert_eq!(x[x.len() - 1][SPEED], 0.0, "and off at the end");
-
-    // The speed history in the component's clock: each sampled value holds
-    // for one servo period from its clock value.
-    let period = PERIOD_S;
-    let last_clock = x[x.len() - 1][CLOCK];
-    let n_periods = (last_clock / period).floor() as usize + 2;
-    let mut means = vec![0.0; n_periods];
-    // Largest speed jump inside each period (for the bound).
-    let mut jump = vec![0.0f64; n_periods];
-    for (i, r) in x.iter().enumerate() {
-        let k = (r[CLOCK] / period).floor() as usize;
-        means[k] += r[SPEED] * dt / period;
-        if i > 0 {
-            jump[k] += (r[SPEED] - x[i - 1][SPEED]).abs();
-        }
-    }
     // The servo clock advances one period per row.
     for w in x.windows(2) {
         assert!(
@@ -153,20 +172,54 @@ fn exported_thermal_component_drives_the_z_offset_as_mtwin_predicts() {
             "clock step"
         );
     }
-    // mtwin's prediction of that history: e(kT) at the measured heights.
-    let mut p = m.predictor();
-    let mut drifts = vec![p.drifts().to_vec()];
-    for &s in &means {
-        p.advance(&[s]);
-        drifts.push(p.drifts().to_vec());
+    let period = m.period_min() * 60.0;
+    let last_clock = x[x.len() - 1][CLOCK];
+    let n_periods = (last_clock / period).floor() as usize + 2;
+    let mut means = vec![vec![0.0; nin]; n_periods];
+    // Sum of the jumps of each input inside each period (for the bound).
+    let mut jump = vec![vec![0.0f64; nin]; n_periods];
+    for (i, r) in x.iter().enumerate() {
+        let k = (r[CLOCK] / period).floor() as usize;
+        for c in 0..nin {
+            means[k][c] += u[i][c] * dt / period;
+            if i > 0 {
+                jump[k][c] += (u[i][c] - u[i - 1][c]).abs();
+            }
+        }
     }
+
+    // `mtwin thermal predict` on those means.
+    let dir = tempfile::tempdir().unwrap();
+    let model_path = dir.path().join("thermal.toml");
+    m.write(&model_path).unwrap();
+    let mut csv = format!("t_min,{}\n", m.columns().join(","));
+    for (k, v) in means.iter().enumerate() {
+        let v: Vec<String> = v.iter().map(|x| format!("{x}")).collect();
+        csv += &format!("{},{}\n", k as f64 * m.period_min(), v.join(","));
+    }
+    let speed_path = dir.path().join("speed.csv");
+    std::fs::write(&speed_path, csv).unwrap();
+    let zs: Vec<f64> = m.heights().iter().map(|h| h.z_mm).collect();
+    let (z_lo, z_hi) = (zs[0], zs[zs.len() - 1]);
+    assert!(z_lo < Z_MM && Z_MM < z_hi);
+    let mut options = PredictRunOptions::default();
+    options.heights = vec![z_lo, Z_MM, z_hi];
+    let run = run_predict(&model_path, &speed_path, &options).unwrap();
+    let rows = &run.prediction.rows;
+    assert_eq!(rows.len(), 3 * n_periods);
+    // Prediction at period k: e(kT) at Z_MM, and its slope across heights.
+    let at = |k: usize| -> (f64, f64) {
+        let r = &rows[3 * k..3 * k + 3];
+        assert!((r[1][0] - k as f64 * m.period_min()).abs() < 1e-9);
+        (r[1][2], (r[2][2] - r[0][2]) / (z_hi - z_lo))
+    };
 
     // The component's poll interval in clock time (largest gap between
     // the clock values it reports).
     let mut gap = 0.0f64;
     let mut last = x[0][TIME];
     let mut since = 0usize;
-    for r in x {
+    for r in &x {
         if r[TIME] != last {
             gap = gap.max(r[TIME] - last);
             last = r[TIME];
@@ -176,87 +229,91 @@ fn exported_thermal_component_drives_the_z_offset_as_mtwin_predicts() {
             gap = gap.max(since as f64 * dt);
         }
     }
-    // The component holds the speed it read at a poll until the next one,
+    // The component holds the value it read at a poll until the next one,
     // the test one servo period: a jump of size J inside period j moves the
     // period's mean by at most δ_j = J·(gap + dt)/T. The drift e(kT) then
-    // moves by at most Σ_j |h(k − j)|·δ_j/scale, h the model's response to
-    // a unit input in period 0 (largest of the heights; the interpolation
-    // across heights is a convex combination).
-    let n = drifts.len();
-    let impulse: Vec<Vec<f64>> = m
-        .heights()
-        .iter()
-        .map(|h| {
-            let mut u = vec![0.0; n];
-            u[0] = 1.0;
-            h.model.simulate(&[&u]).unwrap()
-        })
-        .collect();
-    let scale = m.inputs()[0].scale;
-    let bound_mean: Vec<f64> = jump.iter().map(|j| j * (gap + dt) / period).collect();
+    // moves by at most Σ_inputs Σ_j |h(k − j)|·δ_j/scale, h the model's
+    // response to a unit of that input in period 0 (largest of the
+    // heights; the interpolation across heights is a convex combination).
+    let n = n_periods + 1;
     let bound: Vec<f64> = (0..n)
         .map(|k| {
-            impulse
+            m.heights()
                 .iter()
                 .map(|h| {
-                    (0..k.min(bound_mean.len()))
-                        .map(|j| h[k - j].abs() * bound_mean[j] / scale)
-                        .sum::<f64>()
+                    let mut b = 0.0;
+                    for (c, ch) in m.inputs().iter().enumerate() {
+                        assert_eq!(ch.power, 1, "the bound is for linear inputs");
+                        let col = m.columns().iter().position(|n| *n == ch.name).unwrap();
+                        let mut unit = vec![vec![0.0; n]; m.inputs().len()];
+                        unit[c][0] = 1.0;
+                        let refs: Vec<&[f64]> = unit.iter().map(Vec::as_slice).collect();
+                        let imp = h.model.simulate(&refs).unwrap();
+                        b += (0..k.min(n_periods))
+                            .map(|j| {
+                                imp[k - j].abs() * jump[j][col] * (gap + dt) / period / ch.scale
+                            })
+                            .sum::<f64>();
+                    }
+                    b
                 })
                 .fold(0.0, f64::max)
                 + 1e-12
         })
         .collect();
-    let bound_drift = bound.iter().copied().fold(0.0, f64::max);
+    let bound_max = bound.iter().copied().fold(0.0, f64::max);
 
-    let av_ratio: f64 = setup
-        .ini
-        .iter()
-        .find(|e| e.1 == "OFFSET_AV_RATIO")
-        .map(|e| e.2.parse().unwrap())
-        .unwrap();
+    // LinuxCNC moves the offset with its single-axis planner (simple_tp),
+    // which stops once within TINY_DP = max_acc · period² · 0.001 of the
+    // request, max_acc being OFFSET_AV_RATIO times the axis'
+    // MAX_ACCELERATION (300 mm/s² here).
     let tiny_dp = av_ratio * 300.0 * dt * dt * 0.001 + 1e-12;
-    let (mut worst_model, mut worst_counts, mut worst_applied) = (0.0f64, 0.0f64, 0.0f64);
-    let (mut settled, mut max_offset) = (0usize, 0.0f64);
-    let mut worst_applied_counts = 0.0f64;
-    let mut steps = 0usize;
+    let mut c = Compared {
+        periods: n_periods,
+        gap,
+        bound: bound_max,
+        model: 0.0,
+        applied: 0.0,
+        settled: 0,
+        steps: 0,
+        max_offset: 0.0,
+        means: means.clone(),
+    };
     let mut quiet = 0usize;
     for (i, r) in x.iter().enumerate() {
         let k = r[SAMPLE] as usize;
-        assert!(k < drifts.len(), "sample {k} beyond the run");
-        // The component's drift is mtwin's e(kT) at its tool height.
-        let want = m.interpolate(&drifts[k], r[Z]).mm;
+        assert!(k < n_periods, "sample {k} beyond the run");
+        let (e, slope) = at(k);
+        // The height the component read differs from Z_MM by the offset
+        // (µm): the prediction there, by the slope across heights.
+        let want = e + slope * (r[Z] - Z_MM);
         let d = (r[DRIFT] - want).abs();
-        worst_model = worst_model.max(d);
+        c.model = c.model.max(d);
         assert!(
-            d <= bound[k],
-            "row {i}, sample {k}: component off mtwin by {d} mm (bound {})",
+            d <= bound[k] + 1e-12,
+            "row {i}, sample {k}: component off `thermal predict` by {d} mm (bound {})",
             bound[k]
         );
-        // Its counts are minus the drift in units of the resolution.
-        worst_counts = worst_counts.max((r[COUNTS] * RESOLUTION_MM + r[DRIFT]).abs());
-        // The offset LinuxCNC applies, once its ramp has settled (0.1 s
-        // without a change of the counts).
+        let dc = (r[COUNTS] * RESOLUTION_MM + r[DRIFT]).abs();
+        assert!(
+            dc <= 0.5 * RESOLUTION_MM + 1e-12,
+            "row {i}: counts off by {dc} mm"
+        );
         if i > 0 && r[COUNTS] != x[i - 1][COUNTS] {
-            steps += 1;
+            c.steps += 1;
             quiet = 0;
         } else {
             quiet += 1;
         }
         if quiet > 100 {
-            settled += 1;
-            let e = (r[EOFFSET] + want).abs();
-            worst_applied = worst_applied.max(e);
+            c.settled += 1;
+            let a = (r[EOFFSET] + want).abs();
+            c.applied = c.applied.max(a);
             assert!(
-                e <= bound[k] + 0.5 * RESOLUTION_MM + tiny_dp,
-                "row {i}: applied offset off mtwin by {e} mm"
+                a <= bound[k] + 0.5 * RESOLUTION_MM + tiny_dp,
+                "row {i}: applied offset off `thermal predict` by {a} mm"
             );
-            // LinuxCNC moves the offset with its single-axis planner
-            // (simple_tp), which stops once within TINY_DP = max_acc ·
-            // period² · 0.001 of the request, max_acc being OFFSET_AV_RATIO
-            // times the axis' MAX_ACCELERATION (300 mm/s² here).
             let d = (r[EOFFSET] - r[COUNTS] * RESOLUTION_MM).abs();
-            worst_applied_counts = worst_applied_counts.max(d);
             assert!(
                 d <= tiny_dp,
                 "row {i}: applied {} for counts {}",
@@ -264,42 +321,181 @@ fn exported_thermal_component_drives_the_z_offset_as_mtwin_predicts() {
                 r[COUNTS]
             );
         }
-        max_offset = max_offset.max(r[EOFFSET].abs());
-        // While the spindle turns Z holds at 20 mm, moved only by the offset.
-        if r[SPEED] > 0.0 {
-            assert!((r[Z] - 20.0).abs() < 1e-3, "row {i}: z {}", r[Z]);
-        }
+        c.max_offset = c.max_offset.max(r[EOFFSET].abs());
+        // The prediction across heights is linear between the two ends.
+        assert!(z_lo <= r[Z] && r[Z] <= z_hi, "row {i}: z {}", r[Z]);
     }
+    c
+}
+
+/// `OFFSET_AV_RATIO` as the README set it.
+fn av_ratio(setup: &SimSetup) -> f64 {
+    setup
+        .ini_added
+        .iter()
+        .find(|e| e.1 == "OFFSET_AV_RATIO")
+        .map(|e| e.2.parse().unwrap())
+        .unwrap()
+}
+
+#[test]
+fn exported_thermal_component_drives_the_z_offset_as_mtwin_predicts() {
+    if !available() {
+        return;
+    }
+    let m = model(false);
+    let files = linuxcnc_thermal::export(&m).unwrap();
+    // The speed input as thermal.hal connects it: the commanded spindle speed.
+    let setup = setup_from_export(&files, &[], &["mtwin-thermal-speed"]);
+    // 6000 rev/min for 9 s (six periods), 2000 for 6 s, stopped for 6 s; Z
+    // holds at 20 mm (between the heights, weight 0.6 on z = 100).
+    let program = "G21 G90 G94\nG0 X0 Y0 Z20\nS6000 M3\nG4 P9\nS2000\nG4 P6\nM5\nG4 P6\nM2\n";
+    let t = run_or_panic("thermal", program, &setup, SHORT);
+    let speed: Vec<f64> = t.extra.iter().map(|r| r[0]).collect();
+    assert_eq!(speed[0], 0.0, "the spindle is off when sampling starts");
+    assert_eq!(speed[speed.len() - 1], 0.0, "and off at the end");
+    assert!(speed.contains(&6000.0) && speed.contains(&2000.0));
+    let c = compare_with_predict(&t, &m, av_ratio(&setup));
     eprintln!(
-        "thermal: {} rows, {} model periods of {period} s, poll gap {gap:.4} s, {steps} offset changes, \
-         largest offset {:.3} µm; component vs mtwin {:.2e} µm (bound {:.2e} µm), counts {:.2e} µm, \
-         applied vs mtwin {:.2e} µm on {settled} settled rows, applied vs counts {:.2e} µm",
-        x.len(),
-        n_periods,
-        max_offset * 1e3,
-        worst_model * 1e3,
-        bound_drift * 1e3,
-        worst_counts * 1e3,
-        worst_applied * 1e3,
-        worst_applied_counts * 1e3
+        "thermal: {} rows, {} periods of {} s, poll gap {:.4} s, {} offset changes, largest offset \
+         {:.3} µm; component vs thermal predict {:.2e} µm (bound {:.2e} µm), applied vs thermal \
+         predict {:.2e} µm on {} settled rows",
+        t.extra.len(),
+        c.periods,
+        PERIOD_MIN * 60.0,
+        c.gap,
+        c.steps,
+        c.max_offset * 1e3,
+        c.model * 1e3,
+        c.bound * 1e3,
+        c.applied * 1e3,
+        c.settled
     );
     // The drift is not nothing: several µm, changing every period.
-    assert!(max_offset > 2e-3, "largest offset {max_offset} mm");
-    assert!(steps >= 8, "{steps} offset changes");
+    assert!(c.max_offset > 2e-3, "largest offset {} mm", c.max_offset);
+    assert!(c.steps >= 8, "{} offset changes", c.steps);
+    assert!(c.settled > t.extra.len() / 2, "{} settled rows", c.settled);
+    // The target the live compensation is held to: 0.1 µm.
     assert!(
-        settled > x.len() / 2,
-        "{settled} settled rows of {}",
-        x.len()
+        c.applied <= 1e-4,
+        "applied offset off by {} mm (target 0.1 µm)",
+        c.applied
     );
+}
+
+/// Servo periods each entry of the replayed record holds (60 ms).
+const HOLD: usize = 60;
+
+/// The recorded sequence replayed: from the real record
+/// `../shared/data/real/fl-thermal-first60.csv` (every 15 s), every 8th row
+/// (2 min) of its first 2400 (10 h: the spindle at 0, 1250, 0 and 2500
+/// rev/min), the spindle speed and the temperature `t5_c` (30.5–41.8 °C,
+/// the one that moves most). `None` when the shared data is absent.
+fn recorded_sequence() -> Option<Vec<[f64; 2]>> {
+    let path = crate::shared::shared_dir("data/real/fl-thermal-first60.csv")?;
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
+    let (s, t) = (col("speed_rpm"), col("t5_c"));
+    Some(
+        lines
+            .take(2400)
+            .step_by(8)
+            .map(|l| {
+                let f: Vec<&str> = l.split(',').collect();
+                [f[s].parse().unwrap(), f[t].parse().unwrap()]
+            })
+            .collect(),
+    )
+}
+
+#[test]
+fn recorded_speed_and_temperature_streamed_into_the_pins_give_thermal_predicts_offset() {
+    if !available() {
+        return;
+    }
+    let Some(record) = recorded_sequence() else {
+        return;
+    };
+    assert_eq!(record.len(), 300);
+    let m = model(true);
+    assert_eq!(m.columns(), ["speed_rpm", "t5_c"]);
+    let mut files = linuxcnc_thermal::export(&m).unwrap();
+    // The stream: one line per servo period (halstreamer's format: the
+    // values of the streamer's pins, whitespace-separated).
+    let mut stream = String::from("# speed_rpm t5_c, one line per servo period\n");
+    for r in &record {
+        for _ in 0..HOLD {
+            stream += &format!("{} {}\n", r[0], r[1]);
+        }
+    }
+    let n_rows = record.len() * HOLD;
+    files.push(("replay.txt".into(), stream));
+    // LinuxCNC's streamer on the servo thread, enabled with the sampler;
+    // the speed input taken off the commanded spindle speed (thermal.hal's
+    // net) and both inputs driven by the stream instead, the temperature
+    // as thermal.hal's comment says to connect a sensor.
+    let hal: Vec<String> = [
+        format!("loadrt streamer depth={} cfg=ff", n_rows + 1000),
+        "addf streamer.0 servo-thread".into(),
+        "net mtwin-sample-on => streamer.0.enable".into(),
+        "unlinkp mtwin-thermal.in.speed_rpm".into(),
+        "net replay-speed streamer.0.pin.0 => mtwin-thermal.in.speed_rpm".into(),
+        "net replay-temp streamer.0.pin.1 => mtwin-thermal.in.t5_c".into(),
+        "loadusr -w halstreamer replay.txt".into(),
+    ]
+    .into();
+    let setup = setup_from_export(&files, &hal, &["replay-speed", "replay-temp"]);
+    // The stream lasts 18 s; Z holds at 20 mm for 20 s.
+    let program = "G21 G90 G94\nG0 X0 Y0 Z20\nG4 P20\nM2\n";
+    let t = run_or_panic("thermal replay", program, &setup, SHORT);
+    // The pins held the record: the sampled rows are the stream's lines,
+    // from the first (or one period later, by the order of the functions
+    // on the servo thread), the last line held once the stream is out.
+    let seq: Vec<[f64; 2]> = t.extra.iter().map(|r| [r[0], r[1]]).collect();
+    let line = |j: usize| record[(j / HOLD).min(record.len() - 1)];
+    let shift = (0..2)
+        .find(|&s| (s..seq.len()).all(|i| seq[i] == line(i - s)))
+        .unwrap_or_else(|| {
+            let bad = (0..seq.len()).find(|&i| seq[i] != line(i)).unwrap();
+            panic!(
+                "row {bad}: the pins held {:?}, the stream {:?}",
+                seq[bad],
+                line(bad)
+            )
+        });
+    assert!(seq[..shift].iter().all(|v| *v == [0.0, 0.0]));
     assert!(
-        worst_counts <= 0.5 * RESOLUTION_MM + 1e-12,
-        "counts off by {worst_counts} mm"
+        seq.len() >= n_rows,
+        "{} rows for {n_rows} streamed",
+        seq.len()
     );
-    // The target the live compensation is held to: the offset LinuxCNC
-    // applies equals mtwin's prediction within 0.1 µm.
+    let c = compare_with_predict(&t, &m, av_ratio(&setup));
+    let hot = c.means.iter().map(|v| v[1]).fold(0.0, f64::max);
+    eprintln!(
+        "thermal replay: {} rows ({n_rows} streamed, shift {shift}), {} periods of {} s, poll gap \
+         {:.4} s, {} offset changes, largest offset {:.3} µm, hottest period mean {hot:.2} °C; \
+         component vs thermal predict {:.2e} µm (bound {:.2e} µm), applied vs thermal predict \
+         {:.2e} µm on {} settled rows",
+        seq.len(),
+        c.periods,
+        PERIOD_MIN * 60.0,
+        c.gap,
+        c.steps,
+        c.max_offset * 1e3,
+        c.model * 1e3,
+        c.bound * 1e3,
+        c.applied * 1e3,
+        c.settled
+    );
+    assert!(c.max_offset > 2e-3, "largest offset {} mm", c.max_offset);
+    assert!(c.steps >= 8, "{} offset changes", c.steps);
+    assert!(c.settled > seq.len() / 2, "{} settled rows", c.settled);
     assert!(
-        worst_applied <= 1e-4,
-        "applied offset off mtwin by {worst_applied} mm (target 0.1 µm)"
+        c.applied <= 1e-4,
+        "applied offset off by {} mm (target 0.1 µm)",
+        c.applied
     );
 }
 

@@ -13,7 +13,10 @@
 //! does, and holds the drift `e(kT)` (interpolated at the tool height) over
 //! the next period. The Z correction is `−e`, sent as
 //! `axis.z.eoffset-counts` with `axis.z.eoffset-scale` =
-//! [`RESOLUTION_MM`]. `thermal.hal` loads and connects it;
+//! [`RESOLUTION_MM`]. Its clock is the servo thread's time ([`CLOCK_NAME`],
+//! an `integ` of 1 on the servo thread, which `thermal.hal` loads): a
+//! period is a fixed number of servo periods, the wall clock on a realtime
+//! machine and the motion time in the simulator. `thermal.hal` loads and connects it;
 //! `thermal-README.txt` lists the ini lines (`[AXIS_Z] OFFSET_AV_RATIO`).
 //!
 //! [`ThermalPredictor::advance`]: crate::methods::thermal::ThermalPredictor::advance
@@ -33,6 +36,9 @@ pub const HAL_FILE: &str = "thermal.hal";
 pub const README_FILE: &str = "thermal-README.txt";
 /// HAL name of the component.
 pub const COMPONENT_NAME: &str = "mtwin-thermal";
+/// HAL name of the model's clock (LinuxCNC's `integ` of 1 on the servo
+/// thread: seconds of servo time) and of its signal.
+pub const CLOCK_NAME: &str = "mtwin-thermal-clock";
 
 /// The component's source with `@MODEL@` and `@RESOLUTION@` to fill in.
 const TEMPLATE: &str = include_str!("mtwin_thermal.py");
@@ -96,7 +102,14 @@ fn hal_text(model: &ThermalModel) -> String {
     s += "# mtwin live thermal compensation: loads mtwin_thermal.py (beside this file)\n";
     s += "# and drives the Z external offset with it. Source it after the machine's own\n";
     s += "# HAL files ([HAL] HALFILE = thermal.hal) and see thermal-README.txt.\n";
-    s += &format!("loadusr -Wn {COMPONENT_NAME} /usr/bin/python3 {COMPONENT_FILE}\n");
+    s += &format!("loadusr -Wn {COMPONENT_NAME} /usr/bin/python3 {COMPONENT_FILE} --clock-pin\n");
+    s += "# The model's clock: the servo thread's time (an integ of 1, s), the wall\n";
+    s += "# clock on a realtime machine. A configuration that loads integ already:\n";
+    s += &format!("# add {CLOCK_NAME} to its names= list and delete the loadrt line below.\n");
+    s += &format!("loadrt integ names={CLOCK_NAME}\n");
+    s += &format!("addf {CLOCK_NAME} servo-thread\n");
+    s += &format!("setp {CLOCK_NAME}.in 1\n");
+    s += &format!("net {CLOCK_NAME} {CLOCK_NAME}.out => {COMPONENT_NAME}.clock-s\n");
     for col in model.columns() {
         if col == "speed_rpm" {
             s += "# The commanded spindle speed; connect the measured one instead where the\n";
@@ -154,10 +167,14 @@ The model: period {period} min, inputs {inputs}, heights {heights} mm.
 Input pins: {pins}. Every model period the component steps the model with
 the period means of its inputs and holds the drift at the tool height
 (axis.z.pos-cmd) until the next period; the Z correction is minus the drift,
-sent as axis.z.eoffset-counts with axis.z.eoffset-scale {res} mm. Time 0 of
-the model is the start of the component: start LinuxCNC with the machine
+sent as axis.z.eoffset-counts with axis.z.eoffset-scale {res} mm. The
+model's clock is the servo thread's time ({clock}: LinuxCNC's integ of 1 on
+servo-thread, loaded by {HAL_FILE}; if the configuration loads integ
+already, add {clock} to its names= list and delete that loadrt line).
+Time 0 of the model is the start of LinuxCNC: start it with the machine
 cold. Output pins: drift-mm, offset-mm, counts, sample, time-s, z-mm.
 ",
+        clock = CLOCK_NAME,
         period = crate::io::fmt_f64(model.period_min()),
         inputs = model.columns().join(", "),
         heights = heights.join(", "),
@@ -244,6 +261,18 @@ mod tests {
             "net mtwin-thermal-speed spindle.0.speed-out-abs => mtwin-thermal.in.speed_rpm\n"
         ));
         assert!(hal.contains("setp axis.z.eoffset-scale 1e-6\n"));
+        // The clock: an integ of 1 on the servo thread into clock-s, read
+        // with --clock-pin.
+        assert!(hal.contains("/usr/bin/python3 mtwin_thermal.py --clock-pin\n"));
+        for line in [
+            "loadrt integ names=mtwin-thermal-clock\n",
+            "addf mtwin-thermal-clock servo-thread\n",
+            "setp mtwin-thermal-clock.in 1\n",
+            "net mtwin-thermal-clock mtwin-thermal-clock.out => mtwin-thermal.clock-s\n",
+        ] {
+            assert!(hal.contains(line), "{line}");
+        }
+        assert!(files[2].1.contains("HALFILE = thermal.hal\n"));
         assert!(
             hal.contains(
                 "net mtwin-thermal-counts mtwin-thermal.counts => axis.z.eoffset-counts\n"

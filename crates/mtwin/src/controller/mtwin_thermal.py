@@ -5,13 +5,16 @@ Written by `mtwin export --thermal MODEL.toml --to linuxcnc` with the thermal
 drift model of `mtwin thermal fit` built in (MODEL below). Load it from a HAL
 file (thermal.hal, written beside it, does this):
 
-    loadusr -Wn mtwin-thermal /usr/bin/python3 mtwin_thermal.py
+    loadusr -Wn mtwin-thermal /usr/bin/python3 mtwin_thermal.py --clock-pin
 
-Every poll (--poll-s, default 0.05 s) it reads its input pins (in.<column>:
+Every poll (--poll-s, default T/300 between 0.005 and 0.05 s, T the model
+period) it reads its input pins (in.<column>:
 the spindle speed in rev/min and, when the model was fitted with them, the
 other inputs such as temperatures, in the units of the training data). Each
 input is held from one poll to the next and averaged over every model period
-T ([0, T), [T, 2T), ...; time 0 is the component's start). At the end of
+T ([0, T), [T, 2T), ...; time 0 is the clock's zero: with --clock-pin the
+pin clock-s, s, which thermal.hal drives with the servo thread's time, else
+the wall clock from the component's start). At the end of
 period k the ARX model of every measured height is stepped once with those
 means, which gives the drift e(kT) at each height; the drift at the current
 tool height (pin --z-pin, default axis.z.pos-cmd, interpolated linearly
@@ -27,9 +30,9 @@ and time-s (the component's clock at the last poll). While --enable-pin
 changes of eoffset-counts, so the whole offset comes back when the machine is
 switched on again.
 
-Options for tests and demonstrations: --period-s S runs the model with a
-period of S seconds instead of its own (a time lapse); --clock-pin takes the
-time from the input pin clock-s (seconds) instead of the wall clock.
+Options: --clock-pin takes the time from the input pin clock-s (seconds)
+instead of the wall clock; for tests and demonstrations --period-s S runs the
+model with a period of S seconds instead of its own (a time lapse).
 """
 import argparse
 import json
@@ -135,7 +138,8 @@ class Thermal:
 def main(argv):
     p = argparse.ArgumentParser(description="mtwin live thermal compensation (HAL)")
     p.add_argument("--name", default="mtwin-thermal", help="HAL component name")
-    p.add_argument("--poll-s", type=float, default=0.05, help="poll interval, s")
+    p.add_argument("--poll-s", type=float,
+                   help="poll interval, s (default T/300 within [0.005, 0.05], T the period)")
     p.add_argument("--period-s", type=float, help="model period, s (default the model's)")
     p.add_argument("--clock-pin", action="store_true", help="time from pin clock-s")
     p.add_argument("--z-pin", default="axis.z.pos-cmd", help="pin of the tool height, mm")
@@ -147,6 +151,7 @@ def main(argv):
     if not period_s > 0.0:
         p.error("--period-s must be positive")
     thermal = Thermal(MODEL, period_s)
+    poll_s = args.poll_s if args.poll_s else min(0.05, max(0.005, period_s / 300.0))
 
     c = hal.component(args.name)
     for col in thermal.columns:
@@ -177,7 +182,7 @@ def main(argv):
             c["sample"] = thermal.k
             c["time-s"] = now
             c["z-mm"] = z
-            time.sleep(args.poll_s)
+            time.sleep(poll_s)
     except KeyboardInterrupt:
         pass
 

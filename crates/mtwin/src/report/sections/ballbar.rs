@@ -82,6 +82,7 @@ pub fn section(
         c.row(vec![line.into(), coord.into(), fmt(Some(value), 4)]);
     }
     s.push(Block::Table(c));
+    unseparable(&mut s, doc);
     let warnings = &doc.warnings;
     let mut lines: Vec<String> = unidentified
         .iter()
@@ -113,6 +114,70 @@ pub fn section(
         s.push(Block::Figure { caption, svg });
     }
     Ok(s)
+}
+
+/// Scale and unit of a parameter of a combination: µrad for a tilt PIGE,
+/// µm otherwise (offsets, bar lengths).
+fn unit_of(name: &str) -> (f64, &'static str) {
+    if Pige::from_name(name).is_some_and(Pige::is_tilt) {
+        (1e6, "µrad")
+    } else {
+        (1e3, "µm")
+    }
+}
+
+/// The PIGEs the modes given cannot separate (`unseparable_combinations`):
+/// the combinations measured with value ± uncertainty, the directions the
+/// readings do not see, and what that means.
+fn unseparable(s: &mut Section, doc: &BallbarIdentifyDoc) {
+    let groups = &doc.unseparable_combinations;
+    if groups.is_empty() {
+        return;
+    }
+    let mut t = Table::new(
+        "PIGEs the modes given cannot separate: the combinations measured",
+        &[
+            "PIGEs",
+            "combination measured",
+            "value",
+            "std. uncertainty",
+            "unit",
+        ],
+    );
+    let mut unseen = Vec::new();
+    for g in groups {
+        for c in &g.determined {
+            let (k, unit) = c.terms.first().map_or((1e3, "µm"), |t| unit_of(&t.name));
+            t.row(vec![
+                g.parameters.join(", "),
+                c.describe(),
+                fmt(Some(c.value * k), 2),
+                fmt(c.uncertainty.map(|u| u * k), 2),
+                unit.into(),
+            ]);
+        }
+        for d in &g.undetermined_directions {
+            unseen.push(format!(
+                "Not seen by the readings: {} (any amount of it reads the same).",
+                d.describe()
+            ));
+        }
+    }
+    s.push(Block::Table(t));
+    let mut text = String::from(
+        "These PIGEs move the readings of the modes given only together, so the readings measure \
+         the combination above, within its uncertainty, and not each PIGE: any amount along the \
+         unseen direction fits them equally well. In the table of PIGEs the one held at 0 shows \
+         as not identified and its partner carries the whole combination; neither is its own \
+         value. A compensation that moves the axis line by the combination corrects what these \
+         modes measure, but a set-up that sees the PIGEs apart can be off by the unknown split. \
+         The mode named in the notes below separates them.",
+    );
+    for u in unseen {
+        text += " ";
+        text += &u;
+    }
+    s.push(Block::Text(text));
 }
 
 #[cfg(test)]
@@ -154,6 +219,98 @@ mod tests {
             s.blocks
                 .iter()
                 .any(|b| matches!(b, Block::Verdict { verdict: Verdict::Caution, lines, .. } if lines[0].starts_with("EY0C")))
+        );
+    }
+
+    /// Mode 3 alone, as `ballbar identify` writes it: `EY0C` held at 0,
+    /// `EY0A` carrying the sum, the group and its combination.
+    fn mode3_alone() -> BallbarIdentifyDoc {
+        serde_json::from_value(serde_json::json!({
+            "EY0A": -0.00457, "EZ0A": 0.0012, "EB0A": null, "EC0A": null,
+            "EX0C": 0.0031, "EY0C": null, "EA0C": 2.5e-6, "EB0C": -1.5e-6,
+            "uncertainty": {"EY0A": 7e-5, "EZ0A": 5e-5, "EB0A": null, "EC0A": null, "EX0C": 6e-5, "EY0C": null, "EA0C": 1e-7, "EB0C": 1e-7},
+            "residual_rms": {"mode1": null, "mode2": null, "mode3": 4e-4, "mode4": null},
+            "bar_length": {"mode3": 100.0002},
+            "compensation": {"A_line_y": 0.0, "A_line_z": 0.0012, "C_line_x": 0.0031, "C_line_y": -0.00457},
+            "unidentified": {"EY0C": "held at 0, its effect absorbed by EY0A; add mode1 to separate it"},
+            "warnings": [],
+            "unseparable_combinations": [{
+                "parameters": ["EY0A", "EY0C"],
+                "undetermined": 1,
+                "undetermined_directions": [{"terms": [
+                    {"name": "EY0A", "coefficient": 1.0, "scaled": 1.0},
+                    {"name": "EY0C", "coefficient": -1.0, "scaled": -1.0}
+                ]}],
+                "determined": [{
+                    "terms": [
+                        {"name": "EY0C", "coefficient": 1.0, "scaled": 1.0},
+                        {"name": "EY0A", "coefficient": 1.0, "scaled": 1.0}
+                    ],
+                    "value": -0.00457,
+                    "uncertainty": 7e-5
+                }]
+            }]
+        }))
+        .unwrap()
+    }
+
+    #[test]
+    fn unseparable_combinations_are_shown_with_their_unseen_direction() {
+        let doc = mode3_alone();
+        let s = section(&doc, "id.json", vec![]).unwrap();
+        let t = s
+            .blocks
+            .iter()
+            .find_map(|b| match b {
+                Block::Table(t) if t.caption.contains("cannot separate") => Some(t),
+                _ => None,
+            })
+            .expect("a table of the combinations");
+        assert_eq!(t.rows.len(), 1);
+        let row = &t.rows[0];
+        assert_eq!(row[0], "EY0A, EY0C");
+        assert_eq!(row[4], "µm");
+        // The shown value recomputed from the document: Σ coefficient · PIGE
+        // over the combination's terms (the PIGE held at 0, `null`, counts
+        // 0), in µm; the uncertainty the document's, in µm.
+        let g = &doc.unseparable_combinations[0].determined[0];
+        let sum: f64 = g
+            .terms
+            .iter()
+            .map(|term| {
+                let p = Pige::from_name(&term.name).unwrap();
+                term.coefficient * doc.value[p].unwrap_or(0.0) * 1e3
+            })
+            .sum();
+        // The report writes a minus sign (U+2212).
+        let shown: f64 = row[2].replace('−', "-").parse().unwrap();
+        assert!((shown - sum).abs() <= 0.005 + 1e-9, "{shown} vs {sum}");
+        assert_eq!(row[2], "−4.57");
+        let unc: f64 = row[3].parse().unwrap();
+        assert!((unc - 0.07).abs() < 1e-9);
+        // The combination names both PIGEs with their coefficients.
+        assert!(
+            row[1].contains("EY0C") && row[1].contains("EY0A"),
+            "{}",
+            row[1]
+        );
+        // The sentence: what is measured, the unseen direction.
+        let text = s
+            .blocks
+            .iter()
+            .find_map(|b| match b {
+                Block::Text(t) if t.contains("Not seen") => Some(t),
+                _ => None,
+            })
+            .expect("the sentence");
+        assert!(text.contains("EY0A − 1.0000·EY0C"), "{text}");
+        assert!(text.contains("measure the combination"), "{text}");
+        // Without combinations, no table.
+        let s = section(&sample(), "id.json", vec![]).unwrap();
+        assert!(
+            !s.blocks
+                .iter()
+                .any(|b| matches!(b, Block::Table(t) if t.caption.contains("cannot separate")))
         );
     }
 
