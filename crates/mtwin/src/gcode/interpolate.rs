@@ -2682,7 +2682,12 @@ mod tests {
                 rng.gen_range(-150.0..150.0),
             );
             let general = kin
-                .inverse(&IkTarget { tip, axis: None }, &q, &free, &opts)
+                .inverse(
+                    &crate::kinematics::IkTarget { tip, axis: None },
+                    &q,
+                    &free,
+                    &opts,
+                )
                 .unwrap();
             assert!(super::travel::affine_tip_solve(&kin, lin, &tip, &mut q));
             let diff = q

@@ -118,7 +118,6 @@ pub(crate) fn affine_tip_solve(
     true
 }
 
-
 /// The first machine axis whose position in `q` (machine axis order) is
 /// outside its travel ([`crate::model::Axis::in_travel`]), if any.
 pub(crate) fn first_outside(machine: &Machine, q: &[f64]) -> Option<usize> {
