@@ -148,6 +148,39 @@ struct Compared {
     means: Vec<Vec<f64>>,
 }
 
+impl Compared {
+    /// Prints what was measured (`what`: the run's name; `rows`: its sampled
+    /// rows) and asserts the live compensation's targets: a drift of several
+    /// µm changing at least every period, the offset settled on more than half
+    /// the rows, and the applied offset within 0.1 µm of `thermal predict`.
+    fn print_and_check(&self, what: &str, rows: usize) {
+        let c = self;
+        eprintln!(
+            "{what}: {rows} rows, {} periods of {} s, poll gap {:.4} s, {} offset changes, \
+             largest offset {:.3} µm; component vs thermal predict {:.2e} µm (bound {:.2e} µm), \
+             applied vs thermal predict {:.2e} µm on {} settled rows",
+            c.periods,
+            PERIOD_MIN * 60.0,
+            c.gap,
+            c.steps,
+            c.max_offset * 1e3,
+            c.model * 1e3,
+            c.bound * 1e3,
+            c.applied * 1e3,
+            c.settled
+        );
+        assert!(c.max_offset > 2e-3, "largest offset {} mm", c.max_offset);
+        assert!(c.steps >= 8, "{} offset changes", c.steps);
+        assert!(c.settled > rows / 2, "{} settled rows", c.settled);
+        // The target the live compensation is held to: 0.1 µm.
+        assert!(
+            c.applied <= 1e-4,
+            "applied offset off by {} mm (target 0.1 µm)",
+            c.applied
+        );
+    }
+}
+
 /// Compares a run with `mtwin thermal predict`: the inputs the pins held
 /// (the first `m.columns().len()` extra columns, each value holding for one
 /// servo period from its clock value) are averaged over the model's
@@ -356,31 +389,7 @@ fn exported_thermal_component_drives_the_z_offset_as_mtwin_predicts() {
     assert_eq!(speed[speed.len() - 1], 0.0, "and off at the end");
     assert!(speed.contains(&6000.0) && speed.contains(&2000.0));
     let c = compare_with_predict(&t, &m, av_ratio(&setup));
-    eprintln!(
-        "thermal: {} rows, {} periods of {} s, poll gap {:.4} s, {} offset changes, largest offset \
-         {:.3} µm; component vs thermal predict {:.2e} µm (bound {:.2e} µm), applied vs thermal \
-         predict {:.2e} µm on {} settled rows",
-        t.extra.len(),
-        c.periods,
-        PERIOD_MIN * 60.0,
-        c.gap,
-        c.steps,
-        c.max_offset * 1e3,
-        c.model * 1e3,
-        c.bound * 1e3,
-        c.applied * 1e3,
-        c.settled
-    );
-    // The drift is not nothing: several µm, changing every period.
-    assert!(c.max_offset > 2e-3, "largest offset {} mm", c.max_offset);
-    assert!(c.steps >= 8, "{} offset changes", c.steps);
-    assert!(c.settled > t.extra.len() / 2, "{} settled rows", c.settled);
-    // The target the live compensation is held to: 0.1 µm.
-    assert!(
-        c.applied <= 1e-4,
-        "applied offset off by {} mm (target 0.1 µm)",
-        c.applied
-    );
+    c.print_and_check("thermal", t.extra.len());
 }
 
 /// Servo periods each entry of the replayed record holds (60 ms).
@@ -473,29 +482,11 @@ fn recorded_speed_and_temperature_streamed_into_the_pins_give_thermal_predicts_o
     );
     let c = compare_with_predict(&t, &m, av_ratio(&setup));
     let hot = c.means.iter().map(|v| v[1]).fold(0.0, f64::max);
-    eprintln!(
-        "thermal replay: {} rows ({n_rows} streamed, shift {shift}), {} periods of {} s, poll gap \
-         {:.4} s, {} offset changes, largest offset {:.3} µm, hottest period mean {hot:.2} °C; \
-         component vs thermal predict {:.2e} µm (bound {:.2e} µm), applied vs thermal predict \
-         {:.2e} µm on {} settled rows",
+    c.print_and_check(
+        &format!(
+            "thermal replay ({n_rows} streamed, shift {shift}, hottest period mean {hot:.2} °C)"
+        ),
         seq.len(),
-        c.periods,
-        PERIOD_MIN * 60.0,
-        c.gap,
-        c.steps,
-        c.max_offset * 1e3,
-        c.model * 1e3,
-        c.bound * 1e3,
-        c.applied * 1e3,
-        c.settled
-    );
-    assert!(c.max_offset > 2e-3, "largest offset {} mm", c.max_offset);
-    assert!(c.steps >= 8, "{} offset changes", c.steps);
-    assert!(c.settled > seq.len() / 2, "{} settled rows", c.settled);
-    assert!(
-        c.applied <= 1e-4,
-        "applied offset off by {} mm (target 0.1 µm)",
-        c.applied
     );
 }
 
