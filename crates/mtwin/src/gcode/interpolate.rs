@@ -2689,7 +2689,7 @@ mod tests {
                     &opts,
                 )
                 .unwrap();
-            assert!(super::travel::affine_tip_solve(&kin, lin, &tip, &mut q));
+            assert!(kin.solve_tip_by_three_linear_axes(lin, &tip, &mut q));
             let diff = q
                 .iter()
                 .zip(&general)
@@ -2706,12 +2706,7 @@ mod tests {
         let kin = Kinematics::nominal(&dep);
         let mut q = vec![1.0; dep.axes.len()];
         let before = q.clone();
-        assert!(!super::travel::affine_tip_solve(
-            &kin,
-            lin,
-            &Vector3::new(1.0, 2.0, 3.0),
-            &mut q
-        ));
+        assert!(!kin.solve_tip_by_three_linear_axes(lin, &Vector3::new(1.0, 2.0, 3.0), &mut q));
         assert_eq!(q, before);
     }
 

@@ -11,7 +11,7 @@ use super::error::GcodeError;
 use super::event::{Event, EventKind, Feed};
 use super::stats::{AxisRange, MotionObserver};
 use super::syntax::Block;
-use crate::kinematics::{IkError, IkOptions, IkTarget, Kinematics, MAX_AXES};
+use crate::kinematics::{IkError, IkOptions, IkTarget, Kinematics};
 use crate::model::{AxisKind, Machine};
 
 /// Inverse-kinematics settings of TCP moves, in the interpolator and in the
@@ -51,8 +51,7 @@ pub(crate) fn machine_position(
     }
     let tip = Vector3::new(w[Axis::X], w[Axis::Y], w[Axis::Z]);
     if let Some(lin) = three_linear(linear)
-        && out.len() <= MAX_AXES
-        && affine_tip_solve(kin, lin, &tip, out)
+        && kin.solve_tip_by_three_linear_axes(lin, &tip, out)
     {
         return Ok(());
     }
@@ -73,49 +72,6 @@ fn three_linear(linear: &[bool]) -> Option<[usize; 3]> {
         }
     }
     (n == 3).then_some(lin)
-}
-
-/// The TCP solve of [`machine_position`] for a machine of three linear axes
-/// (`lin`, their indices), by the nominal kinematics `kin`: the linear axes
-/// that put the tool tip on `tip` (W, mm) with the rotary axes as `q` holds
-/// them, written into `q`. With the rotary axes fixed, the nominal tip is
-/// an affine function `A·x + b` of the linear positions `x` (every linear
-/// axis adds `dir·x` before fixed rotations), so one Newton step from the
-/// current `q` — the tip and its derivatives there, then the 3×3 system
-/// solved by Cramer's rule — is the exact solution up to rounding (about
-/// 1e-13 mm; `Kinematics::inverse` takes the same step by a least-squares
-/// factorisation, and then a second forward kinematics to check it).
-/// `false` (and `q` unchanged) when the columns of `A` are nearly dependent
-/// (|det A| below 1e-9 of the product of the column lengths) or the result
-/// is not finite: the caller then runs the general solver.
-pub(crate) fn affine_tip_solve(
-    kin: &Kinematics,
-    lin: [usize; 3],
-    tip: &Vector3<f64>,
-    q: &mut [f64],
-) -> bool {
-    let mut d = [[0.0; 6]; MAX_AXES];
-    let pose = kin.pose_and_position_derivatives(q, &mut d);
-    let col = |i: usize| Vector3::new(d[i][0], d[i][1], d[i][2]);
-    let (c0, c1, c2) = (col(lin[0]), col(lin[1]), col(lin[2]));
-    let r = tip - pose.tip;
-    let c12 = c1.cross(&c2);
-    let det = c0.dot(&c12);
-    if det.is_nan() || det.abs() <= 1e-9 * c0.norm() * c1.norm() * c2.norm() {
-        return false;
-    }
-    let x = [
-        r.dot(&c12) / det,
-        c0.dot(&r.cross(&c2)) / det,
-        c0.dot(&c1.cross(&r)) / det,
-    ];
-    if !x.iter().all(|v| v.is_finite()) {
-        return false;
-    }
-    for (&i, dx) in lin.iter().zip(x) {
-        q[i] += dx;
-    }
-    true
 }
 
 /// The first machine axis whose position in `q` (machine axis order) is

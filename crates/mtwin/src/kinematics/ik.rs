@@ -522,3 +522,52 @@ fn svd_step(
     }
     Some(x)
 }
+
+impl Kinematics {
+    /// The tool-tip solve for a machine of three linear axes (`lin`, their
+    /// indices; the TCP moves of `gcode::travel::machine_position`): the
+    /// linear axes that put the tool tip on `tip` (W, mm) with the rotary
+    /// axes as `q` holds them, written into `q`. With the rotary axes fixed, the nominal tip is
+    /// an affine function `A·x + b` of the linear positions `x` (every linear
+    /// axis adds `dir·x` before fixed rotations), so one Newton step from the
+    /// current `q` — the tip and its derivatives there, then the 3×3 system
+    /// solved by Cramer's rule — is the exact solution up to rounding (about
+    /// 1e-13 mm; `Kinematics::inverse` takes the same step by a least-squares
+    /// factorisation, and then a second forward kinematics to check it).
+    /// `false` (and `q` unchanged) when the columns of `A` are nearly dependent
+    /// (|det A| below 1e-9 of the product of the column lengths) or the result
+    /// is not finite, or the machine has more axes than the derivative
+    /// kernel holds: the caller then runs the general solver.
+    pub(crate) fn solve_tip_by_three_linear_axes(
+        &self,
+        lin: [usize; 3],
+        tip: &Vector3<f64>,
+        q: &mut [f64],
+    ) -> bool {
+        if q.len() > MAX_AXES {
+            return false;
+        }
+        let mut d = [[0.0; 6]; MAX_AXES];
+        let pose = self.pose_and_position_derivatives(q, &mut d);
+        let col = |i: usize| Vector3::new(d[i][0], d[i][1], d[i][2]);
+        let (c0, c1, c2) = (col(lin[0]), col(lin[1]), col(lin[2]));
+        let r = tip - pose.tip;
+        let c12 = c1.cross(&c2);
+        let det = c0.dot(&c12);
+        if det.is_nan() || det.abs() <= 1e-9 * c0.norm() * c1.norm() * c2.norm() {
+            return false;
+        }
+        let x = [
+            r.dot(&c12) / det,
+            c0.dot(&r.cross(&c2)) / det,
+            c0.dot(&c1.cross(&r)) / det,
+        ];
+        if !x.iter().all(|v| v.is_finite()) {
+            return false;
+        }
+        for (&i, dx) in lin.iter().zip(x) {
+            q[i] += dx;
+        }
+        true
+    }
+}

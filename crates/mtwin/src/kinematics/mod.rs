@@ -18,8 +18,6 @@ pub use ik::{IkError, IkJacobian, IkOptions, IkTarget};
 pub use jacobian::{PoseDerivative, PoseJacobian, SLOTS};
 pub use lanes::{LANES, sin_cos_deg};
 pub use predict::{PREDICT_COLUMNS, PredictDoc};
-/// Most axes of the allocation-free pose-derivative path.
-pub(crate) use tangent::MAX_AXES;
 pub use transform::Rigid;
 
 #[cfg(test)]
