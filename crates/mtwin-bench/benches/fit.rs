@@ -424,7 +424,7 @@ fn machine(name: &str) -> Machine {
     read_machine(&p).expect("example machine")
 }
 
-/// 100 000 simulated tracker points of the AC trunnion with its spec-05
+/// 100 000 simulated tracker points of the AC trunnion with its example
 /// errors, and the nominal machine.
 fn trunnion_points() -> (Machine, Vec<TrackerPoint>) {
     let truth = machine("ac-trunnion-with-errors.toml");

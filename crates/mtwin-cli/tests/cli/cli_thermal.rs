@@ -185,7 +185,7 @@ fn fit_then_predict_matches_the_true_drift_of_a_new_programme() {
         }
         let rms = (sq / want.len() as f64).sqrt();
         let peak = want.iter().fold(0.0f64, |m, w| m.max(w.abs()));
-        // Drift of tens of µm predicted to within 2 µm RMS (the source paper's
+        // Drift of tens of µm predicted to within 2 µm RMS (the source paper's [R4]
         // compensated residual); z = −300 also carries the interpolation.
         assert!(peak > 0.015, "the programme heats the machine: {peak}");
         assert!(rms < 0.002, "z = {z}: rms {rms} mm");

@@ -82,9 +82,9 @@ pub struct GantryTrackerDoc {
     pub rank: usize,
     /// Wall-clock time of the run, s.
     pub seconds: f64,
-    /// The source paper's change of the largest |Δp|, percent.
+    /// The source paper's [R2] change of the largest |Δp|, percent.
     pub source_change_max_percent: f64,
-    /// The source paper's change of the mean |Δp|, percent.
+    /// The source paper's [R2] change of the mean |Δp|, percent.
     pub source_change_mean_percent: f64,
     /// The error parameters identified.
     pub spec: String,

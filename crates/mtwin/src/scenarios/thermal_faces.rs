@@ -87,9 +87,9 @@ pub struct ThermalFacesDoc {
     pub runs: usize,
     /// Wall-clock time of the run, s.
     pub seconds: f64,
-    /// The source paper's difference with compensation, mm.
+    /// The source paper's [R4] difference with compensation, mm.
     pub source_face_difference_compensated_mm: f64,
-    /// The source paper's difference without compensation, mm.
+    /// The source paper's [R4] difference without compensation, mm.
     pub source_face_difference_mm: f64,
 }
 

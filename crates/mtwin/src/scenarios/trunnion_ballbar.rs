@@ -97,9 +97,9 @@ pub struct TrunnionBallbarDoc {
     pub readings: usize,
     /// Wall-clock time of the run, s.
     pub seconds: f64,
-    /// The source paper's offset after compensation, mm.
+    /// The source paper's [R1] offset after compensation, mm.
     pub source_after_mm: f64,
-    /// The source paper's offset before compensation, mm.
+    /// The source paper's [R1] offset before compensation, mm.
     pub source_before_mm: f64,
 }
 

@@ -5,7 +5,8 @@ use super::{ArxFit, ArxOrders, FitStats, InputOrder, Run, Start, SysidError, fit
 /// The information criterion that picks the orders.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Criterion {
-    /// Akaike's final prediction error `V·(1 + d/N)/(1 − d/N)` (04).
+    /// Akaike's final prediction error `V·(1 + d/N)/(1 − d/N)` (Ljung,
+    /// *System Identification*, listed in `docs/references.md`).
     #[default]
     Fpe,
     /// Akaike's information criterion `N·ln V + 2d`.

@@ -808,7 +808,7 @@ mod tests {
             let ratio = s(p) / expect;
             assert!(
                 (0.7..1.4).contains(&ratio),
-                "{p}: σ = {:e}, spec {expect:e}",
+                "{p}: σ = {:e}, expected {expect:e}",
                 s(p)
             );
         }

@@ -242,7 +242,7 @@ mod tests {
     }
 
     /// The chain as a product of homogeneous 4×4 matrices, built directly
-    /// from the spec's factors (independent of `Rigid::compose`).
+    /// from the factors of the patent's chain (`docs/references.md` [R3]; independent of `Rigid::compose`).
     fn chain_by_matrices(
         q: &AxisPositions,
         g: &Geometry,

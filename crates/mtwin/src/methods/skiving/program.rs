@@ -119,7 +119,7 @@ impl Plan {
         }
     }
 
-    /// The six planned touches in the order of the spec's table.
+    /// The six planned touches in the order of the patent's table (`docs/references.md` [R3]).
     pub fn touches(&self, g: &Geometry) -> Result<Vec<PlannedTouch>, PlanError> {
         for (name, value) in [
             ("x", self.x),

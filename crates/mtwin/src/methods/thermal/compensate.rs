@@ -1,5 +1,5 @@
-//! Pre-compensation of an NC program for thermal drift (04, "Pre-compensation
-//! of an NC program").
+//! Pre-compensation of an NC program for thermal drift (the compensation of
+//! `docs/references.md` \[R4\]: the program rewritten before machining).
 //!
 //! 1. Every block is timed with the G-code engine's estimate
 //!    ([`ProgramStats::add`]: feed moves at the programmed feed, rapids at

@@ -1,5 +1,5 @@
 //! Thermal drift of the tool relative to the workpiece in +Z, driven by the
-//! spindle speed (04): one ARX model per measured height, interpolated across
+//! spindle speed (`docs/references.md` \[R4\]): one ARX model per measured height, interpolated across
 //! heights, fitted from probing runs and used to predict the drift of a new
 //! speed programme (and, through [`ThermalPredictor`], to pre-compensate NC
 //! programs).

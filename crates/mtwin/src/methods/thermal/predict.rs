@@ -204,7 +204,7 @@ pub struct ThermalFitOptions {
     pub max_order: usize,
     /// Input delay `nk ≥ 1`, samples (1: a speed acts from the next sample on).
     pub delay: usize,
-    /// Criterion choosing the orders (04: FPE).
+    /// Criterion choosing the orders (by default Akaike's final prediction error, FPE; `docs/references.md`).
     pub criterion: Criterion,
     /// Further input columns of `TRAIN.csv` (temperatures, …) beside `speed_rpm`.
     pub extra_inputs: Vec<String>,
