@@ -197,23 +197,31 @@ impl Model for Tracker {
     fn layout(&self) -> BlockLayout {
         BlockLayout::uniform("tracker", self.poses.len(), 3)
     }
-    fn residuals(&self, theta: &[f64], rows: Range<usize>, out: &mut [f64]) {
-        for (b, p) in (rows.start / 3..rows.end / 3).enumerate() {
-            let mut r = [0.0; 3];
-            self.point(theta, p, &mut r, None);
-            for i in 0..3 {
-                out[3 * b + i] = r[i] - self.measured[3 * p + i];
+    fn evaluate(
+        &self,
+        theta: &[f64],
+        rows: Range<usize>,
+        r: Option<&mut [f64]>,
+        j: Option<MatMut<'_, f64>>,
+    ) {
+        if let Some(out) = r {
+            for (b, p) in (rows.start / 3..rows.end / 3).enumerate() {
+                let mut r = [0.0; 3];
+                self.point(theta, p, &mut r, None);
+                for i in 0..3 {
+                    out[3 * b + i] = r[i] - self.measured[3 * p + i];
+                }
             }
         }
-    }
-    fn jacobian(&self, theta: &[f64], rows: Range<usize>, mut out: MatMut<'_, f64>) {
-        let mut jac = vec![[0.0; 3]; self.params.len()];
-        for (b, p) in (rows.start / 3..rows.end / 3).enumerate() {
-            let mut r = [0.0; 3];
-            self.point(theta, p, &mut r, Some(&mut jac));
-            for (j, v) in jac.iter().enumerate() {
-                for i in 0..3 {
-                    out[(3 * b + i, j)] = v[i];
+        if let Some(mut out) = j {
+            let mut jac = vec![[0.0; 3]; self.params.len()];
+            for (b, p) in (rows.start / 3..rows.end / 3).enumerate() {
+                let mut r = [0.0; 3];
+                self.point(theta, p, &mut r, Some(&mut jac));
+                for (j, v) in jac.iter().enumerate() {
+                    for i in 0..3 {
+                        out[(3 * b + i, j)] = v[i];
+                    }
                 }
             }
         }
@@ -311,21 +319,22 @@ impl Model for Smooth {
     fn layout(&self) -> BlockLayout {
         BlockLayout::uniform("points", self.u.len(), 3)
     }
-    fn residuals(&self, theta: &[f64], rows: Range<usize>, out: &mut [f64]) {
-        self.eval(theta, rows, out, None);
-    }
-    fn jacobian(&self, theta: &[f64], rows: Range<usize>, out: MatMut<'_, f64>) {
-        let mut r = vec![0.0; rows.len()];
-        self.eval(theta, rows, &mut r, Some(out));
-    }
-    fn residuals_and_jacobian(
+    fn evaluate(
         &self,
         theta: &[f64],
         rows: Range<usize>,
-        r: &mut [f64],
-        out: MatMut<'_, f64>,
+        r: Option<&mut [f64]>,
+        j: Option<MatMut<'_, f64>>,
     ) {
-        self.eval(theta, rows, r, Some(out));
+        let mut scratch = Vec::new();
+        let r = match r {
+            Some(r) => r,
+            None => {
+                scratch.resize(rows.len(), 0.0);
+                &mut scratch[..]
+            }
+        };
+        self.eval(theta, rows, r, j);
     }
 }
 

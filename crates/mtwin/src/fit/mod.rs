@@ -2,8 +2,10 @@
 //! on the exact model with column scaling, identifiability analysis,
 //! uncertainties and outlier screening.
 //!
-//! A measurement model implements [`Model`] (residual rows in blocks, the
-//! exact Jacobian by row ranges); [`fit`] then
+//! A measurement model implements [`Model`]: its parameters, the block
+//! layout of its residual rows, and one method, [`Model::evaluate`], that
+//! writes residuals and/or the exact Jacobian for a range of rows; [`fit`]
+//! then
 //!
 //! 1. evaluates the Jacobian at the start values and analyses which
 //!    parameters the data determine ([`identifiability`]): zero columns,

@@ -180,15 +180,32 @@ pub trait Model: Sync {
     /// The block layout of the `m` residual rows.
     fn layout(&self) -> BlockLayout;
 
-    /// Residual rows `rows` at θ into `out` (`out.len() == rows.len()`).
-    fn residuals(&self, theta: &[f64], rows: Range<usize>, out: &mut [f64]);
+    /// Residual rows `rows` at θ into `r` (`r.len() == rows.len()`) and/or
+    /// the Jacobian rows `rows` into `j` (`rows.len() × n`, every entry
+    /// must be written), whichever is given: the one method a model
+    /// implements. Both at once share the work (the kinematic chain is
+    /// evaluated once for both).
+    fn evaluate(
+        &self,
+        theta: &[f64],
+        rows: Range<usize>,
+        r: Option<&mut [f64]>,
+        j: Option<MatMut<'_, f64>>,
+    );
 
-    /// Jacobian rows `rows` at θ into `out` (`rows.len() × n`, every entry
-    /// must be written).
-    fn jacobian(&self, theta: &[f64], rows: Range<usize>, out: MatMut<'_, f64>);
+    /// Residual rows `rows` at θ into `out` ([`Model::evaluate`] without a
+    /// Jacobian).
+    fn residuals(&self, theta: &[f64], rows: Range<usize>, out: &mut [f64]) {
+        self.evaluate(theta, rows, Some(out), None);
+    }
 
-    /// Residuals and Jacobian together; override when they share work (the
-    /// kinematic chain is evaluated once for both).
+    /// Jacobian rows `rows` at θ into `out` ([`Model::evaluate`] without
+    /// residuals).
+    fn jacobian(&self, theta: &[f64], rows: Range<usize>, out: MatMut<'_, f64>) {
+        self.evaluate(theta, rows, None, Some(out));
+    }
+
+    /// Residuals and Jacobian together ([`Model::evaluate`] with both).
     fn residuals_and_jacobian(
         &self,
         theta: &[f64],
@@ -196,8 +213,7 @@ pub trait Model: Sync {
         r: &mut [f64],
         j: MatMut<'_, f64>,
     ) {
-        self.residuals(theta, rows.clone(), r);
-        self.jacobian(theta, rows, j);
+        self.evaluate(theta, rows, Some(r), Some(j));
     }
 
     /// The Jacobian in factored form, if the model has one (see
@@ -318,38 +334,20 @@ impl Model for Stack<'_> {
         self.layout.clone()
     }
 
-    fn residuals(&self, theta: &[f64], rows: Range<usize>, out: &mut [f64]) {
-        self.for_parts(rows, |part, local, dst| {
-            part.residuals(theta, local, &mut out[dst])
-        });
-    }
-
-    fn jacobian(&self, theta: &[f64], rows: Range<usize>, mut out: MatMut<'_, f64>) {
-        let n = out.ncols();
-        self.for_parts(rows, |part, local, dst| {
-            part.jacobian(
-                theta,
-                local,
-                out.rb_mut().submatrix_mut(dst.start, 0, dst.len(), n),
-            )
-        });
-    }
-
-    fn residuals_and_jacobian(
+    fn evaluate(
         &self,
         theta: &[f64],
         rows: Range<usize>,
-        r: &mut [f64],
-        mut j: MatMut<'_, f64>,
+        mut r: Option<&mut [f64]>,
+        mut j: Option<MatMut<'_, f64>>,
     ) {
-        let n = j.ncols();
         self.for_parts(rows, |part, local, dst| {
-            part.residuals_and_jacobian(
-                theta,
-                local,
-                &mut r[dst.clone()],
-                j.rb_mut().submatrix_mut(dst.start, 0, dst.len(), n),
-            )
+            let r = r.as_deref_mut().map(|r| &mut r[dst.clone()]);
+            let j = j.as_mut().map(|j| {
+                let n = j.ncols();
+                j.rb_mut().submatrix_mut(dst.start, 0, dst.len(), n)
+            });
+            part.evaluate(theta, local, r, j)
         });
     }
 }

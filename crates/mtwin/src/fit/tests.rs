@@ -43,18 +43,26 @@ impl Model for Linear {
     fn layout(&self) -> BlockLayout {
         BlockLayout::uniform(self.label.clone(), self.a.nrows() / self.block, self.block)
     }
-    fn residuals(&self, theta: &[f64], rows: Range<usize>, out: &mut [f64]) {
-        for (o, i) in out.iter_mut().zip(rows) {
-            *o = (0..self.a.ncols())
-                .map(|j| self.a[(i, j)] * theta[j])
-                .sum::<f64>()
-                - self.y[i];
+    fn evaluate(
+        &self,
+        theta: &[f64],
+        rows: Range<usize>,
+        r: Option<&mut [f64]>,
+        j: Option<MatMut<'_, f64>>,
+    ) {
+        if let Some(out) = r {
+            for (o, i) in out.iter_mut().zip(rows.clone()) {
+                *o = (0..self.a.ncols())
+                    .map(|j| self.a[(i, j)] * theta[j])
+                    .sum::<f64>()
+                    - self.y[i];
+            }
         }
-    }
-    fn jacobian(&self, _theta: &[f64], rows: Range<usize>, mut out: MatMut<'_, f64>) {
-        for (k, i) in rows.enumerate() {
-            for j in 0..self.a.ncols() {
-                out[(k, j)] = self.a[(i, j)];
+        if let Some(mut out) = j {
+            for (k, i) in rows.enumerate() {
+                for j in 0..self.a.ncols() {
+                    out[(k, j)] = self.a[(i, j)];
+                }
             }
         }
     }
@@ -89,19 +97,29 @@ impl Model for Circle {
     fn layout(&self) -> BlockLayout {
         BlockLayout::uniform("circle", self.points.len(), 1)
     }
-    fn residuals(&self, t: &[f64], rows: Range<usize>, out: &mut [f64]) {
-        for (o, i) in out.iter_mut().zip(rows) {
-            let [x, y] = self.points[i];
-            *o = (x - t[0]).hypot(y - t[1]) - t[2];
+    fn evaluate(
+        &self,
+        theta: &[f64],
+        rows: Range<usize>,
+        r: Option<&mut [f64]>,
+        j: Option<MatMut<'_, f64>>,
+    ) {
+        if let Some(out) = r {
+            let t = theta;
+            for (o, i) in out.iter_mut().zip(rows.clone()) {
+                let [x, y] = self.points[i];
+                *o = (x - t[0]).hypot(y - t[1]) - t[2];
+            }
         }
-    }
-    fn jacobian(&self, t: &[f64], rows: Range<usize>, mut out: MatMut<'_, f64>) {
-        for (k, i) in rows.enumerate() {
-            let [x, y] = self.points[i];
-            let d = (x - t[0]).hypot(y - t[1]);
-            out[(k, 0)] = -(x - t[0]) / d;
-            out[(k, 1)] = if self.wrong { 1.0 } else { -1.0 } * (y - t[1]) / d;
-            out[(k, 2)] = -1.0;
+        if let Some(mut out) = j {
+            let t = theta;
+            for (k, i) in rows.enumerate() {
+                let [x, y] = self.points[i];
+                let d = (x - t[0]).hypot(y - t[1]);
+                out[(k, 0)] = -(x - t[0]) / d;
+                out[(k, 1)] = if self.wrong { 1.0 } else { -1.0 } * (y - t[1]) / d;
+                out[(k, 2)] = -1.0;
+            }
         }
     }
 }
@@ -123,17 +141,27 @@ impl Model for Decay {
     fn layout(&self) -> BlockLayout {
         BlockLayout::uniform("decay", self.t.len(), 1)
     }
-    fn residuals(&self, th: &[f64], rows: Range<usize>, out: &mut [f64]) {
-        for (o, i) in out.iter_mut().zip(rows) {
-            *o = th[0] * (-th[1] * self.t[i]).exp() + th[2] - self.y[i];
+    fn evaluate(
+        &self,
+        theta: &[f64],
+        rows: Range<usize>,
+        r: Option<&mut [f64]>,
+        j: Option<MatMut<'_, f64>>,
+    ) {
+        if let Some(out) = r {
+            let th = theta;
+            for (o, i) in out.iter_mut().zip(rows.clone()) {
+                *o = th[0] * (-th[1] * self.t[i]).exp() + th[2] - self.y[i];
+            }
         }
-    }
-    fn jacobian(&self, th: &[f64], rows: Range<usize>, mut out: MatMut<'_, f64>) {
-        for (k, i) in rows.enumerate() {
-            let e = (-th[1] * self.t[i]).exp();
-            out[(k, 0)] = e;
-            out[(k, 1)] = -th[0] * self.t[i] * e;
-            out[(k, 2)] = 1.0;
+        if let Some(mut out) = j {
+            let th = theta;
+            for (k, i) in rows.enumerate() {
+                let e = (-th[1] * self.t[i]).exp();
+                out[(k, 0)] = e;
+                out[(k, 1)] = -th[0] * self.t[i] * e;
+                out[(k, 2)] = 1.0;
+            }
         }
     }
 }
@@ -153,19 +181,29 @@ impl Model for Mild {
     fn layout(&self) -> BlockLayout {
         self.lin.layout()
     }
-    fn residuals(&self, th: &[f64], rows: Range<usize>, out: &mut [f64]) {
-        self.lin.residuals(th, rows.clone(), out);
-        let s: f64 = self.b.iter().zip(th).map(|(a, b)| a * b).sum();
-        for (o, i) in out.iter_mut().zip(rows) {
-            *o += 0.5 * self.beta * s * s * self.w[i];
+    fn evaluate(
+        &self,
+        theta: &[f64],
+        rows: Range<usize>,
+        r: Option<&mut [f64]>,
+        j: Option<MatMut<'_, f64>>,
+    ) {
+        if let Some(out) = r {
+            let th = theta;
+            self.lin.residuals(th, rows.clone(), out);
+            let s: f64 = self.b.iter().zip(th).map(|(a, b)| a * b).sum();
+            for (o, i) in out.iter_mut().zip(rows.clone()) {
+                *o += 0.5 * self.beta * s * s * self.w[i];
+            }
         }
-    }
-    fn jacobian(&self, th: &[f64], rows: Range<usize>, mut out: MatMut<'_, f64>) {
-        self.lin.jacobian(th, rows.clone(), out.as_mut());
-        let s: f64 = self.b.iter().zip(th).map(|(a, b)| a * b).sum();
-        for (k, i) in rows.enumerate() {
-            for j in 0..self.b.len() {
-                out[(k, j)] += self.beta * s * self.b[j] * self.w[i];
+        if let Some(mut out) = j {
+            let th = theta;
+            self.lin.jacobian(th, rows.clone(), out.as_mut());
+            let s: f64 = self.b.iter().zip(th).map(|(a, b)| a * b).sum();
+            for (k, i) in rows.enumerate() {
+                for j in 0..self.b.len() {
+                    out[(k, j)] += self.beta * s * self.b[j] * self.w[i];
+                }
             }
         }
     }
@@ -817,18 +855,28 @@ impl Model for SumDecay {
     fn layout(&self) -> BlockLayout {
         BlockLayout::uniform("decay", self.t.len(), 1)
     }
-    fn residuals(&self, th: &[f64], rows: Range<usize>, out: &mut [f64]) {
-        for (o, i) in out.iter_mut().zip(rows) {
-            *o = th[0] * (-(th[1] + th[2]) * self.t[i]).exp() + th[3] - self.y[i];
+    fn evaluate(
+        &self,
+        theta: &[f64],
+        rows: Range<usize>,
+        r: Option<&mut [f64]>,
+        j: Option<MatMut<'_, f64>>,
+    ) {
+        if let Some(out) = r {
+            let th = theta;
+            for (o, i) in out.iter_mut().zip(rows.clone()) {
+                *o = th[0] * (-(th[1] + th[2]) * self.t[i]).exp() + th[3] - self.y[i];
+            }
         }
-    }
-    fn jacobian(&self, th: &[f64], rows: Range<usize>, mut out: MatMut<'_, f64>) {
-        for (k, i) in rows.enumerate() {
-            let e = (-(th[1] + th[2]) * self.t[i]).exp();
-            out[(k, 0)] = e;
-            out[(k, 1)] = -th[0] * self.t[i] * e;
-            out[(k, 2)] = -th[0] * self.t[i] * e;
-            out[(k, 3)] = 1.0;
+        if let Some(mut out) = j {
+            let th = theta;
+            for (k, i) in rows.enumerate() {
+                let e = (-(th[1] + th[2]) * self.t[i]).exp();
+                out[(k, 0)] = e;
+                out[(k, 1)] = -th[0] * self.t[i] * e;
+                out[(k, 2)] = -th[0] * self.t[i] * e;
+                out[(k, 3)] = 1.0;
+            }
         }
     }
 }

@@ -211,54 +211,6 @@ impl<'a> OutputErrorModel<'a> {
             psi,
         }
     }
-
-    /// Residuals (and Jacobian rows) of the residual rows `rows`.
-    fn evaluate(
-        &self,
-        theta: &[f64],
-        rows: Range<usize>,
-        mut r: Option<&mut [f64]>,
-        mut jac: Option<MatMut<'_, f64>>,
-    ) {
-        let sim = self.simulation(theta, jac.is_some());
-        let y = self.run.output();
-        let d = self.n_all();
-        for (row, s) in rows.enumerate() {
-            let k = self.first + s;
-            if let Some(r) = r.as_mut() {
-                r[row] = sim.yhat[k] - y[k];
-            }
-            if let Some(jm) = jac.as_mut() {
-                for c in 0..d {
-                    jm[(row, c)] = sim.psi[k * d + c];
-                }
-            }
-        }
-    }
-
-    /// The Jacobian rows `rows` into `jm`, a column at a time (the copy of
-    /// [`Self::evaluate`] without an index check per element when the
-    /// columns are contiguous; the same values).
-    fn jacobian_into(&self, theta: &[f64], rows: Range<usize>, mut jm: MatMut<'_, f64>) {
-        let sim = self.simulation(theta, true);
-        let d = self.n_all();
-        let first = self.first + rows.start;
-        for c in 0..d {
-            match jm.as_mut().col_mut(c).try_as_col_major_mut() {
-                Some(col) => {
-                    let col = col.as_slice_mut();
-                    for (row, v) in col.iter_mut().enumerate() {
-                        *v = sim.psi[(first + row) * d + c];
-                    }
-                }
-                None => {
-                    for row in 0..rows.len() {
-                        jm[(row, c)] = sim.psi[(first + row) * d + c];
-                    }
-                }
-            }
-        }
-    }
 }
 
 /// One simulation of [`OutputErrorModel`] at θ.
@@ -294,23 +246,46 @@ impl Model for OutputErrorModel<'_> {
         BlockLayout::uniform("samples", self.run.len() - self.first, 1)
     }
 
-    fn residuals(&self, theta: &[f64], rows: Range<usize>, out: &mut [f64]) {
-        self.evaluate(theta, rows, Some(out), None);
-    }
-
-    fn jacobian(&self, theta: &[f64], rows: Range<usize>, out: MatMut<'_, f64>) {
-        self.jacobian_into(theta, rows, out);
-    }
-
-    fn residuals_and_jacobian(
+    /// The residuals come from a simulation of the output alone, the
+    /// Jacobian from one with the sensitivities (whose divergence also stops
+    /// the simulated output there); the Jacobian is written a column at a
+    /// time, without an index check per element when the columns are
+    /// contiguous.
+    fn evaluate(
         &self,
         theta: &[f64],
         rows: Range<usize>,
-        r: &mut [f64],
-        j: MatMut<'_, f64>,
+        r: Option<&mut [f64]>,
+        jac: Option<MatMut<'_, f64>>,
     ) {
-        self.evaluate(theta, rows.clone(), Some(r), None);
-        self.jacobian_into(theta, rows, j);
+        let first = self.first + rows.start;
+        if let Some(r) = r {
+            let sim = self.simulation(theta, false);
+            let y = self.run.output();
+            for (row, v) in r.iter_mut().enumerate().take(rows.len()) {
+                let k = first + row;
+                *v = sim.yhat[k] - y[k];
+            }
+        }
+        if let Some(mut jm) = jac {
+            let sim = self.simulation(theta, true);
+            let d = self.n_all();
+            for c in 0..d {
+                match jm.as_mut().col_mut(c).try_as_col_major_mut() {
+                    Some(col) => {
+                        let col = col.as_slice_mut();
+                        for (row, v) in col.iter_mut().enumerate() {
+                            *v = sim.psi[(first + row) * d + c];
+                        }
+                    }
+                    None => {
+                        for row in 0..rows.len() {
+                            jm[(row, c)] = sim.psi[(first + row) * d + c];
+                        }
+                    }
+                }
+            }
+        }
     }
 }
 

@@ -443,6 +443,16 @@ impl<'a> ModeModel<'a> {
             .length_index(self.mode)
             .expect("checked in new")]
     }
+}
+
+impl Model for ModeModel<'_> {
+    fn parameters(&self) -> Vec<Parameter> {
+        self.unknowns.parameters()
+    }
+
+    fn layout(&self) -> BlockLayout {
+        BlockLayout::uniform(self.mode.label(), self.data.len(), 1)
+    }
 
     fn evaluate(
         &self,
@@ -477,34 +487,6 @@ impl<'a> ModeModel<'a> {
                 r[k] = self.data.lengths[i] - g.reading(ell, alpha);
             }
         }
-    }
-}
-
-impl Model for ModeModel<'_> {
-    fn parameters(&self) -> Vec<Parameter> {
-        self.unknowns.parameters()
-    }
-
-    fn layout(&self) -> BlockLayout {
-        BlockLayout::uniform(self.mode.label(), self.data.len(), 1)
-    }
-
-    fn residuals(&self, theta: &[f64], rows: Range<usize>, out: &mut [f64]) {
-        self.evaluate(theta, rows, Some(out), None);
-    }
-
-    fn jacobian(&self, theta: &[f64], rows: Range<usize>, out: MatMut<'_, f64>) {
-        self.evaluate(theta, rows, None, Some(out));
-    }
-
-    fn residuals_and_jacobian(
-        &self,
-        theta: &[f64],
-        rows: Range<usize>,
-        r: &mut [f64],
-        j: MatMut<'_, f64>,
-    ) {
-        self.evaluate(theta, rows, Some(r), Some(j));
     }
 }
 

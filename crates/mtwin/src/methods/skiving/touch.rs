@@ -238,19 +238,25 @@ impl Model for TouchModel<'_> {
         l
     }
 
-    fn residuals(&self, theta: &[f64], rows: Range<usize>, out: &mut [f64]) {
+    fn evaluate(
+        &self,
+        theta: &[f64],
+        rows: Range<usize>,
+        r: Option<&mut [f64]>,
+        j: Option<MatMut<'_, f64>>,
+    ) {
         let e = SetupError::from_slice(theta);
-        for (o, t) in out.iter_mut().zip(&self.touches[rows]) {
-            *o = t.residual(&self.geometry, &e);
+        if let Some(out) = r {
+            for (o, t) in out.iter_mut().zip(&self.touches[rows.clone()]) {
+                *o = t.residual(&self.geometry, &e);
+            }
         }
-    }
-
-    fn jacobian(&self, theta: &[f64], rows: Range<usize>, mut out: MatMut<'_, f64>) {
-        let e = SetupError::from_slice(theta);
-        for (i, t) in self.touches[rows].iter().enumerate() {
-            let (_, g) = t.residual_and_gradient(&self.geometry, &e);
-            for (k, gk) in g.iter().enumerate() {
-                out[(i, k)] = *gk;
+        if let Some(mut out) = j {
+            for (i, t) in self.touches[rows].iter().enumerate() {
+                let (_, g) = t.residual_and_gradient(&self.geometry, &e);
+                for (k, gk) in g.iter().enumerate() {
+                    out[(i, k)] = *gk;
+                }
             }
         }
     }

@@ -173,26 +173,33 @@ impl Model for TrackerModel<'_> {
         Some(self)
     }
 
-    fn residuals(&self, theta: &[f64], rows: Range<usize>, out: &mut [f64]) {
-        let kin = Kinematics::new(&self.machine_at(theta));
-        for (k, b) in Self::blocks(&rows).enumerate() {
-            let d = kin.pose(&self.points[b].q).tip - self.measured_in_w(theta, b);
-            out[3 * k..3 * k + 3].copy_from_slice(d.as_slice());
-        }
-    }
-
-    fn jacobian(&self, theta: &[f64], rows: Range<usize>, out: MatMut<'_, f64>) {
-        let mut r = vec![0.0; rows.len()];
-        self.residuals_and_jacobian(theta, rows, &mut r, out);
-    }
-
-    fn residuals_and_jacobian(
+    /// Residuals alone take the tip only; with the Jacobian, the tip comes
+    /// with the chain's derivatives.
+    fn evaluate(
         &self,
         theta: &[f64],
         rows: Range<usize>,
-        r: &mut [f64],
-        mut j: MatMut<'_, f64>,
+        r: Option<&mut [f64]>,
+        j: Option<MatMut<'_, f64>>,
     ) {
+        let Some(mut j) = j else {
+            if let Some(out) = r {
+                let kin = Kinematics::new(&self.machine_at(theta));
+                for (k, b) in Self::blocks(&rows).enumerate() {
+                    let d = kin.pose(&self.points[b].q).tip - self.measured_in_w(theta, b);
+                    out[3 * k..3 * k + 3].copy_from_slice(d.as_slice());
+                }
+            }
+            return;
+        };
+        let mut scratch = Vec::new();
+        let r = match r {
+            Some(r) => r,
+            None => {
+                scratch.resize(rows.len(), 0.0);
+                &mut scratch[..]
+            }
+        };
         let kin = Kinematics::new(&self.machine_at(theta));
         let n_err = self.params.len();
         let mut basis = vec![0.0; n_err];
@@ -297,17 +304,11 @@ impl Factored for TrackerModel<'_> {
 mod tests {
     use super::*;
     use crate::fit::check_jacobian;
-    use crate::model::read_machine;
 
-    fn afp() -> Machine {
-        let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../examples/machines/afp-gantry.toml");
-        read_machine(&p).expect("example machine")
-    }
 
     #[test]
     fn jacobian_matches_finite_differences_with_registration() {
-        let mut m = afp();
+        let mut m = crate::examples::machine("afp-gantry").unwrap();
         // Tip off the C axis: every column is well above the rounding of the
         // differences (on the axis, the roll of C moves the tip by ~1e-13 mm).
         m.tool_tip = Vector3::new(30.0, 20.0, -500.0);
