@@ -84,6 +84,38 @@ pub fn machine(name: &str) -> Result<Machine, Diagnostics> {
     parse_machine(Path::new(&path), text)
 }
 
+/// A Cartesian three-axis machine built in code: linear axes `X`, `Y`, `Z`
+/// along the machine's x, y, z, all in the tool chain (no workpiece axes),
+/// travel ±`half_travel` mm on each, tool tip at the spindle point, no
+/// geometric errors, no velocity, acceleration or jerk limits, a rapid feed
+/// of 6000 mm/min: the smallest machine a G-code program runs on. Set the
+/// limits on [`Machine::axes`] where a planner needs them.
+///
+/// ```
+/// let m = mtwin::examples::xyz(500.0);
+/// assert_eq!(m.n_axes(), 3);
+/// assert_eq!(m.axes[2].travel, [-500.0, 500.0]);
+/// ```
+pub fn xyz(half_travel: f64) -> Machine {
+    use crate::model::{Axis, AxisKind};
+    let axes = [("X", [1.0, 0.0, 0.0]), ("Y", [0.0, 1.0, 0.0]), ("Z", [0.0, 0.0, 1.0])]
+        .into_iter()
+        .map(|(name, d)| {
+            Axis::new(name, AxisKind::Linear, d, [0.0; 3], [-half_travel, half_travel])
+        })
+        .collect();
+    Machine {
+        name: "xyz".into(),
+        axes,
+        tool_chain: vec![0, 1, 2],
+        workpiece_chain: vec![],
+        tool_tip: nalgebra::Vector3::zeros(),
+        tool_direction: nalgebra::Vector3::z(),
+        workpiece_origin: nalgebra::Vector3::zeros(),
+        rapid_feed: 6000.0,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -179,20 +179,10 @@ fn read_trace(path: &Path) -> anyhow::Result<Trace> {
     })
 }
 
-fn positive(name: &str, v: f64) -> anyhow::Result<()> {
-    if !(v.is_finite() && v > 0.0) {
-        anyhow::bail!(
-            "{name} must be positive, not {}",
-            mtwin::limits::fmt_message_number(v)
-        );
-    }
-    Ok(())
-}
-
 pub fn run_circular(a: CircularArgs) -> anyhow::Result<()> {
-    positive("--radius", a.radius)?;
-    positive("--cyclic-pitch", a.cyclic_pitch)?;
-    positive("--spike-width", a.spike_width)?;
+    super::common::positive("--radius", a.radius)?;
+    super::common::positive("--cyclic-pitch", a.cyclic_pitch)?;
+    super::common::positive("--spike-width", a.spike_width)?;
     if a.cw.is_none() && a.ccw.is_none() {
         anyhow::bail!("give the clockwise run (--cw), the counter-clockwise run (--ccw), or both");
     }
@@ -252,9 +242,9 @@ pub fn run_circular(a: CircularArgs) -> anyhow::Result<()> {
 }
 
 pub fn run_simulate_circular(a: SimulateCircularArgs) -> anyhow::Result<()> {
-    positive("--radius", a.radius)?;
-    positive("--cyclic-pitch", a.cyclic_pitch)?;
-    positive("--spike-width", a.spike_width)?;
+    super::common::positive("--radius", a.radius)?;
+    super::common::positive("--cyclic-pitch", a.cyclic_pitch)?;
+    super::common::positive("--spike-width", a.spike_width)?;
     if a.samples < 8 || a.samples > 10_000_000 {
         anyhow::bail!("--samples must be from 8 to 10000000");
     }
@@ -264,7 +254,7 @@ pub fn run_simulate_circular(a: SimulateCircularArgs) -> anyhow::Result<()> {
     let servos = match (&a.servo_model[..], a.feed) {
         ([], _) => None,
         ([first, second], Some(feed)) => {
-            positive("--feed", feed)?;
+            super::common::positive("--feed", feed)?;
             let read = |p: &PathBuf| -> anyhow::Result<mtwin::sysid::Servo> {
                 let s = mtwin::sysid::read_servo_toml(p).map_err(diag)?;
                 if let mtwin::sysid::Stability::Unstable { .. } = s.arx().stability() {

@@ -17,6 +17,17 @@ pub fn diag(d: Diagnostics) -> anyhow::Error {
 }
 
 /// Read and validate a machine model file.
+/// An error naming the option `name` unless `v` is a finite positive number.
+pub fn positive(name: &str, v: f64) -> anyhow::Result<()> {
+    if !(v.is_finite() && v > 0.0) {
+        anyhow::bail!(
+            "{name} must be positive, not {}",
+            mtwin::limits::fmt_message_number(v)
+        );
+    }
+    Ok(())
+}
+
 pub fn load_machine(path: &Path) -> anyhow::Result<Machine> {
     read_machine(path).map_err(diag)
 }

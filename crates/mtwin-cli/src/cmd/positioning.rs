@@ -95,20 +95,10 @@ pub fn run(c: Command) -> anyhow::Result<()> {
     }
 }
 
-fn positive(name: &str, v: f64) -> anyhow::Result<()> {
-    if !(v.is_finite() && v > 0.0) {
-        anyhow::bail!(
-            "{name} must be positive, not {}",
-            mtwin::limits::fmt_message_number(v)
-        );
-    }
-    Ok(())
-}
-
 fn evaluate(a: EvaluateArgs) -> anyhow::Result<()> {
-    positive("--dwell-band", a.dwell_band)?;
-    positive("--min-dwell-s", a.min_dwell_s)?;
-    positive("--reach-tol", a.reach_tol)?;
+    super::common::positive("--dwell-band", a.dwell_band)?;
+    super::common::positive("--min-dwell-s", a.min_dwell_s)?;
+    super::common::positive("--reach-tol", a.reach_tol)?;
     if !(a.ref_gain.is_finite() && a.ref_gain != 0.0 && a.ref_offset.is_finite()) {
         anyhow::bail!("--ref-gain must be a non-zero number and --ref-offset a number");
     }

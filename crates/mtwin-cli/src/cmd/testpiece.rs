@@ -74,12 +74,7 @@ pub fn run(c: Command) -> anyhow::Result<()> {
 }
 
 fn s_shape(a: SShapeArgs) -> anyhow::Result<()> {
-    if !(a.scale.is_finite() && a.scale > 0.0) {
-        anyhow::bail!(
-            "--scale must be positive, not {}",
-            mtwin::limits::fmt_message_number(a.scale)
-        );
-    }
+    super::common::positive("--scale", a.scale)?;
     let mut out = mtwin::io::Outputs::plan()
         .input(&a.machine)
         .output(&a.out)

@@ -14,7 +14,7 @@ use std::path::Path;
 
 use super::isg_csv::{self, column_name, volumetric_name};
 use super::{
-    Correction, ExportError, ExportOptions, Exported, Format, check_iso_axes, fixed,
+    ExportError, ExportOptions, Exported, Format, check_iso_axes, fixed,
     nonzero_errors, parse_number, tabulated,
 };
 use crate::io::Diagnostic;
@@ -231,14 +231,5 @@ pub(crate) fn export(machine: &Machine, opts: &ExportOptions) -> Result<Exported
         ),
         (ETALON_FILE.to_string(), write(&tab)),
     ];
-    Ok(Exported {
-        format: Format::Etalon,
-        files,
-        carried: nonzero_errors(machine)
-            .iter()
-            .map(|n| n.to_string())
-            .collect(),
-        dropped: Vec::new(),
-        correction: Correction::Volumetric(tab),
-    })
+    Ok(Exported::volumetric(Format::Etalon, files, machine, tab))
 }

@@ -18,7 +18,7 @@
 use std::path::Path;
 
 use super::{
-    Correction, ExportError, ExportOptions, Exported, Format, check_iso_axes, fixed,
+    ExportError, ExportOptions, Exported, Format, check_iso_axes, fixed,
     nonzero_errors, parse_number, tabulated,
 };
 use crate::io::Diagnostic;
@@ -484,14 +484,5 @@ pub(crate) fn export(machine: &Machine, opts: &ExportOptions) -> Result<Exported
         ),
         (CSV_FILE.to_string(), csv),
     ];
-    Ok(Exported {
-        format: Format::Isg,
-        files,
-        carried: nonzero_errors(machine)
-            .iter()
-            .map(|n| n.to_string())
-            .collect(),
-        dropped: Vec::new(),
-        correction: Correction::Volumetric(tab),
-    })
+    Ok(Exported::volumetric(Format::Isg, files, machine, tab))
 }

@@ -186,6 +186,28 @@ pub struct Exported {
     pub correction: Correction,
 }
 
+impl Exported {
+    /// A volumetric export: the table `tab` carries every non-zero error of
+    /// `machine`, none is dropped.
+    pub(crate) fn volumetric(
+        format: Format,
+        files: Vec<(String, String)>,
+        machine: &Machine,
+        tab: Machine,
+    ) -> Self {
+        Self {
+            format,
+            files,
+            carried: nonzero_errors(machine)
+                .iter()
+                .map(|n| n.to_string())
+                .collect(),
+            dropped: Vec::new(),
+            correction: Correction::Volumetric(tab),
+        }
+    }
+}
+
 /// Why a machine cannot be exported in a format.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]

@@ -16,7 +16,9 @@
 //!   acceleration at most `amax/(2·D1)` (`amax/D1` when `D2 = 0`), so
 //!   `|q̈| ≤ D2·ṡ² + D1·|s̈| ≤ amax`. D1 and D2 are exact for straight
 //!   moves and closed-form bounds for arcs; under TCP they are estimated by
-//!   finite differences at 16 sub-steps with a 10 % margin.
+//!   finite differences at 16 sub-steps with a 10 % margin (second
+//!   differences at the rounding level of the joint positions count as
+//!   zero, so a joint path that is a straight line is timed as one).
 //! * Without TCP, axis words map to machine axes by name (X Y Z A B C U V
 //!   W): machine position = program coordinate + work offset + tool length
 //!   offset. With TCP (on in the event, or forced by
@@ -390,6 +392,19 @@ impl Speed {
 
 /// Sub-steps of the finite-difference derivative bounds under TCP.
 const FD_STEPS: usize = 16;
+
+/// A second difference of TCP joint positions up to `FD_NOISE + 64·ε·|q|`
+/// (mm or deg) is rounding, not curvature, and counts as zero. The positions
+/// come from the inverse kinematics, solved to 1e-11 mm (and 1e-13 rad),
+/// with rounding of a few ε·|q|: three of them make a second difference
+/// below 4·(1e-11 + ε·|q|), 25 times below the bound. Without it, a joint
+/// path that is affine in `s` (a TCP line with the rotary axes held) had a
+/// second derivative of pure noise, and its path acceleration was halved or
+/// not (`amax/(2·D1)` against `amax/D1`) with the rounding of the block's
+/// ends. A real curvature below the bound adds at most
+/// `1e-9·FD_STEPS²·ṡ² ≈ 2.6e-7·ṡ²` (mm/s² or deg/s²; ṡ in 1/s) to a joint's
+/// acceleration: 0.26 mm/s² for a 0.1 mm block at 6 m/min.
+const FD_NOISE: f64 = 1e-9;
 /// Axis-space distance below which a move's start is the current position.
 const SAME_POSITION: f64 = 1e-7;
 
@@ -1199,14 +1214,22 @@ impl<'m> Interpolator<'m> {
                     self.eval(path, j as f64 * h, &mut cur)?;
                     pts.push(cur.clone());
                 }
+                // Per axis, the rounding level of a second difference.
+                let mut noise = vec![FD_NOISE; n];
+                for p in &pts {
+                    for (z, q) in noise.iter_mut().zip(p) {
+                        *z = z.max(FD_NOISE + 64.0 * f64::EPSILON * q.abs());
+                    }
+                }
                 for j in 0..FD_STEPS {
                     for i in 0..n {
                         let v = (pts[j + 1][i] - pts[j][i]).abs() / h;
                         d1[i] = f64::max(d1[i], margin * v);
                         if j > 0 {
-                            let a =
-                                (pts[j + 1][i] - 2.0 * pts[j][i] + pts[j - 1][i]).abs() / (h * h);
-                            d2[i] = f64::max(d2[i], margin * a);
+                            let dd = (pts[j + 1][i] - 2.0 * pts[j][i] + pts[j - 1][i]).abs();
+                            if dd > noise[i] {
+                                d2[i] = f64::max(d2[i], margin * dd / (h * h));
+                            }
                         }
                     }
                 }
@@ -2454,31 +2477,16 @@ mod tests {
 
     use super::*;
     use crate::gcode::{StatsOptions, stats};
-    use crate::model::{Axis as MAxis, read_machine};
+    use crate::model::read_machine;
 
     /// A Cartesian XYZ machine with the given limits on every axis.
     fn xyz(vmax: Option<f64>, amax: Option<f64>) -> Machine {
-        let mut axes = Vec::new();
-        for (name, d) in [
-            ("X", [1.0, 0.0, 0.0]),
-            ("Y", [0.0, 1.0, 0.0]),
-            ("Z", [0.0, 0.0, 1.0]),
-        ] {
-            let mut a = MAxis::new(name, AxisKind::Linear, d, [0.0; 3], [-1000.0, 1000.0]);
+        let mut m = crate::examples::xyz(1000.0);
+        for a in &mut m.axes {
             a.max_velocity = vmax;
             a.max_acceleration = amax;
-            axes.push(a);
         }
-        Machine {
-            name: "xyz".into(),
-            axes,
-            tool_chain: vec![0, 1, 2],
-            workpiece_chain: vec![],
-            tool_tip: Vector3::zeros(),
-            tool_direction: Vector3::z(),
-            workpiece_origin: Vector3::zeros(),
-            rapid_feed: 6000.0,
-        }
+        m
     }
 
     type Samples = Vec<(f64, Vec<f64>, u64)>;
@@ -2651,6 +2659,67 @@ mod tests {
         let d = b - a;
         let t = ((p - a).dot(&d) / d.norm_squared()).clamp(0.0, 1.0);
         (p - (a + d * t)).norm()
+    }
+
+    /// A TCP line with the rotary axes held moves every joint in proportion
+    /// (the joint path is affine in the path parameter), so its exact-stop
+    /// time must not depend on rounding: moving an end by 1e-12 mm (far below
+    /// the inverse kinematics' 1e-11 mm) changes the time by rounding only,
+    /// not by the halved acceleration of a curved joint path. The time is
+    /// also the closed-form trapezoid with every axis's full acceleration:
+    /// joint steps `d = 1.1·|Δq|` (the derivative margin), path speed
+    /// `v = min(1/T, vmax/d)`, acceleration `a = amax/d`.
+    #[test]
+    fn tcp_line_with_rotaries_held_is_timed_the_same_under_rounding_changes() {
+        let m = trunnion();
+        let kin = Kinematics::nominal(&m);
+        let opts = InterpolateOptions::new(0.001);
+        let start = "M428\nG0 X0 Y0 Z20 A-30 C45\nG4 P0.5\n";
+        let ends = [
+            (10.0, 5.0, 10.0),
+            (-7.3, 12.9, 3.1),
+            (0.1, -0.2, 19.7),
+            (33.3, -21.7, 40.1),
+        ];
+        for &(x, y, z) in &ends {
+            let prog = |dx: f64| format!("{start}G1 X{:.15} Y{y} Z{z} F600\n", x + dx);
+            let t0 = run(&prog(0.0), &m, &opts).unwrap().1.duration;
+            for dx in [1e-12, -1e-12, 2e-12] {
+                let t1 = run(&prog(dx), &m, &opts).unwrap().1.duration;
+                assert!(
+                    (t1 - t0).abs() < 1e-9,
+                    "end ({x}, {y}, {z}) moved by {dx} mm: {t0} s became {t1} s"
+                );
+            }
+            // Closed form of the line's time from its joint ends: where the
+            // dwell holds the machine, and the program's last sample.
+            let (held, before) = run(start, &m, &opts).unwrap();
+            let q0 = held.last().unwrap().1.clone();
+            let q1 = run(&prog(0.0), &m, &opts).unwrap().0.last().unwrap().1.clone();
+            let target = Vector3::new(x, y, z);
+            assert!((kin.pose(&q1).tip - target).norm() < 1e-9);
+            let length = (target - kin.pose(&q0).tip).norm();
+            let seconds = length / 10.0;
+            let (mut v, mut a) = (1.0 / seconds, f64::INFINITY);
+            for (i, ax) in m.axes.iter().enumerate() {
+                let d = 1.1 * (q1[i] - q0[i]).abs();
+                if d > 0.0 {
+                    v = v.min(ax.max_velocity.unwrap() / d);
+                    a = a.min(ax.max_acceleration.unwrap() / d);
+                }
+            }
+            let line = if v * v / a < 1.0 {
+                1.0 / v + v / a
+            } else {
+                2.0 / a.sqrt()
+            };
+            let before = before.duration;
+            assert!(
+                (t0 - before - line).abs() < 1e-9,
+                "end ({x}, {y}, {z}): line {} s, closed form {line} s",
+                t0 - before
+            );
+        }
     }
 
     /// The TCP solve by one affine step agrees with the general inverse

@@ -174,6 +174,35 @@ pub fn polar(title: &str, series: &[Series], unit: &str, unit_scale: f64) -> Str
     s
 }
 
+/// Horizontal grid lines with their labels at the ticks of `yt` within
+/// `y0..y1`, across a plot of left edge `l` and width `w` (`py`: value to
+/// SVG y).
+fn y_grid(s: &mut String, yt: &Ticks, (y0, y1): (f64, f64), (l, w): (f64, f64), py: impl Fn(f64) -> f64) {
+    for fy in yt.within(y0, y1) {
+        let _ = writeln!(
+            s,
+            r##"<line x1="{l}" y1="{0:.2}" x2="{1}" y2="{0:.2}" stroke="#eee"/><text x="{2}" y="{3:.2}" text-anchor="end">{4}</text>"##,
+            py(fy),
+            l + w,
+            l - 4.0,
+            py(fy) + 4.0,
+            yt.label(fy)
+        );
+    }
+}
+
+/// The y axis label, turned upright along the left edge of a plot of top
+/// `t` and height `h`.
+fn y_axis_label(s: &mut String, (t, h): (f64, f64), y_label: &str) {
+    let _ = writeln!(
+        s,
+        r#"<text x="16" y="{}" text-anchor="middle" transform="rotate(-90 16 {})">{}</text>"#,
+        t + h / 2.0,
+        t + h / 2.0,
+        escape(y_label)
+    );
+}
+
 /// An x–y line plot with axis labels.
 pub fn xy(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> String {
     let pts = || {
@@ -217,17 +246,7 @@ pub fn xy(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Strin
             xt.label(fx)
         );
     }
-    for fy in yt.within(y0, y1) {
-        let _ = writeln!(
-            s,
-            r##"<line x1="{l}" y1="{0:.2}" x2="{1}" y2="{0:.2}" stroke="#eee"/><text x="{2}" y="{3:.2}" text-anchor="end">{4}</text>"##,
-            py(fy),
-            l + w,
-            l - 4.0,
-            py(fy) + 4.0,
-            yt.label(fy)
-        );
-    }
+    y_grid(&mut s, &yt, (y0, y1), (l, w), py);
     let _ = writeln!(
         s,
         r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
@@ -235,13 +254,7 @@ pub fn xy(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Strin
         t + h + 34.0,
         escape(x_label)
     );
-    let _ = writeln!(
-        s,
-        r#"<text x="16" y="{}" text-anchor="middle" transform="rotate(-90 16 {})">{}</text>"#,
-        t + h / 2.0,
-        t + h / 2.0,
-        escape(y_label)
-    );
+    y_axis_label(&mut s, (t, h), y_label);
     for se in series {
         let p: Vec<(f64, f64)> = se
             .points
@@ -289,24 +302,8 @@ pub fn bars(
         s,
         r#"<rect x="{l}" y="{t}" width="{w}" height="{h}" fill="none" stroke="black"/>"#
     );
-    for fy in yt.within(y0, y1) {
-        let _ = writeln!(
-            s,
-            r##"<line x1="{l}" y1="{0:.2}" x2="{1}" y2="{0:.2}" stroke="#eee"/><text x="{2}" y="{3:.2}" text-anchor="end">{4}</text>"##,
-            py(fy),
-            l + w,
-            l - 4.0,
-            py(fy) + 4.0,
-            yt.label(fy)
-        );
-    }
-    let _ = writeln!(
-        s,
-        r#"<text x="16" y="{}" text-anchor="middle" transform="rotate(-90 16 {})">{}</text>"#,
-        t + h / 2.0,
-        t + h / 2.0,
-        escape(y_label)
-    );
+    y_grid(&mut s, &yt, (y0, y1), (l, w), py);
+    y_axis_label(&mut s, (t, h), y_label);
     let gw = w / groups.len().max(1) as f64;
     let bw = gw * 0.8 / series.len().max(1) as f64;
     for (g, name) in groups.iter().enumerate() {

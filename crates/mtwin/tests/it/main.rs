@@ -9,6 +9,8 @@
 #[path = "../../src/test_support.rs"]
 mod shared;
 
+mod common;
+
 mod ballbar_circular;
 mod controller_demo;
 mod controller_formats;

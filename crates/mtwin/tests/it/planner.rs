@@ -4,38 +4,22 @@
 //! reaches the feed, time is linear in the program length, and the boat
 //! under LinuxCNC's limits.
 
-use std::path::Path;
 
 use mtwin::gcode::plan::{PlanOptions, Planner};
 use mtwin::gcode::{InterpolateOptions, InterpolationSummary, interpolate};
-use mtwin::model::{Axis as MAxis, AxisKind, Machine, read_machine};
-use nalgebra::Vector3;
+use mtwin::model::{AxisKind, Machine};
 use proptest::prelude::*;
 
 /// Cartesian XYZ machine, `vmax` mm/s and `amax` mm/s² on every axis,
 /// trajectory limit `v_traj` mm/s.
 fn xyz(vmax: f64, amax: f64, v_traj: f64) -> Machine {
-    let mut axes = Vec::new();
-    for (name, d) in [
-        ("X", [1.0, 0.0, 0.0]),
-        ("Y", [0.0, 1.0, 0.0]),
-        ("Z", [0.0, 0.0, 1.0]),
-    ] {
-        let mut a = MAxis::new(name, AxisKind::Linear, d, [0.0; 3], [-1000.0, 1000.0]);
+    let mut m = mtwin::examples::xyz(1000.0);
+    for a in &mut m.axes {
         a.max_velocity = Some(vmax);
         a.max_acceleration = Some(amax);
-        axes.push(a);
     }
-    Machine {
-        name: "xyz".into(),
-        axes,
-        tool_chain: vec![0, 1, 2],
-        workpiece_chain: vec![],
-        tool_tip: Vector3::zeros(),
-        tool_direction: Vector3::z(),
-        workpiece_origin: Vector3::zeros(),
-        rapid_feed: 60.0 * v_traj,
-    }
+    m.rapid_feed = 60.0 * v_traj;
+    m
 }
 
 type Samples = Vec<(f64, Vec<f64>)>;
@@ -290,19 +274,12 @@ proptest! {
 fn corpus_under_linuxcnc_limits(name: &str, reference: f64) -> Option<f64> {
     let dir = crate::shared::shared_dir("corpus/gcode/linuxcnc")?;
     let text = std::fs::read_to_string(dir.join(name)).unwrap();
-    let mut m = read_machine(
-        &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/machines/ac-trunnion.toml"),
-    )
-    .unwrap();
+    let mut m = crate::common::linuxcnc_trunnion();
     for a in m.axes.iter_mut() {
-        let lin = a.kind == AxisKind::Linear;
-        a.max_velocity = Some(if lin { 20.0 } else { 30.0 });
-        a.max_acceleration = Some(300.0);
-        if !lin {
+        if a.kind != AxisKind::Linear {
             a.travel = [-36000.0, 36000.0];
         }
     }
-    m.rapid_feed = 35.0 * 60.0;
     let mut opts = InterpolateOptions::new(1e6);
     opts.plan = PlanOptions::new(Planner::Linuxcnc);
     opts.plan.max_feed_override = 2.0;

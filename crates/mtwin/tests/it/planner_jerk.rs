@@ -5,12 +5,11 @@
 //! (finite differences), rest at both ends, and the tool on the programmed
 //! path within the stated tolerance. Also the boat under the jerk planner.
 
-use std::path::Path;
 
 use mtwin::gcode::plan::{PlanOptions, Planner};
 use mtwin::gcode::{InterpolateError, InterpolateOptions, InterpolationSummary, interpolate};
 use mtwin::kinematics::Kinematics;
-use mtwin::model::{Axis as MAxis, AxisKind, Machine, read_machine};
+use mtwin::model::{AxisKind, Machine};
 use nalgebra::Vector3;
 use proptest::prelude::*;
 
@@ -20,38 +19,20 @@ const TS: f64 = 0.001;
 /// Cartesian XYZ machine with `v` mm/s, `a` mm/s², `j` mm/s³ on every axis
 /// and a `rapid_feed` of 6000 mm/min.
 fn xyz(v: f64, a: f64, j: f64) -> Machine {
-    let mut axes = Vec::new();
-    for (name, d) in [
-        ("X", [1.0, 0.0, 0.0]),
-        ("Y", [0.0, 1.0, 0.0]),
-        ("Z", [0.0, 0.0, 1.0]),
-    ] {
-        let mut ax = MAxis::new(name, AxisKind::Linear, d, [0.0; 3], [-1000.0, 1000.0]);
+    let mut m = mtwin::examples::xyz(1000.0);
+    for ax in &mut m.axes {
         ax.max_velocity = Some(v);
         ax.max_acceleration = Some(a);
         ax.max_jerk = Some(j);
-        axes.push(ax);
     }
-    Machine {
-        name: "xyz".into(),
-        axes,
-        tool_chain: vec![0, 1, 2],
-        workpiece_chain: vec![],
-        tool_tip: Vector3::zeros(),
-        tool_direction: Vector3::z(),
-        workpiece_origin: Vector3::zeros(),
-        rapid_feed: 6000.0,
-    }
+    m
 }
 
 /// The 5-axis example machine (AC trunnion), limits scaled down so that
 /// short programs reach them: linear 50 mm/s, 500 mm/s², 10 000 mm/s³;
 /// rotary 60 deg/s, 600 deg/s², 12 000 deg/s³.
 fn trunnion() -> Machine {
-    let mut m = read_machine(
-        &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/machines/ac-trunnion.toml"),
-    )
-    .unwrap();
+    let mut m = mtwin::examples::machine("ac-trunnion").unwrap();
     for ax in m.axes.iter_mut() {
         let k = if ax.kind == AxisKind::Linear {
             1.0
@@ -526,17 +507,10 @@ fn boat_under_jerk_limits() {
 
 /// The example trunnion with LinuxCNC's xyzac-trt limits and jerk 3000 /s³.
 fn boat_machine() -> Machine {
-    let mut m = read_machine(
-        &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/machines/ac-trunnion.toml"),
-    )
-    .unwrap();
+    let mut m = crate::common::linuxcnc_trunnion();
     for a in m.axes.iter_mut() {
-        let lin = a.kind == AxisKind::Linear;
-        a.max_velocity = Some(if lin { 20.0 } else { 30.0 });
-        a.max_acceleration = Some(300.0);
         a.max_jerk = Some(3000.0);
     }
-    m.rapid_feed = 35.0 * 60.0;
     m
 }
 

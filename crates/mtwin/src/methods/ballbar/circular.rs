@@ -328,27 +328,16 @@ impl CircularDoc {
     }
 }
 
+/// The diagnostic each design-matrix column belongs to (the order of
+/// [`row`]): the cyclic errors have a sine and a cosine column each.
 fn param_names() -> [&'static str; NCOL] {
-    [
-        "backlash_x_um",
-        "backlash_y_um",
-        "lateral_play_x_um",
-        "lateral_play_y_um",
-        "reversal_spike_x_um",
-        "reversal_spike_y_um",
-        "cyclic_error_x_um",
-        "cyclic_error_x_um",
-        "cyclic_error_y_um",
-        "cyclic_error_y_um",
-        "servo_mismatch_um",
-        "squareness_um_per_m",
-        "straightness_x_um",
-        "straightness_y_um",
-        "scale_mismatch_um",
-        "centre_x_um",
-        "centre_y_um",
-        "radius_offset_um",
-    ]
+    std::array::from_fn(|j| match j {
+        0..=6 => DIAGNOSTICS[j],
+        7 => DIAGNOSTICS[6],
+        8 | 9 => DIAGNOSTICS[7],
+        10..=16 => DIAGNOSTICS[j - 2],
+        _ => "radius_offset_um",
+    })
 }
 
 fn spread(x: &[f64]) -> f64 {

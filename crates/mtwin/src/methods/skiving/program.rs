@@ -16,7 +16,8 @@
 //! nominal positions follow from the chain at zero set-up error.
 
 use super::chain::Geometry;
-use super::touch::{Contact, ToolPoint};
+use super::chain::AxisPositions;
+use super::touch::{Contact, ToolPoint, Touch};
 use crate::gcode::{Dialect, ProgramEnd, ProgramWriter, WriteError};
 
 /// The machine axis a touch is probed along (always towards the
@@ -47,6 +48,25 @@ pub struct PlannedTouch {
     pub contact: Contact,
     /// The axis and direction of the probing move.
     pub probe: ProbeAxis,
+}
+
+impl PlannedTouch {
+    /// The touch as planned: the axes where the plan holds them (`a = b = 0`),
+    /// with the nominal contact position on the probe axis.
+    pub fn nominal(&self) -> Touch {
+        Touch {
+            at: AxisPositions {
+                x: self.x,
+                y: self.y,
+                z: self.z,
+                a: 0.0,
+                b: 0.0,
+                c: self.c,
+            },
+            point: self.point,
+            contact: self.contact,
+        }
+    }
 }
 
 /// Where the six touches are made.
@@ -321,8 +341,7 @@ pub fn program(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::methods::skiving::chain::{AxisPositions, SetupError};
-    use crate::methods::skiving::touch::Touch;
+    use crate::methods::skiving::chain::SetupError;
 
     fn geometry() -> Geometry {
         Geometry::new(80.0, 150.0, 40.0, 60.0).unwrap()
@@ -333,18 +352,7 @@ mod tests {
         let g = geometry();
         for x in [0.0, 3.5, -12.0] {
             for p in Plan::standard(x, &g).touches(&g).unwrap() {
-                let t = Touch {
-                    at: AxisPositions {
-                        x: p.x,
-                        y: p.y,
-                        z: p.z,
-                        a: 0.0,
-                        b: 0.0,
-                        c: p.c,
-                    },
-                    point: p.point,
-                    contact: p.contact,
-                };
+                let t = p.nominal();
                 assert!(t.residual(&g, &SetupError::default()).abs() < 1e-12);
             }
         }

@@ -12,7 +12,7 @@ use rand::SeedableRng;
 use rand::rngs::StdRng;
 use rand_distr::{Distribution, Normal};
 
-use super::chain::{AxisPositions, Geometry, SetupError, probe_direction};
+use super::chain::{Geometry, SetupError, probe_direction};
 use super::program::{PlannedTouch, ProbeAxis};
 use super::touch::{Contact, Touch};
 
@@ -66,18 +66,7 @@ pub fn simulate(
     };
     let mut out = Vec::with_capacity(plan.len());
     for (i, p) in plan.iter().enumerate() {
-        let mut t = Touch {
-            at: AxisPositions {
-                x: p.x,
-                y: p.y,
-                z: p.z,
-                a: 0.0,
-                b: 0.0,
-                c: p.c,
-            },
-            point: p.point,
-            contact: p.contact,
-        };
+        let mut t = p.nominal();
         solve_contact(&mut t, g, truth, p.probe).map_err(|e| match e {
             Failure::Grazing => SimulateError::Grazing { touch: i + 1 },
             Failure::NoContact => SimulateError::NoContact { touch: i + 1 },

@@ -9,11 +9,6 @@ use crate::methods::tracker::simulate::{body_diagonal_poses, random_poses, simul
 use crate::methods::tracker::validate::{ErrorStats, validate};
 use crate::model::{ErrorFunction, read_machine};
 
-fn afp() -> Machine {
-    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../examples/machines/afp-gantry.toml");
-    read_machine(&p).unwrap()
-}
 
 /// Smooth PDGEs that are not cubic (Chebyshev degree 5, coefficients halving
 /// with the order) and location errors: 30 µm / 30 µrad leading terms.
@@ -69,7 +64,7 @@ fn rms(v: &[f64]) -> f64 {
 
 #[test]
 fn held_out_prediction_matches_an_independent_least_squares_fit() {
-    let m = afp();
+    let m = crate::examples::machine("afp-gantry").unwrap();
     let mut rng = StdRng::seed_from_u64(2026);
     let truth = truth(&m, &mut rng);
     let params = ParameterSet::from_spec(&m, "pdge:cheb3,location").unwrap();
@@ -150,7 +145,7 @@ const SEED_SPEC: &str = "pdge:cheb3,EC0Y,EB0Z,EA0Z,EX0B,EZ0B,EA0B,EB0B,EC0B,EY0A
 
 #[test]
 fn verdict_names_the_confounded_parameters_of_the_source_paper_model() {
-    let m = afp();
+    let m = crate::examples::machine("afp-gantry").unwrap();
     let params = ParameterSet::from_spec(&m, SEED_SPEC).unwrap();
     assert_eq!(params.len(), 162);
     let mut rng = StdRng::seed_from_u64(5);
@@ -212,7 +207,7 @@ fn verdict_names_the_confounded_parameters_of_the_source_paper_model() {
 
 #[test]
 fn registration_recovers_a_known_tracker_frame() {
-    let m = afp();
+    let m = crate::examples::machine("afp-gantry").unwrap();
     let mut rng = StdRng::seed_from_u64(11);
     let poses = random_poses(&m, 40, &mut rng);
     // Tracker frame: W = Rx(a)·Ry(b)·Rz(c)·T + t, so T = Rᵀ(W − t).
@@ -240,7 +235,7 @@ fn registration_recovers_a_known_tracker_frame() {
 
 #[test]
 fn bad_points_are_rejected() {
-    let m = afp();
+    let m = crate::examples::machine("afp-gantry").unwrap();
     let params = ParameterSet::from_spec(&m, "location").unwrap();
     let opts = IdentifyOptions::default();
     let p = |q: Vec<f64>| super::super::model::TrackerPoint {
@@ -284,7 +279,7 @@ fn bad_points_are_rejected() {
 
 #[test]
 fn a_blocked_beam_is_reported_and_left_out() {
-    let m = afp();
+    let m = crate::examples::machine("afp-gantry").unwrap();
     let mut rng = StdRng::seed_from_u64(21);
     let truth = truth(&m, &mut rng);
     let params = ParameterSet::from_spec(&m, "pdge:cheb2,location").unwrap();

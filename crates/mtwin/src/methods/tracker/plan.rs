@@ -239,17 +239,11 @@ pub fn gcode(
 mod tests {
     use super::*;
     use crate::methods::tracker::simulate::random_poses;
-    use crate::model::read_machine;
 
-    fn afp() -> Machine {
-        let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../examples/machines/afp-gantry.toml");
-        read_machine(&p).unwrap()
-    }
 
     #[test]
     fn greedy_choice_beats_random_subsets_and_its_updates_are_exact() {
-        let m = afp();
+        let m = crate::examples::machine("afp-gantry").unwrap();
         let params = ParameterSet::from_spec(&m, "pdge:cheb2,location").unwrap();
         let mut rng = rand::rngs::StdRng::seed_from_u64(3);
         let cands = random_poses(&m, 150, &mut rng);
@@ -288,7 +282,7 @@ mod tests {
     fn expected_uncertainty_of_a_constant_is_noise_over_root_n() {
         // One constant x offset seen at every pose with unit sensitivity:
         // its least-squares estimate is the mean of N x readings, σ/√N.
-        let m = afp();
+        let m = crate::examples::machine("afp-gantry").unwrap();
         let params = ParameterSet::from_spec(&m, "EXX:const").unwrap();
         let mut rng = rand::rngs::StdRng::seed_from_u64(9);
         let poses = random_poses(&m, 25, &mut rng);
@@ -299,7 +293,7 @@ mod tests {
 
     #[test]
     fn gcode_lists_every_pose_with_a_dwell() {
-        let m = afp();
+        let m = crate::examples::machine("afp-gantry").unwrap();
         let g = gcode(
             &m,
             &[vec![1.0, 2.0, -3.25, 4.0, 5.0, 6.0]],

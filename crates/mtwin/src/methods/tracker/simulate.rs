@@ -112,17 +112,11 @@ pub fn simulate_seeded(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::read_machine;
 
-    fn afp() -> Machine {
-        let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../examples/machines/afp-gantry.toml");
-        read_machine(&p).unwrap()
-    }
 
     #[test]
     fn diagonals_join_opposite_corners() {
-        let m = afp();
+        let m = crate::examples::machine("afp-gantry").unwrap();
         let d = body_diagonal_poses(&m, 3);
         assert_eq!(d.len(), 12);
         assert_eq!(d[0], vec![0.0, 0.0, -1000.0, 0.0, 0.0, 0.0]);
@@ -134,7 +128,7 @@ mod tests {
 
     #[test]
     fn noise_has_the_requested_spread_and_poses_stay_in_travel() {
-        let m = afp();
+        let m = crate::examples::machine("afp-gantry").unwrap();
         let mut rng = rand::rngs::StdRng::seed_from_u64(7);
         let poses = random_poses(&m, 400, &mut rng);
         assert!(poses.iter().all(|q| m.out_of_travel(q).is_none()));

@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use super::*;
 use crate::gcode::InterpolateOptions;
 use crate::kinematics::Kinematics;
-use crate::model::{Axis, AxisKind, ErrorFunction, Machine, ServoTable, read_machine};
+use crate::model::{ErrorFunction, Machine, ServoTable, read_machine};
 
 fn example(name: &str) -> Machine {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -163,24 +163,9 @@ fn matches_an_independent_computation_of_every_definition() {
 
 /// A Cartesian XYZ machine, tool chain X, Y, Z, no workpiece axes.
 fn xyz() -> Machine {
-    let axes = [
-        ("X", [1.0, 0.0, 0.0]),
-        ("Y", [0.0, 1.0, 0.0]),
-        ("Z", [0.0, 0.0, 1.0]),
-    ]
-    .iter()
-    .map(|(n, d)| Axis::new(n, AxisKind::Linear, *d, [0.0; 3], [-500.0, 500.0]))
-    .collect();
-    Machine {
-        name: "xyz".into(),
-        axes,
-        tool_chain: vec![0, 1, 2],
-        workpiece_chain: vec![],
-        tool_tip: Vector3::zeros(),
-        tool_direction: Vector3::z(),
-        workpiece_origin: Vector3::zeros(),
-        rapid_feed: 10000.0,
-    }
+    let mut m = crate::examples::xyz(500.0);
+    m.rapid_feed = 10000.0;
+    m
 }
 
 #[test]
