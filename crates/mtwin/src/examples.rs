@@ -98,12 +98,22 @@ pub fn machine(name: &str) -> Result<Machine, Diagnostics> {
 /// ```
 pub fn xyz(half_travel: f64) -> Machine {
     use crate::model::{Axis, AxisKind};
-    let axes = [("X", [1.0, 0.0, 0.0]), ("Y", [0.0, 1.0, 0.0]), ("Z", [0.0, 0.0, 1.0])]
-        .into_iter()
-        .map(|(name, d)| {
-            Axis::new(name, AxisKind::Linear, d, [0.0; 3], [-half_travel, half_travel])
-        })
-        .collect();
+    let axes = [
+        ("X", [1.0, 0.0, 0.0]),
+        ("Y", [0.0, 1.0, 0.0]),
+        ("Z", [0.0, 0.0, 1.0]),
+    ]
+    .into_iter()
+    .map(|(name, d)| {
+        Axis::new(
+            name,
+            AxisKind::Linear,
+            d,
+            [0.0; 3],
+            [-half_travel, half_travel],
+        )
+    })
+    .collect();
     Machine {
         name: "xyz".into(),
         axes,

@@ -1,20 +1,52 @@
 //! `mtwin ballbar circular` / `simulate-circular`: the JSON contract, recovery
 //! through the CLI, bad input.
 
-use crate::common::{mtwin, stderr, stdout};
+use std::path::Path;
+
+use crate::common::{json, mtwin, mtwin_ok, stderr};
+
+/// `mtwin ballbar simulate-circular --out t --radius R EXTRA…` in `dir`,
+/// required to succeed.
+fn simulate_circular(dir: &Path, radius: &str, extra: &[&str]) {
+    let mut args = vec![
+        "ballbar",
+        "simulate-circular",
+        "--out",
+        "t",
+        "--radius",
+        radius,
+    ];
+    args.extend_from_slice(extra);
+    mtwin_ok(dir, &args);
+}
+
+/// `mtwin ballbar circular` of the simulated `t/cw.csv` and `t/ccw.csv` at
+/// radius R with `--format json`, required to succeed.
+fn circular_json(dir: &Path, radius: &str) -> std::process::Output {
+    mtwin_ok(
+        dir,
+        &[
+            "ballbar",
+            "circular",
+            "--cw",
+            "t/cw.csv",
+            "--ccw",
+            "t/ccw.csv",
+            "--radius",
+            radius,
+            "--format",
+            "json",
+        ],
+    )
+}
 
 #[test]
 fn simulated_errors_come_back_through_the_json_contract() {
     let dir = tempfile::tempdir().unwrap();
-    let o = mtwin(
+    simulate_circular(
         dir.path(),
+        "150",
         &[
-            "ballbar",
-            "simulate-circular",
-            "--out",
-            "t",
-            "--radius",
-            "150",
             "--noise",
             "0.2",
             "--backlash-x-um",
@@ -27,24 +59,8 @@ fn simulated_errors_come_back_through_the_json_contract() {
             "5",
         ],
     );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = mtwin(
-        dir.path(),
-        &[
-            "ballbar",
-            "circular",
-            "--cw",
-            "t/cw.csv",
-            "--ccw",
-            "t/ccw.csv",
-            "--radius",
-            "150",
-            "--format",
-            "json",
-        ],
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let o = circular_json(dir.path(), "150");
+    let v = json(&o);
     for k in [
         "G",
         "H",
@@ -97,15 +113,10 @@ fn bad_trace_is_a_file_line_column_error() {
 fn plane_plot_and_model_update_through_the_cli() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path();
-    let o = mtwin(
+    simulate_circular(
         p,
+        "100",
         &[
-            "ballbar",
-            "simulate-circular",
-            "--out",
-            "t",
-            "--radius",
-            "100",
             "--noise",
             "0.1",
             "--backlash-x-um",
@@ -116,7 +127,6 @@ fn plane_plot_and_model_update_through_the_cli() {
             "8",
         ],
     );
-    assert!(o.status.success(), "{}", stderr(&o));
     let model = crate::common::example("ac-trunnion.toml");
     let args = |plane: &'static str, out: &'static str| {
         vec![
@@ -140,9 +150,8 @@ fn plane_plot_and_model_update_through_the_cli() {
             "json",
         ]
     };
-    let o = mtwin(p, &args("yz", "yz.toml"));
-    assert!(o.status.success(), "{}", stderr(&o));
-    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let o = mtwin_ok(p, &args("yz", "yz.toml"));
+    let v = json(&o);
     assert_eq!(v["plane"], "yz");
     let b = v["backlash_y_um"].as_f64().unwrap();
     assert!((b - 6.0).abs() < 0.5, "{v}");
@@ -199,15 +208,10 @@ fn servo_models_through_simulate_circular() {
     let (tau_x, tau_y) = (0.016, 0.012);
     write("x.toml", tau_x);
     write("y.toml", tau_y);
-    let o = mtwin(
+    simulate_circular(
         p,
+        "100",
         &[
-            "ballbar",
-            "simulate-circular",
-            "--out",
-            "t",
-            "--radius",
-            "100",
             "--servo-model",
             "x.toml",
             "--servo-model",
@@ -216,24 +220,8 @@ fn servo_models_through_simulate_circular() {
             "1200",
         ],
     );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = mtwin(
-        p,
-        &[
-            "ballbar",
-            "circular",
-            "--cw",
-            "t/cw.csv",
-            "--ccw",
-            "t/ccw.csv",
-            "--radius",
-            "100",
-            "--format",
-            "json",
-        ],
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let o = circular_json(p, "100");
+    let v = json(&o);
     // first-order lags at v = 20 mm/s: m ≈ v·(τx − τy) = 80 µm (continuous
     // form; the discrete lags differ by the same ts/2 each)
     let m = v["servo_mismatch_um"].as_f64().unwrap();

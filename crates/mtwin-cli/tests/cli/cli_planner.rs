@@ -17,7 +17,7 @@ fn jerk_planner_times_a_rotary_move_by_the_closed_form_in_stats_and_interpolate(
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("c.nc"), C_MOVE).unwrap();
     let m = example("ac-trunnion.toml");
-    let o = mtwin(
+    let o = mtwin_ok(
         dir.path(),
         &[
             "gcode",
@@ -31,11 +31,10 @@ fn jerk_planner_times_a_rotary_move_by_the_closed_form_in_stats_and_interpolate(
             "json",
         ],
     );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let v = json(&o);
     let t = v["total_time_s"].as_f64().unwrap();
     assert!((t - C_TIME).abs() < 1e-9, "{t} s against {C_TIME} s");
-    let o = mtwin(
+    let o = mtwin_ok(
         dir.path(),
         &[
             "gcode",
@@ -53,8 +52,7 @@ fn jerk_planner_times_a_rotary_move_by_the_closed_form_in_stats_and_interpolate(
             "json",
         ],
     );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let v = json(&o);
     let d = v["duration_s"].as_f64().unwrap();
     assert!((d - C_TIME).abs() < 1e-9, "{d}");
     let text = std::fs::read_to_string(dir.path().join("cmd.csv")).unwrap();
@@ -130,9 +128,8 @@ fn jerk_planner_refuses_a_machine_without_max_jerk_naming_file_axis_and_key() {
         assert!(!dir.path().join("pred.csv").exists());
     }
     // The other planners do not need it.
-    let o = mtwin(
+    mtwin_ok(
         dir.path(),
         &["gcode", "stats", "c.nc", "--machine", "nojerk.toml"],
     );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }

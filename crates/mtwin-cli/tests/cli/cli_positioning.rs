@@ -1,11 +1,6 @@
 //! `mtwin positioning evaluate`: the JSON contract, the plot, bad input.
 
-use crate::common::{example, mtwin, stderr, stdout};
-
-fn json(out: &std::process::Output) -> serde_json::Value {
-    assert!(out.status.success(), "{}", stderr(out));
-    serde_json::from_str(&stdout(out)).expect("one JSON document")
-}
+use crate::common::{example, json, mtwin, mtwin_ok, stderr, stdout};
 
 const RUN: &str = "target_mm,direction,cycle,deviation_um\n\
 0,up,1,1\n0,up,2,3\n0,down,1,-1\n0,down,2,-1\n\
@@ -155,7 +150,7 @@ fn predicted_x(dir: &std::path::Path, machine: &str, xs: &[f64]) -> Vec<f64> {
         poses.push_str(&format!("{x},0,0,0,0\n"));
     }
     std::fs::write(dir.join("poses.csv"), poses).unwrap();
-    let o = mtwin(
+    mtwin_ok(
         dir,
         &[
             "predict",
@@ -167,7 +162,6 @@ fn predicted_x(dir: &std::path::Path, machine: &str, xs: &[f64]) -> Vec<f64> {
             "pred.csv",
         ],
     );
-    assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(dir.join("pred.csv")).unwrap();
     let mut lines = text.lines();
     let head: Vec<&str> = lines.next().unwrap().split(',').collect();
@@ -183,7 +177,7 @@ fn update_model_puts_the_mean_deviation_into_exx_predict_and_linuxcnc_carry_it()
     let p = dir.path();
     std::fs::write(p.join("run.csv"), synthetic_run()).unwrap();
     let model = example("ac-trunnion.toml");
-    let o = mtwin(
+    let o = mtwin_ok(
         p,
         &[
             "positioning",
@@ -200,7 +194,6 @@ fn update_model_puts_the_mean_deviation_into_exx_predict_and_linuxcnc_carry_it()
             "json",
         ],
     );
-    assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("EXX of 5 points"), "{}", stderr(&o));
     let text = std::fs::read_to_string(p.join("new.toml")).unwrap();
     assert!(text.contains("EXX"), "{text}");
@@ -221,7 +214,7 @@ fn update_model_puts_the_mean_deviation_into_exx_predict_and_linuxcnc_carry_it()
     }
 
     // export to LinuxCNC: comp_X.txt corrects by −EXX at each grid point.
-    let o = mtwin(
+    mtwin_ok(
         p,
         &[
             "export",
@@ -233,7 +226,6 @@ fn update_model_puts_the_mean_deviation_into_exx_predict_and_linuxcnc_carry_it()
             "lc",
         ],
     );
-    assert!(o.status.success(), "{}", stderr(&o));
     let comp = std::fs::read_to_string(p.join("lc/comp_X.txt")).unwrap();
     let rows: Vec<[f64; 3]> = comp
         .lines()

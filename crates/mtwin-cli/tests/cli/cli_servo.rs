@@ -348,18 +348,6 @@ fn fitted_file_is_a_valid_axes_servo_table() {
     assert_eq!(axes[0]["servo"], false);
 }
 
-fn expect_failure(dir: &Path, args: &[&str], message: &str, out: &str) {
-    let o = mtwin(dir, args);
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains(message),
-        "want `{message}` in:\n{}",
-        stderr(&o)
-    );
-    assert!(stdout(&o).is_empty());
-    assert!(!dir.join(out).exists(), "{out} must not be written");
-}
-
 #[test]
 fn bad_input_exits_1_names_the_line_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();

@@ -72,8 +72,44 @@ fn read_rows(path: &Path, cols: &[&str]) -> Vec<Vec<f64>> {
         .collect()
 }
 
-fn fit(dir: &Path) {
-    let o = mtwin(
+/// `mtwin thermal VERB --model thermal.toml --speed speed.csv --z=Z --out OUT
+/// EXTRA…` in `dir`, required to succeed.
+fn thermal_on_speed(
+    dir: &Path,
+    verb: &str,
+    z: &str,
+    out: &str,
+    extra: &[&str],
+) -> std::process::Output {
+    let z = format!("--z={z}");
+    let mut args = vec![
+        "thermal",
+        verb,
+        "--model",
+        "thermal.toml",
+        "--speed",
+        "speed.csv",
+        &z,
+        "--out",
+        out,
+    ];
+    args.extend_from_slice(extra);
+    mtwin_ok(dir, &args)
+}
+
+/// `thermal predict` of the fitted model on `speed.csv` at heights `z`.
+fn predict(dir: &Path, z: &str, out: &str, extra: &[&str]) -> std::process::Output {
+    thermal_on_speed(dir, "predict", z, out, extra)
+}
+
+/// `thermal simulate` of the fitted model on `speed.csv` at heights `z`.
+fn simulate(dir: &Path, z: &str, out: &str, extra: &[&str]) -> std::process::Output {
+    thermal_on_speed(dir, "simulate", z, out, extra)
+}
+
+/// `thermal fit` of `train.csv` up to order 3 into `thermal.toml`.
+fn fit(dir: &Path) -> std::process::Output {
+    mtwin_ok(
         dir,
         &[
             "thermal",
@@ -85,15 +121,14 @@ fn fit(dir: &Path) {
             "--out",
             "thermal.toml",
         ],
-    );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    )
 }
 
 #[test]
 fn fit_then_predict_matches_the_true_drift_of_a_new_programme() {
     let dir = tempfile::tempdir().unwrap();
     let truth = setup(dir.path());
-    let o = mtwin(
+    let o = mtwin_ok(
         dir.path(),
         &[
             "thermal",
@@ -108,7 +143,6 @@ fn fit_then_predict_matches_the_true_drift_of_a_new_programme() {
             "json",
         ],
     );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     // JSON is the whole of stdout.
     let v: serde_json::Value =
         serde_json::from_str(&stdout(&o)).expect("stdout is one JSON document");
@@ -134,38 +168,10 @@ fn fit_then_predict_matches_the_true_drift_of_a_new_programme() {
         // na 1..3 × nb 0..3.
         assert_eq!(h.grid.len(), 3 * 4);
     }
-    let human = mtwin(
-        dir.path(),
-        &[
-            "thermal",
-            "fit",
-            "--data",
-            "train.csv",
-            "--max-order",
-            "3",
-            "--out",
-            "thermal.toml",
-        ],
-    );
-    assert_eq!(human.status.code(), Some(0), "{}", stderr(&human));
+    let human = fit(dir.path());
     assert_eq!(stdout(&human), doc.to_string());
 
-    let o = mtwin(
-        dir.path(),
-        &[
-            "thermal",
-            "predict",
-            "--model",
-            "thermal.toml",
-            "--speed",
-            "speed.csv",
-            "--z",
-            "-350,-300,-50",
-            "--out",
-            "drift.csv",
-        ],
-    );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    predict(dir.path(), "-350,-300,-50", "drift.csv", &[]);
     let text = std::fs::read_to_string(dir.path().join("drift.csv")).unwrap();
     assert_eq!(text.lines().next().unwrap(), "t_min,z_mm,drift_mm");
     let rows = read_rows(
@@ -192,24 +198,8 @@ fn fit_then_predict_matches_the_true_drift_of_a_new_programme() {
     }
 
     // --format json of predict is one document with the summary.
-    let o = mtwin(
-        dir.path(),
-        &[
-            "thermal",
-            "predict",
-            "--model",
-            "thermal.toml",
-            "--speed",
-            "speed.csv",
-            "--z=-100",
-            "--out",
-            "drift2.csv",
-            "--format",
-            "json",
-        ],
-    );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let o = predict(dir.path(), "-100", "drift2.csv", &["--format", "json"]);
+    let v = json(&o);
     assert_eq!(v["samples"], speeds.len());
     let doc: mtwin::methods::thermal::ThermalPredictDoc =
         serde_json::from_str(&stdout(&o)).expect("stdout is a ThermalPredictDoc");
@@ -233,22 +223,7 @@ fn outside_the_measured_heights_warns_and_holds_the_end_value() {
     let dir = tempfile::tempdir().unwrap();
     setup(dir.path());
     fit(dir.path());
-    let o = mtwin(
-        dir.path(),
-        &[
-            "thermal",
-            "predict",
-            "--model",
-            "thermal.toml",
-            "--speed",
-            "speed.csv",
-            "--z",
-            "-50,20",
-            "--out",
-            "drift.csv",
-        ],
-    );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = predict(dir.path(), "-50,20", "drift.csv", &[]);
     assert!(
         stderr(&o).contains("warning: z = 20 mm is outside"),
         "{}",
@@ -268,47 +243,16 @@ fn simulate_reproduces_predict_and_is_seeded() {
     setup(dir.path());
     fit(dir.path());
     let run = |noise: &str, seed: &str, out: &str| {
-        let o = mtwin(
+        let o = simulate(
             dir.path(),
-            &[
-                "thermal",
-                "simulate",
-                "--model",
-                "thermal.toml",
-                "--speed",
-                "speed.csv",
-                "--z",
-                "-250,-150",
-                "--noise",
-                noise,
-                "--seed",
-                seed,
-                "--out",
-                out,
-            ],
+            "-250,-150",
+            out,
+            &["--noise", noise, "--seed", seed],
         );
-        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
         assert!(stdout(&o).is_empty());
     };
     // With --format json: the library's `ThermalSimulateDoc`.
-    let o = mtwin(
-        dir.path(),
-        &[
-            "thermal",
-            "simulate",
-            "--model",
-            "thermal.toml",
-            "--speed",
-            "speed.csv",
-            "--z",
-            "-250,-150",
-            "--out",
-            "simj.csv",
-            "--format",
-            "json",
-        ],
-    );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = simulate(dir.path(), "-250,-150", "simj.csv", &["--format", "json"]);
     let d: mtwin::methods::thermal::ThermalSimulateDoc =
         serde_json::from_str(&stdout(&o)).expect("stdout is a ThermalSimulateDoc");
     assert_eq!(d.heights, [-250.0, -150.0]);
@@ -318,22 +262,7 @@ fn simulate_reproduces_predict_and_is_seeded() {
     run("0.001", "5", "simA.csv");
     run("0.001", "5", "simB.csv");
     run("0.001", "6", "simC.csv");
-    let o = mtwin(
-        dir.path(),
-        &[
-            "thermal",
-            "predict",
-            "--model",
-            "thermal.toml",
-            "--speed",
-            "speed.csv",
-            "--z",
-            "-250,-150",
-            "--out",
-            "drift.csv",
-        ],
-    );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    predict(dir.path(), "-250,-150", "drift.csv", &[]);
     let pred = read_rows(
         &dir.path().join("drift.csv"),
         &["t_min", "z_mm", "drift_mm"],
@@ -368,7 +297,7 @@ fn simulate_reproduces_predict_and_is_seeded() {
 fn plots_show_every_measured_sample_per_height() {
     let dir = tempfile::tempdir().unwrap();
     setup(dir.path());
-    let o = mtwin(
+    mtwin_ok(
         dir.path(),
         &[
             "thermal",
@@ -383,7 +312,6 @@ fn plots_show_every_measured_sample_per_height() {
             "plots",
         ],
     );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     for z in HEIGHTS {
         let svg =
             std::fs::read_to_string(dir.path().join(format!("plots/drift_z{z}.svg"))).unwrap();
@@ -399,18 +327,6 @@ fn plots_show_every_measured_sample_per_height() {
         }
         assert!(svg.contains(&format!("z = {z} mm")));
     }
-}
-
-fn expect_failure(dir: &Path, args: &[&str], message: &str, out: &str) {
-    let o = mtwin(dir, args);
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains(message),
-        "want `{message}` in:\n{}",
-        stderr(&o)
-    );
-    assert!(stdout(&o).is_empty());
-    assert!(!dir.join(out).exists(), "{out} must not be written");
 }
 
 #[test]
@@ -624,16 +540,14 @@ fn program_samples_on_the_period_and_refuses_a_pass_longer_than_it() {
         "--format",
         "json",
     ];
-    let o = mtwin(p, &args);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let o = mtwin_ok(p, &args);
+    let v = json(&o);
     // 60 min sampled every 10 min: passes at 0, 10, …, 60.
     assert_eq!(v["passes"], 7);
     let pass = v["pass_s"].as_f64().unwrap();
     // gcode stats: the whole program = positioning + 6 periods + one pass.
-    let o = mtwin(p, &["gcode", "stats", "t.ngc", "--format", "json"]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let s: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let o = mtwin_ok(p, &["gcode", "stats", "t.ngc", "--format", "json"]);
+    let s = json(&o);
     let total = s["total_time_s"].as_f64().unwrap();
     // Positioning: rapid up from Z0 to the safe height (−50 + 12.7 + 10),
     // then nothing in X/Y (the first ball is at X0 Y0).
@@ -698,11 +612,10 @@ fn auto_speed_model_picks_the_quadratic_for_square_law_heat_and_the_model_serves
         "--out",
         "q.toml",
     ];
-    let o = mtwin(
+    let o = mtwin_ok(
         p,
         &[&args[..], &["--speed-model", "auto", "--format", "json"]].concat(),
     );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(j["speed_model"]["chosen"], "quadratic", "{j}");
     assert_eq!(j["speed_model"]["folds"], 3);
@@ -727,7 +640,7 @@ fn auto_speed_model_picks_the_quadratic_for_square_law_heat_and_the_model_serves
     // The quadratic model predicts the held-out programme from `speed_rpm` alone,
     // closer to the truth than the linear model does.
     let err = |model: &str| {
-        let o = mtwin(
+        mtwin_ok(
             p,
             &[
                 "thermal",
@@ -742,7 +655,6 @@ fn auto_speed_model_picks_the_quadratic_for_square_law_heat_and_the_model_serves
                 "drift.csv",
             ],
         );
-        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
         let truth = m.drift(&new_programme(), -200.0);
         let rows = read_rows(&p.join("drift.csv"), &["drift_mm"]);
         let e2: f64 = rows
@@ -752,8 +664,7 @@ fn auto_speed_model_picks_the_quadratic_for_square_law_heat_and_the_model_serves
             .sum();
         (e2 / truth.len() as f64).sqrt()
     };
-    let o = mtwin(p, &[&args[..7], &["l.toml"]].concat());
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    mtwin_ok(p, &[&args[..7], &["l.toml"]].concat());
     let (e_quad, e_lin) = (err("q.toml"), err("l.toml"));
     assert!(
         e_quad < 0.5 * e_lin,
@@ -766,7 +677,7 @@ fn auto_speed_model_picks_the_quadratic_for_square_law_heat_and_the_model_serves
         "G21 G90\nS6000 M3\nG4 P1800\nG1 Z-100 F100\nM30\n",
     )
     .unwrap();
-    let o = mtwin(
+    mtwin_ok(
         p,
         &[
             "thermal",
@@ -779,7 +690,6 @@ fn auto_speed_model_picks_the_quadratic_for_square_law_heat_and_the_model_serves
             "part-comp.nc",
         ],
     );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 
     // One run cannot be held out against itself.
     std::fs::write(
@@ -823,7 +733,7 @@ fn extra_input_columns_enter_the_model_and_predict_needs_them() {
         out.push_str(&format!("{line},{extra}\n"));
     }
     std::fs::write(p.join("train.csv"), out).unwrap();
-    let o = mtwin(
+    let o = mtwin_ok(
         p,
         &[
             "thermal",
@@ -840,7 +750,6 @@ fn extra_input_columns_enter_the_model_and_predict_needs_them() {
             "json",
         ],
     );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let names: Vec<&str> = j["inputs"]
         .as_array()

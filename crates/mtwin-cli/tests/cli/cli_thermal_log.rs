@@ -235,18 +235,6 @@ fn predict_log_scores_a_measured_column_against_its_rows() {
     }
 }
 
-fn expect_failure(dir: &Path, args: &[&str], message: &str, out: &str) {
-    let o = mtwin(dir, args);
-    assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
-    assert!(
-        stderr(&o).contains(message),
-        "want `{message}` in:\n{}",
-        stderr(&o)
-    );
-    assert!(stdout(&o).is_empty(), "{}", stdout(&o));
-    assert!(!dir.join(out).exists(), "{out} must not be written");
-}
-
 #[test]
 fn bad_logs_and_options_name_the_place_exit_1_and_write_nothing() {
     let dir = tempfile::tempdir().unwrap();

@@ -30,6 +30,35 @@ pub fn example(name: &str) -> String {
         .to_string()
 }
 
+/// Run `mtwin` with `args` in `cwd` and require success (exit 0; its
+/// stderr in the failure message otherwise).
+pub fn mtwin_ok(cwd: &Path, args: &[&str]) -> Output {
+    let o = mtwin(cwd, args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    o
+}
+
+/// The stdout of a successful run as one JSON document.
+pub fn json(o: &Output) -> serde_json::Value {
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(o));
+    serde_json::from_str(&stdout(o)).expect("one JSON document on stdout")
+}
+
+/// Run `mtwin` with `args` in `cwd` and require the refusal of bad input:
+/// exit 1, `message` in stderr, nothing on stdout, and no file `out`
+/// written (relative to `cwd`).
+pub fn expect_failure(cwd: &Path, args: &[&str], message: &str, out: &str) {
+    let o = mtwin(cwd, args);
+    assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
+    assert!(
+        stderr(&o).contains(message),
+        "want `{message}` in:\n{}",
+        stderr(&o)
+    );
+    assert!(stdout(&o).is_empty(), "{}", stdout(&o));
+    assert!(!cwd.join(out).exists(), "{out} must not be written");
+}
+
 pub fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }

@@ -14,8 +14,8 @@ use std::path::Path;
 
 use super::isg_csv::{self, column_name, volumetric_name};
 use super::{
-    ExportError, ExportOptions, Exported, Format, check_iso_axes, fixed,
-    nonzero_errors, parse_number, tabulated,
+    ExportError, ExportOptions, Exported, Format, check_iso_axes, fixed, nonzero_errors,
+    parse_number, tabulated,
 };
 use crate::io::Diagnostic;
 use crate::model::{Component, ErrorFunction, ErrorName, Machine};

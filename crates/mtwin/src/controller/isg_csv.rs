@@ -18,8 +18,8 @@
 use std::path::Path;
 
 use super::{
-    ExportError, ExportOptions, Exported, Format, check_iso_axes, fixed,
-    nonzero_errors, parse_number, tabulated,
+    ExportError, ExportOptions, Exported, Format, check_iso_axes, fixed, nonzero_errors,
+    parse_number, tabulated,
 };
 use crate::io::Diagnostic;
 use crate::model::{Chain, Component, ErrorFunction, ErrorName, Machine};

@@ -2695,7 +2695,13 @@ mod tests {
             // dwell holds the machine, and the program's last sample.
             let (held, before) = run(start, &m, &opts).unwrap();
             let q0 = held.last().unwrap().1.clone();
-            let q1 = run(&prog(0.0), &m, &opts).unwrap().0.last().unwrap().1.clone();
+            let q1 = run(&prog(0.0), &m, &opts)
+                .unwrap()
+                .0
+                .last()
+                .unwrap()
+                .1
+                .clone();
             let target = Vector3::new(x, y, z);
             assert!((kin.pose(&q1).tip - target).norm() < 1e-9);
             let length = (target - kin.pose(&q0).tip).norm();

@@ -177,7 +177,13 @@ pub fn polar(title: &str, series: &[Series], unit: &str, unit_scale: f64) -> Str
 /// Horizontal grid lines with their labels at the ticks of `yt` within
 /// `y0..y1`, across a plot of left edge `l` and width `w` (`py`: value to
 /// SVG y).
-fn y_grid(s: &mut String, yt: &Ticks, (y0, y1): (f64, f64), (l, w): (f64, f64), py: impl Fn(f64) -> f64) {
+fn y_grid(
+    s: &mut String,
+    yt: &Ticks,
+    (y0, y1): (f64, f64),
+    (l, w): (f64, f64),
+    py: impl Fn(f64) -> f64,
+) {
     for fy in yt.within(y0, y1) {
         let _ = writeln!(
             s,

@@ -4,7 +4,6 @@
 //! reaches the feed, time is linear in the program length, and the boat
 //! under LinuxCNC's limits.
 
-
 use mtwin::gcode::plan::{PlanOptions, Planner};
 use mtwin::gcode::{InterpolateOptions, InterpolationSummary, interpolate};
 use mtwin::model::{AxisKind, Machine};

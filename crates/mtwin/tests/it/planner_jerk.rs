@@ -5,7 +5,6 @@
 //! (finite differences), rest at both ends, and the tool on the programmed
 //! path within the stated tolerance. Also the boat under the jerk planner.
 
-
 use mtwin::gcode::plan::{PlanOptions, Planner};
 use mtwin::gcode::{InterpolateError, InterpolateOptions, InterpolationSummary, interpolate};
 use mtwin::kinematics::Kinematics;

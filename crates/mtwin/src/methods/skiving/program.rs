@@ -15,8 +15,8 @@
 //! (`f` the face offset, `d` the side depth below the top face.) The
 //! nominal positions follow from the chain at zero set-up error.
 
-use super::chain::Geometry;
 use super::chain::AxisPositions;
+use super::chain::Geometry;
 use super::touch::{Contact, ToolPoint, Touch};
 use crate::gcode::{Dialect, ProgramEnd, ProgramWriter, WriteError};
 

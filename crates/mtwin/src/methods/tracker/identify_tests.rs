@@ -9,7 +9,6 @@ use crate::methods::tracker::simulate::{body_diagonal_poses, random_poses, simul
 use crate::methods::tracker::validate::{ErrorStats, validate};
 use crate::model::{ErrorFunction, read_machine};
 
-
 /// Smooth PDGEs that are not cubic (Chebyshev degree 5, coefficients halving
 /// with the order) and location errors: 30 µm / 30 µrad leading terms.
 fn truth(m: &Machine, rng: &mut StdRng) -> Machine {

@@ -305,7 +305,6 @@ mod tests {
     use super::*;
     use crate::fit::check_jacobian;
 
-
     #[test]
     fn jacobian_matches_finite_differences_with_registration() {
         let mut m = crate::examples::machine("afp-gantry").unwrap();

@@ -240,7 +240,6 @@ mod tests {
     use super::*;
     use crate::methods::tracker::simulate::random_poses;
 
-
     #[test]
     fn greedy_choice_beats_random_subsets_and_its_updates_are_exact() {
         let m = crate::examples::machine("afp-gantry").unwrap();

@@ -113,7 +113,6 @@ pub fn simulate_seeded(
 mod tests {
     use super::*;
 
-
     #[test]
     fn diagonals_join_opposite_corners() {
         let m = crate::examples::machine("afp-gantry").unwrap();
