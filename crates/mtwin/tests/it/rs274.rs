@@ -1137,6 +1137,48 @@ fn gen_spindle_sync(g: &mut Gen) {
     }
 }
 
+/// G76 (threading cycle): the passes from the current X Z along Z to the
+/// block's Z (now and then X and Y words too: the end after the passes),
+/// internal or external (I of either sign), first cut J, full depth K
+/// (2 to 12 times J), now and then a compound angle Q, spring passes H (H-1:
+/// none at the full depth), a degression R, tapers E with L; the spindle
+/// started first unless it turns (now and then left stopped: both refuse).
+fn gen_threading(g: &mut Gen) {
+    if !g.st.spindle && !g.rng.chance(0.05) {
+        let s = *g.rng.pick(&[200, 600, 1200]);
+        g.emit(format!("S{s} M{}", if g.rng.chance(0.7) { 3 } else { 4 }));
+        g.st.spindle = true;
+    }
+    let u = if g.st.inch { 1.0 / 25.4 } else { 1.0 };
+    let pitch = *g.rng.pick(&[0.5, 1.0, 1.25, 1.5, 2.0]) * u;
+    let mut axes = vec![2];
+    if g.rng.chance(0.2) {
+        axes.insert(0, 0);
+    }
+    if g.rng.chance(0.1) {
+        axes.insert(1, 1);
+    }
+    let t = g.target_words(&axes);
+    let i = *g.rng.pick(&[-1.0, -0.5, 0.25, 0.8]) * u;
+    let j = *g.rng.pick(&[0.05, 0.1, 0.2]) * u;
+    let k = j * (2 + g.rng.below(11)) as f64;
+    let mut w = format!("G76 P{}{t} I{} J{} K{}", num(pitch), num(i), num(j), num(k));
+    if g.rng.chance(0.4) {
+        write!(w, " Q{}", num(*g.rng.pick(&[29.5, 30.0, 15.0, -10.0]))).unwrap();
+    }
+    if g.rng.chance(0.3) {
+        write!(w, " H{}", g.rng.pick(&[-1, 0, 1, 3])).unwrap();
+    }
+    if g.rng.chance(0.3) {
+        write!(w, " R{}", num(*g.rng.pick(&[0.5, 1.0, 1.5, 2.0]))).unwrap();
+    }
+    if g.rng.chance(0.3) {
+        let e = *g.rng.pick(&[0.5, 1.0, 2.0]) * u;
+        write!(w, " E{} L{}", num(e), g.rng.below(4)).unwrap();
+    }
+    g.emit(w);
+}
+
 fn gen_dwell(g: &mut Gen) {
     let p = *g.rng.pick(&[0.0, 0.25, 1.0, 2.5]);
     g.emit(format!("G4 P{}", num(p)));
@@ -1169,6 +1211,7 @@ const FEATURES: &[Feature] = &[
     ("feed mode", 2, gen_feed_mode),
     ("dwell", 1, gen_dwell),
     ("spindle sync", 2, gen_spindle_sync),
+    ("threading", 2, gen_threading),
     ("comment", 1, gen_comment),
 ];
 
@@ -1326,7 +1369,9 @@ fn generate_comp(seed: u64) -> String {
 /// Program `seed` in rotated coordinate systems (G10 L2 R, mm): systems
 /// given offsets and rotations (of the active one too), traverses, feeds
 /// and incremental XY arcs in them, G92 on top (and G92.1), switches of
-/// system, G53 and G28 moves, G10 L20 of the active system; then M2.
+/// system, G53 and G28 moves, G10 L20 of the active system, tool offsets
+/// set from the current point (G10 L10, L11) and applied (G43 H, T M6 G43),
+/// tool changes; then M2.
 fn generate_rotated(seed: u64) -> String {
     let mut rng = Rng(seed);
     let mut out = String::from("G21 G90 G17 G94 F600\n");
@@ -1335,7 +1380,7 @@ fn generate_rotated(seed: u64) -> String {
         "G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3",
     ];
     for _ in 0..4 + rng.below(16) {
-        let line = match rng.below(10) {
+        let line = match rng.below(12) {
             0 | 1 => {
                 let mut l = format!("G10 L2 P{}", rng.below(10));
                 if rng.chance(0.7) {
@@ -1399,6 +1444,33 @@ fn generate_rotated(seed: u64) -> String {
                 num(v(&mut rng, 60.0))
             ),
             8 => "G28".to_string(),
+            10 => {
+                // G10 L10 (active system) or L11 (G59.3) of a tool from
+                // some of X Y Z, then now and then that tool's offsets
+                // applied (G43 H), or the tool changed and applied.
+                let (t, _) = *rng.pick(TOOLS);
+                let mut l = format!("G10 L{} P{t}", if rng.chance(0.6) { 10 } else { 11 });
+                let mut any = false;
+                for (axis, span) in [('X', 20.0), ('Y', 20.0), ('Z', 10.0)] {
+                    if rng.chance(0.5) {
+                        write!(l, " {axis}{}", num(v(&mut rng, span))).unwrap();
+                        any = true;
+                    }
+                }
+                if !any {
+                    write!(l, " X{}", num(v(&mut rng, 20.0))).unwrap();
+                }
+                match rng.below(3) {
+                    0 => write!(l, "\nG43 H{t}").unwrap(),
+                    1 => write!(l, "\nT{t} M6 G43").unwrap(),
+                    _ => {}
+                }
+                l
+            }
+            11 => {
+                let (t, _) = *rng.pick(TOOLS);
+                format!("T{t} M6 G43")
+            }
             _ => format!(
                 "G10 L20 P0 X{} Y{}",
                 num(v(&mut rng, 40.0)),
@@ -1755,9 +1827,18 @@ fn generated_programs_are_reproducible_and_varied() {
     for needle in [
         "G0 ", "G1 ", "G2 ", "G3 ", " R", " I", " K", " P", "G18", "G19", "G20", "G91\n", "G90.1",
         "G55", "G59.3", "G53 ", "G93", "G95", "G4 P", "/", "N10 ", ";", "M30", "M2\n", "G33 ",
-        "G33.1 ",
+        "G33.1 ", "G76 ", " Q", " H-1", " E", " L3",
     ] {
         assert!(text.contains(needle), "no {needle:?} in 200 programs");
+    }
+    let text: String = (0..ROTATED)
+        .map(|k| generate_rotated(ROTATED_SEED + k))
+        .collect();
+    for needle in ["G10 L10 P", "G10 L11 P", "G43 H", "M6 G43", "G92 X", "R"] {
+        assert!(
+            text.contains(needle),
+            "no {needle:?} in the rotated programs"
+        );
     }
     assert_eq!(generate_comp(COMP_SEED), generate_comp(COMP_SEED));
     let text: String = (0..COMP).map(|k| generate_comp(COMP_SEED + k)).collect();
