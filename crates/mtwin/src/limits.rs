@@ -66,6 +66,12 @@ pub const MAX_CYCLE_REPEATS: u64 = 10_000;
 /// hole of 100 mm at Q 0.1 mm is 1 000 pecks).
 pub const MAX_CYCLE_PECKS: u64 = 10_000;
 
+/// Most passes of one G76 threading-cycle block: a pass is four to six
+/// moves held until the block ends, so this bound keeps one block within a
+/// few tens of MB (a fine thread of 2 mm depth cut 0.01 mm a pass is 200
+/// passes).
+pub const MAX_THREADING_PASSES: u64 = 10_000;
+
 /// Most blocks one G-code program may execute, loops and subroutine calls
 /// counted each time they run (about a minute of interpretation): a program
 /// whose loop never ends stops with an error instead of running forever.

@@ -303,7 +303,6 @@ impl GCode {
     pub fn unsupported(self) -> Option<&'static str> {
         use GCode::*;
         Some(match self {
-            G76 => "threading cycle",
             G70 | G71 | G71_1 | G71_2 | G72 | G72_1 | G72_2 => "lathe cycle",
             G5 | G5_1 | G5_2 | G5_3 => "spline / NURBS motion",
             G96 => "constant surface speed",

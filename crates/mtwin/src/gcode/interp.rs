@@ -16,7 +16,7 @@
 //! assignments take effect after the whole line is read, before its codes
 //! run. O-word lines are program flow, run by
 //! [`run_program`](super::program_flow::run_program), not here. Anything
-//! else outside the supported language (G76,
+//! else outside the supported language (lathe cycles G70–G72,
 //! splines, ...) is an
 //! [`GcodeError::Unsupported`] error naming the line: never skipped.
 
@@ -34,6 +34,7 @@ use super::expr::{self, Target};
 use super::parameters::Parameters;
 use super::program_flow::ProgramOptions;
 use super::syntax::{Block, Item, Value, Word};
+use super::threading_cycle;
 use super::tool_table::ToolTable;
 
 /// What unknown M-codes do.
@@ -126,6 +127,8 @@ pub enum MotionMode {
     SpindleSync,
     /// G33.1: rigid tapping (to the end at K per revolution and back).
     RigidTap,
+    /// G76: the threading cycle (passes synchronised to the spindle).
+    Threading,
 }
 
 /// Where a canned cycle retracts to at the end of each repeat.
@@ -804,7 +807,9 @@ impl Interpreter {
         let sync_now =
             moving && matches!(to_be, Some(MotionMode::SpindleSync | MotionMode::RigidTap));
         let tap_now = sync_now && to_be == Some(MotionMode::RigidTap);
-        if let Some((GCode::G33 | GCode::G33_1, col)) = codes.motion
+        // G76 reads I J K, E, H, L, P, Q and R.
+        let thread_now = moving && to_be == Some(MotionMode::Threading);
+        if let Some((GCode::G33 | GCode::G33_1 | GCode::G76, col)) = codes.motion
             && !any_axis
         {
             return Err(GcodeError::invalid(
@@ -825,7 +830,7 @@ impl Interpreter {
                     "R word is ambiguous on a line with both G64 and M19 - use separate lines",
                 ));
             }
-            if !(arc_now || g64 || m19 || g10 || cycle_now.is_some()) {
+            if !(arc_now || g64 || m19 || g10 || cycle_now.is_some() || thread_now) {
                 return Err(GcodeError::invalid(
                     line,
                     r.column,
@@ -833,7 +838,7 @@ impl Interpreter {
                 ));
             }
         }
-        if !arc_now && !cycle_in(&[GCode::G87]) {
+        if !arc_now && !cycle_in(&[GCode::G87]) && !thread_now {
             for l in [b'I', b'J', b'K'] {
                 if (l != b'K' && g10) || (l == b'K' && sync_now) || (l == b'I' && tap_now) {
                     continue;
@@ -856,17 +861,20 @@ impl Interpreter {
             ),
             (
                 b'E',
-                w.has_m(&[66, 67, 68]) || sync_now,
+                w.has_m(&[66, 67, 68]) || sync_now || thread_now,
                 "E word with no G76, M66, M67 or M68 to use it",
             ),
             (
                 b'H',
-                codes.has(GCode::G43) || codes.has(GCode::G43_2) || codes.has(GCode::G43_4),
-                "H word with no G43 to use it",
+                codes.has(GCode::G43)
+                    || codes.has(GCode::G43_2)
+                    || codes.has(GCode::G43_4)
+                    || thread_now,
+                "H word with no G43 or G76 to use it",
             ),
             (
                 b'L',
-                w.has_m(&[66]) || g10 || cycle_now.is_some() || comp_on,
+                w.has_m(&[66]) || g10 || cycle_now.is_some() || comp_on || thread_now,
                 "L word with no G10, cutter compensation, canned cycle or M66 to use it",
             ),
             (
@@ -875,6 +883,7 @@ impl Interpreter {
                     || codes.has(GCode::G64)
                     || arc_now
                     || g10
+                    || thread_now
                     || cycle_in(&[
                         GCode::G74,
                         GCode::G82,
@@ -891,6 +900,7 @@ impl Interpreter {
                 codes.has(GCode::G64)
                     || w.has_m(&[19, 61, 66, 67, 68])
                     || g10
+                    || thread_now
                     || cycle_in(&[GCode::G73, GCode::G83]),
                 "Q word with no G64, M19, M61, M66, M67, M68 or canned cycle to use it",
             ),
@@ -908,6 +918,19 @@ impl Interpreter {
                     line,
                     f.column,
                     "F word used with a g33/g33.1",
+                ));
+            }
+        }
+        if thread_now {
+            // LinuxCNC's P "missing" is its unset value, -1.
+            if w.get(b'P').is_none_or(|p| p.value == -1.0) {
+                return Err(GcodeError::invalid(line, 0, "P word missing with G76"));
+            }
+            if [b'I', b'J', b'K'].iter().any(|&l| w.get(l).is_none()) {
+                return Err(GcodeError::invalid(
+                    line,
+                    0,
+                    "I, J, or K words missing with G76",
                 ));
             }
         }
@@ -1527,7 +1550,7 @@ impl Interpreter {
         let st = &self.state;
         // The current position as it would read in `system` (LinuxCNC's
         // find_current_in_system), without rotation.
-        let in_system = |system: usize, with_tool: bool| -> Axes {
+        let in_system = |system: usize| -> Axes {
             let mut c = st
                 .position
                 .add(&st.axis_offset)
@@ -1535,9 +1558,6 @@ impl Interpreter {
                 .sub(&st.work_offsets[system - 1]);
             if st.g92_applied {
                 c = c.sub(&st.g92_saved);
-            }
-            if with_tool {
-                c = c.add(&st.tool_offset);
             }
             c
         };
@@ -1602,7 +1622,7 @@ impl Interpreter {
                         "G10 L20 of a coordinate system other than the active one with a rotation (G10 L2 R) in force",
                     ));
                 }
-                let current = in_system(system, false);
+                let current = in_system(system);
                 let mut offset = st.work_offsets[system - 1];
                 if l == 20 && rotated {
                     // The active system: the origin moves by the rotated
@@ -1643,37 +1663,27 @@ impl Interpreter {
                     return Err(s.invalid(col, format!("P value out of range with G10 L{l}")));
                 }
                 let tool = p_int as u32;
-                if l != 1 && st.rotation != 0.0 {
-                    return Err(GcodeError::unsupported(
-                        s.line,
-                        col,
-                        format!("G10 L{l} with a coordinate system rotation (G10 L2 R) in force"),
-                    ));
-                }
                 if axes.is_empty() && [b'R', b'Q', b'I', b'J'].iter().all(|&c| w.get(c).is_none()) {
                     return Err(s.invalid(col, "G10 L1 without offsets has no effect"));
                 }
                 if self.tools.get(tool).is_none() {
                     return Err(s.invalid(col, format!("tool {tool} is not in the tool table")));
                 }
-                let current = if l == 11 {
-                    let mut c = in_system(9, true);
-                    if st.g92_applied {
-                        c = c.add(&st.g92_saved);
+                let offset = if l == 1 {
+                    let mut o = self.tools.get(tool).map_or(Axes::ZERO, |t| t.offset);
+                    for a in axes.iter() {
+                        o[a] = values[a.index()];
                     }
-                    c
+                    o
                 } else {
-                    in_system(usize::from(st.work_system), true)
+                    self.tool_offset_reading(l, tool, axes, &values)
                 };
                 let scale = self.state.units.mm_per_unit();
                 let r = w.get(b'R').map(|r| r.value * scale);
                 let q = w.get(b'Q').map(|q| q.value);
                 let (i, j) = (w.get(b'I').map(|x| x.value), w.get(b'J').map(|x| x.value));
                 let entry = self.tools.entry(tool);
-                for a in axes.iter() {
-                    let v = values[a.index()];
-                    entry.offset[a] = if l == 1 { v } else { current[a] - v };
-                }
+                entry.offset = offset;
                 if let Some(r) = r {
                     entry.diameter = (2.0 * r).abs();
                 }
@@ -1692,6 +1702,74 @@ impl Interpreter {
                 Ok(())
             }
         }
+    }
+
+    /// The current point as it reads in coordinate system `system` (1 ... 9)
+    /// with no tool offset (LinuxCNC's `find_current_in_system_without_tlo`):
+    /// the machine point without the tool offset in force, taken into
+    /// `system`'s origin and rotation, less the G92 offsets if applied.
+    fn current_in_system_without_tool(&self, system: usize) -> Axes {
+        let st = &self.state;
+        let mut c = st.position.add(&st.axis_offset);
+        rotate_xy(&mut c, st.rotation);
+        c = c
+            .add(&st.work_offsets[usize::from(st.work_system - 1)])
+            .add(&st.tool_offset)
+            .sub(&st.work_offsets[system - 1]);
+        rotate_xy(&mut c, -st.work_rotations[system - 1]);
+        if st.g92_applied {
+            c = c.sub(&st.g92_saved);
+        }
+        c
+    }
+
+    /// The tool offsets G10 L10 (L11) sets for `tool`: those with which the
+    /// current point reads the axis words in the active system (in G59.3,
+    /// without its G92 offsets), as LinuxCNC's `convert_setup_tool` computes
+    /// them. X and Y are the difference turned by the system's rotation
+    /// (G10 L2 R); with only one of them written, the entry keeps the part
+    /// of its old X Y offset along the other (rotated) axis. Axes not
+    /// written keep the entry's offsets.
+    fn tool_offset_reading(&self, l: u32, tool: u32, axes: AxisMask, values: &[f64; 9]) -> Axes {
+        let st = &self.state;
+        let system = if l == 11 {
+            9
+        } else {
+            usize::from(st.work_system)
+        };
+        let mut current = self.current_in_system_without_tool(system);
+        if l == 11 && st.g92_applied {
+            current = current.add(&st.g92_saved);
+        }
+        let rotation = st.work_rotations[system - 1];
+        let old = self.tools.get(tool).map_or(Axes::ZERO, |t| t.offset);
+        let mut offset = old;
+        for a in axes.iter() {
+            offset[a] = current[a] - values[a.index()];
+        }
+        let (x, y) = (axes.contains(Axis::X), axes.contains(Axis::Y));
+        if x || y {
+            // The new part along the written axes, turned into the machine
+            // frame, plus the old part along the other one.
+            let mut new = Axes::ZERO;
+            let mut kept = Axes::ZERO;
+            kept[Axis::X] = old[Axis::X];
+            kept[Axis::Y] = old[Axis::Y];
+            rotate_xy(&mut kept, -rotation);
+            if x {
+                new[Axis::X] = current[Axis::X] - values[Axis::X.index()];
+                kept[Axis::X] = 0.0;
+            }
+            if y {
+                new[Axis::Y] = current[Axis::Y] - values[Axis::Y.index()];
+                kept[Axis::Y] = 0.0;
+            }
+            rotate_xy(&mut new, rotation);
+            rotate_xy(&mut kept, rotation);
+            offset[Axis::X] = new[Axis::X] + kept[Axis::X];
+            offset[Axis::Y] = new[Axis::Y] + kept[Axis::Y];
+        }
+        offset
     }
 
     /// G92.1 and G92.2 (axis offsets to zero; G92.1 also clears the kept
@@ -2356,6 +2434,7 @@ impl Interpreter {
             MotionMode::SpindleSync | MotionMode::RigidTap => {
                 return self.spindle_sync(mode, w, axes, to, words, s);
             }
+            MotionMode::Threading => return self.threading_cycle(w, axes, to, words, s),
             MotionMode::ArcClockwise | MotionMode::ArcCounterClockwise => {
                 if self.comp.arc_not_allowed() {
                     return Err(s.invalid(
@@ -2535,6 +2614,134 @@ impl Interpreter {
         } else {
             self.state.position = to;
         }
+        Ok(())
+    }
+
+    /// G76, LinuxCNC's threading cycle ([`threading_cycle`]): from the
+    /// drive line (the current X and Z) the passes along Z to the block's Z,
+    /// synchronised to the spindle at P per revolution (the tapers at their
+    /// longer advance), then a rapid to the block's end point. X is the
+    /// depth and Z the length whatever the plane, as in LinuxCNC. Its errors
+    /// are LinuxCNC's (cutter compensation on, spindle stopped, rotary or
+    /// UVW axis words that move, I = 0, J ≤ 0, K ≤ J, L negative, H or L
+    /// not an integer); refused as unsupported: P ≤ 0 or no spindle speed
+    /// (no time for the passes). More than
+    /// [`MAX_THREADING_PASSES`](crate::limits::MAX_THREADING_PASSES) passes
+    /// in one block are refused (a bound of mtwin). The moves are marked
+    /// `expanded`, as a canned cycle's.
+    fn threading_cycle(
+        &mut self,
+        w: &BlockWords,
+        axes: AxisMask,
+        to: Axes,
+        mut words: Programmed,
+        s: &mut Step,
+    ) -> Result<(), GcodeError> {
+        self.comp.straight_move_started();
+        if self.comp.is_on() {
+            return Err(s.invalid(
+                0,
+                "Cannot use G76 threading cycle with cutter radius compensation on",
+            ));
+        }
+        let st = &self.state;
+        if st.spindle == SpindleState::Stopped {
+            return Err(s.invalid(0, "Spindle not turning in G76"));
+        }
+        if let Some(a) = axes
+            .iter()
+            .find(|&a| !matches!(a, Axis::X | Axis::Y | Axis::Z) && to[a] != st.position[a])
+        {
+            let col = w.get(a.letter()).map_or(0, |l| l.column);
+            return Err(s.invalid(col, "Cannot move rotary axes with G76"));
+        }
+        let scale = st.units.mm_per_unit();
+        let value = |l: u8| w.get(l).map(|x| x.value);
+        let integer = |l: u8| -> Result<Option<i64>, GcodeError> {
+            match w.get(l) {
+                Some(x) if x.value.fract() != 0.0 || x.value.abs() > 1e9 => Err(s.invalid(
+                    x.column,
+                    format!("{} word must be an integer with G76", l as char),
+                )),
+                Some(x) => Ok(Some(x.value as i64)),
+                None => Ok(None),
+            }
+        };
+        let h = integer(b'H')?.unwrap_or(0);
+        let flags = match integer(b'L')? {
+            Some(l) if l < 0 => {
+                return Err(s.invalid(w.get(b'L').map_or(0, |x| x.column), "Negative L word used"));
+            }
+            l => l.unwrap_or(0),
+        };
+        let pitch = value(b'P').unwrap_or(0.0) * scale;
+        if !(pitch > 0.0 && pitch.is_finite()) {
+            return Err(GcodeError::unsupported(
+                s.line,
+                w.get(b'P').map_or(0, |p| p.column),
+                "G76 with P ≤ 0 (no advance per spindle revolution to time the passes)",
+            ));
+        }
+        let rpm = st.spindle_rpm;
+        if !(rpm > 0.0 && rpm.is_finite()) {
+            return Err(GcodeError::unsupported(
+                s.line,
+                0,
+                "G76 with the spindle speed at 0 (no S): the passes cannot be timed",
+            ));
+        }
+        let thread = threading_cycle::Thread {
+            pitch,
+            i: value(b'I').unwrap_or(0.0) * scale,
+            j: value(b'J').unwrap_or(0.0) * scale,
+            k: value(b'K').unwrap_or(0.0) * scale,
+            compound_deg: value(b'Q').filter(|&q| q != -1.0).unwrap_or(0.0),
+            full_depth_passes: u32::try_from((h + 1).max(0)).unwrap_or(u32::MAX),
+            degression: value(b'R').filter(|&r| r >= 1.0).unwrap_or(1.0),
+            taper: value(b'E').map_or(0.0, |e| (e * scale).max(0.0)),
+            taper_flags: u32::try_from(flags & 3).unwrap_or(0),
+        };
+        let start = st.position;
+        let moves = thread
+            .moves(
+                [start[Axis::X], start[Axis::Z]],
+                to[Axis::Z],
+                crate::limits::MAX_THREADING_PASSES,
+            )
+            .map_err(|e| s.invalid(0, e.to_string()))?;
+        self.check_rotation(s)?;
+        words.expanded = true;
+        let mut from = self.comp.physical_start(&start);
+        let mut emit = |this: &Self, end: Axes, feed: Feed, s: &mut Step| {
+            let lin = Linear {
+                from: this.event_point(&from),
+                to: this.event_point(&end),
+                offset: this.state.offset,
+                feed,
+                tcp: this.state.tcp,
+                words,
+            };
+            s.emit(if feed == Feed::Rapid {
+                EventKind::Traverse(lin)
+            } else {
+                EventKind::Feed(lin)
+            });
+            from = end;
+        };
+        for m in moves {
+            let (xz, feed) = match m {
+                threading_cycle::ThreadMove::Rapid(p) => (p, Feed::Rapid),
+                threading_cycle::ThreadMove::Sync { to, mm_per_rev } => {
+                    (to, Feed::PerRevolution { mm_per_rev, rpm })
+                }
+            };
+            let mut end = start;
+            end[Axis::X] = xz[0];
+            end[Axis::Z] = xz[1];
+            emit(self, end, feed, s);
+        }
+        emit(self, to, Feed::Rapid, s);
+        self.state.position = to;
         Ok(())
     }
 
@@ -2864,6 +3071,7 @@ fn motion_mode(code: GCode) -> MotionMode {
         GCode::G3 => MotionMode::ArcCounterClockwise,
         GCode::G33 => MotionMode::SpindleSync,
         GCode::G33_1 => MotionMode::RigidTap,
+        GCode::G76 => MotionMode::Threading,
         c if c.is_cycle() => MotionMode::Cycle(c),
         // G1 and the probing moves.
         _ => MotionMode::Linear,
@@ -3219,7 +3427,9 @@ mod tests {
     #[test]
     fn rejections_name_the_line() {
         let cases = [
-            ("G0 X0\nG76 P1 Z-1 I-0.1 J0.1 K0.2\n", 2, true),
+            // G76 without a spindle speed (no time), or with it stopped.
+            ("M3\nG76 P1 Z-1 I-0.1 J0.1 K0.2\n", 2, true),
+            ("G0 X0\nG76 P1 Z-1 I-0.1 J0.1 K0.2\n", 2, false),
             // G33/G33.1: K missing, F with it, spindle stopped, no axis,
             // I with G33 (LinuxCNC's errors); no spindle speed, rotary
             // word on G33.1, compensation on, K ≤ 0 (cannot be timed).
@@ -3579,11 +3789,10 @@ mod tests {
         assert!(near(a.center[0], 0.0) && near(a.center[1], 1.0));
         assert!(near(a.to[Axis::X], -1.0) && near(a.to[Axis::Y], 1.0));
         assert_eq!(a.turns, 1);
-        // Refused: arcs of other planes, TCP, L10/L11 while rotated.
+        // Refused: arcs of other planes, TCP.
         for bad in [
             "G10 L2 P1 R30\nG18 G2 X1 Z1 R1 F100\n",
             "G10 L2 P1 R30\nM428\nG0 X1\n",
-            "G10 L2 P1 R30\nG10 L10 P1 Z1\n",
             "G0 X1\nG92 X0\nG10 L2 P0 R30\n",
             "G10 L2 P1 R30\nG92 Y2\nG10 L20 P1 X0\n",
         ] {
@@ -3622,6 +3831,70 @@ mod tests {
             "tool 2 not in table"
         );
         assert!(run_with("G10 L1 P1\n", opts).is_err(), "no offsets");
+    }
+
+    /// Runs `src` and returns the interpreter (its tool table and state).
+    fn interp_after(src: &str, opts: InterpOptions) -> Interpreter {
+        let mut it = Interpreter::new(opts);
+        let mut ev = Vec::new();
+        for b in &Program::parse(src.as_bytes()).unwrap().blocks {
+            it.execute(b, &mut ev).unwrap();
+        }
+        it
+    }
+
+    #[test]
+    fn g10_l10_l11_in_a_rotated_system_make_the_point_read_the_words() {
+        let xy = |v: &Axes| (v[Axis::X], v[Axis::Y]);
+        let opts = InterpOptions {
+            tools: [(1, 0.0), (2, 3.0)].into_iter().collect(),
+            ..Default::default()
+        };
+        // G54 at (10, 5) turned 30°, tool 1 (no offset) at work (3, 4, 2):
+        // machine = R30·(3, 4) + (10, 5). After G10 L10 X1 Y2 Z0.5 and G43
+        // the same machine point must read (1, 2, 0.5): machine =
+        // R30·(1, 2) + (10, 5) + tool, so tool = R30·((3, 4) − (1, 2)) and
+        // its Z is 2 − 0.5.
+        let (sn, cs) = 30f64.to_radians().sin_cos();
+        let rot = |x: f64, y: f64| (x * cs - y * sn, x * sn + y * cs);
+        let src = "G10 L2 P1 X10 Y5 R30\nG0 X3 Y4 Z2\nT1 M6 G43\nG10 L10 P1 X1 Y2 Z0.5\nG43\n";
+        let it = interp_after(src, opts.clone());
+        let t = it.tools().get(1).unwrap().offset;
+        let (tx, ty) = rot(2.0, 2.0);
+        assert!(close(t[Axis::X], tx) && close(t[Axis::Y], ty), "{t:?}");
+        assert!(close(t[Axis::Z], 1.5));
+        let (x, y) = xy(&it.state().position);
+        assert!(close(x, 1.0) && close(y, 2.0) && close(it.state().position[Axis::Z], 0.5));
+        // X alone: the new X reading along the rotated X axis, the old
+        // offset's part along the rotated Y axis kept. The point (work
+        // (1, 2) with the tool's R30·(2, 2)) is R30·(3, 4) from the origin
+        // and must read X7: the offset becomes R30·(3 − 7, 0) plus the
+        // old R30·(0, 2).
+        let it = interp_after(&format!("{src}G10 L10 P1 X7\nG43\n"), opts.clone());
+        let t = it.tools().get(1).unwrap().offset;
+        let (ax, ay) = rot(-4.0, 0.0);
+        let (bx, by) = rot(0.0, 2.0);
+        assert!(
+            close(t[Axis::X], ax + bx) && close(t[Axis::Y], ay + by),
+            "{t:?}"
+        );
+        let (x, y) = xy(&it.state().position);
+        assert!(close(x, 7.0) && close(y, 2.0), "{x} {y}");
+        // Y alone, with a G92 offset in force: the point still reads the
+        // word (G92 shifts both readings alike).
+        let src2 = "G10 L2 P1 X10 Y5 R30\nG0 X3 Y4\nG92 X0 Y0\nT1 M6 G43\nG10 L10 P1 Y-2\nG43\n";
+        let it = interp_after(src2, opts.clone());
+        let (x, y) = xy(&it.state().position);
+        assert!(close(x, 0.0) && close(y, -2.0), "{x} {y}");
+        // L11: the words are read in G59.3 (turned 90°, origin (1, 1)):
+        // after L11 X0 Y0 Z0 and G59.3 G43 the point reads (0, 0, 0).
+        let src3 = "G10 L2 P9 X1 Y1 R90\nG10 L2 P1 X10 Y5 R30\nG0 X3 Y4 Z2\nT2 M6 G43\nG10 L11 P2 X0 Y0 Z0\nG59.3 G43\n";
+        let it = interp_after(src3, opts);
+        let p = it.state().position;
+        assert!(
+            close(p[Axis::X], 0.0) && close(p[Axis::Y], 0.0) && close(p[Axis::Z], 0.0),
+            "{p:?}"
+        );
     }
 
     #[test]
@@ -3718,6 +3991,87 @@ mod tests {
         )
         .unwrap();
         assert!((st.feed_time - 4.0).abs() < 1e-9, "{}", st.feed_time);
+    }
+
+    #[test]
+    fn g76_threads_in_spindle_synchronised_passes() {
+        // From X10 Z5 to Z-20: depths 1.4, 1.8, 2 (I-1 J0.4 K1), each pass
+        // back, in, along Z at 1.5 mm/rev, out; then to the end point X3 Y2.
+        let src = "G18 G0 X10 Z5\nS500 M3\nG76 P1.5 X3 Y2 Z-20 I-1 J0.4 K1\nG1 X0 F100\n";
+        let m = moves(&run(src));
+        assert_eq!(m.len(), 1 + 3 * 4 + 1 + 1, "{m:?}");
+        for (k, depth) in [1.4, 1.8, 2.0].into_iter().enumerate() {
+            let p = &m[1 + 4 * k..5 + 4 * k];
+            let back = 10.0 - depth + 2.0;
+            let xz = |e: &EventKind| (lin(e).to[Axis::X], lin(e).to[Axis::Z]);
+            let near = |a: (f64, f64), b: (f64, f64)| close(a.0, b.0) && close(a.1, b.1);
+            assert!(matches!(p[0], EventKind::Traverse(_)) && near(xz(&p[0]), (back, 5.0)));
+            assert!(matches!(p[1], EventKind::Traverse(_)) && near(xz(&p[1]), (10.0 - depth, 5.0)));
+            assert!(matches!(p[2], EventKind::Feed(_)) && near(xz(&p[2]), (10.0 - depth, -20.0)));
+            assert_eq!(
+                lin(&p[2]).feed,
+                Feed::PerRevolution {
+                    mm_per_rev: 1.5,
+                    rpm: 500.0
+                }
+            );
+            assert!(matches!(p[3], EventKind::Traverse(_)) && near(xz(&p[3]), (back, -20.0)));
+            assert!(
+                p.iter()
+                    .all(|e| lin(e).words.expanded && lin(e).to[Axis::Y] == 0.0)
+            );
+        }
+        assert_eq!(lin(&m[13]).to.xyz(), [3.0, 2.0, -20.0]);
+        assert_eq!(lin(&m[14]).from.xyz(), [3.0, 2.0, -20.0]);
+        // Time: three passes of 25 mm at 1.5 mm/rev × 500 rev/min = 2 s each.
+        let opts = super::super::stats::StatsOptions::default();
+        let st = super::super::stats::stats(
+            "G18 G0 X10 Z5\nS500 M3\nG76 P1.5 Z-20 I-1 J0.4 K1\nM2\n".as_bytes(),
+            &opts,
+        )
+        .unwrap();
+        assert!((st.feed_time - 6.0).abs() < 1e-9, "{}", st.feed_time);
+        // Incremental Z, inch: the thread ends 1 in below the start.
+        let m = moves(&run(
+            "G20 G0 X1 Z0\nS500 M3\nG91 G76 P0.1 Z-1 I-0.05 J0.01 K0.03\n",
+        ));
+        let last = lin(m.last().unwrap());
+        assert!(close(last.to[Axis::Z], -25.4) && close(last.to[Axis::X], 25.4));
+        // Refused as LinuxCNC refuses them, and what cannot be timed.
+        for (bad, unsupported) in [
+            ("S500 M3\nG76 Z-1 I-1 J0.1 K0.5\n", false),       // no P
+            ("S500 M3\nG76 P-1 Z-1 I-1 J0.1 K0.5\n", false),   // P-1 is "no P"
+            ("S500 M3\nG76 P1 Z-1 I-1 K0.5\n", false),         // no J
+            ("S500 M3\nG76 P1 I-1 J0.1 K0.5\n", false),        // no axis
+            ("S500 M3\nG76 P1 Z-1 I0 J0.1 K0.5\n", false),     // I = 0
+            ("S500 M3\nG76 P1 Z-1 I-1 J0.5 K0.5\n", false),    // K = J
+            ("S500 M3\nG76 P1 Z-1 A1 I-1 J0.1 K0.5\n", false), // rotary
+            ("S500 M3\nG76 P1 Z-1 I-1 J0.1 K0.5 L-1\n", false),
+            ("S500 M3\nG76 P1 Z-1 I-1 J0.1 K0.5 H1.5\n", false),
+            ("G76 P1 Z-1 I-1 J0.1 K0.5\n", false), // spindle stopped
+            (
+                "S500 M3\nG41.1 D1\nG1 X5 F100\nG76 P1 Z-1 I-1 J0.1 K0.5\n",
+                false,
+            ),
+            ("S500 M3\nG76 P1 Z-1 I-1 J0.00005 K1\n", false), // 20 000 passes
+            ("S500 M3\nG76 P0 Z-1 I-1 J0.1 K0.5\n", true),
+            ("M3\nG76 P1 Z-1 I-1 J0.1 K0.5\n", true),
+        ] {
+            let err = run_with(bad, InterpOptions::default()).expect_err(bad);
+            assert_eq!(
+                matches!(err, GcodeError::Unsupported { .. }),
+                unsupported,
+                "{bad}: {err}"
+            );
+        }
+        // Modal: a later line with axis words runs G76 again (and needs P).
+        assert!(
+            run_with(
+                "S500 M3\nG76 P1 Z-1 I-1 J0.1 K0.5\nZ-2\n",
+                InterpOptions::default()
+            )
+            .is_err()
+        );
     }
 
     /// The expansions of LinuxCNC's G-code manual (canned cycles), by hand.

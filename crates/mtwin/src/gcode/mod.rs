@@ -82,6 +82,7 @@ mod program_writer;
 mod stats;
 mod stream;
 mod syntax;
+mod threading_cycle;
 #[warn(missing_docs)]
 pub mod timing;
 mod tool_table;

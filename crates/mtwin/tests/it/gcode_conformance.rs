@@ -74,21 +74,12 @@ const KNOWN_FAILURES: &[(&str, &str)] = &[
 /// Cases skipped (the interpreter reports "unsupported") and why.
 const SKIPPED: &[(&str, &str)] = &[
     ("compile", "no single program file (several or none)"),
-    (
-        "g10/g10-l1-l10",
-        "G10 L10 with a coordinate system rotation (G10 L2 R) in force",
-    ),
-    (
-        "g10/g10-l11",
-        "G10 L11 with a coordinate system rotation (G10 L2 R) in force",
-    ),
     ("g71-endless-loop", "lathe diameter/radius mode G8"),
     ("g71-endless-loop2", "constant surface speed G96"),
     ("g71-endless-loop_2", "lathe diameter/radius mode G7"),
     ("g71-with-g70", "lathe cycle G71.1"),
     ("g72-facing", "lathe cycle G72"),
     ("g72-missing-iteration", "lathe cycle G72"),
-    ("g76", "threading cycle G76"),
     (
         "m98m99/09-disable-fanuc-subs",
         "no single program file (several or none)",

@@ -1137,6 +1137,49 @@ fn gen_spindle_sync(g: &mut Gen) {
     }
 }
 
+/// G76 (threading cycle): the passes from the current X Z along Z to the
+/// block's Z (now and then X and Y words too: the end after the passes),
+/// internal or external (I of either sign), first cut J, full depth K
+/// (2 to 12 times J), now and then a compound angle Q, spring passes H (H-1:
+/// none at the full depth), a degression R, tapers E with L; the spindle
+/// started first unless it turns (now and then left stopped: both refuse).
+fn gen_threading(g: &mut Gen) {
+    if !g.st.spindle && !g.rng.chance(0.05) {
+        let s = *g.rng.pick(&[200, 600, 1200]);
+        let m = if g.rng.chance(0.7) { 3 } else { 4 };
+        g.emit(format!("S{s} M{m}"));
+        g.st.spindle = true;
+    }
+    let u = if g.st.inch { 1.0 / 25.4 } else { 1.0 };
+    let pitch = *g.rng.pick(&[0.5, 1.0, 1.25, 1.5, 2.0]) * u;
+    let mut axes = vec![2];
+    if g.rng.chance(0.2) {
+        axes.insert(0, 0);
+    }
+    if g.rng.chance(0.1) {
+        axes.insert(1, 1);
+    }
+    let t = g.target_words(&axes);
+    let i = *g.rng.pick(&[-1.0, -0.5, 0.25, 0.8]) * u;
+    let j = *g.rng.pick(&[0.05, 0.1, 0.2]) * u;
+    let k = j * (2 + g.rng.below(11)) as f64;
+    let mut w = format!("G76 P{}{t} I{} J{} K{}", num(pitch), num(i), num(j), num(k));
+    if g.rng.chance(0.4) {
+        write!(w, " Q{}", num(*g.rng.pick(&[29.5, 30.0, 15.0, -10.0]))).unwrap();
+    }
+    if g.rng.chance(0.3) {
+        write!(w, " H{}", g.rng.pick(&[-1, 0, 1, 3])).unwrap();
+    }
+    if g.rng.chance(0.3) {
+        write!(w, " R{}", num(*g.rng.pick(&[0.5, 1.0, 1.5, 2.0]))).unwrap();
+    }
+    if g.rng.chance(0.3) {
+        let e = *g.rng.pick(&[0.5, 1.0, 2.0]) * u;
+        write!(w, " E{} L{}", num(e), g.rng.below(4)).unwrap();
+    }
+    g.emit(w);
+}
+
 fn gen_dwell(g: &mut Gen) {
     let p = *g.rng.pick(&[0.0, 0.25, 1.0, 2.5]);
     g.emit(format!("G4 P{}", num(p)));
@@ -1169,6 +1212,7 @@ const FEATURES: &[Feature] = &[
     ("feed mode", 2, gen_feed_mode),
     ("dwell", 1, gen_dwell),
     ("spindle sync", 2, gen_spindle_sync),
+    ("threading", 2, gen_threading),
     ("comment", 1, gen_comment),
 ];
 
@@ -1755,9 +1799,18 @@ fn generated_programs_are_reproducible_and_varied() {
     for needle in [
         "G0 ", "G1 ", "G2 ", "G3 ", " R", " I", " K", " P", "G18", "G19", "G20", "G91\n", "G90.1",
         "G55", "G59.3", "G53 ", "G93", "G95", "G4 P", "/", "N10 ", ";", "M30", "M2\n", "G33 ",
-        "G33.1 ",
+        "G33.1 ", "G76 ", " Q", " H-1", " E", " L3",
     ] {
         assert!(text.contains(needle), "no {needle:?} in 200 programs");
+    }
+    let text: String = (0..ROTATED)
+        .map(|k| generate_rotated(ROTATED_SEED + k))
+        .collect();
+    for needle in ["G10 L2 P", "G10 L20 P", "G92 X", "G92.1", "G28", "G53 G0"] {
+        assert!(
+            text.contains(needle),
+            "no {needle:?} in the rotated programs"
+        );
     }
     assert_eq!(generate_comp(COMP_SEED), generate_comp(COMP_SEED));
     let text: String = (0..COMP).map(|k| generate_comp(COMP_SEED + k)).collect();
