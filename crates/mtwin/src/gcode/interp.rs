@@ -28,7 +28,7 @@ use super::dialect::{Dialect, DwellWord};
 use super::error::GcodeError;
 use super::event::{
     ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, PathMode, Plane, Programmed,
-    SourcePos, SpindleState, Units,
+    SourcePos, SpindleState, TaskWait, Units,
 };
 use super::expr::{self, Target};
 use super::parameters::Parameters;
@@ -615,8 +615,10 @@ impl Interpreter {
         self.set_spindle_speed(w, s)?;
         self.select_tool(w, s)?;
         self.m_codes_with_comp(w, s)?;
+        self.task_waits(w, s, &[64, 65, 66, 68]);
         self.change_tool(&codes, s)?;
         self.set_spindle_direction(&codes, s);
+        self.task_waits(w, s, &[19, 7, 8, 9]);
         self.switch_tcp_by_m_code(&codes, s);
         self.dwell(w, &codes, s)?;
         self.set_plane(&codes, s)?;
@@ -991,7 +993,7 @@ impl Interpreter {
     }
 
     /// M6: the selected tool goes into the spindle.
-    fn change_tool(&mut self, codes: &Codes, s: &Step) -> Result<(), GcodeError> {
+    fn change_tool(&mut self, codes: &Codes, s: &mut Step) -> Result<(), GcodeError> {
         if codes.m_tool_change {
             self.refuse_with_comp(
                 s,
@@ -999,8 +1001,31 @@ impl Interpreter {
                 "Cannot change tools with cutter radius compensation on",
             )?;
             self.state.tool = self.state.selected_tool;
+            s.emit(EventKind::Wait(TaskWait::ToolChange));
         }
         Ok(())
+    }
+
+    /// The block's M-codes among `codes` that LinuxCNC's task waits for
+    /// motion to end at ([`TaskWait`]), in the order of `codes` (M9 is mist
+    /// off, then flood off).
+    fn task_waits(&mut self, w: &BlockWords, s: &mut Step, codes: &[u32]) {
+        for &c in codes {
+            if !w.m.iter().any(|&(m, _)| m == c) {
+                continue;
+            }
+            let waits: &[TaskWait] = match c {
+                7 => &[TaskWait::MistOn],
+                8 => &[TaskWait::FloodOn],
+                9 => &[TaskWait::MistOff, TaskWait::FloodOff],
+                19 => &[TaskWait::SpindleOrient],
+                66 => &[TaskWait::InputWait],
+                _ => &[TaskWait::Output],
+            };
+            for &k in waits {
+                s.emit(EventKind::Wait(k));
+            }
+        }
     }
 
     /// An error `message` at `column` while cutter radius compensation is
@@ -2618,6 +2643,8 @@ impl Interpreter {
         if end {
             self.ended = true;
             s.emit(EventKind::ProgramEnd);
+        } else {
+            s.emit(EventKind::Wait(TaskWait::Pause));
         }
         Ok(())
     }
