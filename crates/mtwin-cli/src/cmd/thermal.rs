@@ -348,12 +348,14 @@ fn program(a: ProgramArgs) -> anyhow::Result<()> {
                 a.out.display()
             );
             if a.machine.is_some() {
-                note(&format!(
+                note(format!(
                     "the times hold from the end of the initial positioning, by the {} planner on the machine",
                     a.plan.options().planner
                 ));
             } else {
-                note("the times hold from the end of the initial positioning, at the given rapid rate");
+                note(
+                    "the times hold from the end of the initial positioning, at the given rapid rate",
+                );
             }
             Ok(())
         }

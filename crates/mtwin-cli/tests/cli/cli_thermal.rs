@@ -921,8 +921,9 @@ fn fit_and_predict_documents_round_trip_and_print_their_text() {
 
 /// `thermal compensate --machine … --planner …` times the blocks with the
 /// planner: its duration is what `gcode stats --machine … --planner …`
-/// reports for the same program, the planners write different Z words; as
-/// in `gcode stats`, `--planner` without `--machine` changes nothing.
+/// reports for the same program, and the Z words differ from those of the
+/// programmed feeds; as in `gcode stats`, `--planner` without `--machine`
+/// changes nothing.
 #[test]
 fn compensate_on_a_machine_takes_the_planners_times() {
     use mtwin::methods::thermal::{HeightModel, InputChannel, ThermalModel};
@@ -971,7 +972,7 @@ fn compensate_on_a_machine_takes_the_planners_times() {
     let (_, plain) = run("plain.nc", &[]);
     let (_, no_machine) = run("no-machine.nc", &["--planner", "linuxcnc"]);
     assert_eq!(plain, no_machine);
-    let mut outputs = vec![plain];
+    let mut durations = Vec::new();
     for planner in ["exact-stop", "linuxcnc", "jerk"] {
         let (v, text) = run(
             &format!("{planner}.nc"),
@@ -980,15 +981,25 @@ fn compensate_on_a_machine_takes_the_planners_times() {
         let o = mtwin(
             p,
             &[
-                "gcode", "stats", "part.nc", "--machine", &machine, "--planner", planner,
-                "--format", "json",
+                "gcode",
+                "stats",
+                "part.nc",
+                "--machine",
+                &machine,
+                "--planner",
+                planner,
+                "--format",
+                "json",
             ],
         );
         assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
         let stats: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
         let want = stats["total_time_s"].as_f64().unwrap();
         let got = v["duration_min"].as_f64().unwrap() * 60.0;
-        assert!((got - want).abs() < 1e-9 * want, "{planner}: {got} s against {want} s");
+        assert!(
+            (got - want).abs() < 1e-9 * want,
+            "{planner}: {got} s against {want} s"
+        );
         assert!(
             v["notes"]
                 .as_array()
@@ -997,11 +1008,14 @@ fn compensate_on_a_machine_takes_the_planners_times() {
                 .any(|n| n.as_str().unwrap().contains(planner)),
             "{v}"
         );
-        outputs.push(text);
+        assert_ne!(text, plain, "{planner}");
+        durations.push(got);
     }
-    for i in 0..outputs.len() {
-        for k in i + 1..outputs.len() {
-            assert_ne!(outputs[i], outputs[k], "outputs {i} and {k} agree");
+    // Stopping after every move, LinuxCNC's look-ahead (at most one block
+    // length per 1 ms cycle) and the jerk limit time the moves differently.
+    for i in 0..durations.len() {
+        for k in i + 1..durations.len() {
+            assert!((durations[i] - durations[k]).abs() > 1e-3, "{durations:?}");
         }
     }
 }

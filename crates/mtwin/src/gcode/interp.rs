@@ -3190,6 +3190,63 @@ mod tests {
         );
     }
 
+    /// The commands LinuxCNC's task waits for motion before are events, in
+    /// its order within a block (outputs and input waits, tool change,
+    /// spindle, orientation, coolant; stops after the motion).
+    #[test]
+    fn task_waits_are_events() {
+        use TaskWait::*;
+        let ev = run(
+            "T1 M6\nM8\nG0 X1 M9\nM7\nM19\nM64 P0\nM65 P0\nM66 P0 L0\nM68 E0 Q1\nM62 P0\nM0\nM1\nM60\nT2 M6 M3 M64 P1 M8\nG0 X2 M1\nM30\n",
+        );
+        let waits: Vec<(u64, TaskWait)> = ev
+            .iter()
+            .filter_map(|e| match e.kind {
+                EventKind::Wait(w) => Some((e.at.line, w)),
+                _ => None,
+            })
+            .collect();
+        let want = vec![
+            (1, ToolChange),
+            (2, FloodOn),
+            (3, MistOff),
+            (3, FloodOff),
+            (4, MistOn),
+            (5, SpindleOrient),
+            (6, Output),
+            (7, Output),
+            (8, InputWait),
+            (9, Output),
+            (11, Pause),
+            (12, Pause),
+            (13, Pause),
+            (14, Output),
+            (14, ToolChange),
+            (14, FloodOn),
+            (15, Pause),
+        ];
+        assert_eq!(waits, want);
+        // M9 before the move of its block, M1 after it.
+        let k = |line: u64| {
+            ev.iter()
+                .position(|e| e.at.line == line && matches!(e.kind, EventKind::Traverse(_)))
+                .unwrap()
+        };
+        let w = |line: u64| {
+            ev.iter()
+                .position(|e| e.at.line == line && matches!(e.kind, EventKind::Wait(_)))
+                .unwrap()
+        };
+        assert!(w(3) < k(3) && k(15) < w(15));
+        // The spindle start of line 14 comes between its tool change and coolant.
+        let spindle = ev
+            .iter()
+            .position(|e| e.at.line == 14 && matches!(e.kind, EventKind::Spindle(_)))
+            .unwrap();
+        assert!(ev[spindle - 1].kind == EventKind::Wait(ToolChange));
+        assert!(ev[spindle + 1].kind == EventKind::Wait(FloodOn));
+    }
+
     #[test]
     fn modes_events_and_tcp() {
         let ev = run(

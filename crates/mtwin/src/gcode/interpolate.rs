@@ -2725,6 +2725,80 @@ mod tests {
         assert_limits(&s, ts, vmax, amax);
     }
 
+    /// The `(line, end)` times of the planners: closed-form trapezoids under
+    /// `exact-stop`; under every planner non-decreasing per line in time,
+    /// the last one the program's duration.
+    #[test]
+    fn line_end_times_follow_the_planners() {
+        let m = xyz(Some(50.0), Some(200.0));
+        let mut m_jerk = m.clone();
+        for a in &mut m_jerk.axes {
+            a.max_jerk = Some(4000.0);
+        }
+        // Line 2: 100 mm, 100/50 + 50/200 = 2.25 s; line 3: a dwell of
+        // 0.5 s; line 4: 10 mm at 20 mm/s, 10/20 + 20/200 = 0.6 s.
+        let prog = "G21 G90 G64\nG1 X100 F6000\nG4 P0.5\nG1 Y10 F1200\nM2\n";
+        let opts = InterpolateOptions::new(0.001);
+        let t = line_end_times(prog.as_bytes(), &m, &opts).unwrap();
+        let by = t.by_line();
+        assert!((by[&2] - 2.25).abs() < 1e-12, "{by:?}");
+        assert!((by[&3] - 2.75).abs() < 1e-12, "{by:?}");
+        assert!((by[&4] - 3.35).abs() < 1e-12, "{by:?}");
+        assert!((t.duration - 3.35).abs() < 1e-12);
+        for p in [Planner::Linuxcnc, Planner::Jerk] {
+            let mut o = opts.clone();
+            o.plan = PlanOptions::new(p);
+            let machine = if p == Planner::Jerk { &m_jerk } else { &m };
+            let t = line_end_times(prog.as_bytes(), machine, &o).unwrap();
+            let by = t.by_line();
+            assert!(by[&2] < by[&3] && by[&3] < by[&4], "{p}: {by:?}");
+            // The dwell lasts its 0.5 s after the stop.
+            assert!((by[&3] - by[&2] - 0.5).abs() < 1e-9, "{p}: {by:?}");
+            assert!((by[&4] - t.duration).abs() < 1e-9, "{p}: {by:?}");
+            let d = interpolate(prog.as_bytes(), machine, &o, |_| Ok(())).unwrap();
+            assert!((d.duration - t.duration).abs() < 1e-12);
+        }
+    }
+
+    /// A coolant command between two blended moves stops the machine at the
+    /// corner under `linuxcnc` (standing `io_wait` there) and `jerk`; the
+    /// corner is blended without it.
+    #[test]
+    fn coolant_commands_stop_the_blending() {
+        let m = {
+            let mut m = xyz(Some(50.0), Some(200.0));
+            for a in &mut m.axes {
+                a.max_jerk = Some(4000.0);
+            }
+            m
+        };
+        let corner = |prog: &str, p: Planner| -> (bool, f64) {
+            let mut o = InterpolateOptions::new(0.001);
+            o.plan = PlanOptions::new(p);
+            let (s, sum) = run(prog, &m, &o).unwrap();
+            // Samples standing at the corner (X20 Y0).
+            let at = s
+                .iter()
+                .filter(|x| (x.1[0] - 20.0).abs() < 1e-5 && x.1[1].abs() < 1e-5)
+                .count();
+            (at > 0, sum.duration)
+        };
+        let plain = "G21 G90 G64 P0.5\nG1 X20 F1200\nY20\nM2\n";
+        let cool = "G21 G90 G64 P0.5\nG1 X20 F1200\nM8\nY20\nM2\n";
+        for p in [Planner::Linuxcnc, Planner::Jerk] {
+            let (through_plain, t_plain) = corner(plain, p);
+            let (through_cool, t_cool) = corner(cool, p);
+            assert!(!through_plain && through_cool, "{p}");
+            assert!(t_cool > t_plain, "{p}: {t_cool} s against {t_plain} s");
+        }
+        // Under linuxcnc the machine stands io_wait at the corner: each of
+        // the two 20 mm moves at 20 mm/s, rest to rest at half acceleration
+        // (G64), takes 20/20 + 20/100 = 1.2 s.
+        let (_, t) = corner(cool, Planner::Linuxcnc);
+        let want = 2.0 * 1.2 + PlanOptions::default().io_wait;
+        assert!((t - want).abs() < 1e-9, "{t} s against {want} s");
+    }
+
     #[test]
     fn rapid_dwell_and_inverse_time() {
         let m = xyz(None, None);

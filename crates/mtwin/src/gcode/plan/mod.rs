@@ -133,9 +133,9 @@ pub struct PlanOptions {
     /// 2.9 hands to its separate I/O controller and waits for (M6 tool
     /// change, M7/M8 coolant on, M9 mist and flood off, each;
     /// `TaskWait::through_io`), instead of [`PlanOptions::task_wait`];
-    /// default IO_WAIT_DEFAULT (measured on its simulator, whose I/O
-    /// controller runs every 0.1 s, see docs/gcode.md); 0 for none (the
-    /// machine still stops there).
+    /// default 0.1 (one cycle of the I/O controller of LinuxCNC's sample
+    /// configurations, `[EMCIO] CYCLE_TIME`; see docs/gcode.md); 0 for
+    /// none (the machine still stops there).
     pub io_wait: f64,
     /// `linuxcnc`: spindle acceleration, rev/min per s: a spindle start
     /// or speed change waits `|Δ speed| / spindle_accel` (LinuxCNC's feed

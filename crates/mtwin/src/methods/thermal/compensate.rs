@@ -803,10 +803,7 @@ mod tests {
         // The four timings write four different programs.
         for i in 0..written.len() {
             for k in i + 1..written.len() {
-                assert!(
-                    (written[i].0 - written[k].0).abs() > 1e-4,
-                    "{written:?}"
-                );
+                assert!((written[i].0 - written[k].0).abs() > 1e-4, "{written:?}");
             }
         }
     }

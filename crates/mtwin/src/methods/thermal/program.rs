@@ -181,7 +181,14 @@ pub fn thermal_program(
 ) -> Result<ThermalProgram, ThermalProgramError> {
     let pass_s = pass_seconds(balls, motion);
     write_program(
-        balls, motion, speeds, step_min, period_min, dialect, pass_s, &[],
+        balls,
+        motion,
+        speeds,
+        step_min,
+        period_min,
+        dialect,
+        pass_s,
+        &[],
     )
 }
 
@@ -205,7 +212,14 @@ pub fn thermal_program_on(
     };
     let estimate = pass_seconds(balls, &motion);
     let first = write_program(
-        balls, &motion, speeds, step_min, period_min, dialect, estimate, &[],
+        balls,
+        &motion,
+        speeds,
+        step_min,
+        period_min,
+        dialect,
+        estimate,
+        &[],
     )?;
     let period_s = period_min * 60.0;
     let t = pass_times(&first.text, &first.pass_lines, dialect, timing)?;
@@ -594,8 +608,16 @@ mod tests {
                 plan: PlanOptions::new(planner),
             };
             let m = ProbeMotion::default();
-            let p = thermal_program_on(&balls(), &m, &speeds, 25.0, 10.0, Dialect::LinuxCnc, &timing)
-                .unwrap();
+            let p = thermal_program_on(
+                &balls(),
+                &m,
+                &speeds,
+                25.0,
+                10.0,
+                Dialect::LinuxCnc,
+                &timing,
+            )
+            .unwrap();
             let starts = planned_pass_starts(&p.text, &timing);
             assert_eq!(starts.len(), 11);
             for (k, t) in starts.iter().enumerate() {
@@ -609,11 +631,15 @@ mod tests {
                 ..m
             };
             assert!(p.pass_s > pass_seconds(&balls(), &at_rapid), "{planner}");
-            let plain = thermal_program(&balls(), &at_rapid, &speeds, 25.0, 10.0, Dialect::LinuxCnc)
-                .unwrap();
+            let plain =
+                thermal_program(&balls(), &at_rapid, &speeds, 25.0, 10.0, Dialect::LinuxCnc)
+                    .unwrap();
             let s = planned_pass_starts(&plain.text, &timing);
             let drift = s[10] - s[0] - 6000.0;
-            assert!(drift > 0.1, "{planner}: the estimate's last pass only {drift} s late");
+            assert!(
+                drift > 0.1,
+                "{planner}: the estimate's last pass only {drift} s late"
+            );
             eprintln!(
                 "{planner}: pass {:.3} s (estimate {:.3} s); without the planner the last pass is {drift:.3} s late",
                 p.pass_s,
