@@ -40,12 +40,12 @@ pub enum Command {
     Simulate(SimulateArgs),
     /// Pre-compensate an NC program: Z targets replaced by Z − e(t, Z) (as in [R4], docs/references.md).
     #[command(
-        after_help = "Example:\n  mtwin thermal compensate --model thermal.toml --program part.nc --out part-comp.nc --period-min 10"
+        after_help = "Example:\n  mtwin thermal compensate --model thermal.toml --program part.nc --out part-comp.nc --period-min 10\n  mtwin thermal compensate --model thermal.toml --program part.nc --out part-comp.nc --machine examples/machines/ac-trunnion.toml --planner linuxcnc"
     )]
     Compensate(super::thermal_compensate::Args),
     /// Write the measurement programme as G-code: cold pass, then spindle speeds with a probing pass every period.
     #[command(
-        after_help = "Example:\n  mtwin thermal program --z -50,-150,-250,-350 --x0 -100 --pitch 50 --speeds 2000,4000,6000 --step-min 60 --period-min 10 --out thermal.ngc"
+        after_help = "Example:\n  mtwin thermal program --z -50,-150,-250,-350 --x0 -100 --pitch 50 --speeds 2000,4000,6000 --step-min 60 --period-min 10 --out thermal.ngc\n  mtwin thermal program --z -50,-150 --speeds 2000,6000 --step-min 60 --machine examples/machines/ac-trunnion.toml --planner linuxcnc --out thermal.ngc"
     )]
     Program(ProgramArgs),
 }
@@ -88,9 +88,17 @@ pub struct ProgramArgs {
     /// Safe height above the highest ball top, mm.
     #[arg(long, default_value_t = 10.0)]
     clearance: f64,
-    /// Rapid rate assumed for the timing, mm/min (as `gcode stats --rapid`).
+    /// Rapid rate assumed for the timing, mm/min (as `gcode stats --rapid`;
+    /// with --machine the machine's `rapid_feed`).
     #[arg(long, default_value_t = 10000.0)]
     rapid: f64,
+    /// Machine model file (TOML): time the program with --planner on its
+    /// axis limits (accelerations, stops and waits included), so that every
+    /// pass starts on the period by that planner's clock.
+    #[arg(long)]
+    machine: Option<PathBuf>,
+    #[command(flatten)]
+    plan: super::common::PlanArgs,
     /// Controller dialect: LinuxCNC (G38.2, G4 P seconds, touches logged to
     /// thermal-probe.csv) or Fanuc (G31 skip, G4 X seconds; read #5063 after
     /// each G31 yourself).
@@ -290,14 +298,33 @@ fn program(a: ProgramArgs) -> anyhow::Result<()> {
             decimal_point_programming: false,
         },
     };
-    let p = thermal::thermal_program(
-        &balls,
-        &motion,
-        &a.speeds,
-        a.step_min,
-        a.period_min,
-        dialect,
-    )?;
+    let p = match &a.machine {
+        Some(path) => {
+            let machine = super::common::load_machine(path)?;
+            a.plan.check_machine(path, &machine)?;
+            let timing = thermal::PlannedTiming {
+                machine,
+                plan: a.plan.options(),
+            };
+            thermal::thermal_program_on(
+                &balls,
+                &motion,
+                &a.speeds,
+                a.step_min,
+                a.period_min,
+                dialect,
+                &timing,
+            )?
+        }
+        None => thermal::thermal_program(
+            &balls,
+            &motion,
+            &a.speeds,
+            a.step_min,
+            a.period_min,
+            dialect,
+        )?,
+    };
     out.write(&a.out, p.text.as_bytes())
         .with_context(|| format!("cannot write {}", a.out.display()))?;
     out.commit()?;
@@ -320,7 +347,16 @@ fn program(a: ProgramArgs) -> anyhow::Result<()> {
                 p.pass_s,
                 a.out.display()
             );
-            note("the times hold from the end of the initial positioning, at the given rapid rate");
+            if a.machine.is_some() {
+                note(format!(
+                    "the times hold from the end of the initial positioning, by the {} planner on the machine",
+                    a.plan.options().planner
+                ));
+            } else {
+                note(
+                    "the times hold from the end of the initial positioning, at the given rapid rate",
+                );
+            }
             Ok(())
         }
     }

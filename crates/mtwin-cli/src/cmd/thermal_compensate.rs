@@ -6,11 +6,11 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use mtwin::methods::thermal::{
-    CompensateError, CompensateOptions, CorrectionUpdate, compensate, read_model,
+    CompensateError, CompensateOptions, CorrectionUpdate, PlannedTiming, compensate, read_model,
 };
 use mtwin::report::svg::{Series, xy};
 
-use super::common::{DialectArgs, diag};
+use super::common::{DialectArgs, PlanArgs, diag, load_machine};
 use crate::output::{Format, note, print_doc};
 
 #[derive(Debug, clap::Args)]
@@ -31,9 +31,17 @@ pub struct Args {
     /// Update the correction at every block instead of once per period.
     #[arg(long)]
     continuous: bool,
-    /// Rapid (G0) rate along the path, mm/min.
+    /// Rapid (G0) rate along the path, mm/min (without --machine; with it
+    /// the machine's `rapid_feed`).
     #[arg(long, default_value_t = 10_000.0)]
     rapid: f64,
+    /// Machine model file (TOML): time the blocks with --planner on its axis
+    /// limits (accelerations and junctions included) instead of the
+    /// programmed feeds without accelerations.
+    #[arg(long)]
+    machine: Option<PathBuf>,
+    #[command(flatten)]
+    plan: PlanArgs,
     #[command(flatten)]
     dialect: DialectArgs,
     /// Output format of the summary.
@@ -58,6 +66,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .outputs(&a.plot)
         .begin()?;
     let model = read_model(&a.model).map_err(diag)?;
+    let machine = a.machine.as_deref().map(load_machine).transpose()?;
+    if let (Some(m), Some(path)) = (&machine, &a.machine) {
+        a.plan.check_machine(path, m)?;
+    }
     let bytes = std::fs::read(&a.program)
         .with_context(|| format!("cannot read {}", a.program.display()))?;
     let mut options = CompensateOptions::default();
@@ -67,6 +79,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     options.skip_deleted_blocks = a.dialect.skip_deleted_blocks();
     options.rapid_feed = a.rapid;
     options.allow_unstable = a.allow_unstable;
+    options.timing = machine.map(|machine| PlannedTiming {
+        machine,
+        plan: a.plan.options(),
+    });
     options.update = if a.continuous {
         CorrectionUpdate::Continuous
     } else {
@@ -76,6 +92,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     let c = compensate(&model, &bytes, &options).map_err(|e| match &e {
         CompensateError::Gcode(g) => super::common::located_error(&a.program, g),
+        CompensateError::Planner(p) => {
+            super::gcode::located(&a.program, p.line(), p.column(), p.message())
+        }
         CompensateError::Unsafe { line, .. } | CompensateError::Diverges { line, .. } => {
             super::gcode::located(&a.program, Some(*line), 0, e.message())
         }

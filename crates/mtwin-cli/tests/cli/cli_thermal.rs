@@ -827,3 +827,104 @@ fn fit_and_predict_documents_round_trip_and_print_their_text() {
     assert_eq!(zs, [-300.0, -100.0]);
     assert_eq!(pred.samples, new_programme().len());
 }
+
+/// `thermal compensate --machine … --planner …` times the blocks with the
+/// planner: its duration is what `gcode stats --machine … --planner …`
+/// reports for the same program, and the Z words differ from those of the
+/// programmed feeds; as in `gcode stats`, `--planner` without `--machine`
+/// changes nothing.
+#[test]
+fn compensate_on_a_machine_takes_the_planners_times() {
+    use mtwin::methods::thermal::{HeightModel, InputChannel, ThermalModel};
+    use mtwin::sysid::Arx;
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    // 1 mm of drift per 1000 rpm in steady state, 1 min samples: 6.7 µm per
+    // second at the start, so the planners' times show in the Z words.
+    let h = |z: f64| HeightModel {
+        z_mm: z,
+        model: Arx::new(vec![1.0, -0.8], vec![(vec![0.2], 1)]).unwrap(),
+        stats: None,
+    };
+    let inputs = vec![InputChannel::linear("speed_rpm", 1000.0)];
+    let model = ThermalModel::new(1.0, inputs, vec![h(-100.0), h(0.0)]).unwrap();
+    std::fs::write(p.join("m.toml"), model.to_toml().unwrap()).unwrap();
+    // 200 collinear moves of 0.05 mm at F6000: stopping after each, running
+    // through them, and the jerk limit take different times.
+    let mut prog = String::from("G21 G90 G64\nS2000 M3\n");
+    for i in 1..=200 {
+        prog.push_str(&format!("G1 X{:.2} F6000\n", 0.05 * i as f64));
+    }
+    prog.push_str("G1 Z-10\nG4 P5\nG0 Z-20\nM30\n");
+    std::fs::write(p.join("part.nc"), &prog).unwrap();
+    let machine = example("ac-trunnion.toml");
+    let run = |out: &str, extra: &[&str]| -> (serde_json::Value, String) {
+        let mut args = vec![
+            "thermal",
+            "compensate",
+            "--model",
+            "m.toml",
+            "--program",
+            "part.nc",
+            "--continuous",
+            "--out",
+            out,
+            "--format",
+            "json",
+        ];
+        args.extend_from_slice(extra);
+        let o = mtwin(p, &args);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        (v, std::fs::read_to_string(p.join(out)).unwrap())
+    };
+    let (_, plain) = run("plain.nc", &[]);
+    let (_, no_machine) = run("no-machine.nc", &["--planner", "linuxcnc"]);
+    assert_eq!(plain, no_machine);
+    let mut durations = Vec::new();
+    for planner in ["exact-stop", "linuxcnc", "jerk"] {
+        let (v, text) = run(
+            &format!("{planner}.nc"),
+            &["--machine", &machine, "--planner", planner],
+        );
+        let o = mtwin(
+            p,
+            &[
+                "gcode",
+                "stats",
+                "part.nc",
+                "--machine",
+                &machine,
+                "--planner",
+                planner,
+                "--format",
+                "json",
+            ],
+        );
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let stats: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let want = stats["total_time_s"].as_f64().unwrap();
+        let got = v["duration_min"].as_f64().unwrap() * 60.0;
+        assert!(
+            (got - want).abs() < 1e-9 * want,
+            "{planner}: {got} s against {want} s"
+        );
+        assert!(
+            v["notes"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .any(|n| n.as_str().unwrap().contains(planner)),
+            "{v}"
+        );
+        assert_ne!(text, plain, "{planner}");
+        durations.push(got);
+    }
+    // Stopping after every move, LinuxCNC's look-ahead (at most one block
+    // length per 1 ms cycle) and the jerk limit time the moves differently.
+    for i in 0..durations.len() {
+        for k in i + 1..durations.len() {
+            assert!((durations[i] - durations[k]).abs() > 1e-3, "{durations:?}");
+        }
+    }
+}

@@ -265,6 +265,54 @@ impl Default for PathMode {
     }
 }
 
+/// A command that LinuxCNC 2.9's task layer runs only once the motion queue
+/// is empty (its task waits for motion before it, `emcTaskCheckPreconditions`):
+/// the machine comes to rest there, so no planner blends across it. Besides
+/// these, M3/M4/M5 ([`EventKind::Spindle`]), S ([`EventKind::SpindleSpeed`]),
+/// G4 ([`EventKind::Dwell`]), the TCP switch ([`EventKind::Tcp`]) and the
+/// program end wait too.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TaskWait {
+    /// M6: tool change (through the I/O controller).
+    ToolChange,
+    /// M7: mist coolant on (through the I/O controller).
+    MistOn,
+    /// M9: mist coolant off (through the I/O controller; M9 is mist off,
+    /// then flood off).
+    MistOff,
+    /// M8: flood coolant on (through the I/O controller).
+    FloodOn,
+    /// M9: flood coolant off (through the I/O controller).
+    FloodOff,
+    /// M19: spindle orientation, and its wait until oriented.
+    SpindleOrient,
+    /// M64/M65 (digital) and M68 (analog): an output set at once, not
+    /// synchronised with motion as M62/M63/M67 are.
+    Output,
+    /// M66: wait for an input.
+    InputWait,
+    /// M0 (program stop), M1 (optional stop), M60 (pallet change stop):
+    /// the program may pause until the operator resumes it; that time is
+    /// no part of any estimate.
+    Pause,
+}
+
+impl TaskWait {
+    /// Whether LinuxCNC 2.9 hands the command to its separate I/O controller
+    /// (`[EMCIO]`, tool and coolant commands) and waits for it to report
+    /// done; the others the task or the motion controller runs.
+    pub fn through_io(self) -> bool {
+        matches!(
+            self,
+            TaskWait::ToolChange
+                | TaskWait::MistOn
+                | TaskWait::MistOff
+                | TaskWait::FloodOn
+                | TaskWait::FloodOff
+        )
+    }
+}
+
 /// Kinds of canonical event.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum EventKind {
@@ -313,6 +361,9 @@ pub enum EventKind {
     },
     /// G61, G61.1 or G64 (P and Q converted to mm).
     PathControl(PathMode),
+    /// A command the machine waits at, at rest (M6, M7, M8, M9, M19,
+    /// M64–M66, M68, M0, M1, M60): see [`TaskWait`].
+    Wait(TaskWait),
     /// M2/M30.
     ProgramEnd,
 }

@@ -28,7 +28,7 @@ use super::dialect::{Dialect, DwellWord};
 use super::error::GcodeError;
 use super::event::{
     ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, PathMode, Plane, Programmed,
-    SourcePos, SpindleState, Units,
+    SourcePos, SpindleState, TaskWait, Units,
 };
 use super::expr::{self, Target};
 use super::parameters::Parameters;
@@ -618,8 +618,10 @@ impl Interpreter {
         self.set_spindle_speed(w, s)?;
         self.select_tool(w, s)?;
         self.m_codes_with_comp(w, s)?;
+        self.task_waits(w, s, &[64, 65, 66, 68]);
         self.change_tool(&codes, s)?;
         self.set_spindle_direction(&codes, s);
+        self.task_waits(w, s, &[19, 7, 8, 9]);
         self.switch_tcp_by_m_code(&codes, s);
         self.dwell(w, &codes, s)?;
         self.set_plane(&codes, s)?;
@@ -1014,7 +1016,7 @@ impl Interpreter {
     }
 
     /// M6: the selected tool goes into the spindle.
-    fn change_tool(&mut self, codes: &Codes, s: &Step) -> Result<(), GcodeError> {
+    fn change_tool(&mut self, codes: &Codes, s: &mut Step) -> Result<(), GcodeError> {
         if codes.m_tool_change {
             self.refuse_with_comp(
                 s,
@@ -1022,8 +1024,31 @@ impl Interpreter {
                 "Cannot change tools with cutter radius compensation on",
             )?;
             self.state.tool = self.state.selected_tool;
+            s.emit(EventKind::Wait(TaskWait::ToolChange));
         }
         Ok(())
+    }
+
+    /// The block's M-codes among `codes` that LinuxCNC's task waits for
+    /// motion to end at ([`TaskWait`]), in the order of `codes` (M9 is mist
+    /// off, then flood off).
+    fn task_waits(&mut self, w: &BlockWords, s: &mut Step, codes: &[u32]) {
+        for &c in codes {
+            if !w.m.iter().any(|&(m, _)| m == c) {
+                continue;
+            }
+            let waits: &[TaskWait] = match c {
+                7 => &[TaskWait::MistOn],
+                8 => &[TaskWait::FloodOn],
+                9 => &[TaskWait::MistOff, TaskWait::FloodOff],
+                19 => &[TaskWait::SpindleOrient],
+                66 => &[TaskWait::InputWait],
+                _ => &[TaskWait::Output],
+            };
+            for &k in waits {
+                s.emit(EventKind::Wait(k));
+            }
+        }
     }
 
     /// An error `message` at `column` while cutter radius compensation is
@@ -2825,6 +2850,8 @@ impl Interpreter {
         if end {
             self.ended = true;
             s.emit(EventKind::ProgramEnd);
+        } else {
+            s.emit(EventKind::Wait(TaskWait::Pause));
         }
         Ok(())
     }
@@ -3369,6 +3396,63 @@ mod tests {
             )
             .is_err()
         );
+    }
+
+    /// The commands LinuxCNC's task waits for motion before are events, in
+    /// its order within a block (outputs and input waits, tool change,
+    /// spindle, orientation, coolant; stops after the motion).
+    #[test]
+    fn task_waits_are_events() {
+        use TaskWait::*;
+        let ev = run(
+            "T1 M6\nM8\nG0 X1 M9\nM7\nM19\nM64 P0\nM65 P0\nM66 P0 L0\nM68 E0 Q1\nM62 P0\nM0\nM1\nM60\nT2 M6 M3 M64 P1 M8\nG0 X2 M1\nM30\n",
+        );
+        let waits: Vec<(u64, TaskWait)> = ev
+            .iter()
+            .filter_map(|e| match e.kind {
+                EventKind::Wait(w) => Some((e.at.line, w)),
+                _ => None,
+            })
+            .collect();
+        let want = vec![
+            (1, ToolChange),
+            (2, FloodOn),
+            (3, MistOff),
+            (3, FloodOff),
+            (4, MistOn),
+            (5, SpindleOrient),
+            (6, Output),
+            (7, Output),
+            (8, InputWait),
+            (9, Output),
+            (11, Pause),
+            (12, Pause),
+            (13, Pause),
+            (14, Output),
+            (14, ToolChange),
+            (14, FloodOn),
+            (15, Pause),
+        ];
+        assert_eq!(waits, want);
+        // M9 before the move of its block, M1 after it.
+        let k = |line: u64| {
+            ev.iter()
+                .position(|e| e.at.line == line && matches!(e.kind, EventKind::Traverse(_)))
+                .unwrap()
+        };
+        let w = |line: u64| {
+            ev.iter()
+                .position(|e| e.at.line == line && matches!(e.kind, EventKind::Wait(_)))
+                .unwrap()
+        };
+        assert!(w(3) < k(3) && k(15) < w(15));
+        // The spindle start of line 14 comes between its tool change and coolant.
+        let spindle = ev
+            .iter()
+            .position(|e| e.at.line == 14 && matches!(e.kind, EventKind::Spindle(_)))
+            .unwrap();
+        assert!(ev[spindle - 1].kind == EventKind::Wait(ToolChange));
+        assert!(ev[spindle + 1].kind == EventKind::Wait(FloodOn));
     }
 
     #[test]

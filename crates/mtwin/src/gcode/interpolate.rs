@@ -431,6 +431,9 @@ pub struct Interpolator<'m> {
     cam: NaiveCam,
     /// Spindle turning, and its programmed speed (rev/min).
     spindle: (bool, f64),
+    /// `(line, end time)` of every planned segment, when asked for
+    /// ([`line_end_times`]).
+    ends: Option<Vec<(u64, f64)>>,
 }
 
 impl<'m> Interpolator<'m> {
@@ -509,6 +512,7 @@ impl<'m> Interpolator<'m> {
             tail: None,
             cam: NaiveCam::new(),
             spindle: (false, 0.0),
+            ends: None,
         })
     }
 
@@ -598,13 +602,22 @@ impl<'m> Interpolator<'m> {
                 self.task_pause(self.opts.plan.task_wait.max(ramp), sink)
             }
             EventKind::Tcp(_) => self.task_pause(self.opts.plan.task_wait, sink),
+            EventKind::Wait(w) => {
+                let wait = if w.through_io() {
+                    self.opts.plan.io_wait
+                } else {
+                    self.opts.plan.task_wait
+                };
+                self.task_pause(wait, sink)
+            }
             _ => Ok(()),
         }
     }
 
     /// `linuxcnc`: the machine stops and stands still for `wait` s (LinuxCNC's
-    /// task waiting for the motion queue to empty before a spindle or TCP
-    /// command, and for the spindle to reach its speed).
+    /// task waiting for the motion queue to empty before a spindle, TCP,
+    /// coolant, tool or I/O command, and for the spindle to reach its
+    /// speed); with no wait it still stops (no blend across the command).
     fn task_pause<F>(&mut self, wait: f64, sink: &mut F) -> Result<(), InterpolateError>
     where
         F: FnMut(&Sample<'_>) -> io::Result<()>,
@@ -629,13 +642,30 @@ impl<'m> Interpolator<'m> {
                 };
                 self.enqueue(block, lim, None, sink)
             }
+            Planner::Linuxcnc => {
+                self.end_chain();
+                self.tail = None;
+                Ok(())
+            }
             _ => Ok(()),
         }
     }
 
     /// Plans and samples what is still queued, emits the last sample (at
     /// the first `k·ts` not before the end) and returns the summary.
-    pub fn finish<F>(mut self, sink: &mut F) -> Result<InterpolationSummary, InterpolateError>
+    pub fn finish<F>(self, sink: &mut F) -> Result<InterpolationSummary, InterpolateError>
+    where
+        F: FnMut(&Sample<'_>) -> io::Result<()>,
+    {
+        self.finish_with_ends(sink).map(|(s, _)| s)
+    }
+
+    /// [`Interpolator::finish`], also handing back the `(line, end time)` of
+    /// every planned segment when they were recorded.
+    fn finish_with_ends<F>(
+        mut self,
+        sink: &mut F,
+    ) -> Result<(InterpolationSummary, Vec<(u64, f64)>), InterpolateError>
     where
         F: FnMut(&Sample<'_>) -> io::Result<()>,
     {
@@ -659,7 +689,7 @@ impl<'m> Interpolator<'m> {
         sink(&sample).map_err(InterpolateError::Sink)?;
         self.summary.samples += 1;
         self.summary.duration = end;
-        Ok(self.summary)
+        Ok((self.summary, self.ends.take().unwrap_or_default()))
     }
 
     fn linear_move<F>(
@@ -1078,6 +1108,9 @@ impl<'m> Interpolator<'m> {
         F: FnMut(&Sample<'_>) -> io::Result<()>,
     {
         self.emit_until(p.t0, sink)?;
+        if let Some(ends) = &mut self.ends {
+            ends.push((p.payload.line, p.t1()));
+        }
         self.active.push_back(p);
         Ok(())
     }
@@ -1374,6 +1407,58 @@ pub fn planned_duration<R: BufRead>(
     interpolate(input, machine, &o, |_| Ok(())).map(|s| s.duration)
 }
 
+/// When each program line's motion ends under the planner of `opts.plan`:
+/// what [`line_end_times`] returns.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LineEndTimes {
+    /// `(line, t)`: the 1-based source line of every planned segment (a
+    /// move, the piece of a move between blends, a dwell, a stand-still of
+    /// the `linuxcnc` task, an axis-space transition) and the time its
+    /// segment ends, s from program start, in the order the planner
+    /// finishes them. A line's motion ends at the largest `t` given for it
+    /// (a move blended into the next under `linuxcnc` ends where its blend
+    /// begins; under `jerk` a move ends when the time law passes its end
+    /// point). Lines without motion (S, M3, F, …) have no entry: they take
+    /// effect at the end of the motion before them.
+    pub ends: Vec<(u64, f64)>,
+    /// The program's duration, s ([`planned_duration`]).
+    pub duration: f64,
+}
+
+impl LineEndTimes {
+    /// The end time (s) of each line's motion, the largest of its entries.
+    pub fn by_line(&self) -> std::collections::HashMap<u64, f64> {
+        let mut m = std::collections::HashMap::new();
+        for &(line, t) in &self.ends {
+            let e = m.entry(line).or_insert(t);
+            if t > *e {
+                *e = t;
+            }
+        }
+        m
+    }
+}
+
+/// The planner's timing of each program line read from `input` on
+/// `machine` (see [`LineEndTimes`]): accelerations, junctions and limits
+/// included, as [`planned_duration`]; nothing is sampled and travels are
+/// not checked.
+pub fn line_end_times<R: BufRead>(
+    input: R,
+    machine: &Machine,
+    opts: &InterpolateOptions,
+) -> Result<LineEndTimes, InterpolateError> {
+    let mut o = opts.clone();
+    o.ts = 1e9;
+    o.check_travel = false;
+    let mut ends = Vec::new();
+    let s = drive(input, machine, &o, |_| Ok(()), None, Some(&mut ends))?;
+    Ok(LineEndTimes {
+        ends,
+        duration: s.duration,
+    })
+}
+
 /// [`planned_duration`] in the same run of the interpreter that shows every
 /// step (block and events) to `on_step` — `gcode stats` with a machine reads
 /// and interprets the program once for its statistics and the planned time.
@@ -1394,7 +1479,7 @@ pub fn planned_duration_with<R: BufRead>(
         failed: None,
         run_error: None,
     };
-    let r = drive(input, machine, &o, |_| Ok(()), Some(&mut hook));
+    let r = drive(input, machine, &o, |_| Ok(()), Some(&mut hook), None);
     if let Some(e) = hook.run_error {
         return Err(e);
     }
@@ -1462,29 +1547,35 @@ where
     R: BufRead,
     F: FnMut(&Sample<'_>) -> io::Result<()>,
 {
-    drive(input, machine, opts, sink, None)
+    drive(input, machine, opts, sink, None, None)
 }
 
 /// [`interpolate`], with the steps also shown to `hook` when there is one
-/// (then a planner that cannot start still lets the program run for it).
+/// (then a planner that cannot start still lets the program run for it),
+/// and the `(line, end time)` of every planned segment added to `ends` when
+/// given ([`line_end_times`]).
 fn drive<R, F>(
     input: R,
     machine: &Machine,
     opts: &InterpolateOptions,
     mut sink: F,
     mut hook: Option<&mut Hook<'_>>,
+    ends: Option<&mut Vec<(u64, f64)>>,
 ) -> Result<InterpolationSummary, InterpolateError>
 where
     R: BufRead,
     F: FnMut(&Sample<'_>) -> io::Result<()>,
 {
     if opts.plan.planner == Planner::Jerk {
-        return interpolate_jerk(input, machine, opts, sink, hook);
+        return interpolate_jerk(input, machine, opts, sink, hook, ends);
     }
     let mut ip = match Interpolator::new(machine, opts) {
         Ok(ip) => ip,
         Err(e) => return without_planner(input, opts, hook, e),
     };
+    if ends.is_some() {
+        ip.ends = Some(Vec::new());
+    }
     let iopts = ip.options().interp.clone();
     for_each_event(input, &iopts, hook.as_deref_mut(), |e| {
         ip.push(e, &mut sink)
@@ -1492,7 +1583,11 @@ where
     if let Some(e) = hook.and_then(|h| h.failed.take()) {
         return Err(e);
     }
-    ip.finish(&mut sink)
+    let (summary, planned) = ip.finish_with_ends(&mut sink)?;
+    if let Some(ends) = ends {
+        *ends = planned;
+    }
+    Ok(summary)
 }
 
 /// A planner that could not start (`e`): without a hook its error; with one
@@ -1740,7 +1835,12 @@ impl<'m> Walker<'m> {
                     line: self.ip.line,
                 });
             }
-            EventKind::ProgramEnd | EventKind::Tcp(_) => {
+            // Where LinuxCNC's task waits for the motion to end, the
+            // machine stops (no wait time: that is LinuxCNC's own).
+            EventKind::ProgramEnd
+            | EventKind::Tcp(_)
+            | EventKind::Spindle(_)
+            | EventKind::Wait(_) => {
                 self.flush(sink)?;
                 self.key = None;
                 return Ok(());
@@ -2227,6 +2327,7 @@ impl<'m> Walker<'m> {
 /// every move end is a point; `G64 P` makes the step at most 4·P). A chain ends at every move under G61.1
 /// (exact stop), at a corner under G61 (a joint-space direction change of
 /// more than 1°), at a dwell, a change of TCP or of work and tool offsets, a
+/// spindle, tool, coolant or I/O command ([`super::TaskWait`]), a
 /// move that starts away from the last one's end (TCP switched on: the
 /// axis-space transition between the two is not part of either chain), and
 /// at the end of the program. The points of a chain are the axis positions
@@ -2299,6 +2400,8 @@ struct JerkRun<'a, F> {
     line: u64,
     samples: u64,
     sink: F,
+    /// `(line, end time)` of every move and stretch, when asked for.
+    ends: Option<Vec<(u64, f64)>>,
 }
 
 impl<F> JerkRun<'_, F>
@@ -2311,6 +2414,31 @@ where
             .map_err(|e| InterpolateError::Plan(format!("line {}: {e}", lines[0])))?;
         let end = self.t0 + law.duration();
         self.bound(end, *lines.last().unwrap_or(&0))?;
+        if let Some(ends) = &mut self.ends {
+            // Each move ends at its last point: the time the law's path
+            // parameter reaches it (bisection; the law never goes back).
+            let s = path.s();
+            for i in 0..lines.len() {
+                if i + 1 < lines.len() && lines[i + 1] == lines[i] {
+                    continue;
+                }
+                let t = if i + 1 == lines.len() {
+                    law.duration()
+                } else {
+                    let (mut lo, mut hi) = (0.0, law.duration());
+                    for _ in 0..60 {
+                        let mid = 0.5 * (lo + hi);
+                        if law.s(mid) >= s[i] {
+                            hi = mid;
+                        } else {
+                            lo = mid;
+                        }
+                    }
+                    hi
+                };
+                ends.push((lines[i], self.t0 + t));
+            }
+        }
         let mut cur = law.cursor();
         let mut out = vec![0.0; path.joints()];
         let s = path.s();
@@ -2396,6 +2524,9 @@ where
                     let q = self.q.clone();
                     self.emit(t, &q, line)?;
                 }
+                if let Some(ends) = &mut self.ends {
+                    ends.push((line, end));
+                }
                 self.t0 = end;
                 self.line = line;
                 Ok(())
@@ -2434,6 +2565,7 @@ fn interpolate_jerk<R, F>(
     opts: &InterpolateOptions,
     sink: F,
     hook: Option<&mut Hook<'_>>,
+    ends: Option<&mut Vec<(u64, f64)>>,
 ) -> Result<InterpolationSummary, InterpolateError>
 where
     R: BufRead,
@@ -2455,6 +2587,7 @@ where
         line: 0,
         samples: 0,
         sink,
+        ends: ends.is_some().then(Vec::new),
     };
     let mut summary = walker.run(input, |st| run.stretch(st), hook)?;
     let t = run.k as f64 * opts.ts;
@@ -2467,6 +2600,9 @@ where
     .map_err(InterpolateError::Sink)?;
     summary.samples = run.samples + 1;
     summary.duration = run.t0;
+    if let (Some(ends), Some(planned)) = (ends, run.ends) {
+        *ends = planned;
+    }
     Ok(summary)
 }
 
@@ -2595,6 +2731,80 @@ mod tests {
         let prog = "G1 X100 Y50 F100000\nG3 X100 Y50 I-20 J0 F100000\nG2 X60 Y10 R40\n";
         let (s, _) = run(prog, &m, &opts).unwrap();
         assert_limits(&s, ts, vmax, amax);
+    }
+
+    /// The `(line, end)` times of the planners: closed-form trapezoids under
+    /// `exact-stop`; under every planner non-decreasing per line in time,
+    /// the last one the program's duration.
+    #[test]
+    fn line_end_times_follow_the_planners() {
+        let m = xyz(Some(50.0), Some(200.0));
+        let mut m_jerk = m.clone();
+        for a in &mut m_jerk.axes {
+            a.max_jerk = Some(4000.0);
+        }
+        // Line 2: 100 mm, 100/50 + 50/200 = 2.25 s; line 3: a dwell of
+        // 0.5 s; line 4: 10 mm at 20 mm/s, 10/20 + 20/200 = 0.6 s.
+        let prog = "G21 G90 G64\nG1 X100 F6000\nG4 P0.5\nG1 Y10 F1200\nM2\n";
+        let opts = InterpolateOptions::new(0.001);
+        let t = line_end_times(prog.as_bytes(), &m, &opts).unwrap();
+        let by = t.by_line();
+        assert!((by[&2] - 2.25).abs() < 1e-12, "{by:?}");
+        assert!((by[&3] - 2.75).abs() < 1e-12, "{by:?}");
+        assert!((by[&4] - 3.35).abs() < 1e-12, "{by:?}");
+        assert!((t.duration - 3.35).abs() < 1e-12);
+        for p in [Planner::Linuxcnc, Planner::Jerk] {
+            let mut o = opts.clone();
+            o.plan = PlanOptions::new(p);
+            let machine = if p == Planner::Jerk { &m_jerk } else { &m };
+            let t = line_end_times(prog.as_bytes(), machine, &o).unwrap();
+            let by = t.by_line();
+            assert!(by[&2] < by[&3] && by[&3] < by[&4], "{p}: {by:?}");
+            // The dwell lasts its 0.5 s after the stop.
+            assert!((by[&3] - by[&2] - 0.5).abs() < 1e-9, "{p}: {by:?}");
+            assert!((by[&4] - t.duration).abs() < 1e-9, "{p}: {by:?}");
+            let d = interpolate(prog.as_bytes(), machine, &o, |_| Ok(())).unwrap();
+            assert!((d.duration - t.duration).abs() < 1e-12);
+        }
+    }
+
+    /// A coolant command between two blended moves stops the machine at the
+    /// corner under `linuxcnc` (standing `io_wait` there) and `jerk`; the
+    /// corner is blended without it.
+    #[test]
+    fn coolant_commands_stop_the_blending() {
+        let m = {
+            let mut m = xyz(Some(50.0), Some(200.0));
+            for a in &mut m.axes {
+                a.max_jerk = Some(4000.0);
+            }
+            m
+        };
+        let corner = |prog: &str, p: Planner| -> (bool, f64) {
+            let mut o = InterpolateOptions::new(0.001);
+            o.plan = PlanOptions::new(p);
+            let (s, sum) = run(prog, &m, &o).unwrap();
+            // Samples standing at the corner (X20 Y0).
+            let at = s
+                .iter()
+                .filter(|x| (x.1[0] - 20.0).abs() < 1e-5 && x.1[1].abs() < 1e-5)
+                .count();
+            (at > 0, sum.duration)
+        };
+        let plain = "G21 G90 G64 P0.5\nG1 X20 F1200\nY20\nM2\n";
+        let cool = "G21 G90 G64 P0.5\nG1 X20 F1200\nM8\nY20\nM2\n";
+        for p in [Planner::Linuxcnc, Planner::Jerk] {
+            let (through_plain, t_plain) = corner(plain, p);
+            let (through_cool, t_cool) = corner(cool, p);
+            assert!(!through_plain && through_cool, "{p}");
+            assert!(t_cool > t_plain, "{p}: {t_cool} s against {t_plain} s");
+        }
+        // Under linuxcnc the machine stands io_wait at the corner: each of
+        // the two 20 mm moves at 20 mm/s, rest to rest at half acceleration
+        // (G64), takes 20/20 + 20/100 = 1.2 s.
+        let (_, t) = corner(cool, Planner::Linuxcnc);
+        let want = 2.0 * 1.2 + PlanOptions::default().io_wait;
+        assert!((t - want).abs() < 1e-9, "{t} s against {want} s");
     }
 
     #[test]

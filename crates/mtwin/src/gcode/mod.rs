@@ -96,12 +96,13 @@ pub use doc::{AxisRangeDoc, GcodeInterpolateDoc, GcodeStatsDoc, TravelViolationD
 pub use error::{GcodeError, Location};
 pub use event::{
     ArcMove, DistanceMode, Event, EventKind, Feed, FeedMode, Linear, PathMode, Plane, Programmed,
-    SourcePos, SpindleState, Units,
+    SourcePos, SpindleState, TaskWait, Units,
 };
 pub use interp::{InterpOptions, Interpreter, ModalState, MotionMode, RetractMode, UnknownMCode};
 pub use interpolate::{
-    DensePath, InterpolateError, InterpolateOptions, InterpolationSummary, Interpolator, Sample,
-    dense_paths, interpolate, jerk_limits, planned_duration, planned_duration_with,
+    DensePath, InterpolateError, InterpolateOptions, InterpolationSummary, Interpolator,
+    LineEndTimes, Sample, dense_paths, interpolate, jerk_limits, line_end_times, planned_duration,
+    planned_duration_with,
 };
 pub use parameters::Parameters;
 pub use profile::Trapezoid;

@@ -12,13 +12,16 @@
 //!   [`PlanOptions::lookahead`] blocks ([`lookahead`]), tangent junctions
 //!   without stopping, circular blend arcs or parabolic blends under G64
 //!   within the P tolerance, G64 Q merging ([`naive_cam`]), G61/G61.1 stops
-//!   at corners/every block, task waits at spindle and TCP commands.
+//!   at corners/every block, task waits (a stop and a stand-still) at
+//!   spindle, TCP, tool, coolant and I/O commands
+//!   ([`crate::gcode::TaskWait`]).
 //! * [`Planner::Jerk`] (`jerk`): the jerk-limited time law of [`jerk`] along
 //!   each chain of moves between stops, sampled densely in joint space
 //!   (`crate::gcode::dense_paths`, points at most [`PlanOptions::jerk_step`]
 //!   apart); limits on the **joints** (`max_velocity`, `max_acceleration`,
 //!   `max_jerk` of every machine axis), also under TCP; G61.1 stops at every
-//!   block, G61 at corners; under G64 a corner between two moves (lines or
+//!   block, G61 at corners, and every chain ends where LinuxCNC's task
+//!   waits (spindle, TCP, tool, coolant and I/O commands); under G64 a corner between two moves (lines or
 //!   arcs) is blended by a curve within P (a quarter of the step without P)
 //!   where that is faster than stopping, other corners (reversals) are
 //!   rounded by the joint spline within about a quarter of the step (and
@@ -126,6 +129,14 @@ pub struct PlanOptions {
     /// 0.02 (two cycles of LinuxCNC's 10 ms task, as measured on its
     /// simulator, see docs/linuxcnc.md); 0 for none.
     pub task_wait: f64,
+    /// `linuxcnc`: seconds the machine stands still at a command LinuxCNC
+    /// 2.9 hands to its separate I/O controller and waits for (M6 tool
+    /// change, M7/M8 coolant on, M9 mist and flood off, each;
+    /// `TaskWait::through_io`), instead of [`PlanOptions::task_wait`];
+    /// default 0.1 (one cycle of the I/O controller of LinuxCNC's sample
+    /// configurations, `[EMCIO] CYCLE_TIME`; see docs/gcode.md); 0 for
+    /// none (the machine still stops there).
+    pub io_wait: f64,
     /// `linuxcnc`: spindle acceleration, rev/min per s: a spindle start
     /// or speed change waits `|Δ speed| / spindle_accel` (LinuxCNC's feed
     /// moves wait for the spindle to be at speed); infinite (the default)
@@ -146,6 +157,7 @@ impl Default for PlanOptions {
             jerk: jerk::JerkOptions::default(),
             max_feed_override: 1.0,
             task_wait: 0.02,
+            io_wait: 0.1,
             spindle_accel: f64::INFINITY,
         }
     }

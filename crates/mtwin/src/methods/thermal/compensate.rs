@@ -1,9 +1,15 @@
 //! Pre-compensation of an NC program for thermal drift (the compensation of
 //! `docs/references.md` \[R4\]: the program rewritten before machining).
 //!
-//! 1. Every block is timed with the G-code engine's estimate
+//! 1. Every block is timed. Without a machine
+//!    ([`CompensateOptions::timing`] `None`) with the G-code engine's estimate
 //!    ([`ProgramStats::add`]: feed moves at the programmed feed, rapids at
-//!    [`CompensateOptions::rapid_feed`], `G4` dwells in the dialect's unit).
+//!    [`CompensateOptions::rapid_feed`], `G4` dwells in the dialect's unit,
+//!    no accelerations). With a machine, by the trajectory planner on it
+//!    ([`crate::gcode::line_end_times`]: the machine's limits, accelerations,
+//!    junctions and the planner's stops): a block ends when the planner ends
+//!    its motion, and a block without motion (S, M3, M5, …) takes effect when
+//!    the motion before it ends.
 //! 2. The spindle speed (S with M3/M4, 0 after M5 or before the first M3/M4)
 //!    is a step function of time; its mean over each sample period `[kT,
 //!    (k+1)T)` of the model is the model input of that sample.
@@ -85,6 +91,24 @@ pub struct CompensateOptions {
     pub tools: crate::gcode::ToolTable,
     /// Skip blocks starting with `/` (LinuxCNC's default).
     pub skip_deleted_blocks: bool,
+    /// Time the blocks with a trajectory planner on a machine instead of the
+    /// programmed feeds (`None`, the default: the estimate without
+    /// accelerations; [`CompensateOptions::rapid_feed`] is then unused, the
+    /// machine's `rapid_feed` times the rapids).
+    pub timing: Option<PlannedTiming>,
+}
+
+/// Block times from a trajectory planner on a machine (see the module
+/// documentation).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlannedTiming {
+    /// The machine: its axis limits (`max_velocity`, `max_acceleration`,
+    /// `max_jerk`) and `rapid_feed`. The program's coordinates are taken as
+    /// machine coordinates plus the program's own offsets; travels are not
+    /// checked.
+    pub machine: crate::model::Machine,
+    /// The planner and its settings.
+    pub plan: crate::gcode::plan::PlanOptions,
 }
 
 impl Default for CompensateOptions {
@@ -98,6 +122,7 @@ impl Default for CompensateOptions {
             program: crate::gcode::ProgramOptions::default(),
             tools: crate::gcode::ToolTable::new(),
             skip_deleted_blocks: true,
+            timing: None,
         }
     }
 }
@@ -109,6 +134,10 @@ pub enum CompensateError {
     /// The program could not be read, interpreted or timed.
     #[error(transparent)]
     Gcode(#[from] GcodeError),
+    /// The planner could not time the program on the machine
+    /// ([`CompensateOptions::timing`]).
+    #[error(transparent)]
+    Planner(#[from] crate::gcode::InterpolateError),
     /// A block whose Z cannot be changed without changing something else.
     #[error("line {line}: cannot compensate this block safely: {reason}")]
     Unsafe {
@@ -165,6 +194,7 @@ impl CompensateError {
     pub fn message(&self) -> String {
         match self {
             CompensateError::Gcode(e) => e.message(),
+            CompensateError::Planner(e) => e.message(),
             CompensateError::Unsafe { reason, .. } => {
                 format!("cannot compensate this block safely: {reason}")
             }
@@ -354,9 +384,11 @@ pub fn compensate(
     let trailer = &program[read..];
 
     // Pass 1: times, speeds, Z moves.
+    let mut result_note = None;
     let mut interp = Interpreter::new(stats_opts.interp.clone());
     let mut stats = ProgramStats::default();
-    let mut speed = SpeedHistory::default();
+    // (block, time by the estimate in min, spindle speed from then on).
+    let mut speed_steps: Vec<(usize, f64, f64)> = Vec::new();
     let (mut rpm, mut on) = (0.0_f64, false);
     let mut spindle_used = false;
     let mut moves = Vec::new();
@@ -373,14 +405,48 @@ pub fn compensate(
             let now = stats.total_time() / 60.0;
             let n = if on { rpm } else { 0.0 };
             spindle_used |= n > 0.0;
-            speed.set(now, n);
+            speed_steps.push((index, now, n));
             stats.add(e, &stats_opts)?;
         }
         if has_z_word(block)? {
             moves.push(z_move(block, index, &events, stats.total_time() / 60.0)?);
         }
     }
-    let duration_min = stats.total_time() / 60.0;
+    let mut duration_min = stats.total_time() / 60.0;
+    let mut speed = SpeedHistory::default();
+    if let Some(timing) = &options.timing {
+        // The planner's end time of each block (min): that of its line's
+        // motion, else (no motion) the end of the block before it.
+        let mut iopts = crate::gcode::InterpolateOptions::new(1.0);
+        iopts.interp = stats_opts.interp.clone();
+        iopts.plan = timing.plan;
+        let times = crate::gcode::line_end_times(&program[..read], &timing.machine, &iopts)?;
+        let by_line = times.by_line();
+        let mut end = Vec::with_capacity(prog.blocks.len());
+        let mut last = 0.0_f64;
+        for block in &prog.blocks {
+            if let Some(&t) = by_line.get(&block.line()) {
+                last = last.max(t / 60.0);
+            }
+            end.push(last);
+        }
+        let start = |b: usize| if b == 0 { 0.0 } else { end[b - 1] };
+        for &(b, _, n) in &speed_steps {
+            speed.set(start(b), n);
+        }
+        for m in &mut moves {
+            m.end_min = end[m.block];
+        }
+        duration_min = (times.duration / 60.0).max(last);
+        result_note = Some(format!(
+            "block times from the {} planner on the machine {}",
+            timing.plan.planner, timing.machine.name
+        ));
+    } else {
+        for &(_, now, n) in &speed_steps {
+            speed.set(now, n);
+        }
+    }
     // NaN is refused too.
     if duration_min.is_nan() || duration_min > MAX_DURATION_MIN {
         return Err(CompensateError::TooLong { duration_min });
@@ -405,7 +471,7 @@ pub fn compensate(
             + trailer.iter().filter(|&&b| b == b'\n').count()
             + usize::from(!trailer.is_empty() && !trailer.ends_with(b"\n"))) as u64,
         spindle_used,
-        notes: Vec::new(),
+        notes: result_note.into_iter().collect(),
     };
     if !spindle_used {
         result.output = program.to_vec();
@@ -628,6 +694,118 @@ mod tests {
 
     fn text(c: &Compensation) -> String {
         String::from_utf8(c.output.clone()).unwrap()
+    }
+
+    /// A Cartesian XYZ machine: 5 mm/s, 50 mm/s², 1000 mm/s³ on every axis.
+    fn slow_xyz() -> crate::model::Machine {
+        use crate::model::{Axis as MAxis, AxisKind, Machine};
+        let axes = [("X", 0), ("Y", 1), ("Z", 2)]
+            .map(|(name, i)| {
+                let mut d = [0.0; 3];
+                d[i] = 1.0;
+                let mut a = MAxis::new(name, AxisKind::Linear, d, [0.0; 3], [-1e4, 1e4]);
+                a.max_velocity = Some(5.0);
+                a.max_acceleration = Some(50.0);
+                a.max_jerk = Some(1000.0);
+                a
+            })
+            .to_vec();
+        Machine {
+            name: "slow".into(),
+            axes,
+            tool_chain: vec![0, 1, 2],
+            workpiece_chain: vec![],
+            tool_tip: nalgebra::Vector3::zeros(),
+            tool_direction: nalgebra::Vector3::z(),
+            workpiece_origin: nalgebra::Vector3::zeros(),
+            rapid_feed: 6000.0,
+        }
+    }
+
+    #[test]
+    fn planner_times_move_the_corrections() {
+        use crate::gcode::plan::{PlanOptions, Planner};
+        // One height model with a 1 min sample period: below 1 min the
+        // drift at 2000 rpm from t = 0 is e(t) = 0.2·g·2 · t/(1 min) (linear
+        // between e(0) = 0 and e(1) = 0.2·g·n/1000), g = 1 mm per 1000 rpm.
+        let h = |z: f64| HeightModel {
+            z_mm: z,
+            model: Arx::new(vec![1.0, -0.8], vec![(vec![0.2], 1)]).unwrap(),
+            stats: None,
+        };
+        let inputs = vec![InputChannel::linear("speed_rpm", 1000.0)];
+        let model = ThermalModel::new(1.0, inputs, vec![h(-100.0), h(0.0)]).unwrap();
+        let drift = |t_s: f64| 0.4 * t_s / 60.0;
+        // 20 collinear moves of 1 mm at F6000 (above the 5 mm/s limit), a
+        // 1 s dwell, a 10 mm Z feed, a 30 s dwell, a 10 mm Z rapid; G61
+        // (exact path: no corner here to blend, and LinuxCNC keeps the full
+        // acceleration, which it halves for blending under G64).
+        let mut src = String::from("G21 G90 G61\nS2000 M3\n");
+        for i in 1..=20 {
+            src.push_str(&format!("G1 X{i} F6000\n"));
+        }
+        src.push_str("G4 P1\nG1 Z-10\nG4 P30\nG0 Z-20\nM30\n");
+        // Closed-form times (s) of the two Z blocks' ends. A rest-to-rest
+        // move of L mm at v = 5, a = 50 (v²/a = 0.5 ≤ L) takes L/v + v/a;
+        // with the jerk limit j = 1000 (a²/j = 2.5 ≤ v) L/v + v/a + a/j.
+        let (v, a, j) = (5.0, 50.0, 1000.0);
+        let trap = |l: f64| l / v + v / a;
+        let cases = [
+            // Stop after every 1 mm move.
+            (Some(Planner::ExactStop), 20.0 * trap(1.0), trap(10.0)),
+            // LinuxCNC keeps the speed through collinear blocks: one 20 mm move.
+            (Some(Planner::Linuxcnc), trap(20.0), trap(10.0)),
+            (Some(Planner::Jerk), trap(20.0) + a / j, trap(10.0) + a / j),
+            // No machine: programmed feeds, rapids at 10 m/min.
+            (None, 20.0 / 100.0, 10.0 / 100.0),
+        ];
+        let mut written = Vec::new();
+        for (planner, chain, z_move) in cases {
+            let rapid = if planner.is_some() {
+                z_move
+            } else {
+                10.0 / (10_000.0 / 60.0)
+            };
+            let t1 = chain + 1.0 + z_move;
+            let t2 = t1 + 30.0 + rapid;
+            let mut o = opts(CorrectionUpdate::Continuous);
+            o.timing = planner.map(|p| PlannedTiming {
+                machine: slow_xyz(),
+                plan: PlanOptions::new(p),
+            });
+            let c = compensate(&model, src.as_bytes(), &o).unwrap();
+            let out = text(&c);
+            let lines: Vec<&str> = out.lines().collect();
+            let z_of = |l: &str| -> f64 {
+                let w = l.split_whitespace().find(|w| w.starts_with('Z')).unwrap();
+                w[1..].parse().unwrap()
+            };
+            // The planners' times agree with the closed form within 2 ms
+            // (LinuxCNC's 1 ms cycle), i.e. within 0.013 µm of drift.
+            for (zb, t, target, line) in [
+                (c.z_blocks[0], t1, -10.0, lines[23]),
+                (c.z_blocks[1], t2, -20.0, lines[25]),
+            ] {
+                assert!(
+                    (zb.end_min * 60.0 - t).abs() < 2e-3,
+                    "{planner:?}: line {} ends at {} s, not {t} s",
+                    zb.line,
+                    zb.end_min * 60.0
+                );
+                let want = target - drift(t);
+                assert!(
+                    (z_of(line) - want).abs() <= 0.5e-4 + drift(2e-3),
+                    "{planner:?}: {line} against Z{want:.5}"
+                );
+            }
+            written.push((z_of(lines[23]), z_of(lines[25])));
+        }
+        // The four timings write four different programs.
+        for i in 0..written.len() {
+            for k in i + 1..written.len() {
+                assert!((written[i].0 - written[k].0).abs() > 1e-4, "{written:?}");
+            }
+        }
     }
 
     #[test]

@@ -32,8 +32,8 @@ mod speed_model;
 mod synthetic;
 
 pub use compensate::{
-    CompensateError, CompensateOptions, Compensation, CorrectionUpdate, SpeedHistory, ZBlock,
-    compensate,
+    CompensateError, CompensateOptions, Compensation, CorrectionUpdate, PlannedTiming,
+    SpeedHistory, ZBlock, compensate,
 };
 pub use data::{TrainingData, read_training, training_from_table};
 pub use doc::{
@@ -51,6 +51,7 @@ pub use predict::{
 };
 pub use program::{
     BallArray, ProbeMotion, ThermalProgram, ThermalProgramError, pass_seconds, thermal_program,
+    thermal_program_on,
 };
 pub use run::{
     FitRun, FitRunOptions, LogFitProgress, LogFitRun, LogFitRunOptions, LogPredictRun,

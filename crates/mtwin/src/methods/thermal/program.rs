@@ -31,10 +31,19 @@
 //! history is therefore zero during the passes. The programme's speed `j`
 //! holds over `[j·step, (j+1)·step)` minutes; the last pass is at the last
 //! multiple of `T` within the programme's duration.
+//!
+//! **Timing on a machine** ([`thermal_program_on`]): the trajectory planner
+//! of a [`PlannedTiming`] times the written program on the machine
+//! (accelerations, stops and the planner's waits at M3/M5/M19 included,
+//! rapids at the machine's `rapid_feed`); the dwell that follows each pass
+//! is shortened by what the pass and the spindle commands took beyond the
+//! estimate, so that pass `k` still starts at `k·T` by the planner's clock.
 
 use thiserror::Error;
 
 use crate::gcode::{Dialect, ProgramEnd, ProgramWriter, WriteError};
+
+use super::compensate::PlannedTiming;
 
 /// The ball array (mm, work coordinates).
 #[derive(Debug, Clone, PartialEq)]
@@ -104,6 +113,8 @@ pub struct ThermalProgram {
     pub duration_min: f64,
     /// Time of the program from the start of the cold pass to its end, s.
     pub time_s: f64,
+    /// Each pass's first (its comment) and last line, 1-based.
+    pass_lines: Vec<(usize, usize)>,
 }
 
 /// Why the program could not be written.
@@ -129,6 +140,9 @@ pub enum ThermalProgramError {
     /// A value the G-code writer cannot write.
     #[error(transparent)]
     Write(#[from] WriteError),
+    /// The planner could not time the program on the machine (its message).
+    #[error("the planner cannot time the program on the machine: {0}")]
+    Planner(String),
 }
 
 /// Duration of one probing pass (s): rapid path at `motion.rapid_feed`, probing
@@ -165,6 +179,127 @@ pub fn thermal_program(
     period_min: f64,
     dialect: Dialect,
 ) -> Result<ThermalProgram, ThermalProgramError> {
+    let pass_s = pass_seconds(balls, motion);
+    write_program(
+        balls,
+        motion,
+        speeds,
+        step_min,
+        period_min,
+        dialect,
+        pass_s,
+        &[],
+    )
+}
+
+/// [`thermal_program`] timed by the planner of `timing` on its machine (see
+/// the module documentation): every pass starts at `k·T` by the planner's
+/// clock (to the 1 ms the dwells are written to); `pass_s` is the longest
+/// pass and `time_s` the planner's time from the start of the cold pass to
+/// the end. `motion.rapid_feed` is replaced by the machine's.
+pub fn thermal_program_on(
+    balls: &BallArray,
+    motion: &ProbeMotion,
+    speeds: &[f64],
+    step_min: f64,
+    period_min: f64,
+    dialect: Dialect,
+    timing: &PlannedTiming,
+) -> Result<ThermalProgram, ThermalProgramError> {
+    let motion = ProbeMotion {
+        rapid_feed: timing.machine.rapid_feed,
+        ..*motion
+    };
+    let estimate = pass_seconds(balls, &motion);
+    let first = write_program(
+        balls,
+        &motion,
+        speeds,
+        step_min,
+        period_min,
+        dialect,
+        estimate,
+        &[],
+    )?;
+    let period_s = period_min * 60.0;
+    let t = pass_times(&first.text, &first.pass_lines, dialect, timing)?;
+    let longest = t.passes.iter().map(|p| p.1 - p.0).fold(0.0, f64::max);
+    if longest >= period_s {
+        return Err(ThermalProgramError::PassTooLong {
+            pass_s: longest,
+            period_s,
+        });
+    }
+    // Deviation of each pass start from k·T; the dwells after pass k lose
+    // the growth of the deviation up to pass k + 1.
+    let dev: Vec<f64> = t
+        .passes
+        .iter()
+        .enumerate()
+        .map(|(k, p)| p.0 - t.passes[0].0 - k as f64 * period_s)
+        .collect();
+    let fix: Vec<f64> = dev.windows(2).map(|w| w[1] - w[0]).collect();
+    let mut p = write_program(
+        balls, &motion, speeds, step_min, period_min, dialect, estimate, &fix,
+    )?;
+    let t = pass_times(&p.text, &p.pass_lines, dialect, timing)?;
+    p.pass_s = t.passes.iter().map(|p| p.1 - p.0).fold(0.0, f64::max);
+    p.time_s = t.duration - t.passes[0].0;
+    Ok(p)
+}
+
+/// The planner's start and end time (s) of every pass of a written
+/// programme, and its duration.
+struct PassTimes {
+    passes: Vec<(f64, f64)>,
+    duration: f64,
+}
+
+fn pass_times(
+    text: &str,
+    pass_lines: &[(usize, usize)],
+    dialect: Dialect,
+    timing: &PlannedTiming,
+) -> Result<PassTimes, ThermalProgramError> {
+    let mut o = crate::gcode::InterpolateOptions::new(1.0);
+    o.interp.dialect = dialect;
+    o.plan = timing.plan;
+    let times = crate::gcode::line_end_times(text.as_bytes(), &timing.machine, &o)
+        .map_err(|e| ThermalProgramError::Planner(e.to_string()))?;
+    let by_line = times.by_line();
+    // The end of the motion up to each line (1-based), carried over lines
+    // without motion.
+    let lines: Vec<&str> = text.lines().collect();
+    let mut upto = vec![0.0_f64; lines.len() + 1];
+    for n in 1..=lines.len() {
+        upto[n] = upto[n - 1].max(by_line.get(&(n as u64)).copied().unwrap_or(0.0));
+    }
+    // A pass runs from the end of the motion before its comment line to
+    // the end of its last line (the rapid back to the first ball's X).
+    let passes = pass_lines
+        .iter()
+        .map(|&(first, last)| (upto[first - 1], upto[last]))
+        .collect();
+    Ok(PassTimes {
+        passes,
+        duration: times.duration,
+    })
+}
+
+/// Writes the programme with passes `pass_s` long by the program clock;
+/// after pass `k` the clock advances by `fix[k]` more (s), shortening the
+/// dwells that follow.
+#[allow(clippy::too_many_arguments)]
+fn write_program(
+    balls: &BallArray,
+    motion: &ProbeMotion,
+    speeds: &[f64],
+    step_min: f64,
+    period_min: f64,
+    dialect: Dialect,
+    pass_s: f64,
+    fix: &[f64],
+) -> Result<ThermalProgram, ThermalProgramError> {
     let bad = |m: String| Err(ThermalProgramError::Setting(m));
     let pos = |v: f64| v.is_finite() && v > 0.0;
     if balls.heights.is_empty() || balls.heights.iter().any(|z| !z.is_finite()) {
@@ -193,7 +328,6 @@ pub fn thermal_program(
     if speeds.is_empty() || speeds.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
         return bad("the speed programme needs speeds >= 0 rev/min".into());
     }
-    let pass_s = pass_seconds(balls, motion);
     let period_s = period_min * 60.0;
     if pass_s >= period_s {
         return Err(ThermalProgramError::PassTooLong { pass_s, period_s });
@@ -254,7 +388,10 @@ pub fn thermal_program(
         Ok(())
     };
     let mut running: Option<f64> = None;
+    let mut pass_lines = Vec::with_capacity(passes);
+    let lines_written = |w: &ProgramWriter| w.text().matches('\n').count();
     for k in 0..passes {
+        let first = lines_written(&w) + 1;
         w.comment(&format!(
             "pass {k} at t = {} min",
             w.plain(k as f64 * period_min)?
@@ -275,7 +412,8 @@ pub fn thermal_program(
             w.rapid(&[('Z', safe)])?;
         }
         w.rapid(&[('X', balls.x0)])?;
-        clock += pass_s;
+        pass_lines.push((first, lines_written(&w)));
+        clock += pass_s + fix.get(k).copied().unwrap_or(0.0);
         if k + 1 == passes {
             break;
         }
@@ -308,6 +446,7 @@ pub fn thermal_program(
         pass_s,
         duration_min,
         time_s: (passes - 1) as f64 * period_s + pass_s,
+        pass_lines,
     })
 }
 
@@ -416,6 +555,96 @@ mod tests {
             assert_eq!(s_words.len(), 3 + 3 + 3);
             s_words.dedup();
             assert_eq!(s_words, vec!["S2000 M3", "S6000 M3", "S4000 M3"]);
+        }
+    }
+
+    /// Pass starts (s) of a written programme by the planner of `timing`:
+    /// the end of the motion before each `(pass` comment line.
+    fn planned_pass_starts(text: &str, timing: &PlannedTiming) -> Vec<f64> {
+        let mut o = crate::gcode::InterpolateOptions::new(1.0);
+        o.plan = timing.plan;
+        let t = crate::gcode::line_end_times(text.as_bytes(), &timing.machine, &o).unwrap();
+        let by_line = t.by_line();
+        let mut upto = 0.0_f64;
+        let mut starts = Vec::new();
+        for (i, l) in text.lines().enumerate() {
+            if l.to_uppercase().starts_with("(PASS ") {
+                starts.push(upto);
+            }
+            upto = upto.max(by_line.get(&(i as u64 + 1)).copied().unwrap_or(0.0));
+        }
+        starts
+    }
+
+    #[test]
+    fn on_a_machine_passes_start_every_period_by_the_planners_clock() {
+        use crate::gcode::plan::{PlanOptions, Planner};
+        use crate::model::{Axis as MAxis, AxisKind, Machine};
+        let axes = [("X", 0), ("Y", 1), ("Z", 2)]
+            .map(|(name, i)| {
+                let mut d = [0.0; 3];
+                d[i] = 1.0;
+                let mut a = MAxis::new(name, AxisKind::Linear, d, [0.0; 3], [-1e4, 1e4]);
+                a.max_velocity = Some(50.0);
+                a.max_acceleration = Some(100.0);
+                a.max_jerk = Some(2000.0);
+                a
+            })
+            .to_vec();
+        let machine = Machine {
+            name: "xyz".into(),
+            axes,
+            tool_chain: vec![0, 1, 2],
+            workpiece_chain: vec![],
+            tool_tip: nalgebra::Vector3::zeros(),
+            tool_direction: nalgebra::Vector3::z(),
+            workpiece_origin: nalgebra::Vector3::zeros(),
+            rapid_feed: 6000.0,
+        };
+        let speeds = [2000.0, 0.0, 6000.0, 4000.0];
+        for planner in [Planner::ExactStop, Planner::Linuxcnc, Planner::Jerk] {
+            let timing = PlannedTiming {
+                machine: machine.clone(),
+                plan: PlanOptions::new(planner),
+            };
+            let m = ProbeMotion::default();
+            let p = thermal_program_on(
+                &balls(),
+                &m,
+                &speeds,
+                25.0,
+                10.0,
+                Dialect::LinuxCnc,
+                &timing,
+            )
+            .unwrap();
+            let starts = planned_pass_starts(&p.text, &timing);
+            assert_eq!(starts.len(), 11);
+            for (k, t) in starts.iter().enumerate() {
+                let d = t - starts[0] - 600.0 * k as f64;
+                assert!(d.abs() < 1.5e-3, "{planner}: pass {k} off by {d} s");
+            }
+            // The accelerations make a pass longer than the estimate at the
+            // machine's rapid rate, and the estimate's programme drifts.
+            let at_rapid = ProbeMotion {
+                rapid_feed: machine.rapid_feed,
+                ..m
+            };
+            assert!(p.pass_s > pass_seconds(&balls(), &at_rapid), "{planner}");
+            let plain =
+                thermal_program(&balls(), &at_rapid, &speeds, 25.0, 10.0, Dialect::LinuxCnc)
+                    .unwrap();
+            let s = planned_pass_starts(&plain.text, &timing);
+            let drift = s[10] - s[0] - 6000.0;
+            assert!(
+                drift > 0.1,
+                "{planner}: the estimate's last pass only {drift} s late"
+            );
+            eprintln!(
+                "{planner}: pass {:.3} s (estimate {:.3} s); without the planner the last pass is {drift:.3} s late",
+                p.pass_s,
+                pass_seconds(&balls(), &at_rapid)
+            );
         }
     }
 
