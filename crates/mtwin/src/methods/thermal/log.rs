@@ -34,6 +34,27 @@
 //! stable). After the forward pass, a backward pass removes any input
 //! whose removal raises the held-out RMS by less than `min_gain` (one picked
 //! early and made redundant by a later one).
+//!
+//! **Sums of first-order lags** ([`LogFitOptions::lags`], off by default).
+//! Each channel may also be modelled as `Σ_i Σ_τ g_{i,τ}·lag_τ(u_i)`: every
+//! input through one or two first-order lags whose time constants `τ` the
+//! channel's inputs share, a gain per input and lag (stored as the
+//! equivalent ARX model, `na` = number of lags, so the model file is the
+//! same). Why: on a simulated truth with time constants of 20 and 180
+//! periods, the ARX least-squares estimate started from the equation error
+//! lands the output-error refinement in a local minimum (one pole near 1,
+//! one near 0) in five of six noise draws, *even with the true inputs
+//! given*: its held-out error was 2.0–4.6 times the truth's own. With the
+//! time constants fixed, the simulated output is linear in the gains, so
+//! least squares on the lagged inputs *is* the output-error fit (convex,
+//! from rest as the model is used), and each held-out block's simulation
+//! error follows exactly from Gram matrices over sample prefixes (cheap).
+//! The time constants are taken from a grid (5, 15, 45, 135, 405 min,
+//! singles and pairs), the best refined by a coordinate search on the
+//! held-out error; after selection the chosen structure's time constants
+//! are refined once more on all training samples (their simulation error),
+//! its gains fitted there. A lag structure competes with the ARX orders of
+//! the same input set by the same held-out RMS.
 
 use std::path::{Path, PathBuf};
 
@@ -640,6 +661,11 @@ pub struct LogFitOptions {
     pub gain_bound: f64,
     /// Held-out RMS above this fraction of the held-out drift RMS is warned about.
     pub warn_ratio: f64,
+    /// Also offer sums of first-order lags (one or two time constants
+    /// shared by the channel's inputs, a gain per input and lag) as
+    /// candidate structures beside the ARX order grid ([`best_lags`]). Off
+    /// by default (the documented real-record figures are fitted without).
+    pub lags: bool,
     /// Parallelism: the candidate inputs of a selection step are judged in
     /// parallel (each candidate's fits on one thread);
     /// [`Par::Seq`](crate::par::Par::Seq) on the calling thread only. Both
@@ -658,6 +684,7 @@ impl Default for LogFitOptions {
             min_gain: 0.02,
             gain_bound: 10.0,
             warn_ratio: 0.5,
+            lags: false,
             par: crate::par::Par::rayon(0),
         }
     }
@@ -743,6 +770,9 @@ struct Candidate {
     inputs: Vec<usize>,
     orders: ArxOrders,
     heldout_rms: f64,
+    /// Time constants (model periods) of a sum-of-lags candidate
+    /// ([`best_lags`]); `None` for an ARX candidate.
+    lags: Option<Vec<f64>>,
 }
 
 /// One fold of the blocked cross-validation: the model is fitted on the
@@ -849,6 +879,7 @@ fn best_orders(
     folds: &[Fold],
     options: &LogFitOptions,
     y_max: f64,
+    lag_grid: &[f64],
 ) -> Option<Candidate> {
     let mut ranked: Vec<Candidate> = Vec::new();
     for na in 0..=options.max_order {
@@ -863,6 +894,7 @@ fn best_orders(
                     inputs: inputs.to_vec(),
                     orders,
                     heldout_rms: e,
+                    lags: None,
                 });
             }
         }
@@ -915,11 +947,322 @@ fn best_orders(
                     inputs: inputs.to_vec(),
                     orders,
                     heldout_rms: e,
+                    lags: None,
                 });
             }
         }
     }
+    if options.lags
+        && let Some((taus, e)) = best_lags(y, u, inputs, folds, options, y_max, lag_grid)
+    {
+        keep(Candidate {
+            inputs: inputs.to_vec(),
+            orders: lag_orders(inputs.len(), taus.len()),
+            heldout_rms: e,
+            lags: Some(taus),
+        });
+    }
     best
+}
+
+/// Time constants (min) of the first-order lags tried for sum-of-lags
+/// candidates: singles and pairs of these, then refined.
+const LAG_GRID_MIN: [f64; 5] = [5.0, 15.0, 45.0, 135.0, 405.0];
+
+/// The ARX orders of a sum of `lags` first-order lags per input:
+/// `na = lags` (the product of the lags' denominators), `nb + 1 = lags`.
+fn lag_orders(inputs: usize, lags: usize) -> ArxOrders {
+    ArxOrders {
+        na: lags,
+        inputs: (0..inputs)
+            .map(|_| InputOrder {
+                nb: lags.saturating_sub(1),
+                nk: 1,
+            })
+            .collect(),
+    }
+}
+
+/// The pole of a first-order lag of time constant `tau` (model periods).
+fn lag_pole(tau: f64) -> f64 {
+    (-1.0 / tau).exp()
+}
+
+/// A unit-gain first-order lag of `u` from rest, one sample late:
+/// `x(0) = 0`, `x(k) = p·x(k−1) + (1 − p)·u(k−1)`.
+fn lowpass(u: &[f64], p: f64) -> Vec<f64> {
+    let mut x = Vec::with_capacity(u.len());
+    let mut s = 0.0;
+    for &v in u {
+        x.push(s);
+        s = p * s + (1.0 - p) * v;
+    }
+    x
+}
+
+/// The regressors of a sum-of-lags model over the first `n` samples: for
+/// each input of `inputs`, its lag of each time constant of `taus`
+/// (input-major).
+fn lag_columns(u: &[Vec<f64>], inputs: &[usize], taus: &[f64], n: usize) -> Vec<Vec<f64>> {
+    inputs
+        .iter()
+        .flat_map(|&i| taus.iter().map(move |&t| lowpass(&u[i][..n], lag_pole(t))))
+        .collect()
+}
+
+/// The Gram matrices `Σ z zᵀ` of `z = [columns…, y]` over the samples
+/// `0..k` for every `k` of `at` (ascending).
+fn prefix_grams(cols: &[Vec<f64>], y: &[f64], at: &[usize]) -> Vec<nalgebra::DMatrix<f64>> {
+    let c = cols.len() + 1;
+    let end = at.last().copied().unwrap_or(0);
+    let mut g = vec![0.0; c * c];
+    let mut z = vec![0.0; c];
+    let mut out = Vec::with_capacity(at.len());
+    let mut next = 0;
+    for k in 0..=end {
+        while next < at.len() && at[next] == k {
+            out.push(nalgebra::DMatrix::from_fn(c, c, |a, b| {
+                g[a.max(b) * c + a.min(b)]
+            }));
+            next += 1;
+        }
+        if k == end {
+            break;
+        }
+        for (j, col) in cols.iter().enumerate() {
+            z[j] = col[k];
+        }
+        z[c - 1] = y[k];
+        for a in 0..c {
+            let za = z[a];
+            for (gb, zb) in g[a * c..a * c + a + 1].iter_mut().zip(&z) {
+                *gb += za * zb;
+            }
+        }
+    }
+    out
+}
+
+/// Least-squares gains from a Gram matrix of `[columns…, y]` (a tiny ridge,
+/// relative to the largest diagonal, keeps a column that is zero on the
+/// fit span from making it singular).
+fn solve_gains(g: &nalgebra::DMatrix<f64>) -> Option<Vec<f64>> {
+    let c = g.nrows() - 1;
+    let mut a = g.view((0, 0), (c, c)).into_owned();
+    let rhs = g.view((0, c), (c, 1)).into_owned();
+    let ridge = 1e-12 * (0..c).map(|i| a[(i, i)]).fold(0.0f64, f64::max).max(1e-300);
+    for i in 0..c {
+        a[(i, i)] += ridge;
+    }
+    let x = a.cholesky()?.solve(&rhs);
+    let x: Vec<f64> = x.iter().copied().collect();
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+/// `vᵀ G v` with `v = [gains…, −1]`: the residual sum of squares of the
+/// gains over the samples of the Gram matrix `g`.
+fn residual_ss(g: &nalgebra::DMatrix<f64>, gains: &[f64]) -> f64 {
+    let v: Vec<f64> = gains.iter().copied().chain([-1.0]).collect();
+    let mut s = 0.0;
+    for (a, va) in v.iter().enumerate() {
+        for (b, vb) in v.iter().enumerate() {
+            s += va * g[(a, b)] * vb;
+        }
+    }
+    s.max(0.0)
+}
+
+/// Every input's static gain (the sum of its lags' gains) within the bound.
+fn lag_gains_ok(gains: &[f64], lags: usize, options: &LogFitOptions, y_max: f64) -> bool {
+    let bound = options.gain_bound * y_max.max(1e-12);
+    gains
+        .chunks(lags)
+        .all(|g| g.iter().sum::<f64>().abs() <= bound)
+}
+
+/// Pooled held-out RMS of the sum-of-lags model with time constants `taus`
+/// over the folds (as [`cv_rms`]: each fold's gains fitted by least squares
+/// on its fit samples, its test block simulated from rest). With the time
+/// constants fixed the simulated output is linear in the gains, so the
+/// least-squares fit *is* the output-error fit and the test block's
+/// simulation error follows from Gram matrices over sample prefixes.
+fn lag_cv(
+    y: &[f64],
+    u: &[Vec<f64>],
+    inputs: &[usize],
+    taus: &[f64],
+    folds: &[Fold],
+    options: &LogFitOptions,
+    y_max: f64,
+) -> Option<f64> {
+    if !folds
+        .iter()
+        .all(|f| f.fit.len() == 1 && f.fit[0].start == 0)
+    {
+        return None;
+    }
+    let mut at: Vec<usize> = folds
+        .iter()
+        .flat_map(|f| [f.fit[0].end, f.test.start, f.test.end])
+        .collect();
+    at.sort_unstable();
+    at.dedup();
+    let n = *at.last()?;
+    let cols = lag_columns(u, inputs, taus, n);
+    let grams = prefix_grams(&cols, y, &at);
+    let g = |k: usize| &grams[at.binary_search(&k).unwrap_or(0)];
+    let (mut ss, mut count) = (0.0, 0usize);
+    for f in folds {
+        let gains = solve_gains(g(f.fit[0].end))?;
+        if !lag_gains_ok(&gains, taus.len(), options, y_max) {
+            return None;
+        }
+        ss += residual_ss(&(g(f.test.end) - g(f.test.start)), &gains);
+        count += f.test.len();
+    }
+    let e = (ss / count.max(1) as f64).sqrt();
+    e.is_finite().then_some(e)
+}
+
+/// Time constants acceptable together: each at least one period, at most
+/// `longest`, and neighbours at least a factor 1.2 apart (closer lags are
+/// nearly the same regressor).
+fn lags_valid(taus: &[f64], longest: f64) -> bool {
+    let mut t = taus.to_vec();
+    t.sort_by(f64::total_cmp);
+    t.iter().all(|&v| (1.0..=longest).contains(&v)) && t.windows(2).all(|w| w[1] >= 1.2 * w[0])
+}
+
+/// The best sum-of-lags model of `inputs`: every single time constant and
+/// pair of the grid `grid` (model periods) judged by [`lag_cv`], then the
+/// best refined by a coordinate search on the logarithm of each time
+/// constant (steps ×1.6, ×1.26, ×1.12, ×1.06, each way), judged the same
+/// way. Returns the time constants (ascending) and their held-out RMS.
+fn best_lags(
+    y: &[f64],
+    u: &[Vec<f64>],
+    inputs: &[usize],
+    folds: &[Fold],
+    options: &LogFitOptions,
+    y_max: f64,
+    grid: &[f64],
+) -> Option<(Vec<f64>, f64)> {
+    let mut sets: Vec<Vec<f64>> = grid.iter().map(|&t| vec![t]).collect();
+    for (i, &a) in grid.iter().enumerate() {
+        for &b in &grid[i + 1..] {
+            sets.push(vec![a, b]);
+        }
+    }
+    let longest = 4.0 * y.len() as f64;
+    let mut best: Option<(Vec<f64>, f64)> = None;
+    for set in sets {
+        if !lags_valid(&set, longest) {
+            continue;
+        }
+        if let Some(e) = lag_cv(y, u, inputs, &set, folds, options, y_max)
+            && best.as_ref().is_none_or(|b| e < b.1)
+        {
+            best = Some((set, e));
+        }
+    }
+    let (mut taus, mut e) = best?;
+    let mut step = 1.6f64;
+    for _ in 0..4 {
+        for i in 0..taus.len() {
+            for f in [step, 1.0 / step] {
+                let mut t = taus.clone();
+                t[i] *= f;
+                if !lags_valid(&t, longest) {
+                    continue;
+                }
+                if let Some(et) = lag_cv(y, u, inputs, &t, folds, options, y_max)
+                    && et < e
+                {
+                    (taus, e) = (t, et);
+                }
+            }
+        }
+        step = step.sqrt();
+    }
+    taus.sort_by(f64::total_cmp);
+    Some((taus, e))
+}
+
+/// The time constants `taus` of a chosen sum-of-lags structure refined on
+/// all `n` training samples: a coordinate search on the logarithm of each
+/// (steps ×1.6 down to ×1.006, each way) minimising the simulation error
+/// over the training samples, the gains fitted by least squares for each
+/// trial (with the time constants it is an output-error fit; the structure
+/// itself was chosen by the held-out blocks, whose first fits see only a
+/// quarter of the samples).
+fn refine_lags(y: &[f64], u: &[Vec<f64>], inputs: &[usize], taus: &[f64], n: usize) -> Vec<f64> {
+    let longest = 4.0 * y.len() as f64;
+    let cost = |t: &[f64]| -> Option<f64> {
+        let cols = lag_columns(u, inputs, t, n);
+        let g = prefix_grams(&cols, y, &[n]);
+        let gains = solve_gains(&g[0])?;
+        Some(residual_ss(&g[0], &gains))
+    };
+    let mut taus = taus.to_vec();
+    let Some(mut e) = cost(&taus) else {
+        return taus;
+    };
+    let mut step = 1.6f64;
+    for _ in 0..7 {
+        for i in 0..taus.len() {
+            for f in [step, 1.0 / step] {
+                let mut t = taus.clone();
+                t[i] *= f;
+                if !lags_valid(&t, longest) {
+                    continue;
+                }
+                if let Some(et) = cost(&t)
+                    && et < e
+                {
+                    (taus, e) = (t, et);
+                }
+            }
+        }
+        step = step.sqrt();
+    }
+    taus.sort_by(f64::total_cmp);
+    taus
+}
+
+/// The sum-of-lags model as an ARX model (`nk = 1`): per input `i`,
+/// `Σ_p g_{i,p}·(1 − p)·q⁻¹ / (1 − p·q⁻¹)` over the lags' poles `p`, on the
+/// common denominator `Π_p (1 − p·q⁻¹)`. `gains` input-major, as
+/// [`lag_columns`].
+fn lags_to_arx(taus: &[f64], gains: &[f64], n_inputs: usize) -> Option<Arx> {
+    let poles: Vec<f64> = taus.iter().map(|&t| lag_pole(t)).collect();
+    // poly · (1 − r·q⁻¹)
+    let times = |poly: &[f64], r: f64| -> Vec<f64> {
+        let mut out = vec![0.0; poly.len() + 1];
+        for (i, &c) in poly.iter().enumerate() {
+            out[i] += c;
+            out[i + 1] -= r * c;
+        }
+        out
+    };
+    let a = poles.iter().fold(vec![1.0], |acc, &r| times(&acc, r));
+    let b = (0..n_inputs)
+        .map(|i| {
+            let mut b = vec![0.0; poles.len()];
+            for (j, &pj) in poles.iter().enumerate() {
+                let others = poles
+                    .iter()
+                    .enumerate()
+                    .filter(|&(l, _)| l != j)
+                    .fold(vec![1.0], |acc, (_, &r)| times(&acc, r));
+                let g = gains[i * poles.len() + j] * (1.0 - pj);
+                for (m, c) in others.iter().enumerate() {
+                    b[m] += g * c;
+                }
+            }
+            (b, 1)
+        })
+        .collect();
+    Arx::new(a, b).ok()
 }
 
 /// How many of the best least-squares structures of an input set are
@@ -986,6 +1329,7 @@ pub fn fit_log_with(
         )));
     }
     let heldout_samples: usize = folds.iter().map(|f| f.test.len()).sum();
+    let lag_grid: Vec<f64> = LAG_GRID_MIN.iter().map(|t| t / log.period_min).collect();
     let model_inputs: Vec<LogInput> = inputs
         .iter()
         .zip(&log.inputs)
@@ -1025,7 +1369,7 @@ pub fn fit_log_with(
                 crate::par::map(&remaining, 1, |_, &j| {
                     let mut set = current.clone();
                     set.push(j);
-                    best_orders(&y, &u, &set, &folds, options, y_max).map(|c| (j, c))
+                    best_orders(&y, &u, &set, &folds, options, y_max, &lag_grid).map(|c| (j, c))
                 })
             })
             .into_iter()
@@ -1049,7 +1393,7 @@ pub fn fit_log_with(
             let drop = crate::par::here(options.par, || {
                 crate::par::map(&c.inputs, 1, |_, &j| {
                     let set: Vec<usize> = c.inputs.iter().copied().filter(|&i| i != j).collect();
-                    best_orders(&y, &u, &set, &folds, options, y_max).map(|d| (j, d))
+                    best_orders(&y, &u, &set, &folds, options, y_max, &lag_grid).map(|d| (j, d))
                 })
             })
             .into_iter()
@@ -1084,7 +1428,20 @@ pub fn fit_log_with(
         let mut model = arx.model.clone();
         let mut training_rms = arx.stats.simulation_rms;
         let mut output_error = false;
-        if cand.orders.na > 0
+        // A sum of lags: its gains by least squares on all training samples
+        // (the output-error fit for its time constants).
+        let lag_model = cand.lags.as_ref().and_then(|taus| {
+            let taus = &refine_lags(&y, &u, &cand.inputs, taus, n_train);
+            let cols = lag_columns(&u, &cand.inputs, taus, n_train);
+            let g = prefix_grams(&cols, &y, &[n_train]);
+            let gains = solve_gains(&g[0])?;
+            lags_to_arx(taus, &gains, cand.inputs.len())
+        });
+        if let Some(m) = lag_model {
+            let sim = m.simulate(&run.input_slices()).map_err(|e| fail(spec, e))?;
+            training_rms = rms(sim.iter().zip(run.output()).map(|(s, m)| s - m));
+            model = m;
+        } else if cand.orders.na > 0
             && let Ok(oe) = fit_output_error_par(&run, &cand.orders, 0, crate::par::Par::Seq)
             && admissible(&oe.fit.model, options, y_max)
         {
@@ -1392,6 +1749,79 @@ mod tests {
         assert!(e.contains("limit"), "{e}");
     }
 
+    #[test]
+    fn a_sum_of_lags_as_an_arx_model_gives_the_lags_step_responses() {
+        // Two lags of 4 and 30 periods, gains 2 and -5 on input 0 and 0.5
+        // and 1.5 on input 1; a unit step on input 0 from sample 0 and on
+        // input 1 from sample 10. Closed form of a unit-gain lag's response
+        // to a step at sample s, one sample late: 1 − p^(k−s) for k > s.
+        let taus = [4.0, 30.0];
+        let gains = [2.0, -5.0, 0.5, 1.5];
+        let arx = lags_to_arx(&taus, &gains, 2).unwrap();
+        assert_eq!(arx.a().len(), 3);
+        let n = 80;
+        let u0 = vec![1.0; n];
+        let u1: Vec<f64> = (0..n).map(|k| if k >= 10 { 1.0 } else { 0.0 }).collect();
+        let sim = arx.simulate(&[&u0, &u1]).unwrap();
+        let step = |k: usize, s: usize, tau: f64| {
+            if k > s {
+                1.0 - (-1.0 / tau).exp().powi((k - s) as i32)
+            } else {
+                0.0
+            }
+        };
+        for (k, v) in sim.iter().enumerate() {
+            let want = 2.0 * step(k, 0, 4.0) - 5.0 * step(k, 0, 30.0)
+                + 0.5 * step(k, 10, 4.0)
+                + 1.5 * step(k, 10, 30.0);
+            assert!((v - want).abs() < 1e-12, "k {k}: {v} vs {want}");
+        }
+        // The static gain of each input is the sum of its lags' gains.
+        assert!((arx.dc_gain(0) + 3.0).abs() < 1e-9);
+        assert!((arx.dc_gain(1) - 2.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_held_out_error_from_gram_matrices_is_the_simulated_one() {
+        // lag_cv's Gram-matrix residuals against a plain simulation of each
+        // fold's model over its test block.
+        let mut rng = StdRng::seed_from_u64(7);
+        let n = 400;
+        let u: Vec<Vec<f64>> = (0..2)
+            .map(|_| {
+                (0..n)
+                    .map(|k| ((k / 37) % 3) as f64 + rng.gen_range(-0.1..0.1))
+                    .collect()
+            })
+            .collect();
+        let y: Vec<f64> = (0..n)
+            .map(|k| 0.01 * (k as f64 / 50.0).sin() + rng.gen_range(-1e-3..1e-3))
+            .collect();
+        let options = LogFitOptions::default();
+        let folds = make_folds(n, &options);
+        let taus = [6.0, 40.0];
+        let e = lag_cv(&y, &u, &[0, 1], &taus, &folds, &options, 1.0).unwrap();
+        let (mut ss, mut count) = (0.0, 0usize);
+        for f in &folds {
+            let m = f.fit[0].end;
+            // Gains by a plain least-squares solve of the fit span.
+            let cols = lag_columns(&u, &[0, 1], &taus, n);
+            let x = nalgebra::DMatrix::from_fn(m, 4, |r, c| cols[c][r]);
+            let gains = x
+                .svd(true, true)
+                .solve(&nalgebra::DVector::from_column_slice(&y[..m]), 1e-14)
+                .unwrap();
+            let arx = lags_to_arx(&taus, gains.as_slice(), 2).unwrap();
+            let sim = arx.simulate(&[&u[0], &u[1]]).unwrap();
+            for k in f.test.clone() {
+                ss += (sim[k] - y[k]).powi(2);
+                count += 1;
+            }
+        }
+        let direct = (ss / count as f64).sqrt();
+        assert!((e - direct).abs() < 1e-6 * direct, "{e} vs {direct}");
+    }
+
     /// A two-time-constant machine driven by the speed, plus an ambient
     /// temperature acting through the slow constant; measured with the
     /// ambient sensor, three sensors that do not matter, and drift noise.
@@ -1433,17 +1863,21 @@ mod tests {
     }
 
     #[test]
-    #[ignore = "not met: the distractor sensors are random walks like the ambient sensor, and on seed 1 one of \
-                them (s3) explains the ambient's slow effect on the training span as well as the ambient does: with \
-                one held-out block the selection takes s3 then the ambient (12 % above the truth's error), with the \
-                default 3 rolling blocks it stops at speed + s3 (far above); seed 2 passes with one block"]
+    #[ignore = "not met yet: with LogFitOptions::lags the selection keeps the speed and the ambient sensor, and seed 1 \
+                meets the bound (0.312 against 0.318 µm, ratio 0.98), but on seed 2 a random-walk distractor (s2) \
+                lowers the pooled held-out RMS by 6.6 % and is kept (0.528 against 0.437 µm, ratio 1.21); a \
+                per-block significance rule for adding an input is the next step; seeds 3..=6 not run past it"]
     fn forward_selection_recovers_a_multi_input_truth_within_ten_percent_of_its_own_error() {
         let (c, i) = specs(&["d_um:Z"], &["speed_rpm", "amb_c", "s1_c", "s2_c", "s3_c"]);
-        for seed in [1, 2] {
+        for seed in 1..=6 {
             let (text, clean) = truth_log(seed, 2400, 0.3);
             let log = read_log(&table(&text), &c, &i, 1.0).unwrap();
             let n_train = 1600;
-            let fit = fit_log(&log, &c, &i, Some(n_train), &LogFitOptions::default()).unwrap();
+            let options = LogFitOptions {
+                lags: true,
+                ..LogFitOptions::default()
+            };
+            let fit = fit_log(&log, &c, &i, Some(n_train), &options).unwrap();
             let m = &fit.model.channels[0];
             let names: Vec<&str> = m.inputs.iter().map(|&j| i[j].column.as_str()).collect();
             assert!(
@@ -1462,6 +1896,11 @@ mod tests {
             let model_err_vs_base = rms((n_train..log.len())
                 .map(|k| (pred[0][k] - measured[0]) - (measured[k] - measured[0])));
             assert!((model_err - model_err_vs_base).abs() < 1e-9);
+            eprintln!(
+                "seed {seed}: model {model_err:.3} µm, truth {truth_err:.3} µm, ratio {:.3}, {names:?}, a {:?}",
+                model_err / truth_err,
+                m.a
+            );
             assert!(
                 model_err <= 1.1 * truth_err,
                 "seed {seed}: model {model_err} µm vs truth {truth_err} µm ({:?})",
