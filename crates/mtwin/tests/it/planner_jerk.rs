@@ -762,3 +762,91 @@ fn g64_blends_next_to_arcs_are_never_slower_than_stopping_and_stay_within_p() {
     }
     assert!(any_blend, "no corner next to an arc blended");
 }
+
+#[test]
+fn g64_right_angle_line_into_arc_blends_and_beats_the_stop() {
+    // +X to (10, 0) at F6000, then clockwise about (30, 0) up to (30, 20):
+    // the arc leaves the corner along +Y, a right angle. 50 mm/s,
+    // 500 mm/s², 10 000 mm/s³ per axis.
+    //
+    // Under G61 the machine stops at the corner: the line alone is the
+    // rest-to-rest 7-phase profile over 10 mm along X (closed form
+    // L/v + v/a + a/j = 0.2 + 0.1 + 0.05 = 0.35 s), then the arc from rest
+    // as a program of its own starting at the corner. Under G64 P0.05 the
+    // blend must be taken and be faster than that sum; the motion never
+    // stops near the corner, keeps every joint within its limits (finite
+    // differences) and the tool within P of the line and the arc.
+    use std::f64::consts::{FRAC_PI_2, PI};
+    let m = xyz(50.0, 500.0, 10000.0);
+    let moves = "G1 X10 F6000\nG2 X30 Y20 I20 J0\n";
+    let (v, a, j) = (50.0, 500.0, 10000.0);
+    let line = 10.0 / v + v / a + a / j;
+    // The arc alone, from rest at the corner.
+    let mut opts = InterpolateOptions::new(TS);
+    opts.plan = PlanOptions::new(Planner::Jerk);
+    opts.check_travel = false;
+    opts.interp.initial_machine_position[mtwin::gcode::Axis::X] = 10.0;
+    let arc_alone =
+        mtwin::gcode::planned_duration("G2 X30 Y20 I20 J0 F6000\n".as_bytes(), &m, &opts).unwrap();
+    let g61 = run_jerk(&format!("G61\n{moves}"), &m, 0.1)
+        .unwrap()
+        .1
+        .duration;
+    assert!(
+        (g61 - (line + arc_alone)).abs() < 1e-9,
+        "G61 {g61} s is not the stop: line {line} s + arc {arc_alone} s"
+    );
+    let tol = 0.05;
+    let (s, sum) = run_jerk(&format!("G64 P{tol}\n{moves}"), &m, 0.1).unwrap();
+    eprintln!(
+        "line-arc G64 P{tol}: {:.4} s against G61 {g61:.4} s = {line:.4} + {arc_alone:.4} s",
+        sum.duration
+    );
+    assert!(
+        sum.duration < line + arc_alone - 0.01,
+        "G64 P{tol}: {} s, stopping takes {} s",
+        sum.duration,
+        line + arc_alone
+    );
+    // Blended: from 0.2 s (well into the line) until 0.2 s before the end
+    // the tool never slows below 5 mm/s, and it passes the corner point at
+    // a distance (the blend cuts it).
+    let n = s.len();
+    let slowest = s
+        .windows(2)
+        .filter(|w| w[0].0 > 0.2 && w[1].0 < sum.duration - 0.2)
+        .map(|w| (w[1].1[0] - w[0].1[0]).hypot(w[1].1[1] - w[0].1[1]) / TS)
+        .fold(f64::INFINITY, f64::min);
+    assert!(slowest > 5.0, "slowest {slowest} mm/s");
+    let nearest = s
+        .iter()
+        .map(|r| (r.1[0] - 10.0).hypot(r.1[1]))
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        nearest > 1e-3 && nearest <= tol,
+        "nearest the corner {nearest}"
+    );
+    let segs = [
+        Seg::Line(Vector3::new(0.0, 0.0, 0.0), Vector3::new(10.0, 0.0, 0.0)),
+        Seg::Arc {
+            c: [30.0, 0.0],
+            r: 20.0,
+            a0: PI,
+            sweep: -FRAC_PI_2,
+            z: [0.0, 0.0],
+        },
+    ];
+    let worst = s
+        .iter()
+        .map(|r| {
+            let p = Vector3::new(r.1[0], r.1[1], r.1[2]);
+            segs.iter()
+                .map(|g| g.dist(&p))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0f64, f64::max);
+    assert!(worst <= tol * (1.0 + 1e-3), "{worst} mm from the path");
+    assert!(n > 3);
+    assert_limits(&s, &m);
+    assert_rest(&s, &m);
+}
