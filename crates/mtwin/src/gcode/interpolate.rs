@@ -2301,45 +2301,11 @@ impl<'m> Walker<'m> {
                 .ok()
                 .map(|l| l.duration())
         };
-        // Both alternatives run between the same far ends, where the
-        // machine is at speed: each side of the neighbourhood is continued
-        // along its tangent by `e`, twice what it takes to reach the speed
-        // cap from rest there (jerk-limited: `V (V/A + A/J) / 2`), and each
-        // alternative is planned rest to rest over the whole. The far ends'
-        // starting and stopping are then the same in both and the corner
-        // makes the difference (planned over the neighbourhood alone, rest
-        // to rest, stopping looks cheap: the short sides never get up to
-        // speed).
-        let reach = |p0: &Axes, p1: &Axes| -> Result<f64, InterpolateError> {
-            let q = joints(&[*p0, *p1])?;
-            let (mut vv, mut aa, mut jj) = (v, f64::INFINITY, f64::INFINITY);
-            for i in 0..n {
-                let r = (q[n + i] - q[i]).abs();
-                if r > 0.0 {
-                    vv = vv.min(lim.v[i] / r);
-                    aa = aa.min(lim.a[i] / r);
-                    jj = jj.min(lim.j[i] / r);
-                }
-            }
-            let e = vv * (vv / aa + aa / jj);
-            Ok(if e.is_finite() && e > 0.0 { e } else { 0.0 })
-        };
-        let ea = reach(&a.near_end(-d1), &a.back_from_end(-d1, 1.0))?;
-        let eb = reach(&b.near_start(d2), &b.on_from_start(d2, 1.0))?;
-        let (far_a, far_b) = (a.back_from_end(-d1, ea), b.on_from_start(d2, eb));
         let sa = stretch(-d1, 0.0);
-        let mut pa: Vec<Axes> = sa.iter().map(|&x| a.near_end(x)).collect();
-        let mut sa: Vec<f64> = sa.iter().map(|x| x + d1 + ea).collect();
-        if ea > 0.0 {
-            pa.insert(0, far_a);
-            sa.insert(0, 0.0);
-        }
-        let mut sc = stretch(0.0, d2);
-        let mut pc: Vec<Axes> = sc.iter().map(|&x| b.near_start(x)).collect();
-        if eb > 0.0 {
-            pc.push(far_b);
-            sc.push(d2 + eb);
-        }
+        let pa: Vec<Axes> = sa.iter().map(|&x| a.near_end(x)).collect();
+        let sa: Vec<f64> = sa.iter().map(|x| x + d1).collect();
+        let sc = stretch(0.0, d2);
+        let pc: Vec<Axes> = sc.iter().map(|&x| b.near_start(x)).collect();
         let stop = match (plan(sa, joints(&pa)?), plan(sc, joints(&pc)?)) {
             (Some(x), Some(y)) => x + y,
             _ => f64::INFINITY,
@@ -2353,16 +2319,12 @@ impl<'m> Walker<'m> {
                 continue;
             };
             let (mut pn, mut sn) = (Vec::new(), Vec::new());
-            if ea > 0.0 {
-                pn.push(far_a);
-                sn.push(0.0);
-            }
             let before = stretch(-d1, -d);
             for &x in &before[..before.len() - 1] {
                 pn.push(a.near_end(x));
-                sn.push(x + d1 + ea);
+                sn.push(x + d1);
             }
-            let s_blend = d1 + ea - d;
+            let s_blend = d1 - d;
             for (j, p) in pts.iter().enumerate() {
                 pn.push(*p);
                 sn.push(s_blend + chords[..j].iter().sum::<f64>());
@@ -2371,10 +2333,6 @@ impl<'m> Walker<'m> {
             for &x in stretch(d, d2).iter().skip(1) {
                 pn.push(b.near_start(x));
                 sn.push(s_after + x - d);
-            }
-            if eb > 0.0 {
-                pn.push(far_b);
-                sn.push(*sn.last().unwrap_or(&0.0) + eb);
             }
             let through = plan(sn, joints(&pn)?);
             if through.is_some_and(|t| t < stop) {

@@ -159,24 +159,6 @@ impl Curve {
         self.at_u(sigma / self.len)
     }
 
-    /// The tangent continuation of the move before the point `σ` mm from
-    /// its end (`σ ≤ 0`), `e` mm farther back: `X(σ) − e X'(σ)` (all
-    /// axes). The far end of the stretch the blend-or-stop comparison
-    /// plans (see `Walker::blend_curves`).
-    pub(crate) fn back_from_end(&self, sigma: f64, e: f64) -> Axes {
-        let u = 1.0 + sigma / self.len;
-        let (x, d) = (self.at_u(u), self.d1_u(u));
-        Axes(std::array::from_fn(|i| x.0[i] - e * d.0[i] / self.len))
-    }
-
-    /// The tangent continuation of the move beyond the point `σ` mm from
-    /// its start, `e` mm farther on: `X(σ) + e X'(σ)` (all axes).
-    pub(crate) fn on_from_start(&self, sigma: f64, e: f64) -> Axes {
-        let u = sigma / self.len;
-        let (x, d) = (self.at_u(u), self.d1_u(u));
-        Axes(std::array::from_fn(|i| x.0[i] + e * d.0[i] / self.len))
-    }
-
     /// `dX/dσ` at the end.
     fn tangent_end(&self) -> Axes {
         let d = self.d1_u(1.0);
