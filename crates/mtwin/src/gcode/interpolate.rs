@@ -40,6 +40,7 @@
 //!   position). They are handed to a callback one by one: memory does not
 //!   grow with the program.
 
+use std::cell::RefCell;
 use std::collections::VecDeque;
 use std::io::{self, BufRead};
 
@@ -1631,12 +1632,52 @@ pub struct DensePath {
     pub line: Vec<u64>,
 }
 
+/// The walker's chain of moves: [`DensePath`] with the points one after
+/// the other in one vector (`q[k * n + i]` is axis `i` at point `k`), so
+/// that a point costs no allocation and the planner takes the vectors as
+/// they are.
+#[derive(Debug, Clone, Default)]
+struct Chain {
+    s: Vec<f64>,
+    q: Vec<f64>,
+    v_cap: Vec<f64>,
+    line: Vec<u64>,
+}
+
+impl Chain {
+    /// Appends a point.
+    fn push(&mut self, s: f64, q: &[f64], v: f64, line: u64) {
+        self.s.push(s);
+        self.q.extend_from_slice(q);
+        self.v_cap.push(v);
+        self.line.push(line);
+    }
+
+    /// Removes the last point of `n` axes.
+    fn pop(&mut self, n: usize) {
+        self.s.pop();
+        self.q.truncate(self.q.len().saturating_sub(n));
+        self.v_cap.pop();
+        self.line.pop();
+    }
+
+    /// The chain as a [`DensePath`] of `n` axes.
+    fn dense(&self, n: usize) -> DensePath {
+        DensePath {
+            s: self.s.clone(),
+            q: self.q.chunks(n).map(|c| c.to_vec()).collect(),
+            v_cap: self.v_cap.clone(),
+            line: self.line.clone(),
+        }
+    }
+}
+
 /// One stretch of a program under the `jerk` planner: the machine is at rest
 /// before and after it.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug)]
 enum Stretch<'a> {
-    /// A chain of programmed moves.
-    Chain(&'a DensePath),
+    /// A chain of programmed moves (the receiver may take its vectors).
+    Chain(&'a mut Chain),
     /// A straight axis-space move at the rapid rate (see the module
     /// documentation on transitions).
     Transition {
@@ -1723,11 +1764,163 @@ fn pts_blend_iter<'a>(
     (0..=nb).map(move |j| corner_blend(c, e1, e2, d, j as f64 / nb as f64))
 }
 
+/// The TCP solve of a machine with three linear axes while its other axes
+/// stand still, as the affine map it is: with the rotary axes fixed the
+/// nominal tip is affine in the linear axes (see
+/// `Kinematics::solve_tip_by_three_linear_axes`), so the linear axes are
+/// affine in the tip, `x(p) = x0 + M (p − p0)`. Built from four solves
+/// (at `p0` and 1 mm along X, Y, Z) and checked at a fifth point; then a
+/// point costs a 3×3 product instead of a forward kinematics with
+/// derivatives. Equal to solving each point to rounding.
+#[derive(Debug, Clone)]
+struct AffineTcp {
+    /// The positions of the other axes it holds for (all axes; the linear
+    /// ones not used).
+    fixed: Vec<f64>,
+    p0: [f64; 3],
+    x0: [f64; 3],
+    /// `m[k][c]`: linear axis `lin[k]` per mm of the tip along `c`.
+    m: [[f64; 3]; 3],
+    /// False when the map did not check out (the general solve is used).
+    ok: bool,
+}
+
+/// The last [`AffineTcp`] map and the other axes of the last point solved
+/// without one.
+#[derive(Debug, Clone, Default)]
+struct AffineCache {
+    map: Option<AffineTcp>,
+    miss: Option<Vec<f64>>,
+}
+
+/// Axis positions of the world position `w` into `out` as
+/// [`Interpolator::joints`], through the cached affine map under TCP on a
+/// machine of three linear axes (see [`AffineTcp`]).
+fn fast_joints(
+    ip: &Interpolator<'_>,
+    cache: &RefCell<AffineCache>,
+    w: &Axes,
+    tcp: bool,
+    out: &mut [f64],
+) -> Result<(), InterpolateError> {
+    let Some(lin) = (if tcp { three_linear(&ip.linear) } else { None }) else {
+        return ip.joints(w, tcp, out);
+    };
+    for (i, o) in out.iter_mut().enumerate() {
+        if !ip.linear[i] {
+            *o = w[ip.letters[i]];
+        }
+    }
+    let tip = [w[Axis::X], w[Axis::Y], w[Axis::Z]];
+    let same = |c: &AffineTcp| {
+        c.fixed
+            .iter()
+            .zip(out.iter())
+            .enumerate()
+            .all(|(i, (a, b))| ip.linear[i] || a == b)
+    };
+    let hit = matches!(&cache.borrow().map, Some(c) if same(c));
+    if !hit {
+        // Built at the second point with the same other axes (a point
+        // alone costs one solve, as without the map).
+        let again = cache.borrow().miss.as_ref().is_some_and(|m| {
+            m.iter()
+                .zip(out.iter())
+                .enumerate()
+                .all(|(i, (a, b))| ip.linear[i] || a == b)
+        });
+        if !again {
+            match &mut cache.borrow_mut().miss {
+                Some(m) if m.len() == out.len() => m.copy_from_slice(out),
+                m => *m = Some(out.to_vec()),
+            }
+            return ip.joints(w, tcp, out);
+        }
+        let built = affine_tcp(ip, lin, w, out);
+        *cache.borrow_mut() = AffineCache {
+            map: Some(built),
+            miss: None,
+        };
+    }
+    let c = cache.borrow();
+    let c = &c.map;
+    let Some(c) = c.as_ref().filter(|c| c.ok) else {
+        return ip.joints(w, tcp, out);
+    };
+    let d = [tip[0] - c.p0[0], tip[1] - c.p0[1], tip[2] - c.p0[2]];
+    for (k, &i) in lin.iter().enumerate() {
+        out[i] = c.x0[k] + (c.m[k][0] * d[0] + c.m[k][1] * d[1] + c.m[k][2] * d[2]);
+    }
+    Ok(())
+}
+
+/// The indices of the linear axes when there are exactly three.
+fn three_linear(linear: &[bool]) -> Option<[usize; 3]> {
+    let mut lin = [0; 3];
+    let mut n = 0;
+    for (i, &l) in linear.iter().enumerate() {
+        if l {
+            if n == 3 {
+                return None;
+            }
+            lin[n] = i;
+            n += 1;
+        }
+    }
+    (n == 3).then_some(lin)
+}
+
+/// Builds the [`AffineTcp`] map at `w` (the other axes as `out` holds them).
+fn affine_tcp(ip: &Interpolator<'_>, lin: [usize; 3], w: &Axes, out: &[f64]) -> AffineTcp {
+    let mut q = out.to_vec();
+    let mut solve = |d: [f64; 3]| -> Option<[f64; 3]> {
+        let mut p = *w;
+        p[Axis::X] += d[0];
+        p[Axis::Y] += d[1];
+        p[Axis::Z] += d[2];
+        ip.joints(&p, true, &mut q).ok()?;
+        Some(lin.map(|i| q[i]))
+    };
+    let mut map = AffineTcp {
+        fixed: out.to_vec(),
+        p0: [w[Axis::X], w[Axis::Y], w[Axis::Z]],
+        x0: [0.0; 3],
+        m: [[0.0; 3]; 3],
+        ok: false,
+    };
+    let Some(x0) = solve([0.0; 3]) else {
+        return map;
+    };
+    let mut m = [[0.0; 3]; 3];
+    for c in 0..3 {
+        let mut d = [0.0; 3];
+        d[c] = 1.0;
+        let Some(x) = solve(d) else {
+            return map;
+        };
+        for k in 0..3 {
+            m[k][c] = x[k] - x0[k];
+        }
+    }
+    // The check: a point off the axes.
+    let probe = [0.6, -0.7, 0.4];
+    let Some(x) = solve(probe) else {
+        return map;
+    };
+    map.ok = (0..3).all(|k| {
+        let pred = x0[k] + m[k][0] * probe[0] + m[k][1] * probe[1] + m[k][2] * probe[2];
+        (pred - x[k]).abs() <= 1e-9 * (1.0 + x[k].abs())
+    }) && m.iter().flatten().all(|v| v.is_finite());
+    map.x0 = x0;
+    map.m = m;
+    map
+}
+
 /// Cuts a program into [`Stretch`]es for the `jerk` planner (see
 /// [`dense_paths`]).
 struct Walker<'m> {
     ip: Interpolator<'m>,
-    chain: DensePath,
+    chain: Chain,
     /// The chain's last move when it is straight (for a G64 corner blend).
     last: Option<LastLine>,
     /// The joint limits, when the machine gives them all (a G64 corner
@@ -1740,6 +1933,8 @@ struct Walker<'m> {
     /// Joint-space direction at the end of the chain's last move.
     end_dir: Vec<f64>,
     step: f64,
+    /// The TCP solve as an affine map while the rotary axes stand still.
+    affine: RefCell<AffineCache>,
 }
 
 impl<'m> Walker<'m> {
@@ -1755,7 +1950,7 @@ impl<'m> Walker<'m> {
         let ip = Interpolator::new(machine, &o)?;
         Ok(Walker {
             ip,
-            chain: DensePath::default(),
+            chain: Chain::default(),
             last: None,
             limits: jerk_limits(machine).ok(),
             opts_jerk: opts.plan.jerk,
@@ -1763,6 +1958,7 @@ impl<'m> Walker<'m> {
             mode: PathMode::DEFAULT,
             end_dir: Vec::new(),
             step,
+            affine: RefCell::new(AffineCache::default()),
         })
     }
 
@@ -1771,9 +1967,9 @@ impl<'m> Walker<'m> {
         F: FnMut(Stretch<'_>) -> Result<(), InterpolateError>,
     {
         if self.chain.s.len() > 1 {
-            sink(Stretch::Chain(&self.chain))?;
+            sink(Stretch::Chain(&mut self.chain))?;
         }
-        self.chain = DensePath::default();
+        self.chain = Chain::default();
         self.last = None;
         Ok(())
     }
@@ -1998,10 +2194,7 @@ impl<'m> Walker<'m> {
         }
         self.last = line_now;
         if self.chain.s.is_empty() {
-            self.chain.s.push(0.0);
-            self.chain.q.push(self.ip.q.clone());
-            self.chain.v_cap.push(v);
-            self.chain.line.push(self.ip.line);
+            self.chain.push(0.0, &self.ip.q, v, self.ip.line);
         }
         let ip = &mut self.ip;
         let chain = &mut self.chain;
@@ -2015,14 +2208,45 @@ impl<'m> Walker<'m> {
             .fold(len * (1.0 - u0), f64::max);
         let n = (spread / step).ceil().max(1.0) as usize;
         let s0 = *chain.s.last().unwrap_or(&0.0);
-        q.copy_from_slice(&ip.q);
-        for j in 1..=n {
-            let u = u0 + (1.0 - u0) * (j as f64 / n as f64);
-            ip.eval(&path, u, &mut q)?;
-            chain.s.push(s0 + len * (u - u0));
-            chain.q.push(q.clone());
-            chain.v_cap.push(v);
-            chain.line.push(ip.line);
+        // A straight move whose joint path is straight too: the axes of
+        // their letters without TCP; under TCP on three linear axes with
+        // the other axes standing still (the nominal tip is then affine in
+        // the linear axes, see `Kinematics::solve_tip_by_three_linear_axes`,
+        // so its inverse along the line is a line). Its points are then the
+        // joint positions of its ends interpolated (equal to solving each
+        // point to rounding), no solve per point.
+        let straight = matches!(geom, Geom::Line { .. })
+            && (!tcp
+                || (ip.linear.iter().filter(|l| **l).count() == 3
+                    && ip
+                        .linear
+                        .iter()
+                        .zip(q.iter().zip(&ip.q))
+                        .all(|(lin, (a, b))| *lin || a == b)));
+        if straight {
+            // From the chain's last point (the blend's end when one took
+            // the move's start) to the move's end.
+            let (qa, q1) = (ip.q.clone(), q.clone());
+            for j in 1..=n {
+                let f = j as f64 / n as f64;
+                let u = u0 + (1.0 - u0) * f;
+                if j == n {
+                    q.copy_from_slice(&q1);
+                } else {
+                    for i in 0..q.len() {
+                        q[i] = qa[i] + (q1[i] - qa[i]) * f;
+                    }
+                }
+                chain.push(s0 + len * (u - u0), &q, v, ip.line);
+            }
+        } else {
+            q.copy_from_slice(&ip.q);
+            for j in 1..=n {
+                let u = u0 + (1.0 - u0) * (j as f64 / n as f64);
+                let w = Interpolator::world(&geom, &offset, u);
+                fast_joints(ip, &self.affine, &w, tcp, &mut q)?;
+                chain.push(s0 + len * (u - u0), &q, v, ip.line);
+            }
         }
         ip.check_travel(&q, 0.0)?;
         ip.q.copy_from_slice(&q);
@@ -2076,6 +2300,7 @@ impl<'m> Walker<'m> {
         if chords.iter().any(|x| x.is_nan() || *x <= 0.0) {
             return Ok(Corner::None);
         }
+        let mut known = None;
         if let Some(lim) = &self.limits {
             // The neighbourhood: `d1`, `d2` of straight path before and
             // after the corner (at least the blend's `d`, up to `2d`).
@@ -2088,7 +2313,7 @@ impl<'m> Walker<'m> {
             let joints = |pts: &[Axes], q: &mut Vec<f64>| -> Result<Vec<f64>, InterpolateError> {
                 let mut out = Vec::with_capacity(pts.len() * n);
                 for p in pts {
-                    self.ip.joints(&world(p), prev.tcp, q)?;
+                    fast_joints(&self.ip, &self.affine, &world(p), prev.tcp, q)?;
                     out.extend_from_slice(q);
                 }
                 Ok(out)
@@ -2116,9 +2341,14 @@ impl<'m> Walker<'m> {
                 s.push(*s.last().unwrap_or(&0.0) + d2 - d);
             }
             let qb = joints(&pts, &mut q)?;
-            let mut q2 = self.ip.q.clone();
-            let qa = joints(&[along(&e1, -d1), c], &mut q2)?;
-            let qc = joints(&[c, along(&e2, d2)], &mut q2)?;
+            // The blend's points are solved once (for the splice too); the
+            // ends of the stopped alternative are the neighbourhood's ends
+            // and the corner, where the chain is (`self.ip.q`).
+            let i0 = usize::from(d1 > d);
+            known = Some(qb[i0 * n..(i0 + nb + 1) * n].to_vec());
+            let (first, last) = (&qb[..n], &qb[qb.len() - n..]);
+            let qa: Vec<f64> = first.iter().chain(&self.ip.q).copied().collect();
+            let qc: Vec<f64> = self.ip.q.iter().chain(last).copied().collect();
             let through = plan(s, qb);
             let stop_a = plan(vec![0.0, d1], qa);
             let stop_b = plan(vec![0.0, d2], qc);
@@ -2128,7 +2358,7 @@ impl<'m> Walker<'m> {
                 return Ok(Corner::Stop);
             }
         }
-        self.splice(prev, d, &pts, &chords, v)?;
+        self.splice(prev, d, &pts, &chords, v, known.as_deref())?;
         Ok(Corner::Blend(d / cur.len))
     }
 
@@ -2161,7 +2391,7 @@ impl<'m> Walker<'m> {
             let Some((pts, chords)) = points(d_max) else {
                 return Ok(Corner::None);
             };
-            self.splice(prev, d_max, &pts, &chords, v)?;
+            self.splice(prev, d_max, &pts, &chords, v, None)?;
             return Ok(Corner::Blend(d_max / cur.len));
         };
         // The neighbourhood: `d1` of the first move before the corner and
@@ -2182,7 +2412,7 @@ impl<'m> Walker<'m> {
             let mut q = self.ip.q.clone();
             let mut out = Vec::with_capacity(pts.len() * n);
             for p in pts {
-                self.ip.joints(&world(p), prev.tcp, &mut q)?;
+                fast_joints(&self.ip, &self.affine, &world(p), prev.tcp, &mut q)?;
                 out.extend_from_slice(&q);
             }
             Ok(out)
@@ -2196,12 +2426,10 @@ impl<'m> Walker<'m> {
         };
         let sa = stretch(-d1, 0.0);
         let pa: Vec<Axes> = sa.iter().map(|&x| a.near_end(x)).collect();
+        let sa: Vec<f64> = sa.iter().map(|x| x + d1).collect();
         let sc = stretch(0.0, d2);
         let pc: Vec<Axes> = sc.iter().map(|&x| b.near_start(x)).collect();
-        let stop = match (
-            plan(sa.iter().map(|x| x + d1).collect(), joints(&pa)?),
-            plan(sc, joints(&pc)?),
-        ) {
+        let stop = match (plan(sa, joints(&pa)?), plan(sc, joints(&pc)?)) {
             (Some(x), Some(y)) => x + y,
             _ => f64::INFINITY,
         };
@@ -2237,7 +2465,7 @@ impl<'m> Walker<'m> {
         }
         match chosen {
             Some((d, pts, chords)) => {
-                self.splice(prev, d, &pts, &chords, v)?;
+                self.splice(prev, d, &pts, &chords, v, None)?;
                 Ok(Corner::Blend(d / cur.len))
             }
             None => Ok(Corner::Stop),
@@ -2245,7 +2473,8 @@ impl<'m> Walker<'m> {
     }
 
     /// Replaces the last `d` of the chain by the blend points `pts` (work
-    /// coordinates of `prev`'s offset and TCP; `chords` their distances).
+    /// coordinates of `prev`'s offset and TCP; `chords` their distances;
+    /// `known` their axis positions when already solved).
     fn splice(
         &mut self,
         prev: &LastLine,
@@ -2253,28 +2482,31 @@ impl<'m> Walker<'m> {
         pts: &[Axes],
         chords: &[f64],
         v: f64,
+        known: Option<&[f64]>,
     ) -> Result<(), InterpolateError> {
+        let n = self.ip.q.len();
         let chain = &mut self.chain;
         let s_c = *chain.s.last().unwrap_or(&0.0);
         let cut = s_c - d;
         while chain.s.len() > 1 && *chain.s.last().unwrap_or(&0.0) >= cut - 1e-9 * d {
-            chain.s.pop();
-            chain.q.pop();
-            chain.v_cap.pop();
-            chain.line.pop();
+            chain.pop(n);
         }
-        let mut q = chain.q.last().cloned().unwrap_or_else(|| self.ip.q.clone());
+        let mut q = if chain.q.len() >= n {
+            chain.q[chain.q.len() - n..].to_vec()
+        } else {
+            self.ip.q.clone()
+        };
         let mut s = cut;
         for (j, p) in pts.iter().enumerate() {
             let w = Axes(std::array::from_fn(|i| p.0[i] + prev.offset.0[i]));
-            self.ip.joints(&w, prev.tcp, &mut q)?;
+            match known {
+                Some(k) if k.len() == pts.len() * n => q.copy_from_slice(&k[j * n..(j + 1) * n]),
+                _ => fast_joints(&self.ip, &self.affine, &w, prev.tcp, &mut q)?,
+            }
             if j > 0 {
                 s += chords[j - 1];
             }
-            chain.s.push(s);
-            chain.q.push(q.clone());
-            chain.v_cap.push(v);
-            chain.line.push(self.ip.line);
+            chain.push(s, &q, v, self.ip.line);
         }
         self.ip.q.copy_from_slice(&q);
         Ok(())
@@ -2343,10 +2575,11 @@ where
     R: BufRead,
     F: FnMut(&DensePath) -> Result<(), InterpolateError>,
 {
+    let n = machine.axes.len();
     Walker::new(machine, opts)?.run(
         input,
         |st| match st {
-            Stretch::Chain(c) => sink(c),
+            Stretch::Chain(c) => sink(&c.dense(n)),
             _ => Ok(()),
         },
         None,
@@ -2486,8 +2719,12 @@ where
         match st {
             Stretch::Chain(c) => {
                 let n = self.q.len();
-                let q: Vec<f64> = c.q.iter().flatten().copied().collect();
-                let path = JointPath::new(n, c.s.clone(), q, c.v_cap.clone())
+                let (s, q, cap) = (
+                    std::mem::take(&mut c.s),
+                    std::mem::take(&mut c.q),
+                    std::mem::take(&mut c.v_cap),
+                );
+                let path = JointPath::new(n, s, q, cap)
                     .map_err(|e| InterpolateError::Plan(format!("line {}: {e}", c.line[0])))?;
                 self.law(&path, &c.line)
             }

@@ -1245,9 +1245,19 @@ pub fn plan(
             fallback: false,
         });
     }
-    // Each interval's bounds reach V T_j / 2 beyond it.
-    let mut zones: Vec<Zone> = Vec::with_capacity(2 * m);
+    // Each interval's bounds reach V T_j / 2 beyond it. Neighbours with
+    // the same bounds are one stretch first (a straight move's points):
+    // the zones of their inner ends lie within the stretch and its own
+    // zones, with the same bounds, so the capped cells are the same.
+    let mut merged: Vec<Cell> = Vec::with_capacity(m);
     for c in &cells {
+        match merged.last_mut() {
+            Some(p) if p.v == c.v && p.a == c.a => p.s1 = c.s1,
+            _ => merged.push(*c),
+        }
+    }
+    let mut zones: Vec<Zone> = Vec::with_capacity(2 * merged.len());
+    for c in &merged {
         let r = c.v * tj / 2.0;
         zones.push(Zone {
             s0: c.s0 - r,
@@ -1262,7 +1272,7 @@ pub fn plan(
             a: c.a,
         });
     }
-    let base = apply_zones(&cells, &mut zones, l);
+    let base = apply_zones(&merged, &mut zones, l);
     let own = Own {
         s: &spline.s,
         a: &own_a,
