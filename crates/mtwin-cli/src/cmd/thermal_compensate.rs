@@ -139,7 +139,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         o.channels = a.channel.clone();
         o.speed_column = a.speed_column.clone();
         let c = compensate_log(&model, &bytes, table.as_ref(), &o).map_err(located)?;
-        let axes = model
+        let mut axes: Vec<_> = model
             .channels
             .iter()
             .filter(|ch| a.channel.is_empty() || a.channel.contains(&ch.channel.column))
@@ -151,8 +151,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 };
                 (axis, Some(ch.channel.column.clone()))
             })
-            .collect::<Vec<_>>();
-        let mut axes = axes;
+            .collect();
         axes.sort_by_key(|(axis, _)| axis.index());
         (c, axes)
     } else {

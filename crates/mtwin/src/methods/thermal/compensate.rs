@@ -1658,7 +1658,7 @@ mod log_tests {
 
     #[test]
     fn x_and_z_words_are_the_programmed_minus_the_closed_form_drift() {
-        let log = temperatures(30.0);
+        let log = temperatures(29.75);
         for update in [
             CorrectionUpdate::Continuous,
             CorrectionUpdate::Periodic { period_min: 10.0 },
@@ -1843,12 +1843,11 @@ mod log_tests {
         o.channels = vec!["b_um".into()];
         let c = compensate_log(&two_z, prog, None, &o).unwrap();
         // Pole 0.5, 1 µm per scaled unit, speed 1 (scaled): at the block's
-        // end (10 min + 1 mm at 10 m/min) in period 10 the drift is 0.002 (1 − 0.5^k).
+        // end (10 min + 1 mm at 10 m/min), held at 15 min: the means of samples 14 and 15.
         let t = ((c.z_blocks[0].end_min / 10.0).floor() + 0.5) * 10.0;
-        assert!(
-            (c.z_blocks[0].correction_mm - 0.002 * (1.0 - 0.5_f64.powi(15))).abs() < 1e-12
-                && t == 15.0
-        );
+        let y = |k: i32| 0.002 * (1.0 - 0.5_f64.powi(k));
+        assert_eq!(t, 15.0);
+        assert!((c.z_blocks[0].correction_mm - 0.5 * (y(14) + y(15))).abs() < 1e-12);
         o.channels = vec!["c_um".into()];
         assert!(
             matches!(compensate_log(&two_z, prog, None, &o), Err(CompensateError::Channels(m)) if m.contains("no channel `c_um`"))
@@ -1874,7 +1873,7 @@ mod log_tests {
         z_only.channels = vec!["dz_um".into()];
         assert!(compensate_log(&xz(), prog, None, &z_only).is_ok());
 
-        let log = temperatures(30.0);
+        let log = temperatures(29.75);
         let run = |s: &str| {
             compensate_log(
                 &xz(),
