@@ -214,7 +214,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let span = if log_model {
         let changed = c.axis_blocks.iter().filter(|b| b.changed);
         let first = changed.clone().map(|b| b.end_min).next();
-        first.zip(changed.map(|b| b.end_min).last())
+        first.zip(changed.map(|b| b.end_min).next_back())
     } else {
         c.changed_span_min()
     };

@@ -318,7 +318,7 @@ impl Compensation {
     pub fn axis_summary(&self, axis: Axis) -> AxisSummary {
         let on = || self.axis_blocks.iter().filter(move |b| b.axis == axis);
         let first = on().find(|b| b.changed).map(|b| b.end_min);
-        let last = on().filter(|b| b.changed).last().map(|b| b.end_min);
+        let last = on().rfind(|b| b.changed).map(|b| b.end_min);
         AxisSummary {
             blocks: on().count(),
             changed: on().filter(|b| b.changed).count(),
