@@ -1839,8 +1839,10 @@ mod log_tests {
             }
             other => panic!("{other:?}"),
         }
-        let mut o = LogCompensateOptions::default();
-        o.channels = vec!["b_um".into()];
+        let mut o = LogCompensateOptions {
+            channels: vec!["b_um".into()],
+            ..LogCompensateOptions::default()
+        };
         let c = compensate_log(&two_z, prog, None, &o).unwrap();
         // Pole 0.5, 1 µm per scaled unit, speed 1 (scaled): at the block's
         // end (10 min + 1 mm at 10 m/min), held at 15 min: the means of samples 14 and 15.
@@ -1869,8 +1871,10 @@ mod log_tests {
             other => panic!("{other:?}"),
         }
         // Only the Z channel (speed): no inputs log needed.
-        let mut z_only = LogCompensateOptions::default();
-        z_only.channels = vec!["dz_um".into()];
+        let z_only = LogCompensateOptions {
+            channels: vec!["dz_um".into()],
+            ..LogCompensateOptions::default()
+        };
         assert!(compensate_log(&xz(), prog, None, &z_only).is_ok());
 
         let log = temperatures(29.75);
