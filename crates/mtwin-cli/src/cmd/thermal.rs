@@ -38,9 +38,10 @@ pub enum Command {
         after_help = "Example:\n  mtwin thermal simulate --model thermal.toml --speed speed.csv --z -50,-350 --noise 0.001 --seed 7 --out train.csv"
     )]
     Simulate(SimulateArgs),
-    /// Pre-compensate an NC program: Z targets replaced by Z − e(t, Z) (as in [R4], docs/references.md).
+    /// Pre-compensate an NC program: Z targets replaced by Z − e(t, Z) (as in [R4], docs/references.md);
+    /// with a log model (`thermal fit --log`) the X, Y and Z targets of every axis it has a channel for.
     #[command(
-        after_help = "Example:\n  mtwin thermal compensate --model thermal.toml --program part.nc --out part-comp.nc --period-min 10\n  mtwin thermal compensate --model thermal.toml --program part.nc --out part-comp.nc --machine examples/machines/ac-trunnion.toml --planner linuxcnc"
+        after_help = "Examples:\n  mtwin thermal compensate --model thermal.toml --program part.nc --out part-comp.nc --period-min 10\n  mtwin thermal compensate --model thermal.toml --program part.nc --out part-comp.nc --machine examples/machines/ac-trunnion.toml --planner linuxcnc\n  mtwin thermal compensate --model log-model.toml --inputs-log temperatures.csv --program part.nc --out part-comp.nc"
     )]
     Compensate(super::thermal_compensate::Args),
     /// Write the measurement programme as G-code: cold pass, then spindle speeds with a probing pass every period.

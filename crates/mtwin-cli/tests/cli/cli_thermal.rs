@@ -459,7 +459,7 @@ fn bad_prediction_input_exits_1_and_writes_nothing() {
 fn docs_walkthrough_runs() {
     let dir = tempfile::tempdir().unwrap();
     let ran = run_doc("thermal.md", dir.path());
-    assert_eq!(ran.len(), 10, "{ran:?}");
+    assert_eq!(ran.len(), 11, "{ran:?}");
     // Square-law heat: the quadratic variant's simulation RMS (in the model
     // files' fit statistics) is well below the linear model's at every height.
     let sim_rms = |f: &str| -> Vec<f64> {

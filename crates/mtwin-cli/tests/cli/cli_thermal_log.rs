@@ -384,3 +384,298 @@ fn report_shows_a_log_fit_with_measured_and_predicted_drift() {
     assert!(html.contains("Model per channel"));
     assert_eq!(charts - html.matches("<svg").count(), doc.channels.len());
 }
+
+// ---- thermal compensate with a log model ----
+
+/// A log model (1-min periods) with the speed (scale 1000 rev/min) and
+/// `t1_c` (its rise, scale 5 K) as inputs and one first-order channel per
+/// `(column, axis, input index, pole, b in mm per scaled unit)`.
+fn log_model_toml(channels: &[(&str, &str, usize, f64, f64)]) -> String {
+    let mut s = String::from(
+        "period_min = 1.0\n\n[[inputs]]\ncolumn = \"speed_rpm\"\nrise = false\nscale = 1000.0\n\n\
+         [[inputs]]\ncolumn = \"t1_c\"\nrise = true\nscale = 5.0\n",
+    );
+    for (column, axis, input, pole, b) in channels {
+        s.push_str(&format!(
+            "\n[[channels]]\ninputs = [{input}]\na = [1.0, {}]\nb = [[{b:?}]]\nheldout_rms_mm = 0.0\n\
+             heldout_drift_rms_mm = 0.0\ntraining_rms_mm = 0.0\noutput_error = false\n\n\
+             [channels.channel]\ncolumn = \"{column}\"\nunit = \"um\"\naxis = \"{axis}\"\n",
+            -pole
+        ));
+    }
+    s
+}
+
+/// `t1_c` 20 °C in the first minute, 25 °C after, every 30 s for an hour.
+fn temperature_log() -> String {
+    let mut s = String::from("t_s,t1_c\n");
+    for i in 0..=120 {
+        s.push_str(&format!("{},{}\n", 30 * i, if i < 2 { 20.0 } else { 25.0 }));
+    }
+    s
+}
+
+/// Period means of the model's channels in closed form (sample `k`):
+/// X after the 5 K step from period 1 (scaled rise 1), pole 0.8, b 0.002;
+/// Z under 2000 rev/min from 0 (scaled 2), pole 0.9, b 0.001.
+fn x_mean(k: usize) -> f64 {
+    if k == 0 {
+        0.0
+    } else {
+        0.002 * (1.0 - 0.8_f64.powi(k as i32 - 1)) / 0.2
+    }
+}
+
+fn z_mean(k: usize) -> f64 {
+    0.002 * (1.0 - 0.9_f64.powi(k as i32)) / 0.1
+}
+
+/// A grid series at `t` min: means at the period centres, linear between.
+fn at_centres(mean: fn(usize) -> f64, t: f64) -> f64 {
+    let k = (t - 0.5).floor() as usize;
+    let f = t - 0.5 - k as f64;
+    mean(k) + f * (mean(k + 1) - mean(k))
+}
+
+fn word_of(line: &str, letter: char) -> f64 {
+    line.split_whitespace()
+        .find_map(|w| w.strip_prefix(letter))
+        .unwrap_or_else(|| panic!("no {letter} in `{line}`"))
+        .parse()
+        .unwrap()
+}
+
+const XZ: [(&str, &str, usize, f64, f64); 2] =
+    [("dx_um", "X", 1, 0.8, 0.002), ("dz_um", "Z", 0, 0.9, 0.001)];
+
+/// Moves well inside the 10-min correction periods (held at their middles:
+/// 5, 15, 25 min), whatever the timing of the short moves.
+const PART: &str = "G21 G90\nS2000 M3\nG4 P240\nG0 X10 Z-5\nG4 P600\nG1 X20 Y3 Z-10 F1000\nG4 P600\nG0 X0 Z0\nM30\n";
+
+#[test]
+fn compensate_with_a_log_model_corrects_x_and_z_by_the_closed_form_drift() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    std::fs::write(p.join("m.toml"), log_model_toml(&XZ)).unwrap();
+    std::fs::write(p.join("temps.csv"), temperature_log()).unwrap();
+    std::fs::write(p.join("part.ngc"), PART).unwrap();
+    let args = [
+        "thermal",
+        "compensate",
+        "--model",
+        "m.toml",
+        "--inputs-log",
+        "temps.csv",
+        "--program",
+        "part.ngc",
+        "--out",
+        "comp.ngc",
+        "--format",
+        "json",
+    ];
+    let o = mtwin(p, &args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = std::fs::read_to_string(p.join("comp.ngc")).unwrap();
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines.len(), PART.lines().count());
+    for (line, x, z, t) in [
+        (4, 10.0, -5.0, 5.0),
+        (6, 20.0, -10.0, 15.0),
+        (8, 0.0, 0.0, 25.0),
+    ] {
+        let text = lines[line - 1];
+        let (ex, ez) = (at_centres(x_mean, t), at_centres(z_mean, t));
+        assert!(ex > 0.005 && ez > 0.007, "{ex} {ez}");
+        assert!(
+            (word_of(text, 'X') - (x - ex)).abs() <= 0.5e-4 + 1e-12,
+            "{text}: X − {ex}"
+        );
+        assert!(
+            (word_of(text, 'Z') - (z - ez)).abs() <= 0.5e-4 + 1e-12,
+            "{text}: Z − {ez}"
+        );
+    }
+    // No Y channel: the Y word stays as written; every line without X/Z too.
+    assert_eq!(word_of(lines[5], 'Y'), 3.0);
+    for (a, b) in lines.iter().zip(PART.lines()) {
+        if !b.contains('X') {
+            assert_eq!(*a, b);
+        }
+    }
+    let d: mtwin::methods::thermal::ThermalCompensateDoc =
+        serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(d.axes.len(), 2);
+    assert_eq!(
+        (d.axes[0].axis.as_str(), d.axes[0].channel.as_str()),
+        ("X", "dx_um")
+    );
+    assert_eq!(
+        (d.axes[1].axis.as_str(), d.axes[1].blocks_changed),
+        ("Z", 3)
+    );
+    let largest_z = at_centres(z_mean, 25.0) * 1e3;
+    assert!((d.axes[1].max_correction_um - largest_z).abs() < 1e-9);
+    assert_eq!(d.blocks_changed, 3);
+    // Human output: one line per axis.
+    let o = mtwin(p, &args[..args.len() - 2]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("X by dx_um: 3 of 3 X blocks changed"),
+        "{}",
+        stdout(&o)
+    );
+}
+
+#[test]
+fn compensate_with_a_zero_log_model_is_byte_identical() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    let zero: Vec<_> = [("dx_um", "X", 1), ("dy_um", "Y", 0), ("dz_um", "Z", 0)]
+        .iter()
+        .map(|&(c, a, i)| (c, a, i, 0.9, 0.0))
+        .collect();
+    std::fs::write(p.join("zero.toml"), log_model_toml(&zero)).unwrap();
+    std::fs::write(p.join("temps.csv"), temperature_log()).unwrap();
+    let src = "%\n(part)\r\nG21 G90 G17\nS3000 M3\nG0 X10.000 Y-3 Z5\nG1 Z-1.50 F200\nG2 X20 Y-3 I5 J0\nG91 G1 X1 Y1 Z-0.1\nG90 G53 G0 Z0\nG4 P900\nG0 X0.0 Y0.0\nM30\n%\n";
+    std::fs::write(p.join("part.ngc"), src).unwrap();
+    let o = mtwin(
+        p,
+        &[
+            "thermal",
+            "compensate",
+            "--model",
+            "zero.toml",
+            "--inputs-log",
+            "temps.csv",
+            "--program",
+            "part.ngc",
+            "--out",
+            "comp.ngc",
+            "--continuous",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(std::fs::read(p.join("comp.ngc")).unwrap(), src.as_bytes());
+}
+
+#[test]
+fn compensate_with_a_log_model_refuses_missing_inputs_and_axis_conflicts() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    std::fs::write(p.join("m.toml"), log_model_toml(&XZ)).unwrap();
+    let two_z = [("a_um", "Z", 0, 0.9, 0.001), ("b_um", "Z", 0, 0.5, 0.001)];
+    std::fs::write(p.join("two-z.toml"), log_model_toml(&two_z)).unwrap();
+    std::fs::write(p.join("temps.csv"), temperature_log()).unwrap();
+    std::fs::write(p.join("bad.csv"), "t_s,t1_c\n0,20\n30,warm\n").unwrap();
+    std::fs::write(p.join("part.ngc"), PART).unwrap();
+    let run = |extra: &[&str]| -> Vec<String> {
+        let mut a: Vec<String> = [
+            "thermal",
+            "compensate",
+            "--program",
+            "part.ngc",
+            "--out",
+            "comp.ngc",
+        ]
+        .map(String::from)
+        .to_vec();
+        a.extend(extra.iter().map(|s| s.to_string()));
+        a
+    };
+    let fail = |extra: &[&str], message: &str| {
+        let a = run(extra);
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        expect_failure(p, &a, message, "comp.ngc");
+    };
+    // The X channel takes t1_c: the program alone does not define it.
+    fail(
+        &["--model", "m.toml"],
+        "m.toml: the thermal model's channel(s) dx_um use the input(s) t1_c",
+    );
+    fail(&["--model", "m.toml"], "(--inputs-log FILE.csv)");
+    // Two channels on Z, none named.
+    fail(
+        &["--model", "two-z.toml"],
+        "channels `a_um` and `b_um` both act on Z",
+    );
+    fail(
+        &["--model", "two-z.toml", "--channel", "c_um"],
+        "the model has no channel `c_um`",
+    );
+    fail(
+        &["--model", "two-z.toml", "--channel", "a_um,b_um"],
+        "both act on Z",
+    );
+    // A bad inputs log at its line and column.
+    fail(
+        &["--model", "m.toml", "--inputs-log", "bad.csv"],
+        "bad.csv:3:",
+    );
+    // Log-model flags with a height model.
+    std::fs::write(
+        p.join("height.toml"),
+        "period_min = 10.0\n\n[[inputs]]\nname = \"speed_rpm\"\nscale = 1000.0\n\n[[heights]]\nz_mm = 0.0\na = [1.0, -0.5]\nb = [[0.001]]\nnk = [1]\n",
+    )
+    .unwrap();
+    fail(
+        &["--model", "height.toml", "--inputs-log", "temps.csv"],
+        "--inputs-log is for a log model",
+    );
+    // Naming one channel of the axis compensates with it; the Z channel of
+    // the X/Z model takes the speed alone and needs no inputs log.
+    for extra in [
+        &["--model", "two-z.toml", "--channel", "b_um"][..],
+        &["--model", "m.toml", "--channel", "dz_um"],
+    ] {
+        let a = run(extra);
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        let o = mtwin(p, &a);
+        assert_eq!(o.status.code(), Some(0), "{extra:?}: {}", stderr(&o));
+        std::fs::remove_file(p.join("comp.ngc")).unwrap();
+    }
+    let o = mtwin(p, &["thermal", "compensate", "--help"]);
+    assert!(stdout(&o).contains("--inputs-log") && stdout(&o).contains("--channel"));
+}
+
+#[test]
+fn compensate_with_a_short_inputs_log_holds_its_last_values_with_a_note() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    std::fs::write(p.join("m.toml"), log_model_toml(&XZ)).unwrap();
+    // Four minutes of temperatures (20 °C, then 25 °C); a 24-min program.
+    let short: String = temperature_log()
+        .lines()
+        .take(9)
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(p.join("short.csv"), short).unwrap();
+    std::fs::write(p.join("part.ngc"), PART).unwrap();
+    let o = mtwin(
+        p,
+        &[
+            "thermal",
+            "compensate",
+            "--model",
+            "m.toml",
+            "--inputs-log",
+            "short.csv",
+            "--program",
+            "part.ngc",
+            "--out",
+            "comp.ngc",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("the inputs log covers 4 min"),
+        "{}",
+        stderr(&o)
+    );
+    // Held at 25 °C: the same closed form as the full log.
+    let out = std::fs::read_to_string(p.join("comp.ngc")).unwrap();
+    let x = word_of(out.lines().nth(7).unwrap(), 'X');
+    assert!(
+        (x - (0.0 - at_centres(x_mean, 25.0))).abs() <= 0.5e-4 + 1e-12,
+        "{x}"
+    );
+}

@@ -1,5 +1,7 @@
 //! Pre-compensation of an NC program for thermal drift (the compensation of
-//! `docs/references.md` \[R4\]: the program rewritten before machining).
+//! `docs/references.md` \[R4\]: the program rewritten before machining),
+//! with a height model ([`compensate`], Z only) or with a log model of
+//! `thermal fit --log` ([`compensate_log`], X, Y and Z).
 //!
 //! 1. Every block is timed. Without a machine
 //!    ([`CompensateOptions::timing`] `None`) with the G-code engine's estimate
@@ -12,19 +14,25 @@
 //!    the motion before it ends.
 //! 2. The spindle speed (S with M3/M4, 0 after M5 or before the first M3/M4)
 //!    is a step function of time; its mean over each sample period `[kT,
-//!    (k+1)T)` of the model is the model input of that sample.
-//! 3. The drift `e(t, z)` is predicted at every measured height on the sample
+//!    (k+1)T)` of the model is the model input of that sample. A log
+//!    model's other inputs (temperatures) come from an inputs log
+//!    ([`compensate_log`]).
+//! 3. Height model: the drift `e(t, z)` is predicted at every measured height on the sample
 //!    grid, linear in time between samples and interpolated across heights
 //!    ([`ThermalModel::interpolate`]); `z` is the machine Z of the block's
-//!    target (work Z + work offset + tool length offset), mm.
-//! 4. Z targets are moved to `Z − c`, `c = e(t_c, Z)` the correction:
+//!    target (work Z + work offset + tool length offset), mm. Log model: each
+//!    channel's drift along its axis, its period means placed at the period
+//!    centres and linear between them, whatever the block's position.
+//! 4. Targets are moved to `Z − c` (and `X − c`, `Y − c` with a log
+//!    model's X and Y channels), `c = e(t_c, …)` the correction of that axis:
 //!    * continuous update: `t_c` is the time the block ends;
 //!    * periodic update (period `P`, the source paper \[R4\]: 10 min): the correction is
 //!      held over `[kP, (k+1)P)` and `t_c = (k + ½)·P`, the middle of the
 //!      interval (the whole program is known ahead, so the held value is the
 //!      one closest to the drift over the interval).
 //!
-//! Rewriting rules:
+//! Rewriting rules, the same for every corrected axis (`Z` below stands for
+//! X, Y or Z), each axis with its own correction in force:
 //!
 //! * G90 (absolute) Z words are replaced by the corrected target;
 //! * G91 (incremental) Z words change by the change of the correction since
@@ -36,21 +44,34 @@
 //!   places edited, so every other byte stays the same);
 //! * a Z change smaller than half the written resolution (0.05 µm) leaves the
 //!   word untouched, so a program whose drift is zero is unchanged;
+//! * X and Y words of arcs in the XY plane (G17) keep the correction in
+//!   force at the arc's start: start, end and centre (start + I/J) then all
+//!   move by the same amount, so I and J stay and the arc keeps its radius
+//!   (a correction updated at the arc's end would move the end and not the
+//!   centre, and the two radii would differ). An absolute X/Y word becomes
+//!   `X − c` with that correction, an incremental one is unchanged; the
+//!   correction changes at the next straight move. With absolute arc
+//!   centres (G90.1) such an arc is refused when it would move;
+//! * the Z (helix) word of an XY arc is corrected as a straight move's;
 //! * a block the rewriter cannot change safely is an error naming the line:
-//!   Z words of arcs in the ZX or YZ plane (the arc geometry would change),
+//!   Z words of arcs in the ZX or YZ plane, X words of arcs in the ZX plane,
+//!   Y words of arcs in the YZ plane (the arc geometry would change),
 //!   several moves in one block; canned cycles and everything else outside
-//!   the interpreter's subset are already errors of the interpreter.
+//!   the interpreter's subset are already errors of the interpreter. A
+//!   Fanuc `G4 X` (a dwell time) is not a target and is left alone.
 //!
 //! A program that never turns the spindle on is returned unchanged, with a
-//! note.
+//! note (with a log model: when its used channels take the speed alone).
 
 use crate::gcode::{
     Axis, Block, Dialect, DistanceMode, Event, EventKind, GcodeError, InterpOptions, Interpreter,
     NumberFormat, Plane, ProgramStats, Programmed, SpindleState, StatsOptions,
 };
 
+use super::log::{InputSpec, LogData, LogModel, at_time, read_log};
 use super::model::ThermalModel;
 use super::predict::Programme;
+use crate::io::{Diagnostics, Table};
 
 /// Half the resolution of a written coordinate (4 decimals of mm): smaller
 /// Z changes are not written, mm.
@@ -176,6 +197,36 @@ pub enum CompensateError {
         /// The drift predicted there, mm.
         drift_mm: f64,
     },
+    /// The model's channels use inputs a program does not define and no
+    /// inputs log gives them.
+    #[error(
+        "the thermal model's channel(s) {} use the input(s) {} that a program does not define: give their values over the program's time in an inputs log (a `t_s` or `t_min` column and these columns)",
+        .channels.join(", "),
+        .inputs.join(", ")
+    )]
+    MissingInputs {
+        /// The channels (columns) that use them.
+        channels: Vec<String>,
+        /// The missing inputs (columns).
+        inputs: Vec<String>,
+    },
+    /// The channels to compensate with cannot be chosen: several on one
+    /// axis, or a named channel that is not in the model.
+    #[error("{0}")]
+    Channels(String),
+    /// A channel of a log model is unstable and `allow_unstable` is off.
+    #[error(
+        "the thermal model's channel `{column}`: {reason}; refusing to compensate with it (allow it explicitly to go on)"
+    )]
+    UnstableChannel {
+        /// The channel's column.
+        column: String,
+        /// The stability verdict.
+        reason: String,
+    },
+    /// The inputs log could not be read (each problem at its line).
+    #[error("{0}")]
+    InputsLog(Diagnostics),
     /// The estimated duration is beyond what a drift prediction can cover.
     #[error(
         "the program's estimated duration ({} min) exceeds {MAX_DURATION_MIN} min: check its feeds and dwells",
@@ -229,13 +280,36 @@ pub struct ZBlock {
     pub changed: bool,
 }
 
-/// Result of [`compensate`].
+/// What happened to the word of one corrected axis in one block.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AxisBlock {
+    /// 1-based line.
+    pub line: u64,
+    /// The axis (X, Y or Z).
+    pub axis: Axis,
+    /// Estimated time at the end of the block, min from program start.
+    pub end_min: f64,
+    /// Machine coordinate on `axis` the original block ends at, mm.
+    pub machine_mm: f64,
+    /// Correction on `axis` in force after the block (subtracted from the
+    /// target), mm; for G53 moves the one in force before.
+    pub correction_mm: f64,
+    /// The block was G53 (left alone).
+    pub g53: bool,
+    /// The word's text changed.
+    pub changed: bool,
+}
+
+/// Result of [`compensate`] and [`compensate_log`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Compensation {
     /// The compensated program text.
     pub output: Vec<u8>,
-    /// Every block with a Z word, in order.
+    /// Every block with a Z word, in order (the Z entries of `axis_blocks`).
     pub z_blocks: Vec<ZBlock>,
+    /// Per block, in order, one entry per corrected axis it has a word of
+    /// (Z only for [`compensate`]; X, Y, Z in that order within a block).
+    pub axis_blocks: Vec<AxisBlock>,
     /// The spindle speed programme on the model's sample grid (rev/min), from
     /// `t = 0` to past the program's end.
     pub programme: Programme,
@@ -269,6 +343,45 @@ impl Compensation {
         let last = self.z_blocks.iter().rev().find(|b| b.changed)?.end_min;
         Some((first, last))
     }
+
+    /// What changed on `axis`: its entries of [`Compensation::axis_blocks`]
+    /// summed up.
+    pub fn axis_summary(&self, axis: Axis) -> AxisSummary {
+        let on = || self.axis_blocks.iter().filter(move |b| b.axis == axis);
+        let first = on().find(|b| b.changed).map(|b| b.end_min);
+        let last = on().rfind(|b| b.changed).map(|b| b.end_min);
+        AxisSummary {
+            blocks: on().count(),
+            changed: on().filter(|b| b.changed).count(),
+            max_correction_mm: on().map(|b| b.correction_mm.abs()).fold(0.0, f64::max),
+            changed_span_min: first.zip(last),
+        }
+    }
+
+    /// Number of blocks with at least one changed word (any axis).
+    pub fn lines_changed(&self) -> usize {
+        let mut lines: Vec<u64> = self
+            .axis_blocks
+            .iter()
+            .filter(|b| b.changed)
+            .map(|b| b.line)
+            .collect();
+        lines.dedup();
+        lines.len()
+    }
+}
+
+/// What a compensation changed on one axis ([`Compensation::axis_summary`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AxisSummary {
+    /// Blocks with a word of the axis.
+    pub blocks: usize,
+    /// Those whose word changed.
+    pub changed: usize,
+    /// Largest |correction| in force, mm.
+    pub max_correction_mm: f64,
+    /// Time of the first and the last changed block, min.
+    pub changed_span_min: Option<(f64, f64)>,
 }
 
 /// Spindle speed as a step function of time: `(start_min, rpm)`, starts
@@ -322,15 +435,94 @@ impl SpeedHistory {
     }
 }
 
-/// A move with a Z word found in the first pass.
+/// The axes a compensation can correct, in the order their words are
+/// rewritten within a block.
+const LINEAR: [Axis; 3] = [Axis::X, Axis::Y, Axis::Z];
+
+/// A move with a word of a corrected axis, found in the first pass.
 #[derive(Debug, Clone, Copy)]
-struct ZMove {
+struct AxisMove {
     block: usize,
     end_min: f64,
-    from_z: f64,
-    to_z: f64,
-    offset_z: f64,
+    /// Start, end and offset of the move (work coordinates, mm).
+    from: crate::gcode::Axes,
+    to: crate::gcode::Axes,
+    offset: crate::gcode::Axes,
     words: Programmed,
+    /// Per axis of [`LINEAR`]: the block has a word of it and it is corrected.
+    has: [bool; 3],
+    /// The move is an arc in the XY plane (G17): its X and Y words keep the
+    /// correction in force at its start (the arc is moved rigidly).
+    xy_arc: bool,
+    /// Arc centres were absolute (G90.1) at the block.
+    absolute_centres: bool,
+}
+
+/// What one compensation corrects and by how much: the drift model behind
+/// [`compensate`] (heights, Z only) and [`compensate_log`] (one channel per axis).
+trait Corrector {
+    /// The axes corrected (of [`LINEAR`]).
+    fn axes(&self) -> &[Axis];
+    /// Sample period of the model, min.
+    fn period_min(&self) -> f64;
+    /// Without the spindle the drift is zero (the speed is the only input).
+    fn idle_without_spindle(&self) -> bool;
+    /// Predicts the drift over the program from its speed `programme` (the
+    /// period means, from `t = 0`); may add notes.
+    fn prepare(
+        &mut self,
+        programme: &Programme,
+        duration_min: f64,
+        notes: &mut Vec<String>,
+    ) -> Result<(), CompensateError>;
+    /// The drift along `axis` at `t_min` for a block ending at machine
+    /// coordinate `machine_mm` on that axis, mm.
+    fn drift(&self, axis: Axis, t_min: f64, machine_mm: f64) -> f64;
+}
+
+/// The height model of [`compensate`]: Z only, drift interpolated across heights.
+struct HeightCorrector<'a> {
+    model: &'a ThermalModel,
+    history: Vec<Vec<f64>>,
+}
+
+impl Corrector for HeightCorrector<'_> {
+    fn axes(&self) -> &[Axis] {
+        &[Axis::Z]
+    }
+
+    fn period_min(&self) -> f64 {
+        self.model.period_min()
+    }
+
+    fn idle_without_spindle(&self) -> bool {
+        true
+    }
+
+    fn prepare(
+        &mut self,
+        programme: &Programme,
+        _: f64,
+        _: &mut Vec<String>,
+    ) -> Result<(), CompensateError> {
+        self.history = self.model.drift_history(programme);
+        Ok(())
+    }
+
+    /// Linear in time between samples (drift at the period marks),
+    /// interpolated across heights.
+    fn drift(&self, _: Axis, t_min: f64, z: f64) -> f64 {
+        let history = &self.history;
+        let pos = (t_min / self.model.period_min()).max(0.0);
+        let k = (pos.floor() as usize).min(history.len() - 2);
+        let frac = (pos - k as f64).min(1.0);
+        let values: Vec<f64> = history[k]
+            .iter()
+            .zip(&history[k + 1])
+            .map(|(a, b)| a + frac * (b - a))
+            .collect();
+        self.model.interpolate(&values, z).mm
+    }
 }
 
 /// Compensates `program` (the bytes of an NC file) for the drift predicted
@@ -344,6 +536,26 @@ pub fn compensate(
     if model.columns().len() != 1 {
         return Err(CompensateError::ModelInputs(model.columns().to_vec()));
     }
+    check_options(options)?;
+    if !options.allow_unstable {
+        for h in model.heights() {
+            if let Some(reason) = h.model.stability().warning() {
+                return Err(CompensateError::Unstable {
+                    z_mm: h.z_mm,
+                    reason,
+                });
+            }
+        }
+    }
+    let mut corrector = HeightCorrector {
+        model,
+        history: Vec::new(),
+    };
+    compensate_with(&mut corrector, program, options)
+}
+
+/// The rapid rate and the correction period in their domains.
+fn check_options(options: &CompensateOptions) -> Result<(), CompensateError> {
     if !(options.rapid_feed.is_finite() && options.rapid_feed > 0.0) {
         return Err(CompensateError::Options(format!(
             "the rapid rate must be > 0 mm/min, not {}",
@@ -357,16 +569,16 @@ pub fn compensate(
             "the correction period must be > 0 min, not {period_min}"
         )));
     }
-    if !options.allow_unstable {
-        for h in model.heights() {
-            if let Some(reason) = h.model.stability().warning() {
-                return Err(CompensateError::Unstable {
-                    z_mm: h.z_mm,
-                    reason,
-                });
-            }
-        }
-    }
+    Ok(())
+}
+
+/// Times the program, predicts the drift with `corrector` and rewrites the
+/// words of its axes (the rules of the module documentation).
+fn compensate_with(
+    corrector: &mut dyn Corrector,
+    program: &[u8],
+    options: &CompensateOptions,
+) -> Result<Compensation, CompensateError> {
     let stats_opts = StatsOptions {
         interp: InterpOptions {
             dialect: options.dialect,
@@ -408,8 +620,10 @@ pub fn compensate(
             speed_steps.push((index, now, n));
             stats.add(e, &stats_opts)?;
         }
-        if has_z_word(block)? {
-            moves.push(z_move(block, index, &events, stats.total_time() / 60.0)?);
+        let end_min = stats.total_time() / 60.0;
+        let centres = interp.state().arc_distance;
+        if let Some(m) = axis_move(block, index, &events, end_min, corrector.axes(), centres)? {
+            moves.push(m);
         }
     }
     let mut duration_min = stats.total_time() / 60.0;
@@ -451,7 +665,7 @@ pub fn compensate(
     if duration_min.is_nan() || duration_min > MAX_DURATION_MIN {
         return Err(CompensateError::TooLong { duration_min });
     }
-    let period = model.period_min();
+    let period = corrector.period_min();
     let horizon = match options.update {
         CorrectionUpdate::Periodic { period_min } => {
             ((duration_min / period_min).floor() + 1.0) * period_min
@@ -462,7 +676,8 @@ pub fn compensate(
     let programme = speed.programme(period, samples);
     let mut result = Compensation {
         output: Vec::new(),
-        z_blocks: Vec::with_capacity(moves.len()),
+        z_blocks: Vec::new(),
+        axis_blocks: Vec::with_capacity(moves.len()),
         programme,
         duration_min,
         // Lines after the program end count as blocks of the file, as
@@ -473,97 +688,115 @@ pub fn compensate(
         spindle_used,
         notes: result_note.into_iter().collect(),
     };
-    if !spindle_used {
+    if !spindle_used && corrector.idle_without_spindle() {
         result.output = program.to_vec();
         result.notes.push(
             "the program never turns the spindle on (S with M3/M4): no drift, no change".into(),
         );
-        result.z_blocks = moves
-            .iter()
-            .map(|m| ZBlock {
-                line: prog.blocks[m.block].line(),
-                end_min: m.end_min,
-                machine_z_mm: m.to_z + m.offset_z,
-                correction_mm: 0.0,
-                g53: m.words.g53,
-                changed: false,
-            })
-            .collect();
+        for m in &moves {
+            for (i, &axis) in LINEAR.iter().enumerate() {
+                if m.has[i] {
+                    result.axis_blocks.push(AxisBlock {
+                        line: prog.blocks[m.block].line(),
+                        axis,
+                        end_min: m.end_min,
+                        machine_mm: m.to[axis] + m.offset[axis],
+                        correction_mm: 0.0,
+                        g53: m.words.g53,
+                        changed: false,
+                    });
+                }
+            }
+        }
+        result.z_blocks = z_blocks(&result.axis_blocks);
         return Ok(result);
     }
 
     // Pass 2: corrections and edits.
-    let history = model.drift_history(&result.programme);
-    let drift = |t_min: f64, z: f64| -> f64 {
-        let pos = (t_min / period).max(0.0);
-        let k = (pos.floor() as usize).min(history.len() - 2);
-        let frac = (pos - k as f64).min(1.0);
-        let values: Vec<f64> = history[k]
-            .iter()
-            .zip(&history[k + 1])
-            .map(|(a, b)| a + frac * (b - a))
-            .collect();
-        model.interpolate(&values, z).mm
-    };
-    let mut applied = 0.0;
+    corrector.prepare(&result.programme, duration_min, &mut result.notes)?;
+    // The correction in force per axis of LINEAR (subtracted from its targets).
+    let mut applied = [0.0_f64; 3];
     let mut g53_lines = Vec::new();
     for m in &moves {
         let block = &mut prog.blocks[m.block];
-        let machine_z = m.to_z + m.offset_z;
-        let mut record = ZBlock {
-            line: block.line(),
-            end_min: m.end_min,
-            machine_z_mm: machine_z,
-            correction_mm: 0.0,
-            g53: m.words.g53,
-            changed: false,
-        };
+        let line = block.line();
         if m.words.g53 {
-            g53_lines.push(block.line());
-            record.correction_mm = applied;
-            result.z_blocks.push(record);
-            continue;
+            g53_lines.push(line);
         }
-        let t_c = match options.update {
-            CorrectionUpdate::Continuous => m.end_min,
-            CorrectionUpdate::Periodic { period_min } => {
-                ((m.end_min / period_min).floor() + 0.5) * period_min
+        for (i, &axis) in LINEAR.iter().enumerate() {
+            if !m.has[i] {
+                continue;
             }
-        };
-        let c = drift(t_c, machine_z);
-        if !(c.is_finite() && c.abs() <= crate::limits::MAX_ERROR_VALUE) {
-            return Err(CompensateError::Diverges {
-                line: block.line(),
-                drift_mm: c,
-            });
+            let machine = m.to[axis] + m.offset[axis];
+            let mut record = AxisBlock {
+                line,
+                axis,
+                end_min: m.end_min,
+                machine_mm: machine,
+                correction_mm: 0.0,
+                g53: m.words.g53,
+                changed: false,
+            };
+            if m.words.g53 {
+                record.correction_mm = applied[i];
+                result.axis_blocks.push(record);
+                continue;
+            }
+            let new_end = if m.xy_arc && axis != Axis::Z {
+                // An in-plane word of an XY arc: start, centre (start + I/J)
+                // and end all move by the correction in force, so the arc
+                // keeps its shape; an incremental word is then unchanged.
+                match m.words.distance {
+                    DistanceMode::Absolute if applied[i] != 0.0 => {
+                        if m.absolute_centres {
+                            return Err(CompensateError::Unsafe {
+                                line,
+                                reason: format!(
+                                    "an {} word of an arc with absolute centres (G90.1): moving the arc would change its I/J words too",
+                                    axis.letter() as char
+                                ),
+                            });
+                        }
+                        Some(m.to[axis] - applied[i])
+                    }
+                    _ => None,
+                }
+            } else {
+                let t_c = match options.update {
+                    CorrectionUpdate::Continuous => m.end_min,
+                    CorrectionUpdate::Periodic { period_min } => {
+                        ((m.end_min / period_min).floor() + 0.5) * period_min
+                    }
+                };
+                let c = corrector.drift(axis, t_c, machine);
+                if !(c.is_finite() && c.abs() <= crate::limits::MAX_ERROR_VALUE) {
+                    return Err(CompensateError::Diverges { line, drift_mm: c });
+                }
+                match m.words.distance {
+                    DistanceMode::Absolute if c.abs() >= WRITE_TOLERANCE_MM => {
+                        applied[i] = c;
+                        Some(m.to[axis] - c)
+                    }
+                    DistanceMode::Absolute => {
+                        applied[i] = 0.0;
+                        None
+                    }
+                    DistanceMode::Incremental if (c - applied[i]).abs() >= WRITE_TOLERANCE_MM => {
+                        let end = m.to[axis] - (c - applied[i]);
+                        applied[i] = c;
+                        Some(end)
+                    }
+                    DistanceMode::Incremental => None,
+                }
+            };
+            if let Some(end) = new_end {
+                let value = m.words.word_value(axis, &m.from, end, &m.offset);
+                write_word(block, axis, value, options.dialect, m.words)?;
+                record.changed = true;
+            }
+            record.correction_mm = applied[i];
+            result.axis_blocks.push(record);
         }
-        let new_end = match m.words.distance {
-            DistanceMode::Absolute if c.abs() >= WRITE_TOLERANCE_MM => {
-                applied = c;
-                Some(m.to_z - c)
-            }
-            DistanceMode::Absolute => {
-                applied = 0.0;
-                None
-            }
-            DistanceMode::Incremental if (c - applied).abs() >= WRITE_TOLERANCE_MM => {
-                let end = m.to_z - (c - applied);
-                applied = c;
-                Some(end)
-            }
-            DistanceMode::Incremental => None,
-        };
-        if let Some(end) = new_end {
-            let mut from = crate::gcode::Axes::default();
-            from[Axis::Z] = m.from_z;
-            let mut offset = crate::gcode::Axes::default();
-            offset[Axis::Z] = m.offset_z;
-            let value = m.words.word_value(Axis::Z, &from, end, &offset);
-            write_z(block, value, options.dialect, m.words)?;
-            record.changed = true;
-        }
-        record.correction_mm = applied;
-        result.z_blocks.push(record);
     }
     if !g53_lines.is_empty() {
         let shown: Vec<String> = g53_lines.iter().take(10).map(u64::to_string).collect();
@@ -574,22 +807,388 @@ pub fn compensate(
             if g53_lines.len() > 10 { ", ..." } else { "" }
         ));
     }
+    result.z_blocks = z_blocks(&result.axis_blocks);
     result.output = prog.to_bytes();
     result.output.extend_from_slice(trailer);
     Ok(result)
 }
 
-fn has_z_word(block: &Block) -> Result<bool, GcodeError> {
-    Ok(block.word('Z')?.is_some())
+/// Settings of [`compensate_log`].
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct LogCompensateOptions {
+    /// Dialect, rapid rate, update policy, unstable models, program options
+    /// (as [`compensate`]; `allow_unstable` applies to each used channel).
+    pub compensate: CompensateOptions,
+    /// The model's input column that is the spindle speed (rev/min): its
+    /// values come from the program (S with M3/M4), never from the inputs log.
+    pub speed_column: String,
+    /// The channels (columns) to compensate with, at most one per axis;
+    /// empty: every channel of the model, which must then act on distinct axes.
+    pub channels: Vec<String>,
 }
 
-/// The Z move of a block that has a Z word.
-fn z_move(
+impl Default for LogCompensateOptions {
+    /// [`CompensateOptions::default`], the speed in `speed_rpm`, every channel.
+    fn default() -> Self {
+        LogCompensateOptions {
+            compensate: CompensateOptions::default(),
+            speed_column: "speed_rpm".into(),
+            channels: Vec::new(),
+        }
+    }
+}
+
+/// The G-code axis of a log channel.
+fn gcode_axis(axis: super::log::Axis) -> Axis {
+    match axis {
+        super::log::Axis::X => Axis::X,
+        super::log::Axis::Y => Axis::Y,
+        super::log::Axis::Z => Axis::Z,
+    }
+}
+
+/// The channels of `model` used, as (axis, channel index), one per axis.
+fn choose_channels(
+    model: &LogModel,
+    named: &[String],
+) -> Result<Vec<(Axis, usize)>, CompensateError> {
+    let columns: Vec<&str> = model
+        .channels
+        .iter()
+        .map(|c| c.channel.column.as_str())
+        .collect();
+    let picked: Vec<usize> = if named.is_empty() {
+        (0..columns.len()).collect()
+    } else {
+        let mut picked = Vec::new();
+        for name in named {
+            let Some(i) = columns.iter().position(|c| c == name) else {
+                return Err(CompensateError::Channels(format!(
+                    "the model has no channel `{name}` (its channels: {})",
+                    columns.join(", ")
+                )));
+            };
+            if picked.contains(&i) {
+                return Err(CompensateError::Channels(format!(
+                    "channel `{name}` is named twice"
+                )));
+            }
+            picked.push(i);
+        }
+        picked
+    };
+    let mut chosen: Vec<(Axis, usize)> = Vec::new();
+    for i in picked {
+        let axis = gcode_axis(model.channels[i].channel.axis);
+        if let Some(&(_, j)) = chosen.iter().find(|(a, _)| *a == axis) {
+            let on_axis: Vec<&str> = model
+                .channels
+                .iter()
+                .filter(|c| gcode_axis(c.channel.axis) == axis)
+                .map(|c| c.channel.column.as_str())
+                .collect();
+            return Err(CompensateError::Channels(format!(
+                "channels `{}` and `{}` both act on {}: a program is corrected by one channel per axis; name the one to use (of {})",
+                columns[j],
+                columns[i],
+                axis.letter() as char,
+                on_axis.join(", ")
+            )));
+        }
+        chosen.push((axis, i));
+    }
+    chosen.sort_by_key(|&(a, _)| a.index());
+    if chosen.is_empty() {
+        return Err(CompensateError::Channels("the model has no channel".into()));
+    }
+    Ok(chosen)
+}
+
+/// A log model: one channel per corrected axis, inputs from the program
+/// (the speed) and from an inputs log (the rest).
+struct LogCorrector<'a> {
+    model: &'a LogModel,
+    /// (axis, channel index), ascending axes.
+    chosen: Vec<(Axis, usize)>,
+    axes: Vec<Axis>,
+    /// Per model input: it is the spindle speed (from the program).
+    speed: Vec<bool>,
+    /// Per model input: a used channel takes it.
+    needed: Vec<bool>,
+    /// The inputs log on the model's grid: the needed non-speed inputs, in
+    /// model input order.
+    log: Option<LogData>,
+    /// Per chosen channel: the drift on the grid, mm since the start.
+    drift: Vec<Vec<f64>>,
+}
+
+impl Corrector for LogCorrector<'_> {
+    fn axes(&self) -> &[Axis] {
+        &self.axes
+    }
+
+    fn period_min(&self) -> f64 {
+        self.model.period_min
+    }
+
+    fn idle_without_spindle(&self) -> bool {
+        self.needed.iter().zip(&self.speed).all(|(&n, &s)| !n || s)
+    }
+
+    fn prepare(
+        &mut self,
+        programme: &Programme,
+        duration_min: f64,
+        notes: &mut Vec<String>,
+    ) -> Result<(), CompensateError> {
+        let n = programme.len();
+        let period = self.model.period_min;
+        let mut logged = self.log.as_ref().map(|l| l.inputs.iter());
+        let mut series = Vec::with_capacity(self.model.inputs.len());
+        for (i, input) in self.model.inputs.iter().enumerate() {
+            let s: Vec<f64> = if self.speed[i] {
+                (0..n).map(|k| programme.sample(k)[0]).collect()
+            } else if self.needed[i] {
+                let Some(values) = logged.as_mut().and_then(Iterator::next) else {
+                    return Err(CompensateError::Options(format!(
+                        "no values of input `{}`",
+                        input.column
+                    )));
+                };
+                // The last period mean holds past the end of the log.
+                let last = values.last().copied().unwrap_or(0.0);
+                (0..n)
+                    .map(|k| values.get(k).copied().unwrap_or(last))
+                    .collect()
+            } else {
+                vec![0.0; n]
+            };
+            series.push(s);
+        }
+        if let Some(log) = &self.log {
+            let covered = log.len() as f64 * period;
+            if covered < duration_min {
+                notes.push(format!(
+                    "the inputs log covers {} min of the program's {} min: its last period means are held from {} min on",
+                    crate::limits::fmt_message_number(covered),
+                    crate::limits::fmt_message_number((duration_min * 1e3).round() / 1e3),
+                    crate::limits::fmt_message_number(covered)
+                ));
+            }
+        }
+        let drift = self
+            .model
+            .simulate(&self.model.scaled_inputs(&series))
+            .map_err(|e| CompensateError::Options(e.to_string()))?;
+        self.drift = self.chosen.iter().map(|&(_, c)| drift[c].clone()).collect();
+        Ok(())
+    }
+
+    /// The channel's period means placed at the period centres, linear
+    /// between them, held before the first and after the last.
+    fn drift(&self, axis: Axis, t_min: f64, _: f64) -> f64 {
+        let i = self
+            .chosen
+            .iter()
+            .position(|&(a, _)| a == axis)
+            .expect("only the chosen axes are corrected");
+        at_time(&self.drift[i], self.model.period_min, t_min)
+    }
+}
+
+/// Compensates `program` for the drift of a log model (`thermal fit
+/// --log`): every axis with a channel is corrected (X, Y and Z; one channel
+/// per axis, see [`LogCompensateOptions::channels`]), by the rules of the
+/// module documentation.
+///
+/// The model's inputs over the program's time (from its start, `t = 0`):
+/// the spindle speed column ([`LogCompensateOptions::speed_column`]) is the
+/// program's own speed, averaged over each model period; every other input
+/// a used channel takes comes from `inputs_log` (a `t_s` or `t_min` column
+/// and those columns, its first row the program's start), averaged over the
+/// model periods as [`read_log`] does (a temperature as its rise since the
+/// first period). Where the program runs longer than the inputs log, the
+/// log's last period means are held (with a note). The drift of a channel
+/// at time `t` is its period means placed at the period centres, linear
+/// between them ([`at_time`]).
+///
+/// # Errors
+/// Those of [`compensate`]; [`CompensateError::Channels`] when two used
+/// channels act on one axis or a named channel is not in the model;
+/// [`CompensateError::MissingInputs`] when a used channel takes inputs
+/// other than the speed and `inputs_log` is `None`;
+/// [`CompensateError::InputsLog`] for a bad inputs log (at its line);
+/// [`CompensateError::UnstableChannel`].
+pub fn compensate_log(
+    model: &LogModel,
+    program: &[u8],
+    inputs_log: Option<&Table>,
+    options: &LogCompensateOptions,
+) -> Result<Compensation, CompensateError> {
+    check_options(&options.compensate)?;
+    let chosen = choose_channels(model, &options.channels)?;
+    if !options.compensate.allow_unstable {
+        for &(_, c) in &chosen {
+            let channel = &model.channels[c];
+            let arx = channel
+                .arx()
+                .map_err(|e| CompensateError::Options(e.to_string()))?;
+            if let Some(reason) = arx.stability().warning() {
+                return Err(CompensateError::UnstableChannel {
+                    column: channel.channel.column.clone(),
+                    reason,
+                });
+            }
+        }
+    }
+    let speed: Vec<bool> = model
+        .inputs
+        .iter()
+        .map(|i| i.column == options.speed_column)
+        .collect();
+    let mut needed = vec![false; model.inputs.len()];
+    for &(_, c) in &chosen {
+        for &i in &model.channels[c].inputs {
+            needed[i] = true;
+        }
+    }
+    let logged: Vec<usize> = (0..model.inputs.len())
+        .filter(|&i| needed[i] && !speed[i])
+        .collect();
+    let mut notes = Vec::new();
+    let log = match inputs_log {
+        None if !logged.is_empty() => {
+            let users = chosen
+                .iter()
+                .map(|&(_, c)| &model.channels[c])
+                .filter(|c| c.inputs.iter().any(|i| logged.contains(i)))
+                .map(|c| c.channel.column.clone())
+                .collect();
+            let mut inputs: Vec<String> = Vec::new();
+            for &i in &logged {
+                if !inputs.contains(&model.inputs[i].column) {
+                    inputs.push(model.inputs[i].column.clone());
+                }
+            }
+            return Err(CompensateError::MissingInputs {
+                channels: users,
+                inputs,
+            });
+        }
+        None => None,
+        Some(table) if logged.is_empty() => {
+            notes.push(format!(
+                "{}: not used (the channels used take only the spindle speed, from the program)",
+                table.path().display()
+            ));
+            None
+        }
+        Some(table) => {
+            if table.column(&options.speed_column).is_some() {
+                notes.push(format!(
+                    "{}: column `{}` not used (the spindle speed comes from the program)",
+                    table.path().display(),
+                    options.speed_column
+                ));
+            }
+            // The log's own reading (time column, averaging, gaps, missing
+            // cells), one input per model input; a column taken both as it
+            // is and squared is read twice.
+            let specs: Vec<InputSpec> = logged
+                .iter()
+                .map(|&i| InputSpec {
+                    column: model.inputs[i].column.clone(),
+                    rise: false,
+                    square: false,
+                })
+                .collect();
+            let data = read_log(table, &[], &specs, model.period_min)
+                .map_err(CompensateError::InputsLog)?;
+            notes.extend(data.notes.iter().cloned());
+            Some(data)
+        }
+    };
+    let axes = chosen.iter().map(|&(a, _)| a).collect();
+    let mut corrector = LogCorrector {
+        model,
+        chosen,
+        axes,
+        speed,
+        needed,
+        log,
+        drift: Vec::new(),
+    };
+    let mut result = compensate_with(&mut corrector, program, &options.compensate)?;
+    notes.append(&mut result.notes);
+    result.notes = notes;
+    Ok(result)
+}
+
+/// The Z entries of `blocks`.
+fn z_blocks(blocks: &[AxisBlock]) -> Vec<ZBlock> {
+    blocks
+        .iter()
+        .filter(|b| b.axis == Axis::Z)
+        .map(|b| ZBlock {
+            line: b.line,
+            end_min: b.end_min,
+            machine_z_mm: b.machine_mm,
+            correction_mm: b.correction_mm,
+            g53: b.g53,
+            changed: b.changed,
+        })
+        .collect()
+}
+
+/// "a Z word", "an X word".
+fn word_of(axis: Axis) -> String {
+    let letter = axis.letter() as char;
+    let article = if matches!(letter, 'X' | 'A' | 'U') {
+        "an"
+    } else {
+        "a"
+    };
+    format!("{article} {letter} word")
+}
+
+/// The move of a block that has a word of one of the corrected `axes`
+/// (`None` without such a word, or when the word is a dwell time, as
+/// Fanuc's `G4 X`).
+fn axis_move(
     block: &Block,
     index: usize,
     events: &[Event],
     end_min: f64,
-) -> Result<ZMove, CompensateError> {
+    axes: &[Axis],
+    centres: DistanceMode,
+) -> Result<Option<AxisMove>, CompensateError> {
+    let mut has = [false; 3];
+    for (i, &axis) in LINEAR.iter().enumerate() {
+        has[i] = axes.contains(&axis) && block.word(axis.letter() as char)?.is_some();
+    }
+    if !has.iter().any(|&h| h) {
+        return Ok(None);
+    }
+    let present: Vec<Axis> = LINEAR
+        .iter()
+        .zip(has)
+        .filter_map(|(&a, h)| h.then_some(a))
+        .collect();
+    let moves = |e: &&Event| {
+        matches!(
+            e.kind,
+            EventKind::Traverse(_) | EventKind::Feed(_) | EventKind::Arc(_)
+        )
+    };
+    if !present.contains(&Axis::Z)
+        && !events.iter().any(|e| moves(&e))
+        && events
+            .iter()
+            .any(|e| matches!(e.kind, EventKind::Dwell { .. }))
+    {
+        return Ok(None);
+    }
     let unsafe_block = |reason: &str| CompensateError::Unsafe {
         line: block.line(),
         reason: reason.into(),
@@ -597,16 +1196,27 @@ fn z_move(
     let mut found = None;
     for e in events {
         let m = match &e.kind {
-            EventKind::Traverse(l) | EventKind::Feed(l) => {
-                (l.from[Axis::Z], l.to[Axis::Z], l.offset[Axis::Z], l.words)
-            }
+            EventKind::Traverse(l) | EventKind::Feed(l) => (l.from, l.to, l.offset, l.words, false),
             EventKind::Arc(a) => {
-                if a.plane != Plane::Xy {
-                    return Err(unsafe_block(
-                        "a Z word of an arc in the ZX or YZ plane (changing it changes the arc)",
-                    ));
+                for &axis in &present {
+                    let in_plane = match axis {
+                        Axis::Z => a.plane != Plane::Xy,
+                        Axis::X => a.plane == Plane::Zx,
+                        _ => a.plane == Plane::Yz,
+                    };
+                    if in_plane {
+                        let planes = match axis {
+                            Axis::Z => "the ZX or YZ plane",
+                            Axis::X => "the ZX plane",
+                            _ => "the YZ plane",
+                        };
+                        return Err(unsafe_block(&format!(
+                            "{} of an arc in {planes} (changing it changes the arc)",
+                            word_of(axis)
+                        )));
+                    }
                 }
-                (a.from[Axis::Z], a.to[Axis::Z], a.offset[Axis::Z], a.words)
+                (a.from, a.to, a.offset, a.words, a.plane == Plane::Xy)
             }
             _ => continue,
         };
@@ -620,45 +1230,52 @@ fn z_move(
         }
         found = Some(m);
     }
-    let Some((from_z, to_z, offset_z, words)) = found else {
-        return Err(unsafe_block("a Z word that is not a move target"));
+    let not_target =
+        |axis: Axis| unsafe_block(&format!("{} that is not a move target", word_of(axis)));
+    let Some((from, to, offset, words, xy_arc)) = found else {
+        return Err(not_target(present[0]));
     };
-    if !words.axes.contains(Axis::Z) {
-        return Err(unsafe_block("a Z word that is not a move target"));
+    if let Some(&axis) = present.iter().find(|&&a| !words.axes.contains(a)) {
+        return Err(not_target(axis));
     }
-    Ok(ZMove {
+    Ok(Some(AxisMove {
         block: index,
         end_min,
-        from_z,
-        to_z,
-        offset_z,
+        from,
+        to,
+        offset,
         words,
-    })
+        has,
+        xy_arc,
+        absolute_centres: centres == DistanceMode::Absolute,
+    }))
 }
 
-/// Writes the Z word value (program units); a Fanuc program without decimal
-/// point programming gets a decimal point, or least increments when the value
-/// is whole.
-fn write_z(
+/// Writes the word of `axis` (program units); a Fanuc program without
+/// decimal point programming gets a decimal point, or least increments when
+/// the value is whole.
+fn write_word(
     block: &mut Block,
+    axis: Axis,
     value: f64,
     dialect: Dialect,
     words: Programmed,
 ) -> Result<(), GcodeError> {
-    block.set_word('Z', value)?;
+    let letter = axis.letter() as char;
+    block.set_word(letter, value)?;
     let needs_point = matches!(
         dialect,
         Dialect::Fanuc {
             decimal_point_programming: false
         }
     );
-    let has_point = block.word('Z')?.is_some_and(|w| w.has_point);
+    let has_point = block.word(letter)?.is_some_and(|w| w.has_point);
     if needs_point && !has_point {
         let increment = match words.units {
             crate::gcode::Units::Millimetre => 1e-3,
             crate::gcode::Units::Inch => 1e-4,
         };
-        block.set_word_with('Z', (value / increment).round(), NumberFormat::Fixed(0))?;
+        block.set_word_with(letter, (value / increment).round(), NumberFormat::Fixed(0))?;
     }
     Ok(())
 }
@@ -1104,5 +1721,397 @@ mod tests {
             compensate(&m, b"", &bad),
             Err(CompensateError::Options(_))
         ));
+    }
+}
+
+#[cfg(test)]
+mod log_tests {
+    //! [`compensate_log`]: drift of first-order channels in closed form.
+    use super::*;
+    use crate::methods::thermal::log::{
+        Axis as LogAxis, ChannelModel, ChannelSpec, LengthUnit, LogInput,
+    };
+    use std::path::Path;
+
+    /// Inputs: speed (scale 1000 rev/min), `t1_c` as its rise (scale 5 K);
+    /// one first-order channel per `(column, axis, input, pole, b)`.
+    fn model(channels: &[(&str, LogAxis, usize, f64, f64)]) -> LogModel {
+        LogModel {
+            period_min: 1.0,
+            inputs: vec![
+                LogInput {
+                    column: "speed_rpm".into(),
+                    rise: false,
+                    square: false,
+                    scale: 1000.0,
+                },
+                LogInput {
+                    column: "t1_c".into(),
+                    rise: true,
+                    square: false,
+                    scale: 5.0,
+                },
+            ],
+            channels: channels
+                .iter()
+                .map(|&(column, axis, input, pole, b)| ChannelModel {
+                    channel: ChannelSpec {
+                        column: column.into(),
+                        unit: LengthUnit::Um,
+                        axis,
+                    },
+                    inputs: vec![input],
+                    a: vec![1.0, -pole],
+                    b: vec![vec![b]],
+                    heldout_rms_mm: 0.0,
+                    heldout_drift_rms_mm: 0.0,
+                    training_rms_mm: 0.0,
+                    output_error: false,
+                })
+                .collect(),
+        }
+    }
+
+    /// X on the temperature (pole 0.8, 2 µm per scaled K), Z on the speed
+    /// (pole 0.9, 1 µm per 1000 rev/min).
+    fn xz() -> LogModel {
+        model(&[
+            ("dx_um", LogAxis::X, 1, 0.8, 0.002),
+            ("dz_um", LogAxis::Z, 0, 0.9, 0.001),
+        ])
+    }
+
+    /// `t1_c` 20 °C over the first minute, 25 °C after, every 15 s to `end` min.
+    fn temperatures(end: f64) -> Table {
+        let mut text = String::from("t_min,t1_c\n");
+        let mut t = 0.0;
+        while t <= end {
+            text.push_str(&format!("{t},{}\n", if t < 1.0 { 20.0 } else { 25.0 }));
+            t += 0.25;
+        }
+        Table::from_reader(Path::new("inputs.csv"), text.as_bytes()).unwrap()
+    }
+
+    /// Closed form of the period means (sample k, 1-min periods): X after
+    /// the 5 K step in period 1 (scaled rise 1 from sample 1), Z under
+    /// 2000 rev/min from t = 0 (scaled 2).
+    fn x_sample(k: usize) -> f64 {
+        // y_k = 0.8 y_{k−1} + 0.002 u_{k−1}, u_0 = 0, u_k = 1 after.
+        if k <= 1 {
+            0.0
+        } else {
+            0.002 * (1.0 - 0.8_f64.powi(k as i32 - 1)) / 0.2
+        }
+    }
+
+    fn z_sample(k: usize) -> f64 {
+        0.002 * (1.0 - 0.9_f64.powi(k as i32)) / 0.1
+    }
+
+    /// Sample means at the period centres, linear between them.
+    fn at(sample: fn(usize) -> f64, t: f64) -> f64 {
+        let pos = t - 0.5;
+        if pos <= 0.0 {
+            return sample(0);
+        }
+        let k = pos.floor() as usize;
+        let f = pos - k as f64;
+        sample(k) + f * (sample(k + 1) - sample(k))
+    }
+
+    fn word(line: &str, letter: char) -> f64 {
+        line.split_whitespace()
+            .find_map(|w| w.strip_prefix(letter))
+            .unwrap()
+            .parse()
+            .unwrap()
+    }
+
+    fn opts(update: CorrectionUpdate) -> LogCompensateOptions {
+        let mut o = LogCompensateOptions::default();
+        o.compensate.update = update;
+        o
+    }
+
+    const PROGRAM: &str = "G21 G90\nS2000 M3\nG4 P150\nG0 X10 Z-5\nG4 P300\nG1 X20 Z-10 F1000\nY5\nG4 P630\nG0 X0 Z0\nM30\n";
+
+    #[test]
+    fn x_and_z_words_are_the_programmed_minus_the_closed_form_drift() {
+        let log = temperatures(29.75);
+        for update in [
+            CorrectionUpdate::Continuous,
+            CorrectionUpdate::Periodic { period_min: 10.0 },
+            CorrectionUpdate::Periodic { period_min: 4.0 },
+        ] {
+            let c = compensate_log(&xz(), PROGRAM.as_bytes(), Some(&log), &opts(update)).unwrap();
+            let out = String::from_utf8(c.output.clone()).unwrap();
+            let lines: Vec<&str> = out.lines().collect();
+            // Lines 4, 6, 9 move X and Z; line 7 (Y) is not corrected.
+            let programmed = [(4, 10.0, -5.0), (6, 20.0, -10.0), (9, 0.0, 0.0)];
+            // Block ends: dwells, then the moves (rapid 10 m/min, feed 1 m/min).
+            let ends = [
+                2.5 + 125f64.sqrt() / 1e4,
+                2.5 + 125f64.sqrt() / 1e4 + 5.0 + 125f64.sqrt() / 1e3,
+                2.5 + 125f64.sqrt() / 1e4
+                    + 5.0
+                    + 125f64.sqrt() / 1e3
+                    + 5.0 / 1e3
+                    + 10.5
+                    + 500f64.sqrt() / 1e4,
+            ];
+            assert_eq!(c.axis_blocks.len(), 6);
+            for (k, &(line, x, z)) in programmed.iter().enumerate() {
+                let xb = c.axis_blocks[2 * k];
+                let zb = c.axis_blocks[2 * k + 1];
+                assert_eq!((xb.line, xb.axis, zb.axis), (line, Axis::X, Axis::Z));
+                assert!(
+                    (xb.end_min - ends[k]).abs() < 1e-9,
+                    "{} {}",
+                    xb.end_min,
+                    ends[k]
+                );
+                let t = match update {
+                    CorrectionUpdate::Continuous => ends[k],
+                    CorrectionUpdate::Periodic { period_min } => {
+                        ((ends[k] / period_min).floor() + 0.5) * period_min
+                    }
+                };
+                let (ex, ez) = (at(x_sample, t), at(z_sample, t));
+                assert!(ex > 1e-4 || k == 0, "{ex}");
+                let text = lines[line as usize - 1];
+                let tol = 0.5e-4 + 1e-12;
+                if ex.abs() >= 0.5e-4 {
+                    assert!(
+                        (word(text, 'X') - (x - ex)).abs() <= tol,
+                        "{update:?} {text} {ex}"
+                    );
+                } else {
+                    assert_eq!(word(text, 'X'), x);
+                }
+                assert!(
+                    (word(text, 'Z') - (z - ez)).abs() <= tol,
+                    "{update:?} {text} {ez}"
+                );
+                assert!((xb.correction_mm - ex).abs() < 1e-12 || ex.abs() < 0.5e-4);
+                assert!((zb.correction_mm - ez).abs() < 1e-12);
+            }
+            assert_eq!(lines[6], "Y5");
+            assert_eq!(c.z_blocks.len(), 3);
+            let x = c.axis_summary(Axis::X);
+            assert_eq!((x.blocks, c.axis_summary(Axis::Y).blocks), (3, 0));
+            assert!(c.notes.is_empty(), "{:?}", c.notes);
+        }
+    }
+
+    #[test]
+    fn a_zero_model_leaves_the_program_byte_identical() {
+        let zero = model(&[
+            ("dx_um", LogAxis::X, 1, 0.8, 0.0),
+            ("dy_um", LogAxis::Y, 0, 0.5, 0.0),
+            ("dz_um", LogAxis::Z, 0, 0.9, 0.0),
+        ]);
+        let src = "%\n(part)\nG21 G90 G17\r\nS3000 M3\nG0 X10.000 Y-3 Z5\nG1 Z-1.5 F200\nG2 X20 Y-3 I5 J0\nG91 G1 X1 Y1 Z-0.1\nG90 G53 G0 Z0\nG4 P900\nG0 X0.0 Y0.0\nM30\n%\n";
+        let c = compensate_log(
+            &zero,
+            src.as_bytes(),
+            Some(&temperatures(20.0)),
+            &opts(CorrectionUpdate::Continuous),
+        )
+        .unwrap();
+        assert_eq!(c.output, src.as_bytes());
+        assert_eq!(c.lines_changed(), 0);
+        assert!(c.axis_blocks.iter().any(|b| b.axis == Axis::Y));
+    }
+
+    /// Every arc event of `program`: (start, end, centre) in X and Y.
+    fn arcs(program: &str) -> Vec<([f64; 2], [f64; 2], [f64; 2])> {
+        let prog = crate::gcode::Program::parse(program.as_bytes()).unwrap();
+        let mut interp = Interpreter::new(InterpOptions::default());
+        let mut events = Vec::new();
+        for b in &prog.blocks {
+            interp.execute(b, &mut events).unwrap();
+        }
+        events
+            .iter()
+            .filter_map(|e| match &e.kind {
+                EventKind::Arc(a) => Some((
+                    [a.from[Axis::X], a.from[Axis::Y]],
+                    [a.to[Axis::X], a.to[Axis::Y]],
+                    [a.center[0], a.center[1]],
+                )),
+                _ => None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn xy_arcs_move_rigidly_by_the_correction_at_their_start() {
+        // X on the temperature, Y on the speed: both drift during the dwells.
+        let m = model(&[
+            ("dx_um", LogAxis::X, 1, 0.8, 0.002),
+            ("dy_um", LogAxis::Y, 0, 0.9, 0.001),
+        ]);
+        for src in [
+            "S2000 M3\nG0 X0 Y0\nG4 P600\nG1 X10 Y0 F500\nG4 P300\nG2 X20 Y0 I5 J0\nG4 P300\nG3 X10 Y0 R5\nG1 X0\n",
+            "S2000 M3\nG0 X0 Y0\nG4 P600\nG91 G1 X10 F500\nG4 P300\nG2 X10 I5 J0\nG4 P300\nG3 X-10 R5\nG1 X-10\n",
+        ] {
+            let c = compensate_log(
+                &m,
+                src.as_bytes(),
+                Some(&temperatures(40.0)),
+                &opts(CorrectionUpdate::Continuous),
+            )
+            .unwrap();
+            let out = String::from_utf8(c.output.clone()).unwrap();
+            let before = arcs(src);
+            let after = arcs(&out);
+            assert_eq!(after.len(), 2);
+            // The correction in force at the start of each arc (line 4's).
+            let x4 = c
+                .axis_blocks
+                .iter()
+                .find(|b| b.line == 4 && b.axis == Axis::X)
+                .unwrap();
+            let y4 = c
+                .axis_blocks
+                .iter()
+                .find(|b| b.line == 4 && b.axis == Axis::Y)
+                .map_or(0.0, |b| b.correction_mm);
+            assert!(x4.correction_mm > 1e-3, "{x4:?}");
+            for ((s0, e0, c0), (s1, e1, c1)) in before.iter().zip(&after) {
+                let r = |p: &[f64; 2], c: &[f64; 2]| (p[0] - c[0]).hypot(p[1] - c[1]);
+                // The same radius at both ends (to the written resolution).
+                assert!(
+                    (r(s1, c1) - r(e1, c1)).abs() < 1.5e-4,
+                    "{s1:?} {e1:?} {c1:?}"
+                );
+                for (p0, p1) in [(s0, s1), (e0, e1), (c0, c1)] {
+                    assert!(
+                        (p1[0] - (p0[0] - x4.correction_mm)).abs() <= 0.6e-4,
+                        "{p0:?} {p1:?}"
+                    );
+                    assert!((p1[1] - (p0[1] - y4)).abs() <= 0.6e-4);
+                }
+            }
+            // The next straight move takes the correction of its own time.
+            let last = c
+                .axis_blocks
+                .iter()
+                .rev()
+                .find(|b| b.axis == Axis::X)
+                .unwrap();
+            assert!(last.correction_mm > x4.correction_mm);
+            assert!(last.changed);
+        }
+    }
+
+    #[test]
+    fn channels_on_one_axis_missing_inputs_and_unsafe_arcs_are_refused() {
+        let two_z = model(&[
+            ("a_um", LogAxis::Z, 0, 0.9, 0.001),
+            ("b_um", LogAxis::Z, 0, 0.5, 0.001),
+        ]);
+        let prog = b"S1000 M3\nG4 P600\nG0 Z-1\n";
+        match compensate_log(&two_z, prog, None, &LogCompensateOptions::default()) {
+            Err(CompensateError::Channels(m)) => {
+                assert!(m.contains("`a_um` and `b_um` both act on Z"), "{m}")
+            }
+            other => panic!("{other:?}"),
+        }
+        let mut o = LogCompensateOptions {
+            channels: vec!["b_um".into()],
+            ..LogCompensateOptions::default()
+        };
+        let c = compensate_log(&two_z, prog, None, &o).unwrap();
+        // Pole 0.5, 1 µm per scaled unit, speed 1 (scaled): at the block's
+        // end (10 min + 1 mm at 10 m/min), held at 15 min: the means of samples 14 and 15.
+        let t = ((c.z_blocks[0].end_min / 10.0).floor() + 0.5) * 10.0;
+        let y = |k: i32| 0.002 * (1.0 - 0.5_f64.powi(k));
+        assert_eq!(t, 15.0);
+        assert!((c.z_blocks[0].correction_mm - 0.5 * (y(14) + y(15))).abs() < 1e-12);
+        o.channels = vec!["c_um".into()];
+        assert!(
+            matches!(compensate_log(&two_z, prog, None, &o), Err(CompensateError::Channels(m)) if m.contains("no channel `c_um`"))
+        );
+        o.channels = vec!["a_um".into(), "b_um".into()];
+        assert!(matches!(
+            compensate_log(&two_z, prog, None, &o),
+            Err(CompensateError::Channels(_))
+        ));
+
+        match compensate_log(&xz(), prog, None, &LogCompensateOptions::default()) {
+            Err(e @ CompensateError::MissingInputs { .. }) => {
+                let m = e.to_string();
+                assert!(
+                    m.contains("dx_um") && m.contains("t1_c") && !m.contains("dz_um"),
+                    "{m}"
+                );
+            }
+            other => panic!("{other:?}"),
+        }
+        // Only the Z channel (speed): no inputs log needed.
+        let z_only = LogCompensateOptions {
+            channels: vec!["dz_um".into()],
+            ..LogCompensateOptions::default()
+        };
+        assert!(compensate_log(&xz(), prog, None, &z_only).is_ok());
+
+        let log = temperatures(29.75);
+        let run = |s: &str| {
+            compensate_log(
+                &xz(),
+                s.as_bytes(),
+                Some(&log),
+                &LogCompensateOptions::default(),
+            )
+        };
+        match run("S1000 M3\nG18 G0 X0 Z0\nG2 X10 Z0 I5 F100\n") {
+            Err(CompensateError::Unsafe { line: 3, reason }) => assert!(
+                reason.contains("an X word of an arc in the ZX plane"),
+                "{reason}"
+            ),
+            other => panic!("{other:?}"),
+        }
+        // A G90.1 arc that would move is refused.
+        let abs = "S1000 M3\nG90.1 G0 X0 Y0\nG4 P600\nG1 X10 F100\nG2 X20 Y0 I15 J0\n";
+        assert!(matches!(
+            run(abs),
+            Err(CompensateError::Unsafe { line: 5, .. })
+        ));
+        // A bad inputs log at its line.
+        let bad = Table::from_reader(
+            Path::new("inputs.csv"),
+            b"t_min,t1_c\n0,20\n1,x\n".as_slice(),
+        )
+        .unwrap();
+        match compensate_log(&xz(), prog, Some(&bad), &LogCompensateOptions::default()) {
+            Err(CompensateError::InputsLog(d)) => {
+                assert!(d.to_string().contains("inputs.csv:3"), "{d}")
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_short_inputs_log_holds_its_last_period_mean() {
+        // The log ends at 3.75 min (4 periods: 20, 25, 25, 25 °C); the
+        // program runs 20 min. Held: the rise stays 5 K, so the X drift is
+        // the closed form of the constant step at every time.
+        let c = compensate_log(
+            &xz(),
+            b"S2000 M3\nG4 P1200\nG0 X1\n",
+            Some(&temperatures(3.75)),
+            &opts(CorrectionUpdate::Continuous),
+        )
+        .unwrap();
+        let b = c.axis_blocks[0];
+        assert!((b.correction_mm - at(x_sample, b.end_min)).abs() < 1e-12);
+        assert!(
+            c.notes
+                .iter()
+                .any(|n| n.contains("covers 4 min") && n.contains("held")),
+            "{:?}",
+            c.notes
+        );
     }
 }

@@ -101,14 +101,64 @@ pub struct ThermalCompensateDoc {
     pub spindle_used: bool,
     /// Blocks that program Z.
     pub z_blocks: usize,
+    /// With a log model: per corrected axis, its channel and what changed
+    /// (then `blocks_changed` counts blocks with any word changed and
+    /// `max_correction_um` is the largest over the axes). Empty (and not
+    /// written) with a height model.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub axes: Vec<CompensateAxisDoc>,
+}
+
+/// One axis of a compensation with a log model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CompensateAxisDoc {
+    /// `X`, `Y` or `Z`.
+    pub axis: String,
+    /// The drift channel (column) the axis is corrected by.
+    pub channel: String,
+    /// Blocks with a word of the axis.
+    pub blocks: usize,
+    /// Those whose word changed.
+    pub blocks_changed: usize,
+    /// Largest correction on the axis (µm).
+    pub max_correction_um: f64,
+    /// First time a word of the axis changed (min), if any.
+    pub changed_from_min: Option<f64>,
+    /// Last time a word of the axis changed (min), if any.
+    pub changed_to_min: Option<f64>,
+}
+
+fn span_text(from: Option<f64>, to: Option<f64>) -> String {
+    match (from, to) {
+        (Some(a), Some(b)) => format!(", changes from {a:.1} to {b:.1} min"),
+        _ => String::new(),
+    }
 }
 
 impl std::fmt::Display for ThermalCompensateDoc {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let span = match (self.changed_from_min, self.changed_to_min) {
-            (Some(a), Some(b)) => format!(", changes from {a:.1} to {b:.1} min"),
-            _ => String::new(),
-        };
+        let span = span_text(self.changed_from_min, self.changed_to_min);
+        if !self.axes.is_empty() {
+            writeln!(
+                f,
+                "{} blocks, estimated {:.1} min → {}",
+                self.blocks, self.duration_min, self.out
+            )?;
+            for a in &self.axes {
+                writeln!(
+                    f,
+                    "{} by {}: {} of {} {} blocks changed, largest correction {:.2} µm{}",
+                    a.axis,
+                    a.channel,
+                    a.blocks_changed,
+                    a.blocks,
+                    a.axis,
+                    a.max_correction_um,
+                    span_text(a.changed_from_min, a.changed_to_min)
+                )?;
+            }
+            return Ok(());
+        }
         writeln!(
             f,
             "{} blocks, estimated {:.1} min → {}\n{} of {} Z blocks changed, largest correction {:.2} µm{}",
@@ -140,13 +190,32 @@ mod compensate_tests {
             out: "p.ngc".into(),
             spindle_used: true,
             z_blocks: 4,
+            axes: Vec::new(),
         };
+        assert!(!serde_json::to_string(&d).unwrap().contains("axes"));
         let back: ThermalCompensateDoc =
             serde_json::from_str(&serde_json::to_string_pretty(&d).unwrap()).unwrap();
         assert_eq!(back, d);
         assert_eq!(
             d.to_string(),
             "10 blocks, estimated 4.0 min → p.ngc\n3 of 4 Z blocks changed, largest correction 12.50 µm, changes from 1.0 to 2.5 min\n"
+        );
+        let x = CompensateAxisDoc {
+            axis: "X".into(),
+            channel: "dx_um".into(),
+            blocks: 5,
+            blocks_changed: 2,
+            max_correction_um: 3.25,
+            changed_from_min: Some(1.0),
+            changed_to_min: Some(2.0),
+        };
+        let d = ThermalCompensateDoc { axes: vec![x], ..d };
+        let back: ThermalCompensateDoc =
+            serde_json::from_str(&serde_json::to_string_pretty(&d).unwrap()).unwrap();
+        assert_eq!(back, d);
+        assert_eq!(
+            d.to_string(),
+            "10 blocks, estimated 4.0 min → p.ngc\nX by dx_um: 2 of 5 X blocks changed, largest correction 3.25 µm, changes from 1.0 to 2.0 min\n"
         );
     }
 }

@@ -32,14 +32,15 @@ mod speed_model;
 mod synthetic;
 
 pub use compensate::{
-    CompensateError, CompensateOptions, Compensation, CorrectionUpdate, PlannedTiming,
-    SpeedHistory, ZBlock, compensate,
+    AxisBlock, AxisSummary, CompensateError, CompensateOptions, Compensation, CorrectionUpdate,
+    LogCompensateOptions, PlannedTiming, SpeedHistory, ZBlock, compensate, compensate_log,
 };
 pub use data::{TrainingData, read_training, training_from_table};
 pub use doc::{
-    InputChannelDoc, LogChannelDoc, LogPredictedChannelDoc, LogSelectionStepDoc, LogTestDoc,
-    PredictedHeightDoc, SpeedModelDoc, ThermalCompensateDoc, ThermalFitDoc, ThermalHeightDoc,
-    ThermalLogFitDoc, ThermalLogPredictDoc, ThermalPredictDoc, ThermalSimulateDoc,
+    CompensateAxisDoc, InputChannelDoc, LogChannelDoc, LogPredictedChannelDoc, LogSelectionStepDoc,
+    LogTestDoc, PredictedHeightDoc, SpeedModelDoc, ThermalCompensateDoc, ThermalFitDoc,
+    ThermalHeightDoc, ThermalLogFitDoc, ThermalLogPredictDoc, ThermalPredictDoc,
+    ThermalSimulateDoc,
 };
 pub use file::{model_from_toml_str, read_model};
 pub use model::{
@@ -55,8 +56,8 @@ pub use program::{
 };
 pub use run::{
     FitRun, FitRunOptions, LogFitProgress, LogFitRun, LogFitRunOptions, LogPredictRun,
-    LogPredictRunOptions, PredictRun, PredictRunOptions, plot_file_name, run_fit, run_fit_log,
-    run_predict, run_predict_log,
+    LogPredictRunOptions, PredictRun, PredictRunOptions, is_log_model, plot_file_name, run_fit,
+    run_fit_log, run_predict, run_predict_log,
 };
 pub use speed_model::{REQUIRED_GAIN, SpeedModel, SpeedModelChoice, choose_speed_model};
 pub use synthetic::TruthMachine;

@@ -522,6 +522,15 @@ pub fn run_predict_log(
     Ok(LogPredictRun { columns, rows, doc })
 }
 
+/// Whether the model file text `text` is a log model (`thermal fit --log`:
+/// a `channels` array at its root) rather than a height model (`heights`).
+/// Text that is not TOML is neither: reading it as a height model reports
+/// the error at its line.
+pub fn is_log_model(text: &str) -> bool {
+    text.parse::<toml_edit::DocumentMut>()
+        .is_ok_and(|d| d.get("channels").is_some() && d.get("heights").is_none())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -567,6 +576,17 @@ mod tests {
         let mut o = options();
         o.fit.max_inputs = 0;
         refused(o, "at least one input");
+    }
+
+    #[test]
+    fn log_models_are_told_from_height_models() {
+        assert!(is_log_model(
+            "period_min = 1.0\n[[channels]]\ninputs = []\n"
+        ));
+        assert!(!is_log_model(
+            "period_min = 10.0\n[[heights]]\nz_mm = 0.0\n"
+        ));
+        assert!(!is_log_model("[[channels]\n"));
     }
 
     #[test]
