@@ -1093,12 +1093,12 @@ mod tests {
         assert_eq!(with[..5], without[..5]);
         assert_eq!(with[6..], without[5..]);
         // The straight move after G40 starts where the tool is, not at the
-        // programmed (10, 10): the tool is off the contour by the radius.
+        // programmed (10, 10): left of the last move (+Y) by the radius, 1
+        // (G41.1's D is the diameter).
         let Some(EventKind::Feed(m)) = without[5].as_ref().and_then(|e| e.last()) else {
             panic!("a straight feed: {:?}", without[5]);
         };
-        let off = (m.from.0[0] - 10.0).hypot(m.from.0[1] - 10.0);
-        assert!(off > 1.0, "{:?}", m.from);
+        assert_eq!((m.from.0[0], m.from.0[1]), (9.0, 10.0));
         // An arc right after the failed block is still refused.
         let arc = blocks(&format!(
             "{ENTRY_AND_EXIT}G93 G1 X5 Y5\nG94 G3 X0 Y10 I-5 J0 F100\n"

@@ -408,10 +408,10 @@ mod tests {
         assert_eq!(bits(&got.machine_range), bits(&want.machine_range));
         assert_eq!(got.axis_travel, want.axis_travel);
         assert_eq!(got.feed_length, want.feed_length);
-        // Closed forms: X went to 10 before G92 (machine = work then); the
-        // clockwise arc about (2.5, 2.5) from (0, 0) to (5, 5) passes its
-        // leftmost point, 2.5 − 2.5·√2 in work X.
-        assert_eq!(got.machine_range[0].unwrap().max, 10.0);
+        // Closed forms: G92 X3 at X10 shifts by 7, so the arc's end at work
+        // X5 is machine X12; the clockwise arc about (2.5, 2.5) from (0, 0)
+        // to (5, 5) passes its leftmost point, 2.5 − 2.5·√2 in work X.
+        assert_eq!(got.machine_range[0].unwrap().max, 12.0);
         let left = 2.5 - 2.5 * 2f64.sqrt();
         assert!((got.work_range[0].unwrap().min - left).abs() < 1e-12);
     }
