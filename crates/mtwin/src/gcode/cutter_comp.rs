@@ -292,6 +292,20 @@ pub(crate) struct CutterComp {
     stale_front: Option<Front>,
 }
 
+/// The state a failing block restores ([`CutterComp::undo_point`]).
+#[derive(Debug)]
+pub(crate) enum Undo {
+    /// Compensation off with nothing held: the fields a block can change.
+    Off {
+        first_move: bool,
+        arc_not_allowed: bool,
+        exit_delta: Option<Axes>,
+        endpoint_valid: bool,
+    },
+    /// Any other state: all of it.
+    All(Box<CutterComp>),
+}
+
 impl Default for CutterComp {
     fn default() -> Self {
         CutterComp {
@@ -362,6 +376,52 @@ impl CutterComp {
         match self.exit_delta.take() {
             Some(d) => pos.add(&d),
             None => *pos,
+        }
+    }
+
+    /// What restores this state if the block about to run fails
+    /// ([`CutterComp::undo`]); `switching`: the block has a G40, G41, G42,
+    /// G41.1 or G42.1. Compensation that is off, holds nothing and is not
+    /// switched on by the block (almost every block of most programs) can
+    /// only lose its after-G40 rules ([`Self::straight_move_started`],
+    /// [`Self::physical_start`]) and have its queue marked released
+    /// ([`Self::stop`]): those few fields are kept instead of a copy of
+    /// the whole state. A new step that changes another field of such a
+    /// state must be added to [`Undo::Off`].
+    pub(crate) fn undo_point(&self, switching: bool) -> Undo {
+        let quiet = !switching
+            && self.side.is_none()
+            && self.carried.is_empty()
+            && self.held.is_empty()
+            && self.queue_start.is_none();
+        if quiet {
+            Undo::Off {
+                first_move: self.first_move,
+                arc_not_allowed: self.arc_not_allowed,
+                exit_delta: self.exit_delta,
+                endpoint_valid: self.endpoint_valid,
+            }
+        } else {
+            Undo::All(Box::new(self.clone()))
+        }
+    }
+
+    /// Puts back the state [`CutterComp::undo_point`] kept.
+    pub(crate) fn undo(&mut self, undo: Undo) {
+        match undo {
+            Undo::Off {
+                first_move,
+                arc_not_allowed,
+                exit_delta,
+                endpoint_valid,
+            } => {
+                self.side = None;
+                self.first_move = first_move;
+                self.arc_not_allowed = arc_not_allowed;
+                self.exit_delta = exit_delta;
+                self.endpoint_valid = endpoint_valid;
+            }
+            Undo::All(saved) => *self = *saved,
         }
     }
 
@@ -985,5 +1045,85 @@ impl CutterComp {
         self.programmed = to;
         *pos = end_pos;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::gcode::error::GcodeError;
+    use crate::gcode::event::{Event, EventKind};
+    use crate::gcode::interp::{InterpOptions, Interpreter};
+    use crate::gcode::stream::Program;
+
+    /// Runs `src` block by block; the events of each block, or its error.
+    fn blocks(src: &str) -> Vec<Result<Vec<Event>, GcodeError>> {
+        let program = Program::parse(src.as_bytes()).unwrap();
+        let mut it = Interpreter::new(InterpOptions::default());
+        program
+            .blocks
+            .iter()
+            .map(|b| {
+                let mut out = Vec::new();
+                it.execute(b, &mut out).map(|()| out)
+            })
+            .collect()
+    }
+
+    /// The events of the blocks, `None` for a failing one.
+    fn events(src: &str) -> Vec<Option<Vec<EventKind>>> {
+        blocks(src)
+            .into_iter()
+            .map(|r| r.ok().map(|ev| ev.into_iter().map(|e| e.kind).collect()))
+            .collect()
+    }
+
+    /// A contour left of the path, then G40 alone on its line.
+    const ENTRY_AND_EXIT: &str =
+        "G21 G90 G17 G94 F100\nG0 X0 Y0\nG41.1 D2 G1 X10 Y0\nG1 X10 Y10\nG40\n";
+
+    #[test]
+    fn a_failing_block_after_g40_leaves_the_exit_rules() {
+        // After G40 the next move must be straight and starts where the tool
+        // is. A block that fails in its move (G93 without F) must keep both:
+        // the program goes on exactly as if that block were not there.
+        let tail = "G94 G1 X0 Y0 F100\nG3 X0 Y0 I-5 J0\n";
+        let without = events(&format!("{ENTRY_AND_EXIT}{tail}"));
+        let with = events(&format!("{ENTRY_AND_EXIT}G93 G1 X5 Y5\n{tail}"));
+        assert_eq!(with[5], None, "G93 without F is refused");
+        assert_eq!(with[..5], without[..5]);
+        assert_eq!(with[6..], without[5..]);
+        // The straight move after G40 starts where the tool is, not at the
+        // programmed (10, 10): left of the last move (+Y) by the radius, 1
+        // (G41.1's D is the diameter).
+        let Some(EventKind::Feed(m)) = without[5].as_ref().and_then(|e| e.last()) else {
+            panic!("a straight feed: {:?}", without[5]);
+        };
+        assert_eq!((m.from.0[0], m.from.0[1]), (9.0, 10.0));
+        // An arc right after the failed block is still refused.
+        let arc = blocks(&format!(
+            "{ENTRY_AND_EXIT}G93 G1 X5 Y5\nG94 G3 X0 Y10 I-5 J0 F100\n"
+        ));
+        let e = arc[6].as_ref().unwrap_err().to_string();
+        assert!(e.contains("must be straight, not an arc"), "{e}");
+    }
+
+    #[test]
+    fn a_failing_block_that_turned_compensation_on_leaves_it_off() {
+        // G41.1 runs before the move, which fails (G93 without F): the next
+        // move is not compensated (made at once, to its programmed end).
+        let ev =
+            events("G21 G90 G17 G94 F100\nG0 X0 Y0\nG41.1 D2 G93 G1 X10 Y0\nG94 G1 X10 Y0 F100\n");
+        assert_eq!(ev[2], None);
+        let moves: Vec<_> = ev[3]
+            .iter()
+            .flatten()
+            .filter_map(|k| match k {
+                EventKind::Feed(m) => Some(m),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(moves.len(), 1, "{:?}", ev[3]);
+        assert_eq!((moves[0].to.0[0], moves[0].to.0[1]), (10.0, 0.0));
+        assert_eq!((moves[0].from.0[0], moves[0].from.0[1]), (0.0, 0.0));
     }
 }

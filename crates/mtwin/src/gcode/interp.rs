@@ -213,7 +213,6 @@ struct Letter {
     value: f64,
     has_point: bool,
     column: usize,
-    present: bool,
 }
 
 /// Words of one block, sorted by letter.
@@ -221,13 +220,17 @@ struct Letter {
 struct BlockWords {
     g: Vec<(GCode, usize)>,
     m: Vec<(u32, usize)>,
+    /// Bit `l - 'A'` set: the block has letter `l` (`letters` holds its
+    /// word). Clearing the bits empties the table: the entries of letters
+    /// not present are stale and never read.
+    present: u32,
     letters: [Letter; 26],
 }
 
 impl BlockWords {
     fn get(&self, l: u8) -> Option<&Letter> {
-        let x = &self.letters[usize::from(l - b'A')];
-        x.present.then_some(x)
+        let i = usize::from(l - b'A');
+        (self.present & (1 << i) != 0).then(|| &self.letters[i])
     }
 
     fn has_m(&self, codes: &[u32]) -> bool {
@@ -289,28 +292,34 @@ impl Codes {
         }
     }
 
-    /// Whether the block has `code`.
+    /// Whether the block has `code`: a code stands in the slot of its
+    /// modal group, which is the same in every dialect except for G80
+    /// (motion in LinuxCNC, its own group in Fanuc's), so only that slot
+    /// (or G80's two) is looked at.
     fn has(&self, code: GCode) -> bool {
-        [
-            self.non_modal,
-            self.motion,
-            self.plane,
-            self.distance,
-            self.arc_distance,
-            self.feed_mode,
-            self.units,
-            self.cutter_comp,
-            self.tool_length,
-            self.retract,
-            self.coord_system,
-            self.path_control,
-            self.spindle_mode,
-            self.lathe_diameter,
-            self.g92_applied,
-            self.cycle_cancel,
-        ]
-        .iter()
-        .any(|s| s.is_some_and(|(c, _)| c == code))
+        let is = |s: &Option<At<GCode>>| s.is_some_and(|(c, _)| c == code);
+        if code == GCode::G80 {
+            return is(&self.motion) || is(&self.cycle_cancel);
+        }
+        let slot = match code.group(Dialect::LinuxCnc) {
+            ModalGroup::NonModal => &self.non_modal,
+            ModalGroup::Motion => &self.motion,
+            ModalGroup::Plane => &self.plane,
+            ModalGroup::Distance => &self.distance,
+            ModalGroup::ArcDistance => &self.arc_distance,
+            ModalGroup::FeedMode => &self.feed_mode,
+            ModalGroup::Units => &self.units,
+            ModalGroup::CutterComp => &self.cutter_comp,
+            ModalGroup::ToolLength => &self.tool_length,
+            ModalGroup::Retract => &self.retract,
+            ModalGroup::CoordSystem => &self.coord_system,
+            ModalGroup::PathControl => &self.path_control,
+            ModalGroup::SpindleMode => &self.spindle_mode,
+            ModalGroup::LatheDiameter => &self.lathe_diameter,
+            ModalGroup::G92Applied => &self.g92_applied,
+            ModalGroup::CycleCancel => &self.cycle_cancel,
+        };
+        is(slot)
     }
 
     /// The block's motion code other than G80 (the block moves, or sets a
@@ -341,7 +350,9 @@ pub struct Interpreter {
     ended: bool,
     percent: Percent,
     cycle: CycleMemory,
-    words: BlockWords,
+    /// The word table of the block being executed, kept between blocks for
+    /// its buffers (boxed: taken out and put back by pointer, not copied).
+    words: Option<Box<BlockWords>>,
     params: Parameters,
     assignments: Vec<(Target, f64, usize)>,
     /// Cutter radius compensation and the moves it holds back.
@@ -443,7 +454,7 @@ impl Interpreter {
             ended: false,
             percent: Percent::BeforeFirstLine,
             cycle: CycleMemory::default(),
-            words: BlockWords::default(),
+            words: Some(Box::default()),
             params: (*opts_params).clone(),
             assignments: Vec::new(),
             comp: CutterComp::default(),
@@ -542,20 +553,35 @@ impl Interpreter {
         if self.opts.skip_deleted_blocks && block.is_block_delete() {
             return Ok(());
         }
-        self.collect(block)?;
+        let mut w = self.words.take().unwrap_or_default();
+        if let Err(e) = self.collect(block, &mut w) {
+            self.words = Some(w);
+            return Err(e);
+        }
         // LinuxCNC sets a line's parameters after reading the whole line (every
         // value on it read the old ones) and before executing it.
-        for (target, value, column) in self.assignments.drain(..) {
-            let r = match target {
-                Target::Numbered(n) => self.params.set(n, value),
-                Target::Named(name) => self.params.set_named(&name, value),
-            };
-            r.map_err(|e| GcodeError::invalid(block.line(), column, e.to_string()))?;
+        if !self.assignments.is_empty() {
+            for (target, value, column) in self.assignments.drain(..) {
+                let r = match target {
+                    Target::Numbered(n) => self.params.set(n, value),
+                    Target::Named(name) => self.params.set_named(&name, value),
+                };
+                if let Err(e) = r {
+                    self.words = Some(w);
+                    return Err(GcodeError::invalid(block.line(), column, e.to_string()));
+                }
+            }
         }
-        let w = std::mem::take(&mut self.words);
         // Moves held back by cutter compensation come first; what is still
-        // held after the block is kept for the next one.
-        let saved = self.comp.clone();
+        // held after the block is kept for the next one. A failing block
+        // leaves the compensation as it found it.
+        let switching = w.g.iter().any(|&(c, _)| {
+            matches!(
+                c,
+                GCode::G40 | GCode::G41 | GCode::G41_1 | GCode::G42 | GCode::G42_1
+            )
+        });
+        let undo = self.comp.undo_point(switching);
         self.comp.begin_block(out);
         let mut step = Step {
             line: block.line(),
@@ -563,21 +589,20 @@ impl Interpreter {
             out,
         };
         let r = self.run(block, &w, &mut step);
-        self.words = w;
+        self.words = Some(w);
         match r {
             Ok(()) => self.comp.end_block(out),
-            Err(_) => self.comp = saved,
+            Err(_) => self.comp.undo(undo),
         }
         r
     }
 
     /// Reads the words of a block: their values, one per letter.
-    fn collect(&mut self, block: &Block) -> Result<(), GcodeError> {
+    fn collect(&mut self, block: &Block, w: &mut BlockWords) -> Result<(), GcodeError> {
         let line = block.line();
-        let w = &mut self.words;
         w.g.clear();
         w.m.clear();
-        w.letters = [Letter::default(); 26];
+        w.present = 0;
         self.assignments.clear();
         for item in block.items() {
             match item {
@@ -855,55 +880,63 @@ impl Interpreter {
             }
         }
         let comp_on = codes.cutter_comp.is_some_and(|(c, _)| c != GCode::G40);
-        let checks: [(u8, bool, &str); 6] = [
+        // Whether a code of the block reads the letter: worked out only for
+        // a letter the block has (most blocks have none of these).
+        let checks: [(u8, &dyn Fn() -> bool, &str); 6] = [
             (
                 b'D',
-                comp_on,
+                &|| comp_on,
                 "D word with no G41, G41.1, G42, G42.1 or G96 to use it",
             ),
             (
                 b'E',
-                w.has_m(&[66, 67, 68]) || sync_now || thread_now,
+                &|| w.has_m(&[66, 67, 68]) || sync_now || thread_now,
                 "E word with no G76, M66, M67 or M68 to use it",
             ),
             (
                 b'H',
-                codes.has(GCode::G43)
-                    || codes.has(GCode::G43_2)
-                    || codes.has(GCode::G43_4)
-                    || thread_now,
+                &|| {
+                    codes.has(GCode::G43)
+                        || codes.has(GCode::G43_2)
+                        || codes.has(GCode::G43_4)
+                        || thread_now
+                },
                 "H word with no G43 or G76 to use it",
             ),
             (
                 b'L',
-                w.has_m(&[66]) || g10 || cycle_now.is_some() || comp_on || thread_now,
+                &|| w.has_m(&[66]) || g10 || cycle_now.is_some() || comp_on || thread_now,
                 "L word with no G10, cutter compensation, canned cycle or M66 to use it",
             ),
             (
                 b'P',
-                codes.has(GCode::G4)
-                    || codes.has(GCode::G64)
-                    || arc_now
-                    || g10
-                    || thread_now
-                    || cycle_in(&[
-                        GCode::G74,
-                        GCode::G82,
-                        GCode::G84,
-                        GCode::G86,
-                        GCode::G88,
-                        GCode::G89,
-                    ])
-                    || w.has_m(&[19, 50, 51, 52, 53, 62, 63, 64, 65, 66]),
+                &|| {
+                    codes.has(GCode::G4)
+                        || codes.has(GCode::G64)
+                        || arc_now
+                        || g10
+                        || thread_now
+                        || cycle_in(&[
+                            GCode::G74,
+                            GCode::G82,
+                            GCode::G84,
+                            GCode::G86,
+                            GCode::G88,
+                            GCode::G89,
+                        ])
+                        || w.has_m(&[19, 50, 51, 52, 53, 62, 63, 64, 65, 66])
+                },
                 "P word with no G2, G3, G4, G64, M19, M50-M53 or M62-M66 to use it",
             ),
             (
                 b'Q',
-                codes.has(GCode::G64)
-                    || w.has_m(&[19, 61, 66, 67, 68])
-                    || g10
-                    || thread_now
-                    || cycle_in(&[GCode::G73, GCode::G83]),
+                &|| {
+                    codes.has(GCode::G64)
+                        || w.has_m(&[19, 61, 66, 67, 68])
+                        || g10
+                        || thread_now
+                        || cycle_in(&[GCode::G73, GCode::G83])
+                },
                 "Q word with no G64, M19, M61, M66, M67, M68 or canned cycle to use it",
             ),
         ];
@@ -938,7 +971,7 @@ impl Interpreter {
         }
         for (l, used, message) in checks {
             let Some(x) = w.get(l) else { continue };
-            if used {
+            if used() {
                 continue;
             }
             let mut message = message.to_string();
@@ -3195,19 +3228,19 @@ fn collect_word(
         }
         b'N' => {}
         l => {
-            let slot = &mut w.letters[usize::from(l - b'A')];
-            if slot.present {
+            let i = usize::from(l - b'A');
+            if w.present & (1 << i) != 0 {
                 return Err(GcodeError::invalid(
                     line,
                     col,
                     format!("more than one {} word in the block", l as char),
                 ));
             }
-            *slot = Letter {
+            w.present |= 1 << i;
+            w.letters[i] = Letter {
                 value,
                 has_point: word.has_point,
                 column: col,
-                present: true,
             };
         }
     }

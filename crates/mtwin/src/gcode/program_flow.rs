@@ -239,24 +239,14 @@ where
     // Fanuc: the program-number line at the top (before any word) is a name.
     let mut seen_words = false;
     while !interp.ended() && reader.read_block(&mut block)? {
+        let scan = FlowScan::of(&block, interp.parameters());
         let trigger = if fanuc {
-            let oline = block
-                .items()
-                .iter()
-                .any(|i| matches!(i, Item::OWord { .. }));
-            let t = (oline && seen_words)
-                || has_m(&block, 98, interp.parameters())
-                || has_m(&block, 99, interp.parameters());
-            seen_words |= block.words().next().is_some();
+            let t = (scan.oword && seen_words) || scan.m98_m99;
+            seen_words |= scan.words;
             t
         } else {
             // LinuxCNC runs Fanuc-style M98/M99 subprograms too.
-            block
-                .items()
-                .iter()
-                .any(|i| matches!(i, Item::OWord { .. }))
-                || has_m(&block, 98, interp.parameters())
-                || has_m(&block, 99, interp.parameters())
+            scan.oword || scan.m98_m99
         };
         if trigger && !interp.ended() {
             let mut held = vec![std::mem::take(&mut block)];
@@ -298,13 +288,7 @@ where
             summary.held = flow.codes.swap_remove(0).blocks;
             return Ok(summary);
         }
-        if fanuc
-            && !interp.ended()
-            && block
-                .items()
-                .iter()
-                .any(|i| matches!(i, Item::OWord { .. }))
-        {
+        if fanuc && !interp.ended() && scan.oword {
             // The program number at the top: nothing to execute (but
             // nothing else may stand on its line).
             parse_stmt(&block, true)?;
@@ -341,12 +325,39 @@ where
     Ok(summary)
 }
 
-/// Whether the block has an `M<code>` word.
-fn has_m(block: &Block, code: u32, params: &Parameters) -> bool {
-    block.words().any(|w| {
-        w.letter == b'M'
-            && word_value(block, w, params).is_ok_and(|v| (v - f64::from(code)).abs() < 1e-9)
-    })
+/// What the program driver looks for in each block, found in one pass
+/// over its items.
+struct FlowScan {
+    /// An O-word statement.
+    oword: bool,
+    /// An `M98` or `M99` word (a Fanuc-style subprogram call or return).
+    m98_m99: bool,
+    /// Any word.
+    words: bool,
+}
+
+impl FlowScan {
+    fn of(block: &Block, params: &Parameters) -> FlowScan {
+        let mut scan = FlowScan {
+            oword: false,
+            m98_m99: false,
+            words: false,
+        };
+        for item in block.items() {
+            match item {
+                Item::OWord { .. } => scan.oword = true,
+                Item::Word(w) => {
+                    scan.words = true;
+                    if w.letter == b'M' && !scan.m98_m99 {
+                        scan.m98_m99 = word_value(block, w, params)
+                            .is_ok_and(|v| [98.0, 99.0].iter().any(|code| (v - code).abs() < 1e-9));
+                    }
+                }
+                _ => {}
+            }
+        }
+        scan
+    }
 }
 
 fn word_value(block: &Block, w: &super::syntax::Word, params: &Parameters) -> Result<f64, String> {
@@ -375,6 +386,17 @@ fn messages(
             continue;
         };
         let inner = &block.text()[span.start + 1..span.end - 1];
+        // Most comments are none of these: one look at the first byte after
+        // the leading (ASCII) white space tells, without decoding the text.
+        let first = inner
+            .iter()
+            .find(|&&c| !matches!(c, b' ' | b'\t' | b'\n' | 0x0b | 0x0c | b'\r'));
+        if first
+            .is_some_and(|&c| c.is_ascii() && !matches!(c.to_ascii_uppercase(), b'D' | b'P' | b'A'))
+            || first.is_none()
+        {
+            continue;
+        }
         let s = String::from_utf8_lossy(inner);
         let trimmed = s.trim_start();
         let upper = trimmed.get(..6).map(str::to_ascii_uppercase);

@@ -111,6 +111,17 @@ impl ProgramStats {
 
     /// Adds one event.
     pub fn add(&mut self, event: &Event, opts: &StatsOptions) -> Result<(), GcodeError> {
+        self.add_after(event, opts, &mut None)
+    }
+
+    /// [`ProgramStats::add`] of the event after the one that left `last`
+    /// (see [`LastEnd`]), which it updates.
+    fn add_after(
+        &mut self,
+        event: &Event,
+        opts: &StatsOptions,
+        last: &mut LastEnd,
+    ) -> Result<(), GcodeError> {
         match &event.kind {
             EventKind::Traverse(m) => {
                 self.rapid_moves += 1;
@@ -118,21 +129,21 @@ impl ProgramStats {
                 self.rapid_length += d.xyz_norm();
                 self.rapid_time +=
                     timing::rapid_seconds(&d, opts.rapid_feed, opts.rapid_feed_rotary);
-                self.linear_extent(m);
+                self.linear_extent(m, last);
             }
             EventKind::Feed(m) => {
                 self.linear_moves += 1;
                 let d = m.to.sub(&m.from);
                 self.feed_length += d.xyz_norm();
                 self.feed_time += feed_seconds(m.feed, d.xyz_norm(), &d, event, opts)?;
-                self.linear_extent(m);
+                self.linear_extent(m, last);
             }
             EventKind::Arc(a) => {
                 self.arc_moves += 1;
                 let len = a.xyz_length();
                 self.feed_length += len;
                 self.feed_time += feed_seconds(a.feed, len, &a.to.sub(&a.from), event, opts)?;
-                self.arc_extent(a);
+                self.arc_extent(a, last);
             }
             EventKind::Dwell { seconds } => self.dwell_time += seconds,
             _ => {}
@@ -147,15 +158,34 @@ impl ProgramStats {
         }
     }
 
-    fn linear_extent(&mut self, m: &Linear) {
+    /// Includes the start of a move, unless it is the point (and offset)
+    /// the last range update included: including a value twice in a row
+    /// changes no range (`min` and `max` return the same operand each time,
+    /// signed zeros included), so the result is the same bit for bit.
+    fn include_start(&mut self, from: &Axes, offset: &Axes, last: &LastEnd) {
+        let same = |a: &Axes, b: &Axes| {
+            a.0.iter()
+                .zip(&b.0)
+                .all(|(x, y)| x.to_bits() == y.to_bits())
+        };
+        if !last
+            .as_ref()
+            .is_some_and(|(to, off)| same(to, from) && same(off, offset))
+        {
+            self.include(from, offset);
+        }
+    }
+
+    fn linear_extent(&mut self, m: &Linear, last: &mut LastEnd) {
         for i in 0..9 {
             self.axis_travel.0[i] += (m.to.0[i] - m.from.0[i]).abs();
         }
-        self.include(&m.from, &m.offset);
+        self.include_start(&m.from, &m.offset, last);
         self.include(&m.to, &m.offset);
+        *last = Some((m.to, m.offset));
     }
 
-    fn arc_extent(&mut self, a: &ArcMove) {
+    fn arc_extent(&mut self, a: &ArcMove, last: &mut LastEnd) {
         let (p, q, _) = a.plane.axes();
         // Out-of-plane axes move linearly.
         for axis in Axis::ALL {
@@ -169,8 +199,10 @@ impl ProgramStats {
             self.axis_travel[p] += (w[1][0] - w[0][0]).abs();
             self.axis_travel[q] += (w[1][1] - w[0][1]).abs();
         }
-        self.include(&a.from, &a.offset);
+        self.include_start(&a.from, &a.offset, last);
         self.include(&a.to, &a.offset);
+        // The points below are the last ones included.
+        *last = None;
         for pt in &pts {
             let mut x = a.from;
             x[p] = pt[0];
@@ -182,6 +214,11 @@ impl ProgramStats {
         }
     }
 }
+
+/// The end of the last straight move and its offset, when that end was the
+/// last point whose ranges were updated (none after an arc, whose extreme
+/// points come last, and at the start).
+type LastEnd = Option<(Axes, Axes)>;
 
 /// Time of a feed move ([`timing::move_seconds`]); a move that cannot be
 /// timed is an error naming its line.
@@ -223,12 +260,13 @@ pub fn stats_with<R: BufRead>(
 ) -> Result<ProgramStats, GcodeError> {
     let mut interp = Interpreter::new(opts.interp.clone());
     let mut st = ProgramStats::default();
+    let mut last = None;
     run_program(
         input,
         &mut interp,
         &opts.interp.program,
         opts.interp.dialect,
-        |step: &Step<'_>| st.step(step, opts, observer),
+        |step: &Step<'_>| st.step(step, opts, observer, &mut last),
     )?;
     Ok(st)
 }
@@ -247,8 +285,9 @@ pub fn stats_planned<R: BufRead>(
     plan: &InterpolateOptions,
 ) -> Result<(ProgramStats, Result<f64, InterpolateError>), GcodeError> {
     let mut st = ProgramStats::default();
+    let mut last = None;
     let planned = planned_duration_with(input, machine, plan, &mut |step: &Step<'_>| {
-        st.step(step, opts, observer)
+        st.step(step, opts, observer, &mut last)
     })?;
     Ok((st, planned))
 }
@@ -260,6 +299,7 @@ impl ProgramStats {
         step: &Step<'_>,
         opts: &StatsOptions,
         observer: &mut dyn MotionObserver,
+        last: &mut LastEnd,
     ) -> Result<(), GcodeError> {
         self.blocks += 1;
         let mut moved = false;
@@ -268,7 +308,7 @@ impl ProgramStats {
                 e.kind,
                 EventKind::Traverse(_) | EventKind::Feed(_) | EventKind::Arc(_)
             );
-            self.add(e, opts)?;
+            self.add_after(e, opts, last)?;
             observer.observe(step.block, e)?;
         }
         self.motion_blocks += u64::from(moved);
@@ -341,6 +381,39 @@ mod tests {
         // Rapid of a rotary axis at the rotary rapid rate.
         let g0 = st("G0 A360\n");
         assert!((g0.rapid_time - 6.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn ranges_are_those_of_adding_every_event_alone() {
+        // `stats` skips the start of a move that is the end of the one
+        // before; `add` includes every start. Same ranges bit for bit, signed
+        // zeros included, across offset changes (G92) and arcs.
+        let src = "G0 X-0 Y0 Z5\nG1 X0 Y-0 Z-0 F100\nG1 X10\nG92 X3\nG1 X-0\nG1 X-0\n\
+                   G2 X5 Y5 I2.5 J2.5\nG1 Y-0\nG0 X0 Y0\nG92.1\nG1 X-0 Y-0\nM30\n";
+        let got = st(src);
+        let program = crate::gcode::stream::Program::parse(src.as_bytes()).unwrap();
+        let opts = StatsOptions::default();
+        let mut it = Interpreter::new(opts.interp.clone());
+        let mut want = ProgramStats::default();
+        for b in &program.blocks {
+            let mut events = Vec::new();
+            it.execute(b, &mut events).unwrap();
+            for e in &events {
+                want.add(e, &opts).unwrap();
+            }
+        }
+        let bits =
+            |r: &[Option<AxisRange>; 9]| r.map(|r| r.map(|r| (r.min.to_bits(), r.max.to_bits())));
+        assert_eq!(bits(&got.work_range), bits(&want.work_range));
+        assert_eq!(bits(&got.machine_range), bits(&want.machine_range));
+        assert_eq!(got.axis_travel, want.axis_travel);
+        assert_eq!(got.feed_length, want.feed_length);
+        // Closed forms: G92 X3 at X10 shifts by 7, so the arc's end at work
+        // X5 is machine X12; the clockwise arc about (2.5, 2.5) from (0, 0)
+        // to (5, 5) passes its leftmost point, 2.5 − 2.5·√2 in work X.
+        assert_eq!(got.machine_range[0].unwrap().max, 12.0);
+        let left = 2.5 - 2.5 * 2f64.sqrt();
+        assert!((got.work_range[0].unwrap().min - left).abs() < 1e-12);
     }
 
     #[test]

@@ -250,12 +250,32 @@ fn write_fixed(v: f64, decimals: u8, out: &mut String) {
 }
 
 /// One block (line) of a program: its exact bytes and the items in them.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Default, PartialEq)]
 pub struct Block {
     text: Vec<u8>,
     eol: LineEnd,
     items: Vec<Item>,
     line: u64,
+}
+
+impl Clone for Block {
+    fn clone(&self) -> Self {
+        Block {
+            text: self.text.clone(),
+            eol: self.eol,
+            items: self.items.clone(),
+            line: self.line,
+        }
+    }
+
+    /// Copies `source` into this block's buffers (no allocation once they
+    /// are large enough: a rewriter copying every block reuses one).
+    fn clone_from(&mut self, source: &Self) {
+        self.text.clone_from(&source.text);
+        self.eol = source.eol;
+        self.items.clone_from(&source.items);
+        self.line = source.line;
+    }
 }
 
 impl Block {

@@ -348,6 +348,8 @@ impl Compensator {
             summary: Summary::default(),
         };
         let mut inserted = Vec::new();
+        // The copy of each block that is edited (its buffers reused).
+        let mut block = Block::default();
         // Lines of the held part (O-word flow) as every run of them left them:
         // a line that runs several times must come out the same each time.
         let mut held: HashMap<u64, (Block, Vec<Block>)> = HashMap::new();
@@ -363,7 +365,7 @@ impl Compensator {
             self.opts.interp.dialect,
             |step: &Step<'_>| -> Result<(), CompensateError> {
                 run.summary.blocks += 1;
-                let mut block = step.block.clone();
+                block.clone_from(step.block);
                 inserted.clear();
                 let changed = self.edit_block(
                     step.events,
@@ -405,7 +407,7 @@ impl Compensator {
                     }
                     Some(_) => {}
                     None => {
-                        held.insert(line, (block, inserted.clone()));
+                        held.insert(line, (block.clone(), inserted.clone()));
                     }
                 }
                 Ok(())
