@@ -1,19 +1,25 @@
-//! The command-line tool's integration tests, one test binary (so `cargo
-//! test` links the library and the tool once): each module was once its own
-//! file under `tests/`. Run one family with a name filter, e.g.
-//! `cargo test -p mtwin-cli --test cli cli_gcode::`.
+//! The workspace's integration tests, one test binary (so that `cargo test`
+//! links the library and the tool once): the command-line tool's tests
+//! (`cli_*`, `docs`, `outputs`, `bad_input`, `python`, `browser`), the
+//! library's own integration tests (G-code conformance and the `rs274`
+//! differential, planners, thermal, ballbar, controller formats) and the runs
+//! on LinuxCNC's simulator (`linuxcnc_*`). Run one family with a name filter,
+//! e.g. `cargo test --test cli gcode_props::` or `cargo test --test cli cli_gcode::`.
 //!
-//! The library's runs on LinuxCNC's simulator (`linuxcnc_sim`,
-//! `linuxcnc_closed_loop`, `linuxcnc_thermal`) live here, not in the library's
-//! `tests/it`: they mostly wait for the simulator's real time, and here that
-//! wait overlaps the Python wheel build and the CPU-bound command tests instead
-//! of adding to the run of `tests/it` (BENCHMARKS.md, "Test suite time").
+//! One binary also means one test run: the simulator runs mostly wait for its
+//! real time, and that wait overlaps the CPU-bound tests of every family
+//! instead of adding to them (BENCHMARKS.md, "Test suite time").
+//!
+//! Proptest keeps the regression seeds of `gcode_props` in
+//! `tests/proptest-regressions/gcode_props.txt` (its rule: the sibling
+//! `proptest-regressions` folder of the folder holding `main.rs`).
 
 mod common;
 #[path = "../../../mtwin/src/test_support.rs"]
 mod shared;
 
 mod bad_input;
+mod ballbar_circular;
 mod browser;
 mod cli_ballbar;
 mod cli_ballbar_circular;
@@ -36,9 +42,25 @@ mod cli_thermal_compensate;
 mod cli_thermal_log;
 mod cli_tracker;
 mod cli_twin;
+mod controller_demo;
+mod controller_formats;
+mod controller_roundtrip;
+mod cutter_comp;
 mod docs;
+mod gcode_conformance;
+mod gcode_corpus;
+mod gcode_props;
+mod generated_programs;
 mod linuxcnc_closed_loop;
 mod linuxcnc_sim;
 mod linuxcnc_thermal;
 mod outputs;
+mod planner;
+mod planner_jerk;
+mod positioning;
 mod python;
+mod rs274;
+mod thermal_inputs;
+mod thermal_probing;
+mod thermal_real;
+mod thermal_truth;
