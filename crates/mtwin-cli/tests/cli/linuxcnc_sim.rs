@@ -1660,7 +1660,6 @@ fn stand_stills(t: &Trace) -> Vec<(i32, f64)> {
 /// its `io_wait` per I/O command) and its total time is within
 /// [`PLANNER_TOLERANCE`] of LinuxCNC's.
 #[test]
-#[ignore = "not yet run against the simulator (the I/O wait default is not measured yet)"]
 fn coolant_commands_stop_the_blending_as_in_the_simulator() {
     if !available() {
         return;
