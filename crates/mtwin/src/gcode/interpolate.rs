@@ -1803,7 +1803,11 @@ fn fast_joints(
     tcp: bool,
     out: &mut [f64],
 ) -> Result<(), InterpolateError> {
-    let Some(lin) = (if tcp { three_linear(&ip.linear) } else { None }) else {
+    let Some(lin) = (if tcp {
+        super::travel::three_linear(&ip.linear)
+    } else {
+        None
+    }) else {
         return ip.joints(w, tcp, out);
     };
     for (i, o) in out.iter_mut().enumerate() {
@@ -1852,22 +1856,6 @@ fn fast_joints(
         out[i] = c.x0[k] + (c.m[k][0] * d[0] + c.m[k][1] * d[1] + c.m[k][2] * d[2]);
     }
     Ok(())
-}
-
-/// The indices of the linear axes when there are exactly three.
-fn three_linear(linear: &[bool]) -> Option<[usize; 3]> {
-    let mut lin = [0; 3];
-    let mut n = 0;
-    for (i, &l) in linear.iter().enumerate() {
-        if l {
-            if n == 3 {
-                return None;
-            }
-            lin[n] = i;
-            n += 1;
-        }
-    }
-    (n == 3).then_some(lin)
 }
 
 /// Builds the [`AffineTcp`] map at `w` (the other axes as `out` holds them).

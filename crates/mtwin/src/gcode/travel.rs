@@ -58,8 +58,9 @@ pub(crate) fn machine_position(
     kin.inverse_in_place(&IkTarget { tip, axis: None }, out, linear, &TCP_IK)
 }
 
-/// The indices of the linear axes when there are exactly three.
-fn three_linear(linear: &[bool]) -> Option<[usize; 3]> {
+/// The indices of the linear axes when there are exactly three (the
+/// machines whose TCP tip solve is affine).
+pub(super) fn three_linear(linear: &[bool]) -> Option<[usize; 3]> {
     let mut lin = [0; 3];
     let mut n = 0;
     for (i, &l) in linear.iter().enumerate() {

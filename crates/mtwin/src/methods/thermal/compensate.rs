@@ -1315,28 +1315,13 @@ mod tests {
 
     /// A Cartesian XYZ machine: 5 mm/s, 50 mm/s², 1000 mm/s³ on every axis.
     fn slow_xyz() -> crate::model::Machine {
-        use crate::model::{Axis as MAxis, AxisKind, Machine};
-        let axes = [("X", 0), ("Y", 1), ("Z", 2)]
-            .map(|(name, i)| {
-                let mut d = [0.0; 3];
-                d[i] = 1.0;
-                let mut a = MAxis::new(name, AxisKind::Linear, d, [0.0; 3], [-1e4, 1e4]);
-                a.max_velocity = Some(5.0);
-                a.max_acceleration = Some(50.0);
-                a.max_jerk = Some(1000.0);
-                a
-            })
-            .to_vec();
-        Machine {
-            name: "slow".into(),
-            axes,
-            tool_chain: vec![0, 1, 2],
-            workpiece_chain: vec![],
-            tool_tip: nalgebra::Vector3::zeros(),
-            tool_direction: nalgebra::Vector3::z(),
-            workpiece_origin: nalgebra::Vector3::zeros(),
-            rapid_feed: 6000.0,
+        let mut m = crate::examples::xyz(1e4);
+        for a in &mut m.axes {
+            a.max_velocity = Some(5.0);
+            a.max_acceleration = Some(50.0);
+            a.max_jerk = Some(1000.0);
         }
+        m
     }
 
     #[test]

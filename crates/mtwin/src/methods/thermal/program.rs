@@ -579,28 +579,12 @@ mod tests {
     #[test]
     fn on_a_machine_passes_start_every_period_by_the_planners_clock() {
         use crate::gcode::plan::{PlanOptions, Planner};
-        use crate::model::{Axis as MAxis, AxisKind, Machine};
-        let axes = [("X", 0), ("Y", 1), ("Z", 2)]
-            .map(|(name, i)| {
-                let mut d = [0.0; 3];
-                d[i] = 1.0;
-                let mut a = MAxis::new(name, AxisKind::Linear, d, [0.0; 3], [-1e4, 1e4]);
-                a.max_velocity = Some(50.0);
-                a.max_acceleration = Some(100.0);
-                a.max_jerk = Some(2000.0);
-                a
-            })
-            .to_vec();
-        let machine = Machine {
-            name: "xyz".into(),
-            axes,
-            tool_chain: vec![0, 1, 2],
-            workpiece_chain: vec![],
-            tool_tip: nalgebra::Vector3::zeros(),
-            tool_direction: nalgebra::Vector3::z(),
-            workpiece_origin: nalgebra::Vector3::zeros(),
-            rapid_feed: 6000.0,
-        };
+        let mut machine = crate::examples::xyz(1e4);
+        for a in &mut machine.axes {
+            a.max_velocity = Some(50.0);
+            a.max_acceleration = Some(100.0);
+            a.max_jerk = Some(2000.0);
+        }
         let speeds = [2000.0, 0.0, 6000.0, 4000.0];
         for planner in [Planner::ExactStop, Planner::Linuxcnc, Planner::Jerk] {
             let timing = PlannedTiming {
