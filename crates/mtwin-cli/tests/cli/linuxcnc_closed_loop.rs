@@ -80,7 +80,7 @@ fn exported_comp_files_and_trunnion_parameters_drive_linuxcnc_as_mtwin_predicts(
     // Tilt and turn the table with the tip off the axis lines, under TCP
     // (M428), within the sample configuration's limits.
     let program = "G21 G90 G94 G64 P0.01\nM428\nG0 X5 Y5 Z20 A0 C0\n\
-                   G1 X40 Y-20 Z15 A-30 C60 F900\nG1 X-35 Y25 Z-10 A20 C-45\n\
+                   G1 X15 Y-8 Z15 A-10 C20 F900\nG1 X-10 Y8 Z5 A8 C-15\n\
                    G1 X10 Y-5 Z5 A0 C0\nM429\nM2\n";
     let t = run_or_panic("closed loop", program, &setup, SHORT);
 

@@ -57,7 +57,7 @@ pub const AXES: [&str; 5] = ["x", "y", "z", "a", "c"];
 static RUN: Mutex<()> = Mutex::new(());
 
 /// Edits of the simulator's set-up for one run.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct SimSetup {
     /// Ini entries `(section, key, value)`: replace every entry of that key in
     /// the section (added when absent; the section too). A value may name a
@@ -83,6 +83,11 @@ pub struct SimSetup {
     /// `f` (float) or `s` (s32): the test's [`SimSetup::hal`] lines create
     /// the signals; the values land in [`Trace::extra`], in this order.
     pub sampled: Vec<(char, String)>,
+    /// HAL lines `setp NAME VALUE` / `sets NAME VALUE` set just before the
+    /// program runs and undone after it (the values before restored), so
+    /// that programs differing only in these run in one session (see
+    /// [`run`]).
+    pub program_hal: Vec<String>,
 }
 
 impl SimSetup {
@@ -102,6 +107,21 @@ impl SimSetup {
     pub fn hal(mut self, line: impl Into<String>) -> Self {
         self.hal.push(line.into());
         self
+    }
+    /// Adds a HAL line set for the program only (see [`SimSetup::program_hal`]).
+    pub fn program_hal(mut self, line: impl Into<String>) -> Self {
+        self.program_hal.push(line.into());
+        self
+    }
+    /// The part of the set-up fixed at start-up: without the overrides and
+    /// the program's HAL lines, which the display script sets per program.
+    fn static_part(&self) -> SimSetup {
+        SimSetup {
+            feed_override: None,
+            rapid_override: None,
+            program_hal: Vec::new(),
+            ..self.clone()
+        }
     }
     /// Samples the HAL signal `signal` of type `ty` (see [`SimSetup::sampled`]).
     pub fn sample(mut self, ty: char, signal: &str) -> Self {
@@ -183,8 +203,13 @@ pub struct Trace {
     pub extra: Vec<Vec<f64>>,
     /// Operator messages of the run (errors make [`run`] fail).
     pub messages: Vec<String>,
-    /// Real time of the whole run (start-up and shut-down included).
+    /// Real time of the whole LinuxCNC run (start-up and shut-down
+    /// included) that ran this program, with the others of its session.
     pub wall: Duration,
+    /// Real time of this program alone (from its start to its samples read).
+    pub program_wall: Duration,
+    /// Programs run in that LinuxCNC session (see [`run`]).
+    pub session: usize,
 }
 
 impl Trace {
@@ -210,7 +235,7 @@ impl Trace {
 }
 
 /// Why a run failed.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub enum SimError {
     /// LinuxCNC (or a part of it) is not installed.
     Missing(String),
@@ -469,27 +494,78 @@ fn set_mode(p: &Path, mode: u32) -> std::io::Result<()> {
 /// A program run once with a set-up is not run again by this test binary:
 /// the trace is kept and handed to every later caller, so tests that check
 /// different things of the same program read the same run (runs are
-/// serialised and take real time).
+/// serialised and take real time). A program of [`session_programs`] runs
+/// with all the others of that list in one LinuxCNC session (one start-up
+/// for all, each program sampled on its own, from the state homing left);
+/// the first test asking for one of them waits for the whole session.
 pub fn run(program: &str, setup: &SimSetup, timeout: Duration) -> Result<Trace, SimError> {
     if let Some(why) = missing() {
         return Err(SimError::Missing(why));
     }
     let _guard = RUN.lock().unwrap_or_else(|e| e.into_inner());
-    let key = format!("{setup:?}\n{program}");
-    let mut done = DONE.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some(t) = done.get(&key) {
-        return Ok(t.clone());
+    let key = run_key(program, setup);
+    if let Some(t) = DONE.lock().unwrap_or_else(|e| e.into_inner()).get(&key) {
+        return t.clone();
     }
-    let t = run_once(program, setup, timeout)?;
-    done.insert(key, t.clone());
-    Ok(t)
+    let mut members = session_programs();
+    if !members
+        .iter()
+        .any(|(p, s)| run_key(p, s) == key && s.static_part() == setup.static_part())
+    {
+        members = vec![(program.to_string(), setup.clone())];
+    }
+    let timeouts: Vec<Duration> = members
+        .iter()
+        .map(|(p, s)| if run_key(p, s) == key { timeout } else { SHORT })
+        .collect();
+    let mut results = run_session(&members, &timeouts);
+    // One more try when LinuxCNC failed to start (seen under heavy load:
+    // `USRMOT: ERROR: command timeout`); never once a program has run.
+    if let Err(SimError::Run { stage, .. }) = &results
+        && !stage.starts_with("program")
+    {
+        eprintln!("linuxcnc_sim: LinuxCNC failed at start-up ({stage}), starting it once more");
+        results = run_session(&members, &timeouts);
+    }
+    let mut done = DONE.lock().unwrap_or_else(|e| e.into_inner());
+    match results {
+        Ok(traces) => {
+            for ((p, s), t) in members.iter().zip(traces) {
+                done.insert(run_key(p, s), t);
+            }
+        }
+        Err(e) => {
+            for (p, s) in &members {
+                done.insert(run_key(p, s), Err(e.clone()));
+            }
+        }
+    }
+    done[&key].clone()
 }
 
-/// Traces of the runs made so far by this test binary, by set-up and program.
-static DONE: Mutex<BTreeMap<String, Trace>> = Mutex::new(BTreeMap::new());
+/// The key of a program and set-up in [`DONE`].
+fn run_key(program: &str, setup: &SimSetup) -> String {
+    format!("{setup:?}\n{program}")
+}
 
-/// One simulator run (the caller holds [`RUN`]).
-fn run_once(program: &str, setup: &SimSetup, timeout: Duration) -> Result<Trace, SimError> {
+/// Results of the runs made so far by this test binary, by set-up and program.
+static DONE: Mutex<BTreeMap<String, Result<Trace, SimError>>> = Mutex::new(BTreeMap::new());
+
+/// One LinuxCNC session running `programs` (which share the set-up's
+/// [`SimSetup::static_part`]) one after the other (the caller holds
+/// [`RUN`]); `timeouts` bound each program's real time. `Err` when LinuxCNC
+/// did not start; else one result per program (a program after a failed
+/// one fails too).
+fn run_session(
+    programs: &[(String, SimSetup)],
+    timeouts: &[Duration],
+) -> Result<Vec<Result<Trace, SimError>>, SimError> {
+    let setup = programs[0].1.static_part();
+    assert!(
+        programs.iter().all(|(_, s)| s.static_part() == setup),
+        "the programs of a session share their set-up but for the overrides and program HAL lines"
+    );
+    let setup = &setup;
     let setup_err = |e: std::io::Error| SimError::Setup(e.to_string());
     let tmp = tempfile::Builder::new()
         .prefix("mtwin-lcnc-")
@@ -514,8 +590,20 @@ fn run_once(program: &str, setup: &SimSetup, timeout: Duration) -> Result<Trace,
     for (name, text) in &setup.files {
         std::fs::write(dir.join(name), text).map_err(setup_err)?;
     }
-    let prog = dir.join("program.ngc");
-    std::fs::write(&prog, program).map_err(setup_err)?;
+    let mut runs = Vec::new();
+    for (i, ((program, s), timeout)) in programs.iter().zip(timeouts).enumerate() {
+        let prog = dir.join(format!("program{i}.ngc"));
+        std::fs::write(&prog, program).map_err(setup_err)?;
+        runs.push(serde_json::json!({
+            "program": prog,
+            "feed": s.feed_override.unwrap_or(1.0),
+            "rapid": s.rapid_override.unwrap_or(1.0),
+            "timeout": timeout.as_secs_f64(),
+            "hal": s.program_hal,
+        }));
+    }
+    let runs_file = dir.join("runs.json");
+    std::fs::write(&runs_file, serde_json::Value::Array(runs).to_string()).map_err(setup_err)?;
     let ini_text =
         std::fs::read_to_string(Path::new(CONFIG_DIR).join(CONFIG_INI)).map_err(setup_err)?;
     let ini = dir.join(CONFIG_INI);
@@ -541,17 +629,8 @@ fn run_once(program: &str, setup: &SimSetup, timeout: Duration) -> Result<Trace,
         .stderr(Stdio::null())
         .env("RTAPI_FIFO_PATH", dir.join("rtapi_fifo"))
         .env("MTWIN_SIM_OUT", &dir)
-        .env("MTWIN_SIM_PROGRAM", &prog)
-        .env("MTWIN_SIM_TIMEOUT", format!("{}", timeout.as_secs_f64()))
+        .env("MTWIN_SIM_RUNS", &runs_file)
         .env("MTWIN_SIM_CFG", fifo_cfgs(setup).join(","))
-        .env(
-            "MTWIN_SIM_FEED_OVERRIDE",
-            format!("{}", setup.feed_override.unwrap_or(1.0)),
-        )
-        .env(
-            "MTWIN_SIM_RAPID_OVERRIDE",
-            format!("{}", setup.rapid_override.unwrap_or(1.0)),
-        )
         .env_remove("DISPLAY");
     if let Some(uid) = rtapi_uid() {
         cmd.env("RTAPI_UID", uid);
@@ -561,9 +640,12 @@ fn run_once(program: &str, setup: &SimSetup, timeout: Duration) -> Result<Trace,
         cmd.process_group(0);
     }
     let t0 = Instant::now();
+    let epoch0 = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64());
     let mut child = cmd.spawn().map_err(setup_err)?;
     // Start-up, homing and shut-down take seconds; waiting for the lock more.
-    let limit = timeout + Duration::from_secs(600);
+    let limit = timeouts.iter().sum::<Duration>() + Duration::from_secs(600);
     let status = loop {
         if let Some(st) = child.try_wait().map_err(setup_err)? {
             break Some(st);
@@ -579,7 +661,7 @@ fn run_once(program: &str, setup: &SimSetup, timeout: Duration) -> Result<Trace,
             let _ = child.wait();
             break None;
         }
-        std::thread::sleep(Duration::from_millis(100));
+        std::thread::sleep(Duration::from_millis(20));
     };
     let wall = t0.elapsed();
     let log_text = std::fs::read_to_string(&log).unwrap_or_default();
@@ -588,9 +670,8 @@ fn run_once(program: &str, setup: &SimSetup, timeout: Duration) -> Result<Trace,
     let result = std::fs::read_to_string(dir.join("result.json")).unwrap_or_default();
     let parsed: serde_json::Value =
         serde_json::from_str(&result).unwrap_or(serde_json::Value::Null);
-    let strings = |k: &str| -> Vec<String> {
-        parsed[k]
-            .as_array()
+    let strings = |v: &serde_json::Value| -> Vec<String> {
+        v.as_array()
             .map(|a| {
                 a.iter()
                     .filter_map(|v| v.as_str().map(str::to_string))
@@ -598,8 +679,38 @@ fn run_once(program: &str, setup: &SimSetup, timeout: Duration) -> Result<Trace,
             })
             .unwrap_or_default()
     };
-    if parsed["ok"] != serde_json::Value::Bool(true) {
-        let mut errors = strings("errors");
+    // Where the wall time went (the display script notes its clock, s
+    // since the epoch).
+    let clock = |v: &serde_json::Value, k: &str| v["clock"][k].as_f64().map(|t| t - epoch0);
+    let runs = parsed["runs"].as_array().cloned().unwrap_or_default();
+    if let (Some(d), Some(h)) = (clock(&parsed, "display"), clock(&parsed, "homed")) {
+        let mut line = format!(
+            "linuxcnc_sim: LinuxCNC run of {} program(s), wall {:.2} s: start-up {d:.2} s, home {:.2} s",
+            programs.len(),
+            wall.as_secs_f64(),
+            h - d
+        );
+        let mut last = h;
+        for (i, r) in runs.iter().enumerate() {
+            if let (Some(a), Some(b), Some(c)) =
+                (clock(r, "run"), clock(r, "end"), clock(r, "drained"))
+            {
+                line += &format!(
+                    "; program {i}: set-up {:.2} s, motion {:.2} s, drain {:.2} s",
+                    a - last,
+                    b - a,
+                    c - b
+                );
+                last = c;
+            }
+        }
+        line += &format!(", shut-down {:.2} s", wall.as_secs_f64() - last);
+        eprintln!("{line}");
+    }
+    let failed = parsed["ok"] != serde_json::Value::Bool(true);
+    let stage = parsed["stage"].as_str().unwrap_or("start-up").to_string();
+    if failed && !stage.starts_with("program") {
+        let mut errors = strings(&parsed["errors"]);
         if status.is_none() {
             errors.push(format!("killed after {:.0} s", wall.as_secs_f64()));
         }
@@ -607,31 +718,63 @@ fn run_once(program: &str, setup: &SimSetup, timeout: Duration) -> Result<Trace,
             errors.push("the display script wrote no result".into());
         }
         return Err(SimError::Run {
-            stage: parsed["stage"].as_str().unwrap_or("start-up").to_string(),
+            stage,
             errors,
             log_tail,
         });
     }
-    let mut files = Vec::new();
-    for k in 0..fifo_cfgs(setup).len() {
-        files
-            .push(std::fs::read_to_string(dir.join(format!("samples{k}.txt"))).map_err(setup_err)?);
-    }
-    let (samples, extra) = split_extra(&join_fifos(&files)?)?;
-    if samples.len() < 2 {
-        return Err(SimError::Samples(format!("only {} samples", samples.len())));
+    let mut out = Vec::new();
+    for (i, _) in programs.iter().enumerate() {
+        let r = &parsed["runs"][i];
+        let completed = !failed || i + 1 < runs.len();
+        if !completed {
+            let mut errors = strings(&parsed["errors"]);
+            if status.is_none() {
+                errors.push(format!("killed after {:.0} s", wall.as_secs_f64()));
+            }
+            if i >= runs.len() {
+                errors.insert(0, format!("not run: {stage} failed"));
+            }
+            out.push(Err(SimError::Run {
+                stage: stage.clone(),
+                errors,
+                log_tail: log_tail.clone(),
+            }));
+            continue;
+        }
+        let files: Result<Vec<String>, SimError> = (0..fifo_cfgs(setup).len())
+            .map(|k| {
+                std::fs::read_to_string(dir.join(format!("samples{i}_{k}.txt"))).map_err(setup_err)
+            })
+            .collect();
+        let trace =
+            files
+                .and_then(|f| split_extra(&join_fifos(&f)?))
+                .and_then(|(samples, extra)| {
+                    if samples.len() < 2 {
+                        return Err(SimError::Samples(format!("only {} samples", samples.len())));
+                    }
+                    let program_wall = match (clock(r, "run"), clock(r, "drained")) {
+                        (Some(a), Some(b)) => Duration::from_secs_f64((b - a).max(0.0)),
+                        _ => Duration::ZERO,
+                    };
+                    Ok(Trace {
+                        period,
+                        samples,
+                        extra,
+                        messages: strings(&r["messages"]),
+                        wall,
+                        program_wall,
+                        session: programs.len(),
+                    })
+                });
+        out.push(trace);
     }
     if std::env::var_os("MTWIN_KEEP_SIM").is_some() {
         let kept = tmp.keep();
         eprintln!("linuxcnc_sim: run kept in {}", kept.display());
     }
-    Ok(Trace {
-        period,
-        samples,
-        extra,
-        messages: strings("messages"),
-        wall,
-    })
+    Ok(out)
 }
 
 /// `[EMCMOT] SERVO_PERIOD` in s (ns in the ini).
@@ -814,6 +957,35 @@ pub fn reference(
 // ---------------------------------------------------------------------------
 // Tests.
 
+/// The programs of this module's tests, all on [`sim_setup`] (they differ
+/// in overrides and program HAL lines only), in the order LinuxCNC runs
+/// them in one session (see [`run`]): each starts where homing left the
+/// machine, so each must end there, but for the boat excerpt, last for its
+/// tool change (T1 M6), which stays in force. Not here: the square with
+/// coolant commands, which runs alone on the sample configuration as it
+/// is: in this session LinuxCNC stood 0.05–0.12 s longer at its I/O
+/// commands in each of four runs (4.877–4.946 s against 4.812–4.832 s
+/// alone), beyond the 1 % its test holds mtwin's planner to.
+fn session_programs() -> Vec<(String, SimSetup)> {
+    let (_, trunnion, trunnion_setup) = trunnion_case();
+    let mut v = vec![
+        (square_program(), sim_setup()),
+        (arcs_program(), sim_setup()),
+        (feeds_program(), sim_setup()),
+        (OVERRIDE_PROGRAM.to_string(), override_setup()),
+        (COMP_PROGRAM.to_string(), sim_setup()),
+        (trunnion.to_string(), trunnion_setup),
+    ];
+    // Read without `shared_dir`'s skip note or failure: the boat's own test
+    // reports an absent corpus.
+    let boat = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/corpus/gcode/linuxcnc/boat-xyzac.ngc");
+    if let Ok(text) = std::fs::read_to_string(boat) {
+        v.push((boat_excerpt(&text), sim_setup()));
+    }
+    v
+}
+
 /// Real-time bound of the short programs below.
 pub(crate) const SHORT: Duration = Duration::from_secs(120);
 
@@ -825,20 +997,35 @@ fn square_program() -> String {
     format!("G21 G90 G17 G94 G64 P{TOL}\nG0 X0 Y0 Z0\nG1 X20 F1200\nY20\nX0\nY0\nM2\n")
 }
 
-/// Full circles of radius 10 through the origin in the three planes, F900.
+/// The square of [`square_program`] with coolant commands at three of its
+/// corners (M8, M9, M7).
+fn coolant_program() -> String {
+    format!("G21 G90 G17 G94 G64 P{TOL}\nG0 X0 Y0 Z0\nG1 X20 F1200\nM8\nY20\nM9\nX0\nM7\nY0\nM2\n")
+}
+
+/// Radius of the circles of [`arcs_program`], mm.
+const ARC_RADIUS: f64 = 10.0;
+/// Feed of [`arcs_program`], mm/s (F900). At the axes' 20 mm/s mtwin's
+/// `linuxcnc` planner is 1.33 % faster than LinuxCNC on these circles
+/// (9.820 s against 9.952 s), outside the 1 % the planner test holds it to.
+const ARC_FEED: f64 = 15.0;
+
+/// Full circles of radius [`ARC_RADIUS`] through the origin in the three
+/// planes at [`ARC_FEED`].
 fn arcs_program() -> String {
+    let (r, f) = (ARC_RADIUS, ARC_FEED * 60.0);
     format!(
-        "G21 G90 G94 G64 P{TOL}\nG0 X0 Y0 Z0\nF900\n\
-         G17 G2 X0 Y0 I10 J0\nG18 G2 X0 Z0 I10 K0\nG19 G2 Y0 Z0 J10 K0\nM2\n"
+        "G21 G90 G94 G64 P{TOL}\nG0 X0 Y0 Z0\nF{f}\n\
+         G17 G2 X0 Y0 I{r} J0\nG18 G2 X0 Z0 I{r} K0\nG19 G2 Y0 Z0 J{r} K0\nM2\n"
     )
 }
 
 /// The circles of [`arcs_program`]: centre and unit normal.
 fn arcs_circles() -> [(Vector3<f64>, Vector3<f64>); 3] {
     [
-        (Vector3::new(10.0, 0.0, 0.0), Vector3::z()),
-        (Vector3::new(10.0, 0.0, 0.0), Vector3::y()),
-        (Vector3::new(0.0, 10.0, 0.0), Vector3::x()),
+        (Vector3::new(ARC_RADIUS, 0.0, 0.0), Vector3::z()),
+        (Vector3::new(ARC_RADIUS, 0.0, 0.0), Vector3::y()),
+        (Vector3::new(0.0, ARC_RADIUS, 0.0), Vector3::x()),
     ]
 }
 
@@ -880,10 +1067,13 @@ pub(crate) fn run_or_panic(
 ) -> Trace {
     let t = run(program, setup, timeout).unwrap_or_else(|e| panic!("{name}: {e}"));
     eprintln!(
-        "linuxcnc_sim {name}: total time {:.3} s ({} samples, {} in motion, wall {:.1} s)",
+        "linuxcnc_sim {name}: total time {:.3} s ({} samples, {} in motion; wall {:.1} s of its own, \
+         in a LinuxCNC run of {} program(s) of {:.1} s)",
         t.total_time(),
         t.samples.len(),
         t.moving().len(),
+        t.program_wall.as_secs_f64(),
+        t.session,
         t.wall.as_secs_f64()
     );
     for m in &t.messages {
@@ -940,7 +1130,7 @@ fn square_lies_on_its_path_within_the_tolerance() {
     if !available() {
         return;
     }
-    let t = run_or_panic("square", &square_program(), &SimSetup::default(), SHORT);
+    let t = run_or_panic("square", &square_program(), &sim_setup(), SHORT);
     let c = [
         (0.0, 0.0),
         (20.0, 0.0),
@@ -995,7 +1185,7 @@ fn arcs_in_three_planes_lie_on_their_circles() {
     if !available() {
         return;
     }
-    let t = run_or_panic("arcs", &arcs_program(), &SimSetup::default(), SHORT);
+    let t = run_or_panic("arcs", &arcs_program(), &sim_setup(), SHORT);
     let circles = arcs_circles();
     let mut worst = 0.0f64;
     // Angles swept on each circle (sample counts in 36 sectors).
@@ -1004,7 +1194,7 @@ fn arcs_in_three_planes_lie_on_their_circles() {
         let p = xyz(s);
         let d: Vec<f64> = circles
             .iter()
-            .map(|(c, n)| off_circle(&p, c, n, 10.0))
+            .map(|(c, n)| off_circle(&p, c, n, ARC_RADIUS))
             .collect();
         let (k, dk) =
             d.iter().enumerate().fold(
@@ -1028,9 +1218,9 @@ fn arcs_in_three_planes_lie_on_their_circles() {
     }
     // Three circles of 62.8 mm at 15 mm/s: at least 12.57 s.
     let tt = t.total_time();
-    let length = 3.0 * 2.0 * std::f64::consts::PI * 10.0;
+    let length = 3.0 * 2.0 * std::f64::consts::PI * ARC_RADIUS;
     assert!(
-        tt >= length / 15.0 - 1e-6 && tt < length / 15.0 + 2.0,
+        tt >= length / ARC_FEED - 1e-6 && tt < length / ARC_FEED + 2.0,
         "{tt}"
     );
 }
@@ -1146,7 +1336,8 @@ fn mtwin_joints(kin: &Kinematics, w: &[f64; 5]) -> [f64; 5] {
 /// An excerpt of the boat (`boat-xyzac.ngc`, read in place): its set-up
 /// lines (2–12: M428 TCP on, G17 G40 G90 G94, tool change), the start of
 /// the flowline finish (318–324: the rotary axes turn in a G54 rapid) and
-/// 38 five-axis inverse-time blocks (433–470), then back to zero with TCP off.
+/// 8 five-axis inverse-time blocks (433–440, A from -5.5 to -17.7 deg, two
+/// of under 1 ms among them), then back to zero with TCP off.
 fn boat_excerpt(text: &str) -> String {
     let lines: Vec<&str> = text.lines().collect();
     let pick = |a: usize, b: usize| lines[a - 1..b].join("\n");
@@ -1154,7 +1345,7 @@ fn boat_excerpt(text: &str) -> String {
         "{}\n{}\nG93\nG01 {}\nG94\nG00 Z10\nG00 X0 Y0 A0 C0\nM429\nM2\n",
         pick(2, 12),
         pick(318, 324),
-        pick(433, 470)
+        pick(433, 440)
     )
 }
 
@@ -1203,12 +1394,7 @@ fn boat_excerpt_joints_are_mtwins_inverse_kinematics() {
         return;
     }
     let Some(text) = boat_text() else { return };
-    let t = run_or_panic(
-        "boat excerpt",
-        &boat_excerpt(&text),
-        &SimSetup::default(),
-        SHORT,
-    );
+    let t = run_or_panic("boat excerpt", &boat_excerpt(&text), &sim_setup(), SHORT);
     let (worst, tcp) = joints_against_mtwin(&t, &TrtParams::SAMPLE);
     assert!(tcp > 1000, "only {tcp} samples under TCP");
     // The rotary axes turn (A to about -18 deg, C through 25 deg).
@@ -1221,20 +1407,28 @@ fn boat_excerpt_joints_are_mtwins_inverse_kinematics() {
     assert!(worst < 1e-9, "joints differ from mtwin's by {worst} mm");
 }
 
-#[test]
-fn trunnion_parameters_set_in_hal_are_mtwins_axis_lines() {
-    if !available() {
-        return;
-    }
-    // Tilt and turn the table with the tip off the axis lines, under TCP.
+/// The trunnion test's parameters, program and set-up: the table tilted and
+/// turned with the tip off the axis lines, under TCP, then back to zero
+/// with TCP off; the parameters set for the program only (they act under
+/// TCP, M428).
+fn trunnion_case() -> (TrtParams, &'static str, SimSetup) {
     let p = TrtParams {
         rot_point: [3.5, -2.25, 1.75],
         y_offset: -7.5,
         z_offset: 12.0,
     };
-    let program = "G21 G90 G94 G64 P0.01\nM428\nG0 X5 Y5 Z20 A0 C0\n\
-                   G1 X10 Y-5 Z15 A-30 C60 F600\nG1 X-5 A20 C-45\nG0 A0 C0\nM429\nM2\n";
-    let setup = p.hal().into_iter().fold(SimSetup::default(), SimSetup::hal);
+    let program = "G21 G90 G94 G64 P0.01\nM428\nG0 X5 Y5 Z10 A0 C0\n\
+                   G1 X10 Y-5 Z8 A-10 C20 F600\nG1 X-5 A8 C-15\nG0 A0 C0\nM429\nG0 X0 Y0 Z0\nM2\n";
+    let setup = p.hal().into_iter().fold(sim_setup(), SimSetup::program_hal);
+    (p, program, setup)
+}
+
+#[test]
+fn trunnion_parameters_set_in_hal_are_mtwins_axis_lines() {
+    if !available() {
+        return;
+    }
+    let (p, program, setup) = trunnion_case();
     let t = run_or_panic("trunnion parameters", program, &setup, SHORT);
     let (worst, tcp) = joints_against_mtwin(&t, &p);
     assert!(tcp > 500, "only {tcp} samples under TCP");
@@ -1257,6 +1451,32 @@ fn comp_reverse(x: f64) -> f64 {
     comp_forward(x) + 0.006
 }
 
+/// The nominal positions of the test's comp table: 41 rows, -60 … 60 mm
+/// every 3 mm.
+fn comp_nominal() -> impl Iterator<Item = f64> {
+    (0..41).map(|i| -60.0 + 3.0 * i as f64)
+}
+
+/// Out and back along X over 14 rows of the comp table (and once along Y,
+/// uncompensated), at the axes' 20 mm/s, then back to zero.
+const COMP_PROGRAM: &str =
+    "G21 G90 G94 G64 P0.01\nG0 X0 Y0 Z0\nG1 X20 F1200\nG1 X-20\nG1 Y5\nG1 X5\nG0 X0 Y0\nM2\n";
+
+/// The set-up of this module's tests: the sample configuration with the
+/// comp-file test's type-1 table for joint 0 (`comp_x.txt`). The table
+/// moves joint 0's drive command (`motor-pos-cmd`) only: the other tests
+/// read the joint commands before compensation (`pos-cmd`), the world
+/// commands and times, which it leaves alone, so all run in one session.
+pub(crate) fn sim_setup() -> SimSetup {
+    let table: String = comp_nominal()
+        .map(|x| format!("{x} {:.9} {:.9}\n", comp_forward(x), comp_reverse(x)))
+        .collect();
+    SimSetup::default()
+        .file("comp_x.txt", table)
+        .ini("JOINT_0", "COMP_FILE", "comp_x.txt")
+        .ini("JOINT_0", "COMP_FILE_TYPE", 1)
+}
+
 /// Linear interpolation in a table of `(nominal, value)` rows, ascending.
 fn interp(rows: &[(f64, f64)], x: f64) -> f64 {
     let k = rows.partition_point(|r| r.0 <= x).clamp(1, rows.len() - 1);
@@ -1270,20 +1490,9 @@ fn comp_file_type_1_adds_the_interpolated_correction() {
     if !available() {
         return;
     }
-    // 41 rows, -60 … 60 mm every 3 mm.
-    let nominal: Vec<f64> = (0..41).map(|i| -60.0 + 3.0 * i as f64).collect();
-    let table: String = nominal
-        .iter()
-        .map(|&x| format!("{x} {:.9} {:.9}\n", comp_forward(x), comp_reverse(x)))
-        .collect();
-    let fwd: Vec<(f64, f64)> = nominal.iter().map(|&x| (x, comp_forward(x))).collect();
-    let rev: Vec<(f64, f64)> = nominal.iter().map(|&x| (x, comp_reverse(x))).collect();
-    let setup = SimSetup::default()
-        .file("comp_x.txt", table)
-        .ini("JOINT_0", "COMP_FILE", "comp_x.txt")
-        .ini("JOINT_0", "COMP_FILE_TYPE", 1);
-    // Out and back along X (and once along Y, uncompensated).
-    let program = "G21 G90 G94 G64 P0.01\nG0 X0 Y0 Z0\nG1 X40 F900\nG1 X-35\nG1 Y10\nG1 X5\nM2\n";
+    let fwd: Vec<(f64, f64)> = comp_nominal().map(|x| (x, comp_forward(x))).collect();
+    let rev: Vec<(f64, f64)> = comp_nominal().map(|x| (x, comp_reverse(x))).collect();
+    let (program, setup) = (COMP_PROGRAM, sim_setup());
     let t = run_or_panic("comp file", program, &setup, SHORT);
     let (mut worst_corr, mut worst_motor, mut worst_settled) = (0.0f64, 0.0f64, 0.0f64);
     let (mut n_fwd, mut n_rev, mut n_settled) = (0, 0, 0);
@@ -1331,13 +1540,13 @@ fn comp_file_type_1_adds_the_interpolated_correction() {
 // ---------------------------------------------------------------------------
 // Feed modes.
 
-/// The same 30 mm line in G94 (F600 = 10 mm/s), G93 (F20: 3 s) and G95
+/// The same 10 mm line in G94 (F600 = 10 mm/s), G93 (F60: 1 s) and G95
 /// (F0.5 mm/rev at S1200: 10 mm/s), and a G0 back.
 fn feeds_program() -> String {
     "G21 G90 G17 G64 P0.01\nG0 X0 Y0 Z0\n\
-     G94 G1 X30 F600\n\
-     G93 G1 X0 F20\n\
-     G95 S1200 M3 G1 X30 F0.5\n\
+     G94 G1 X10 F600\n\
+     G93 G1 X0 F60\n\
+     G95 S1200 M3 G1 X10 F0.5\n\
      G94 M5 G0 X0\nM2\n"
         .into()
 }
@@ -1347,7 +1556,7 @@ fn feed_modes_time_their_blocks() {
     if !available() {
         return;
     }
-    let t = run_or_panic("feeds", &feeds_program(), &SimSetup::default(), SHORT);
+    let t = run_or_panic("feeds", &feeds_program(), &sim_setup(), SHORT);
     // Time per program line (LinuxCNC numbers lines from 1).
     let mut per_line = std::collections::BTreeMap::<i32, usize>::new();
     for s in &t.samples[t.moving()] {
@@ -1355,8 +1564,10 @@ fn feed_modes_time_their_blocks() {
     }
     let secs = |l: i32| per_line.get(&l).copied().unwrap_or(0) as f64 * t.period;
     eprintln!("feeds: per line {per_line:?}");
-    // 30 mm at 10 mm/s with trapezoid ends (accel 300: +v/a = 0.033 s).
-    for (line, cruise) in [(3, 3.0), (4, 3.0), (5, 3.0)] {
+    // 10 mm at 10 mm/s with trapezoid ends (accel 300: +v/a = 0.033 s; a
+    // wrong feed mode would be off by seconds: G93 F60 read as mm/min
+    // 10 s, G95 F0.5 as mm/min 1200 s).
+    for (line, cruise) in [(3, 1.0), (4, 1.0), (5, 1.0)] {
         let s = secs(line);
         assert!(
             (cruise - 0.01..cruise + 0.1).contains(&s),
@@ -1378,8 +1589,7 @@ fn record_total_times() {
         ("arcs", arcs_program()),
         ("feeds", feeds_program()),
     ] {
-        let r =
-            reference(&prog, &SimSetup::default(), SHORT).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let r = reference(&prog, &sim_setup(), SHORT).unwrap_or_else(|e| panic!("{name}: {e}"));
         println!(
             "{name}: {:.3} s ({} path samples at {} s)",
             r.total_time,
@@ -1560,7 +1770,7 @@ fn mtwin_linuxcnc_planner_times_against_the_simulator() {
         ("arcs", arcs_program()),
         ("feeds", feeds_program()),
     ] {
-        let c = compare(name, &prog, &SimSetup::default());
+        let c = compare(name, &prog, &sim_setup());
         assert!(
             c.rel().abs() < PLANNER_TOLERANCE,
             "{name}: mtwin {} s against LinuxCNC {} s",
@@ -1583,9 +1793,9 @@ fn mtwin_linuxcnc_planner_path_against_the_simulator() {
     }
     for (name, prog, feed) in [
         ("square", square_program(), 20.0),
-        ("arcs", arcs_program(), 15.0),
+        ("arcs", arcs_program(), ARC_FEED),
     ] {
-        let c = compare(name, &prog, &SimSetup::default());
+        let c = compare(name, &prog, &sim_setup());
         let geo = c.geometric_deviation();
         let timed = c.timed_deviation();
         let bound = feed * (c.mtwin_time - c.lcnc.total_time).abs() + TOL;
@@ -1594,6 +1804,18 @@ fn mtwin_linuxcnc_planner_path_against_the_simulator() {
         );
         assert!(geo <= TOL, "{name}: {geo} mm");
         assert!(timed <= bound, "{name}: {timed} mm > {bound} mm");
+    }
+}
+
+/// 10 mm rapid at the 20 mm/s axis limit, then 10 mm at F600 (10 mm/s; 5
+/// mm/s at half override). Exact stop so the blocks time separately.
+const OVERRIDE_PROGRAM: &str = "G21 G90 G61.1\nG0 X0 Y0 Z0\nG0 X10\nG1 X0 F600\nM2\n";
+
+/// Half feed override.
+fn override_setup() -> SimSetup {
+    SimSetup {
+        feed_override: Some(0.5),
+        ..sim_setup()
     }
 }
 
@@ -1606,13 +1828,7 @@ fn feed_override_leaves_rapids_alone() {
     if !available() {
         return;
     }
-    // 30 mm rapid at the 20 mm/s axis limit, then 30 mm at F600 (10 mm/s;
-    // 5 mm/s at half override). Exact stop so the blocks time separately.
-    let prog = "G21 G90 G61.1\nG0 X0 Y0 Z0\nG0 X30\nG1 X0 F600\nM2\n";
-    let setup = SimSetup {
-        feed_override: Some(0.5),
-        ..SimSetup::default()
-    };
+    let (prog, setup) = (OVERRIDE_PROGRAM, override_setup());
     let t = run_or_panic("override", prog, &setup, SHORT);
     let mut per_line = std::collections::BTreeMap::<i32, usize>::new();
     for s in &t.samples[t.moving()] {
@@ -1620,13 +1836,13 @@ fn feed_override_leaves_rapids_alone() {
     }
     let secs = |l: i32| per_line.get(&l).copied().unwrap_or(0) as f64 * t.period;
     eprintln!("override: per line {per_line:?}");
-    // Rapid: 30/20 + 20/300 = 1.567 s (not 3.03 s); feed: 30/5 + 5/300.
+    // Rapid: 10/20 + 20/300 = 0.567 s (not 1.03 s); feed: 10/5 + 5/300.
     let (rapid, feed) = (secs(3), secs(4));
     assert!(
-        (rapid - (1.5 + 20.0 / 300.0)).abs() < 0.01,
+        (rapid - (0.5 + 20.0 / 300.0)).abs() < 0.01,
         "rapid {rapid} s"
     );
-    assert!((feed - (6.0 + 5.0 / 300.0)).abs() < 0.01, "feed {feed} s");
+    assert!((feed - (2.0 + 5.0 / 300.0)).abs() < 0.01, "feed {feed} s");
     let c = compare("override", prog, &setup);
     assert!(c.rel().abs() < PLANNER_TOLERANCE);
 }
@@ -1665,10 +1881,8 @@ fn coolant_commands_stop_the_blending_as_in_the_simulator() {
         return;
     }
     let plain = square_program();
-    let coolant = format!(
-        "G21 G90 G17 G94 G64 P{TOL}\nG0 X0 Y0 Z0\nG1 X20 F1200\nM8\nY20\nM9\nX0\nM7\nY0\nM2\n"
-    );
-    let t_plain = run_or_panic("square", &plain, &SimSetup::default(), SHORT);
+    let coolant = coolant_program();
+    let t_plain = run_or_panic("square", &plain, &sim_setup(), SHORT);
     let t_cool = run_or_panic("square with coolant", &coolant, &SimSetup::default(), SHORT);
     let (s_plain, s_cool) = (stand_stills(&t_plain), stand_stills(&t_cool));
     eprintln!("stand-stills: plain {s_plain:?}, with coolant {s_cool:?}");
@@ -1706,7 +1920,7 @@ fn coolant_commands_stop_the_blending_as_in_the_simulator() {
         m_waits, 3,
         "mtwin stands still at the three coolant corners"
     );
-    let c_plain = compare("square", &plain, &SimSetup::default());
+    let c_plain = compare("square", &plain, &sim_setup());
     eprintln!(
         "LinuxCNC: {:.3} s plain, {:.3} s with coolant (+{:.3} s); mtwin linuxcnc: {:.3} s, {:.3} s",
         t_plain.total_time(),
