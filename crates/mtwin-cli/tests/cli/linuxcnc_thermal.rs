@@ -404,9 +404,9 @@ fn exported_thermal_component_drives_the_z_offset_as_mtwin_predicts() {
     let files = linuxcnc_thermal::export(&m).unwrap();
     // The speed input as thermal.hal connects it: the commanded spindle speed.
     let setup = setup_from_export(&files, &[], &["mtwin-thermal-speed"]);
-    // 6000 rev/min for 9 s (six periods), 2000 for 6 s, stopped for 6 s; Z
-    // holds at 20 mm (between the heights, weight 0.6 on z = 100).
-    let program = "G21 G90 G94\nG0 X0 Y0 Z20\nS6000 M3\nG4 P9\nS2000\nG4 P6\nM5\nG4 P6\nM2\n";
+    // 6000 rev/min for 6 s (four periods), 2000 for 4.5 s, stopped for
+    // 4.5 s; Z holds at 20 mm (between the heights, weight 0.6 on z = 100).
+    let program = "G21 G90 G94\nG0 X0 Y0 Z20\nS6000 M3\nG4 P6\nS2000\nG4 P4.5\nM5\nG4 P4.5\nM2\n";
     let t = run_or_panic("thermal", program, &setup, SHORT);
     let speed: Vec<f64> = t.extra.iter().map(|r| r[0]).collect();
     assert_eq!(speed[0], 0.0, "the spindle is off when sampling starts");
@@ -416,8 +416,8 @@ fn exported_thermal_component_drives_the_z_offset_as_mtwin_predicts() {
     c.print_and_check("thermal", t.extra.len());
 }
 
-/// Servo periods each entry of the replayed record holds (60 ms).
-const HOLD: usize = 60;
+/// Servo periods each entry of the replayed record holds (40 ms).
+const HOLD: usize = 40;
 
 /// The recorded sequence replayed: from the real record
 /// `../shared/data/real/fl-thermal-first60.csv` (every 15 s), every 8th row
@@ -480,8 +480,8 @@ fn recorded_speed_and_temperature_streamed_into_the_pins_give_thermal_predicts_o
     ]
     .into();
     let setup = setup_from_export(&files, &hal, &["replay-speed", "replay-temp"]);
-    // The stream lasts 18 s; Z holds at 20 mm for 20 s.
-    let program = "G21 G90 G94\nG0 X0 Y0 Z20\nG4 P20\nM2\n";
+    // The stream lasts 12 s; Z holds at 20 mm for 13 s.
+    let program = "G21 G90 G94\nG0 X0 Y0 Z20\nG4 P13\nM2\n";
     let t = run_or_panic("thermal replay", program, &setup, SHORT);
     // The pins held the record: the sampled rows are the stream's lines,
     // from the first (or one period later, by the order of the functions
