@@ -28,7 +28,9 @@
 //!   late, but the planner advances one servo period per invocation: each
 //!   sample is one period of motion time, whatever the wall clock did.
 //!
-//! A run takes the program's real time plus about 5 s of start and stop.
+//! A LinuxCNC run takes its programs' real time plus about 3 s of start
+//! and stop; the programs of [`session_programs`] share one run (see
+//! [`run`]). Each run prints where its wall time went.
 //! Without LinuxCNC the tests print a note and pass, unless
 //! `MTWIN_REQUIRE_LINUXCNC=1` (as `.ci/run` sets), where they fail.
 
