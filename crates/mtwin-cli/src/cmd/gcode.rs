@@ -118,7 +118,7 @@ fn parse_offsets(items: &[String], base: Axes) -> anyhow::Result<Axes> {
 /// `file:line:col: message` for an error with a source position (the one
 /// error format of every command); `msg` is the library's message without
 /// its location (the errors' `message()`).
-pub(super) fn located(
+pub fn located(
     path: &Path,
     line: Option<u64>,
     column: u32,
@@ -331,24 +331,4 @@ fn stats(a: StatsArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn located_errors_put_the_place_first() {
-        let p = Path::new("part.ngc");
-        let e = located(p, Some(3), 5, "syntax error: bad");
-        assert_eq!(e.to_string(), "part.ngc:3:5: syntax error: bad");
-        // A whole block at fault is column 1.
-        let e = located(p, Some(12), 0, "unsupported canned cycle G81");
-        assert_eq!(e.to_string(), "part.ngc:12:1: unsupported canned cycle G81");
-        // Another line named in the message stays.
-        let e = located(p, Some(1), 0, "see line 12");
-        assert_eq!(e.to_string(), "part.ngc:1:1: see line 12");
-        let e = located(p, None, 0, "no moves");
-        assert_eq!(e.to_string(), "part.ngc: no moves");
-    }
 }

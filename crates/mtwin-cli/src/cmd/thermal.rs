@@ -192,7 +192,7 @@ impl Heights {
     }
 }
 
-fn parse_heights(items: &[String]) -> anyhow::Result<Vec<f64>> {
+pub fn parse_heights(items: &[String]) -> anyhow::Result<Vec<f64>> {
     let mut out = Vec::with_capacity(items.len());
     for s in items {
         let s = s.trim();
@@ -540,19 +540,4 @@ fn simulate(a: SimulateArgs) -> anyhow::Result<()> {
         &a.out.display().to_string(),
     );
     crate::output::print_doc(&doc, a.format)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::parse_heights;
-
-    #[test]
-    fn heights_parse_negatives_and_reject_garbage() {
-        let v: Vec<String> = ["-100", " -300.5", "2e1"].map(String::from).to_vec();
-        assert_eq!(parse_heights(&v).unwrap(), vec![-100.0, -300.5, 20.0]);
-        for bad in ["abc", "nan", "inf", ""] {
-            let e = parse_heights(&[bad.to_string()]).unwrap_err().to_string();
-            assert!(e.starts_with("--z:"), "{e}");
-        }
-    }
 }

@@ -41,6 +41,7 @@ mod cli_thermal;
 mod cli_thermal_compensate;
 mod cli_thermal_log;
 mod cli_tracker;
+mod cli_tree;
 mod cli_twin;
 mod controller_demo;
 mod controller_formats;
