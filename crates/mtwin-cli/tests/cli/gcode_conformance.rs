@@ -522,7 +522,11 @@ fn linuxcnc_conformance() {
                     if let Err(m) = same(&ours, &expected[..n]).and_then(|()| {
                         (ours.len() <= expected.len()
                             && (!messages.is_empty() || expected_messages.is_empty())
-                            && same_messages(&messages, &expected_messages[..messages.len().min(expected_messages.len())]).is_ok())
+                            && same_messages(
+                                &messages,
+                                &expected_messages[..messages.len().min(expected_messages.len())],
+                            )
+                            .is_ok())
                         .then_some(())
                         .ok_or(format!(
                             "messages {messages:?}, the trace's {expected_messages:?}"
@@ -615,10 +619,10 @@ fn linuxcnc_conformance() {
     }
     let mut messages_seen = vec![false; KNOWN_MESSAGE_DIFFERENCES.len()];
     failures.retain(|f| {
-        let Some(k) = KNOWN_MESSAGE_DIFFERENCES
-            .iter()
-            .position(|(p, _)| f.strip_prefix(p).is_some_and(|r| r.starts_with(": messages:")))
-        else {
+        let Some(k) = KNOWN_MESSAGE_DIFFERENCES.iter().position(|(p, _)| {
+            f.strip_prefix(p)
+                .is_some_and(|r| r.starts_with(": messages:"))
+        }) else {
             return true;
         };
         messages_seen[k] = true;

@@ -681,13 +681,11 @@ const KNOWN_DIFFERENCES: &[(&str, &str)] = &[
 /// Programs of the conformance suite that now run (parameters and O-word
 /// flow) and still differ from rs274, by path prefix, with the reason. Left
 /// for later; each must still disagree, so the list cannot go stale.
-const KNOWN_FLOW_DIFFERENCES: &[(&str, &str)] = &[
-    (
-        "linuxcnc-interp/nested-sub-error/",
-        "a subroutine defined inside a subroutine: rs274 2.9 runs it (and reads the \
+const KNOWN_FLOW_DIFFERENCES: &[(&str, &str)] = &[(
+    "linuxcnc-interp/nested-sub-error/",
+    "a subroutine defined inside a subroutine: rs274 2.9 runs it (and reads the \
          caller's arguments in it), mtwin refuses it as LinuxCNC after 2.9 does",
-    ),
-];
+)];
 
 enum Verdict {
     Agree,
@@ -1480,11 +1478,7 @@ fn generate_rotated(seed: u64) -> String {
             _ => {
                 // G10 L10 (the active system) or L11 (G59.3): one to three
                 // of X, Y, Z.
-                let mut l = format!(
-                    "G10 L{} P{}",
-                    rng.pick(&[10, 11]),
-                    rng.pick(&tools)
-                );
+                let mut l = format!("G10 L{} P{}", rng.pick(&[10, 11]), rng.pick(&tools));
                 let mask = 1 + rng.below(7);
                 for (bit, axis, span) in [(1, 'X', 20.0), (2, 'Y', 20.0), (4, 'Z', 10.0)] {
                     if mask & bit != 0 {

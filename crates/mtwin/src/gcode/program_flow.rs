@@ -448,7 +448,11 @@ fn messages(
                     .into_iter()
                     .find(|p| lower.starts_with(p))
                 {
-                    return Err(python_comment(block.line(), span.start + 1, &format!("({p}…)")));
+                    return Err(python_comment(
+                        block.line(),
+                        span.start + 1,
+                        &format!("({p}…)"),
+                    ));
                 }
                 return Ok(());
             }
@@ -1363,7 +1367,8 @@ impl Flow<'_> {
             let args = |what: &str| -> Result<Vec<f64>, GcodeError> {
                 // A call's arguments may have comments between them (LinuxCNC
                 // reads `[1] (note) [2]` as two arguments).
-                let bad = |e: expr::ExprError| GcodeError::invalid(line, st.rest + 1, e.to_string());
+                let bad =
+                    |e: expr::ExprError| GcodeError::invalid(line, st.rest + 1, e.to_string());
                 let (v, end) = if st.kind == Kind::Call {
                     let Some((runs, end)) = call_arguments(rest) else {
                         return Err(GcodeError::syntax(
@@ -1764,8 +1769,8 @@ impl Flow<'_> {
         };
         let file = self.files.len() as u32 + 1;
         self.files.push(path.clone());
-        let bytes =
-            std::fs::read(&path).map_err(|e| SubNotRun::Invalid(format!("cannot read {}: {e}", path.display())))?;
+        let bytes = std::fs::read(&path)
+            .map_err(|e| SubNotRun::Invalid(format!("cannot read {}: {e}", path.display())))?;
         let blocks = BlockReader::new(&bytes[..])
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| SubNotRun::Invalid(format!("{}:{}", path.display(), located_text(&e))))?;
@@ -1929,7 +1934,7 @@ mod tests {
         // `(py,…)`, `(pyrun,…)`, `(pyreload)` anywhere, `;py,` at the start
         // of a line: LinuxCNC runs them as Python.
         for (src, line, col) in [
-            ("G0 X1\nG0 X2 (py,print(1))\nM2\n", 2, 7),
+            ("G0 X1\nG0 X2 (py,x = 1)\nM2\n", 2, 7),
             ("G0 X1 ( PyRun,f.py)\nM2\n", 1, 7),
             ("(pyreload)\nM2\n", 1, 1),
             ("G0 X1\n;py,import interpreter\nM2\n", 2, 1),
@@ -1940,17 +1945,29 @@ mod tests {
             assert_eq!((at.line, at.column), (line, col), "{src:?}: {e}");
         }
         // Other comments that only look alike are comments.
-        assert_eq!(xs("G0 X1 ;py,not at the line start\n(python)\nM2\n"), vec![1.0]);
+        assert_eq!(
+            xs("G0 X1 ;py,not at the line start\n(python)\nM2\n"),
+            vec![1.0]
+        );
         // A call of a subroutine found nowhere: with a Python module in
         // the INI it is refused as a Python o-word subroutine, without one
         // as a missing subroutine.
         let src = "G0 X1\no<canonmove> call [1] [2] [3]\nM2\n";
         let mut opts = InterpOptions::default();
-        opts.program
-            .apply_ini("[PYTHON]\nTOPLEVEL = subs.py\n", std::path::Path::new("/cnc"));
-        assert_eq!(opts.program.python.as_deref(), Some(std::path::Path::new("/cnc/subs.py")));
+        opts.program.apply_ini(
+            "[PYTHON]\nTOPLEVEL = subs.py\n",
+            std::path::Path::new("/cnc"),
+        );
+        assert_eq!(
+            opts.program.python.as_deref(),
+            Some(std::path::Path::new("/cnc/subs.py"))
+        );
         let e = unsupported(src, opts);
-        assert!(e.to_string().contains("Python o-word subroutine o<canonmove>"), "{e}");
+        assert!(
+            e.to_string()
+                .contains("Python o-word subroutine o<canonmove>"),
+            "{e}"
+        );
         assert_eq!(e.location().unwrap().line, 2);
         let e = err(src);
         assert!(matches!(e, GcodeError::Invalid { .. }), "{e}");
