@@ -245,23 +245,19 @@ fn same_messages(ours: &[String], expected: &[String]) -> Result<(), String> {
     }
 }
 
+/// Motion calls of a run: all of them, or those before the block that
+/// failed and the error.
+type Motion = Result<Vec<Call>, (Vec<Call>, GcodeError)>;
+
 /// Motion calls of our interpreter, in LinuxCNC's argument order: all of
 /// them, or those before the block that failed and the error.
-fn our_motion(
-    program: &[u8],
-    dir: &Path,
-    ini: Option<&str>,
-) -> Result<Vec<Call>, (Vec<Call>, GcodeError)> {
+fn our_motion(program: &[u8], dir: &Path, ini: Option<&str>) -> Motion {
     run_ours(program, dir, ini).0
 }
 
 /// [`our_motion`], and the texts of the `(DEBUG,…)` and `(MSG,…)` messages
 /// sent (LinuxCNC's MESSAGE calls).
-fn run_ours(
-    program: &[u8],
-    dir: &Path,
-    ini: Option<&str>,
-) -> (Result<Vec<Call>, (Vec<Call>, GcodeError)>, Vec<String>) {
+fn run_ours(program: &[u8], dir: &Path, ini: Option<&str>) -> (Motion, Vec<String>) {
     // The tool lengths LinuxCNC's test tool table gives (USE_TOOL_LENGTH_OFFSET
     // in the traces of g72-facing, in mm, and g76, 0.7 in).
     // Tool 1 with zero offsets: the test.tbl of LinuxCNC's g10 cases.
