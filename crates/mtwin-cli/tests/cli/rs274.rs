@@ -1918,7 +1918,21 @@ fn generated_programs_are_reproducible_and_varied() {
     let text: String = (0..ROTATED)
         .map(|k| generate_rotated(ROTATED_SEED + k))
         .collect();
-    for needle in ["G10 L2 P", "G10 L20 P", "G92 X", "G92.1", "G28", "G53 G0"] {
+    for needle in [
+        "G10 L2 P",
+        "G10 L20 P",
+        "G92 X",
+        "G92.1",
+        "G28",
+        "G53 G0",
+        "G10 L10 P",
+        "G10 L11 P",
+        "M6\n",
+        "G43\n",
+        "G43 H0",
+        "G43 H4",
+        "G49",
+    ] {
         assert!(
             text.contains(needle),
             "no {needle:?} in the rotated programs"
