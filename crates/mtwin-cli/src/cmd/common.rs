@@ -127,6 +127,7 @@ impl DialectArgs {
                 MessageKind::Debug => "DEBUG",
                 MessageKind::Print => "PRINT",
                 MessageKind::Abort => "ABORT",
+                MessageKind::Msg => "MSG",
             };
             eprintln!("{}:{}: {kind}: {}", file.display(), m.line, m.text);
         });

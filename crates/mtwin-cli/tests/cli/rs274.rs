@@ -681,17 +681,11 @@ const KNOWN_DIFFERENCES: &[(&str, &str)] = &[
 /// Programs of the conformance suite that now run (parameters and O-word
 /// flow) and still differ from rs274, by path prefix, with the reason. Left
 /// for later; each must still disagree, so the list cannot go stale.
-const KNOWN_FLOW_DIFFERENCES: &[(&str, &str)] = &[
-    (
-        "linuxcnc-interp/flowsnake/",
-        "the flowsnake subroutine recursion differs from step 3",
-    ),
-    (
-        "linuxcnc-interp/nested-sub-error/",
-        "a subroutine defined inside a subroutine: rs274 2.9 runs it (and reads the \
+const KNOWN_FLOW_DIFFERENCES: &[(&str, &str)] = &[(
+    "linuxcnc-interp/nested-sub-error/",
+    "a subroutine defined inside a subroutine: rs274 2.9 runs it (and reads the \
          caller's arguments in it), mtwin refuses it as LinuxCNC after 2.9 does",
-    ),
-];
+)];
 
 enum Verdict {
     Agree,
@@ -1370,7 +1364,26 @@ fn generate_comp(seed: u64) -> String {
 /// Program `seed` in rotated coordinate systems (G10 L2 R, mm): systems
 /// given offsets and rotations (of the active one too), traverses, feeds
 /// and incremental XY arcs in them, G92 on top (and G92.1), switches of
-/// system, G53 and G28 moves, G10 L20 of the active system; then M2.
+/// system, G53 and G28 moves, G10 L20 of the active system, tool changes,
+/// G43 (with and without H) and G49, tool offsets set by G10 L10 and L11;
+/// then M2.
+///
+/// The program loads a tool first, every later tool change follows a
+/// traverse to all of X, Y and Z, and G43 never shares a line with M6:
+/// two habits of rs274's standalone canon (2.9) that LinuxCNC's controller
+/// does not have would otherwise decide the result.
+/// [`rs274_standalone_quirks_the_generator_avoids`] shows both:
+///
+/// * rs274 starts with pocket 1 as the current pocket (its canon's tool
+///   slot starts at 1) but an empty spindle entry: G10 L1/L10/L11 of tool 1
+///   then also writes the spindle entry, which a later G43 applies; mtwin
+///   starts with no tool in the spindle (as the controller with no tool
+///   loaded).
+/// * rs274's canon remembers the last point it was sent and does not move
+///   it when a tool length offset or the XY rotation changes; after M6 the
+///   interpreter re-reads its point from there (`read_inputs` after a tool
+///   change), a stale point. LinuxCNC's controller re-reads the machine
+///   position; mtwin keeps it.
 fn generate_rotated(seed: u64) -> String {
     let mut rng = Rng(seed);
     let mut out = String::from("G21 G90 G17 G94 F600\n");
@@ -1378,8 +1391,10 @@ fn generate_rotated(seed: u64) -> String {
     let systems = [
         "G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3",
     ];
+    let tools = [1, 2, 4];
+    writeln!(out, "T{} M6", rng.pick(&tools)).unwrap();
     for _ in 0..4 + rng.below(16) {
-        let line = match rng.below(10) {
+        let line = match rng.below(14) {
             0 | 1 => {
                 let mut l = format!("G10 L2 P{}", rng.below(10));
                 if rng.chance(0.7) {
@@ -1443,11 +1458,35 @@ fn generate_rotated(seed: u64) -> String {
                 num(v(&mut rng, 60.0))
             ),
             8 => "G28".to_string(),
-            _ => format!(
+            9 => format!(
                 "G10 L20 P0 X{} Y{}",
                 num(v(&mut rng, 40.0)),
                 num(v(&mut rng, 40.0))
             ),
+            10 => format!(
+                "G0 X{} Y{} Z{}\nT{} M6",
+                num(v(&mut rng, 80.0)),
+                num(v(&mut rng, 80.0)),
+                num(v(&mut rng, 20.0)),
+                rng.pick(&tools)
+            ),
+            11 => match rng.below(4) {
+                0 => "G43".to_string(),
+                1 => "G49".to_string(),
+                _ => format!("G43 H{}", rng.pick(&[0, 1, 2, 4])),
+            },
+            _ => {
+                // G10 L10 (the active system) or L11 (G59.3): one to three
+                // of X, Y, Z.
+                let mut l = format!("G10 L{} P{}", rng.pick(&[10, 11]), rng.pick(&tools));
+                let mask = 1 + rng.below(7);
+                for (bit, axis, span) in [(1, 'X', 20.0), (2, 'Y', 20.0), (4, 'Z', 10.0)] {
+                    if mask & bit != 0 {
+                        write!(l, " {axis}{}", num(v(&mut rng, span))).unwrap();
+                    }
+                }
+                l
+            }
         };
         out.push_str(&line);
         out.push('\n');
@@ -1759,6 +1798,79 @@ fn differential_against_linuxcnc_rs274() {
     );
 }
 
+/// What rs274's standalone canon does that LinuxCNC's controller does not,
+/// and which [`generate_rotated`] therefore avoids: each program, the end
+/// of its last move as mtwin runs it and as rs274 does (program X Y Z, mm;
+/// hand-derived).
+const RS274_QUIRKS: &[(&str, &str, [f64; 3], [f64; 3])] = &[
+    (
+        // Tool 2 is 0.1 in = 2.54 mm long: after G43 H2 the point at
+        // machine Z 10 reads Z 7.46, and M6 keeps the offset in force.
+        // rs274 re-reads the point its canon was last sent (Z 10).
+        "a tool length offset changed before M6",
+        "G21 G90\nT1 M6\nG0 X0 Y0 Z10\nG43 H2\nT1 M6\nG0 X5\nM2\n",
+        [5.0, 0.0, 7.46],
+        [5.0, 0.0, 10.0],
+    ),
+    (
+        // Turning G54 by 90° makes machine (10, 0) read (0, -10); rs274
+        // re-reads its canon's (10, 0) after M6.
+        "a rotation changed before M6",
+        "G21 G90\nT1 M6\nG0 X10 Y0 Z0\nG10 L2 P1 R90\nT1 M6\nG0 Z1\nM2\n",
+        [0.0, -10.0, 1.0],
+        [10.0, 0.0, 1.0],
+    ),
+    (
+        // No tool loaded: G43 applies none in mtwin; rs274 starts with
+        // pocket 1 current, so G10 L1 P1 also wrote its spindle entry and
+        // G43 applies tool 1's new 0.5 mm.
+        "no tool loaded, G10 L1 of tool 1, G43",
+        "G21 G90\nG10 L1 P1 Z0.5\nG43\nG0 X1\nM2\n",
+        [1.0, 0.0, 0.0],
+        [1.0, 0.0, -0.5],
+    ),
+];
+
+#[test]
+fn rs274_standalone_quirks_the_generator_avoids() {
+    let Some(setup) = setup() else { return };
+    let work = setup.root.join("quirks");
+    std::fs::create_dir(&work).unwrap();
+    for (k, (name, program, ours_end, theirs_end)) in RS274_QUIRKS.iter().enumerate() {
+        let path = work.join(format!("quirk{k}.ngc"));
+        std::fs::write(&path, program).unwrap();
+        let theirs = run_rs274(&setup, &path, &work, None);
+        let ours = run_mtwin(program.as_bytes(), None);
+        assert!(theirs.refused.is_none() && ours.refused.is_none(), "{name}");
+        for (who, outcome, want) in [("mtwin", &ours, ours_end), ("rs274", &theirs, theirs_end)] {
+            let Some(Step::Move { end, .. }) = outcome.steps.last() else {
+                panic!("{name}: {who} made no move");
+            };
+            for i in 0..3 {
+                assert!(
+                    (end[i] - want[i]).abs() < 1e-3,
+                    "{name}: {who} ends at {end:?}, expected {want:?}"
+                );
+            }
+        }
+        // With the remedy the generator uses (a tool loaded first, a move
+        // to X Y Z right before M6) the two agree.
+        let fixed = program
+            .replace("G21 G90\n", "G21 G90\nT1 M6\n")
+            .replace("T1 M6\nG0 X5", "G0 X0 Y0 Z10\nT1 M6\nG0 X5")
+            .replace("R90\nT1 M6", "R90\nG0 X0 Y-10 Z0\nT1 M6");
+        let path = work.join(format!("fixed{k}.ngc"));
+        std::fs::write(&path, &fixed).unwrap();
+        let theirs = run_rs274(&setup, &path, &work, None);
+        let ours = run_mtwin(fixed.as_bytes(), None);
+        assert!(
+            matches!(classify(&ours, &theirs), Verdict::Agree),
+            "{name}: with the remedy, {fixed:?}: {:?}",
+            first_difference(&ours.steps, &theirs.steps)
+        );
+    }
+}
+
 #[test]
 fn canon_parser_reads_units_feeds_and_arcs() {
     // Hand-written rs274 output: inch, a feed, an arc and a dwell.
@@ -1806,7 +1918,21 @@ fn generated_programs_are_reproducible_and_varied() {
     let text: String = (0..ROTATED)
         .map(|k| generate_rotated(ROTATED_SEED + k))
         .collect();
-    for needle in ["G10 L2 P", "G10 L20 P", "G92 X", "G92.1", "G28", "G53 G0"] {
+    for needle in [
+        "G10 L2 P",
+        "G10 L20 P",
+        "G92 X",
+        "G92.1",
+        "G28",
+        "G53 G0",
+        "G10 L10 P",
+        "G10 L11 P",
+        "M6\n",
+        "G43\n",
+        "G43 H0",
+        "G43 H4",
+        "G49",
+    ] {
         assert!(
             text.contains(needle),
             "no {needle:?} in the rotated programs"

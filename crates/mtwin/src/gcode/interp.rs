@@ -1278,7 +1278,11 @@ impl Interpreter {
         let (axes, values) = self.axis_words(w, codes);
         let offset = match code {
             GCode::G49 => Axes::ZERO,
-            GCode::G43 | GCode::G43_4 => table_offset(self, h.unwrap_or(self.state.tool))?,
+            // H0 (as no H) is the tool in the spindle: LinuxCNC's tool
+            // index 0 is the spindle's entry.
+            GCode::G43 | GCode::G43_4 => {
+                table_offset(self, h.filter(|&h| h != 0).unwrap_or(self.state.tool))?
+            }
             GCode::G43_1 => {
                 let mut o = self.state.tool_offset;
                 for a in axes.iter() {
@@ -1292,6 +1296,7 @@ impl Interpreter {
                     return Err(s.invalid(col, "G43.2: Can not have both H and axis words"));
                 }
                 let added = match h {
+                    Some(0) => table_offset(self, self.state.tool)?,
                     Some(tool) => table_offset(self, tool)?,
                     None if axes.is_empty() => {
                         return Err(s.invalid(col, "G43.2: No axes specified and H word missing"));
@@ -4065,6 +4070,17 @@ mod tests {
         for bad in ["G43 H3\n", "G43.2\n", "G43.2 H1 Z1\n", "T1 M6 G43 H-1\n"] {
             assert!(run_with(bad, opts.clone()).is_err(), "{bad}");
         }
+        // H0 is the tool in the spindle (LinuxCNC's tool index 0, checked
+        // against rs274 2.9): tool 2 (X1 Z20), then added once more by
+        // G43.2; with no tool loaded, no offset.
+        let ev = run_with("T2 M6\nG43 H0\nG0 Z0\nG43.2 H0\nG0 Z0\n", opts.clone()).unwrap();
+        let offs: Vec<(f64, f64)> = moves(&ev)
+            .iter()
+            .map(|k| (lin(k).offset[Axis::X], lin(k).offset[Axis::Z]))
+            .collect();
+        assert_eq!(offs, [(1.0, 20.0), (2.0, 40.0)]);
+        let ev = run_with("G43 H0\nG0 Z0\n", opts).unwrap();
+        assert_eq!(lin(&moves(&ev)[0]).offset[Axis::Z], 0.0);
     }
 
     /// G33 moves at K per revolution of S; G33.1 taps to the end and back

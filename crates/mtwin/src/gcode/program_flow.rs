@@ -25,11 +25,16 @@
 //!   flow does nothing, and `M99` of the main program ends it (as M2, as
 //!   LinuxCNC's standalone interpreter). `o#<n> call` and `O[expr] call`
 //!   compute the label.
-//! * `(DEBUG,…)`, `(PRINT,…)` and `(ABORT,…)` comments go to [`ProgramOptions::messages`]
-//!   with `#n` / `#<name>` replaced by their values (six decimals, as
-//!   LinuxCNC prints them; an undefined name prints `######`); an
+//! * `(DEBUG,…)`, `(PRINT,…)`, `(ABORT,…)` and `(MSG,…)` comments go to
+//!   [`ProgramOptions::messages`], the first three with `#n` / `#<name>`
+//!   replaced by their values as LinuxCNC prints them (six decimals unless
+//!   a `%d`, `%f` or `%.Nf` says otherwise; an undefined name prints
+//!   `######`); as in LinuxCNC only the last comment of a line runs. An
 //!   `(ABORT,…)` comment then stops the program with an error naming its
 //!   line, before the block's other words run.
+//! * Python is not run: `(py,…)`, `(pyrun,…)`, `(pyreload)` and a line
+//!   starting `;py,` are refused as unsupported, and so is a call of a
+//!   subroutine found nowhere when the INI names a Python module.
 //! * Every executed block counts against [`ProgramOptions::max_blocks`]; a
 //!   program that runs longer (an endless loop) stops with an error naming
 //!   the line. Subroutine calls nest at most [`MAX_CALL_DEPTH`] deep.
@@ -56,10 +61,10 @@ pub const MAX_CALL_DEPTH: usize = 10;
 /// ([`ProgramOptions::max_blocks`]): about a minute of interpretation.
 pub const DEFAULT_MAX_BLOCKS: u64 = crate::limits::MAX_EXECUTED_BLOCKS;
 
-/// A `(DEBUG,…)` or `(PRINT,…)` message.
+/// A `(DEBUG,…)`, `(PRINT,…)`, `(ABORT,…)` or `(MSG,…)` message.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Message {
-    /// `DEBUG` or `PRINT`.
+    /// Which comment.
     pub kind: MessageKind,
     /// The text after the comma, parameters replaced by their values.
     pub text: String,
@@ -78,6 +83,9 @@ pub enum MessageKind {
     Print,
     /// `(ABORT,…)`: the message, then the program stops with an error.
     Abort,
+    /// `(MSG,…)`: an operator message, its text as written (parameters
+    /// not replaced).
+    Msg,
 }
 
 /// Where messages go: a callback (the CLI prints them on stderr), or nowhere.
@@ -140,6 +148,12 @@ pub struct ProgramOptions {
     /// caller that only interprets (statistics, interpolation) neither reads
     /// nor holds the rest of a long file.
     pub keep_rest: bool,
+    /// The module of the INI's `[PYTHON] TOPLEVEL` (LinuxCNC's embedded
+    /// Python), if any. mtwin runs no Python: with it set, a call of a
+    /// subroutine that is neither in the program nor a file on the
+    /// subroutine path is refused as an unsupported Python o-word
+    /// subroutine (LinuxCNC would look for it in that module).
+    pub python: Option<PathBuf>,
 }
 
 impl Default for ProgramOptions {
@@ -150,6 +164,7 @@ impl Default for ProgramOptions {
             max_blocks: DEFAULT_MAX_BLOCKS,
             messages: MessageSink::default(),
             keep_rest: false,
+            python: None,
         }
     }
 }
@@ -160,10 +175,12 @@ impl ProgramOptions {
     /// [`Parameters::load_ini`]) and the directories of its
     /// `[RS274NGC] SUBROUTINE_PATH` (separated by `:`, a relative one taken
     /// from `dir`, where LinuxCNC runs) are searched after those already in
-    /// [`ProgramOptions::subroutine_path`].
+    /// [`ProgramOptions::subroutine_path`]; its `[PYTHON] TOPLEVEL` (taken
+    /// from `dir` too) becomes [`ProgramOptions::python`].
     pub fn apply_ini(&mut self, text: &str, dir: &std::path::Path) {
         Arc::make_mut(&mut self.parameters).load_ini(text);
         let mut section = "";
+        let mut path_read = false;
         for line in text.lines() {
             let t = line.trim();
             if let Some(rest) = t.strip_prefix('[') {
@@ -173,12 +190,15 @@ impl ProgramOptions {
             let Some((key, value)) = t.split_once('=') else {
                 continue;
             };
-            if section == "RS274NGC" && key.trim() == "SUBROUTINE_PATH" {
+            // LinuxCNC reads the first SUBROUTINE_PATH entry only.
+            if section == "RS274NGC" && key.trim() == "SUBROUTINE_PATH" && !path_read {
+                path_read = true;
                 for d in value.trim().split(':').filter(|d| !d.trim().is_empty()) {
                     self.subroutine_path.push(dir.join(d.trim()));
                 }
-                // LinuxCNC reads the first entry only.
-                break;
+            }
+            if section == "PYTHON" && key.trim() == "TOPLEVEL" && !value.trim().is_empty() {
+                self.python = Some(dir.join(value.trim()));
             }
         }
     }
@@ -369,94 +389,165 @@ fn word_value(block: &Block, w: &super::syntax::Word, params: &Parameters) -> Re
     }
 }
 
-/// Sends the `(DEBUG,…)` / `(PRINT,…)` / `(ABORT,…)` comments of a block;
-/// an `(ABORT,…)` one then stops the program with its text as the error.
+/// Sends the `(DEBUG,…)` / `(PRINT,…)` / `(ABORT,…)` / `(MSG,…)` comment
+/// of a block (its last); an `(ABORT,…)` one then stops the program with
+/// its text as the error. A comment LinuxCNC runs as Python is refused.
 fn messages(
     block: &Block,
     params: &Parameters,
     opts: &ProgramOptions,
     file: Option<&PathBuf>,
 ) -> Result<(), GcodeError> {
+    // LinuxCNC keeps one comment per line, the last in parentheses: only
+    // that one runs.
+    let mut last = None;
     for item in block.items() {
-        let Item::Comment {
-            kind: CommentKind::Paren,
-            span,
-        } = item
-        else {
-            continue;
-        };
-        let inner = &block.text()[span.start + 1..span.end - 1];
-        // Most comments are none of these: one look at the first byte after
-        // the leading (ASCII) white space tells, without decoding the text.
-        let first = inner
-            .iter()
-            .find(|&&c| !matches!(c, b' ' | b'\t' | b'\n' | 0x0b | 0x0c | b'\r'));
-        if first
-            .is_some_and(|&c| c.is_ascii() && !matches!(c.to_ascii_uppercase(), b'D' | b'P' | b'A'))
-            || first.is_none()
-        {
-            continue;
+        match item {
+            Item::Comment {
+                kind: CommentKind::Paren,
+                span,
+            } => last = Some(span),
+            // LinuxCNC runs a line that starts with `;py,` as Python.
+            Item::Comment {
+                kind: CommentKind::Semicolon,
+                span,
+            } if span.start == 0 && block.text().starts_with(b";py,") => {
+                return Err(python_comment(block.line(), 1, ";py,"));
+            }
+            _ => {}
         }
-        let s = String::from_utf8_lossy(inner);
-        let trimmed = s.trim_start();
-        let upper = trimmed.get(..6).map(str::to_ascii_uppercase);
-        let kind = match upper.as_deref() {
-            Some("DEBUG,") => MessageKind::Debug,
-            Some("PRINT,") => MessageKind::Print,
-            Some("ABORT,") => MessageKind::Abort,
-            _ => continue,
+    }
+    let Some(span) = last else {
+        return Ok(());
+    };
+    let inner = &block.text()[span.start + 1..span.end - 1];
+    // Most comments are none of these: one look at the first byte after
+    // the leading (ASCII) white space tells, without decoding the text.
+    let first = inner
+        .iter()
+        .find(|&&c| !matches!(c, b' ' | b'\t' | b'\n' | 0x0b | 0x0c | b'\r'));
+    if first.is_none_or(|&c| {
+        c.is_ascii() && !matches!(c.to_ascii_uppercase(), b'D' | b'P' | b'A' | b'M')
+    }) {
+        return Ok(());
+    }
+    let s = String::from_utf8_lossy(inner);
+    let trimmed = s.trim_start();
+    let upper = trimmed.get(..6).unwrap_or(trimmed).to_ascii_uppercase();
+    let (kind, text) = if upper.starts_with("MSG,") {
+        // Shown as it is, parameters not replaced.
+        (MessageKind::Msg, trimmed[4..].to_string())
+    } else {
+        let kind = match upper.as_str() {
+            "DEBUG," => MessageKind::Debug,
+            "PRINT," => MessageKind::Print,
+            "ABORT," => MessageKind::Abort,
+            _ => {
+                let lower = trimmed.get(..8).unwrap_or(trimmed).to_ascii_lowercase();
+                if let Some(p) = ["py,", "pyrun,", "pyreload"]
+                    .into_iter()
+                    .find(|p| lower.starts_with(p))
+                {
+                    return Err(python_comment(
+                        block.line(),
+                        span.start + 1,
+                        &format!("({p}…)"),
+                    ));
+                }
+                return Ok(());
+            }
         };
-        let text = substitute(&trimmed[6..], params);
-        opts.messages.send(&Message {
-            kind,
-            text: text.clone(),
-            file: file.cloned(),
-            line: block.line(),
-        });
-        if kind == MessageKind::Abort {
-            return Err(GcodeError::invalid(
-                block.line(),
-                span.start + 1,
-                format!("program aborted by (ABORT,…):{text}"),
-            ));
-        }
+        (kind, substitute(&trimmed[6..], params))
+    };
+    opts.messages.send(&Message {
+        kind,
+        text: text.clone(),
+        file: file.cloned(),
+        line: block.line(),
+    });
+    if kind == MessageKind::Abort {
+        return Err(GcodeError::invalid(
+            block.line(),
+            span.start + 1,
+            format!("program aborted by (ABORT,…):{text}"),
+        ));
     }
     Ok(())
 }
 
-/// The text with `#n` and `#<name>` replaced by their values.
+/// The refusal of a comment LinuxCNC runs as Python (`(py,…)`,
+/// `(pyrun,…)`, `(pyreload)`, a line starting `;py,`).
+fn python_comment(line: u64, column: usize, what: &str) -> GcodeError {
+    GcodeError::unsupported(
+        line,
+        column,
+        format!("embedded Python {what} comment: LinuxCNC runs it as Python, mtwin runs no Python"),
+    )
+}
+
+/// The text of a `(DEBUG,…)`, `(PRINT,…)` or `(ABORT,…)` comment with `#n`
+/// and `#<name>` replaced by their values, as LinuxCNC formats them: six
+/// decimals, or as the last `%d` (none), `%f` (four) or `%.Nf` (N) before
+/// them in the comment says; a value within 0.0001 of zero prints as zero; a
+/// parameter number beyond 5601 or an unset name prints `######`. A `%`
+/// before anything else stays, `%.` without `Nf` prints `.`; a `#` before
+/// anything else, or a name not closed by `>`, stays as written.
 pub(crate) fn substitute(text: &str, params: &Parameters) -> String {
     let b = text.as_bytes();
-    let mut out = String::new();
+    let mut out = String::with_capacity(text.len());
+    let mut decimals = 6usize;
     let mut i = 0;
     while i < b.len() {
-        if b[i] == b'#' {
-            if b.get(i + 1) == Some(&b'<') {
-                if let Some(k) = b[i + 2..].iter().position(|&c| c == b'>') {
-                    let name = normalise_name(&text[i + 2..i + 2 + k]);
-                    match params.get_named(&name) {
-                        Ok(v) => out.push_str(&format!("{v:.6}")),
-                        Err(_) => out.push_str("######"),
+        let value = match b[i] {
+            b'%' => {
+                match (b.get(i + 1), b.get(i + 2), b.get(i + 3)) {
+                    (Some(b'd'), ..) => (decimals, i) = (0, i + 2),
+                    (Some(b'f'), ..) => (decimals, i) = (4, i + 2),
+                    (Some(b'.'), Some(d), Some(b'f')) if d.is_ascii_digit() => {
+                        (decimals, i) = (usize::from(d - b'0'), i + 4);
                     }
-                    i += k + 3;
-                    continue;
-                }
-            } else {
-                let digits = b[i + 1..].iter().take_while(|c| c.is_ascii_digit()).count();
-                if digits > 0 {
-                    let n: f64 = text[i + 1..i + 1 + digits].parse().unwrap_or(0.0);
-                    match Parameters::index(n) {
-                        Ok(n) => out.push_str(&format!("{:.6}", params.get(n))),
-                        Err(_) => out.push_str("######"),
+                    (Some(b'.'), ..) => {
+                        out.push('.');
+                        i += 2;
                     }
-                    i += digits + 1;
-                    continue;
+                    _ => {
+                        out.push('%');
+                        i += 1;
+                    }
                 }
+                continue;
             }
+            b'#' if b.get(i + 1).is_some_and(u8::is_ascii_digit) => {
+                let digits = b[i + 1..].iter().take_while(|c| c.is_ascii_digit()).count();
+                let n: Option<u32> = text[i + 1..i + 1 + digits].parse().ok();
+                i += 1 + digits;
+                // #0 is LinuxCNC's parameter 0, never set.
+                n.filter(|&n| n < super::parameters::MAX_NUMBERED)
+                    .map(|n| if n == 0 { 0.0 } else { params.get(n) })
+            }
+            b'#' if b.get(i + 1) == Some(&b'<') => {
+                let Some(k) = b[i + 2..].iter().position(|&c| c == b'>') else {
+                    out.push_str(&text[i..]);
+                    break;
+                };
+                let name = normalise_name(&text[i + 2..i + 2 + k]);
+                i += k + 3;
+                params.get_named(&name).ok()
+            }
+            _ => {
+                let ch = text[i..].chars().next().unwrap_or(' ');
+                out.push(ch);
+                i += ch.len_utf8();
+                continue;
+            }
+        };
+        match value {
+            Some(v) => {
+                let v = if v.abs() < 1e-4 { 0.0 } else { v };
+                out.push_str(&format!("{v:.decimals$}"));
+            }
+            None => out.push_str("######"),
         }
-        let ch = text[i..].chars().next().unwrap_or(' ');
-        out.push(ch);
-        i += ch.len_utf8();
     }
     out
 }
@@ -965,6 +1056,31 @@ fn parse_stmt(block: &Block, fanuc: bool) -> Result<Option<Stmt>, GcodeError> {
     }))
 }
 
+/// The runs of `[..]` arguments of a call, split at the comments between
+/// them (`[1] (note) [2]` is `[1]` and `[2]`, as LinuxCNC reads a call),
+/// and where the arguments and comments end in `text`; `None` when a
+/// bracket or a comment is not closed.
+fn call_arguments(text: &[u8]) -> Option<(Vec<&[u8]>, usize)> {
+    let mut runs = Vec::new();
+    let (mut start, mut i) = (0, 0);
+    loop {
+        while text.get(i).is_some_and(|c| matches!(c, b' ' | b'\t')) {
+            i += 1;
+        }
+        match text.get(i) {
+            Some(b'[') => i = value_end(text, i, text.len())?,
+            Some(b'(') => {
+                runs.push(&text[start..i]);
+                i += text[i..].iter().position(|&c| c == b')')? + 1;
+                start = i;
+            }
+            _ => break,
+        }
+    }
+    runs.push(&text[start..i]);
+    Some((runs, i))
+}
+
 /// End (exclusive) of the parameter reference (`#n`, `#<name>`, `#[..]`,
 /// `##..`) or `[..]` expression starting at `i`, within `text[..end]`.
 fn value_end(text: &[u8], mut i: usize, end: usize) -> Option<usize> {
@@ -1249,8 +1365,26 @@ impl Flow<'_> {
             let col = st.column;
             let params = interp.parameters();
             let args = |what: &str| -> Result<Vec<f64>, GcodeError> {
-                let (v, end) = expr::bracket_list(rest, params)
-                    .map_err(|e| GcodeError::invalid(line, st.rest + 1, e.to_string()))?;
+                // A call's arguments may have comments between them (LinuxCNC
+                // reads `[1] (note) [2]` as two arguments).
+                let bad =
+                    |e: expr::ExprError| GcodeError::invalid(line, st.rest + 1, e.to_string());
+                let (v, end) = if st.kind == Kind::Call {
+                    let Some((runs, end)) = call_arguments(rest) else {
+                        return Err(GcodeError::syntax(
+                            line,
+                            st.rest + 1,
+                            "a call argument '[' or a comment '(' is not closed",
+                        ));
+                    };
+                    let mut v = Vec::new();
+                    for run in runs {
+                        v.extend(expr::bracket_list(run, params).map_err(bad)?.0);
+                    }
+                    (v, end)
+                } else {
+                    expr::bracket_list(rest, params).map_err(bad)?
+                };
                 let tail = &rest[end..];
                 if !tail.is_empty() && !matches!(tail[0], b'(' | b';') {
                     return Err(GcodeError::syntax(
@@ -1342,9 +1476,15 @@ impl Flow<'_> {
                             ),
                         ));
                     }
-                    let (tc, start) = self
-                        .find_sub(c, &label)
-                        .map_err(|m| fail(&self.files, GcodeError::invalid(line, col, m)))?;
+                    let (tc, start) = self.find_sub(c, &label).map_err(|e| {
+                        fail(
+                            &self.files,
+                            match e {
+                                SubNotRun::Invalid(m) => GcodeError::invalid(line, col, m),
+                                SubNotRun::Unsupported(m) => GcodeError::unsupported(line, col, m),
+                            },
+                        )
+                    })?;
                     self.recorded.insert((tc, start));
                     let saved = interp.parameters_mut().enter_call(&v);
                     let _ = interp.parameters_mut().set_named("_value_returned", 0.0);
@@ -1586,7 +1726,7 @@ impl Flow<'_> {
     /// The code and statement index of subroutine `label`: the program's own
     /// definitions first, then the calling file's, then `label.ngc` on the
     /// search path (read once).
-    fn find_sub(&mut self, from: usize, label: &str) -> Result<(usize, usize), String> {
+    fn find_sub(&mut self, from: usize, label: &str) -> Result<(usize, usize), SubNotRun> {
         if let Some(&s) = self.codes[0].subs.get(label) {
             return Ok((0, s));
         }
@@ -1602,9 +1742,9 @@ impl Flow<'_> {
                 .get(label)
                 .is_some_and(|v| v.iter().any(|&k| self.codes[from].kind(k) == Kind::Program))
         {
-            return Err(format!(
+            return Err(SubNotRun::Invalid(format!(
                 "O{label} is a program line (Fanuc style), called with M98 P{label}, not o{label} call"
-            ));
+            )));
         }
         let name = format!("{label}.ngc");
         let Some(path) = self
@@ -1614,25 +1754,44 @@ impl Flow<'_> {
             .map(|d| d.join(&name))
             .find(|p| p.is_file())
         else {
-            return Err(format!(
+            if let Some(module) = &self.opts.python {
+                // LinuxCNC would look for it in the Python module first.
+                return Err(SubNotRun::Unsupported(format!(
+                    "Python o-word subroutine o<{label}> call: o<{label}> is neither in \
+                     the program nor on the subroutine path, and mtwin runs no Python (the \
+                     INI's [PYTHON] TOPLEVEL {})",
+                    module.display()
+                )));
+            }
+            return Err(SubNotRun::Invalid(format!(
                 "Unable to open file {name}: subroutine o<{label}> is not defined in the program and no directory of the subroutine path has {name}"
-            ));
+            )));
         };
         let file = self.files.len() as u32 + 1;
         self.files.push(path.clone());
-        let bytes =
-            std::fs::read(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        let bytes = std::fs::read(&path)
+            .map_err(|e| SubNotRun::Invalid(format!("cannot read {}: {e}", path.display())))?;
         let blocks = BlockReader::new(&bytes[..])
             .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| format!("{}:{}", path.display(), located_text(&e)))?;
+            .map_err(|e| SubNotRun::Invalid(format!("{}:{}", path.display(), located_text(&e))))?;
         let code = Code::new(blocks, file, self.fanuc)
-            .map_err(|e| format!("{}:{}", path.display(), located_text(&e)))?;
+            .map_err(|e| SubNotRun::Invalid(format!("{}:{}", path.display(), located_text(&e))))?;
         let Some(&s) = code.subs.get(label) else {
-            return Err(format!("{} does not define o<{label}> sub", path.display()));
+            return Err(SubNotRun::Invalid(format!(
+                "{} does not define o<{label}> sub",
+                path.display()
+            )));
         };
         self.codes.push(code);
         Ok((self.codes.len() - 1, s))
     }
+}
+
+/// Why a called subroutine cannot run: an error of the program, or a
+/// subroutine mtwin does not run (Python).
+enum SubNotRun {
+    Invalid(String),
+    Unsupported(String),
 }
 
 /// The label of a computed `o#<n> call` / `O[expr] call`: the value as an
@@ -1716,6 +1875,103 @@ mod tests {
         let m = moves_with(src, InterpOptions::default()).unwrap();
         // Inside: X = 3² = 9, Y = 4 (line 3); after: _value = 10, #1 restored to 9.
         assert_eq!(m, vec![([9.0, 4.0, 0.0], 3), ([10.0, 9.0, 1.0], 8)]);
+    }
+
+    #[test]
+    fn comments_between_call_arguments_are_skipped() {
+        // LinuxCNC reads a call's `[..]` arguments and the comments between
+        // them: `[1] (note) [2] [3]` is #1 = 1, #2 = 2, #3 = 3 (the
+        // flowsnake conformance program's first call has such a comment).
+        let src = "o<s> sub\nG0 X#1 Y#2 Z#3\no<s> endsub\n\
+                   o<s> call [1] (will this comment cause problems) [2] ( two )[1+2] (end)\nM2\n";
+        let m = moves_with(src, InterpOptions::default()).unwrap();
+        assert_eq!(m, vec![([1.0, 2.0, 3.0], 2)]);
+        // Text other than a comment after the arguments is still refused.
+        let e = err("o<s> sub\no<s> endsub\no<s> call [1] (c) X2\nM2\n");
+        assert!(e.to_string().contains("after the call arguments"), "{e}");
+        let e = err("o<s> sub\no<s> endsub\no<s> call [1] (c) [2\nM2\n");
+        assert_eq!(e.location().unwrap().line, 3, "{e}");
+    }
+
+    #[test]
+    fn value_returned_as_the_linuxcnc_case_checks_it() {
+        // The G-code part of LinuxCNC's `value-returned` test, its Python
+        // asserts written as moves to X = #<_value>, Y = #<_value_returned>:
+        // 0 0 at the start; endsub [4711] returns 4711; a procedure clears
+        // both; a `return [4712]` (labelled o100, inside o<function2>)
+        // returns 4712; the procedure clears them again.
+        let src = "o<function1> sub\no<function1> endsub [4711]\n\
+                   o<function2> sub\no100 return [4712]\no<function2> endsub\n\
+                   o<proc> sub\no<proc> endsub\n\
+                   G0 X#<_value> Y#<_value_returned>\n\
+                   o<function1> call\nG0 X#<_value> Y#<_value_returned>\n\
+                   o<proc> call\nG0 X#<_value> Y#<_value_returned>\n\
+                   o<function2> call\nG0 X#<_value> Y#<_value_returned>\n\
+                   o<proc> call\nG0 X#<_value> Y#<_value_returned>\nM2\n";
+        let ends: Vec<[f64; 3]> = moves_with(src, InterpOptions::default())
+            .unwrap()
+            .iter()
+            .map(|(p, _)| *p)
+            .collect();
+        assert_eq!(
+            ends,
+            vec![
+                [0.0, 0.0, 0.0],
+                [4711.0, 1.0, 0.0],
+                [0.0, 0.0, 0.0],
+                [4712.0, 1.0, 0.0],
+                [0.0, 0.0, 0.0]
+            ]
+        );
+    }
+
+    #[test]
+    fn python_comments_and_subroutines_are_refused_as_unsupported() {
+        let unsupported = |src: &str, opts: InterpOptions| match moves_with(src, opts) {
+            Err(e @ GcodeError::Unsupported { .. }) => e,
+            other => panic!("{src:?}: {other:?}"),
+        };
+        // `(py,…)`, `(pyrun,…)`, `(pyreload)` anywhere, `;py,` at the start
+        // of a line: LinuxCNC runs them as Python.
+        for (src, line, col) in [
+            ("G0 X1\nG0 X2 (py,x = 1)\nM2\n", 2, 7),
+            ("G0 X1 ( PyRun,f.py)\nM2\n", 1, 7),
+            ("(pyreload)\nM2\n", 1, 1),
+            ("G0 X1\n;py,import interpreter\nM2\n", 2, 1),
+        ] {
+            let e = unsupported(src, InterpOptions::default());
+            assert!(e.to_string().contains("Python"), "{e}");
+            let at = e.location().unwrap();
+            assert_eq!((at.line, at.column), (line, col), "{src:?}: {e}");
+        }
+        // Other comments that only look alike are comments.
+        assert_eq!(
+            xs("G0 X1 ;py,not at the line start\n(python)\nM2\n"),
+            vec![1.0]
+        );
+        // A call of a subroutine found nowhere: with a Python module in
+        // the INI it is refused as a Python o-word subroutine, without one
+        // as a missing subroutine.
+        let src = "G0 X1\no<canonmove> call [1] [2] [3]\nM2\n";
+        let mut opts = InterpOptions::default();
+        opts.program.apply_ini(
+            "[PYTHON]\nTOPLEVEL = subs.py\n",
+            std::path::Path::new("/cnc"),
+        );
+        assert_eq!(
+            opts.program.python.as_deref(),
+            Some(std::path::Path::new("/cnc/subs.py"))
+        );
+        let e = unsupported(src, opts);
+        assert!(
+            e.to_string()
+                .contains("Python o-word subroutine o<canonmove>"),
+            "{e}"
+        );
+        assert_eq!(e.location().unwrap().line, 2);
+        let e = err(src);
+        assert!(matches!(e, GcodeError::Invalid { .. }), "{e}");
+        assert!(e.to_string().contains("canonmove.ngc"), "{e}");
     }
 
     #[test]
@@ -2113,8 +2369,41 @@ mod tests {
                 ),
                 (MessageKind::Print, "2.500000".to_string(), 5),
                 (MessageKind::Print, "2.500000".to_string(), 5),
+                (MessageKind::Msg, " not this".to_string(), 7),
             ]
         );
+    }
+
+    #[test]
+    fn messages_format_as_linuxcnc_prints_them() {
+        // LinuxCNC's rules (checked against rs274 2.9): only the last
+        // comment of a line runs; `%d`, `%f`, `%.Nf` set the decimals of the
+        // values after them (0, 4, N); `%.` without `Nf` prints `.`, `%`
+        // before anything else stays; within 0.0001 of zero prints as zero;
+        // #0 reads 0 and #5602 is out of range; MSG is not substituted.
+        let got: Arc<Mutex<Vec<(MessageKind, String)>>> = Arc::default();
+        let sink = got.clone();
+        let mut opts = InterpOptions::default();
+        opts.program.messages = MessageSink::new(move |m: &Message| {
+            sink.lock().unwrap().push((m.kind, m.text.clone()));
+        });
+        let src = "#1=0.00005\n#<a>=-0.00001\n#2=1.123456789\nG0 X1 (DEBUG,a) (DEBUG,b)\n\
+                   (DEBUG,x %.3 y %z #1 #<a> #0 #5602 #< A > %.2f#2 #3 %d#2)\n(MSG,m #1)\n\
+                   (debug,%f#2 %.7f#2 #2 # #<a)\nM2\n";
+        moves_with(src, opts).unwrap();
+        let got = got.lock().unwrap().clone();
+        let want = [
+            (MessageKind::Debug, "b"),
+            (
+                MessageKind::Debug,
+                "x .3 y %z 0.000000 0.000000 0.000000 ###### 0.000000 1.12 0.00 1",
+            ),
+            (MessageKind::Msg, "m #1"),
+            (MessageKind::Debug, "1.1235 1.1234568 1.1234568 # #<a"),
+        ];
+        let want: Vec<(MessageKind, String)> =
+            want.iter().map(|(k, t)| (*k, t.to_string())).collect();
+        assert_eq!(got, want);
     }
 
     #[test]
