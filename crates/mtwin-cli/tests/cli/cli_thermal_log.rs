@@ -187,6 +187,38 @@ fn fit_log_with_one_held_out_block() {
     }
 }
 
+/// `--lags --input-rule every-block`: sums of first-order lags offered beside
+/// the ARX orders, an input kept only when it lowers the error in every
+/// held-out block: the same machine recovered (its exact first-order ARX
+/// model has no held-out error, so no lag structure can beat it), the
+/// distractor temperature left out, a bad rule refused.
+#[test]
+fn fit_log_with_lags_and_the_every_block_rule() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    setup(p);
+    let mut a = FIT.to_vec();
+    a.extend(["--lags", "--input-rule", "every-block"]);
+    let (doc, _) = json_round_trip::<mtwin::methods::thermal::ThermalLogFitDoc>(p, &a);
+    assert_eq!(doc.channels[0].selection[0].input, "speed_rpm");
+    assert_eq!(doc.channels[1].selection[0].input, "t1_c");
+    for c in &doc.channels {
+        assert!(c.heldout_rms_mm < 1e-7, "{c:?}");
+        assert!(c.selection.iter().all(|s| s.input != "t2_c"), "{c:?}");
+    }
+    let t = doc.test.as_ref().unwrap();
+    assert!(
+        t.channels.iter().all(|s| s.error_over_drift_rms < 1e-4),
+        "{t:?}"
+    );
+    let mut bad = FIT.to_vec();
+    bad.extend(["--input-rule", "median"]);
+    let out = mtwin(p, &bad);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("every-block"), "{err}");
+}
+
 #[test]
 fn predict_log_scores_a_measured_column_against_its_rows() {
     let dir = tempfile::tempdir().unwrap();

@@ -33,7 +33,11 @@
 //! minimisation (kept only when it lowers the simulation error and stays
 //! stable). After the forward pass, a backward pass removes any input
 //! whose removal raises the held-out RMS by less than `min_gain` (one picked
-//! early and made redundant by a later one).
+//! early and made redundant by a later one). With
+//! [`InputRule::EveryBlock`] an input must also lower the simulation error
+//! in every held-out block to be added (and to be kept by the backward
+//! pass): a slowly wandering sensor that matches one block's residual by
+//! chance can lower the pooled figure while raising the other blocks'.
 //!
 //! **Sums of first-order lags** ([`LogFitOptions::lags`], off by default).
 //! Each channel may also be modelled as `Σ_i Σ_τ g_{i,τ}·lag_τ(u_i)`: every
@@ -666,6 +670,8 @@ pub struct LogFitOptions {
     /// candidate structures beside the ARX order grid ([`best_lags`]). Off
     /// by default (the documented real-record figures are fitted without).
     pub lags: bool,
+    /// When an input is worth adding (and keeping): see [`InputRule`].
+    pub rule: InputRule,
     /// Parallelism: the candidate inputs of a selection step are judged in
     /// parallel (each candidate's fits on one thread);
     /// [`Par::Seq`](crate::par::Par::Seq) on the calling thread only. Both
@@ -685,7 +691,49 @@ impl Default for LogFitOptions {
             gain_bound: 10.0,
             warn_ratio: 0.5,
             lags: false,
+            rule: InputRule::Pooled,
             par: crate::par::Par::rayon(0),
+        }
+    }
+}
+
+/// When the forward selection adds an input (and when the backward pass
+/// keeps one): the structure with the input must lower the pooled held-out
+/// RMS by at least [`LogFitOptions::min_gain`], and with
+/// [`InputRule::EveryBlock`] also lower the simulation error in every
+/// held-out block of the cross-validation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum InputRule {
+    /// The pooled held-out RMS alone.
+    #[default]
+    Pooled,
+    /// The pooled held-out RMS, and the error in every held-out block: an
+    /// input must help wherever it is judged, not in one block by a margin
+    /// that outweighs the others (a slowly wandering sensor that matches
+    /// one stretch of the residual by chance).
+    EveryBlock,
+}
+
+impl std::str::FromStr for InputRule {
+    type Err = String;
+    fn from_str(s: &str) -> Result<InputRule, String> {
+        match s.trim() {
+            "pooled" => Ok(InputRule::Pooled),
+            "every-block" => Ok(InputRule::EveryBlock),
+            other => Err(format!("`{other}`: say pooled or every-block")),
+        }
+    }
+}
+
+impl InputRule {
+    /// Does `new` (a structure with one input more) improve on `old`?
+    fn improves(self, old: &Candidate, new: &Candidate, min_gain: f64) -> bool {
+        if new.heldout_rms >= (1.0 - min_gain) * old.heldout_rms {
+            return false;
+        }
+        match self {
+            InputRule::Pooled => true,
+            InputRule::EveryBlock => old.blocks.iter().zip(&new.blocks).all(|(o, n)| n < o),
         }
     }
 }
@@ -769,7 +817,10 @@ fn rms(v: impl Iterator<Item = f64>) -> f64 {
 struct Candidate {
     inputs: Vec<usize>,
     orders: ArxOrders,
+    /// Pooled held-out RMS, mm.
     heldout_rms: f64,
+    /// Per held-out block its simulation MSE, mm².
+    blocks: Vec<f64>,
     /// Time constants (model periods) of a sum-of-lags candidate
     /// ([`best_lags`]); `None` for an ARX candidate.
     lags: Option<Vec<f64>>,
@@ -835,12 +886,49 @@ fn fit_fold(
     fit_arx(&runs, orders, Start::AtRest).ok().map(|f| f.model)
 }
 
-/// Pooled simulation RMS of `model`-structures over the folds: each fold's
-/// model simulated from rest at sample 0 up to the end of its test block,
-/// the squared errors of all test blocks pooled. `None` when a fold's model
-/// cannot be fitted (`fit` gives `None`) or is not admissible: the folds are
-/// fitted one after the other by `fit(fold index, fold)` and the first
-/// failure ends the candidate (the later folds are not fitted).
+/// The held-out errors of a candidate over the folds: per held-out block its
+/// sum of squared simulation errors and its number of samples.
+#[derive(Debug, Clone, PartialEq)]
+struct HeldOut {
+    ss: Vec<f64>,
+    n: Vec<usize>,
+}
+
+impl HeldOut {
+    fn new() -> HeldOut {
+        HeldOut {
+            ss: Vec::new(),
+            n: Vec::new(),
+        }
+    }
+
+    /// The squared errors of all held-out blocks pooled into one RMS.
+    fn rms(&self) -> f64 {
+        let n: usize = self.n.iter().sum();
+        (self.ss.iter().sum::<f64>() / n.max(1) as f64).sqrt()
+    }
+
+    /// Per held-out block its mean squared error.
+    fn block_mse(&self) -> Vec<f64> {
+        self.ss
+            .iter()
+            .zip(&self.n)
+            .map(|(s, &n)| s / n.max(1) as f64)
+            .collect()
+    }
+
+    fn finite(self) -> Option<HeldOut> {
+        self.ss.iter().all(|v| v.is_finite()).then_some(self)
+    }
+}
+
+/// Held-out simulation errors of `model`-structures over the folds: each
+/// fold's model simulated from rest at sample 0 up to the end of its test
+/// block, the squared errors of each test block summed ([`HeldOut`]).
+/// `None` when a fold's model cannot be fitted (`fit` gives `None`) or is
+/// not admissible: the folds are fitted one after the other by `fit(fold
+/// index, fold)` and the first failure ends the candidate (the later folds
+/// are not fitted).
 fn cv_rms(
     y: &[f64],
     u: &[Vec<f64>],
@@ -849,8 +937,8 @@ fn cv_rms(
     mut fit: impl FnMut(usize, &Fold) -> Option<Arx>,
     options: &LogFitOptions,
     y_max: f64,
-) -> Option<f64> {
-    let (mut ss, mut n) = (0.0, 0usize);
+) -> Option<HeldOut> {
+    let mut held = HeldOut::new();
     for (i, fold) in folds.iter().enumerate() {
         let model = &fit(i, fold)?;
         if !admissible(model, options, y_max) {
@@ -858,13 +946,11 @@ fn cv_rms(
         }
         let full: Vec<&[f64]> = inputs.iter().map(|&i| &u[i][..fold.test.end]).collect();
         let sim = model.simulate(&full).ok()?;
-        for k in fold.test.clone() {
-            ss += (sim[k] - y[k]).powi(2);
-            n += 1;
-        }
+        let ss: f64 = fold.test.clone().map(|k| (sim[k] - y[k]).powi(2)).sum();
+        held.ss.push(ss);
+        held.n.push(fold.test.len());
     }
-    let e = (ss / n.max(1) as f64).sqrt();
-    e.is_finite().then_some(e)
+    held.finite()
 }
 
 /// Try every order pair for `inputs` (indices into `u`): least squares on
@@ -893,7 +979,8 @@ fn best_orders(
                 ranked.push(Candidate {
                     inputs: inputs.to_vec(),
                     orders,
-                    heldout_rms: e,
+                    heldout_rms: e.rms(),
+                    blocks: e.block_mse(),
                     lags: None,
                 });
             }
@@ -946,7 +1033,8 @@ fn best_orders(
                 keep(Candidate {
                     inputs: inputs.to_vec(),
                     orders,
-                    heldout_rms: e,
+                    heldout_rms: e.rms(),
+                    blocks: e.block_mse(),
                     lags: None,
                 });
             }
@@ -958,7 +1046,8 @@ fn best_orders(
         keep(Candidate {
             inputs: inputs.to_vec(),
             orders: lag_orders(inputs.len(), taus.len()),
-            heldout_rms: e,
+            heldout_rms: e.rms(),
+            blocks: e.block_mse(),
             lags: Some(taus),
         });
     }
@@ -1094,7 +1183,7 @@ fn lag_cv(
     folds: &[Fold],
     options: &LogFitOptions,
     y_max: f64,
-) -> Option<f64> {
+) -> Option<HeldOut> {
     if !folds
         .iter()
         .all(|f| f.fit.len() == 1 && f.fit[0].start == 0)
@@ -1111,17 +1200,17 @@ fn lag_cv(
     let cols = lag_columns(u, inputs, taus, n);
     let grams = prefix_grams(&cols, y, &at);
     let g = |k: usize| &grams[at.binary_search(&k).unwrap_or(0)];
-    let (mut ss, mut count) = (0.0, 0usize);
+    let mut held = HeldOut::new();
     for f in folds {
         let gains = solve_gains(g(f.fit[0].end))?;
         if !lag_gains_ok(&gains, taus.len(), options, y_max) {
             return None;
         }
-        ss += residual_ss(&(g(f.test.end) - g(f.test.start)), &gains);
-        count += f.test.len();
+        held.ss
+            .push(residual_ss(&(g(f.test.end) - g(f.test.start)), &gains));
+        held.n.push(f.test.len());
     }
-    let e = (ss / count.max(1) as f64).sqrt();
-    e.is_finite().then_some(e)
+    held.finite()
 }
 
 /// Time constants acceptable together: each at least one period, at most
@@ -1137,7 +1226,7 @@ fn lags_valid(taus: &[f64], longest: f64) -> bool {
 /// pair of the grid `grid` (model periods) judged by [`lag_cv`], then the
 /// best refined by a coordinate search on the logarithm of each time
 /// constant (steps ×1.6, ×1.26, ×1.12, ×1.06, each way), judged the same
-/// way. Returns the time constants (ascending) and their held-out RMS.
+/// way. Returns the time constants (ascending) and their held-out errors.
 fn best_lags(
     y: &[f64],
     u: &[Vec<f64>],
@@ -1146,7 +1235,7 @@ fn best_lags(
     options: &LogFitOptions,
     y_max: f64,
     grid: &[f64],
-) -> Option<(Vec<f64>, f64)> {
+) -> Option<(Vec<f64>, HeldOut)> {
     let mut sets: Vec<Vec<f64>> = grid.iter().map(|&t| vec![t]).collect();
     for (i, &a) in grid.iter().enumerate() {
         for &b in &grid[i + 1..] {
@@ -1154,13 +1243,13 @@ fn best_lags(
         }
     }
     let longest = 4.0 * y.len() as f64;
-    let mut best: Option<(Vec<f64>, f64)> = None;
+    let mut best: Option<(Vec<f64>, HeldOut)> = None;
     for set in sets {
         if !lags_valid(&set, longest) {
             continue;
         }
         if let Some(e) = lag_cv(y, u, inputs, &set, folds, options, y_max)
-            && best.as_ref().is_none_or(|b| e < b.1)
+            && best.as_ref().is_none_or(|b| e.rms() < b.1.rms())
         {
             best = Some((set, e));
         }
@@ -1176,7 +1265,7 @@ fn best_lags(
                     continue;
                 }
                 if let Some(et) = lag_cv(y, u, inputs, &t, folds, options, y_max)
-                    && et < e
+                    && et.rms() < e.rms()
                 {
                     (taus, e) = (t, et);
                 }
@@ -1374,14 +1463,13 @@ pub fn fit_log_with(
             })
             .into_iter()
             .flatten()
+            .filter(|(_, cand)| {
+                chosen
+                    .as_ref()
+                    .is_none_or(|c| options.rule.improves(c, cand, options.min_gain))
+            })
             .min_by(|a, b| a.1.heldout_rms.total_cmp(&b.1.heldout_rms));
             let Some((j, cand)) = step else { break };
-            let better = chosen
-                .as_ref()
-                .is_none_or(|c| cand.heldout_rms < (1.0 - options.min_gain) * c.heldout_rms);
-            if !better {
-                break;
-            }
             path.push((model_inputs[j].name(), cand.heldout_rms));
             remaining.retain(|&r| r != j);
             chosen = Some(cand);
@@ -1398,9 +1486,10 @@ pub fn fit_log_with(
             })
             .into_iter()
             .flatten()
+            .filter(|(_, d)| !options.rule.improves(d, c, options.min_gain))
             .min_by(|a, b| a.1.heldout_rms.total_cmp(&b.1.heldout_rms));
             match drop {
-                Some((j, d)) if (1.0 - options.min_gain) * d.heldout_rms <= c.heldout_rms => {
+                Some((j, d)) => {
                     path.push((format!("-{}", model_inputs[j].name()), d.heldout_rms));
                     chosen = Some(d);
                 }
@@ -1800,7 +1889,9 @@ mod tests {
         let options = LogFitOptions::default();
         let folds = make_folds(n, &options);
         let taus = [6.0, 40.0];
-        let e = lag_cv(&y, &u, &[0, 1], &taus, &folds, &options, 1.0).unwrap();
+        let e = lag_cv(&y, &u, &[0, 1], &taus, &folds, &options, 1.0)
+            .unwrap()
+            .rms();
         let (mut ss, mut count) = (0.0, 0usize);
         for f in &folds {
             let m = f.fit[0].end;
@@ -1862,51 +1953,76 @@ mod tests {
         (text, clean)
     }
 
-    #[test]
-    #[ignore = "not met yet: with LogFitOptions::lags the selection keeps the speed and the ambient sensor, and seed 1 \
-                meets the bound (0.312 against 0.318 µm, ratio 0.98), but on seed 2 a random-walk distractor (s2) \
-                lowers the pooled held-out RMS by 6.6 % and is kept (0.528 against 0.437 µm, ratio 1.21); a \
-                per-block significance rule for adding an input is the next step; seeds 3..=6 not run past it"]
-    fn forward_selection_recovers_a_multi_input_truth_within_ten_percent_of_its_own_error() {
+    /// Fit of `truth_log(seed)` on its first 1 600 samples with sums of lags
+    /// and `rule`: the inputs kept, the model's error on the last 800
+    /// samples against the measured drift, and the truth's own error there
+    /// (its noise-free drift; its first sample is 0, as the measured
+    /// channel's base is that noisy sample), µm.
+    fn truth_fit(seed: u64, rule: InputRule) -> (Vec<String>, f64, f64) {
         let (c, i) = specs(&["d_um:Z"], &["speed_rpm", "amb_c", "s1_c", "s2_c", "s3_c"]);
-        for seed in 1..=6 {
-            let (text, clean) = truth_log(seed, 2400, 0.3);
-            let log = read_log(&table(&text), &c, &i, 1.0).unwrap();
-            let n_train = 1600;
-            let options = LogFitOptions {
-                lags: true,
-                ..LogFitOptions::default()
-            };
-            let fit = fit_log(&log, &c, &i, Some(n_train), &options).unwrap();
-            let m = &fit.model.channels[0];
-            let names: Vec<&str> = m.inputs.iter().map(|&j| i[j].column.as_str()).collect();
+        let (text, clean) = truth_log(seed, 2400, 0.3);
+        let log = read_log(&table(&text), &c, &i, 1.0).unwrap();
+        let n_train = 1600;
+        let options = LogFitOptions {
+            lags: true,
+            rule,
+            ..LogFitOptions::default()
+        };
+        let fit = fit_log(&log, &c, &i, Some(n_train), &options).unwrap();
+        let m = &fit.model.channels[0];
+        let names: Vec<String> = m.inputs.iter().map(|&j| i[j].column.clone()).collect();
+        let pred = predict_log(&fit.model, &log).unwrap();
+        let measured = &log.channels[0];
+        let model_err = rms((n_train..log.len()).map(|k| pred[0][k] - measured[k]));
+        let truth_err = rms((n_train..log.len()).map(|k| clean[k] - (measured[k] - measured[0])));
+        eprintln!(
+            "seed {seed}, {rule:?}: model {model_err:.3} µm, truth {truth_err:.3} µm, ratio {:.3}, {names:?}, {:?}",
+            model_err / truth_err,
+            fit.selection
+        );
+        assert!(fit.warnings.is_empty(), "{:?}", fit.warnings);
+        (names, model_err, truth_err)
+    }
+
+    #[test]
+    fn an_input_must_lower_the_error_in_every_held_out_block() {
+        // Seed 2: the random-walk sensor s2 lowers the pooled held-out RMS
+        // by more than 2 % through one block while raising another's: the
+        // pooled rule keeps it, and the model's error on the samples after
+        // the training span is more than 10 % above the truth's own; with
+        // every block judged it is not added, and the model of the true
+        // inputs is within 10 % of the truth's error.
+        let (names, model, truth) = truth_fit(2, InputRule::Pooled);
+        assert!(names.iter().any(|n| n == "s2_c"), "{names:?}");
+        assert!(model > 1.1 * truth, "{model} vs {truth}");
+        let (names, model, truth) = truth_fit(2, InputRule::EveryBlock);
+        assert_eq!(names, ["speed_rpm", "amb_c"]);
+        assert!(model <= 1.1 * truth, "{model} vs {truth}");
+        // Where the pooled rule already keeps the true inputs only, the
+        // stricter rule keeps them too.
+        for seed in [1, 4] {
+            let (names, model, truth) = truth_fit(seed, InputRule::EveryBlock);
+            assert_eq!(names, ["speed_rpm", "amb_c"], "seed {seed}");
+            assert!(model <= 1.1 * truth, "seed {seed}: {model} vs {truth}");
+        }
+    }
+
+    #[test]
+    #[ignore = "not met on every draw: with LogFitOptions::lags and InputRule::EveryBlock, seeds 1, 2, 4-7, 9 and \
+                10 are within 10 % of the truth's error (ratios 0.58-1.07); seed 3 keeps a random-walk sensor (s3) \
+                that lowers the error in all three held-out blocks by 20-40 % (ratio 1.38), and seed 8 keeps the \
+                true inputs but its slow lag's gains extrapolate worse (ratio 1.14)"]
+    fn forward_selection_recovers_a_multi_input_truth_within_ten_percent_of_its_own_error() {
+        for seed in 1..=10 {
+            let (names, model, truth) = truth_fit(seed, InputRule::EveryBlock);
             assert!(
-                names.contains(&"speed_rpm") && names.contains(&"amb_c"),
-                "seed {seed}: {names:?} {:?}",
-                fit.selection
-            );
-            let pred = predict_log(&fit.model, &log).unwrap();
-            // Errors on the held-out last third, against the measured drift.
-            let measured = &log.channels[0];
-            let model_err = rms((n_train..log.len()).map(|k| pred[0][k] - measured[k]));
-            // The truth's own prediction: its noise-free drift (its first
-            // sample is 0, as the measured channel's base is that noisy sample).
-            let truth_err =
-                rms((n_train..log.len()).map(|k| clean[k] - (measured[k] - measured[0])));
-            let model_err_vs_base = rms((n_train..log.len())
-                .map(|k| (pred[0][k] - measured[0]) - (measured[k] - measured[0])));
-            assert!((model_err - model_err_vs_base).abs() < 1e-9);
-            eprintln!(
-                "seed {seed}: model {model_err:.3} µm, truth {truth_err:.3} µm, ratio {:.3}, {names:?}, a {:?}",
-                model_err / truth_err,
-                m.a
+                names.iter().any(|n| n == "speed_rpm") && names.iter().any(|n| n == "amb_c"),
+                "seed {seed}: {names:?}"
             );
             assert!(
-                model_err <= 1.1 * truth_err,
-                "seed {seed}: model {model_err} µm vs truth {truth_err} µm ({:?})",
-                fit.selection
+                model <= 1.1 * truth,
+                "seed {seed}: model {model} µm vs truth {truth} µm"
             );
-            assert!(fit.warnings.is_empty(), "{:?}", fit.warnings);
         }
     }
 }
