@@ -6,7 +6,9 @@
 //! the raw rows of the file (read independently), and must be the figures
 //! of docs/thermal.md.
 
+use std::collections::HashMap;
 use std::path::Path;
+use std::sync::{Arc, Mutex, OnceLock};
 
 use mtwin::io::Table;
 use mtwin::methods::thermal::log::{
@@ -47,6 +49,7 @@ fn raw_rows(path: &Path) -> Vec<(f64, [f64; 5])> {
 const TRAIN_UNTIL_MIN: f64 = 1110.0;
 
 /// The fit of the first 1 110 min with `inputs` at periods of `period_min`.
+#[derive(Clone)]
 struct Evaluation {
     /// Per channel: MAE (µm) over the raw rows from 1 110 min on.
     mae: Vec<f64>,
@@ -73,8 +76,32 @@ fn try_evaluate(
 }
 
 /// The evaluation with `options`, `Err` when the fit refuses (too few
-/// training samples for the period).
+/// training samples for the period). Each setting is fitted once per test
+/// run: the tests that need the same fit (the lags row's candidates without
+/// lags are the cross-validation row's) share it, the later one waiting for
+/// the first.
 fn try_evaluate_with(
+    path: &Path,
+    inputs: &[&str],
+    period_min: f64,
+    options: &LogFitOptions,
+) -> Result<Evaluation, String> {
+    type Slot = Arc<OnceLock<Result<Evaluation, String>>>;
+    static FITS: OnceLock<Mutex<HashMap<String, Slot>>> = OnceLock::new();
+    let key = format!("{} {inputs:?} {period_min} {options:?}", path.display());
+    let slot = FITS
+        .get_or_init(Default::default)
+        .lock()
+        .unwrap()
+        .entry(key)
+        .or_default()
+        .clone();
+    slot.get_or_init(|| fit_and_score(path, inputs, period_min, options))
+        .clone()
+}
+
+/// The fit and its scores behind [`try_evaluate_with`].
+fn fit_and_score(
     path: &Path,
     inputs: &[&str],
     period_min: f64,
