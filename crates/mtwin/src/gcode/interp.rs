@@ -398,6 +398,7 @@ struct Step<'a> {
 }
 
 impl Step<'_> {
+    #[inline]
     fn emit(&mut self, kind: EventKind) {
         self.out.push(Event { at: self.at, kind });
     }
@@ -636,43 +637,55 @@ impl Interpreter {
 
     /// One block: read and check, then each step in LinuxCNC's order.
     fn run(&mut self, block: &Block, w: &BlockWords, s: &mut Step) -> Result<(), GcodeError> {
-        let codes = self.read_codes(w, s.line)?;
+        // Filled in place: returned by value, the table (about 0.3 KB) was
+        // copied out of the result for every block.
+        let mut codes = Codes::default();
+        self.read_codes(w, s.line, &mut codes)?;
         self.check_words(block, w, &codes, s.line)?;
-        self.set_feed_mode(&codes, s);
+        // Every step but F, S, T and motion acts on a G-code other than the
+        // motion one or on an M-code: a block with neither (most blocks of a
+        // CAM program) skips them with this one test instead of a call each.
+        let settings = !w.m.is_empty() || w.g.len() > usize::from(codes.motion.is_some());
+        if settings {
+            self.set_feed_mode(&codes, s);
+        }
         self.set_feed_rate(w, s)?;
         self.set_spindle_speed(w, s)?;
         self.select_tool(w, s)?;
-        self.m_codes_with_comp(w, s)?;
-        self.task_waits(w, s, &[64, 65, 66, 68]);
-        self.change_tool(&codes, s)?;
-        self.set_spindle_direction(&codes, s);
-        self.task_waits(w, s, &[19, 7, 8, 9]);
-        self.switch_tcp_by_m_code(&codes, s);
-        self.dwell(w, &codes, s)?;
-        self.set_plane(&codes, s)?;
-        self.set_length_units(&codes, s);
-        self.cutter_compensation(w, &codes, s)?;
-        self.set_tool_length_offset(w, &codes, s)?;
-        self.select_coordinate_system(&codes, s)?;
-        self.set_path_control(w, &codes, s)?;
-        self.set_distance_mode(&codes);
-        self.set_arc_distance_mode(&codes);
-        self.set_retract_mode(&codes, s)?;
-        self.non_modal(w, &codes, s)?;
-        self.set_g92_applied(&codes, s)?;
-        self.check_g53(w, &codes, s)?;
+        if settings {
+            self.m_codes_with_comp(w, s)?;
+            self.task_waits(w, s, &[64, 65, 66, 68]);
+            self.change_tool(&codes, s)?;
+            self.set_spindle_direction(&codes, s);
+            self.task_waits(w, s, &[19, 7, 8, 9]);
+            self.switch_tcp_by_m_code(&codes, s);
+            self.dwell(w, &codes, s)?;
+            self.set_plane(&codes, s)?;
+            self.set_length_units(&codes, s);
+            self.cutter_compensation(w, &codes, s)?;
+            self.set_tool_length_offset(w, &codes, s)?;
+            self.select_coordinate_system(&codes, s)?;
+            self.set_path_control(w, &codes, s)?;
+            self.set_distance_mode(&codes);
+            self.set_arc_distance_mode(&codes);
+            self.set_retract_mode(&codes, s)?;
+            self.non_modal(w, &codes, s)?;
+            self.set_g92_applied(&codes, s)?;
+            self.check_g53(w, &codes, s)?;
+        }
         self.motion(w, &codes, s)?;
-        self.stop(&codes, s)?;
+        if settings {
+            self.stop(&codes, s)?;
+        }
         Ok(())
     }
 
-    /// Reads the G- and M-codes of a block into their modal groups,
+    /// Reads the G- and M-codes of a block into `codes` (empty on entry), one per modal group,
     /// refusing unknown and unsupported codes and two codes of one group
     /// (LinuxCNC's `read_g`: G80 may share the line with another motion
     /// code, which wins).
-    fn read_codes(&self, w: &BlockWords, line: u64) -> Result<Codes, GcodeError> {
+    fn read_codes(&self, w: &BlockWords, line: u64, codes: &mut Codes) -> Result<(), GcodeError> {
         let dialect = self.opts.dialect;
-        let mut codes = Codes::default();
         for &(code, col) in &w.g {
             if let Some(why) = code.unsupported() {
                 return Err(GcodeError::unsupported(line, col, format!("{why} {code}")));
@@ -783,7 +796,7 @@ impl Interpreter {
                 format!("probing {name} without axis words"),
             ));
         }
-        Ok(codes)
+        Ok(())
     }
 
     /// Whether a non-motion code of the block reads its axis words (G10,
@@ -1066,6 +1079,9 @@ impl Interpreter {
     /// motion to end at ([`TaskWait`]), in the order of `codes` (M9 is mist
     /// off, then flood off).
     fn task_waits(&mut self, w: &BlockWords, s: &mut Step, codes: &[u32]) {
+        if w.m.is_empty() {
+            return;
+        }
         for &c in codes {
             if !w.m.iter().any(|&(m, _)| m == c) {
                 continue;

@@ -113,7 +113,8 @@ pub(crate) fn lex(text: &[u8], line: u64, items: &mut Vec<Item>) -> Result<(), G
                 return Err(lx.err(format!("unexpected character {}", show_byte(c))));
             }
         }
-        at_start &= matches!(items.last(), Some(Item::BlockDelete { .. }));
+        // Only a first item can be a block delete (a later '/' is refused above).
+        at_start &= first && c == b'/';
         first = false;
     }
     Ok(())
@@ -200,6 +201,9 @@ impl Lexer<'_> {
     fn real_value(&mut self) -> Result<(Value, Span, bool), GcodeError> {
         self.skip_space();
         let start = self.i;
+        if let Some(plain) = self.plain_number(start) {
+            return Ok(plain);
+        }
         let mut j = self.i;
         // Optional sign, possibly followed by spaces.
         if matches!(self.peek(), Some(b'+' | b'-')) {
@@ -267,6 +271,9 @@ impl Lexer<'_> {
     /// between the characters). Short decimals are converted while scanning
     /// (see [`fast_decimal`]); others by the standard parser.
     fn number(&mut self, start: usize) -> Result<(Value, Span, bool), GcodeError> {
+        if let Some(plain) = self.plain_number(start) {
+            return Ok(plain);
+        }
         let b = self.b;
         let mut j = start;
         let mut end = start; // exclusive end of the last significant byte
@@ -332,6 +339,81 @@ impl Lexer<'_> {
                 Err(self.err("malformed number"))
             }
         }
+    }
+
+    /// [`Self::number`] of the common case, in one pass without branches
+    /// per byte besides the digit test: an optional sign, then at most 15
+    /// digits (leading zeros included) with at most one point, no space
+    /// inside, not followed by spaces and more of the number. The value is
+    /// that of the general path's fast case ([`fast_decimal`]), bit for bit.
+    /// `None` for anything else, which the general path then reads (and
+    /// reports errors of).
+    #[inline]
+    fn plain_number(&mut self, start: usize) -> Option<(Value, Span, bool)> {
+        let b = self.b;
+        let mut j = start;
+        let negative = match b.get(j) {
+            Some(b'-') => {
+                j += 1;
+                true
+            }
+            Some(b'+') => {
+                j += 1;
+                false
+            }
+            _ => false,
+        };
+        let mut mantissa: u64 = 0;
+        let first = j;
+        while let Some(&c) = b.get(j)
+            && c.is_ascii_digit()
+        {
+            // Wrapping: more than 15 digits are refused below.
+            mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(c - b'0'));
+            j += 1;
+        }
+        let mut digits = j - first;
+        let mut decimals = 0;
+        let has_point = b.get(j) == Some(&b'.');
+        if has_point {
+            j += 1;
+            let fraction = j;
+            while let Some(&c) = b.get(j)
+                && c.is_ascii_digit()
+            {
+                mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(c - b'0'));
+                j += 1;
+            }
+            decimals = j - fraction;
+            digits += decimals;
+        }
+        if digits == 0 || digits > 15 {
+            return None;
+        }
+        match b.get(j) {
+            // A second point: an error the general path reports.
+            Some(b'.') => return None,
+            // Spaces may stand inside a number (`X1 2.5`): only when no
+            // digit or point follows them does the number end here.
+            Some(&c) if is_space(c) => {
+                let mut k = j + 1;
+                while b.get(k).copied().is_some_and(is_space) {
+                    k += 1;
+                }
+                if matches!(b.get(k), Some(b'0'..=b'9' | b'.')) {
+                    return None;
+                }
+            }
+            _ => {}
+        }
+        // Exact: mantissa < 10^15 < 2^53 and decimals ≤ 15 (see `fast_decimal`).
+        let v = mantissa as f64 / POW10[decimals];
+        self.i = j;
+        Some((
+            Value::Number(if negative { -v } else { v }),
+            Span::new(start, j),
+            has_point,
+        ))
     }
 
     /// A balanced `[ ... ]` starting at `self.i`.
@@ -435,6 +517,66 @@ fn parse_f64(text: &[u8]) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The value, span and point flag of the one word of `line`.
+    fn one_word(line: &str) -> Result<(f64, Span, bool), GcodeError> {
+        let mut items = Vec::new();
+        lex(line.as_bytes(), 1, &mut items)?;
+        match items.as_slice() {
+            [Item::Word(w)] => match w.value {
+                Value::Number(v) => Ok((v, w.span, w.has_point)),
+                _ => panic!("{line}: not a number"),
+            },
+            other => panic!("{line}: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn numbers_read_as_the_standard_parser_reads_them() {
+        // Plain numbers (one pass) and every form the general path reads:
+        // spaces inside, after the sign, 16+ digits, trailing spaces.
+        for (text, compact) in [
+            ("40.498", "40.498"),
+            ("-0.000", "-0.000"),
+            ("+.5", "+.5"),
+            ("7.", "7."),
+            ("0012", "0012"),
+            ("123456789012345", "123456789012345"),
+            ("1234567890.12345", "1234567890.12345"),
+            ("0.1234567890123456789", "0.1234567890123456789"),
+            ("12345678901234567890123", "12345678901234567890123"),
+            ("1 2.5", "12.5"),
+            ("1 .5", "1.5"),
+            ("- 5", "-5"),
+            ("3.25  ", "3.25"),
+            ("3.25\t", "3.25"),
+        ] {
+            let line = format!("X{text}");
+            let (v, span, point) = one_word(&line).unwrap();
+            let want: f64 = compact.parse().unwrap();
+            assert_eq!(v.to_bits(), want.to_bits(), "{line}");
+            assert_eq!(point, compact.contains('.'), "{line}");
+            let trimmed = line.trim_end().len();
+            assert_eq!((span.start, span.end), (1, trimmed), "{line}");
+        }
+        // A word after the number ends it, spaces or not.
+        let mut items = Vec::new();
+        lex(b"X1.5Y-2 Z3", 1, &mut items).unwrap();
+        let values: Vec<f64> = items
+            .iter()
+            .map(|i| match i {
+                Item::Word(Word {
+                    value: Value::Number(v),
+                    ..
+                }) => *v,
+                _ => panic!(),
+            })
+            .collect();
+        assert_eq!(values, [1.5, -2.0, 3.0]);
+        for bad in ["X1.2.3", "X1. 2.3", "X.", "X-"] {
+            assert!(one_word(bad).is_err(), "{bad}");
+        }
+    }
 
     #[test]
     fn fast_path_agrees_with_the_standard_parser() {

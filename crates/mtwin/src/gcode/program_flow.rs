@@ -324,7 +324,7 @@ where
         }
         summary.executed += 1;
         events.clear();
-        if !interp.ended() {
+        if scan.comments && !interp.ended() {
             messages(&block, interp.parameters(), opts, None)?;
         }
         interp.set_source_file(0);
@@ -354,6 +354,8 @@ struct FlowScan {
     m98_m99: bool,
     /// Any word.
     words: bool,
+    /// A `( )` comment (which may be a `(DEBUG,…)` message).
+    comments: bool,
 }
 
 impl FlowScan {
@@ -362,10 +364,15 @@ impl FlowScan {
             oword: false,
             m98_m99: false,
             words: false,
+            comments: false,
         };
         for item in block.items() {
             match item {
                 Item::OWord { .. } => scan.oword = true,
+                Item::Comment {
+                    kind: CommentKind::Paren,
+                    ..
+                } => scan.comments = true,
                 Item::Word(w) => {
                     scan.words = true;
                     if w.letter == b'M' && !scan.m98_m99 {

@@ -191,6 +191,9 @@ impl NumberFormat {
     }
 }
 
+/// "00", "01", …, "99": two decimal digits per lookup.
+const DIGIT_PAIRS: &[u8; 200] = b"00010203040506070809101112131415161718192021222324252627282930313233343536373839404142434445464748495051525354555657585960616263646566676869707172737475767778798081828384858687888990919293949596979899";
+
 /// Appends `v` with at most `decimals` decimals, trailing zeros removed.
 /// Integer arithmetic when `|v|·10^decimals` fits exactly in an `f64`
 /// integer (the common case), else the standard formatter.
@@ -215,30 +218,42 @@ fn write_fixed(v: f64, decimals: u8, out: &mut String) {
     let p = 10u64.pow(u32::from(decimals));
     let (mut int, mut frac) = (n / p, n % p);
     // Digits from the right into a stack buffer (at most '-', 16 integer digits, '.'
-    // and 15 decimals), then one append.
+    // and 15 decimals), two at a time from a table, then one append.
     let mut buf = [0u8; 40];
     let mut i = buf.len();
+    // Writes `k` (< 100) as two digits before `buf[i]`.
+    fn pair(buf: &mut [u8; 40], i: &mut usize, k: u64) {
+        *i -= 2;
+        let k = 2 * k as usize;
+        buf[*i..*i + 2].copy_from_slice(&DIGIT_PAIRS[k..k + 2]);
+    }
     if frac != 0 {
         let mut width = d;
         while frac % 10 == 0 {
             frac /= 10;
             width -= 1;
         }
-        for _ in 0..width {
+        while width >= 2 {
+            pair(&mut buf, &mut i, frac % 100);
+            frac /= 100;
+            width -= 2;
+        }
+        if width == 1 {
             i -= 1;
-            buf[i] = b'0' + (frac % 10) as u8;
-            frac /= 10;
+            buf[i] = b'0' + frac as u8;
         }
         i -= 1;
         buf[i] = b'.';
     }
-    loop {
+    while int >= 10 {
+        pair(&mut buf, &mut i, int % 100);
+        int /= 100;
+    }
+    // The leftmost digit of an odd count, or the 0 of a zero integer part
+    // (nothing written for it yet).
+    if int != 0 || i == buf.len() || buf[i] == b'.' {
         i -= 1;
-        buf[i] = b'0' + (int % 10) as u8;
-        int /= 10;
-        if int == 0 {
-            break;
-        }
+        buf[i] = b'0' + int as u8;
     }
     if n != 0 && v < 0.0 {
         i -= 1;

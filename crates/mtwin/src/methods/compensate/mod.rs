@@ -767,8 +767,7 @@ impl Compensator {
             )
             .into());
         }
-        run.q_nom.clone_from(&end.q_nom);
-        run.last = Some(end);
+        run.reached(end);
         Ok(())
     }
 
@@ -804,6 +803,21 @@ impl Compensator {
         Ok((start, end))
     }
 
+    /// The points a move between its compensated ends `start` and `end` is
+    /// split at ([`Self::refine`] from the whole move, with the start's fade).
+    fn split(
+        &self,
+        mv: &Move,
+        start: &Point,
+        end: &Point,
+        summary: &mut Summary,
+    ) -> Result<Vec<(f64, Point)>, CompensateError> {
+        let fade = self.start_fade(mv, start, summary)?;
+        let mut pieces = Vec::new();
+        self.refine(mv, (0.0, start), (1.0, end), 0, fade, &mut pieces, summary)?;
+        Ok(pieces)
+    }
+
     /// A straight move: end words corrected, split where needed.
     fn do_move(
         &self,
@@ -814,21 +828,13 @@ impl Compensator {
         run: &mut RunState,
     ) -> Result<bool, CompensateError> {
         let (start, end) = self.ends(mv, run)?;
-        let mut pieces = Vec::new();
-        if split {
-            self.refine(
-                mv,
-                (0.0, &start),
-                (1.0, &end),
-                0,
-                self.start_fade(mv, &start, &mut run.summary)?,
-                &mut pieces,
-                &mut run.summary,
-            )?;
-        }
+        let pieces = if split {
+            self.split(mv, &start, &end, &mut run.summary)?
+        } else {
+            Vec::new()
+        };
         let changed = self.emit(mv, block, inserted, &pieces, &end, run)?;
-        run.q_nom.clone_from(&end.q_nom);
-        run.last = Some(end);
+        run.reached(end);
         Ok(changed)
     }
 
@@ -882,20 +888,10 @@ impl Compensator {
                 }
             }
             changed |= self.emit(mv, block, inserted, &[], &end, run)?;
-            run.q_nom.clone_from(&end.q_nom);
-            run.last = Some(end);
+            run.reached(end);
             return Ok(changed);
         }
-        let mut pieces = Vec::new();
-        self.refine(
-            mv,
-            (0.0, &start),
-            (1.0, &end),
-            0,
-            self.start_fade(mv, &start, &mut run.summary)?,
-            &mut pieces,
-            &mut run.summary,
-        )?;
+        let pieces = self.split(mv, &start, &end, &mut run.summary)?;
         to_line(block, code)?;
         for letter in ['I', 'J', 'K', 'R', 'P'] {
             block.remove_word(letter)?;
@@ -908,8 +904,7 @@ impl Compensator {
             pieces.len() + 1
         ));
         self.emit(mv, block, inserted, &pieces, &end, run)?;
-        run.q_nom.clone_from(&end.q_nom);
-        run.last = Some(end);
+        run.reached(end);
         Ok(true)
     }
 
@@ -1086,6 +1081,14 @@ struct RunState {
     /// An arc mode (2 or 3) that a conversion to lines removed.
     lost_arc: Option<u8>,
     summary: Summary,
+}
+
+impl RunState {
+    /// A move has reached its compensated end `end`.
+    fn reached(&mut self, end: Point) {
+        self.q_nom.clone_from(&end.q_nom);
+        self.last = Some(end);
+    }
 }
 
 /// Two program points within 1 nm / 1e-9 degree on every axis.
