@@ -1623,6 +1623,15 @@ fn differential_against_linuxcnc_rs274() {
             ini: None,
         });
     }
+    for k in 0..LATHE_COMP {
+        let path = gen_dir.join(format!("t{k:05}.ngc"));
+        std::fs::write(&path, generate_lathe_comp(LATHE_COMP_SEED + k)).unwrap();
+        cases.push(Case {
+            name: format!("lathe tool seed {:#x}", LATHE_COMP_SEED + k),
+            path,
+            ini: None,
+        });
+    }
 
     let verdicts: Mutex<Vec<(usize, Verdict)>> = Mutex::new(Vec::new());
     // Compensation programs rs274 refuses or runs with few moves (each
@@ -1676,6 +1685,7 @@ fn differential_against_linuxcnc_rs274() {
     let mut agree_rotated = 0;
     let mut agree_comp = 0;
     let mut agree_lathe = 0;
+    let mut agree_lathe_comp = 0;
     let mut unsupported: BTreeMap<String, Vec<String>> = BTreeMap::new();
     let mut known: BTreeMap<&str, Vec<String>> = BTreeMap::new();
     let mut disagreements = Vec::new();
@@ -1701,7 +1711,8 @@ fn differential_against_linuxcnc_rs274() {
                 agree_generated += usize::from(name.starts_with("generated"));
                 agree_rotated += usize::from(name.starts_with("rotated"));
                 agree_comp += usize::from(name.starts_with("compensation"));
-                agree_lathe += usize::from(name.starts_with("lathe"));
+                agree_lathe += usize::from(name.starts_with("lathe seed"));
+                agree_lathe_comp += usize::from(name.starts_with("lathe tool"));
             }
             Verdict::Known(why) => known.entry(why).or_default().push(name.clone()),
             Verdict::Unsupported(f) => unsupported.entry(f.clone()).or_default().push(name.clone()),
@@ -1718,14 +1729,16 @@ fn differential_against_linuxcnc_rs274() {
     let n_unsupported: usize = unsupported.values().map(Vec::len).sum();
     eprintln!(
         "rs274 differential: {} programs ({} generated, {} in rotated systems, {} of cutter \
-         compensation, {} lathe), {agree} agree ({agree_generated} generated, {agree_rotated} \
-         rotated, {agree_comp} compensation, {agree_lathe} lathe), {n_unsupported} unsupported \
-         by mtwin, {} disagreements",
+         compensation, {} lathe, {} of lathe-tool compensation), {agree} agree \
+         ({agree_generated} generated, {agree_rotated} rotated, {agree_comp} compensation, \
+         {agree_lathe} lathe, {agree_lathe_comp} lathe tool), {n_unsupported} unsupported by \
+         mtwin, {} disagreements",
         cases.len(),
         GENERATED,
         ROTATED,
         COMP,
         LATHE,
+        LATHE_COMP,
         disagreements.len()
     );
     for (f, names) in &unsupported {
@@ -1773,6 +1786,10 @@ fn differential_against_linuxcnc_rs274() {
     assert_eq!(
         agree_lathe, LATHE as usize,
         "every generated lathe program (G7/G8) agrees"
+    );
+    assert_eq!(
+        agree_lathe_comp, LATHE_COMP as usize,
+        "every generated program of lathe-tool compensation agrees"
     );
     assert!(
         agree_rotated * 10 >= ROTATED as usize * 8,

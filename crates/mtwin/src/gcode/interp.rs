@@ -1261,9 +1261,6 @@ impl Interpreter {
         }
     }
 
-    /// G43 (H defaults to the tool in the spindle), G43.1 (dynamic: the
-    /// axis words), G43.2 (added: H's tool or the axis words), G43.4 (TCP),
-    /// G49.
     /// Group 15: G7 (diameter mode), G8 (radius mode).
     fn set_lathe_diameter_mode(&mut self, codes: &Codes) {
         self.state.lathe_diameter = lathe_diameter_mode::mode_after(
@@ -1296,6 +1293,9 @@ impl Interpreter {
         }
     }
 
+    /// G43 (H defaults to the tool in the spindle), G43.1 (dynamic: the
+    /// axis words), G43.2 (added: H's tool or the axis words), G43.4 (TCP),
+    /// G49.
     fn set_tool_length_offset(
         &mut self,
         w: &BlockWords,
