@@ -2330,7 +2330,7 @@ fn lathe_diameter_mode_agrees_with_rs274() {
 }
 
 #[test]
-fn generated_lathe_programs_switch_modes_and_agree_with_rs274() {
+fn generated_lathe_programs_are_reproducible_and_switch_modes() {
     // Every program of the lathe generator is run by rs274 (the bulk in
     // the differential test); here: they are reproducible, use G7 and G8
     // and put X words where diameter mode halves them.
