@@ -223,9 +223,11 @@ mod tests {
             e.to_string().contains("two G-codes of one modal group"),
             "{e}"
         );
-        let mut opts = InterpOptions::default();
-        opts.dialect = Dialect::Fanuc {
-            decimal_point_programming: true,
+        let opts = InterpOptions {
+            dialect: Dialect::Fanuc {
+                decimal_point_programming: true,
+            },
+            ..InterpOptions::default()
         };
         let e = events("G18 G7 X10\nM30\n", opts).unwrap_err();
         assert!(matches!(e, GcodeError::Unsupported { .. }), "{e}");
