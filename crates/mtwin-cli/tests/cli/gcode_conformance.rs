@@ -102,9 +102,9 @@ const CONTINUED_AFTER_ERROR: &[(&str, &str, &str, &str)] = &[(
 /// Cases skipped (the interpreter reports "unsupported") and why.
 const SKIPPED: &[(&str, &str)] = &[
     ("compile", "no single program file (several or none)"),
-    ("g71-endless-loop", "lathe diameter/radius mode G8"),
+    ("g71-endless-loop", "lathe cycle G71.1"),
     ("g71-endless-loop2", "constant surface speed G96"),
-    ("g71-endless-loop_2", "lathe diameter/radius mode G7"),
+    ("g71-endless-loop_2", "constant surface speed G96"),
     ("g71-with-g70", "lathe cycle G71.1"),
     ("g72-facing", "lathe cycle G72"),
     ("g72-missing-iteration", "lathe cycle G72"),

@@ -97,11 +97,13 @@ fn case_ini_text(subs: &Path, case_subs: Option<&Path>, sections: &str) -> Strin
 }
 
 fn tool_table_text() -> String {
-    TOOLS
+    let mut s: String = TOOLS
         .iter()
         .zip(TOOL_DIAMETERS)
         .map(|((t, z), d)| format!("T{t} P{t} Z{z} D{d}\n"))
-        .collect()
+        .collect();
+    s.push_str(&lathe_tool_lines());
+    s
 }
 
 fn var_text() -> String {
@@ -130,6 +132,7 @@ fn mtwin_options() -> InterpOptions {
         opts.tools.insert(tool);
     }
     opts.work_offsets = work_offsets;
+    add_lathe_tools(&mut opts);
     opts
 }
 
@@ -1650,6 +1653,25 @@ fn differential_against_linuxcnc_rs274() {
         });
     }
 
+    for k in 0..LATHE {
+        let path = gen_dir.join(format!("l{k:05}.ngc"));
+        std::fs::write(&path, generate_lathe(LATHE_SEED + k)).unwrap();
+        cases.push(Case {
+            name: format!("lathe seed {:#x}", LATHE_SEED + k),
+            path,
+            ini: None,
+        });
+    }
+    for k in 0..LATHE_COMP {
+        let path = gen_dir.join(format!("t{k:05}.ngc"));
+        std::fs::write(&path, generate_lathe_comp(LATHE_COMP_SEED + k)).unwrap();
+        cases.push(Case {
+            name: format!("lathe tool seed {:#x}", LATHE_COMP_SEED + k),
+            path,
+            ini: None,
+        });
+    }
+
     let verdicts: Mutex<Vec<(usize, Verdict)>> = Mutex::new(Vec::new());
     // Compensation programs rs274 refuses or runs with few moves (each
     // must be a real compensated profile).
@@ -1701,6 +1723,8 @@ fn differential_against_linuxcnc_rs274() {
     let mut agree_generated = 0;
     let mut agree_rotated = 0;
     let mut agree_comp = 0;
+    let mut agree_lathe = 0;
+    let mut agree_lathe_comp = 0;
     let mut unsupported: BTreeMap<String, Vec<String>> = BTreeMap::new();
     let mut known: BTreeMap<&str, Vec<String>> = BTreeMap::new();
     let mut disagreements = Vec::new();
@@ -1726,6 +1750,8 @@ fn differential_against_linuxcnc_rs274() {
                 agree_generated += usize::from(name.starts_with("generated"));
                 agree_rotated += usize::from(name.starts_with("rotated"));
                 agree_comp += usize::from(name.starts_with("compensation"));
+                agree_lathe += usize::from(name.starts_with("lathe seed"));
+                agree_lathe_comp += usize::from(name.starts_with("lathe tool"));
             }
             Verdict::Known(why) => known.entry(why).or_default().push(name.clone()),
             Verdict::Unsupported(f) => unsupported.entry(f.clone()).or_default().push(name.clone()),
@@ -1742,12 +1768,16 @@ fn differential_against_linuxcnc_rs274() {
     let n_unsupported: usize = unsupported.values().map(Vec::len).sum();
     eprintln!(
         "rs274 differential: {} programs ({} generated, {} in rotated systems, {} of cutter \
-         compensation), {agree} agree ({agree_generated} generated, {agree_rotated} rotated, \
-         {agree_comp} compensation), {n_unsupported} unsupported by mtwin, {} disagreements",
+         compensation, {} lathe, {} of lathe-tool compensation), {agree} agree \
+         ({agree_generated} generated, {agree_rotated} rotated, {agree_comp} compensation, \
+         {agree_lathe} lathe, {agree_lathe_comp} lathe tool), {n_unsupported} unsupported by \
+         mtwin, {} disagreements",
         cases.len(),
         GENERATED,
         ROTATED,
         COMP,
+        LATHE,
+        LATHE_COMP,
         disagreements.len()
     );
     for (f, names) in &unsupported {
@@ -1791,6 +1821,14 @@ fn differential_against_linuxcnc_rs274() {
     assert_eq!(
         agree_comp, COMP as usize,
         "every generated program of cutter compensation agrees"
+    );
+    assert_eq!(
+        agree_lathe, LATHE as usize,
+        "every generated lathe program (G7/G8) agrees"
+    );
+    assert_eq!(
+        agree_lathe_comp, LATHE_COMP as usize,
+        "every generated program of lathe-tool compensation agrees"
     );
     assert!(
         agree_rotated * 10 >= ROTATED as usize * 8,
@@ -2048,4 +2086,572 @@ fn cutter_compensation_agrees_with_rs274() {
         refused_by_both, 5,
         "the five error cases are refused by both"
     );
+}
+
+// ---------------------------------------------------------------------------
+// Lathe diameter mode (G7/G8).
+
+/// Number of generated lathe programs in diameter and radius mode
+/// ([`generate_lathe`]).
+const LATHE: u64 = 150;
+/// Seed of the first of them.
+const LATHE_SEED: u64 = 0x1a7e_2026;
+
+/// What [`generate_lathe`] knows of its program: positions and offsets in
+/// mm along X (radius) and Z.
+struct LatheGen {
+    rng: Rng,
+    lines: Vec<String>,
+    inch: bool,
+    incremental: bool,
+    arc_absolute: bool,
+    diameter: bool,
+    spindle: bool,
+    /// Machine X Z, mm.
+    machine: [f64; 2],
+    /// G54 (G10 L20), G92 and G43.1 offsets, X Z, mm.
+    g54: [f64; 2],
+    g92: [f64; 2],
+    tool: [f64; 2],
+}
+
+impl LatheGen {
+    fn scale(&self) -> f64 {
+        if self.inch { 25.4 } else { 1.0 }
+    }
+    /// The program X (radius) and Z, mm.
+    fn program(&self) -> [f64; 2] {
+        std::array::from_fn(|i| self.machine[i] - self.g54[i] - self.g92[i] - self.tool[i])
+    }
+    /// Factor of axis `i`'s word: 2 for X in diameter mode.
+    fn word_factor(&self, i: usize) -> f64 {
+        if i == 0 && self.diameter { 2.0 } else { 1.0 }
+    }
+    /// A length word for `v` mm along axis `i` (0 X, 1 Z), and the mm it
+    /// reads as: 4 decimals, a diameter 3 (so that the radius has the 4
+    /// decimals rs274 prints, and its rounding is not a difference).
+    fn word(&self, i: usize, v: f64) -> (String, f64) {
+        let f = self.word_factor(i);
+        let w = if f == 2.0 {
+            (v / self.scale() * f * 1e3).round() / 1e3
+        } else {
+            r4(v / self.scale())
+        };
+        (num(w), w / self.word_factor(i) * self.scale())
+    }
+    /// A G7 or G8 now and then (on the next block's line), switching the
+    /// mode for that block's words.
+    fn mode_prefix(&mut self, p: f64) -> String {
+        if !self.rng.chance(p) {
+            return String::new();
+        }
+        self.diameter = self.rng.chance(0.5);
+        if self.diameter { "G7 " } else { "G8 " }.into()
+    }
+    /// End words of a straight move to a random point (some axes), updating
+    /// the machine position.
+    fn move_words(&mut self) -> String {
+        let mut s = String::new();
+        let both = self.rng.chance(0.5);
+        let x_axis = both || self.rng.chance(0.5);
+        for (i, letter) in [(0, 'X'), (1, 'Z')] {
+            if (i == 0 && !x_axis) || (i == 1 && !both && x_axis) {
+                continue;
+            }
+            let span = if i == 0 { 40.0 } else { 80.0 };
+            let target = (self.rng.below(20001) as f64 / 10000.0 - 0.5) * span;
+            let start = self.program()[i];
+            let (w, read) = if self.incremental {
+                self.word(i, target - start)
+            } else {
+                self.word(i, target)
+            };
+            let end = if self.incremental { start + read } else { read };
+            self.machine[i] += end - start;
+            write!(s, " {letter}{w}").unwrap();
+        }
+        s
+    }
+}
+
+/// G2/G3 in G18 from the current point: centre by I K (incremental or,
+/// after G90.1, absolute; never halved) or by R; end words X (diameter in
+/// G7) and Z.
+fn lathe_arc(g: &mut LatheGen) {
+    let t = *g.rng.pick(TRIPLES);
+    let k = *g.rng.pick(&[0.5, 1.0, 2.0]);
+    // Z and X components (the plane's first axis is Z).
+    let to_c = triple_vector(&mut g.rng, t);
+    let mut to_e = triple_vector(&mut g.rng, t);
+    // No full circle; no half circle either (R would be half the chord,
+    // which the rounding of the words can make too short).
+    if to_e == [-to_c[0], -to_c[1]] || to_e == to_c {
+        to_e = [-to_c[1], to_c[0]];
+    }
+    let start = g.program();
+    let center = [start[0] + to_c[1] * k, start[1] + to_c[0] * k];
+    let end = [center[0] + to_e[1] * k, center[1] + to_e[0] * k];
+    let prefix = g.mode_prefix(0.25);
+    let mut s = format!("{prefix}{}", if g.rng.chance(0.5) { "G2" } else { "G3" });
+    let mut read = [0.0; 2];
+    for (i, letter) in [(0, 'X'), (1, 'Z')] {
+        let (w, r) = if g.incremental {
+            g.word(i, end[i] - start[i])
+        } else {
+            g.word(i, end[i])
+        };
+        read[i] = if g.incremental { start[i] + r } else { r };
+        write!(s, " {letter}{w}").unwrap();
+    }
+    if g.rng.chance(0.3) {
+        let r = t.2 * k / g.scale();
+        write!(s, " R{}", num(if g.rng.chance(0.5) { r } else { -r })).unwrap();
+    } else {
+        for (i, letter) in [(0, 'I'), (1, 'K')] {
+            let v = if g.arc_absolute {
+                center[i]
+            } else {
+                center[i] - start[i]
+            };
+            write!(s, " {letter}{}", num(v / g.scale())).unwrap();
+        }
+    }
+    g.emit_move(s, read);
+}
+
+impl LatheGen {
+    fn emit_move(&mut self, s: String, end: [f64; 2]) {
+        let p = self.program();
+        for i in 0..2 {
+            self.machine[i] += end[i] - p[i];
+        }
+        self.lines.push(s);
+    }
+}
+
+/// Program `seed` on a lathe in G18, X a radius or, after G7, a diameter:
+/// traverses and feeds in X and Z, arcs by I K (incremental or G90.1) or by
+/// R, G7 and G8 alone or on the line of a move, a thread or an offset,
+/// G90/G91, G20/G21, G92 X Z and G92.1, G10 L20 P1 X Z, G43.1 X Z and G49,
+/// G53 G0 X, G33 and G76 threads (the spindle started first).
+fn generate_lathe(seed: u64) -> String {
+    let mut g = LatheGen {
+        rng: Rng(seed),
+        lines: vec!["G18 G21 G90 G94 G54 G91.1 F200".into()],
+        inch: false,
+        incremental: false,
+        arc_absolute: false,
+        diameter: false,
+        spindle: false,
+        machine: [0.0; 2],
+        g54: [0.0; 2],
+        g92: [0.0; 2],
+        tool: [0.0; 2],
+    };
+    if g.rng.chance(0.7) {
+        g.diameter = true;
+        g.lines.push("G7".into());
+    }
+    let n = 8 + g.rng.below(30);
+    for _ in 0..n {
+        match g.rng.below(20) {
+            0..=4 => {
+                let prefix = g.mode_prefix(0.2);
+                let code = if g.rng.chance(0.4) { "G0" } else { "G1" };
+                let w = g.move_words();
+                g.lines.push(format!("{prefix}{code}{w}"));
+            }
+            5..=7 => lathe_arc(&mut g),
+            8 | 9 => {
+                g.diameter = g.rng.chance(0.5);
+                g.lines.push(if g.diameter { "G7" } else { "G8" }.into());
+            }
+            10 => {
+                g.incremental = g.rng.chance(0.5);
+                g.lines
+                    .push(if g.incremental { "G91" } else { "G90" }.into());
+            }
+            11 => {
+                g.arc_absolute = g.rng.chance(0.5);
+                g.lines
+                    .push(if g.arc_absolute { "G90.1" } else { "G91.1" }.into());
+            }
+            12 => {
+                // LinuxCNC 2.9 keeps a G43.1 offset's number through a
+                // change of units (3 mm become 3 in): cancelled first.
+                if g.tool != [0.0; 2] {
+                    g.tool = [0.0; 2];
+                    g.lines.push("G49".into());
+                }
+                g.inch = g.rng.chance(0.5);
+                g.lines.push(format!(
+                    "{} F{}",
+                    if g.inch { "G20" } else { "G21" },
+                    if g.inch { 8 } else { 200 }
+                ));
+            }
+            13 => {
+                // G92 X Z: the current point reads the words.
+                let prefix = g.mode_prefix(0.3);
+                let v1 = g.rng.below(4001) as f64 / 100.0 - 20.0;
+                let (wx, rx) = g.word(0, v1);
+                let v2 = g.rng.below(4001) as f64 / 100.0 - 20.0;
+                let (wz, rz) = g.word(1, v2);
+                let p = g.program();
+                g.g92[0] += p[0] - rx;
+                g.g92[1] += p[1] - rz;
+                g.lines.push(format!("{prefix}G92 X{wx} Z{wz}"));
+            }
+            14 => {
+                g.g92 = [0.0; 2];
+                g.lines.push("G92.1".into());
+            }
+            15 => {
+                // G10 L20 P1 X: G54 such that the current point reads X.
+                let prefix = g.mode_prefix(0.3);
+                let v3 = g.rng.below(4001) as f64 / 100.0 - 20.0;
+                let (wx, rx) = g.word(0, v3);
+                let p = g.program();
+                g.g54[0] += p[0] - rx;
+                g.lines.push(format!("{prefix}G10 L20 P1 X{wx}"));
+            }
+            16 => {
+                if g.rng.chance(0.5) {
+                    let v4 = *g.rng.pick(&[-2.0, 1.0, 3.0]);
+                    let (wx, rx) = g.word(0, v4);
+                    let v5 = *g.rng.pick(&[-1.0, 5.0]);
+                    let (wz, rz) = g.word(1, v5);
+                    g.tool = [rx, rz];
+                    g.lines.push(format!("G43.1 X{wx} Z{wz}"));
+                } else {
+                    g.tool = [0.0; 2];
+                    g.lines.push("G49".into());
+                }
+            }
+            17 => {
+                // G53 G0 X (machine coordinates; G90 only).
+                if g.incremental {
+                    g.incremental = false;
+                    g.lines.push("G90".into());
+                }
+                let v6 = g.rng.below(8001) as f64 / 100.0 - 40.0;
+                let (wx, rx) = g.word(0, v6);
+                g.machine[0] = rx;
+                g.lines.push(format!("G53 G0 X{wx}"));
+            }
+            _ => {
+                if !g.spindle {
+                    g.lines.push("S600 M3".into());
+                    g.spindle = true;
+                }
+                let prefix = g.mode_prefix(0.4);
+                let u = 1.0 / g.scale();
+                let pitch = *g.rng.pick(&[1.0, 1.5, 2.0]) * u;
+                // Z along the thread (and X now and then), from here.
+                let start = g.program();
+                let len = *g.rng.pick(&[-12.0, -6.0, 8.0]);
+                let (wz, rz) = if g.incremental {
+                    g.word(1, len)
+                } else {
+                    g.word(1, start[1] + len)
+                };
+                let z_end = if g.incremental { start[1] + rz } else { rz };
+                if g.rng.chance(0.3) {
+                    let (wx, rx) = if g.incremental {
+                        g.word(0, -1.0)
+                    } else {
+                        g.word(0, start[0] - 1.0)
+                    };
+                    let x_end = if g.incremental { start[0] + rx } else { rx };
+                    let k = *g.rng.pick(&[1.0, 2.0]) * u;
+                    g.emit_move(
+                        format!("{prefix}G33 X{wx} Z{wz} K{}", num(k)),
+                        [x_end, z_end],
+                    );
+                } else {
+                    let i = *g.rng.pick(&[-2.0, -1.0, 1.5]) * u;
+                    let j = *g.rng.pick(&[0.1, 0.2]) * u;
+                    let k = j * (2 + g.rng.below(6)) as f64;
+                    g.emit_move(
+                        format!(
+                            "{prefix}G76 P{} Z{wz} I{} J{} K{}",
+                            num(pitch),
+                            num(i),
+                            num(j),
+                            num(k)
+                        ),
+                        [start[0], z_end],
+                    );
+                }
+            }
+        }
+    }
+    g.lines.push("M2".into());
+    let mut s = g.lines.join("\n");
+    s.push('\n');
+    s
+}
+
+/// Hand-written programs of diameter mode, each run by both interpreters.
+const LATHE_PROGRAMS: &[(&str, &str)] = &[
+    (
+        "X of moves, G91, G53, arcs by I K and R (centre words as written)",
+        "G21 G18 G90 G94 F100\nG0 X10 Z0\nG7\nG0 X10 Z0\nG1 X20 Z-5\nG91 G1 X4 Z-1\nG90\n\
+         G0 X24 Z-6\nG2 X24 Z-14 I8 K-4\nG0 X24 Z-6\nG90.1 G2 X24 Z-14 I20 K-10\nG91.1\n\
+         G2 X24 Z-6 R5\nG53 G0 X40\nM2\n",
+    ),
+    (
+        "G7 and G8 on the line of the move",
+        "G21 G18 G90 G94 F100\nG0 X10 Z0\nG7 X60\nG8 X60\nG7\nG8 G1 X60 Z-2\nG7 G1 X60 Z-4\nM2\n",
+    ),
+    (
+        "G92, G10 L20, G10 L2, G43.1 read X as a diameter",
+        "G21 G18 G90 G94 F100\nG7\nG0 X44 Z-6\nG92 X10\nG0 X24\nG92.1\nG10 L20 P1 X10\nG0 X28\n\
+         G10 L2 P1 X10\nG0 X32\nG10 L2 P1 X0\nG43.1 X2\nG0 X36\nG49\nG0 X40\nM2\n",
+    ),
+    (
+        "G76 in G7, and with G7 or G8 on its line",
+        "G21 G18 G90 G94 F100\nG0 X10 Z0\nS500 M3\nG7\nG76 P1 Z-10 I-2 J0.2 K1\nG0 X20 Z0\n\
+         G8 G76 P1 Z-10 I-2 J0.2 K1\nG0 X10 Z0\nG7 G76 P1 Z-10 I-2 J0.2 K1\nG0 X20 Z0\n\
+         G8\nG7 G76 P1 Z-10 I-2 J0.2 K1 X30\nM2\n",
+    ),
+    (
+        "G33 and G28 in G7, inch",
+        "G20 G18 G90 G94 F10\nG7\nG0 X2 Z0.5\nS300 M3\nG33 X1.8 Z-1 K0.05\nG28 X1\nM2\n",
+    ),
+    (
+        "error: G7 and G8 on one line",
+        "G21 G18 G90 G94 F100\nG0 X10 Z0\nG7 G8 X60\nM2\n",
+    ),
+];
+
+#[test]
+fn lathe_diameter_mode_agrees_with_rs274() {
+    let Some(setup) = setup() else { return };
+    let work = setup.root.join("lathe");
+    std::fs::create_dir(&work).unwrap();
+    let mut failures = Vec::new();
+    for (k, (name, program)) in LATHE_PROGRAMS.iter().enumerate() {
+        let path = work.join(format!("lathe{k}.ngc"));
+        std::fs::write(&path, program).unwrap();
+        let theirs = run_rs274(&setup, &path, &work, None);
+        let ours = run_mtwin(program.as_bytes(), None);
+        assert!(
+            name.starts_with("error") || (theirs.refused.is_none() && theirs.steps.len() >= 3),
+            "{name}: rs274 made {} moves ({:?})",
+            theirs.steps.len(),
+            theirs.refused
+        );
+        if name.starts_with("error") {
+            assert!(ours.refused.is_some() && theirs.refused.is_some(), "{name}");
+        }
+        match classify(&ours, &theirs) {
+            Verdict::Agree => {}
+            Verdict::Known(why) => failures.push(format!("{name}: known difference {why}")),
+            Verdict::Unsupported(f) => failures.push(format!("{name}: unsupported {f}")),
+            Verdict::Disagree(d) => failures.push(format!("{name}: {d}")),
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn generated_lathe_programs_are_reproducible_and_switch_modes() {
+    // Every program of the lathe generator is run by rs274 (the bulk in
+    // the differential test); here: they are reproducible, use G7 and G8
+    // and put X words where diameter mode halves them.
+    let programs: Vec<String> = (0..LATHE).map(|k| generate_lathe(LATHE_SEED + k)).collect();
+    assert_eq!(programs[3], generate_lathe(LATHE_SEED + 3));
+    let count = |p: &str| programs.iter().filter(|t| t.contains(p)).count();
+    for p in [
+        "G7\n", "G8\n", "G7 G1", "G7 G76", "G8 G76", "G92 X", "G10 L20", "G43.1", "G53 G0",
+        "G90.1", "G20", " R",
+    ] {
+        assert!(count(p) >= 3, "{p:?} in only {} lathe programs", count(p));
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Lathe tools: cutter compensation of a tool with an orientation.
+
+/// Lathe tools in the shared tool table: tool `LATHE_TOOL_BASE + o` has
+/// orientation `o` (0–9), no length, this nose diameter (inch).
+const LATHE_TOOL_BASE: u32 = 20;
+const LATHE_TOOL_DIAMETER: f64 = 0.04;
+
+fn lathe_tool_lines() -> String {
+    (0..10)
+        .map(|o| {
+            let t = LATHE_TOOL_BASE + o;
+            format!("T{t} P{t} D{LATHE_TOOL_DIAMETER} Q{o}\n")
+        })
+        .collect()
+}
+
+fn add_lathe_tools(opts: &mut InterpOptions) {
+    for o in 0..10u8 {
+        let t = LATHE_TOOL_BASE + u32::from(o);
+        let tool = opts.tools.entry(t);
+        tool.diameter = LATHE_TOOL_DIAMETER * 25.4;
+        tool.orientation = o;
+    }
+}
+
+/// Number of generated programs of lathe-tool compensation
+/// ([`generate_lathe_comp`]).
+const LATHE_COMP: u64 = 60;
+/// Seed of the first of them.
+const LATHE_COMP_SEED: u64 = 0x10c0_2026;
+
+/// Program `seed` of cutter compensation with a lathe tool: a G18 program
+/// of [`generate_comp`] (the first of seeds `seed·1000 + j` that is in
+/// G18), its tool made a lathe tool of orientation 0–9 (G41.1/G42.1 get an
+/// `L` word; a tool number of the table, in `D` or in the spindle, becomes
+/// the lathe tool of that orientation, whose nose is smaller than the
+/// polygon's tool, so that nothing gouges).
+fn generate_lathe_comp(seed: u64) -> String {
+    let mut rng = Rng(seed);
+    let o = rng.below(10) as u32;
+    let program = (0..)
+        .map(|j| generate_comp(seed.wrapping_mul(1000).wrapping_add(j)))
+        .find(|p| p.contains("G18"))
+        .unwrap();
+    let t = LATHE_TOOL_BASE + o;
+    let mut out = String::new();
+    for line in program.lines() {
+        let l = if line.starts_with("G41.1") || line.starts_with("G42.1") {
+            format!("{line} L{o}")
+        } else if line.starts_with("G41 D") || line.starts_with("G42 D") {
+            format!("{} D{t}", &line[..3])
+        } else if line.starts_with('T') && line.ends_with("M6") {
+            format!("T{t} M6")
+        } else {
+            line.to_string()
+        };
+        out.push_str(&l);
+        out.push('\n');
+    }
+    out
+}
+
+/// Hand-written programs of lathe-tool compensation, each run by both.
+fn lathe_comp_programs() -> Vec<(String, String)> {
+    let profile = "G0 X20 Z5\nG1 X10 Z0\nG1 Z-10\nG1 X15 Z-15\nG2 X20 Z-20 R5\nG1 X25\nG40\nG1 X30 Z-25\nM2\n";
+    let mut v = Vec::new();
+    for o in 0..10 {
+        let t = LATHE_TOOL_BASE + o;
+        for side in ["G41", "G42"] {
+            v.push((
+                format!("{side} of tool {t} (orientation {o}) from the spindle"),
+                format!(
+                    "G21 G18 G90 G94 F100\nT{t} M6\n{}",
+                    profile.replacen("G1 X10 Z0", &format!("{side} G1 X10 Z0"), 1)
+                ),
+            ));
+        }
+        v.push((
+            format!("G42.1 D L{o}, inch, with an M0 inside"),
+            format!(
+                "G20 G18 G90 G94 F4\nG0 X0.8 Z0.2\nG42.1 D0.04 L{o}\nG1 X0.4 Z0\nG1 Z-0.4\nM0\nG1 X0.6 Z-0.6\nG40 G1 X1 Z-1\nM2\n"
+            ),
+        ));
+    }
+    v.push((
+        "G41 D of a lathe tool, G0 on the profile".into(),
+        format!("G21 G18 G90 G94 F100\nG0 X20 Z5\nG41 D{} G0 X10 Z0\nG1 Z-10\nG0 X15 Z-12\nG40\nG0 X30\nM2\n", LATHE_TOOL_BASE + 3),
+    ));
+    v.push((
+        "error: negative L".into(),
+        "G21 G18 G90 G94 F100\nG0 X20 Z5\nG42.1 D1 L-1\nG1 X10 Z0\nG40\nM2\n".into(),
+    ));
+    v.push((
+        "error: L not a whole number".into(),
+        "G21 G18 G90 G94 F100\nG0 X20 Z5\nG42.1 D1 L2.5\nG1 X10 Z0\nG40\nM2\n".into(),
+    ));
+    v.push((
+        "error: a lathe tool in G17".into(),
+        format!(
+            "G21 G17 G90 G94 F100\nG0 X20 Y5\nG41 D{}\nG1 X10 Y0\nG40\nM2\n",
+            LATHE_TOOL_BASE + 2
+        ),
+    ));
+    v
+}
+
+#[test]
+fn lathe_tool_compensation_agrees_with_rs274() {
+    let Some(setup) = setup() else { return };
+    let work = setup.root.join("lathe_comp");
+    std::fs::create_dir(&work).unwrap();
+    let mut failures = Vec::new();
+    let mut shifted = 0;
+    for (k, (name, program)) in lathe_comp_programs().iter().enumerate() {
+        let path = work.join(format!("lc{k}.ngc"));
+        std::fs::write(&path, program).unwrap();
+        let theirs = run_rs274(&setup, &path, &work, None);
+        let ours = run_mtwin(program.as_bytes(), None);
+        if name.starts_with("error") {
+            assert!(
+                ours.refused.is_some() && theirs.refused.is_some(),
+                "{name}: {:?}",
+                theirs.refused
+            );
+        } else {
+            assert!(
+                theirs.refused.is_none() && theirs.steps.len() >= 4,
+                "{name}: rs274 made {} moves ({:?})",
+                theirs.steps.len(),
+                theirs.refused
+            );
+        }
+        // Orientations 1–8 move the path: the first compensated end is
+        // not where a mill tool's is.
+        shifted += usize::from(
+            name.contains("spindle")
+                && !name.contains("orientation 0)")
+                && !name.contains("orientation 9)"),
+        );
+        match classify(&ours, &theirs) {
+            Verdict::Agree => {}
+            Verdict::Known(why) => failures.push(format!("{name}: known difference {why}")),
+            Verdict::Unsupported(f) => failures.push(format!("{name}: unsupported {f}")),
+            Verdict::Disagree(d) => failures.push(format!("{name}: {d}")),
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    assert_eq!(shifted, 16);
+    // The generated ones (also in the differential test): every one agrees.
+    let mut failures = Vec::new();
+    for k in 0..LATHE_COMP {
+        let program = generate_lathe_comp(LATHE_COMP_SEED + k);
+        let path = work.join(format!("g{k}.ngc"));
+        std::fs::write(&path, &program).unwrap();
+        let theirs = run_rs274(&setup, &path, &work, None);
+        let ours = run_mtwin(program.as_bytes(), None);
+        if theirs.refused.is_some() || theirs.steps.len() < 8 {
+            failures.push(format!(
+                "seed {k}: rs274 made {} moves ({:?})",
+                theirs.steps.len(),
+                theirs.refused
+            ));
+        }
+        if !matches!(classify(&ours, &theirs), Verdict::Agree) {
+            failures.push(format!(
+                "seed {k}: {}",
+                match classify(&ours, &theirs) {
+                    Verdict::Disagree(d) => d,
+                    Verdict::Unsupported(f) => format!("unsupported {f}"),
+                    _ => "known difference".into(),
+                }
+            ));
+            if let Some(keep) = std::env::var_os("MTWIN_RS274_KEEP") {
+                std::fs::write(
+                    Path::new(&keep).join(format!("lathe_comp{k}.ngc")),
+                    &program,
+                )
+                .unwrap();
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -306,7 +306,6 @@ impl GCode {
             G70 | G71 | G71_1 | G71_2 | G72 | G72_1 | G72_2 => "lathe cycle",
             G5 | G5_1 | G5_2 | G5_3 => "spline / NURBS motion",
             G96 => "constant surface speed",
-            G7 | G8 => "lathe diameter/radius mode",
             G17_1 | G18_1 | G19_1 => "UVW plane selection",
             _ => return None,
         })

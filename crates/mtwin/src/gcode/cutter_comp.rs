@@ -290,6 +290,48 @@ pub(crate) struct CutterComp {
     /// is held (after M0/M1/M60 emptied the queue): the first move of the
     /// last queue released.
     stale_front: Option<Front>,
+    /// A lathe tool's control point from its nose centre (X, Z, mm; zero
+    /// for a mill tool): every compensated move is made with the nose
+    /// centre path moved by it ([`lathe_tool_origin`]).
+    origin_shift: [f64; 2],
+    /// The first held move is the entry move: its start is where the tool
+    /// was, not a point of the compensated path.
+    entry_held: bool,
+}
+
+/// The orientation of a G41.1/G42.1 `L` word, or LinuxCNC's error: a
+/// whole number (within 0.0001), not negative; 10 and above (no
+/// orientation LinuxCNC shifts) read as 10.
+pub(crate) fn lathe_orientation(l: f64) -> Result<u8, &'static str> {
+    if l < 0.0 {
+        return Err("Negative l word used");
+    }
+    if (l - l.round()).abs() > 1e-4 {
+        return Err("Non integer value for integer");
+    }
+    Ok(l.round().min(10.0) as u8)
+}
+
+/// Where LinuxCNC 2.9 puts a lathe tool's control point (its imaginary
+/// tip) relative to the centre of its nose radius `r`, in G18, for the
+/// tool orientation of the tool table (`Q`) or of G41.1/G42.1 `L`:
+/// (ΔX, ΔZ) in mm. Orientations 1–4 are the corner tools (tip at a corner
+/// of the square about the nose: 1 −X +Z, 2 −X −Z, 3 +X −Z, 4 +X +Z),
+/// 5–8 the tips on an axis (5 +Z, 6 −X, 7 −Z, 8 +X); 0 and 9 (a mill tool,
+/// a nose centred on the control point) none. Compensation moves the nose
+/// centre; the machine is commanded to the centre plus this shift.
+pub(crate) fn lathe_tool_origin(orientation: u8, r: f64) -> [f64; 2] {
+    let dx = match orientation {
+        1 | 2 | 6 => -r,
+        3 | 4 | 8 => r,
+        _ => 0.0,
+    };
+    let dz = match orientation {
+        2 | 3 | 7 => -r,
+        1 | 4 | 5 => r,
+        _ => 0.0,
+    };
+    [dx, dz]
 }
 
 /// The state a failing block restores ([`CutterComp::undo_point`]).
@@ -322,6 +364,8 @@ impl Default for CutterComp {
             endpoint: [0.0; 2],
             endpoint_valid: false,
             stale_front: None,
+            origin_shift: [0.0; 2],
+            entry_held: false,
         }
     }
 }
@@ -373,6 +417,7 @@ impl CutterComp {
     /// Where the next move starts: `pos`, plus the tool's offset after G40
     /// (taken once).
     pub(crate) fn physical_start(&mut self, pos: &Axes) -> Axes {
+        self.entry_held = true;
         match self.exit_delta.take() {
             Some(d) => pos.add(&d),
             None => *pos,
@@ -466,8 +511,10 @@ impl CutterComp {
     }
 
     /// G41/G42 (`side`) with a tool radius in mm; a negative radius puts
-    /// the tool on the other side.
-    pub(crate) fn turn_on(&mut self, side: Side, radius: f64) {
+    /// the tool on the other side. `orientation`: the lathe tool's (1–8; 0
+    /// or 9 a mill tool), whose control point the moves are shifted to in
+    /// G18 ([`lathe_tool_origin`]).
+    pub(crate) fn turn_on(&mut self, side: Side, radius: f64, orientation: u8, plane: Plane) {
         let (side, radius) = if radius < 0.0 {
             (side.opposite(), -radius)
         } else {
@@ -475,6 +522,19 @@ impl CutterComp {
         };
         self.side = Some(side);
         self.radius = radius;
+        self.origin_shift = if plane == Plane::Zx {
+            lathe_tool_origin(orientation, radius)
+        } else {
+            [0.0; 2]
+        };
+    }
+
+    /// The lathe tool's shift as a move of X and Z.
+    fn shift_axes(&self) -> Axes {
+        let mut d = Axes::ZERO;
+        d[Axis::X] = self.origin_shift[0];
+        d[Axis::Z] = self.origin_shift[1];
+        d
     }
 
     /// G40: the held move keeps its end; the interpreter resumes from the
@@ -492,7 +552,8 @@ impl CutterComp {
             let c = in_plane(pos, plane);
             self.move_endpoint_and_flush(c, plane, Units::Millimetre, out, line, column)?;
             self.flush(out, plane);
-            let tool = self.tool;
+            // The machine is at the lathe tool's control point.
+            let tool = self.tool.add(&self.shift_axes());
             for a in [Axis::X, Axis::Y, Axis::Z] {
                 pos[a] = self.programmed[a];
             }
@@ -556,12 +617,39 @@ impl CutterComp {
         }
     }
 
-    /// Releases every held event (LinuxCNC's `dequeue_canons`).
-    fn flush(&mut self, out: &[Event], plane: Plane) {
+    /// Releases every held event (LinuxCNC's `dequeue_canons`), moved to a
+    /// lathe tool's control point (the entry move from where the tool was).
+    fn flush(&mut self, out: &mut [Event], plane: Plane) {
         self.endpoint_valid = false;
-        if self.queue_start.is_some() && !self.held.is_empty() {
+        if let Some(start) = self.queue_start
+            && !self.held.is_empty()
+        {
             self.stale_front = Some(self.front(out, plane));
+            if self.origin_shift != [0.0; 2] {
+                let d = self.shift_axes();
+                for (k, &(i, _)) in self.held.iter().enumerate() {
+                    let keep_from = k == 0 && self.entry_held;
+                    match &mut out[start + i].kind {
+                        EventKind::Traverse(m) | EventKind::Feed(m) => {
+                            if !keep_from {
+                                m.from = m.from.add(&d);
+                            }
+                            m.to = m.to.add(&d);
+                        }
+                        EventKind::Arc(a) => {
+                            if !keep_from {
+                                a.from = a.from.add(&d);
+                            }
+                            a.to = a.to.add(&d);
+                            a.center[Axis::X.index()] += d[Axis::X];
+                            a.center[Axis::Z.index()] += d[Axis::Z];
+                        }
+                        _ => {}
+                    }
+                }
+            }
         }
+        self.entry_held = false;
         self.queue_start = None;
         self.held.clear();
     }
@@ -1125,5 +1213,90 @@ mod tests {
         assert_eq!(moves.len(), 1, "{:?}", ev[3]);
         assert_eq!((moves[0].to.0[0], moves[0].to.0[1]), (10.0, 0.0));
         assert_eq!((moves[0].from.0[0], moves[0].from.0[1]), (0.0, 0.0));
+    }
+
+    #[test]
+    fn lathe_tool_origins_follow_the_orientation() {
+        use super::lathe_tool_origin;
+        let r = 0.5;
+        // Corner tools: the tip at a corner of the square about the nose.
+        assert_eq!(lathe_tool_origin(1, r), [-r, r]);
+        assert_eq!(lathe_tool_origin(2, r), [-r, -r]);
+        assert_eq!(lathe_tool_origin(3, r), [r, -r]);
+        assert_eq!(lathe_tool_origin(4, r), [r, r]);
+        // Tips on an axis.
+        assert_eq!(lathe_tool_origin(5, r), [0.0, r]);
+        assert_eq!(lathe_tool_origin(6, r), [-r, 0.0]);
+        assert_eq!(lathe_tool_origin(7, r), [0.0, -r]);
+        assert_eq!(lathe_tool_origin(8, r), [r, 0.0]);
+        // Mill tools and a nose on the control point.
+        for o in [0, 9, 10] {
+            assert_eq!(lathe_tool_origin(o, r), [0.0, 0.0]);
+        }
+        assert_eq!(super::lathe_orientation(3.0), Ok(3));
+        assert_eq!(super::lathe_orientation(-1.0), Err("Negative l word used"));
+        assert_eq!(
+            super::lathe_orientation(2.5),
+            Err("Non integer value for integer")
+        );
+    }
+
+    /// The ends and starts (X Z) of the straight moves of `src`.
+    fn lathe_ends(src: &str) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
+        let ev: Vec<EventKind> = events(src).into_iter().flatten().flatten().collect();
+        ev.iter()
+            .filter_map(|k| match k {
+                EventKind::Feed(m) | EventKind::Traverse(m) => {
+                    Some(([m.to.0[0], m.to.0[2]], [m.from.0[0], m.from.0[2]]))
+                }
+                _ => None,
+            })
+            .unzip()
+    }
+
+    #[test]
+    fn a_lathe_tool_moves_its_control_point_by_the_orientation() {
+        // G18 (plane coordinates Z, X), tool right of the path, radius 1
+        // (D2). The entry from X20 Z0 runs along −X to X10: right of it is
+        // −Z, so the nose centre would end at Z −1 X 10; the next move runs
+        // along −Z, right of it +X: an inside corner, where the two offset
+        // lines Z = −1 and X = 11 meet, so the entry ends at X11 Z−1 and the
+        // second move at X11 Z−10. After G40 the move goes to X20 Z−10.
+        let program = |l: u8| {
+            format!(
+                "G21 G18 G90 G94 F100\nG0 X20 Z0\nG42.1 D2 L{l} G1 X10 Z0\nG1 X10 Z-10\nG40\nG1 X20 Z-10\nM2\n"
+            )
+        };
+        let close =
+            |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9;
+        let (mill, starts) = lathe_ends(&program(0));
+        let want = [[20.0, 0.0], [11.0, -1.0], [11.0, -10.0], [20.0, -10.0]];
+        assert_eq!(mill.len(), 4, "{mill:?}");
+        for (g, w) in mill.iter().zip(want) {
+            assert!(close(*g, w), "{mill:?}");
+        }
+        assert!(close(starts[3], [11.0, -10.0]), "{starts:?}");
+        for l in 1..=8u8 {
+            let (lathe, st) = lathe_ends(&program(l));
+            let d = super::lathe_tool_origin(l, 1.0);
+            let moved = |p: [f64; 2]| [p[0] + d[0], p[1] + d[1]];
+            assert_eq!(lathe.len(), 4);
+            // The traverse before and the move after G40 go to the
+            // programmed points; the entry starts where the tool was;
+            // both compensated ends move by the orientation's shift, and
+            // the move after G40 starts from the shifted end.
+            assert!(
+                close(lathe[0], want[0]) && close(lathe[3], want[3]),
+                "L{l}: {lathe:?}"
+            );
+            assert!(close(st[1], want[0]), "L{l}: {st:?}");
+            for k in 1..3 {
+                assert!(close(lathe[k], moved(want[k])), "L{l} move {k}: {lathe:?}");
+            }
+            assert!(
+                close(st[2], moved(want[1])) && close(st[3], moved(want[2])),
+                "L{l}: {st:?}"
+            );
+        }
     }
 }

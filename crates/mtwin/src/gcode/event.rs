@@ -143,6 +143,9 @@ pub struct Programmed {
     /// spindle-synchronised moves (G33, the tap and retract of G33.1),
     /// which a rewriter must not split into G1 pieces.
     pub expanded: bool,
+    /// The block was read in lathe diameter mode (G7): its X word is a
+    /// diameter, twice the X position it moves to.
+    pub x_diameter: bool,
 }
 
 impl Programmed {
@@ -163,7 +166,12 @@ impl Programmed {
                 DistanceMode::Incremental => end - from[axis],
             }
         };
-        canonical / scale
+        let value = canonical / scale;
+        if axis == Axis::X {
+            super::lathe_diameter_mode::x_word(value, self.x_diameter)
+        } else {
+            value
+        }
     }
 }
 

@@ -31,6 +31,7 @@ use super::event::{
     SourcePos, SpindleState, TaskWait, Units,
 };
 use super::expr::{self, Target};
+use super::lathe_diameter_mode;
 use super::parameters::Parameters;
 use super::program_flow::ProgramOptions;
 use super::syntax::{Block, Item, Value, Word};
@@ -201,6 +202,9 @@ pub struct ModalState {
     pub tool_offset: Axes,
     /// G98/G99.
     pub retract: RetractMode,
+    /// Lathe diameter mode (G7; `false`: radius mode, G8): X words are
+    /// read as diameters. Positions stay radii.
+    pub lathe_diameter: bool,
 }
 
 /// M-codes accepted without a motion meaning.
@@ -444,6 +448,7 @@ impl Interpreter {
             g30_home: Axes::ZERO,
             tool_offset: Axes::ZERO,
             retract: RetractMode::InitialLevel,
+            lathe_diameter: false,
         };
         Interpreter {
             tools: opts.tools.clone(),
@@ -589,7 +594,7 @@ impl Interpreter {
             at,
             out,
         };
-        let r = self.run(block, &w, &mut step);
+        let r = self.run(block, &mut w, &mut step);
         self.words = Some(w);
         match r {
             Ok(()) => self.comp.end_block(out),
@@ -636,12 +641,14 @@ impl Interpreter {
     }
 
     /// One block: read and check, then each step in LinuxCNC's order.
-    fn run(&mut self, block: &Block, w: &BlockWords, s: &mut Step) -> Result<(), GcodeError> {
+    fn run(&mut self, block: &Block, w: &mut BlockWords, s: &mut Step) -> Result<(), GcodeError> {
         // Filled in place: returned by value, the table (about 0.3 KB) was
         // copied out of the result for every block.
         let mut codes = Codes::default();
         self.read_codes(w, s.line, &mut codes)?;
         self.check_words(block, w, &codes, s.line)?;
+        self.read_diameters(w, &codes);
+        let w = &*w;
         // Every step but F, S, T and motion acts on a G-code other than the
         // motion one or on an M-code: a block with neither (most blocks of a
         // CAM program) skips them with this one test instead of a call each.
@@ -662,6 +669,7 @@ impl Interpreter {
             self.dwell(w, &codes, s)?;
             self.set_plane(&codes, s)?;
             self.set_length_units(&codes, s);
+            self.set_lathe_diameter_mode(&codes);
             self.cutter_compensation(w, &codes, s)?;
             self.set_tool_length_offset(w, &codes, s)?;
             self.select_coordinate_system(&codes, s)?;
@@ -696,6 +704,14 @@ impl Interpreter {
                     line,
                     col,
                     format!("spindle-synchronised motion {code} in this dialect"),
+                ));
+            }
+            if matches!(code, GCode::G7 | GCode::G8) && dialect != Dialect::LinuxCnc {
+                // Fanuc's G7 is not LinuxCNC's diameter mode.
+                return Err(GcodeError::unsupported(
+                    line,
+                    col,
+                    format!("lathe diameter/radius mode {code} in this dialect"),
                 ));
             }
             let group = code.group(dialect);
@@ -1261,6 +1277,38 @@ impl Interpreter {
         }
     }
 
+    /// Group 15: G7 (diameter mode), G8 (radius mode).
+    fn set_lathe_diameter_mode(&mut self, codes: &Codes) {
+        self.state.lathe_diameter = lathe_diameter_mode::mode_after(
+            self.state.lathe_diameter,
+            codes.lathe_diameter.map(|(c, _)| c),
+        );
+    }
+
+    /// In diameter mode (after the block's G7/G8) the X word is read as half
+    /// its value, and G76's I, J, K as LinuxCNC 2.9 scales them
+    /// ([`lathe_diameter_mode`]).
+    fn read_diameters(&self, w: &mut BlockWords, codes: &Codes) {
+        let before = self.state.lathe_diameter;
+        let after = lathe_diameter_mode::mode_after(before, codes.lathe_diameter.map(|(c, _)| c));
+        if !before && !after {
+            return;
+        }
+        let mut scale = |l: u8, f: f64| {
+            let i = usize::from(l - b'A');
+            if w.present & (1 << i) != 0 {
+                w.letters[i].value *= f;
+            }
+        };
+        scale(b'X', lathe_diameter_mode::x_factor(after));
+        if self.motion_to_be(codes) == Some(MotionMode::Threading) {
+            let f = lathe_diameter_mode::threading_ijk_factor(before, after);
+            for l in [b'I', b'J', b'K'] {
+                scale(l, f);
+            }
+        }
+    }
+
     /// G43 (H defaults to the tool in the spindle), G43.1 (dynamic: the
     /// axis words), G43.2 (added: H's tool or the axis words), G43.4 (TCP),
     /// G49.
@@ -1562,6 +1610,7 @@ impl Interpreter {
             distance: self.state.distance,
             units: self.state.units,
             expanded,
+            x_diameter: self.state.lathe_diameter,
         }
     }
 
@@ -2441,6 +2490,7 @@ impl Interpreter {
             distance: st.distance,
             units: st.units,
             expanded: false,
+            x_diameter: st.lathe_diameter,
         };
         // The column an error of a compensated move names: its first axis word.
         let column = axes
@@ -2951,30 +3001,23 @@ impl Interpreter {
         self.comp.check_turn_on(plane, s.line, col)?;
         let left = matches!(code, GCode::G41 | GCode::G41_1);
         let name = if left { 41 } else { 42 };
-        let radius = if matches!(code, GCode::G41_1 | GCode::G42_1) {
+        let (radius, orientation) = if matches!(code, GCode::G41_1 | GCode::G42_1) {
             let d = w
                 .get(b'D')
                 .ok_or_else(|| s.invalid(col, format!("G{name}.1 with no D word")))?;
-            if let Some(l) = w.get(b'L') {
-                if plane != Plane::Zx {
-                    return Err(s.invalid(
-                        l.column,
-                        format!("G{name}.1 with L word, but plane is not G18"),
-                    ));
+            let orientation = match w.get(b'L') {
+                None => 0,
+                Some(l) => {
+                    if plane != Plane::Zx {
+                        return Err(s.invalid(
+                            l.column,
+                            format!("G{name}.1 with L word, but plane is not G18"),
+                        ));
+                    }
+                    cutter_comp::lathe_orientation(l.value).map_err(|m| s.invalid(l.column, m))?
                 }
-                if l.value != 0.0 && l.value != 9.0 {
-                    return Err(GcodeError::unsupported(
-                        s.line,
-                        l.column,
-                        format!(
-                            "lathe tool orientation L{} with G{name}.1 (compensation about a \
-                             lathe tool's nose)",
-                            l.value
-                        ),
-                    ));
-                }
-            }
-            d.value / 2.0 * self.state.units.mm_per_unit()
+            };
+            (d.value / 2.0 * self.state.units.mm_per_unit(), orientation)
         } else {
             let (tool, column) = match w.get(b'D') {
                 None => (self.state.tool, col),
@@ -3014,26 +3057,16 @@ impl Interpreter {
                 })?;
                 (t.diameter, t.orientation)
             };
-            if orientation != 0 && orientation != 9 {
-                if plane != Plane::Zx {
-                    return Err(s.invalid(
-                        col,
-                        format!("G{name} with lathe tool, but plane is not G18"),
-                    ));
-                }
-                return Err(GcodeError::unsupported(
-                    s.line,
+            if orientation != 0 && orientation != 9 && plane != Plane::Zx {
+                return Err(s.invalid(
                     col,
-                    format!(
-                        "cutter radius compensation G{name} of a lathe tool (orientation \
-                         {orientation}: compensation about the tool's nose)"
-                    ),
+                    format!("G{name} with lathe tool, but plane is not G18"),
                 ));
             }
-            diameter / 2.0
+            (diameter / 2.0, orientation)
         };
         let side = if left { Side::Left } else { Side::Right };
-        self.comp.turn_on(side, radius);
+        self.comp.turn_on(side, radius, orientation, plane);
         Ok(())
     }
 

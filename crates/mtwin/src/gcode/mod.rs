@@ -71,6 +71,7 @@ mod interp;
 // Being rewritten with the motion planner; documented there.
 #[allow(missing_docs)]
 mod interpolate;
+mod lathe_diameter_mode;
 mod lexer;
 pub mod parameters;
 pub mod plan;

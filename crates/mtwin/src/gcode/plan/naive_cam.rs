@@ -143,6 +143,7 @@ mod tests {
                 distance: DistanceMode::Absolute,
                 units: Units::Millimetre,
                 expanded: false,
+                x_diameter: false,
             },
         }
     }
