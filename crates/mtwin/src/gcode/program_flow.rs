@@ -354,7 +354,8 @@ struct FlowScan {
     m98_m99: bool,
     /// Any word.
     words: bool,
-    /// A `( )` comment (which may be a `(DEBUG,…)` message).
+    /// A `( )` comment (which may be a `(DEBUG,…)` message) or a `;`
+    /// comment at the start of the line (which may be `;py,`).
     comments: bool,
 }
 
@@ -373,6 +374,11 @@ impl FlowScan {
                     kind: CommentKind::Paren,
                     ..
                 } => scan.comments = true,
+                // A line starting `;py,` (refused by `messages`).
+                Item::Comment {
+                    kind: CommentKind::Semicolon,
+                    span,
+                } if span.start == 0 => scan.comments = true,
                 Item::Word(w) => {
                     scan.words = true;
                     if w.letter == b'M' && !scan.m98_m99 {
