@@ -42,6 +42,17 @@ pub fn is_required_persistent(n: u32) -> bool {
 /// Number of subroutine argument parameters (`#1`–`#30`).
 pub const SUB_ARGS: usize = 30;
 
+/// The numbered parameters the interpreter keeps from its state, as
+/// LinuxCNC 2.9 does: G28/G30 homes (5161–5169, 5181–5189), G92 offsets and
+/// their enable flag (5210–5219), the selected coordinate system (5220), the
+/// nine coordinate systems with their rotation (5221 + 20·k … 5230 + 20·k),
+/// the tool in the spindle and its tool table entry (5400–5413) and the
+/// current point (5420–5428).
+pub fn is_state_parameter(n: u32) -> bool {
+    matches!(n, 5161..=5169 | 5181..=5189 | 5210..=5220 | 5400..=5413 | 5420..=5428)
+        || ((5221..=5390).contains(&n) && (n - 5221) % 20 < 10)
+}
+
 /// Why a parameter cannot be read or written (LinuxCNC's wording).
 #[derive(Debug, Clone, PartialEq)]
 pub enum ParamError {
@@ -138,6 +149,12 @@ impl Parameters {
     /// Value of numbered parameter `n` (1 … 5601).
     pub fn get(&self, n: u32) -> f64 {
         self.numbered.get(n as usize).copied().unwrap_or(0.0)
+    }
+
+    /// Sets a numbered parameter the interpreter keeps from its state
+    /// (see [`is_state_parameter`]); `n` must be 1 … 5601.
+    pub(crate) fn set_state(&mut self, n: u32, value: f64) {
+        self.numbered[n as usize] = value;
     }
 
     /// Sets numbered parameter `n`; `n` outside 1 … 5601 is an error.
