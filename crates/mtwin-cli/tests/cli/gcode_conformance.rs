@@ -63,24 +63,26 @@ const KNOWN_FAILURES: &[(&str, &str)] = &[
 ];
 
 /// Cases whose motion is LinuxCNC's but whose `(DEBUG,…)` messages print
-/// system parameters mtwin's parameters do not keep (they read 0, a named
-/// one is unset); each must still differ, so the list cannot go stale.
+/// parameters mtwin reads otherwise: `#<_line>` (not kept: unset), or
+/// offsets LinuxCNC keeps in its INI's user units, which mtwin keeps in mm
+/// and `rs274` (the traces' interpreter) in inches; each must still differ,
+/// so the list cannot go stale.
 const KNOWN_MESSAGE_DIFFERENCES: &[(&str, &str)] = &[
     (
         "g10/g10-l1-l10",
-        "#5401-#5403 (offsets of the tool in force) and #5420-#5421 (current point)",
+        "#5401-#5403 (tool table entry of the tool in the spindle) in mm, \
+         LinuxCNC's user units; rs274 keeps them in inches",
     ),
-    ("g10/g10-l11", "#5403 (Z offset of the tool in force)"),
-    ("g10/g10-l2-while-active", "#5420-#5421 (current point)"),
-    ("g10/g10-l20-while-active", "#5420-#5421 (current point)"),
-    ("g10/g10-with-g92", "#5420-#5422 (current point)"),
-    ("iniparam", "#<_x>, #<_y>, #<_z> (current point)"),
+    (
+        "g10/g10-l11",
+        "#5403 (tool table Z of the tool in the spindle) in mm; rs274 keeps it in inches",
+    ),
     ("return-value", "#<_line> (the line number)"),
     ("sequence-number", "#<_line> (the line number)"),
     (
         "unit-conversion",
-        "#5420-#5425 (current point), #5221-#5226 after G10 L2 (work offsets), \
-         #5211-#5216 (G92 offsets)",
+        "#5221-#5226 (work offsets) and #5211-#5216 (G92 offsets) in mm, \
+         LinuxCNC's user units; rs274 keeps them in inches",
     ),
 ];
 

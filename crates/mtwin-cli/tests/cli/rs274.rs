@@ -1909,6 +1909,53 @@ fn rs274_standalone_quirks_the_generator_avoids() {
     }
 }
 
+/// Moves computed from the system parameters LinuxCNC keeps (current point
+/// #5420–#5422 and `#<_x>`, in program units; coordinate system #5220;
+/// tool #5400) agree with rs274's. The ends are derived by hand: G55 at
+/// X5 Y3 Z8 gives X6 Y6 Z6 (#5220 = 2), then X6 + tool 2 = 8 and Y 6 − 1;
+/// after G92 X0 Y0 the point reads 0 0, so X1 Y2; in G20 X reads
+/// 1/25.4 in, and X[#5420+0.1] is 0.1 in + 1 mm = 3.54 mm.
+#[test]
+fn system_parameters_agree_with_rs274() {
+    let Some(setup) = setup() else { return };
+    let work = setup.root.join("sysparams");
+    std::fs::create_dir(&work).unwrap();
+    let program = "G21 G90 G17\nG0 X0 Y0 Z10\nT2 M6\nG0 X0 Y0 Z10\nG55\nG0 X5 Y3 Z8\n\
+                   G1 F100 X[#5420+1] Y[#5421*2] Z[#5422-#5220]\nG0 X[#<_x>+#5400] Y[#5421-1]\n\
+                   G92 X0 Y0\nG0 X[#5420+1] Y[#5421+2]\nG20\nG0 X[#5420+0.1]\nM2\n";
+    let path = work.join("sysparams.ngc");
+    std::fs::write(&path, program).unwrap();
+    let theirs = run_rs274(&setup, &path, &work, None);
+    let ours = run_mtwin(program.as_bytes(), None);
+    assert!(
+        matches!(classify(&ours, &theirs), Verdict::Agree),
+        "{:?} / {:?}: {:?}",
+        ours.refused,
+        theirs.refused,
+        first_difference(&ours.steps, &theirs.steps)
+    );
+    let ends: Vec<[f64; 6]> = ours
+        .steps
+        .iter()
+        .filter_map(|s| match s {
+            Step::Move { end, .. } => Some(*end),
+            Step::Dwell(_) => None,
+        })
+        .collect();
+    let want: [[f64; 3]; 4] = [
+        [6.0, 6.0, 6.0],
+        [8.0, 5.0, 6.0],
+        [1.0, 2.0, 6.0],
+        [3.54, 2.0, 6.0],
+    ];
+    let got = &ends[ends.len() - 4..];
+    for (g, w) in got.iter().zip(want) {
+        for i in 0..3 {
+            assert!((g[i] - w[i]).abs() < 1e-9, "{got:?} vs {want:?}");
+        }
+    }
+}
+
 #[test]
 fn canon_parser_reads_units_feeds_and_arcs() {
     // Hand-written rs274 output: inch, a feed, an arc and a dwell.

@@ -32,7 +32,7 @@ use super::event::{
 };
 use super::expr::{self, Target};
 use super::lathe_diameter_mode;
-use super::parameters::Parameters;
+use super::parameters::{Parameters, is_state_parameter};
 use super::program_flow::ProgramOptions;
 use super::syntax::{Block, Item, Value, Word};
 use super::threading_cycle;
@@ -363,6 +363,10 @@ pub struct Interpreter {
     comp: CutterComp,
     /// The file of the blocks being executed (tagged on their events).
     file: u32,
+    /// Whether the block being executed may change the state behind the
+    /// system parameters other than the current point (homes, G92, work
+    /// offsets, coordinate system, tool): they are rewritten after it.
+    state_params_stale: bool,
 }
 
 /// Whether the program uses `%` lines (LinuxCNC: the first non-blank line
@@ -417,8 +421,16 @@ impl Interpreter {
     /// no motion mode, feed 0, spindle stopped, TCP per options).
     pub fn new(opts: InterpOptions) -> Self {
         let opts_params = opts.program.parameters.clone();
-        let offset = opts.work_offsets[0];
+        // LinuxCNC starts with the homes and the G92 offsets of its var file
+        // (5161–5169, 5181–5189; 5211–5219, applied when 5210 is not 0).
+        let from = |first: u32| Axes(std::array::from_fn(|j| opts_params.get(first + j as u32)));
+        let g92_saved = from(5211);
+        let g92_applied = opts_params.get(5210) != 0.0;
+        let axis_offset = if g92_applied { g92_saved } else { Axes::ZERO };
         let rotation = opts.work_rotations[0];
+        let mut g92 = axis_offset;
+        rotate_xy(&mut g92, rotation);
+        let offset = opts.work_offsets[0].add(&g92);
         let mut position = opts.initial_machine_position.sub(&offset);
         rotate_xy(&mut position, -rotation);
         let state = ModalState {
@@ -441,16 +453,16 @@ impl Interpreter {
             work_offsets: opts.work_offsets,
             work_rotations: opts.work_rotations,
             rotation,
-            axis_offset: Axes::ZERO,
-            g92_saved: Axes::ZERO,
-            g92_applied: false,
-            g28_home: Axes::ZERO,
-            g30_home: Axes::ZERO,
+            axis_offset,
+            g92_saved,
+            g92_applied,
+            g28_home: from(5161),
+            g30_home: from(5181),
             tool_offset: Axes::ZERO,
             retract: RetractMode::InitialLevel,
             lathe_diameter: false,
         };
-        Interpreter {
+        let mut it = Interpreter {
             tools: opts.tools.clone(),
             opts,
             state,
@@ -465,7 +477,66 @@ impl Interpreter {
             assignments: Vec::new(),
             comp: CutterComp::default(),
             file: 0,
+            state_params_stale: true,
+        };
+        it.write_state_parameters();
+        it
+    }
+
+    /// Writes the numbered parameters LinuxCNC 2.9 keeps from its state
+    /// ([`is_state_parameter`]), as it holds them before reading a line:
+    /// the current point 5420–5428 in program units (X Y Z U V W in the
+    /// units of G20/G21, A B C in degrees; the point in the selected
+    /// coordinate system, after G92, rotation and tool offset, as the
+    /// program's words address it) always; the others when the block could
+    /// have changed them: the homes 5161–5169 and 5181–5189 (machine
+    /// coordinates), the G92 offsets 5211–5219 (kept through G92.2 for
+    /// G92.3) with 5210 (1 when applied), 5220 (the system in force, 1 …
+    /// 9), the nine systems 5221 + 20·k + axis with their rotation
+    /// 5230 + 20·k (degrees), the tool in the spindle 5400 and its table
+    /// entry: offsets 5401–5409, diameter 5410, front and back angles
+    /// 5411–5412, orientation 5413 (all 0 without a tool). These are in
+    /// the machine's units, mm and degrees, whatever G20/G21 (LinuxCNC keeps
+    /// them in its INI's user units).
+    fn write_state_parameters(&mut self) {
+        let per_unit = 1.0 / self.state.units.mm_per_unit();
+        for (j, a) in Axis::ALL.into_iter().enumerate() {
+            let p = self.state.position[a];
+            let v = if a.is_rotary() { p } else { p * per_unit };
+            self.params.set_state(5420 + j as u32, v);
         }
+        if !self.state_params_stale {
+            return;
+        }
+        self.state_params_stale = false;
+        let st = &self.state;
+        let p = &mut self.params;
+        let mut axes = |first: u32, v: &Axes| {
+            for (j, x) in v.0.iter().enumerate() {
+                p.set_state(first + j as u32, *x);
+            }
+        };
+        axes(5161, &st.g28_home);
+        axes(5181, &st.g30_home);
+        axes(5211, &st.g92_saved);
+        for (k, o) in st.work_offsets.iter().enumerate() {
+            axes(5221 + 20 * k as u32, o);
+        }
+        for (k, r) in st.work_rotations.iter().enumerate() {
+            p.set_state(5230 + 20 * k as u32, *r);
+        }
+        p.set_state(5210, if st.g92_applied { 1.0 } else { 0.0 });
+        p.set_state(5220, f64::from(st.work_system));
+        let tool = self.tools.get(st.tool).filter(|_| st.tool > 0);
+        p.set_state(5400, tool.map_or(0.0, |t| f64::from(t.number)));
+        let offset = tool.map_or(Axes::ZERO, |t| t.offset);
+        for (j, x) in offset.0.iter().enumerate() {
+            p.set_state(5401 + j as u32, *x);
+        }
+        p.set_state(5410, tool.map_or(0.0, |t| t.diameter));
+        p.set_state(5411, tool.map_or(0.0, |t| t.front_angle));
+        p.set_state(5412, tool.map_or(0.0, |t| t.back_angle));
+        p.set_state(5413, tool.map_or(0.0, |t| f64::from(t.orientation)));
     }
 
     /// The file of the blocks executed next, tagged on their events
@@ -568,6 +639,21 @@ impl Interpreter {
         // value on it read the old ones) and before executing it.
         if !self.assignments.is_empty() {
             for (target, value, column) in self.assignments.drain(..) {
+                if let Target::Numbered(n @ (5161..=5413)) = target
+                    && is_state_parameter(n)
+                {
+                    self.words = Some(w);
+                    return Err(GcodeError::unsupported(
+                        block.line(),
+                        column,
+                        format!(
+                            "assignment to #{n}: LinuxCNC keeps it from its state (homes, G92 \
+                             and work offsets, coordinate system, tool) and uses the value \
+                             written later; mtwin does not (set it with G10, G28.1, G30.1, \
+                             G92, G5x or M6)"
+                        ),
+                    ));
+                }
                 let r = match target {
                     Target::Numbered(n) => self.params.set(n, value),
                     Target::Named(name) => self.params.set_named(&name, value),
@@ -597,7 +683,10 @@ impl Interpreter {
         let r = self.run(block, &mut w, &mut step);
         self.words = Some(w);
         match r {
-            Ok(()) => self.comp.end_block(out),
+            Ok(()) => {
+                self.comp.end_block(out);
+                self.write_state_parameters();
+            }
             Err(_) => self.comp.undo(undo),
         }
         r
@@ -647,6 +736,13 @@ impl Interpreter {
         let mut codes = Codes::default();
         self.read_codes(w, s.line, &mut codes)?;
         self.check_words(block, w, &codes, s.line)?;
+        if codes.non_modal.is_some()
+            || codes.coord_system.is_some()
+            || codes.g92_applied.is_some()
+            || codes.m_tool_change
+        {
+            self.state_params_stale = true;
+        }
         self.read_diameters(w, &codes);
         let w = &*w;
         // Every step but F, S, T and motion acts on a G-code other than the
@@ -3832,6 +3928,98 @@ mod tests {
         assert_eq!(n, 1);
         // Without a leading '%' a '%' line does not end the program.
         assert_eq!(moves(&run("G0 X1\n%\nG0 X2\n")).len(), 2);
+    }
+
+    /// The system parameters read LinuxCNC's values, derived by hand: a
+    /// G54 offset X5, the machine at X8 (work X3), G92 X1 there (offset
+    /// 3 − 1 = 2, work X1), tool 2 (length 7) loaded and applied (work Z
+    /// 0 − 7 = −7).
+    #[test]
+    fn system_parameters_follow_the_state() {
+        let mut opts = InterpOptions::default();
+        let mut t2 = crate::gcode::Tool::with_length(2, 7.0);
+        t2.offset[Axis::X] = 0.5;
+        t2.diameter = 6.0;
+        opts.tools.insert(t2);
+        let mut it = Interpreter::new(opts);
+        let src = "G10 L2 P1 X5\nG0 X3\nG92 X1\nT2 M6 G43\nG28.1\nG20\nG55\n";
+        let program = Program::parse(src.as_bytes()).unwrap();
+        let mut ev = Vec::new();
+        let p = |it: &Interpreter, n: u32| it.parameters().get(n);
+        for (k, b) in program.blocks.iter().enumerate() {
+            it.execute(b, &mut ev).unwrap();
+            match k {
+                0 => {
+                    assert_eq!(p(&it, 5221), 5.0);
+                    assert_eq!(p(&it, 5420), -5.0, "machine 0 in G54 X5");
+                }
+                1 => assert_eq!(p(&it, 5420), 3.0),
+                2 => {
+                    assert_eq!((p(&it, 5210), p(&it, 5211)), (1.0, 2.0));
+                    assert_eq!(p(&it, 5420), 1.0);
+                    assert_eq!(p(&it, 5400), 0.0, "no tool yet");
+                }
+                3 => {
+                    assert_eq!(p(&it, 5400), 2.0);
+                    assert_eq!((p(&it, 5401), p(&it, 5403)), (0.5, 7.0));
+                    assert_eq!(p(&it, 5410), 6.0);
+                    // G43 applies X0.5 too: work X 1 − 0.5, Z 0 − 7.
+                    assert_eq!((p(&it, 5420), p(&it, 5422)), (0.5, -7.0));
+                }
+                4 => {
+                    // Machine X 5 + 2 + 0.5 + 0.5 = 8, Z −7 + 7 = 0.
+                    assert_eq!((p(&it, 5161), p(&it, 5163)), (8.0, 0.0));
+                }
+                5 => {
+                    // The point in inches; offsets stay in mm.
+                    assert!((p(&it, 5420) - 0.5 / 25.4).abs() < 1e-12);
+                    assert!((p(&it, 5422) + 7.0 / 25.4).abs() < 1e-12);
+                    assert_eq!((p(&it, 5221), p(&it, 5211), p(&it, 5403)), (5.0, 2.0, 7.0));
+                    assert_eq!(p(&it, 5220), 1.0);
+                }
+                _ => {
+                    assert_eq!(p(&it, 5220), 2.0);
+                    // G55 has no offset: work X = machine 8 − G92 2 − tool 0.5.
+                    assert!((p(&it, 5420) - 5.5 / 25.4).abs() < 1e-12);
+                }
+            }
+        }
+        // A program cannot set them by assignment (mtwin would not use the
+        // value as LinuxCNC does); the current point it may (LinuxCNC
+        // overwrites it before the next line).
+        for (bad, col) in [("#5221=1\n", 1), ("G0 X1 #5400=3\n", 7), ("#5161=0\n", 1)] {
+            let e = run_with(bad, InterpOptions::default()).unwrap_err();
+            assert!(matches!(e, GcodeError::Unsupported { .. }), "{bad}: {e}");
+            assert!(
+                e.to_string().contains(&format!("line 1, column {col}")),
+                "{bad}: {e}"
+            );
+        }
+        run_with("#5420=3\n#5231=1\n#5399=1\n", InterpOptions::default()).unwrap();
+        // Homes and G92 come from the var file at start (5210 = 1: applied).
+        let mut opts = InterpOptions::default();
+        let mut start = Parameters::new();
+        for (n, v) in [
+            (5161, 10.0),
+            (5183, -4.0),
+            (5210, 1.0),
+            (5211, 2.0),
+            (5221, 1.0),
+        ] {
+            start.set(n, v).unwrap();
+        }
+        opts.work_offsets = start.work_offsets();
+        opts.program.parameters = std::sync::Arc::new(start);
+        let mut it = Interpreter::new(opts);
+        assert_eq!(
+            (p(&it, 5161), p(&it, 5183), p(&it, 5211)),
+            (10.0, -4.0, 2.0)
+        );
+        assert_eq!(p(&it, 5420), -3.0, "machine 0 − G54 1 − G92 2");
+        let b = Program::parse(b"G28\n").unwrap();
+        let mut ev = Vec::new();
+        it.execute(&b.blocks[0], &mut ev).unwrap();
+        assert_eq!(p(&it, 5420), 7.0, "machine 10 − 1 − 2");
     }
 
     #[test]

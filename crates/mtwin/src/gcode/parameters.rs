@@ -12,9 +12,14 @@
 //!   everywhere. `#<_value>` and `#<_value_returned>` are 0 at start and
 //!   set by every `return` / `endsub` (the value, or 0 when none is
 //!   returned; LinuxCNC 2.9). The predefined read-only globals `#<_vmajor>`
-//!   (2) and `#<_vminor>` (9) are provided; LinuxCNC's other predefined
-//!   state parameters (`#<_x>`, `#<_line>`, ...) are not, and reading one is
-//!   the "not defined" error.
+//!   (2) and `#<_vminor>` (9) are provided, and `#<_x>` … `#<_w>` (the
+//!   current point, read only: `#5420` … `#5428`); LinuxCNC's other
+//!   predefined state parameters (`#<_line>`, `#<_feed>`, ...) are not, and
+//!   reading one is the "not defined" error.
+//! * `#5161`–`#5413` (homes, G92 and work offsets, coordinate system, the
+//!   tool in the spindle) and `#5420`–`#5428` (current point) are written by
+//!   the interpreter from its state, as LinuxCNC does (see
+//!   [`is_state_parameter`]).
 //! * INI values `#<_ini[section]name>` (read only): the number of entry
 //!   `NAME` in the first `[SECTION]` of the INI file given with
 //!   [`Parameters::load_ini`], section and name upper-cased as LinuxCNC
@@ -41,6 +46,17 @@ pub fn is_required_persistent(n: u32) -> bool {
 
 /// Number of subroutine argument parameters (`#1`–`#30`).
 pub const SUB_ARGS: usize = 30;
+
+/// The numbered parameters the interpreter keeps from its state, as
+/// LinuxCNC 2.9 does: G28/G30 homes (5161–5169, 5181–5189), G92 offsets and
+/// their enable flag (5210–5219), the selected coordinate system (5220), the
+/// nine coordinate systems with their rotation (5221 + 20·k … 5230 + 20·k),
+/// the tool in the spindle and its tool table entry (5400–5413) and the
+/// current point (5420–5428).
+pub fn is_state_parameter(n: u32) -> bool {
+    matches!(n, 5161..=5169 | 5181..=5189 | 5210..=5220 | 5400..=5413 | 5420..=5428)
+        || ((5221..=5390).contains(&n) && (n - 5221) % 20 < 10)
+}
 
 /// Why a parameter cannot be read or written (LinuxCNC's wording).
 #[derive(Debug, Clone, PartialEq)]
@@ -82,6 +98,20 @@ pub fn normalise_name(raw: &str) -> String {
 
 /// Read-only predefined globals and their values.
 const PREDEFINED: [(&str, f64); 2] = [("_vmajor", 2.0), ("_vminor", 9.0)];
+
+/// Read-only predefined globals of the current point and the numbered
+/// parameter each reads (LinuxCNC: `#<_x>` is `#5420`, … `#<_w>` `#5428`).
+const CURRENT_POINT: [(&str, u32); 9] = [
+    ("_x", 5420),
+    ("_y", 5421),
+    ("_z", 5422),
+    ("_a", 5423),
+    ("_b", 5424),
+    ("_c", 5425),
+    ("_u", 5426),
+    ("_v", 5427),
+    ("_w", 5428),
+];
 
 /// Numbered, named local and named global parameters (values in program
 /// units where they are lengths, as LinuxCNC keeps them).
@@ -138,6 +168,12 @@ impl Parameters {
     /// Value of numbered parameter `n` (1 … 5601).
     pub fn get(&self, n: u32) -> f64 {
         self.numbered.get(n as usize).copied().unwrap_or(0.0)
+    }
+
+    /// Sets a numbered parameter the interpreter keeps from its state
+    /// (see [`is_state_parameter`]); `n` must be 1 … 5601.
+    pub(crate) fn set_state(&mut self, n: u32, value: f64) {
+        self.numbered[n as usize] = value;
     }
 
     /// Sets numbered parameter `n`; `n` outside 1 … 5601 is an error.
@@ -214,6 +250,9 @@ impl Parameters {
         if let Some(&(_, v)) = PREDEFINED.iter().find(|(n, _)| *n == name) {
             return Ok(v);
         }
+        if let Some(&(_, n)) = CURRENT_POINT.iter().find(|(c, _)| *c == name) {
+            return Ok(self.get(n));
+        }
         if let Some(v) = self.ini_value(name) {
             return v;
         }
@@ -236,7 +275,10 @@ impl Parameters {
     /// Sets a named parameter (name already normalised): a global when it
     /// starts with `_`, else a local of the current call.
     pub fn set_named(&mut self, name: &str, value: f64) -> Result<(), ParamError> {
-        if PREDEFINED.iter().any(|(n, _)| *n == name) || name.starts_with("_ini[") {
+        if PREDEFINED.iter().any(|(n, _)| *n == name)
+            || CURRENT_POINT.iter().any(|(n, _)| *n == name)
+            || name.starts_with("_ini[")
+        {
             return Err(ParamError::ReadOnly(name.to_string()));
         }
         if name.starts_with('_') {
@@ -349,6 +391,11 @@ mod tests {
         assert_eq!(p.get_named("depth"), Ok(1.0));
         assert_eq!(p.get_named("_vmajor"), Ok(2.0));
         assert!(p.set_named("_vmajor", 3.0).is_err());
+        // #<_x> … #<_w> read #5420 … #5428 and are read only.
+        p.set(5420, 4.5).unwrap();
+        p.set(5428, -1.0).unwrap();
+        assert_eq!((p.get_named("_x"), p.get_named("_w")), (Ok(4.5), Ok(-1.0)));
+        assert!(p.set_named("_y", 3.0).is_err() && p.exists("_z"));
         assert!(p.exists("_g") && !p.exists("_h"));
     }
 

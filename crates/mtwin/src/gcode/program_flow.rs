@@ -1874,7 +1874,10 @@ mod tests {
             xs("#1=5\n#1=1 #2=#1 G0 X#1\nG0 X#2\nG0 X#1\n"),
             vec![5.0, 5.0, 1.0]
         );
-        assert_eq!(xs("#<a>=2\n#<_b>=[#<a>*3]\nG0 X[#<_b>+#<a>]\n"), vec![8.0]);
+        assert_eq!(
+            xs("#<a>=2\n#<_bb>=[#<a>*3]\nG0 X[#<_bb>+#<a>]\n"),
+            vec![8.0]
+        );
         assert_eq!(xs("#5=3\n#[#5+1]=7\nG0 X##5 Y#4\n"), vec![0.0]);
         let e = err("G0 X#<undefined>\n");
         assert!(e.to_string().contains("#<undefined> not defined"), "{e}");

@@ -487,9 +487,9 @@ fn first_feed_move_from_the_start_position_is_explained_not_refused() {
 const FLOW: &str = "G21 G90 G94\r\n\
 #<z> = -50 (depth)\r\n\
 o<pass> sub\r\n\
-G1 X[#1] Y20 Z#<_z> F1000 (the varying line)\r\n\
+G1 X[#1] Y20 Z#<_depth> F1000 (the varying line)\r\n\
 o<pass> endsub\r\n\
-#<_z> = #<z>\r\n\
+#<_depth> = #<z>\r\n\
 G0 X10 Y20 Z#<z> A10 C0 (start)\r\n\
 o1 repeat [2]\r\n\
 G1 X20 Y20 Z-50 F1000 (loop 1)\r\n\
