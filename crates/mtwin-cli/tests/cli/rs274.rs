@@ -1623,53 +1623,32 @@ fn differential_against_linuxcnc_rs274() {
     }
     let gen_dir = setup.root.join("generated");
     std::fs::create_dir(&gen_dir).unwrap();
-    for k in 0..GENERATED {
-        let path = gen_dir.join(format!("g{k:05}.ngc"));
-        std::fs::write(&path, generate(SEED + k)).unwrap();
-        cases.push(Case {
-            name: format!("generated seed {:#x}", SEED + k),
-            path,
-            ini: None,
-        });
-    }
-
-    for k in 0..ROTATED {
-        let path = gen_dir.join(format!("r{k:05}.ngc"));
-        std::fs::write(&path, generate_rotated(ROTATED_SEED + k)).unwrap();
-        cases.push(Case {
-            name: format!("rotated seed {:#x}", ROTATED_SEED + k),
-            path,
-            ini: None,
-        });
-    }
-
-    for k in 0..COMP {
-        let path = gen_dir.join(format!("c{k:05}.ngc"));
-        std::fs::write(&path, generate_comp(COMP_SEED + k)).unwrap();
-        cases.push(Case {
-            name: format!("compensation seed {:#x}", COMP_SEED + k),
-            path,
-            ini: None,
-        });
-    }
-
-    for k in 0..LATHE {
-        let path = gen_dir.join(format!("l{k:05}.ngc"));
-        std::fs::write(&path, generate_lathe(LATHE_SEED + k)).unwrap();
-        cases.push(Case {
-            name: format!("lathe seed {:#x}", LATHE_SEED + k),
-            path,
-            ini: None,
-        });
-    }
-    for k in 0..LATHE_COMP {
-        let path = gen_dir.join(format!("t{k:05}.ngc"));
-        std::fs::write(&path, generate_lathe_comp(LATHE_COMP_SEED + k)).unwrap();
-        cases.push(Case {
-            name: format!("lathe tool seed {:#x}", LATHE_COMP_SEED + k),
-            path,
-            ini: None,
-        });
+    // Each generator: its file prefix, its case label, how many programs
+    // and from which random seed.
+    type Generator = (&'static str, &'static str, u64, u64, fn(u64) -> String);
+    let generators: [Generator; 5] = [
+        ("g", "generated", GENERATED, SEED, generate),
+        ("r", "rotated", ROTATED, ROTATED_SEED, generate_rotated),
+        ("c", "compensation", COMP, COMP_SEED, generate_comp),
+        ("l", "lathe random", LATHE, LATHE_SEED, generate_lathe),
+        (
+            "t",
+            "lathe tool",
+            LATHE_COMP,
+            LATHE_COMP_SEED,
+            generate_lathe_comp,
+        ),
+    ];
+    for (prefix, label, count, seed, gen_program) in generators {
+        for k in 0..count {
+            let path = gen_dir.join(format!("{prefix}{k:05}.ngc"));
+            std::fs::write(&path, gen_program(seed + k)).unwrap();
+            cases.push(Case {
+                name: format!("{label} seed {:#x}", seed + k),
+                path,
+                ini: None,
+            });
+        }
     }
 
     let verdicts: Mutex<Vec<(usize, Verdict)>> = Mutex::new(Vec::new());
@@ -1750,7 +1729,7 @@ fn differential_against_linuxcnc_rs274() {
                 agree_generated += usize::from(name.starts_with("generated"));
                 agree_rotated += usize::from(name.starts_with("rotated"));
                 agree_comp += usize::from(name.starts_with("compensation"));
-                agree_lathe += usize::from(name.starts_with("lathe seed"));
+                agree_lathe += usize::from(name.starts_with("lathe random seed"));
                 agree_lathe_comp += usize::from(name.starts_with("lathe tool"));
             }
             Verdict::Known(why) => known.entry(why).or_default().push(name.clone()),
