@@ -483,6 +483,9 @@ impl Interpreter {
             file: 0,
             state_params_stale: true,
         };
+        // LinuxCNC's reset sets #5599 (the `(DEBUG,…)` switch) to 1 at
+        // every program start, whatever its var file says.
+        it.params.set_state(5599, 1.0);
         it.write_state_parameters();
         it
     }
@@ -612,6 +615,7 @@ impl Interpreter {
         if self.ended {
             return Ok(());
         }
+        self.params.set_line(block.line());
         if self.percent == Percent::BeforeFirstLine && !block.text().trim_ascii().is_empty() {
             if block.is_percent() && block.items().len() == 1 {
                 self.percent = Percent::Used;
