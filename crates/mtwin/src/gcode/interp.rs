@@ -1170,10 +1170,20 @@ impl Interpreter {
         Ok(())
     }
 
-    /// T: the tool the next M6 loads.
+    /// T: the tool the next M6 loads. With a tool table, a tool other than
+    /// 0 must be in it (LinuxCNC refuses T of a tool its table does not
+    /// hold); without one, any tool is taken (its offsets are then unknown:
+    /// G43 of it is refused).
     fn select_tool(&mut self, w: &BlockWords, s: &Step) -> Result<(), GcodeError> {
         if let Some(t) = w.get(b'T') {
-            self.state.selected_tool = nonneg_int(*t, s.line, "T")?;
+            let n = nonneg_int(*t, s.line, "T")?;
+            if n != 0 && !self.tools.is_empty() && self.tools.get(n).is_none() {
+                return Err(s.invalid(
+                    t.column,
+                    format!("Requested tool {n} not found in the tool table"),
+                ));
+            }
+            self.state.selected_tool = n;
         }
         Ok(())
     }
@@ -4462,6 +4472,17 @@ mod tests {
                 .1
                 .starts_with("two M-codes of one modal group")
         );
+        // T of a tool the table does not hold, as rs274 2.9 refuses it; T0
+        // is no tool; without a table any T is taken.
+        assert_eq!(
+            err("G0 X1 T3\n"),
+            (
+                7,
+                "Requested tool 3 not found in the tool table".to_string()
+            )
+        );
+        assert_eq!(offsets("T2 M6\nT0 M6\nG43\nG0 Z0\n"), [(0.0, 0.0)]);
+        run_with("T3 M6\n", InterpOptions::default()).unwrap();
     }
 
     /// G33 moves at K per revolution of S; G33.1 taps to the end and back
