@@ -63,10 +63,10 @@ const KNOWN_FAILURES: &[(&str, &str)] = &[
 ];
 
 /// Cases whose motion is LinuxCNC's but whose `(DEBUG,…)` messages print
-/// parameters mtwin reads otherwise: `#<_line>` (not kept: unset), or
-/// offsets LinuxCNC keeps in its INI's user units, which mtwin keeps in mm
-/// and `rs274` (the traces' interpreter) in inches; each must still differ,
-/// so the list cannot go stale.
+/// parameters mtwin reads otherwise: offsets LinuxCNC keeps in its INI's
+/// user units, which mtwin keeps in mm and `rs274` (the traces'
+/// interpreter) in inches; each must still differ, so the list cannot go
+/// stale.
 const KNOWN_MESSAGE_DIFFERENCES: &[(&str, &str)] = &[
     (
         "g10/g10-l1-l10",
@@ -77,8 +77,6 @@ const KNOWN_MESSAGE_DIFFERENCES: &[(&str, &str)] = &[
         "g10/g10-l11",
         "#5403 (tool table Z of the tool in the spindle) in mm; rs274 keeps it in inches",
     ),
-    ("return-value", "#<_line> (the line number)"),
-    ("sequence-number", "#<_line> (the line number)"),
     (
         "unit-conversion",
         "#5221-#5226 (work offsets) and #5211-#5216 (G92 offsets) in mm, \

@@ -1396,8 +1396,19 @@ fn generate_rotated(seed: u64) -> String {
     ];
     let tools = [1, 2, 4];
     writeln!(out, "T{} M6", rng.pick(&tools)).unwrap();
+    // An M61 since the last M6: rs274's spindle entry is not the tool in
+    // the spindle, so G43 names its tool by H.
+    let mut m61 = false;
+    let xyz = |rng: &mut Rng| {
+        format!(
+            "G0 X{} Y{} Z{}",
+            num(v(rng, 80.0)),
+            num(v(rng, 80.0)),
+            num(v(rng, 20.0))
+        )
+    };
     for _ in 0..4 + rng.below(16) {
-        let line = match rng.below(14) {
+        let line = match rng.below(15) {
             0 | 1 => {
                 let mut l = format!("G10 L2 P{}", rng.below(10));
                 if rng.chance(0.7) {
@@ -1466,18 +1477,30 @@ fn generate_rotated(seed: u64) -> String {
                 num(v(&mut rng, 40.0)),
                 num(v(&mut rng, 40.0))
             ),
-            10 => format!(
-                "G0 X{} Y{} Z{}\nT{} M6",
-                num(v(&mut rng, 80.0)),
-                num(v(&mut rng, 80.0)),
-                num(v(&mut rng, 20.0)),
-                rng.pick(&tools)
-            ),
+            10 => {
+                m61 = false;
+                format!("{}\nT{} M6", xyz(&mut rng), rng.pick(&tools))
+            }
             11 => match rng.below(4) {
-                0 => "G43".to_string(),
                 1 => "G49".to_string(),
+                _ if m61 => format!("G43 H{}", rng.pick(&tools)),
+                0 => "G43".to_string(),
                 _ => format!("G43 H{}", rng.pick(&[0, 1, 2, 4])),
             },
+            12 => {
+                // M61 after a traverse to X Y Z; now and then G43 on its
+                // line (the new tool's entry, or with Q0 the spindle's,
+                // still the tool before: not after another M61), then a
+                // traverse to X Y Z (rs274 re-reads a stale point after
+                // M61 too).
+                let q = *rng.pick(&[0, 1, 2, 4]);
+                let mut l = format!("{}\nM61 Q{q}", xyz(&mut rng));
+                if (q != 0 || !m61) && rng.chance(0.5) {
+                    write!(l, " G43\n{}", xyz(&mut rng)).unwrap();
+                }
+                m61 = true;
+                l
+            }
             _ => {
                 // G10 L10 (the active system) or L11 (G59.3): one to three
                 // of X, Y, Z.
@@ -1846,6 +1869,29 @@ const RS274_QUIRKS: &[(&str, &str, [f64; 3], [f64; 3])] = &[
         [1.0, 0.0, 0.0],
         [1.0, 0.0, -0.5],
     ),
+    (
+        // M61 Q4 declares tool 4 (0.7 in = 17.78 mm) in the spindle; a G43
+        // on a later line applies it in mtwin and the controller (its I/O
+        // controller copies tool 4's entry into the spindle's). rs274's
+        // canon only notes the pocket, its spindle entry keeps tool 2
+        // (2.54 mm).
+        "M61, then G43 on a later line",
+        "G21 G90\nT2 M6\nM61 Q4\nG43\nG0 X1\nM2\n",
+        [1.0, 0.0, -17.78],
+        [1.0, 0.0, -2.54],
+    ),
+    (
+        // G43.1 Z3 in mm at machine Z 0: the point reads Z -3 mm. At G20
+        // the interpreter re-reads the offset from its canon: the
+        // controller's answers 3 mm in inches (0.1181), rs274's the number
+        // 3, now inches. After G49 the point reads 0 (mtwin, controller)
+        // or 3 in - 3 mm = 2.8819 in (rs274); G91 Z0.1 then ends at 0.1 in
+        // = 2.54 mm or 2.9819 in = 75.74 mm.
+        "a G43.1 offset across G20, then G49",
+        "G21 G90\nG43.1 Z3\nG20\nG49\nG91 G0 Z0.1\nG90\nM2\n",
+        [0.0, 0.0, 2.54],
+        [0.0, 0.0, 75.74],
+    ),
 ];
 
 #[test]
@@ -1870,12 +1916,15 @@ fn rs274_standalone_quirks_the_generator_avoids() {
                 );
             }
         }
-        // With the remedy the generator uses (a tool loaded first, a move
-        // to X Y Z right before M6) the two agree.
+        // With the remedy the generators use (a tool loaded first, a move
+        // to X Y Z right before M6, G43 with the tool's H after M61, G49
+        // before a change of units) the two agree.
         let fixed = program
             .replace("G21 G90\n", "G21 G90\nT1 M6\n")
             .replace("T1 M6\nG0 X5", "G0 X0 Y0 Z10\nT1 M6\nG0 X5")
-            .replace("R90\nT1 M6", "R90\nG0 X0 Y-10 Z0\nT1 M6");
+            .replace("R90\nT1 M6", "R90\nG0 X0 Y-10 Z0\nT1 M6")
+            .replace("M61 Q4\nG43\n", "M61 Q4\nG43 H4\n")
+            .replace("G20\nG49\n", "G49\nG20\n");
         let path = work.join(format!("fixed{k}.ngc"));
         std::fs::write(&path, &fixed).unwrap();
         let theirs = run_rs274(&setup, &path, &work, None);
@@ -1884,6 +1933,152 @@ fn rs274_standalone_quirks_the_generator_avoids() {
             matches!(classify(&ours, &theirs), Verdict::Agree),
             "{name}: with the remedy, {fixed:?}: {:?}",
             first_difference(&ours.steps, &theirs.steps)
+        );
+    }
+}
+
+/// M61 where rs274's canon habit (its spindle entry not loaded by M61)
+/// does not decide: G43 on the M61 line (the new tool's entry; with Q0, or
+/// with H0, the spindle's entry, still the tool loaded before), G43 with
+/// the tool's H on a later line, M6 after M61 (the tool T selected), Q
+/// rounded to the nearest integer, in G20 too; and the refusals (no Q,
+/// Q < 0, a tool not in the table, M61 beside M6). `G53 G0 Z0` then ends at
+/// program Z = -(the offset applied): tools 1, 2, 4 are 0, 2.54 and 17.78
+/// mm long. Each must agree with rs274 and end at the hand-derived point
+/// (X Y Z, mm).
+const M61_CASES: &[(&str, Option<[f64; 3]>)] = &[
+    (
+        "G21\nT1 M6\nG0 X1 Y2 Z3\nM61 Q4 G43\nG53 G0 Z0\n",
+        Some([1.0, 2.0, -17.78]),
+    ),
+    (
+        "G21\nT2 M6\nG0 X1 Y2 Z3\nM61 Q0 G43\nG53 G0 Z0\n",
+        Some([1.0, 2.0, -2.54]),
+    ),
+    (
+        "G21\nT2 M6\nG0 X1 Y2 Z3\nM61 Q4 G43 H0\nG53 G0 Z0\n",
+        Some([1.0, 2.0, -2.54]),
+    ),
+    (
+        "G21\nT1 M6\nG0 X1 Y2 Z3\nM61 Q2\nG43 H2\nG53 G0 Z0\n",
+        Some([1.0, 2.0, -2.54]),
+    ),
+    (
+        "G21\nT1 M6\nG0 X1 Y2 Z3\nM61 Q4\nG0 X1 Y2 Z3\nM6\nG43\nG53 G0 Z0\n",
+        Some([1.0, 2.0, 0.0]),
+    ),
+    (
+        "G21\nT4 M6\nG0 X1 Y2 Z3\nM61 Q1.6 G43\nG53 G0 Z0\n",
+        Some([1.0, 2.0, -2.54]),
+    ),
+    (
+        "G20\nT1 M6\nG0 X1 Y2 Z3\nM61 Q4 G43\nG53 G0 Z0\n",
+        Some([25.4, 50.8, -17.78]),
+    ),
+    ("G21\nM61\n", None),
+    ("G21\nM61 Q-1\n", None),
+    ("G21\nM61 Q3\n", None),
+    ("G21\nM61 Q2 M6\n", None),
+];
+
+#[test]
+fn m61_agrees_with_rs274() {
+    let Some(setup) = setup() else { return };
+    let work = setup.root.join("m61");
+    std::fs::create_dir(&work).unwrap();
+    for (k, (body, want)) in M61_CASES.iter().enumerate() {
+        let program = format!("G90 G17\n{body}M2\n");
+        let path = work.join(format!("m61-{k}.ngc"));
+        std::fs::write(&path, &program).unwrap();
+        let theirs = run_rs274(&setup, &path, &work, None);
+        let ours = run_mtwin(program.as_bytes(), None);
+        assert!(
+            matches!(classify(&ours, &theirs), Verdict::Agree),
+            "{program:?}: {:?} / {:?}: {:?}",
+            ours.refused,
+            theirs.refused,
+            first_difference(&ours.steps, &theirs.steps)
+        );
+        match want {
+            None => assert!(ours.refused.is_some(), "{program:?} must be refused"),
+            Some(w) => {
+                let Some(Step::Move { end, .. }) = ours.steps.last() else {
+                    panic!("{program:?}: no move");
+                };
+                for i in 0..3 {
+                    assert!(
+                        (end[i] - w[i]).abs() < 1e-9,
+                        "{program:?}: {end:?}, expected {w:?}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// What LinuxCNC's controller does where rs274's standalone canon differs
+/// (see [`RS274_QUIRKS`]), run on LinuxCNC 2.9's simulator (machine
+/// coordinates, its tool table: tool 1 Z0, tool 2 Z15 mm), and mtwin the
+/// same: after `M61 Q2` a G43 applies tool 2 and #5400 reads 2 (the rest at
+/// machine X 2, Z 15); a G43.1 Z3 offset set in mm keeps its 3 mm across
+/// G20, so after G49 `G91 G0 Z0.1` ends at machine Z 2.54 (rs274's number
+/// kept would give 75.74).
+#[test]
+fn the_controller_runs_m61_and_g43_1_across_units_as_mtwin() {
+    if !crate::linuxcnc_sim::available() {
+        return;
+    }
+    let head = "G21 G90 G17\nG10 L2 P1 X0 Y0 Z0 R0\nG54 G92.1 G49\nG0 X0 Y0 Z0\n";
+    let programs = [
+        (
+            "m61",
+            format!("{head}T1 M6\nM61 Q2\nG43\nG0 X#5400 Y0 Z0\nG49\nG0 X0 Y0 Z0\nM2\n"),
+            [2.0, 15.0],
+        ),
+        (
+            "g43.1-g20",
+            format!("{head}G43.1 Z3\nG20\nG49\nG91 G0 Z0.1\nG90 G21\nM2\n"),
+            [0.0, 2.54],
+        ),
+    ];
+    let mut opts = InterpOptions::default();
+    opts.tools = [(1, 0.0), (2, 15.0)].into_iter().collect();
+    for (name, program, [x, z]) in programs {
+        let t = crate::linuxcnc_sim::run_or_panic(
+            name,
+            &program,
+            &crate::linuxcnc_sim::SimSetup::default(),
+            crate::linuxcnc_sim::SHORT,
+        );
+        let highest = t
+            .samples
+            .iter()
+            .map(|s| s.world)
+            .fold([f64::MIN; 5], |a, w| {
+                std::array::from_fn(|i| a[i].max(w[i]))
+            });
+        assert!(
+            (highest[0] - x).abs() < 1e-6 && (highest[2] - z).abs() < 1e-6,
+            "{name}: the simulator reached X {} Z {}, expected X {x} Z {z}",
+            highest[0],
+            highest[2]
+        );
+        let mut ours = [f64::MIN; 3];
+        gcode::interpret(program.as_bytes(), opts.clone(), |_, events| {
+            for e in events {
+                if let EventKind::Traverse(m) = &e.kind {
+                    let machine = m.to.add(&m.offset);
+                    for (o, v) in ours.iter_mut().zip(&machine.0) {
+                        *o = o.max(*v);
+                    }
+                }
+            }
+            Ok(())
+        })
+        .unwrap();
+        assert!(
+            (ours[0] - x).abs() < 1e-9 && (ours[2] - z).abs() < 1e-9,
+            "{name}: mtwin reached {ours:?}, expected X {x} Z {z}"
         );
     }
 }
@@ -1996,6 +2191,10 @@ fn generated_programs_are_reproducible_and_varied() {
         "G43 H0",
         "G43 H4",
         "G49",
+        "M61 Q0\n",
+        "M61 Q4\n",
+        "M61 Q2 G43\n",
+        "M61 Q0 G43\n",
     ] {
         assert!(
             text.contains(needle),
@@ -2303,8 +2502,10 @@ fn generate_lathe(seed: u64) -> String {
                     .push(if g.arc_absolute { "G90.1" } else { "G91.1" }.into());
             }
             12 => {
-                // LinuxCNC 2.9 keeps a G43.1 offset's number through a
-                // change of units (3 mm become 3 in): cancelled first.
+                // rs274's standalone canon keeps a G43.1 offset's number
+                // through a change of units (3 mm become 3 in; LinuxCNC's
+                // controller and mtwin keep the length, see
+                // RS274_QUIRKS): cancelled first.
                 if g.tool != [0.0; 2] {
                     g.tool = [0.0; 2];
                     g.lines.push("G49".into());

@@ -283,6 +283,9 @@ impl Default for PathMode {
 pub enum TaskWait {
     /// M6: tool change (through the I/O controller).
     ToolChange,
+    /// M61: the tool number in the spindle set without a change (through
+    /// the I/O controller; the interpreter then re-reads the machine).
+    ToolNumber,
     /// M7: mist coolant on (through the I/O controller).
     MistOn,
     /// M9: mist coolant off (through the I/O controller; M9 is mist off,
@@ -313,6 +316,7 @@ impl TaskWait {
         matches!(
             self,
             TaskWait::ToolChange
+                | TaskWait::ToolNumber
                 | TaskWait::MistOn
                 | TaskWait::MistOff
                 | TaskWait::FloodOn

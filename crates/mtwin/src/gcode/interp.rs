@@ -209,7 +209,7 @@ pub struct ModalState {
 
 /// M-codes accepted without a motion meaning.
 fn m_ignored(code: u32) -> bool {
-    matches!(code, 0 | 1 | 6 | 7 | 8 | 9 | 19 | 48..=53 | 60 | 61..=68 | 70..=73)
+    matches!(code, 0 | 1 | 7 | 8 | 9 | 19 | 48..=53 | 60 | 62..=68 | 70..=73)
 }
 
 #[derive(Debug, Clone, Copy, Default)]
@@ -270,8 +270,8 @@ struct Codes {
     m_spindle: Option<At<u32>>,
     /// The configured TCP on/off M-codes.
     m_tcp: Option<At<u32>>,
-    /// M6.
-    m_tool_change: bool,
+    /// M6 (tool change) or M61 (set the tool number), one modal group.
+    m_tool_change: Option<At<u32>>,
 }
 
 impl Codes {
@@ -347,6 +347,9 @@ pub struct Interpreter {
     state: ModalState,
     tools: ToolTable,
     tcp_from_g43_4: bool,
+    /// The tool in the spindle before the M6 or M61 of the block being run
+    /// (see [`Interpreter::spindle_entry_tool`]).
+    tool_before_change: u32,
     /// The F number as written (program units): LinuxCNC feeds a move of
     /// rotary axes only at F deg/min (or deg/rev) whatever the length units.
     feed_as_written: f64,
@@ -467,6 +470,7 @@ impl Interpreter {
             opts,
             state,
             tcp_from_g43_4: false,
+            tool_before_change: 0,
             feed_as_written: 0.0,
             block_index: 0,
             ended: false,
@@ -479,6 +483,9 @@ impl Interpreter {
             file: 0,
             state_params_stale: true,
         };
+        // LinuxCNC's reset sets #5599 (the `(DEBUG,…)` switch) to 1 at
+        // every program start, whatever its var file says.
+        it.params.set_state(5599, 1.0);
         it.write_state_parameters();
         it
     }
@@ -608,6 +615,7 @@ impl Interpreter {
         if self.ended {
             return Ok(());
         }
+        self.params.set_line(block.line());
         if self.percent == Percent::BeforeFirstLine && !block.text().trim_ascii().is_empty() {
             if block.is_percent() && block.items().len() == 1 {
                 self.percent = Percent::Used;
@@ -739,7 +747,7 @@ impl Interpreter {
         if codes.non_modal.is_some()
             || codes.coord_system.is_some()
             || codes.g92_applied.is_some()
-            || codes.m_tool_change
+            || codes.m_tool_change.is_some()
         {
             self.state_params_stale = true;
         }
@@ -758,7 +766,7 @@ impl Interpreter {
         if settings {
             self.m_codes_with_comp(w, s)?;
             self.task_waits(w, s, &[64, 65, 66, 68]);
-            self.change_tool(&codes, s)?;
+            self.change_tool(w, &codes, s)?;
             self.set_spindle_direction(&codes, s);
             self.task_waits(w, s, &[19, 7, 8, 9]);
             self.switch_tcp_by_m_code(&codes, s);
@@ -844,10 +852,7 @@ impl Interpreter {
                 c if Some(c) == self.opts.tcp_on_m || Some(c) == self.opts.tcp_off_m => {
                     &mut codes.m_tcp
                 }
-                6 => {
-                    codes.m_tool_change = true;
-                    continue;
-                }
+                6 | 61 => &mut codes.m_tool_change,
                 c if m_ignored(c) => continue,
                 98 | 99 => {
                     return Err(GcodeError::unsupported(
@@ -1165,26 +1170,98 @@ impl Interpreter {
         Ok(())
     }
 
-    /// T: the tool the next M6 loads.
+    /// T: the tool the next M6 loads. With a tool table, a tool other than
+    /// 0 must be in it (LinuxCNC refuses T of a tool its table does not
+    /// hold); without one, any tool is taken (its offsets are then unknown:
+    /// G43 of it is refused).
     fn select_tool(&mut self, w: &BlockWords, s: &Step) -> Result<(), GcodeError> {
         if let Some(t) = w.get(b'T') {
-            self.state.selected_tool = nonneg_int(*t, s.line, "T")?;
+            let n = nonneg_int(*t, s.line, "T")?;
+            if n != 0 && !self.tools.is_empty() && self.tools.get(n).is_none() {
+                return Err(s.invalid(
+                    t.column,
+                    format!("Requested tool {n} not found in the tool table"),
+                ));
+            }
+            self.state.selected_tool = n;
         }
         Ok(())
     }
 
-    /// M6: the selected tool goes into the spindle.
-    fn change_tool(&mut self, codes: &Codes, s: &mut Step) -> Result<(), GcodeError> {
-        if codes.m_tool_change {
-            self.refuse_with_comp(
-                s,
-                0,
-                "Cannot change tools with cutter radius compensation on",
-            )?;
-            self.state.tool = self.state.selected_tool;
-            s.emit(EventKind::Wait(TaskWait::ToolChange));
+    /// M6: the selected tool goes into the spindle. M61 Qn: tool `n` is
+    /// declared in the spindle without a change (LinuxCNC's
+    /// CHANGE_TOOL_NUMBER: its entry becomes the spindle's, so a later G43
+    /// without H or with H0 applies it, and `#5400`–`#5413` read it from
+    /// the next line); Q0 empties the spindle. Q is rounded to the nearest
+    /// integer, as LinuxCNC's `round_to_int`; M61 changes neither the tool
+    /// T selected nor the tool offset in force.
+    fn change_tool(
+        &mut self,
+        w: &BlockWords,
+        codes: &Codes,
+        s: &mut Step,
+    ) -> Result<(), GcodeError> {
+        match codes.m_tool_change {
+            Some((6, _)) => {
+                self.refuse_with_comp(
+                    s,
+                    0,
+                    "Cannot change tools with cutter radius compensation on",
+                )?;
+                self.tool_before_change = self.state.tool;
+                self.state.tool = self.state.selected_tool;
+                s.emit(EventKind::Wait(TaskWait::ToolChange));
+            }
+            Some((_, col)) => {
+                let q = w.get(b'Q');
+                let need = "Need non-negative Q-word to specify tool number with M61";
+                let Some(q) = q else {
+                    return Err(s.invalid(col, need));
+                };
+                let n = (q.value + 0.5).floor();
+                if !(0.0..=f64::from(u32::MAX)).contains(&n) {
+                    return Err(s.invalid(q.column, need));
+                }
+                let n = n as u32;
+                if n != 0 && self.tools.get(n).is_none() {
+                    return Err(s.invalid(
+                        q.column,
+                        format!("Requested tool {n} not found in the tool table"),
+                    ));
+                }
+                self.tool_before_change = self.state.tool;
+                self.state.tool = n;
+                s.emit(EventKind::Wait(TaskWait::ToolNumber));
+            }
+            None => {}
         }
         Ok(())
+    }
+
+    /// The tool whose entry LinuxCNC's interpreter holds as the spindle's
+    /// (its tool index 0, read by G43 H0, G43.2 H0, and G41/G42 without D
+    /// or with D0) while this block runs: the tool in the spindle, except
+    /// on the line of an M6 or M61, where LinuxCNC re-reads the entry only
+    /// at the next line, so it is still the tool loaded before (checked
+    /// with `rs274` 2.9: `T2 M6`, then `T4 M6 G43 H0` applies tool 2).
+    fn spindle_entry_tool(&self, codes: &Codes) -> u32 {
+        if codes.m_tool_change.is_some() {
+            self.tool_before_change
+        } else {
+            self.state.tool
+        }
+    }
+
+    /// The tool G43 and G43.4 without H apply: the spindle's entry, but on
+    /// the line of an M6 or M61 the new tool's own entry (LinuxCNC reads
+    /// the pocket changed to), unless that is tool 0 (its pocket is the
+    /// spindle's entry, still the tool loaded before).
+    fn g43_default_tool(&self, codes: &Codes) -> u32 {
+        if codes.m_tool_change.is_some() && self.state.tool != 0 {
+            self.state.tool
+        } else {
+            self.spindle_entry_tool(codes)
+        }
     }
 
     /// The block's M-codes among `codes` that LinuxCNC's task waits for
@@ -1438,11 +1515,13 @@ impl Interpreter {
         let (axes, values) = self.axis_words(w, codes);
         let offset = match code {
             GCode::G49 => Axes::ZERO,
-            // H0 (as no H) is the tool in the spindle: LinuxCNC's tool
-            // index 0 is the spindle's entry.
-            GCode::G43 | GCode::G43_4 => {
-                table_offset(self, h.filter(|&h| h != 0).unwrap_or(self.state.tool))?
-            }
+            // H0 is the tool in the spindle: LinuxCNC's tool index 0 is
+            // the spindle's entry.
+            GCode::G43 | GCode::G43_4 => match h {
+                Some(0) => table_offset(self, self.spindle_entry_tool(codes))?,
+                Some(tool) => table_offset(self, tool)?,
+                None => table_offset(self, self.g43_default_tool(codes))?,
+            },
             GCode::G43_1 => {
                 let mut o = self.state.tool_offset;
                 for a in axes.iter() {
@@ -1456,7 +1535,7 @@ impl Interpreter {
                     return Err(s.invalid(col, "G43.2: Can not have both H and axis words"));
                 }
                 let added = match h {
-                    Some(0) => table_offset(self, self.state.tool)?,
+                    Some(0) => table_offset(self, self.spindle_entry_tool(codes))?,
                     Some(tool) => table_offset(self, tool)?,
                     None if axes.is_empty() => {
                         return Err(s.invalid(col, "G43.2: No axes specified and H word missing"));
@@ -3116,7 +3195,7 @@ impl Interpreter {
             (d.value / 2.0 * self.state.units.mm_per_unit(), orientation)
         } else {
             let (tool, column) = match w.get(b'D') {
-                None => (self.state.tool, col),
+                None => (self.spindle_entry_tool(codes), col),
                 Some(d) => {
                     // LinuxCNC: the nearest integer, within 0.0001.
                     let t = (d.value + 0.5).trunc();
@@ -3137,7 +3216,7 @@ impl Interpreter {
                     }
                     // D0: the tool in the spindle.
                     match t as u32 {
-                        0 => (self.state.tool, d.column),
+                        0 => (self.spindle_entry_tool(codes), d.column),
                         t => (t, d.column),
                     }
                 }
@@ -3588,7 +3667,7 @@ mod tests {
     fn task_waits_are_events() {
         use TaskWait::*;
         let ev = run(
-            "T1 M6\nM8\nG0 X1 M9\nM7\nM19\nM64 P0\nM65 P0\nM66 P0 L0\nM68 E0 Q1\nM62 P0\nM0\nM1\nM60\nT2 M6 M3 M64 P1 M8\nG0 X2 M1\nM30\n",
+            "T1 M6\nM8\nG0 X1 M9\nM7\nM19\nM64 P0\nM65 P0\nM66 P0 L0\nM68 E0 Q1\nM62 P0\nM0\nM1\nM60\nT2 M6 M3 M64 P1 M8\nG0 X2 M1\nM61 Q0\nM30\n",
         );
         let waits: Vec<(u64, TaskWait)> = ev
             .iter()
@@ -3615,6 +3694,7 @@ mod tests {
             (14, ToolChange),
             (14, FloodOn),
             (15, Pause),
+            (16, ToolNumber),
         ];
         assert_eq!(waits, want);
         // M9 before the move of its block, M1 after it.
@@ -3828,7 +3908,7 @@ mod tests {
             "G2 X10 I5 P2 F100\n",
             "M66 P0 L0 Q1\n",
             "M68 E0 Q1\n",
-            "M61 Q1\n",
+            "M61 Q0\n",
             "G43 H0\n",
             "N10 G0 X1\n",
             "/N10.5 G0 X1\n",
@@ -4318,6 +4398,91 @@ mod tests {
         assert_eq!(offs, [(1.0, 20.0), (2.0, 40.0)]);
         let ev = run_with("G43 H0\nG0 Z0\n", opts).unwrap();
         assert_eq!(lin(&moves(&ev)[0]).offset[Axis::Z], 0.0);
+    }
+
+    /// M61 Qn declares tool n in the spindle without a change (LinuxCNC
+    /// 2.9's CHANGE_TOOL_NUMBER, its I/O controller loading n's entry into
+    /// the spindle's): a later G43 (no H, or H0) applies n's offsets and
+    /// #5400–#5413 read n; M61 keeps the selected tool and the offset in
+    /// force. Table: tool 1 Z10, tool 2 X1 Z20 (mm).
+    #[test]
+    fn m61_sets_the_tool_in_the_spindle_without_a_change() {
+        let opts = InterpOptions {
+            tools: ToolTable::parse("T1 P1 Z10\nT2 P2 Z20 X1 D6\n", Units::Millimetre).unwrap(),
+            ..Default::default()
+        };
+        let offsets = |src: &str| -> Vec<(f64, f64)> {
+            moves(&run_with(src, opts.clone()).unwrap())
+                .iter()
+                .map(|k| (lin(k).offset[Axis::X], lin(k).offset[Axis::Z]))
+                .collect()
+        };
+        // G43 after M61 Q2 applies tool 2, on its line or later; H0 too.
+        assert_eq!(offsets("T1 M6\nM61 Q2\nG43\nG0 Z0\n"), [(1.0, 20.0)]);
+        assert_eq!(offsets("M61 Q2 G43\nG0 Z0\n"), [(1.0, 20.0)]);
+        assert_eq!(offsets("T1 M6\nM61 Q2\nG43 H0\nG0 Z0\n"), [(1.0, 20.0)]);
+        // The offset in force stays until a G43; M6 loads the selected
+        // tool 1 again; Q0 empties the spindle.
+        assert_eq!(offsets("T2 M6 G43\nM61 Q1\nG0 Z0\n"), [(1.0, 20.0)]);
+        assert_eq!(offsets("T1 M6\nM61 Q2\nM6\nG43\nG0 Z0\n"), [(0.0, 10.0)]);
+        assert_eq!(offsets("T2 M6\nM61 Q0\nG43\nG0 Z0\n"), [(0.0, 0.0)]);
+        // On the line of an M6 or M61, LinuxCNC's spindle entry (H0, and
+        // G43 when the new tool is 0) is still the tool loaded before; G43
+        // without H reads the new tool's entry (as rs274 2.9 does).
+        assert_eq!(offsets("T1 M6\nT2 M6 G43 H0\nG0 Z0\n"), [(0.0, 10.0)]);
+        assert_eq!(offsets("T1 M6\nM61 Q2 G43 H0\nG0 Z0\n"), [(0.0, 10.0)]);
+        assert_eq!(offsets("T1 M6\nM61 Q2 G43.2 H0\nG0 Z0\n"), [(0.0, 10.0)]);
+        assert_eq!(
+            offsets("T1 M6\nM61 Q2 G43 H0\nG43 H0\nG0 Z0\n"),
+            [(1.0, 20.0)]
+        );
+        assert_eq!(offsets("T2 M6\nM61 Q0 G43\nG0 Z0\n"), [(1.0, 20.0)]);
+        assert_eq!(offsets("T2 M6\nT0 M6 G43\nG0 Z0\n"), [(1.0, 20.0)]);
+        assert_eq!(offsets("T1 M6\nT2 M6 G43\nG0 Z0\n"), [(1.0, 20.0)]);
+        // Q rounds to the nearest integer (LinuxCNC's round_to_int).
+        assert_eq!(offsets("M61 Q1.6 G43\nG0 Z0\n"), [(1.0, 20.0)]);
+        assert_eq!(offsets("M61 Q-0.4 G43\nG0 Z0\n"), [(0.0, 0.0)]);
+        // The parameters read the tool from the line after M61.
+        let it = interp_after("T1 M6\nM61 Q2\n", opts.clone());
+        let p = |n: u32| it.parameters().get(n);
+        assert_eq!((it.state().tool, it.state().selected_tool), (2, 1));
+        assert_eq!((p(5400), p(5401), p(5403), p(5410)), (2.0, 1.0, 20.0, 6.0));
+        let it = interp_after("T2 M6\nM61 Q0\n", opts.clone());
+        assert_eq!(
+            (it.parameters().get(5400), it.parameters().get(5403)),
+            (0.0, 0.0)
+        );
+        // Errors, worded as LinuxCNC 2.9's.
+        let err = |src: &str| match run_with(src, opts.clone()) {
+            Err(GcodeError::Invalid { at, message }) => (at.column, message),
+            other => panic!("{src}: expected an invalid block, got {other:?}"),
+        };
+        let need = "Need non-negative Q-word to specify tool number with M61";
+        assert_eq!(err("M61\n"), (1, need.to_string()));
+        assert_eq!(err("G0 X1 M61 Q-0.6\n"), (11, need.to_string()));
+        assert_eq!(
+            err("M61 Q3\n"),
+            (
+                5,
+                "Requested tool 3 not found in the tool table".to_string()
+            )
+        );
+        assert!(
+            err("M61 Q1 M6\n")
+                .1
+                .starts_with("two M-codes of one modal group")
+        );
+        // T of a tool the table does not hold, as rs274 2.9 refuses it; T0
+        // is no tool; without a table any T is taken.
+        assert_eq!(
+            err("G0 X1 T3\n"),
+            (
+                7,
+                "Requested tool 3 not found in the tool table".to_string()
+            )
+        );
+        assert_eq!(offsets("T2 M6\nT0 M6\nG43\nG0 Z0\n"), [(0.0, 0.0)]);
+        run_with("T3 M6\n", InterpOptions::default()).unwrap();
     }
 
     /// G33 moves at K per revolution of S; G33.1 taps to the end and back

@@ -12,10 +12,12 @@
 //!   everywhere. `#<_value>` and `#<_value_returned>` are 0 at start and
 //!   set by every `return` / `endsub` (the value, or 0 when none is
 //!   returned; LinuxCNC 2.9). The predefined read-only globals `#<_vmajor>`
-//!   (2) and `#<_vminor>` (9) are provided, and `#<_x>` … `#<_w>` (the
-//!   current point, read only: `#5420` … `#5428`); LinuxCNC's other
-//!   predefined state parameters (`#<_line>`, `#<_feed>`, ...) are not, and
-//!   reading one is the "not defined" error.
+//!   (2) and `#<_vminor>` (9) are provided, `#<_x>` … `#<_w>` (the
+//!   current point, read only: `#5420` … `#5428`) and `#<_line>` (the
+//!   number of the line being read in its file, 1-based: LinuxCNC's
+//!   sequence number, read only); LinuxCNC's other predefined state
+//!   parameters (`#<_feed>`, `#<_motion_mode>`, ...) are not, and reading
+//!   one is the "not defined" error.
 //! * `#5161`–`#5413` (homes, G92 and work offsets, coordinate system, the
 //!   tool in the spindle) and `#5420`–`#5428` (current point) are written by
 //!   the interpreter from its state, as LinuxCNC does (see
@@ -128,6 +130,9 @@ pub struct Parameters {
     /// INI values by `SECTION]NAME` (upper case): the numeric entries of the
     /// first section of each name.
     ini: HashMap<String, f64>,
+    /// `#<_line>`: the 1-based number of the line being read in its file
+    /// (0 before the first).
+    line: f64,
 }
 
 impl Default for Parameters {
@@ -142,6 +147,7 @@ impl Default for Parameters {
             locals: vec![HashMap::new()],
             listed: BTreeSet::new(),
             ini: HashMap::new(),
+            line: 0.0,
         }
     }
 }
@@ -174,6 +180,12 @@ impl Parameters {
     /// (see [`is_state_parameter`]); `n` must be 1 … 5601.
     pub(crate) fn set_state(&mut self, n: u32, value: f64) {
         self.numbered[n as usize] = value;
+    }
+
+    /// Sets `#<_line>`, the 1-based number of the line being read in its
+    /// file (LinuxCNC's sequence number), before the line's values are read.
+    pub(crate) fn set_line(&mut self, line: u64) {
+        self.line = line as f64;
     }
 
     /// Sets numbered parameter `n`; `n` outside 1 … 5601 is an error.
@@ -253,6 +265,9 @@ impl Parameters {
         if let Some(&(_, n)) = CURRENT_POINT.iter().find(|(c, _)| *c == name) {
             return Ok(self.get(n));
         }
+        if name == "_line" {
+            return Ok(self.line);
+        }
         if let Some(v) = self.ini_value(name) {
             return v;
         }
@@ -277,6 +292,7 @@ impl Parameters {
     pub fn set_named(&mut self, name: &str, value: f64) -> Result<(), ParamError> {
         if PREDEFINED.iter().any(|(n, _)| *n == name)
             || CURRENT_POINT.iter().any(|(n, _)| *n == name)
+            || name == "_line"
             || name.starts_with("_ini[")
         {
             return Err(ParamError::ReadOnly(name.to_string()));
@@ -367,6 +383,20 @@ mod tests {
         p.set(31, 2.5).unwrap();
         assert_eq!(p.get(31), 2.5);
         assert!(p.set(5602, 1.0).is_err());
+    }
+
+    /// `#<_line>` reads the line set for reading and cannot be assigned.
+    #[test]
+    fn line_is_a_read_only_global() {
+        let mut p = Parameters::new();
+        assert_eq!(p.get_named("_line"), Ok(0.0));
+        p.set_line(42);
+        assert_eq!(p.get_named("_line"), Ok(42.0));
+        assert!(p.exists("_line"));
+        assert_eq!(
+            p.set_named("_line", 1.0),
+            Err(ParamError::ReadOnly("_line".to_string()))
+        );
     }
 
     #[test]

@@ -325,6 +325,7 @@ where
         summary.executed += 1;
         events.clear();
         if scan.comments && !interp.ended() {
+            interp.parameters_mut().set_line(block.line());
             messages(&block, interp.parameters(), opts, None)?;
         }
         interp.set_source_file(0);
@@ -470,6 +471,10 @@ fn messages(
                 return Ok(());
             }
         };
+        // LinuxCNC 2.9 shows `(DEBUG,…)` only while #5599 is above 0.
+        if kind == MessageKind::Debug && params.get(5599) <= 0.0 {
+            return Ok(());
+        }
         (kind, substitute(&trimmed[6..], params))
     };
     opts.messages.send(&Message {
@@ -1218,6 +1223,7 @@ impl Flow<'_> {
             let file = self.codes[c].file;
             let fail = |files: &[PathBuf], e: GcodeError| -> E { err_at(file, files, e).into() };
             let line = block.line();
+            interp.parameters_mut().set_line(line);
             let Some(st) = self.codes[c].stmts[pc].clone() else {
                 // An ordinary block (or Fanuc-style M98/M99).
                 if !interp.ended()
@@ -2388,6 +2394,42 @@ mod tests {
                 (MessageKind::Msg, " not this".to_string(), 7),
             ]
         );
+    }
+
+    /// `#<_line>` reads the number of the line being read (in a
+    /// subroutine or loop body, that body line), and `(DEBUG,…)` is shown
+    /// only while #5599 is above 0 (1 at start); PRINT and MSG always. The
+    /// messages and the move as `rs274` 2.9 prints them for this program.
+    #[test]
+    fn line_parameter_and_the_debug_switch() {
+        let got: Arc<Mutex<Vec<(MessageKind, String, u64)>>> = Arc::default();
+        let sink = got.clone();
+        let mut opts = InterpOptions::default();
+        opts.program.messages = MessageSink::new(move |m: &Message| {
+            sink.lock().unwrap().push((m.kind, m.text.clone(), m.line));
+        });
+        let src = "(debug, a #<_line>)\no1 sub\n(debug, s #<_line>)\no1 endsub\n\
+                   o2 repeat [2]\n(debug, r #<_line>)\no2 endrepeat\no1 call\nG0 X#<_line>\n\
+                   #5599=0\n(debug, hidden)\n(PRINT, p #<_line>)\n#5599=-1\n(debug, hidden)\n\
+                   #5599=0.0001\n(debug, shown)\nM2\n";
+        let m = moves_with(src, opts).unwrap();
+        assert_eq!(m, [([9.0, 0.0, 0.0], 9)]);
+        let got = got.lock().unwrap().clone();
+        let d = |t: &str, l| (MessageKind::Debug, t.to_string(), l);
+        assert_eq!(
+            got,
+            vec![
+                d(" a 1.000000", 1),
+                d(" r 6.000000", 6),
+                d(" r 6.000000", 6),
+                d(" s 3.000000", 3),
+                (MessageKind::Print, " p 12.000000".to_string(), 12),
+                d(" shown", 16),
+            ]
+        );
+        // Read only, as in LinuxCNC.
+        let e = moves_with("#<_line>=3\nM2\n", InterpOptions::default()).unwrap_err();
+        assert!(e.to_string().contains("read-only"), "{e}");
     }
 
     #[test]
