@@ -39,6 +39,20 @@
 //! pass): a slowly wandering sensor that matches one block's residual by
 //! chance can lower the pooled figure while raising the other blocks'.
 //!
+//! **Start offset** ([`LogFitOptions::start_offset`], off by default). A
+//! drift channel is counted from its first period mean, one measurement
+//! with its noise; that noise is an offset on every later sample, which a
+//! model from rest can only explain through its inputs (a slowly wandering
+//! sensor, or biased gains). With the option each channel's model also
+//! estimates that offset: for a sum of lags as one more least-squares
+//! regressor (0 at the first sample, 1 after it), for an ARX structure as
+//! the mean simulation residual after the first sample (each held-out
+//! block is judged with the offset of its fold's fit samples). The
+//! measured channel is then predicted as the first period mean plus the
+//! offset plus the simulated drift ([`predict_log`]); the drift since the
+//! cold start ([`LogModel::simulate`], what a compensation corrects) holds
+//! no offset.
+//!
 //! **Sums of first-order lags** ([`LogFitOptions::lags`], off by default).
 //! Each channel may also be modelled as `Σ_i Σ_τ g_{i,τ}·lag_τ(u_i)`: every
 //! input through one or two first-order lags whose time constants `τ` the
@@ -2195,16 +2209,17 @@ mod tests {
             start_offset: true,
             ..LogFitOptions::default()
         };
-        for seed in 1..=20 {
-            let (names, model, truth) = truth_fit_with(seed, &options);
-            assert!(
-                names.iter().any(|n| n == "speed_rpm") && names.iter().any(|n| n == "amb_c"),
-                "seed {seed}: {names:?}"
-            );
-            assert!(
-                model <= 1.1 * truth,
-                "seed {seed}: model {model} µm vs truth {truth} µm"
-            );
-        }
+        // Every draw is fitted (each prints its ratio), then the misses named.
+        let missed: Vec<String> = (1..=20)
+            .filter_map(|seed| {
+                let (names, model, truth) = truth_fit_with(seed, &options);
+                let true_inputs =
+                    names.iter().any(|n| n == "speed_rpm") && names.iter().any(|n| n == "amb_c");
+                (!true_inputs || model > 1.1 * truth).then(|| {
+                    format!("seed {seed}: {names:?}, model {model:.3} µm vs truth {truth:.3} µm")
+                })
+            })
+            .collect();
+        assert!(missed.is_empty(), "{missed:#?}");
     }
 }
