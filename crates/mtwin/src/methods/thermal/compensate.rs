@@ -1752,6 +1752,7 @@ mod log_tests {
                     heldout_drift_rms_mm: 0.0,
                     training_rms_mm: 0.0,
                     output_error: false,
+                    start_offset_mm: 0.0,
                 })
                 .collect(),
         }

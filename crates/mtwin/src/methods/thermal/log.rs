@@ -39,6 +39,20 @@
 //! pass): a slowly wandering sensor that matches one block's residual by
 //! chance can lower the pooled figure while raising the other blocks'.
 //!
+//! **Start offset** ([`LogFitOptions::start_offset`], off by default). A
+//! drift channel is counted from its first period mean, one measurement
+//! with its noise; that noise is an offset on every later sample, which a
+//! model from rest can only explain through its inputs (a slowly wandering
+//! sensor, or biased gains). With the option each channel's model also
+//! estimates that offset: for a sum of lags as one more least-squares
+//! regressor (0 at the first sample, 1 after it), for an ARX structure as
+//! the mean simulation residual after the first sample (each held-out
+//! block is judged with the offset of its fold's fit samples). The
+//! measured channel is then predicted as the first period mean plus the
+//! offset plus the simulated drift ([`predict_log`]); the drift since the
+//! cold start ([`LogModel::simulate`], what a compensation corrects) holds
+//! no offset.
+//!
 //! **Sums of first-order lags** ([`LogFitOptions::lags`], off by default).
 //! Each channel may also be modelled as `Σ_i Σ_τ g_{i,τ}·lag_τ(u_i)`: every
 //! input through one or two first-order lags whose time constants `τ` the
@@ -527,6 +541,14 @@ pub struct ChannelModel {
     pub training_rms_mm: f64,
     /// True when output-error refinement replaced the least-squares estimate.
     pub output_error: bool,
+    /// The channel's value at the cold start minus its first period mean,
+    /// mm, estimated with the model ([`LogFitOptions::start_offset`]; 0
+    /// without): the first period mean is one noisy measurement, so the
+    /// measured channel is predicted as that mean plus this offset plus the
+    /// simulated drift ([`predict_log`]). The drift itself (what a
+    /// compensation corrects) is [`LogModel::simulate`], without it.
+    #[serde(default)]
+    pub start_offset_mm: f64,
 }
 
 impl ChannelModel {
@@ -672,6 +694,13 @@ pub struct LogFitOptions {
     pub lags: bool,
     /// When an input is worth adding (and keeping): see [`InputRule`].
     pub rule: InputRule,
+    /// Estimate each channel's start offset with its model (a constant
+    /// from the second sample on, [`ChannelModel::start_offset_mm`]): the
+    /// drift is counted from the first period mean, a measurement with its
+    /// noise, and that noise is otherwise an offset on every later sample
+    /// that the inputs are made to explain. Off by default (the documented
+    /// real-record figures are fitted without).
+    pub start_offset: bool,
     /// Parallelism: the candidate inputs of a selection step are judged in
     /// parallel (each candidate's fits on one thread);
     /// [`Par::Seq`](crate::par::Par::Seq) on the calling thread only. Both
@@ -692,6 +721,7 @@ impl Default for LogFitOptions {
             warn_ratio: 0.5,
             lags: false,
             rule: InputRule::Pooled,
+            start_offset: false,
             par: crate::par::Par::rayon(0),
         }
     }
@@ -946,11 +976,27 @@ fn cv_rms(
         }
         let full: Vec<&[f64]> = inputs.iter().map(|&i| &u[i][..fold.test.end]).collect();
         let sim = model.simulate(&full).ok()?;
-        let ss: f64 = fold.test.clone().map(|k| (sim[k] - y[k]).powi(2)).sum();
+        let c = if options.start_offset {
+            let end = fold.fit.last().map_or(0, |r| r.end);
+            mean_residual(&sim[..end], &y[..end])
+        } else {
+            0.0
+        };
+        let ss: f64 = fold.test.clone().map(|k| (sim[k] + c - y[k]).powi(2)).sum();
         held.ss.push(ss);
         held.n.push(fold.test.len());
     }
     held.finite()
+}
+
+/// The least-squares start offset of a simulated drift `sim` against `y`
+/// (both since the first sample): the mean of `y − sim` after sample 0.
+fn mean_residual(sim: &[f64], y: &[f64]) -> f64 {
+    let n = sim.len().min(y.len());
+    if n < 2 {
+        return 0.0;
+    }
+    (1..n).map(|k| y[k] - sim[k]).sum::<f64>() / (n - 1) as f64
 }
 
 /// Try every order pair for `inputs` (indices into `u`): least squares on
@@ -1091,12 +1137,29 @@ fn lowpass(u: &[f64], p: f64) -> Vec<f64> {
 
 /// The regressors of a sum-of-lags model over the first `n` samples: for
 /// each input of `inputs`, its lag of each time constant of `taus`
-/// (input-major).
-fn lag_columns(u: &[Vec<f64>], inputs: &[usize], taus: &[f64], n: usize) -> Vec<Vec<f64>> {
-    inputs
+/// (input-major); with `offset`, then a column that is 0 at sample 0 and 1
+/// after it (the start offset, [`LogFitOptions::start_offset`]).
+fn lag_columns(
+    u: &[Vec<f64>],
+    inputs: &[usize],
+    taus: &[f64],
+    n: usize,
+    offset: bool,
+) -> Vec<Vec<f64>> {
+    let mut cols: Vec<Vec<f64>> = inputs
         .iter()
         .flat_map(|&i| taus.iter().map(move |&t| lowpass(&u[i][..n], lag_pole(t))))
-        .collect()
+        .collect();
+    if offset {
+        cols.push(offset_column(n));
+    }
+    cols
+}
+
+/// The start offset's regressor over `n` samples: 0 at sample 0 (where the
+/// drift since the first sample is 0 by construction), 1 after it.
+fn offset_column(n: usize) -> Vec<f64> {
+    (0..n).map(|k| if k == 0 { 0.0 } else { 1.0 }).collect()
 }
 
 /// The Gram matrices `Σ z zᵀ` of `z = [columns…, y]` over the samples
@@ -1161,10 +1224,17 @@ fn residual_ss(g: &nalgebra::DMatrix<f64>, gains: &[f64]) -> f64 {
     s.max(0.0)
 }
 
-/// Every input's static gain (the sum of its lags' gains) within the bound.
-fn lag_gains_ok(gains: &[f64], lags: usize, options: &LogFitOptions, y_max: f64) -> bool {
+/// Every input's static gain (the sum of its lags' gains) within the bound
+/// (a start offset after the inputs' gains is not a gain).
+fn lag_gains_ok(
+    gains: &[f64],
+    inputs: usize,
+    lags: usize,
+    options: &LogFitOptions,
+    y_max: f64,
+) -> bool {
     let bound = options.gain_bound * y_max.max(1e-12);
-    gains
+    gains[..inputs * lags]
         .chunks(lags)
         .all(|g| g.iter().sum::<f64>().abs() <= bound)
 }
@@ -1197,13 +1267,13 @@ fn lag_cv(
     at.sort_unstable();
     at.dedup();
     let n = *at.last()?;
-    let cols = lag_columns(u, inputs, taus, n);
+    let cols = lag_columns(u, inputs, taus, n, options.start_offset);
     let grams = prefix_grams(&cols, y, &at);
     let g = |k: usize| &grams[at.binary_search(&k).unwrap_or(0)];
     let mut held = HeldOut::new();
     for f in folds {
         let gains = solve_gains(g(f.fit[0].end))?;
-        if !lag_gains_ok(&gains, taus.len(), options, y_max) {
+        if !lag_gains_ok(&gains, inputs.len(), taus.len(), options, y_max) {
             return None;
         }
         held.ss
@@ -1284,10 +1354,17 @@ fn best_lags(
 /// trial (with the time constants it is an output-error fit; the structure
 /// itself was chosen by the held-out blocks, whose first fits see only a
 /// quarter of the samples).
-fn refine_lags(y: &[f64], u: &[Vec<f64>], inputs: &[usize], taus: &[f64], n: usize) -> Vec<f64> {
+fn refine_lags(
+    y: &[f64],
+    u: &[Vec<f64>],
+    inputs: &[usize],
+    taus: &[f64],
+    n: usize,
+    offset: bool,
+) -> Vec<f64> {
     let longest = 4.0 * y.len() as f64;
     let cost = |t: &[f64]| -> Option<f64> {
-        let cols = lag_columns(u, inputs, t, n);
+        let cols = lag_columns(u, inputs, t, n, offset);
         let g = prefix_grams(&cols, y, &[n]);
         let gains = solve_gains(&g[0])?;
         Some(residual_ss(&g[0], &gains))
@@ -1519,17 +1596,25 @@ pub fn fit_log_with(
         let mut output_error = false;
         // A sum of lags: its gains by least squares on all training samples
         // (the output-error fit for its time constants).
+        let offset = options.start_offset;
         let lag_model = cand.lags.as_ref().and_then(|taus| {
-            let taus = &refine_lags(&y, &u, &cand.inputs, taus, n_train);
-            let cols = lag_columns(&u, &cand.inputs, taus, n_train);
+            let taus = &refine_lags(&y, &u, &cand.inputs, taus, n_train, offset);
+            let cols = lag_columns(&u, &cand.inputs, taus, n_train, offset);
             let g = prefix_grams(&cols, &y, &[n_train]);
             let gains = solve_gains(&g[0])?;
-            lags_to_arx(taus, &gains, cand.inputs.len())
+            let c = if offset { gains[gains.len() - 1] } else { 0.0 };
+            lags_to_arx(taus, &gains, cand.inputs.len()).map(|m| (m, c))
         });
-        if let Some(m) = lag_model {
+        let mut start_offset = 0.0;
+        if let Some((m, c)) = lag_model {
             let sim = m.simulate(&run.input_slices()).map_err(|e| fail(spec, e))?;
-            training_rms = rms(sim.iter().zip(run.output()).map(|(s, m)| s - m));
+            training_rms = rms(sim
+                .iter()
+                .zip(run.output())
+                .enumerate()
+                .map(|(k, (s, m))| s + if k > 0 { c } else { 0.0 } - m));
             model = m;
+            start_offset = c;
         } else if cand.orders.na > 0
             && let Ok(oe) = fit_output_error_par(&run, &cand.orders, 0, crate::par::Par::Seq)
             && admissible(&oe.fit.model, options, y_max)
@@ -1559,6 +1644,17 @@ pub fn fit_log_with(
                 })?;
             output_error = false;
         }
+        if offset && cand.lags.is_none() {
+            // An ARX structure: the start offset is the mean simulation
+            // residual after the first sample (its least-squares value for
+            // the simulated model).
+            let sim = model
+                .simulate(&run.input_slices())
+                .map_err(|e| fail(spec, e))?;
+            start_offset = mean_residual(&sim, run.output());
+            training_rms =
+                rms((0..n_train).map(|k| sim[k] + if k > 0 { start_offset } else { 0.0 } - y[k]));
+        }
         let heldout_drift = rms(folds.iter().flat_map(|f| y[f.test.clone()].iter().copied()));
         if cand.heldout_rms > options.warn_ratio * heldout_drift {
             warnings.push(format!(
@@ -1578,6 +1674,7 @@ pub fn fit_log_with(
             heldout_drift_rms_mm: heldout_drift,
             training_rms_mm: training_rms,
             output_error,
+            start_offset_mm: start_offset,
         });
         selection.push(path);
         progress(ci, None);
@@ -1625,7 +1722,13 @@ pub fn predict_log(model: &LogModel, log: &LogData) -> Result<Vec<Vec<f64>>, The
                 .and_then(|v| v.first())
                 .copied()
                 .unwrap_or(0.0);
-            d.iter().map(|e| base + e / c.channel.unit.mm()).collect()
+            d.iter()
+                .enumerate()
+                .map(|(k, e)| {
+                    let offset = if k > 0 { c.start_offset_mm } else { 0.0 };
+                    base + (e + offset) / c.channel.unit.mm()
+                })
+                .collect()
         })
         .collect())
 }
@@ -1896,7 +1999,7 @@ mod tests {
         for f in &folds {
             let m = f.fit[0].end;
             // Gains by a plain least-squares solve of the fit span.
-            let cols = lag_columns(&u, &[0, 1], &taus, n);
+            let cols = lag_columns(&u, &[0, 1], &taus, n, false);
             let x = nalgebra::DMatrix::from_fn(m, 4, |r, c| cols[c][r]);
             let gains = x
                 .svd(true, true)
@@ -1955,29 +2058,53 @@ mod tests {
 
     /// Fit of `truth_log(seed)` on its first 1 600 samples with sums of lags
     /// and `rule`: the inputs kept, the model's error on the last 800
-    /// samples against the measured drift, and the truth's own error there
-    /// (its noise-free drift; its first sample is 0, as the measured
-    /// channel's base is that noisy sample), µm.
+    /// samples against the measured drift, and the truth's own error there,
+    /// µm. The truth's prediction is placed as the model's is: its
+    /// noise-free drift on the channel's first sample (the base of
+    /// [`predict_log`]), and with [`LogFitOptions::start_offset`] plus its
+    /// start offset estimated as the model's is (the mean of the measured
+    /// drift minus its own over the training samples after the first).
     fn truth_fit(seed: u64, rule: InputRule) -> (Vec<String>, f64, f64) {
+        truth_fit_with(
+            seed,
+            &LogFitOptions {
+                lags: true,
+                rule,
+                ..LogFitOptions::default()
+            },
+        )
+    }
+
+    /// [`truth_fit`] with any options.
+    fn truth_fit_with(seed: u64, options: &LogFitOptions) -> (Vec<String>, f64, f64) {
         let (c, i) = specs(&["d_um:Z"], &["speed_rpm", "amb_c", "s1_c", "s2_c", "s3_c"]);
         let (text, clean) = truth_log(seed, 2400, 0.3);
         let log = read_log(&table(&text), &c, &i, 1.0).unwrap();
         let n_train = 1600;
-        let options = LogFitOptions {
-            lags: true,
-            rule,
-            ..LogFitOptions::default()
-        };
-        let fit = fit_log(&log, &c, &i, Some(n_train), &options).unwrap();
+        let rule = options.rule;
+        let offset = options.start_offset;
+        let fit = fit_log(&log, &c, &i, Some(n_train), options).unwrap();
         let m = &fit.model.channels[0];
         let names: Vec<String> = m.inputs.iter().map(|&j| i[j].column.clone()).collect();
         let pred = predict_log(&fit.model, &log).unwrap();
         let measured = &log.channels[0];
         let model_err = rms((n_train..log.len()).map(|k| pred[0][k] - measured[k]));
-        let truth_err = rms((n_train..log.len()).map(|k| clean[k] - (measured[k] - measured[0])));
+        let c_truth = if offset {
+            (1..n_train)
+                .map(|k| measured[k] - measured[0] - clean[k])
+                .sum::<f64>()
+                / (n_train - 1) as f64
+        } else {
+            0.0
+        };
+        let truth_err =
+            rms((n_train..log.len()).map(|k| clean[k] + c_truth - (measured[k] - measured[0])));
+        let noise_err = rms((n_train..log.len()).map(|k| clean[k] - measured[k]));
         eprintln!(
-            "seed {seed}, {rule:?}: model {model_err:.3} µm, truth {truth_err:.3} µm, ratio {:.3}, {names:?}, {:?}",
+            "seed {seed}, {rule:?}, offset {offset}: model {model_err:.3} µm, truth {truth_err:.3} µm, ratio {:.3}, first sample {:.3}, noise {noise_err:.3}, ratio to noise {:.3}, {names:?}, {:?}",
             model_err / truth_err,
+            measured[0],
+            model_err / noise_err,
             fit.selection
         );
         assert!(fit.warnings.is_empty(), "{:?}", fit.warnings);
@@ -2008,21 +2135,91 @@ mod tests {
     }
 
     #[test]
-    #[ignore = "not met on every draw: with LogFitOptions::lags and InputRule::EveryBlock, seeds 1, 2, 4-7, 9 and \
-                10 are within 10 % of the truth's error (ratios 0.58-1.07); seed 3 keeps a random-walk sensor (s3) \
-                that lowers the error in all three held-out blocks by 20-40 % (ratio 1.38), and seed 8 keeps the \
-                true inputs but its slow lag's gains extrapolate worse (ratio 1.14)"]
-    fn forward_selection_recovers_a_multi_input_truth_within_ten_percent_of_its_own_error() {
-        for seed in 1..=10 {
-            let (names, model, truth) = truth_fit(seed, InputRule::EveryBlock);
-            assert!(
-                names.iter().any(|n| n == "speed_rpm") && names.iter().any(|n| n == "amb_c"),
-                "seed {seed}: {names:?}"
-            );
-            assert!(
-                model <= 1.1 * truth,
-                "seed {seed}: model {model} µm vs truth {truth} µm"
-            );
+    fn the_start_offset_is_estimated_with_the_model() {
+        // Drift of a 30-min lag of the speed (gain −8 µm), every sample
+        // after the first read 0.5 µm high (as if the first sample, the
+        // base, had read 0.5 µm low), no noise: the estimated start offset
+        // is that 0.5 µm and the measured channel is predicted exactly.
+        let p = (-1.0f64 / 30.0).exp();
+        let mut x = 0.0;
+        let mut text = String::from("t_min,d_um,speed_rpm\n");
+        for k in 0..900 {
+            let speed = [0.0, 3000.0, 1000.0, 5000.0][(k / 70) % 4];
+            let d = -8.0 * x + if k > 0 { 0.5 } else { 0.0 };
+            text.push_str(&format!("{k},{d},{speed}\n"));
+            x = p * x + (1.0 - p) * speed / 5000.0;
         }
+        let (c, i) = specs(&["d_um:Z"], &["speed_rpm"]);
+        let log = read_log(&table(&text), &c, &i, 1.0).unwrap();
+        let options = LogFitOptions {
+            lags: true,
+            start_offset: true,
+            ..LogFitOptions::default()
+        };
+        let fit = fit_log(&log, &c, &i, Some(600), &options).unwrap();
+        let m = &fit.model.channels[0];
+        assert!((m.start_offset_mm - 0.5e-3).abs() < 1e-6, "{m:?}");
+        let pred = predict_log(&fit.model, &log).unwrap();
+        for (k, (p, v)) in pred[0].iter().zip(&log.channels[0]).enumerate() {
+            assert!((p - v).abs() < 1e-3, "k {k}: {p} vs {v}");
+        }
+        // The drift since the cold start (what a compensation corrects)
+        // holds no offset: 0 at the start, −8 µm per unit speed at rest.
+        let drift = fit
+            .model
+            .simulate(&fit.model.scaled_inputs(&log.inputs))
+            .unwrap();
+        assert!(drift[0][1].abs() < 1e-9, "{}", drift[0][1]);
+        // Without the option the offset is 0 and the fit cannot reach it.
+        let without = fit_log(&log, &c, &i, Some(600), &LogFitOptions::default()).unwrap();
+        assert_eq!(without.model.channels[0].start_offset_mm, 0.0);
+    }
+
+    #[test]
+    fn with_the_start_offset_the_true_inputs_are_kept_in_draws_the_base_misled() {
+        // Seeds 8 and 15: without the start offset the first sample's
+        // noise is an offset the inputs are made to explain; seed 15 then
+        // drops the ambient sensor, seed 8's slow gains extrapolate worse,
+        // both more than 10 % above the truth's error. With it both keep
+        // the true inputs and are within 10 %.
+        for seed in [8, 15] {
+            let (_, model, truth) = truth_fit(seed, InputRule::EveryBlock);
+            assert!(model > 1.1 * truth, "seed {seed}: {model} vs {truth}");
+            let options = LogFitOptions {
+                lags: true,
+                rule: InputRule::EveryBlock,
+                start_offset: true,
+                ..LogFitOptions::default()
+            };
+            let (names, model, truth) = truth_fit_with(seed, &options);
+            assert_eq!(names, ["speed_rpm", "amb_c"], "seed {seed}");
+            assert!(model <= 1.1 * truth, "seed {seed}: {model} vs {truth}");
+        }
+    }
+
+    #[test]
+    #[ignore = "not met on every draw: with LogFitOptions::lags, InputRule::EveryBlock and \
+                LogFitOptions::start_offset, 19 of the 20 draws (seeds 1-2, 4-20) are within 10 % of the truth's \
+                error (ratios 0.997-1.079); seed 3 keeps a random-walk sensor (s2) that lowers the error in every \
+                held-out block (ratio 1.299)"]
+    fn forward_selection_recovers_a_multi_input_truth_within_ten_percent_of_its_own_error() {
+        let options = LogFitOptions {
+            lags: true,
+            rule: InputRule::EveryBlock,
+            start_offset: true,
+            ..LogFitOptions::default()
+        };
+        // Every draw is fitted (each prints its ratio), then the misses named.
+        let missed: Vec<String> = (1..=20)
+            .filter_map(|seed| {
+                let (names, model, truth) = truth_fit_with(seed, &options);
+                let true_inputs =
+                    names.iter().any(|n| n == "speed_rpm") && names.iter().any(|n| n == "amb_c");
+                (!true_inputs || model > 1.1 * truth).then(|| {
+                    format!("seed {seed}: {names:?}, model {model:.3} µm vs truth {truth:.3} µm")
+                })
+            })
+            .collect();
+        assert!(missed.is_empty(), "{missed:#?}");
     }
 }

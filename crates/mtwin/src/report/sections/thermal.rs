@@ -331,6 +331,7 @@ mod tests {
                 heldout_drift_rms_mm: 0.0,
                 training_rms_mm: 0.0,
                 output_error: false,
+                start_offset_mm: 0.0,
             }],
         };
         let log = LogData {
