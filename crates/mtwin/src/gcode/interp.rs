@@ -2604,14 +2604,22 @@ impl Interpreter {
             }
             Some(mode) => {
                 self.cycle.initial_level = None;
-                self.move_to(mode, w, axes, target, g53, s)
+                // LinuxCNC's straight probes (G38.2–G38.5), not the Fanuc G31.
+                let probe = codes
+                    .motion
+                    .filter(|&(c, _)| c.is_probe() && c != GCode::G31)
+                    .map(|(_, col)| col);
+                self.move_to(mode, w, axes, target, g53, probe, s)
             }
         }
     }
 
     /// One move of `mode` to the axis words. With cutter radius
     /// compensation on, the words are read from the programmed position
-    /// and the move is made by [`CutterComp`].
+    /// and the move is made by [`CutterComp`]. `probe`: the column of the
+    /// block's G38.2–G38.5, whose end must lie at least
+    /// [`PROBE_MIN_DISTANCE_MM`] from the start.
+    #[allow(clippy::too_many_arguments)]
     fn move_to(
         &mut self,
         mode: MotionMode,
@@ -2619,6 +2627,7 @@ impl Interpreter {
         axes: AxisMask,
         target: [f64; 9],
         g53: Option<usize>,
+        probe: Option<usize>,
         s: &mut Step,
     ) -> Result<(), GcodeError> {
         let line = s.line;
@@ -2658,6 +2667,11 @@ impl Interpreter {
             } else {
                 v
             };
+        }
+        if let Some(col) = probe
+            && to.sub(&from).xyz_norm() < PROBE_MIN_DISTANCE_MM
+        {
+            return Err(s.invalid(col, "Start point too close to probe point"));
         }
         let words = Programmed {
             axes,
@@ -3353,6 +3367,11 @@ impl Interpreter {
 }
 
 /// The motion mode a group-1 code sets (G80 excluded).
+/// Shortest straight probe (G38.2–G38.5) LinuxCNC runs, mm: its start
+/// must be at least 0.254 mm (0.01 in) from its end in X Y Z, else
+/// "Start point too close to probe point".
+const PROBE_MIN_DISTANCE_MM: f64 = 0.254;
+
 fn motion_mode(code: GCode) -> MotionMode {
     match code {
         GCode::G0 => MotionMode::Rapid,
@@ -3716,6 +3735,34 @@ mod tests {
             .unwrap();
         assert!(ev[spindle - 1].kind == EventKind::Wait(ToolChange));
         assert!(ev[spindle + 1].kind == EventKind::Wait(FloodOn));
+    }
+
+    #[test]
+    fn a_probe_must_start_at_least_a_hundredth_of_an_inch_from_its_end() {
+        // LinuxCNC's rule: 0.254 mm in G21, 0.01 in in G20, in X Y Z.
+        let opts = InterpOptions::default;
+        for (src, ok) in [
+            ("G21 G0 X0 Y0 Z0\nG38.2 Z-0.3 F100\nM2\n", true),
+            ("G21 G0 X0 Y0 Z0\nG38.2 Z-0.2 F100\nM2\n", false),
+            ("G21 G0 X0 Y0 Z0\nG38.3 X0.15 Y0.15 F100\nM2\n", false),
+            ("G21 G0 X0 Y0 Z0\nG38.3 X0.2 Y0.2 F100\nM2\n", true),
+            ("G20 G0 X0 Y0 Z0\nG38.2 Z-0.011 F10\nM2\n", true),
+            ("G20 G0 X0 Y0 Z0\nG38.2 Z-0.009 F10\nM2\n", false),
+            ("G21 G0 X0 Y0 Z0\nG91 G38.4 Z1 F100\nM2\n", true),
+            ("G21 G0 X0 Y0 Z0\nG91 G38.5 Z0.1 F100\nM2\n", false),
+        ] {
+            match run_with(src, opts()) {
+                Ok(_) => assert!(ok, "{src} accepted"),
+                Err(e) => {
+                    assert!(!ok, "{src}: {e}");
+                    let m = e.to_string();
+                    assert!(m.contains("Start point too close to probe point"), "{m}");
+                    // The column of the G38 word on line 2.
+                    let col = src.lines().nth(1).unwrap().find("G38").unwrap() + 1;
+                    assert!(m.contains(&format!("line 2, column {col}")), "{m}");
+                }
+            }
+        }
     }
 
     #[test]
