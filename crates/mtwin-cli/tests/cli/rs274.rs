@@ -395,6 +395,22 @@ fn parse_canon(text: &str) -> Vec<Step> {
 }
 
 /// Runs rs274 on `program`; `work` is a private scratch folder.
+/// `program` written to `work`/`file`, run by `rs274` (the shared INI) and
+/// by mtwin: (mtwin's outcome, rs274's).
+fn run_both(
+    setup: &Setup,
+    work: &Path,
+    file: impl AsRef<Path>,
+    program: &str,
+) -> (Outcome, Outcome) {
+    let path = work.join(file);
+    std::fs::write(&path, program).unwrap();
+    (
+        run_mtwin(program.as_bytes(), None),
+        run_rs274(setup, &path, work, None),
+    )
+}
+
 fn run_rs274(s: &Setup, program: &Path, work: &Path, ini: Option<&str>) -> Outcome {
     let ini = match ini {
         Some(text) => {
@@ -1900,10 +1916,7 @@ fn rs274_standalone_quirks_the_generator_avoids() {
     let work = setup.root.join("quirks");
     std::fs::create_dir(&work).unwrap();
     for (k, (name, program, ours_end, theirs_end)) in RS274_QUIRKS.iter().enumerate() {
-        let path = work.join(format!("quirk{k}.ngc"));
-        std::fs::write(&path, program).unwrap();
-        let theirs = run_rs274(&setup, &path, &work, None);
-        let ours = run_mtwin(program.as_bytes(), None);
+        let (ours, theirs) = run_both(&setup, &work, format!("quirk{k}.ngc"), program);
         assert!(theirs.refused.is_none() && ours.refused.is_none(), "{name}");
         for (who, outcome, want) in [("mtwin", &ours, ours_end), ("rs274", &theirs, theirs_end)] {
             let Some(Step::Move { end, .. }) = outcome.steps.last() else {
@@ -1925,10 +1938,7 @@ fn rs274_standalone_quirks_the_generator_avoids() {
             .replace("R90\nT1 M6", "R90\nG0 X0 Y-10 Z0\nT1 M6")
             .replace("M61 Q4\nG43\n", "M61 Q4\nG43 H4\n")
             .replace("G20\nG49\n", "G49\nG20\n");
-        let path = work.join(format!("fixed{k}.ngc"));
-        std::fs::write(&path, &fixed).unwrap();
-        let theirs = run_rs274(&setup, &path, &work, None);
-        let ours = run_mtwin(fixed.as_bytes(), None);
+        let (ours, theirs) = run_both(&setup, &work, format!("fixed{k}.ngc"), &fixed);
         assert!(
             matches!(classify(&ours, &theirs), Verdict::Agree),
             "{name}: with the remedy, {fixed:?}: {:?}",
@@ -1988,10 +1998,7 @@ fn m61_agrees_with_rs274() {
     std::fs::create_dir(&work).unwrap();
     for (k, (body, want)) in M61_CASES.iter().enumerate() {
         let program = format!("G90 G17\n{body}M2\n");
-        let path = work.join(format!("m61-{k}.ngc"));
-        std::fs::write(&path, &program).unwrap();
-        let theirs = run_rs274(&setup, &path, &work, None);
-        let ours = run_mtwin(program.as_bytes(), None);
+        let (ours, theirs) = run_both(&setup, &work, format!("m61-{k}.ngc"), &program);
         assert!(
             matches!(classify(&ours, &theirs), Verdict::Agree),
             "{program:?}: {:?} / {:?}: {:?}",
@@ -2097,10 +2104,7 @@ fn system_parameters_agree_with_rs274() {
     let program = "G21 G90 G17\nG0 X0 Y0 Z10\nT2 M6\nG0 X0 Y0 Z10\nG55\nG0 X5 Y3 Z8\n\
                    G1 F100 X[#5420+1] Y[#5421*2] Z[#5422-#5220]\nG0 X[#<_x>+#5400] Y[#5421-1]\n\
                    G92 X0 Y0\nG0 X[#5420+1] Y[#5421+2]\nG20\nG0 X[#5420+0.1]\nM2\n";
-    let path = work.join("sysparams.ngc");
-    std::fs::write(&path, program).unwrap();
-    let theirs = run_rs274(&setup, &path, &work, None);
-    let ours = run_mtwin(program.as_bytes(), None);
+    let (ours, theirs) = run_both(&setup, &work, "sysparams.ngc", program);
     assert!(
         matches!(classify(&ours, &theirs), Verdict::Agree),
         "{:?} / {:?}: {:?}",
@@ -2280,10 +2284,7 @@ fn cutter_compensation_agrees_with_rs274() {
     let mut failures = Vec::new();
     let mut refused_by_both = 0;
     for (k, (name, program)) in CUTTER_COMP_PROGRAMS.iter().enumerate() {
-        let path = work.join(format!("comp{k}.ngc"));
-        std::fs::write(&path, program).unwrap();
-        let theirs = run_rs274(&setup, &path, &work, None);
-        let ours = run_mtwin(program.as_bytes(), None);
+        let (ours, theirs) = run_both(&setup, &work, format!("comp{k}.ngc"), program);
         // Each program makes compensated moves before its end.
         assert!(
             name.starts_with("error") || theirs.steps.len() >= 4,
@@ -2659,10 +2660,7 @@ fn lathe_diameter_mode_agrees_with_rs274() {
     std::fs::create_dir(&work).unwrap();
     let mut failures = Vec::new();
     for (k, (name, program)) in LATHE_PROGRAMS.iter().enumerate() {
-        let path = work.join(format!("lathe{k}.ngc"));
-        std::fs::write(&path, program).unwrap();
-        let theirs = run_rs274(&setup, &path, &work, None);
-        let ours = run_mtwin(program.as_bytes(), None);
+        let (ours, theirs) = run_both(&setup, &work, format!("lathe{k}.ngc"), program);
         assert!(
             name.starts_with("error") || (theirs.refused.is_none() && theirs.steps.len() >= 3),
             "{name}: rs274 made {} moves ({:?})",
@@ -2813,10 +2811,7 @@ fn lathe_tool_compensation_agrees_with_rs274() {
     let mut failures = Vec::new();
     let mut shifted = 0;
     for (k, (name, program)) in lathe_comp_programs().iter().enumerate() {
-        let path = work.join(format!("lc{k}.ngc"));
-        std::fs::write(&path, program).unwrap();
-        let theirs = run_rs274(&setup, &path, &work, None);
-        let ours = run_mtwin(program.as_bytes(), None);
+        let (ours, theirs) = run_both(&setup, &work, format!("lc{k}.ngc"), program);
         if name.starts_with("error") {
             assert!(
                 ours.refused.is_some() && theirs.refused.is_some(),
@@ -2851,10 +2846,7 @@ fn lathe_tool_compensation_agrees_with_rs274() {
     let mut failures = Vec::new();
     for k in 0..LATHE_COMP {
         let program = generate_lathe_comp(LATHE_COMP_SEED + k);
-        let path = work.join(format!("g{k}.ngc"));
-        std::fs::write(&path, &program).unwrap();
-        let theirs = run_rs274(&setup, &path, &work, None);
-        let ours = run_mtwin(program.as_bytes(), None);
+        let (ours, theirs) = run_both(&setup, &work, format!("g{k}.ngc"), &program);
         if theirs.refused.is_some() || theirs.steps.len() < 8 {
             failures.push(format!(
                 "seed {k}: rs274 made {} moves ({:?})",
