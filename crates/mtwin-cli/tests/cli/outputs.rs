@@ -513,11 +513,17 @@ fn interrupt_a_long_write(signal: &str) -> (std::process::ExitStatus, tempfile::
         );
         std::thread::sleep(Duration::from_millis(2));
     }
-    let killed = Command::new("kill")
-        .args([&format!("-{signal}"), &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(killed.success());
+    // Sent directly, not by a `kill` process: starting one on a loaded
+    // machine can take longer than the rest of the write.
+    let sig = match signal {
+        "INT" => libc::SIGINT,
+        "TERM" => libc::SIGTERM,
+        other => panic!("no signal SIG{other} in this test"),
+    };
+    let pid = libc::pid_t::try_from(child.id()).unwrap();
+    // SAFETY: `kill` with the pid of a child this test started and has not
+    // yet waited for (so the pid cannot have been reused).
+    assert_eq!(unsafe { libc::kill(pid, sig) }, 0, "kill -{signal}");
     let start = Instant::now();
     let status = loop {
         if let Some(s) = child.try_wait().unwrap() {
