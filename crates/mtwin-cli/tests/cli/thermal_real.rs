@@ -516,3 +516,65 @@ fn real_record_last_third_with_rises_over_an_ambient_sensor() {
         &ratio,
     );
 }
+
+/// The record with one more column, `speed_on` (1 while the spindle turns,
+/// 0 at rest; its period mean is the fraction of the period spent turning),
+/// written to `dir`.
+fn with_speed_on(path: &Path, dir: &Path) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let speed = header.split(',').position(|h| h == "speed_rpm").unwrap();
+    let mut out = format!("{header},speed_on\n");
+    for l in lines {
+        let v: f64 = l.split(',').nth(speed).unwrap().parse().unwrap();
+        out.push_str(&format!("{l},{}\n", u8::from(v > 0.0)));
+    }
+    let file = dir.join("speed-on.csv");
+    std::fs::write(&file, out).unwrap();
+    file
+}
+
+/// The candidates of the cross-validation row at 1-min periods and a
+/// speed-on indicator (`speed_on:level`, a heat source that does not scale
+/// with the speed, e.g. the drive and coolant once the spindle turns); per
+/// channel with or without it chosen by the lowest cross-validation RMS. The
+/// test span only scores.
+#[test]
+fn real_record_last_third_with_a_speed_on_indicator() {
+    let Some(path) = record() else { return };
+    let mut inputs = vec!["speed_rpm".to_string(), "speed_rpm:square".to_string()];
+    inputs.extend(temperatures());
+    let plain_inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+    let plain = try_evaluate(&path, &plain_inputs, 1.0, 3).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let file = with_speed_on(&path, dir.path());
+    inputs.insert(2, "speed_on:level".to_string());
+    let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+    let on = try_evaluate(&file, &inputs, 1.0, 3).unwrap();
+    let mut chosen = Vec::new();
+    let mut mae = Vec::new();
+    let mut ratio = Vec::new();
+    for ch in 0..CHANNELS.len() {
+        let o = on.heldout_um[ch] < plain.heldout_um[ch];
+        let e = if o { &on } else { &plain };
+        chosen.push(if o { 1.0 } else { 0.0 });
+        mae.push(e.mae[ch]);
+        ratio.push(e.ratio[ch]);
+    }
+    eprintln!(
+        "cross-validation RMS without {:.3?} / with speed-on {:.3?} µm; chosen {chosen:?}, MAE {mae:.3?}",
+        plain.heldout_um, on.heldout_um
+    );
+    assert_documented("with a speed-on indicator, MAE µm", &on.mae);
+    assert_documented("with a speed-on indicator, error/drift RMS", &on.ratio);
+    assert_documented(
+        "speed-on or not chosen by cross-validation, speed-on (1 = yes)",
+        &chosen,
+    );
+    assert_documented("speed-on or not chosen by cross-validation, MAE µm", &mae);
+    assert_documented(
+        "speed-on or not chosen by cross-validation, error/drift RMS",
+        &ratio,
+    );
+}
