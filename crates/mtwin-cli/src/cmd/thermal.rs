@@ -153,9 +153,17 @@ pub struct FitArgs {
     #[arg(long, requires = "log")]
     lags: bool,
     /// With --log: when an input is added (and kept): `pooled` (it lowers the pooled held-out RMS
-    /// by 2 %) or `every-block` (that, and it lowers the error in every held-out block).
+    /// by 2 %), `every-block` (that, and it lowers the error in every held-out block) or
+    /// `same-sign` (that, and every input's fitted static gain has one sign in every block's fit).
     #[arg(long, default_value = "pooled", value_parser = parse_input_rule, requires = "log")]
     input_rule: InputRule,
+    /// With --log: also estimate each channel's start offset with its model: the drift is counted
+    /// from the channel's first period mean, one noisy measurement, whose error is otherwise an
+    /// offset on every later sample that the inputs are made to explain. Stored per channel
+    /// (`start_offset_mm`); `thermal predict --log` adds it to the predicted channel, the drift that
+    /// `thermal compensate` corrects holds none.
+    #[arg(long, requires = "log")]
+    start_offset: bool,
     /// Largest ARX order tried: na in 1..=N, nb in 0..=N (default 4); with --log na and nb in
     /// 0..=N (default 2).
     #[arg(long)]
@@ -458,6 +466,7 @@ fn fit_log(log: &Path, a: FitArgs) -> anyhow::Result<()> {
     options.fit.folds = a.folds;
     options.fit.lags = a.lags;
     options.fit.rule = a.input_rule;
+    options.fit.start_offset = a.start_offset;
     options.out = a.out.display().to_string();
     options.validate()?;
     let mut out = mtwin::io::Outputs::plan()

@@ -219,6 +219,55 @@ fn fit_log_with_lags_and_the_every_block_rule() {
     assert!(err.contains("every-block"), "{err}");
 }
 
+/// `--start-offset`: every sample after the first of both channels reads
+/// high by a constant (0.5 µm on `grow_um`, 0.2 µm on `shift_mm`), as if
+/// the first period mean (the base the drift is counted from) had read that
+/// much low. With the flag each channel's model estimates that offset
+/// (stored as `start_offset_mm`) and predicts the measured log; without it
+/// the offset is 0.
+#[test]
+fn fit_log_with_the_start_offset() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    let u = inputs(600, &[0.0, 2000.0, 5000.0, 3500.0, 1000.0], 1.0);
+    let offsets = [0.5, 0.2e-3]; // µm, mm
+    let d: Vec<(f64, f64)> = truth(&u)
+        .iter()
+        .enumerate()
+        .map(|(k, &(a, b))| match k {
+            0 => (a, b),
+            _ => (a + offsets[0], b + offsets[1]),
+        })
+        .collect();
+    std::fs::write(p.join("log.csv"), log_csv(&u, Some(&d))).unwrap();
+    let mut a = FIT.to_vec();
+    a.extend(["--lags", "--start-offset", "--input-rule", "same-sign"]);
+    let (doc, _) = json_round_trip::<mtwin::methods::thermal::ThermalLogFitDoc>(p, &a);
+    let model = mtwin::methods::thermal::log::LogModel::read(&p.join("log-model.toml")).unwrap();
+    let want_mm = [offsets[0] * 1e-3, offsets[1]];
+    for (c, want) in model.channels.iter().zip(want_mm) {
+        assert!(
+            (c.start_offset_mm - want).abs() < 0.05 * want,
+            "{}: {} vs {want} mm",
+            c.channel.column,
+            c.start_offset_mm
+        );
+    }
+    // The test span (480 … 600 min) predicted with the offset: its error is
+    // a small part of the drift there.
+    let t = doc.test.as_ref().unwrap();
+    assert!(
+        t.channels.iter().all(|s| s.error_over_drift_rms < 0.02),
+        "{t:?}"
+    );
+    // Without the flag no offset is estimated.
+    let mut a = FIT.to_vec();
+    a.push("--lags");
+    mtwin_ok(p, &a);
+    let model = mtwin::methods::thermal::log::LogModel::read(&p.join("log-model.toml")).unwrap();
+    assert!(model.channels.iter().all(|c| c.start_offset_mm == 0.0));
+}
+
 #[test]
 fn predict_log_scores_a_measured_column_against_its_rows() {
     let dir = tempfile::tempdir().unwrap();

@@ -344,3 +344,291 @@ fn real_record_last_third_with_lags_chosen_by_cross_validation() {
         &every.ratio,
     );
 }
+
+/// The candidates of the cross-validation row at 1-min periods with the
+/// same-sign rule (an input is kept only when it lowers the error in every
+/// held-out block and every input's static gain has one sign in every
+/// block's fit), and per channel the rule (pooled, the cross-validation
+/// row's 1-min fit, or same-sign) chosen by the lowest cross-validation RMS.
+/// The test span only scores.
+#[test]
+fn real_record_last_third_with_the_same_sign_rule() {
+    let Some(path) = record() else { return };
+    let mut inputs = vec!["speed_rpm".to_string(), "speed_rpm:square".to_string()];
+    inputs.extend(temperatures());
+    let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+    let pooled = try_evaluate(&path, &inputs, 1.0, 3).unwrap();
+    let mut options = LogFitOptions::default();
+    options.rule = InputRule::SameSign;
+    let same = try_evaluate_with(&path, &inputs, 1.0, &options).unwrap();
+    let mut chosen = Vec::new();
+    let mut mae = Vec::new();
+    let mut ratio = Vec::new();
+    for ch in 0..CHANNELS.len() {
+        let s = same.heldout_um[ch] < pooled.heldout_um[ch];
+        let e = if s { &same } else { &pooled };
+        chosen.push(if s { 1.0 } else { 0.0 });
+        mae.push(e.mae[ch]);
+        ratio.push(e.ratio[ch]);
+    }
+    eprintln!(
+        "cross-validation RMS pooled {:.3?} / same-sign {:.3?} µm; same-sign chosen {chosen:?}, MAE {mae:.3?}",
+        pooled.heldout_um, same.heldout_um
+    );
+    assert_documented("same-sign rule, 3 held-out blocks, MAE µm", &same.mae);
+    assert_documented(
+        "same-sign rule, 3 held-out blocks, error/drift RMS",
+        &same.ratio,
+    );
+    assert_documented(
+        "pooled or same-sign chosen by cross-validation, same-sign (1 = yes)",
+        &chosen,
+    );
+    assert_documented(
+        "pooled or same-sign chosen by cross-validation, MAE µm",
+        &mae,
+    );
+    assert_documented(
+        "pooled or same-sign chosen by cross-validation, error/drift RMS",
+        &ratio,
+    );
+}
+
+/// The record with, beside its sixteen temperatures, every temperature but
+/// the ambient one as its difference from the ambient sensor
+/// (`dN_c = tN_c − tA_c`, K), written to `dir`; the ambient sensor `tA_c` is the temperature least correlated
+/// with the spindle speed over the raw rows of the training span (its
+/// index 1…16 is returned). Speed, channels and times are copied as text.
+fn with_rises_over_ambient(path: &Path, dir: &Path) -> (std::path::PathBuf, usize) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let num = |r: &[&str], c: usize| r[c].parse::<f64>().unwrap();
+    let (t, speed) = (col("t_s"), col("speed_rpm"));
+    let train: Vec<&Vec<&str>> = rows
+        .iter()
+        .filter(|r| num(r, t) / 60.0 < TRAIN_UNTIL_MIN)
+        .collect();
+    let corr = |c: usize| {
+        let n = train.len() as f64;
+        let (ma, mb) = train.iter().fold((0.0, 0.0), |(a, b), r| {
+            (a + num(r, c) / n, b + num(r, speed) / n)
+        });
+        let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+        for r in &train {
+            let (a, b) = (num(r, c) - ma, num(r, speed) - mb);
+            sab += a * b;
+            saa += a * a;
+            sbb += b * b;
+        }
+        (sab / (saa * sbb).sqrt()).abs()
+    };
+    let ambient = (1..=16)
+        .min_by(|&a, &b| corr(col(&format!("t{a}_c"))).total_cmp(&corr(col(&format!("t{b}_c")))))
+        .unwrap();
+    let amb = col(&format!("t{ambient}_c"));
+    let mut out = String::from("t_s,speed_rpm");
+    for c in CHANNELS {
+        out.push_str(&format!(",{c}"));
+    }
+    for i in 1..=16 {
+        out.push_str(&format!(",t{i}_c"));
+    }
+    let others: Vec<usize> = (1..=16).filter(|&i| i != ambient).collect();
+    for i in &others {
+        out.push_str(&format!(",d{i}_c"));
+    }
+    out.push('\n');
+    for r in &rows {
+        out.push_str(&format!("{},{}", r[t], r[speed]));
+        for c in CHANNELS {
+            out.push_str(&format!(",{}", r[col(c)]));
+        }
+        for i in 1..=16 {
+            out.push_str(&format!(",{}", r[col(&format!("t{i}_c"))]));
+        }
+        for i in &others {
+            let d = num(r, col(&format!("t{i}_c"))) - num(r, amb);
+            out.push_str(&format!(",{d}"));
+        }
+        out.push('\n');
+    }
+    let file = dir.join("rises-over-ambient.csv");
+    std::fs::write(&file, out).unwrap();
+    (file, ambient)
+}
+
+/// Temperatures as rises over an ambient sensor chosen on the training span
+/// (the one least correlated with the speed), with the speed and its square,
+/// 1-min periods, cross-validation over 3 held-out blocks; per channel the
+/// plain rises (the cross-validation row's 1-min fit) or the rises over
+/// ambient chosen by the lowest cross-validation RMS. The test span only
+/// scores.
+#[test]
+fn real_record_last_third_with_rises_over_an_ambient_sensor() {
+    let Some(path) = record() else { return };
+    let mut inputs = vec!["speed_rpm".to_string(), "speed_rpm:square".to_string()];
+    inputs.extend(temperatures());
+    let plain_inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+    let plain = try_evaluate(&path, &plain_inputs, 1.0, 3).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let (file, ambient) = with_rises_over_ambient(&path, dir.path());
+    let mut inputs = vec![
+        "speed_rpm".to_string(),
+        "speed_rpm:square".to_string(),
+        format!("t{ambient}_c"),
+    ];
+    inputs.extend(
+        (1..=16)
+            .filter(|&i| i != ambient)
+            .map(|i| format!("d{i}_c")),
+    );
+    let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+    let over = try_evaluate(&file, &inputs, 1.0, 3).unwrap();
+    let mut chosen = Vec::new();
+    let mut mae = Vec::new();
+    let mut ratio = Vec::new();
+    for ch in 0..CHANNELS.len() {
+        let o = over.heldout_um[ch] < plain.heldout_um[ch];
+        let e = if o { &over } else { &plain };
+        chosen.push(if o { 1.0 } else { 0.0 });
+        mae.push(e.mae[ch]);
+        ratio.push(e.ratio[ch]);
+    }
+    eprintln!(
+        "ambient t{ambient}_c; cross-validation RMS plain {:.3?} / over ambient {:.3?} µm; chosen {chosen:?}, MAE {mae:.3?}",
+        plain.heldout_um, over.heldout_um
+    );
+    assert_eq!(ambient, 1, "the ambient sensor chosen on the training span");
+    assert_documented("rises over the ambient sensor, MAE µm", &over.mae);
+    assert_documented(
+        "rises over the ambient sensor, error/drift RMS",
+        &over.ratio,
+    );
+    assert_documented(
+        "plain or over ambient chosen by cross-validation, over ambient (1 = yes)",
+        &chosen,
+    );
+    assert_documented(
+        "plain or over ambient chosen by cross-validation, MAE µm",
+        &mae,
+    );
+    assert_documented(
+        "plain or over ambient chosen by cross-validation, error/drift RMS",
+        &ratio,
+    );
+}
+
+/// The record with one more column, `speed_on` (1 while the spindle turns,
+/// 0 at rest; its period mean is the fraction of the period spent turning),
+/// written to `dir`.
+fn with_speed_on(path: &Path, dir: &Path) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let speed = header.split(',').position(|h| h == "speed_rpm").unwrap();
+    let mut out = format!("{header},speed_on\n");
+    for l in lines {
+        let v: f64 = l.split(',').nth(speed).unwrap().parse().unwrap();
+        out.push_str(&format!("{l},{}\n", u8::from(v > 0.0)));
+    }
+    let file = dir.join("speed-on.csv");
+    std::fs::write(&file, out).unwrap();
+    file
+}
+
+/// The candidates of the cross-validation row at 1-min periods and a
+/// speed-on indicator (`speed_on:level`, a heat source that does not scale
+/// with the speed, e.g. the drive and coolant once the spindle turns); per
+/// channel with or without it chosen by the lowest cross-validation RMS. The
+/// test span only scores.
+#[test]
+fn real_record_last_third_with_a_speed_on_indicator() {
+    let Some(path) = record() else { return };
+    let mut inputs = vec!["speed_rpm".to_string(), "speed_rpm:square".to_string()];
+    inputs.extend(temperatures());
+    let plain_inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+    let plain = try_evaluate(&path, &plain_inputs, 1.0, 3).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let file = with_speed_on(&path, dir.path());
+    inputs.insert(2, "speed_on:level".to_string());
+    let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+    let on = try_evaluate(&file, &inputs, 1.0, 3).unwrap();
+    let mut chosen = Vec::new();
+    let mut mae = Vec::new();
+    let mut ratio = Vec::new();
+    for ch in 0..CHANNELS.len() {
+        let o = on.heldout_um[ch] < plain.heldout_um[ch];
+        let e = if o { &on } else { &plain };
+        chosen.push(if o { 1.0 } else { 0.0 });
+        mae.push(e.mae[ch]);
+        ratio.push(e.ratio[ch]);
+    }
+    eprintln!(
+        "cross-validation RMS without {:.3?} / with speed-on {:.3?} µm; chosen {chosen:?}, MAE {mae:.3?}",
+        plain.heldout_um, on.heldout_um
+    );
+    assert_documented("with a speed-on indicator, MAE µm", &on.mae);
+    assert_documented("with a speed-on indicator, error/drift RMS", &on.ratio);
+    assert_documented(
+        "speed-on or not chosen by cross-validation, speed-on (1 = yes)",
+        &chosen,
+    );
+    assert_documented("speed-on or not chosen by cross-validation, MAE µm", &mae);
+    assert_documented(
+        "speed-on or not chosen by cross-validation, error/drift RMS",
+        &ratio,
+    );
+}
+
+/// Both kinds of temperature inputs offered together (the sixteen plain
+/// rises and the fifteen rises over the ambient sensor, with the speed and
+/// its square); per channel this or the plain rises chosen by the lowest
+/// cross-validation RMS. The test span only scores.
+#[test]
+fn real_record_last_third_with_plain_rises_and_rises_over_ambient() {
+    let Some(path) = record() else { return };
+    let mut inputs = vec!["speed_rpm".to_string(), "speed_rpm:square".to_string()];
+    inputs.extend(temperatures());
+    let plain_inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+    let plain = try_evaluate(&path, &plain_inputs, 1.0, 3).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let (file, ambient) = with_rises_over_ambient(&path, dir.path());
+    inputs.extend(
+        (1..=16)
+            .filter(|&i| i != ambient)
+            .map(|i| format!("d{i}_c")),
+    );
+    let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+    let both = try_evaluate(&file, &inputs, 1.0, 3).unwrap();
+    let mut chosen = Vec::new();
+    let mut mae = Vec::new();
+    let mut ratio = Vec::new();
+    for ch in 0..CHANNELS.len() {
+        let o = both.heldout_um[ch] < plain.heldout_um[ch];
+        let e = if o { &both } else { &plain };
+        chosen.push(if o { 1.0 } else { 0.0 });
+        mae.push(e.mae[ch]);
+        ratio.push(e.ratio[ch]);
+    }
+    eprintln!(
+        "cross-validation RMS plain {:.3?} / both {:.3?} µm; chosen {chosen:?}, MAE {mae:.3?}",
+        plain.heldout_um, both.heldout_um
+    );
+    assert_documented("plain rises and rises over ambient, MAE µm", &both.mae);
+    assert_documented(
+        "plain rises and rises over ambient, error/drift RMS",
+        &both.ratio,
+    );
+    assert_documented(
+        "plain or both chosen by cross-validation, both (1 = yes)",
+        &chosen,
+    );
+    assert_documented("plain or both chosen by cross-validation, MAE µm", &mae);
+    assert_documented(
+        "plain or both chosen by cross-validation, error/drift RMS",
+        &ratio,
+    );
+}
