@@ -5046,8 +5046,10 @@ mod tests {
 
     #[test]
     fn words_of_axes_the_machine_lacks_are_refused() {
-        let mut opts = InterpOptions::default();
-        opts.machine_axes = AxisMask::EMPTY;
+        let mut opts = InterpOptions {
+            machine_axes: AxisMask::EMPTY,
+            ..InterpOptions::default()
+        };
         for a in [Axis::X, Axis::Y, Axis::Z, Axis::A, Axis::B, Axis::C] {
             opts.machine_axes.insert(a);
         }
