@@ -6,8 +6,8 @@
 //! every dwell.
 //!
 //! Programs: the corpus (`shared/corpus/gcode/linuxcnc`), every program of
-//! the conformance suite (`shared/corpus/gcode-conformance/linuxcnc-interp`)
-//! and [`GENERATED`] programs from a seeded generator of the language mtwin
+//! the conformance suite (`shared/corpus/gcode-conformance/linuxcnc-interp`),
+//! LinuxCNC's example programs ([`NCFILES`]) and [`GENERATED`] programs from a seeded generator of the language mtwin
 //! supports ([`FEATURES`]: one generator per language feature; add a feature
 //! by adding an entry).
 //!
@@ -37,11 +37,18 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
-use mtwin::gcode::{self, Axes, EventKind, Feed, GcodeError, InterpOptions, UnknownMCode};
+use mtwin::gcode::{
+    self, Axes, Axis, AxisMask, EventKind, Feed, GcodeError, InterpOptions, UnknownMCode,
+};
 
 /// Longest run and largest output of one rs274 process.
 const RS274_SECONDS: Duration = Duration::from_secs(60);
 const RS274_MAX_OUTPUT: u64 = 8 << 20;
+
+/// LinuxCNC's own example programs, as Debian's `linuxcnc-uspace` installs
+/// them (GPL: read in place, never copied). Required with
+/// `MTWIN_REQUIRE_RS274=1`: the package that brings `rs274` brings them.
+const NCFILES: &str = "/usr/share/linuxcnc/ncfiles";
 
 /// Number of generated programs.
 const GENERATED: u64 = 1200;
@@ -132,6 +139,12 @@ fn mtwin_options() -> InterpOptions {
         opts.tools.insert(tool);
     }
     opts.work_offsets = work_offsets;
+    // rs274's machine is X Y Z A B C whatever the INI says (its canon's
+    // axis mask): it refuses U, V and W words.
+    opts.machine_axes = AxisMask::EMPTY;
+    for a in [Axis::X, Axis::Y, Axis::Z, Axis::A, Axis::B, Axis::C] {
+        opts.machine_axes.insert(a);
+    }
     add_lathe_tools(&mut opts);
     opts
 }
@@ -278,6 +291,11 @@ fn parse_canon(text: &str) -> Vec<Step> {
     // end): a change of work, G92 or tool offset or of rotation moves it.
     let mut frame = Frame::default();
     let mut pos = [0.0; 6];
+    // After a STRAIGHT_PROBE: per axis X Y Z, the point rs274's canon backed
+    // off to and the probe's end (mm), while later moves print the former.
+    let mut backed_off: [Option<(f64, f64)>; 3] = [None; 3];
+    // X Y Z as rs274 last printed them (mm), backed-off points included.
+    let mut printed = [0.0; 3];
     for line in text.lines() {
         let Some((head, args)) = line.split_once('(') else {
             continue;
@@ -323,6 +341,7 @@ fn parse_canon(text: &str) -> Vec<Step> {
             "START_SPEED_FEED_SYNC" => sync = Some(nums()[0] * scale),
             "STOP_SPEED_FEED_SYNCH" => sync = None,
             "RIGID_TAP" => {
+                backed_off = [None; 3];
                 // To X Y Z and back to the start (where the program point
                 // stays), at K per revolution: one step, its end the tap's.
                 let v = nums();
@@ -338,11 +357,44 @@ fn parse_canon(text: &str) -> Vec<Step> {
                     scale,
                 });
             }
-            "STRAIGHT_TRAVERSE" | "STRAIGHT_FEED" => {
+            // A probe: a feed to its end, where mtwin's probe (which does
+            // not trip, #5070 = 0, as rs274 reports) leaves the tool.
+            // rs274's canon (saicanon.cc) then backs the point off 0.01 in
+            // (0.254 mm in G21) towards the probe's start, a model of a
+            // tripped probe of its own: a later move that leaves an axis
+            // unprogrammed prints the backed-off coordinate, read here as
+            // the probe's end.
+            "STRAIGHT_TRAVERSE" | "STRAIGHT_FEED" | "STRAIGHT_PROBE" => {
                 let v = nums();
                 let mut end = [0.0; 6];
                 for i in 0..6 {
                     end[i] = if i < 3 { v[i] * scale } else { v[i] };
+                }
+                let raw = [end[0], end[1], end[2]];
+                for (i, b) in backed_off.iter_mut().enumerate() {
+                    match *b {
+                        Some((backed, probe_end)) if (end[i] - backed).abs() < 1.3e-3 => {
+                            end[i] = probe_end;
+                        }
+                        _ => *b = None,
+                    }
+                }
+                if name == "STRAIGHT_PROBE" {
+                    let d: Vec<f64> = (0..3).map(|i| printed[i] - raw[i]).collect();
+                    let dist = d.iter().map(|x| x * x).sum::<f64>().sqrt();
+                    let back = if scale == 1.0 { 0.254 } else { 0.01 * scale };
+                    // An axis this probe does not move keeps its earlier
+                    // backed-off coordinate in rs274.
+                    for i in 0..3 {
+                        if dist > 0.0 && d[i] != 0.0 {
+                            backed_off[i] = Some((raw[i] + back * d[i] / dist, end[i]));
+                        }
+                    }
+                    for i in 0..3 {
+                        printed[i] = backed_off[i].map_or(raw[i], |b| b.0);
+                    }
+                } else {
+                    printed = raw;
                 }
                 // Still: equal to the 4 printed decimals (of inch or mm).
                 let same = |i: usize| (end[i] - at[i]).abs() < 1.3e-3;
@@ -370,6 +422,7 @@ fn parse_canon(text: &str) -> Vec<Step> {
                 });
             }
             "ARC_FEED" => {
+                backed_off = [None; 3];
                 // first_end, second_end, first_axis, second_axis, rotation,
                 // axis_end_point, a, b, c: the plane's axes in the order
                 // of its normal (XY: X Y Z; XZ: Z X Y; YZ: Y Z X).
@@ -386,6 +439,7 @@ fn parse_canon(text: &str) -> Vec<Step> {
                     at[i] = end[k];
                 }
                 at[3..].copy_from_slice(&end[3..]);
+                printed.copy_from_slice(&at[..3]);
                 pos = at;
             }
             _ => {}
@@ -697,14 +751,24 @@ const KNOWN_DIFFERENCES: &[(&str, &str)] = &[
     ),
 ];
 
-/// Programs of the conformance suite that now run (parameters and O-word
-/// flow) and still differ from rs274, by path prefix, with the reason. Left
-/// for later; each must still disagree, so the list cannot go stale.
-const KNOWN_FLOW_DIFFERENCES: &[(&str, &str)] = &[(
-    "linuxcnc-interp/nested-sub-error/",
-    "a subroutine defined inside a subroutine: rs274 2.9 runs it (and reads the \
+/// Programs that run and still differ from rs274, by path prefix, with the
+/// reason. Each must still disagree, so the list cannot go stale.
+const KNOWN_FLOW_DIFFERENCES: &[(&str, &str)] = &[
+    (
+        "linuxcnc-interp/nested-sub-error/",
+        "a subroutine defined inside a subroutine: rs274 2.9 runs it (and reads the \
          caller's arguments in it), mtwin refuses it as LinuxCNC after 2.9 does",
-)];
+    ),
+    (
+        // `T4 M6 G43` after a G53 move: rs274 re-reads its canon's last
+        // point after M6 and misses the offset G43 sets (RS274_QUIRKS, "a
+        // tool length offset changed before M6"); the next move leaving Z
+        // unprogrammed shows it.
+        "ncfiles/mmount.ngc",
+        "rs274 re-reads its canon's last point after M6 and misses the tool length \
+         offset of the G43 on the M6 line",
+    ),
+];
 
 enum Verdict {
     Agree,
@@ -1635,10 +1699,18 @@ fn ngc_files(dir: &Path, out: &mut Vec<PathBuf>) {
 fn differential_against_linuxcnc_rs274() {
     let Some(setup) = setup() else { return };
     let mut cases = Vec::new();
-    for rel in ["corpus/gcode", "corpus/gcode-conformance/linuxcnc-interp"] {
-        let Some(dir) = crate::shared::shared_dir(rel) else {
-            continue;
-        };
+    let required = std::env::var("MTWIN_REQUIRE_RS274").is_ok_and(|v| v == "1");
+    let ncfiles = Path::new(NCFILES);
+    assert!(
+        !required || ncfiles.is_dir(),
+        "MTWIN_REQUIRE_RS274=1 but LinuxCNC's example programs {NCFILES} are missing \
+         (Debian: apt-get install linuxcnc-uspace)"
+    );
+    let dirs = ["corpus/gcode", "corpus/gcode-conformance/linuxcnc-interp"]
+        .into_iter()
+        .filter_map(crate::shared::shared_dir)
+        .chain(ncfiles.is_dir().then(|| ncfiles.to_path_buf()));
+    for dir in dirs {
         let mut files = Vec::new();
         ngc_files(&dir, &mut files);
         for path in files {

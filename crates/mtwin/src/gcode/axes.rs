@@ -182,6 +182,9 @@ impl AxisMask {
     /// The empty set.
     pub const EMPTY: AxisMask = AxisMask(0);
 
+    /// All nine axes X Y Z A B C U V W.
+    pub const ALL: AxisMask = AxisMask((1 << 9) - 1);
+
     /// Adds an axis.
     pub fn insert(&mut self, axis: Axis) {
         self.0 |= 1 << axis.index();

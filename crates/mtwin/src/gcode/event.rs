@@ -141,7 +141,8 @@ pub struct Programmed {
     /// cycle, the two moves of G28/G30): its end is not what the block's
     /// words say, so no word can be rewritten to move it. Also set for the
     /// spindle-synchronised moves (G33, the tap and retract of G33.1),
-    /// which a rewriter must not split into G1 pieces.
+    /// which a rewriter must not split into G1 pieces, and for a move by
+    /// LinuxCNC's polar words `@ ^` (its X Y end has no X or Y word).
     pub expanded: bool,
     /// The block was read in lathe diameter mode (G7): its X word is a
     /// diameter, twice the X position it moves to.

@@ -88,6 +88,11 @@ pub struct InterpOptions {
     pub unknown_m: UnknownMCode,
     /// Parameters at start (var file), subroutine search path, bounds.
     pub program: ProgramOptions,
+    /// The axes the machine has (LinuxCNC's `[TRAJ] COORDINATES`): a word
+    /// of another axis letter is refused wherever it stands, as LinuxCNC's
+    /// reader refuses the letter of an axis its configuration lacks ("Bad
+    /// character 'w' used"). All nine by default.
+    pub machine_axes: AxisMask,
 }
 
 impl Default for InterpOptions {
@@ -106,6 +111,7 @@ impl Default for InterpOptions {
             initial_machine_position: Axes::ZERO,
             unknown_m: UnknownMCode::Reject,
             program: ProgramOptions::default(),
+            machine_axes: AxisMask::ALL,
         }
     }
 }
@@ -132,11 +138,12 @@ pub enum MotionMode {
     Threading,
 }
 
-/// Where a canned cycle retracts to at the end of each repeat.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// Where a canned cycle retracts to at the end of each repeat. The
+/// program starts in G99 in the LinuxCNC dialect (as LinuxCNC's
+/// interpreter), in G98 in the Fanuc one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RetractMode {
     /// G98: the level the tool was at before the cycle (if above R).
-    #[default]
     InitialLevel,
     /// G99: the R level.
     RLevel,
@@ -224,17 +231,31 @@ struct Letter {
 struct BlockWords {
     g: Vec<(GCode, usize)>,
     m: Vec<(u32, usize)>,
-    /// Bit `l - 'A'` set: the block has letter `l` (`letters` holds its
-    /// word). Clearing the bits empties the table: the entries of letters
-    /// not present are stale and never read.
+    /// Bit [`letter_slot`]`(l)` set: the block has letter `l` (`letters`
+    /// holds its word). Clearing the bits empties the table: the entries of
+    /// letters not present are stale and never read.
     present: u32,
-    letters: [Letter; 26],
+    letters: [Letter; 28],
+}
+
+/// Where a word letter (`A`–`Z`, `@`, `^`) is filed in [`BlockWords`].
+fn letter_slot(l: u8) -> usize {
+    match l {
+        b'@' => 26,
+        b'^' => 27,
+        _ => usize::from(l - b'A'),
+    }
 }
 
 impl BlockWords {
     fn get(&self, l: u8) -> Option<&Letter> {
-        let i = usize::from(l - b'A');
+        let i = letter_slot(l);
         (self.present & (1 << i) != 0).then(|| &self.letters[i])
+    }
+
+    /// Whether the block has a polar coordinate word (`@` or `^`).
+    fn polar(&self) -> bool {
+        self.get(b'@').is_some() || self.get(b'^').is_some()
     }
 
     fn has_m(&self, codes: &[u32]) -> bool {
@@ -462,7 +483,12 @@ impl Interpreter {
             g28_home: from(5161),
             g30_home: from(5181),
             tool_offset: Axes::ZERO,
-            retract: RetractMode::InitialLevel,
+            // LinuxCNC's interpreter starts in G99 (its set-up's
+            // `retract_mode(R_PLANE)`); Fanuc controls power on in G98.
+            retract: match opts.dialect {
+                Dialect::LinuxCnc => RetractMode::RLevel,
+                Dialect::Fanuc { .. } => RetractMode::InitialLevel,
+            },
             lathe_diameter: false,
         };
         let mut it = Interpreter {
@@ -709,7 +735,9 @@ impl Interpreter {
         self.assignments.clear();
         for item in block.items() {
             match item {
-                Item::Word(word) => collect_word(block, word, w, &self.params)?,
+                Item::Word(word) => {
+                    collect_word(block, word, w, &self.params, self.opts.machine_axes)?;
+                }
                 Item::OWord { span } => {
                     return Err(GcodeError::unsupported(
                         line,
@@ -744,6 +772,7 @@ impl Interpreter {
         let mut codes = Codes::default();
         self.read_codes(w, s.line, &mut codes)?;
         self.check_words(block, w, &codes, s.line)?;
+        self.check_polar(w, &codes, s.line)?;
         if codes.non_modal.is_some()
             || codes.coord_system.is_some()
             || codes.g92_applied.is_some()
@@ -905,6 +934,7 @@ impl Interpreter {
         if let Some((code, col)) = codes.motion
             && code.is_probe()
             && !Axis::ALL.iter().any(|a| w.get(a.letter()).is_some())
+            && !w.polar()
         {
             let name = if code == GCode::G31 { "G31" } else { "G38.x" };
             return Err(GcodeError::invalid(
@@ -947,7 +977,7 @@ impl Interpreter {
         codes: &Codes,
         line: u64,
     ) -> Result<(), GcodeError> {
-        let any_axis = Axis::ALL.iter().any(|a| w.get(a.letter()).is_some());
+        let any_axis = Axis::ALL.iter().any(|a| w.get(a.letter()).is_some()) || w.polar();
         let moving = any_axis || codes.explicit_motion().is_some();
         let to_be = self.motion_to_be(codes);
         let arc_now = moving
@@ -1119,6 +1149,122 @@ impl Interpreter {
             return Err(GcodeError::invalid(line, x.column, message));
         }
         Ok(())
+    }
+
+    /// LinuxCNC's polar coordinates, `@` (distance from the origin of the
+    /// program frame, program units) and `^` (angle from +X, degrees,
+    /// counter-clockwise seen from +Z), which stand for the X and Y words
+    /// of a motion: the checks of LinuxCNC 2.9's `enhance_block` and
+    /// `find_ends` that need no position. The plane checked is the one in
+    /// force before the block (as LinuxCNC checks it).
+    fn check_polar(&self, w: &BlockWords, codes: &Codes, line: u64) -> Result<(), GcodeError> {
+        let Some(first) = [b'@', b'^']
+            .iter()
+            .filter_map(|&l| w.get(l))
+            .map(|l| l.column)
+            .min()
+        else {
+            return Ok(());
+        };
+        let invalid = |m: &str| Err(GcodeError::invalid(line, first, m));
+        if self.opts.dialect != Dialect::LinuxCnc {
+            return Err(GcodeError::unsupported(
+                line,
+                first,
+                "polar coordinates (@, ^) in this dialect",
+            ));
+        }
+        if !(self.opts.machine_axes.contains(Axis::X) && self.opts.machine_axes.contains(Axis::Y)) {
+            return invalid("Cannot use polar coordinate on a machine lacking X or Y axes");
+        }
+        if self.state.plane != Plane::Xy {
+            return invalid("Cannot use polar coordinate except in G17 plane");
+        }
+        for l in [b'X', b'Y'] {
+            if let Some(x) = w.get(l) {
+                return Err(GcodeError::invalid(
+                    line,
+                    x.column,
+                    format!(
+                        "Cannot specify both polar coordinate and {} word",
+                        l as char
+                    ),
+                ));
+            }
+        }
+        if let Some((GCode::G80, col)) = codes.motion
+            && !self.axes_consumed(codes)
+        {
+            return Err(GcodeError::invalid(
+                line,
+                col,
+                "Cannot use axis values with G80",
+            ));
+        }
+        if self.motion_to_be(codes).is_none() || self.axes_consumed(codes) {
+            return invalid("Polar coordinates can only be used for motion");
+        }
+        if let Some(col) = codes.g53() {
+            return Err(GcodeError::invalid(
+                line,
+                col,
+                "Cannot use polar coordinates with G53",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The X Y end (mm, program frame) of a single move with polar words,
+    /// from `[x, y]`, the point the move starts from (the programmed one
+    /// under cutter radius compensation), as LinuxCNC 2.9's `find_ends`:
+    /// in G90 `@` and `^` are the end's distance and angle, the missing one
+    /// kept from the start (a distance alone at the origin is an error); in
+    /// G91 `@` is added to the start's distance and `^` to its angle (an
+    /// error at the origin).
+    fn polar_end(
+        &self,
+        w: &BlockWords,
+        [x, y]: [f64; 2],
+        s: &Step,
+    ) -> Result<(f64, f64), GcodeError> {
+        let scale = self.state.units.mm_per_unit();
+        let distance = w.get(b'@').map(|l| l.value * scale);
+        let angle = w.get(b'^').map(|l| l.value.to_radians());
+        let at_origin = x == 0.0 && y == 0.0;
+        let polar = |r: f64, t: f64| (r * t.cos(), r * t.sin());
+        match self.state.distance {
+            DistanceMode::Absolute => match (distance, angle) {
+                (Some(r), Some(t)) => Ok(polar(r, t)),
+                (Some(_), None) if at_origin => {
+                    Err(s.invalid(0, "Must specify angle in polar coordinate if at the origin"))
+                }
+                (Some(r), None) => Ok(polar(r, y.atan2(x))),
+                (None, Some(t)) => Ok(polar(x.hypot(y), t)),
+                (None, None) => Ok((x, y)), // not a polar block
+            },
+            DistanceMode::Incremental => {
+                let (mut x, mut y) = (x, y);
+                if let Some(d) = distance {
+                    if x == 0.0 && y == 0.0 {
+                        return Err(s.invalid(
+                            0,
+                            "Incremental motion with polar coordinates is indeterminate when at the origin",
+                        ));
+                    }
+                    (x, y) = polar(x.hypot(y) + d, y.atan2(x));
+                }
+                if let Some(t) = angle {
+                    if x == 0.0 && y == 0.0 {
+                        return Err(s.invalid(
+                            0,
+                            "G91 motion with polar coordinates is indeterminate when at the origin",
+                        ));
+                    }
+                    (x, y) = polar(x.hypot(y), y.atan2(x) + t);
+                }
+                Ok((x, y))
+            }
+        }
     }
 
     /// G93, G94, G95. Each clears the feed rate.
@@ -1468,7 +1614,7 @@ impl Interpreter {
             return;
         }
         let mut scale = |l: u8, f: f64| {
-            let i = usize::from(l - b'A');
+            let i = letter_slot(l);
             if w.present & (1 << i) != 0 {
                 w.letters[i].value *= f;
             }
@@ -2176,6 +2322,13 @@ impl Interpreter {
         let mut old_cc = *self.cycle.initial_level.get_or_insert(current_cc);
         let (mut aa, mut bb) = (st.position[p], st.position[q]);
         let (mut da, mut db) = (0.0, 0.0);
+        let st_distance = st.distance;
+        // Polar words (XY plane only): in G90 the hole's distance and angle
+        // from the origin, the missing one from the current point (no
+        // error at the origin, unlike a single move); in G91 added to the
+        // distance and angle of each repeat's hole.
+        let distance_word = w.get(b'@').map(|l| l.value * scale);
+        let angle_word = w.get(b'^').map(|l| l.value);
         let (r, cc) = match st.distance {
             DistanceMode::Absolute => {
                 if axes.contains(p) {
@@ -2183,6 +2336,11 @@ impl Interpreter {
                 }
                 if axes.contains(q) {
                     bb = target[q.index()];
+                }
+                if distance_word.is_some() || angle_word.is_some() {
+                    let radius = distance_word.unwrap_or(aa.hypot(bb));
+                    let theta = angle_word.map_or(bb.atan2(aa), f64::to_radians);
+                    (aa, bb) = (radius * theta.cos(), radius * theta.sin());
                 }
                 (r_word, bottom_word)
             }
@@ -2293,6 +2451,23 @@ impl Interpreter {
         for repeat in (1..=repeats).rev() {
             aa += da;
             bb += db;
+            if st_distance == DistanceMode::Incremental {
+                for (d, turn) in [(distance_word, 0.0), (None, angle_word.unwrap_or(0.0))] {
+                    let d = d.unwrap_or(0.0);
+                    if d == 0.0 && turn == 0.0 {
+                        continue;
+                    }
+                    if aa == 0.0 && bb == 0.0 {
+                        return Err(s.invalid(
+                            0,
+                            "Incremental motion with polar coordinates is indeterminate when at the origin",
+                        ));
+                    }
+                    let radius = aa.hypot(bb) + d;
+                    let theta = bb.atan2(aa) + turn.to_radians();
+                    (aa, bb) = (radius * theta.cos(), radius * theta.sin());
+                }
+            }
             if repeat == repeats && current_cc > r {
                 self.push_straight(true, at(self, aa, bb, current_cc), words, s)?;
                 self.push_straight(true, at(self, aa, bb, r), words, s)?;
@@ -2576,7 +2751,8 @@ impl Interpreter {
         if codes.motion.is_none() && self.axes_consumed(codes) {
             return Ok(());
         }
-        if axes.is_empty() && codes.explicit_motion().is_none() {
+        let polar = w.polar();
+        if axes.is_empty() && !polar && codes.explicit_motion().is_none() {
             return Ok(());
         }
         if let Some((code, col)) = codes.motion
@@ -2585,7 +2761,7 @@ impl Interpreter {
             self.refuse_with_comp(s, col, "Cannot probe with cutter radius comp on")?;
         }
         match self.state.motion {
-            None if !axes.is_empty() => {
+            None if !axes.is_empty() || polar => {
                 Err(s.invalid(0, "axis words without a motion mode (G0, G1, G2 or G3)"))
             }
             None => Ok(()),
@@ -2607,8 +2783,7 @@ impl Interpreter {
                 // LinuxCNC's straight probes (G38.2–G38.5), not the Fanuc G31.
                 let probe = codes
                     .motion
-                    .filter(|&(c, _)| c.is_probe() && c != GCode::G31)
-                    .map(|(_, col)| col);
+                    .filter(|&(c, _)| c.is_probe() && c != GCode::G31);
                 self.move_to(mode, w, axes, target, g53, probe, s)
             }
         }
@@ -2616,9 +2791,12 @@ impl Interpreter {
 
     /// One move of `mode` to the axis words. With cutter radius
     /// compensation on, the words are read from the programmed position
-    /// and the move is made by [`CutterComp`]. `probe`: the column of the
-    /// block's G38.2–G38.5, whose end must lie at least
-    /// [`PROBE_MIN_DISTANCE_MM`] from the start.
+    /// and the move is made by [`CutterComp`]. `probe`: the block's
+    /// G38.2–G38.5 and the column of its word. As LinuxCNC 2.9's
+    /// `convert_probe`, a probe is refused under G95 and a G38.2 or G38.4
+    /// (the kinds that fail without contact) whose end is its start on
+    /// every axis ("Start point too close to probe point"); after it
+    /// #5061–#5070 read [`Self::set_probe_result`].
     #[allow(clippy::too_many_arguments)]
     fn move_to(
         &mut self,
@@ -2627,7 +2805,7 @@ impl Interpreter {
         axes: AxisMask,
         target: [f64; 9],
         g53: Option<usize>,
-        probe: Option<usize>,
+        probe: Option<(GCode, usize)>,
         s: &mut Step,
     ) -> Result<(), GcodeError> {
         let line = s.line;
@@ -2668,31 +2846,44 @@ impl Interpreter {
                 v
             };
         }
-        if let Some(col) = probe
-            && to.sub(&from).xyz_norm() < PROBE_MIN_DISTANCE_MM
-        {
-            return Err(s.invalid(col, "Start point too close to probe point"));
+        let polar = w.polar();
+        if polar {
+            let (x, y) = self.polar_end(w, [base[Axis::X], base[Axis::Y]], s)?;
+            to[Axis::X] = x;
+            to[Axis::Y] = y;
+        }
+        if let Some((code, col)) = probe {
+            if st.feed_mode == FeedMode::UnitsPerRevolution {
+                return Err(s.invalid(col, "Cannot probe with feed per rev mode"));
+            }
+            if matches!(code, GCode::G38_2 | GCode::G38_4) && to.0 == from.0 {
+                return Err(s.invalid(col, "Start point too close to probe point"));
+            }
         }
         let words = Programmed {
             axes,
             g53: g53.is_some(),
             distance: st.distance,
             units: st.units,
-            expanded: false,
+            // No X or Y word ends a polar move: none can be rewritten.
+            expanded: polar,
             x_diameter: st.lathe_diameter,
         };
-        // The column an error of a compensated move names: its first axis word.
+        // The column an error of a compensated move names: its first axis
+        // word (or polar word).
         let column = axes
             .iter()
             .next()
             .and_then(|a| w.get(a.letter()))
+            .or_else(|| w.get(b'@'))
+            .or_else(|| w.get(b'^'))
             .map_or(0, |l| l.column);
         let kind = match mode {
             MotionMode::Rapid | MotionMode::Linear => {
                 self.comp.straight_move_started();
                 let rapid = mode == MotionMode::Rapid;
                 let comp = self.comp.engaged();
-                if !comp && axes.is_empty() {
+                if !comp && axes.is_empty() && !polar {
                     return Ok(());
                 }
                 let feed = if rapid {
@@ -2763,7 +2954,7 @@ impl Interpreter {
                 // No axis words: with I, J or K a full circle about the
                 // current point (as LinuxCNC 2.9 runs it), else an error.
                 let ijk = [b'I', b'J', b'K'].iter().any(|&l| w.get(l).is_some());
-                if axes.is_empty() && (w.get(b'R').is_some() || !ijk) {
+                if axes.is_empty() && !polar && (w.get(b'R').is_some() || !ijk) {
                     return Err(s.invalid(0, "All axes missing with motion code"));
                 }
                 let feed = self.feed(w, line)?;
@@ -2841,7 +3032,31 @@ impl Interpreter {
         };
         self.state.position = to;
         s.emit(kind);
+        if probe.is_some() {
+            self.set_probe_result(&to);
+        }
         Ok(())
+    }
+
+    /// The result of a straight probe G38.2–G38.5, as mtwin assumes it: the
+    /// part is not modelled, so the probe runs to its end point without
+    /// contact (as LinuxCNC's standalone interpreter `rs274` reports it).
+    /// #5061–#5069 read that end (X Y Z U V W in program units, A B C in
+    /// degrees, within [0, 360) on a wrapped rotary axis; the point in the
+    /// coordinate system the probe ran in) and #5070 reads 0 (not tripped).
+    fn set_probe_result(&mut self, end: &Axes) {
+        let per_unit = 1.0 / self.state.units.mm_per_unit();
+        for (j, a) in Axis::ALL.into_iter().enumerate() {
+            let v = if a.is_rotary() && self.opts.wrapped_rotary.contains(a) {
+                end[a].rem_euclid(360.0)
+            } else if a.is_rotary() {
+                end[a]
+            } else {
+                end[a] * per_unit
+            };
+            self.params.set_state(5061 + j as u32, v);
+        }
+        self.params.set_state(5070, 0.0);
     }
 
     /// G33 (a straight move at K per spindle revolution) and G33.1 (rigid
@@ -3367,11 +3582,6 @@ impl Interpreter {
 }
 
 /// The motion mode a group-1 code sets (G80 excluded).
-/// Shortest straight probe (G38.2–G38.5) LinuxCNC runs, mm: its start
-/// must be at least 0.254 mm (0.01 in) from its end in X Y Z, else
-/// "Start point too close to probe point".
-const PROBE_MIN_DISTANCE_MM: f64 = 0.254;
-
 fn motion_mode(code: GCode) -> MotionMode {
     match code {
         GCode::G0 => MotionMode::Rapid,
@@ -3447,15 +3657,29 @@ fn word_value(block: &Block, word: &Word, params: &Parameters) -> Result<f64, Gc
 }
 
 /// Files one word of a block: G- and M-codes in order, every other letter
-/// at most once.
+/// at most once; the letter of an axis outside `machine_axes` is refused.
 fn collect_word(
     block: &Block,
     word: &Word,
     w: &mut BlockWords,
     params: &Parameters,
+    machine_axes: AxisMask,
 ) -> Result<(), GcodeError> {
     let line = block.line();
     let col = word.at + 1;
+    if let Some(axis) = Axis::from_letter(word.letter)
+        && !machine_axes.contains(axis)
+    {
+        return Err(GcodeError::invalid(
+            line,
+            col,
+            format!(
+                "{0} word: the machine has no {0} axis (LinuxCNC: \"Bad character '{1}' used\")",
+                word.letter as char,
+                word.letter.to_ascii_lowercase() as char
+            ),
+        ));
+    }
     let value = word_value(block, word, params)?;
     match word.letter {
         b'G' => {
@@ -3476,7 +3700,17 @@ fn collect_word(
         }
         b'N' => {}
         l => {
-            let i = usize::from(l - b'A');
+            let i = letter_slot(l);
+            if w.present & (1 << i) != 0 && matches!(l, b'@' | b'^') {
+                return Err(GcodeError::unsupported(
+                    line,
+                    col,
+                    format!(
+                        "a second {} word in the block (LinuxCNC 2.9 reads the last one without an error)",
+                        l as char
+                    ),
+                ));
+            }
             if w.present & (1 << i) != 0 {
                 return Err(GcodeError::invalid(
                     line,
@@ -3497,7 +3731,7 @@ fn collect_word(
 
 #[cfg(test)]
 mod tests {
-    use std::f64::consts::{FRAC_PI_2, PI};
+    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
     use super::*;
     use crate::gcode::stream::Program;
@@ -3738,18 +3972,20 @@ mod tests {
     }
 
     #[test]
-    fn a_probe_must_start_at_least_a_hundredth_of_an_inch_from_its_end() {
-        // LinuxCNC's rule: 0.254 mm in G21, 0.01 in in G20, in X Y Z.
+    fn a_probe_that_fails_without_contact_must_move() {
+        // LinuxCNC 2.9 (its standalone rs274 run on each): G38.2 and G38.4
+        // to their start on every axis are refused; G38.3 and G38.5 there
+        // run; any other end runs, however close (0.009 in, 0.2 mm, an A
+        // move alone).
         let opts = InterpOptions::default;
         for (src, ok) in [
-            ("G21 G0 X0 Y0 Z0\nG38.2 Z-0.3 F100\nM2\n", true),
-            ("G21 G0 X0 Y0 Z0\nG38.2 Z-0.2 F100\nM2\n", false),
-            ("G21 G0 X0 Y0 Z0\nG38.3 X0.15 Y0.15 F100\nM2\n", false),
-            ("G21 G0 X0 Y0 Z0\nG38.3 X0.2 Y0.2 F100\nM2\n", true),
-            ("G20 G0 X0 Y0 Z0\nG38.2 Z-0.011 F10\nM2\n", true),
-            ("G20 G0 X0 Y0 Z0\nG38.2 Z-0.009 F10\nM2\n", false),
-            ("G21 G0 X0 Y0 Z0\nG91 G38.4 Z1 F100\nM2\n", true),
-            ("G21 G0 X0 Y0 Z0\nG91 G38.5 Z0.1 F100\nM2\n", false),
+            ("G21 G0 X0 Y0 Z0\nG38.2 Z-0.2 F100\nM2\n", true),
+            ("G20 G0 X0 Y0 Z0\nG38.2 Z-0.009 F100\nM2\n", true),
+            ("G21 G0 X0 Y0 Z0\nG38.2 A0.1 F100\nM2\n", true),
+            ("G21 G0 X0 Y0 Z0\nG38.2 Z0 F100\nM2\n", false),
+            ("G21 G0 X0 Y0 Z0\nG91 G38.4 X0 F100\nM2\n", false),
+            ("G21 G0 X0 Y0 Z0\nG38.3 X0 Z0 F100\nM2\n", true),
+            ("G21 G0 X0 Y0 Z0\nG91 G38.5 Z0 F100\nM2\n", true),
         ] {
             match run_with(src, opts()) {
                 Ok(_) => assert!(ok, "{src} accepted"),
@@ -3763,6 +3999,37 @@ mod tests {
                 }
             }
         }
+        let e = run_with("G21 G95 S100 M3\nG38.2 Z-1 F1\nM2\n", opts()).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("Cannot probe with feed per rev mode"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_probe_runs_to_its_end_without_contact() {
+        // #5061–#5069: the end in program units and the frame the probe ran
+        // in (G55 X 1 in, G92 X0 at X 1: program X 0.5 is machine 2.5);
+        // #5070 = 0 (not tripped), whatever the program set before. The
+        // G1 reads them: X 0.5 + 1 = 1.5 in, Y 0.7 + 100·0, Z -0.5 in.
+        let mut opts = InterpOptions::default();
+        opts.work_offsets[1][Axis::X] = 25.4;
+        let src = "G20 G55 G0 X1 Y1 Z1\nG92 X0\n#5070=1\nF10 G38.2 X0.5 Y0.7 Z-0.5\n\
+                   G1 X[#5061+1] Y[#5062+#5070*100] Z#5063\nM2\n";
+        let ev = run_with(src, opts).unwrap();
+        let got = ends(&ev);
+        let want = [0.5 * 25.4, 0.7 * 25.4, -0.5 * 25.4];
+        let probe = got[got.len() - 2].1;
+        let last = got[got.len() - 1].1;
+        for i in 0..3 {
+            assert!(close(probe[i], want[i]), "{got:?}");
+        }
+        assert!(close(last[0], 1.5 * 25.4), "{got:?}");
+        assert!(
+            close(last[1], want[1]) && close(last[2], want[2]),
+            "{got:?}"
+        );
     }
 
     #[test]
@@ -4656,7 +4923,148 @@ mod tests {
         );
     }
 
-    /// The expansions of LinuxCNC's G-code manual (canned cycles), by hand.
+    /// LinuxCNC's polar coordinates: end points by hand (distance `@`,
+    /// angle `^` in degrees from +X), the G91 one as rs274 prints it.
+    #[test]
+    fn polar_words_stand_for_x_and_y() {
+        let (c45, s45) = (5.0 * FRAC_PI_4.cos(), 5.0 * FRAC_PI_4.sin());
+        let src = "G21 G90 G0 X10 Y0 Z0\n\
+                   G1 @5 ^90 F100\n\
+                   ^-90\n\
+                   @2\n\
+                   G91 ^90\n\
+                   @3\n\
+                   G90 G0 X3 Y4\n\
+                   G91 G1 @5 ^90\n\
+                   G90 G18 G0 @5 ^45 Z1\n\
+                   G17\n\
+                   G20 G0 @2 ^180\n\
+                   M2\n";
+        assert_ends(
+            &ends(&run(src)),
+            &[
+                ('R', [10.0, 0.0, 0.0]),
+                ('F', [0.0, 5.0, 0.0]),
+                ('F', [0.0, -5.0, 0.0]),
+                ('F', [0.0, -2.0, 0.0]),
+                ('F', [2.0, 0.0, 0.0]),
+                ('F', [5.0, 0.0, 0.0]),
+                ('R', [3.0, 4.0, 0.0]),
+                // r 5 + 5, angle atan2(4, 3) + 90°.
+                ('F', [-8.0, 6.0, 0.0]),
+                // The plane checked is the one before the block (G17).
+                ('R', [c45, s45, 1.0]),
+                ('R', [-50.8, 0.0, 1.0]),
+            ],
+        );
+    }
+
+    #[test]
+    fn polar_canned_cycles_place_the_holes() {
+        // G90: the hole at @5 ^45. G91 with L4: each repeat turns the hole
+        // by ^90 about the origin, from (10, 0): (0, 10), (-10, 0),
+        // (0, -10), (10, 0); R 5 - 4 = 1, bottom 1 - 2 = -1.
+        let (c45, s45) = (5.0 * FRAC_PI_4.cos(), 5.0 * FRAC_PI_4.sin());
+        let src = "G21 G90 G0 X10 Y0 Z5\nG81 @5 ^45 R1 Z-1 F100\nG80 G0 X10 Y0 Z5\n\
+                   G91 G81 ^90 R-4 Z-2 L4\nG80\nM2\n";
+        let holes: Vec<[f64; 3]> = ends(&run(src))
+            .into_iter()
+            .filter(|(k, _)| *k == 'F')
+            .map(|(_, p)| p)
+            .collect();
+        let want = [
+            [c45, s45, -1.0],
+            [0.0, 10.0, -1.0],
+            [-10.0, 0.0, -1.0],
+            [0.0, -10.0, -1.0],
+            [10.0, 0.0, -1.0],
+        ];
+        assert_eq!(holes.len(), want.len(), "{holes:?}");
+        for (h, w) in holes.iter().zip(want) {
+            assert!((0..3).all(|i| close(h[i], w[i])), "{holes:?}");
+        }
+    }
+
+    #[test]
+    fn polar_words_are_refused_as_linuxcnc_refuses_them() {
+        for (src, message) in [
+            (
+                "G21 G0 X0 Y0\nG1 @5 F100\n",
+                "Must specify angle in polar coordinate if at the origin",
+            ),
+            (
+                "G21 G0 X0 Y0\nG91 G1 ^5 F100\n",
+                "G91 motion with polar coordinates is indeterminate",
+            ),
+            (
+                "G21 G0 X0 Y0\nG91 G1 @5 F100\n",
+                "Incremental motion with polar coordinates is indeterminate",
+            ),
+            (
+                "G18\nG17 G0 @5 ^0\n",
+                "Cannot use polar coordinate except in G17 plane",
+            ),
+            (
+                "G0 X1\nG0 X1 @5\n",
+                "Cannot specify both polar coordinate and X word",
+            ),
+            (
+                "G0 X1\nG0 ^5 Y1\n",
+                "Cannot specify both polar coordinate and Y word",
+            ),
+            (
+                "G0 X1\nG28 @5\n",
+                "Polar coordinates can only be used for motion",
+            ),
+            (
+                "G0 X1\nG10 L2 P1 @5\n",
+                "Polar coordinates can only be used for motion",
+            ),
+            (
+                "G0 X1\nG53 G0 @5\n",
+                "Cannot use polar coordinates with G53",
+            ),
+            ("G0 X1\nG80 @5\n", "Cannot use axis values with G80"),
+        ] {
+            let e = run_with(src, InterpOptions::default()).unwrap_err();
+            assert!(e.to_string().contains(message), "{src}: {e}");
+            assert!(e.to_string().contains("line 2"), "{src}: {e}");
+        }
+        // LinuxCNC 2.9 reads the last of two @ words without an error:
+        // refused as unsupported, never read one way or the other.
+        let e = run_with("G0 X1\nG0 @1 @2\n", InterpOptions::default()).unwrap_err();
+        assert!(matches!(e, GcodeError::Unsupported { .. }), "{e}");
+        let fanuc = InterpOptions {
+            dialect: Dialect::Fanuc {
+                decimal_point_programming: true,
+            },
+            ..InterpOptions::default()
+        };
+        let e = run_with("G0 X1\nG0 @1 ^2\n", fanuc).unwrap_err();
+        assert!(matches!(e, GcodeError::Unsupported { .. }), "{e}");
+    }
+
+    #[test]
+    fn words_of_axes_the_machine_lacks_are_refused() {
+        let mut opts = InterpOptions {
+            machine_axes: AxisMask::EMPTY,
+            ..InterpOptions::default()
+        };
+        for a in [Axis::X, Axis::Y, Axis::Z, Axis::A, Axis::B, Axis::C] {
+            opts.machine_axes.insert(a);
+        }
+        let e = run_with("G21 G0 X1\nG1 w100 F10\nM2\n", opts.clone()).unwrap_err();
+        assert!(e.to_string().contains("line 2, column 4"), "{e}");
+        assert!(e.to_string().contains("Bad character 'w' used"), "{e}");
+        // Also where no move reads it.
+        assert!(run_with("G10 L2 P1 U1\nM2\n", opts.clone()).is_err());
+        assert!(run_with("G21 G0 X1 C5\nM2\n", opts).is_ok());
+        assert!(run_with("G21 G0 X1 W5\nM2\n", InterpOptions::default()).is_ok());
+    }
+
+    /// The expansions of LinuxCNC's G-code manual (canned cycles), by hand
+    /// (G98 written where the retract goes to the initial level: a program
+    /// starts in G99, as LinuxCNC's interpreter).
     #[test]
     fn canned_cycles_expand_as_linuxcnc() {
         // G81, absolute, G98: from Z3 (above R), rapid to XY, to R, feed to
@@ -4689,6 +5097,10 @@ mod tests {
                 ('R', [13.0, 17.0, 4.8]),
             ],
         );
+        // Without G98/G99 the program is in G99, as LinuxCNC's interpreter
+        // starts (its `retract_mode(R_PLANE)`): back to R = 2, not to 10.
+        let e = ends(&run("G0 Z10\nG81 X1 Z-1 R2 F10\n"));
+        assert_eq!(e.last().map(|p| p.1[2]), Some(2.0), "{e:?}");
         // Modal: the next line reuses R and Z; G99 retracts to R.
         let e = ends(&run("G0 Z10\nG99 G81 X1 Z-1 R2 F10\nX2\nG80\n"));
         assert_ends(
@@ -4705,7 +5117,7 @@ mod tests {
         );
         // G83 peck Q1 from R2 to -1.5: feeds to 1, 0, -1, then -1.5; after
         // each peck a rapid to R and back down to 0.254 mm above the depth.
-        let e = ends(&run("G0 Z5\nG83 Z-1.5 R2 Q1 F10\n"));
+        let e = ends(&run("G0 Z5\nG98 G83 Z-1.5 R2 Q1 F10\n"));
         let z: Vec<(char, f64)> = e[2..].iter().map(|(k, p)| (*k, p[2])).collect();
         let want = [
             ('R', 2.0),
@@ -4726,7 +5138,7 @@ mod tests {
             assert!(g.0 == w.0 && close(g.1, w.1), "{z:?}");
         }
         // G73: no return to R between pecks.
-        let e = ends(&run("G0 Z5\nG73 Z-0.5 R1 Q1 F10\n"));
+        let e = ends(&run("G98 G0 Z5\nG73 Z-0.5 R1 Q1 F10\n"));
         let z: Vec<f64> = e[2..].iter().map(|(_, p)| p[2]).collect();
         assert!(
             z.iter()
@@ -4735,7 +5147,7 @@ mod tests {
             "{z:?}"
         );
         // G18 (ZX plane): the cycle axis is Y.
-        let e = ends(&run("G18 G0 Y5\nG81 X1 Z2 Y-1 R1 F10\n"));
+        let e = ends(&run("G18 G98 G0 Y5\nG81 X1 Z2 Y-1 R1 F10\n"));
         assert_ends(
             &e[1..],
             &[
@@ -4746,7 +5158,7 @@ mod tests {
             ],
         );
         // G82/G89 dwell, G84 reverses the spindle.
-        let ev = run("G0 Z5\nM3 S100\nG84 Z-1 R1 F10\n");
+        let ev = run("G98 G0 Z5\nM3 S100\nG84 Z-1 R1 F10\n");
         let spindle: Vec<SpindleState> = ev
             .iter()
             .filter_map(|e| match e.kind {
@@ -4759,7 +5171,7 @@ mod tests {
             spindle,
             [Clockwise, Stopped, CounterClockwise, Stopped, Clockwise]
         );
-        let ev = run("G0 Z5\nG82 Z-1 R1 P0.5 F10\n");
+        let ev = run("G98 G0 Z5\nG82 Z-1 R1 P0.5 F10\n");
         assert!(
             ev.iter()
                 .any(|e| e.kind == EventKind::Dwell { seconds: 0.5 })

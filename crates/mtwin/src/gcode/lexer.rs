@@ -6,7 +6,8 @@
 //! number, `X1 2.5` is `X12.5`), `( )` comments end on the same line and do
 //! not nest, `;` comments run to the end of the line, `/` as the first
 //! character is block delete and a line starting with `%` marks the program
-//! start/end. Values that are expressions (`[..]`, functions such as
+//! start/end. `@` and `^` are word letters (LinuxCNC's polar distance
+//! and angle). Values that are expressions (`[..]`, functions such as
 //! `sin[..]`) or parameters (`#5`, `#<name>`) and O-word statements are kept
 //! as such, so every such program still round-trips; the interpreter
 //! evaluates constant expressions and rejects the rest as unsupported.
@@ -85,7 +86,8 @@ pub(crate) fn lex(text: &[u8], line: u64, items: &mut Vec<Item>) -> Result<(), G
                     span: Span::new(start, lx.i),
                 });
             }
-            c if c.is_ascii_alphabetic() => {
+            // LinuxCNC's polar coordinates: `@` the distance, `^` the angle.
+            c if c.is_ascii_alphabetic() || c == b'@' || c == b'^' => {
                 let letter = c.to_ascii_uppercase();
                 if letter == b'O' {
                     // An O-word statement (sub, call, if, while, ...) runs to the

@@ -703,10 +703,12 @@ mod tests {
 
     #[test]
     fn errors_name_line_and_column() {
-        let cases: [(&[u8], u32); 6] = [
+        let cases: [(&[u8], u32); 7] = [
             (b"G1 X1 (open", 7),
             (b"G1 X", 5),
-            (b"G1 @", 4),
+            (b"G1 $", 4),
+            // `@` is a word letter (LinuxCNC's polar distance).
+            (b"G1 @", 5),
             (b"G1 X1.2.3", 8),
             (b"(a (b))", 4),
             (b"G1 X[1+2", 5),

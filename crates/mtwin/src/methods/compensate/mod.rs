@@ -749,7 +749,8 @@ impl Compensator {
     }
 
     /// A move one block expands to (canned cycle, G28/G30, cutter radius
-    /// compensation, G33/G33.1, whose moves must not be split or re-coded):
+    /// compensation, G33/G33.1, whose moves must not be split or re-coded)
+    /// or a move by polar words `@ ^` (no X or Y word to rewrite):
     /// no word of the block ends it, so a correction cannot
     /// be written; refused unless none is needed.
     fn expanded_move(&self, mv: &Move, run: &mut RunState) -> Result<(), CompensateError> {
@@ -762,8 +763,9 @@ impl Compensator {
                 mv.line,
                 0,
                 "correction of a move a canned cycle, G28/G30, cutter radius compensation \
-                 or a spindle-synchronised G33/G33.1 expands to (one block, several moves or an offset path: no word to rewrite); \
-                 write the moves as G0/G1/G2/G3 without them first",
+                 or a spindle-synchronised G33/G33.1 expands to, or of a move by polar words @ ^ \
+                 (one block, several moves or an offset path, or no X Y word: no word to rewrite); \
+                 write the moves as G0/G1/G2/G3 with X Y words without them first",
             )
             .into());
         }

@@ -56,7 +56,8 @@
 //! * a block the rewriter cannot change safely is an error naming the line:
 //!   Z words of arcs in the ZX or YZ plane, X words of arcs in the ZX plane,
 //!   Y words of arcs in the YZ plane (the arc geometry would change),
-//!   several moves in one block; canned cycles and everything else outside
+//!   several moves in one block, polar coordinates (`@`, `^`: no X or Y
+//!   word to correct); canned cycles and everything else outside
 //!   the interpreter's subset are already errors of the interpreter. A
 //!   Fanuc `G4 X` (a dwell time) is not a target and is left alone.
 //!
@@ -1167,6 +1168,15 @@ fn axis_move(
     for (i, &axis) in LINEAR.iter().enumerate() {
         has[i] = axes.contains(&axis) && block.word(axis.letter() as char)?.is_some();
     }
+    // LinuxCNC's polar words stand for X and Y: no X or Y word to correct.
+    if (axes.contains(&Axis::X) || axes.contains(&Axis::Y))
+        && block.words().any(|w| matches!(w.letter, b'@' | b'^'))
+    {
+        return Err(CompensateError::Unsafe {
+            line: block.line(),
+            reason: "polar coordinates (@, ^): the block has no X or Y word to correct".into(),
+        });
+    }
     if !has.iter().any(|&h| h) {
         return Ok(None);
     }
@@ -2056,6 +2066,13 @@ mod log_tests {
                 reason.contains("an X word of an arc in the ZX plane"),
                 "{reason}"
             ),
+            other => panic!("{other:?}"),
+        }
+        // Polar words move X and Y with no X or Y word to correct.
+        match run("S1000 M3\nG21 G0 X10 Y0 Z5\nG1 @5 ^90 F100\n") {
+            Err(CompensateError::Unsafe { line: 3, reason }) => {
+                assert!(reason.contains("polar"), "{reason}");
+            }
             other => panic!("{other:?}"),
         }
         // A G90.1 arc that would move is refused.
