@@ -161,6 +161,26 @@ fn fit_and_score(
     })
 }
 
+/// Per channel, `alt` or `base` chosen by the lower cross-validation RMS
+/// (`base` on a tie): 1 where `alt` is chosen (else 0), and the chosen
+/// MAE and error/drift RMS.
+fn choose_by_cross_validation(
+    base: &Evaluation,
+    alt: &Evaluation,
+) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let mut chosen = Vec::new();
+    let mut mae = Vec::new();
+    let mut ratio = Vec::new();
+    for ch in 0..CHANNELS.len() {
+        let a = alt.heldout_um[ch] < base.heldout_um[ch];
+        let e = if a { alt } else { base };
+        chosen.push(if a { 1.0 } else { 0.0 });
+        mae.push(e.mae[ch]);
+        ratio.push(e.ratio[ch]);
+    }
+    (chosen, mae, ratio)
+}
+
 fn temperatures() -> Vec<String> {
     (1..=16).map(|i| format!("t{i}_c")).collect()
 }
@@ -361,16 +381,7 @@ fn real_record_last_third_with_the_same_sign_rule() {
     let mut options = LogFitOptions::default();
     options.rule = InputRule::SameSign;
     let same = try_evaluate_with(&path, &inputs, 1.0, &options).unwrap();
-    let mut chosen = Vec::new();
-    let mut mae = Vec::new();
-    let mut ratio = Vec::new();
-    for ch in 0..CHANNELS.len() {
-        let s = same.heldout_um[ch] < pooled.heldout_um[ch];
-        let e = if s { &same } else { &pooled };
-        chosen.push(if s { 1.0 } else { 0.0 });
-        mae.push(e.mae[ch]);
-        ratio.push(e.ratio[ch]);
-    }
+    let (chosen, mae, ratio) = choose_by_cross_validation(&pooled, &same);
     eprintln!(
         "cross-validation RMS pooled {:.3?} / same-sign {:.3?} µm; same-sign chosen {chosen:?}, MAE {mae:.3?}",
         pooled.heldout_um, same.heldout_um
@@ -487,16 +498,7 @@ fn real_record_last_third_with_rises_over_an_ambient_sensor() {
     );
     let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
     let over = try_evaluate(&file, &inputs, 1.0, 3).unwrap();
-    let mut chosen = Vec::new();
-    let mut mae = Vec::new();
-    let mut ratio = Vec::new();
-    for ch in 0..CHANNELS.len() {
-        let o = over.heldout_um[ch] < plain.heldout_um[ch];
-        let e = if o { &over } else { &plain };
-        chosen.push(if o { 1.0 } else { 0.0 });
-        mae.push(e.mae[ch]);
-        ratio.push(e.ratio[ch]);
-    }
+    let (chosen, mae, ratio) = choose_by_cross_validation(&plain, &over);
     eprintln!(
         "ambient t{ambient}_c; cross-validation RMS plain {:.3?} / over ambient {:.3?} µm; chosen {chosen:?}, MAE {mae:.3?}",
         plain.heldout_um, over.heldout_um
@@ -556,16 +558,7 @@ fn real_record_last_third_with_a_speed_on_indicator() {
     inputs.insert(2, "speed_on:level".to_string());
     let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
     let on = try_evaluate(&file, &inputs, 1.0, 3).unwrap();
-    let mut chosen = Vec::new();
-    let mut mae = Vec::new();
-    let mut ratio = Vec::new();
-    for ch in 0..CHANNELS.len() {
-        let o = on.heldout_um[ch] < plain.heldout_um[ch];
-        let e = if o { &on } else { &plain };
-        chosen.push(if o { 1.0 } else { 0.0 });
-        mae.push(e.mae[ch]);
-        ratio.push(e.ratio[ch]);
-    }
+    let (chosen, mae, ratio) = choose_by_cross_validation(&plain, &on);
     eprintln!(
         "cross-validation RMS without {:.3?} / with speed-on {:.3?} µm; chosen {chosen:?}, MAE {mae:.3?}",
         plain.heldout_um, on.heldout_um
@@ -603,16 +596,7 @@ fn real_record_last_third_with_plain_rises_and_rises_over_ambient() {
     );
     let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
     let both = try_evaluate(&file, &inputs, 1.0, 3).unwrap();
-    let mut chosen = Vec::new();
-    let mut mae = Vec::new();
-    let mut ratio = Vec::new();
-    for ch in 0..CHANNELS.len() {
-        let o = both.heldout_um[ch] < plain.heldout_um[ch];
-        let e = if o { &both } else { &plain };
-        chosen.push(if o { 1.0 } else { 0.0 });
-        mae.push(e.mae[ch]);
-        ratio.push(e.ratio[ch]);
-    }
+    let (chosen, mae, ratio) = choose_by_cross_validation(&plain, &both);
     eprintln!(
         "cross-validation RMS plain {:.3?} / both {:.3?} µm; chosen {chosen:?}, MAE {mae:.3?}",
         plain.heldout_um, both.heldout_um
