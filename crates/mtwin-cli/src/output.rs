@@ -50,8 +50,15 @@ pub fn warn(msg: impl AsRef<str>) {
 /// Print an error and its causes on stderr.
 pub fn print_error(e: &anyhow::Error) {
     eprintln!("error: {e}");
+    // A cause whose text the message above already holds (an error that
+    // shows its source's message) is not repeated.
+    let mut shown = e.to_string();
     for cause in e.chain().skip(1) {
-        eprintln!("  caused by: {cause}");
+        let text = cause.to_string();
+        if !shown.contains(&text) {
+            eprintln!("  caused by: {text}");
+            shown = text;
+        }
     }
 }
 
