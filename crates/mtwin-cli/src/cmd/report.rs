@@ -189,11 +189,7 @@ fn build(a: &Args) -> anyhow::Result<Vec<Section>> {
                 let inputs: Vec<_> = model
                     .inputs
                     .iter()
-                    .map(|i| mtwin::methods::thermal::log::InputSpec {
-                        column: i.column.clone(),
-                        rise: i.rise,
-                        square: i.square,
-                    })
+                    .map(mtwin::methods::thermal::log::LogInput::spec)
                     .collect();
                 let log = mtwin::methods::thermal::log::read_log(
                     &load_table(l)?,

@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use mtwin::methods::thermal::log::{ChannelSpec, InputRule, InputSpec};
 use mtwin::methods::thermal::{
-    self, FitRunOptions, LogFitRunOptions, LogPredictRunOptions, PredictRunOptions, SpeedModel,
-    ThermalFitOptions,
+    self, Ambient, FitRunOptions, LogFitRunOptions, LogPredictRunOptions, PredictRunOptions,
+    SpeedModel, ThermalFitOptions,
 };
 use serde_json::json;
 
@@ -127,26 +127,27 @@ pub struct FitArgs {
     /// comma separated, e.g. `ch1_um:X,ch2_um:Z`.
     #[arg(long, value_delimiter = ',', requires = "log")]
     drift: Vec<String>,
-    /// Input columns of --log, comma separated (`COLUMN`, `COLUMN:rise` or `COLUMN:level`; a
-    /// column ending in `_c` is a temperature and enters as its rise since the start).
+    /// Input columns of --log, comma separated (`COLUMN`, `COLUMN:rise`, `COLUMN:level`,
+    /// `COLUMN:square` or `COLUMN:over=OTHER`, the rise of COLUMN − OTHER since the start; a column
+    /// ending in `_c` is a temperature and enters as its rise since the start).
     #[arg(long, value_delimiter = ',', requires = "log")]
     inputs: Vec<String>,
-    /// Model period for --log: the log is averaged over periods of this length, min.
-    #[arg(long, default_value_t = 1.0, requires = "log")]
-    period_min: f64,
+    /// Model period for --log: the log is averaged over periods of this length, min (default 1).
+    #[arg(long, requires = "log")]
+    period_min: Option<f64>,
     /// With --log: fit on the samples before this time (min from the log's start) and report how
     /// the model predicts the rest from the start (mean absolute error, error/drift RMS).
     #[arg(long, requires = "log")]
     train_until_min: Option<f64>,
-    /// With --log: most inputs one channel's model may use (forward selection).
-    #[arg(long, default_value_t = 6, requires = "log")]
-    max_inputs: usize,
+    /// With --log: most inputs one channel's model may use (forward selection; default 6).
+    #[arg(long, requires = "log")]
+    max_inputs: Option<usize>,
     /// With --log: inputs and orders are chosen by blocked cross-validation: the training samples
     /// are cut into N + 1 contiguous blocks, each block after the first is predicted from the
     /// start by a model fitted on the blocks before it, and the errors are pooled; 1: one
-    /// held-out block, the last third.
-    #[arg(long, default_value_t = 3, requires = "log")]
-    folds: usize,
+    /// held-out block, the last third. Default 3.
+    #[arg(long, requires = "log")]
+    folds: Option<usize>,
     /// With --log: also try, per channel, every input through one or two first-order lags with
     /// shared time constants (5 to 405 min, refined), beside the ARX orders; chosen only where it
     /// predicts the held-out blocks better (stored as the equivalent ARX model).
@@ -155,8 +156,9 @@ pub struct FitArgs {
     /// With --log: when an input is added (and kept): `pooled` (it lowers the pooled held-out RMS
     /// by 2 %), `every-block` (that, and it lowers the error in every held-out block) or
     /// `same-sign` (that, and every input's fitted static gain has one sign in every block's fit).
-    #[arg(long, default_value = "pooled", value_parser = parse_input_rule, requires = "log")]
-    input_rule: InputRule,
+    /// Default `pooled`.
+    #[arg(long, value_parser = parse_input_rule, requires = "log")]
+    input_rule: Option<InputRule>,
     /// With --log: also estimate each channel's start offset with its model: the drift is counted
     /// from the channel's first period mean, one noisy measurement, whose error is otherwise an
     /// offset on every later sample that the inputs are made to explain. Stored per channel
@@ -164,6 +166,12 @@ pub struct FitArgs {
     /// `thermal compensate` corrects holds none.
     #[arg(long, requires = "log")]
     start_offset: bool,
+    /// With --log: take every temperature input but one over an ambient sensor (`COLUMN:over=AMBIENT`,
+    /// the rise of the difference since the start); the ambient one stays as its own rise. Give the
+    /// ambient input column, or `auto`: the temperature least correlated with the first level input
+    /// (the spindle speed) over the training rows (docs/thermal.md, "Rises over an ambient sensor").
+    #[arg(long, value_name = "COLUMN|auto", value_parser = parse_ambient, requires = "log")]
+    ambient: Option<Ambient>,
     /// Largest ARX order tried: na in 1..=N, nb in 0..=N (default 4); with --log na and nb in
     /// 0..=N (default 2).
     #[arg(long)]
@@ -388,9 +396,29 @@ fn parse_input_rule(s: &str) -> Result<InputRule, String> {
     s.parse()
 }
 
+fn parse_ambient(s: &str) -> Result<Ambient, String> {
+    s.parse()
+}
+
 fn fit(a: FitArgs) -> anyhow::Result<()> {
     if let Some(log) = a.log.clone() {
         return fit_log(&log, a);
+    }
+    // Flags of --log only: refused without it, never silently ignored.
+    let log_only = [
+        ("--drift", !a.drift.is_empty()),
+        ("--inputs", !a.inputs.is_empty()),
+        ("--period-min", a.period_min.is_some()),
+        ("--train-until-min", a.train_until_min.is_some()),
+        ("--max-inputs", a.max_inputs.is_some()),
+        ("--folds", a.folds.is_some()),
+        ("--lags", a.lags),
+        ("--input-rule", a.input_rule.is_some()),
+        ("--start-offset", a.start_offset),
+        ("--ambient", a.ambient.is_some()),
+    ];
+    if let Some((flag, _)) = log_only.iter().find(|(_, given)| *given) {
+        anyhow::bail!("{flag} applies to a wide log (--log LOG.csv), not to --data");
     }
     let Some(data) = a.data.clone() else {
         anyhow::bail!("give --data TRAIN.csv or --log LOG.csv");
@@ -459,14 +487,15 @@ fn fit_log(log: &Path, a: FitArgs) -> anyhow::Result<()> {
         .iter()
         .map(|s| InputSpec::parse(s).map_err(|e| anyhow::anyhow!("--inputs: {e}")))
         .collect::<anyhow::Result<_>>()?;
-    options.period_min = a.period_min;
+    options.period_min = a.period_min.unwrap_or(options.period_min);
     options.train_until_min = a.train_until_min;
     options.fit.max_order = a.max_order.unwrap_or(options.fit.max_order);
-    options.fit.max_inputs = a.max_inputs;
-    options.fit.folds = a.folds;
+    options.fit.max_inputs = a.max_inputs.unwrap_or(options.fit.max_inputs);
+    options.fit.folds = a.folds.unwrap_or(options.fit.folds);
     options.fit.lags = a.lags;
-    options.fit.rule = a.input_rule;
+    options.fit.rule = a.input_rule.unwrap_or(options.fit.rule);
     options.fit.start_offset = a.start_offset;
+    options.ambient = a.ambient.clone();
     options.out = a.out.display().to_string();
     options.validate()?;
     let mut out = mtwin::io::Outputs::plan()

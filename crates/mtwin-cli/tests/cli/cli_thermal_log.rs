@@ -760,3 +760,269 @@ fn compensate_with_a_short_inputs_log_holds_its_last_values_with_a_note() {
         "{x}"
     );
 }
+
+/// A machine whose drift follows how much warmer than the room one of its
+/// sensors has become: the room (`room_c`) swings ±2 K over the day,
+/// unrelated to the spindle; the spindle housing (`housing_c`) follows the
+/// room plus a warm-up that the spindle drives (first order, 60-min time
+/// constant, 1 K per 1000 rev/min); the drift along Z is
+/// `G_TEMP`·(rise of housing − room), through a first-order lag `P_TEMP`.
+/// A third sensor (`bed_c`) follows the room with a small part of the
+/// warm-up. Per minute: `(speed, room, housing, bed, drift mm)`.
+fn room_machine(n: usize, levels: &[f64], phase: f64) -> Vec<[f64; 5]> {
+    let (mut warm, mut e) = (0.0, 0.0);
+    let mut first = None;
+    (0..n)
+        .map(|k| {
+            let kf = k as f64;
+            let speed = levels[(k / 50) % levels.len()];
+            let room = 20.0 + 2.0 * (kf / 180.0 + phase).sin();
+            let housing = room + warm;
+            let bed = room + 0.2 * warm;
+            let over = housing - room;
+            let over0 = *first.get_or_insert(over);
+            let row = [speed, room, housing, bed, e];
+            warm += (speed / 1000.0 - warm) / 60.0;
+            e = P_TEMP * e + (1.0 - P_TEMP) * G_TEMP * (over - over0);
+            row
+        })
+        .collect()
+}
+
+fn room_log(rows: &[[f64; 5]], with_drift: bool) -> String {
+    let mut s = String::from("t_min,speed_rpm,room_c,housing_c,bed_c");
+    s.push_str(if with_drift { ",z_mm\n" } else { "\n" });
+    for (k, r) in rows.iter().enumerate() {
+        s.push_str(&format!("{k},{},{},{},{}", r[0], r[1], r[2], r[3]));
+        if with_drift {
+            s.push_str(&format!(",{}", r[4]));
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// `--ambient auto` takes the temperature least correlated with the speed
+/// (the room, correlations recomputed here), offers the others over it,
+/// the housing over the room is selected first and recovers the machine;
+/// the model file keeps `over`, and `thermal predict --log` reproduces the
+/// exact drift of a new day from its temperatures alone. `--ambient
+/// housing_c` names one itself; an ambient that is not an input is refused.
+#[test]
+fn fit_log_with_temperatures_over_an_ambient_sensor() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    let rows = room_machine(600, &[0.0, 3000.0, 1000.0, 5000.0, 0.0, 2000.0], 0.0);
+    std::fs::write(p.join("log.csv"), room_log(&rows, true)).unwrap();
+    let args = [
+        "thermal",
+        "fit",
+        "--log",
+        "log.csv",
+        "--drift",
+        "z_mm:Z",
+        "--inputs",
+        "speed_rpm,room_c,housing_c,bed_c",
+        "--ambient",
+        "auto",
+        "--train-until-min",
+        "480",
+        "--out",
+        "m.toml",
+    ];
+    let (doc, _) = json_round_trip::<mtwin::methods::thermal::ThermalLogFitDoc>(p, &args);
+    // |r| with the speed over the 480 training rows, computed here.
+    let corr = |j: usize| {
+        let pairs: Vec<(f64, f64)> = rows[..480].iter().map(|r| (r[j], r[0])).collect();
+        let n = pairs.len() as f64;
+        let (ma, mb) = pairs
+            .iter()
+            .fold((0.0, 0.0), |(x, y), (a, b)| (x + a / n, y + b / n));
+        let (sab, saa, sbb) = pairs.iter().fold((0.0, 0.0, 0.0), |(s, t, u), (a, b)| {
+            (
+                s + (a - ma) * (b - mb),
+                t + (a - ma).powi(2),
+                u + (b - mb).powi(2),
+            )
+        });
+        (sab / (saa * sbb).sqrt()).abs()
+    };
+    let (room, housing, bed) = (corr(1), corr(2), corr(3));
+    assert!(room < bed && room < housing, "{room} {housing} {bed}");
+    let a = doc
+        .ambient
+        .as_ref()
+        .expect("the ambient choice is in the document");
+    assert_eq!(
+        (a.column.as_str(), a.against.as_str(), a.rows),
+        ("room_c", "speed_rpm", 480)
+    );
+    for (name, r) in [("room_c", room), ("housing_c", housing), ("bed_c", bed)] {
+        let got = a.correlations.iter().find(|(c, _)| c == name).unwrap().1;
+        assert!((got - r).abs() < 1e-9, "{name}: {got} vs {r}");
+    }
+    let names: Vec<String> = doc.inputs.iter().map(|i| i.name()).collect();
+    assert_eq!(
+        names,
+        [
+            "speed_rpm",
+            "room_c",
+            "housing_c:over=room_c",
+            "bed_c:over=room_c"
+        ]
+    );
+    let c = &doc.channels[0];
+    assert_eq!(c.selection[0].input, "housing_c:over=room_c");
+    assert!(c.heldout_rms_mm < 1e-7, "{c:?}");
+    let model = std::fs::read_to_string(p.join("m.toml")).unwrap();
+    assert!(model.contains("over = \"room_c\""), "{model}");
+    // A new day, another phase of the room and other speeds, no drift
+    // column: predicted from its inputs alone.
+    let new = room_machine(300, &[4000.0, 0.0, 2500.0], 1.3);
+    std::fs::write(p.join("new.csv"), room_log(&new, false)).unwrap();
+    let o = mtwin(
+        p,
+        &[
+            "thermal", "predict", "--model", "m.toml", "--log", "new.csv", "--out", "pred.csv",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (_, pred) = read_csv(&p.join("pred.csv"));
+    assert_eq!(pred.len(), 300);
+    for (k, r) in pred.iter().enumerate() {
+        assert!(
+            (r[1] - new[k][4]).abs() < 1e-6,
+            "minute {k}: {} vs {}",
+            r[1],
+            new[k][4]
+        );
+    }
+    // Without the room's column the prediction is refused at the header.
+    let no_room = room_log(&new, false).replace("room_c", "hall_c");
+    std::fs::write(p.join("noroom.csv"), no_room).unwrap();
+    expect_failure(
+        p,
+        &[
+            "thermal",
+            "predict",
+            "--model",
+            "m.toml",
+            "--log",
+            "noroom.csv",
+            "--out",
+            "pred2.csv",
+        ],
+        "noroom.csv:1",
+        "pred2.csv",
+    );
+    // `thermal compensate` reads the inputs the same way: without an
+    // inputs log both columns are named; with one, the program is the one
+    // a model of the difference written out as its own column gives.
+    std::fs::write(p.join("part.ngc"), PART).unwrap();
+    let comp = |model: &str, log: Option<&str>, out: &str| {
+        let mut a = vec![
+            "thermal",
+            "compensate",
+            "--program",
+            "part.ngc",
+            "--model",
+            model,
+        ];
+        if let Some(l) = log {
+            a.extend(["--inputs-log", l]);
+        }
+        a.extend(["--out", out]);
+        a.into_iter().map(String::from).collect::<Vec<_>>()
+    };
+    let a = comp("m.toml", None, "c0.ngc");
+    let a: Vec<&str> = a.iter().map(String::as_str).collect();
+    expect_failure(p, &a, "use the input(s) housing_c, room_c", "c0.ngc");
+    let diff_model = model.replace(
+        "column = \"housing_c\"\nrise = true\nsquare = false\nover = \"room_c\"",
+        "column = \"diff_c\"\nrise = true\nsquare = false",
+    );
+    assert_ne!(
+        diff_model, model,
+        "the model file's input table changed: {model}"
+    );
+    std::fs::write(p.join("diff.toml"), diff_model).unwrap();
+    let mut diff_log = String::from("t_min,speed_rpm,diff_c\n");
+    for (k, r) in new.iter().enumerate() {
+        diff_log.push_str(&format!("{k},{},{}\n", r[0], r[2] - r[1]));
+    }
+    std::fs::write(p.join("diff.csv"), diff_log).unwrap();
+    for (m, l, out) in [
+        ("m.toml", "new.csv", "c1.ngc"),
+        ("diff.toml", "diff.csv", "c2.ngc"),
+    ] {
+        let a = comp(m, Some(l), out);
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        let o = mtwin(p, &a);
+        assert_eq!(o.status.code(), Some(0), "{a:?}: {}", stderr(&o));
+    }
+    let (c1, c2) = (
+        std::fs::read_to_string(p.join("c1.ngc")).unwrap(),
+        std::fs::read_to_string(p.join("c2.ngc")).unwrap(),
+    );
+    assert_eq!(c1, c2);
+    assert_ne!(c1, PART, "the drift is corrected");
+    // Naming the ambient sensor; one that is not an input is refused.
+    let mut named = args.to_vec();
+    named[9] = "housing_c";
+    named[13] = "m2.toml";
+    let (doc, _) = json_round_trip::<mtwin::methods::thermal::ThermalLogFitDoc>(p, &named);
+    let names: Vec<String> = doc.inputs.iter().map(|i| i.name()).collect();
+    assert_eq!(
+        names,
+        [
+            "speed_rpm",
+            "room_c:over=housing_c",
+            "housing_c",
+            "bed_c:over=housing_c"
+        ]
+    );
+    named[9] = "hall_c";
+    named[13] = "m3.toml";
+    expect_failure(
+        p,
+        &named,
+        "the ambient sensor `hall_c` must be one of the inputs",
+        "m3.toml",
+    );
+    named[9] = "speed_rpm";
+    expect_failure(p, &named, "the ambient sensor `speed_rpm`", "m3.toml");
+}
+
+/// The flags of a wide log are refused with `--data` (never silently
+/// ignored): exit 1, the flag named, no model written.
+#[test]
+fn log_only_flags_are_refused_without_a_log() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    std::fs::write(
+        p.join("train.csv"),
+        "t_min,speed_rpm,z_mm,drift_mm\n0,0,0,0\n10,1000,0,0.001\n",
+    )
+    .unwrap();
+    for extra in [
+        &["--drift", "a_um:Z"][..],
+        &["--inputs", "t1_c"],
+        &["--period-min", "2"],
+        &["--train-until-min", "5"],
+        &["--max-inputs", "2"],
+        &["--folds", "2"],
+        &["--lags"],
+        &["--input-rule", "same-sign"],
+        &["--start-offset"],
+        &["--ambient", "auto"],
+    ] {
+        let mut a = vec!["thermal", "fit", "--data", "train.csv", "--out", "m.toml"];
+        a.extend(extra);
+        expect_failure(
+            p,
+            &a,
+            &format!("{} applies to a wide log (--log LOG.csv)", extra[0]),
+            "m.toml",
+        );
+    }
+}

@@ -12,7 +12,8 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use mtwin::io::Table;
 use mtwin::methods::thermal::log::{
-    ChannelSpec, InputRule, InputSpec, LogFitOptions, at_time, fit_log, predict_log, read_log,
+    ChannelSpec, InputRule, InputSpec, LogFitOptions, at_time, fit_log, least_correlated_rise,
+    predict_log, read_log,
 };
 
 const CHANNELS: [&str; 5] = ["ch1_um", "ch2_um", "ch3_um", "ch4_um", "ch5_um"];
@@ -405,70 +406,31 @@ fn real_record_last_third_with_the_same_sign_rule() {
     );
 }
 
-/// The record with, beside its sixteen temperatures, every temperature but
-/// the ambient one as its difference from the ambient sensor
-/// (`dN_c = tN_c − tA_c`, K), written to `dir`; the ambient sensor `tA_c` is the temperature least correlated
-/// with the spindle speed over the raw rows of the training span (its
-/// index 1…16 is returned). Speed, channels and times are copied as text.
-fn with_rises_over_ambient(path: &Path, dir: &Path) -> (std::path::PathBuf, usize) {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    let num = |r: &[&str], c: usize| r[c].parse::<f64>().unwrap();
-    let (t, speed) = (col("t_s"), col("speed_rpm"));
-    let train: Vec<&Vec<&str>> = rows
-        .iter()
-        .filter(|r| num(r, t) / 60.0 < TRAIN_UNTIL_MIN)
-        .collect();
-    let corr = |c: usize| {
-        let n = train.len() as f64;
-        let (ma, mb) = train.iter().fold((0.0, 0.0), |(a, b), r| {
-            (a + num(r, c) / n, b + num(r, speed) / n)
-        });
-        let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
-        for r in &train {
-            let (a, b) = (num(r, c) - ma, num(r, speed) - mb);
-            sab += a * b;
-            saa += a * a;
-            sbb += b * b;
-        }
-        (sab / (saa * sbb).sqrt()).abs()
-    };
-    let ambient = (1..=16)
-        .min_by(|&a, &b| corr(col(&format!("t{a}_c"))).total_cmp(&corr(col(&format!("t{b}_c")))))
-        .unwrap();
-    let amb = col(&format!("t{ambient}_c"));
-    let mut out = String::from("t_s,speed_rpm");
-    for c in CHANNELS {
-        out.push_str(&format!(",{c}"));
-    }
-    for i in 1..=16 {
-        out.push_str(&format!(",t{i}_c"));
-    }
-    let others: Vec<usize> = (1..=16).filter(|&i| i != ambient).collect();
-    for i in &others {
-        out.push_str(&format!(",d{i}_c"));
-    }
-    out.push('\n');
-    for r in &rows {
-        out.push_str(&format!("{},{}", r[t], r[speed]));
-        for c in CHANNELS {
-            out.push_str(&format!(",{}", r[col(c)]));
-        }
-        for i in 1..=16 {
-            out.push_str(&format!(",{}", r[col(&format!("t{i}_c"))]));
-        }
-        for i in &others {
-            let d = num(r, col(&format!("t{i}_c"))) - num(r, amb);
-            out.push_str(&format!(",{d}"));
-        }
-        out.push('\n');
-    }
-    let file = dir.join("rises-over-ambient.csv");
-    std::fs::write(&file, out).unwrap();
-    (file, ambient)
+/// The ambient sensor of the record: the temperature least correlated with
+/// the speed over the raw rows of the training span (the library's
+/// `least_correlated_rise`, as `thermal fit --ambient auto` chooses it).
+fn ambient_sensor(path: &Path) -> usize {
+    let table = Table::read(path).unwrap();
+    let mut inputs = vec![InputSpec::parse("speed_rpm").unwrap()];
+    inputs.extend(temperatures().iter().map(|t| InputSpec::parse(t).unwrap()));
+    let a = least_correlated_rise(&table, &inputs, Some(TRAIN_UNTIL_MIN)).unwrap();
+    eprintln!(
+        "ambient {} over {} rows: {:.3?}",
+        a.column, a.rows, a.correlations
+    );
+    a.column
+        .strip_prefix('t')
+        .and_then(|c| c.strip_suffix("_c"))
+        .and_then(|n| n.parse().ok())
+        .unwrap()
+}
+
+/// Every temperature but `ambient` over it (`tN_c:over=tA_c`).
+fn rises_over(ambient: usize) -> Vec<String> {
+    (1..=16)
+        .filter(|&i| i != ambient)
+        .map(|i| format!("t{i}_c:over=t{ambient}_c"))
+        .collect()
 }
 
 /// Temperatures as rises over an ambient sensor chosen on the training span
@@ -484,20 +446,15 @@ fn real_record_last_third_with_rises_over_an_ambient_sensor() {
     inputs.extend(temperatures());
     let plain_inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
     let plain = try_evaluate(&path, &plain_inputs, 1.0, 3).unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let (file, ambient) = with_rises_over_ambient(&path, dir.path());
+    let ambient = ambient_sensor(&path);
     let mut inputs = vec![
         "speed_rpm".to_string(),
         "speed_rpm:square".to_string(),
         format!("t{ambient}_c"),
     ];
-    inputs.extend(
-        (1..=16)
-            .filter(|&i| i != ambient)
-            .map(|i| format!("d{i}_c")),
-    );
+    inputs.extend(rises_over(ambient));
     let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
-    let over = try_evaluate(&file, &inputs, 1.0, 3).unwrap();
+    let over = try_evaluate(&path, &inputs, 1.0, 3).unwrap();
     let (chosen, mae, ratio) = choose_by_cross_validation(&plain, &over);
     eprintln!(
         "ambient t{ambient}_c; cross-validation RMS plain {:.3?} / over ambient {:.3?} µm; chosen {chosen:?}, MAE {mae:.3?}",
@@ -587,15 +544,9 @@ fn real_record_last_third_with_plain_rises_and_rises_over_ambient() {
     inputs.extend(temperatures());
     let plain_inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
     let plain = try_evaluate(&path, &plain_inputs, 1.0, 3).unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let (file, ambient) = with_rises_over_ambient(&path, dir.path());
-    inputs.extend(
-        (1..=16)
-            .filter(|&i| i != ambient)
-            .map(|i| format!("d{i}_c")),
-    );
+    inputs.extend(rises_over(ambient_sensor(&path)));
     let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
-    let both = try_evaluate(&file, &inputs, 1.0, 3).unwrap();
+    let both = try_evaluate(&path, &inputs, 1.0, 3).unwrap();
     let (chosen, mae, ratio) = choose_by_cross_validation(&plain, &both);
     eprintln!(
         "cross-validation RMS plain {:.3?} / both {:.3?} µm; chosen {chosen:?}, MAE {mae:.3?}",

@@ -1068,8 +1068,11 @@ pub fn compensate_log(
                 .collect();
             let mut inputs: Vec<String> = Vec::new();
             for &i in &logged {
-                if !inputs.contains(&model.inputs[i].column) {
-                    inputs.push(model.inputs[i].column.clone());
+                let input = &model.inputs[i];
+                for column in std::iter::once(&input.column).chain(&input.over) {
+                    if !inputs.contains(column) {
+                        inputs.push(column.clone());
+                    }
                 }
             }
             return Err(CompensateError::MissingInputs {
@@ -1099,9 +1102,9 @@ pub fn compensate_log(
             let specs: Vec<InputSpec> = logged
                 .iter()
                 .map(|&i| InputSpec {
-                    column: model.inputs[i].column.clone(),
                     rise: false,
                     square: false,
+                    ..model.inputs[i].spec()
                 })
                 .collect();
             let data = read_log(table, &[], &specs, model.period_min)
@@ -1738,12 +1741,14 @@ mod log_tests {
                     column: "speed_rpm".into(),
                     rise: false,
                     square: false,
+                    over: None,
                     scale: 1000.0,
                 },
                 LogInput {
                     column: "t1_c".into(),
                     rise: true,
                     square: false,
+                    over: None,
                     scale: 5.0,
                 },
             ],

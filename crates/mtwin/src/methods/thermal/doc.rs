@@ -741,6 +741,10 @@ pub struct ThermalLogFitDoc {
     pub folds: usize,
     /// Every candidate input with its scale.
     pub inputs: Vec<super::log::LogInput>,
+    /// The ambient sensor the other temperatures were taken over, when one
+    /// was asked for ([`super::run::Ambient`]), with how it was chosen.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ambient: Option<super::log::AmbientChoice>,
     /// One model per drift channel.
     pub channels: Vec<LogChannelDoc>,
     /// The test span's scores, when the fit stopped before the log's end.
@@ -797,6 +801,16 @@ impl std::fmt::Display for ThermalLogFitDoc {
                 self.heldout_samples,
                 self.out
             )?;
+        }
+        if let Some(a) = &self.ambient {
+            match a.correlations.iter().find(|(c, _)| *c == a.column) {
+                Some((_, r)) => writeln!(
+                    f,
+                    "temperatures taken over the ambient sensor {} (the least correlated with {}: |r| = {:.3} over {} rows)",
+                    a.column, a.against, r, a.rows
+                )?,
+                None => writeln!(f, "temperatures taken over the ambient sensor {}", a.column)?,
+            }
         }
         writeln!(
             f,

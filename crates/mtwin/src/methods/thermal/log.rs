@@ -199,14 +199,22 @@ pub struct InputSpec {
     /// spindle speed, for heat that grows faster than the speed.
     #[serde(default)]
     pub square: bool,
+    /// Use the difference `column − over` row by row (e.g. a temperature
+    /// over an ambient sensor's, °C), as its rise since the start: a sensor
+    /// that follows the room as much as the machine then says only how much
+    /// warmer than the room its part of the machine has become.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub over: Option<String>,
 }
 
 impl InputSpec {
-    /// `COLUMN`, `COLUMN:rise`, `COLUMN:level` or `COLUMN:square`; without a
-    /// suffix a column ending in `_c` (a temperature, °C) is taken as its
-    /// rise since the start. `square` uses the square of the value (as a
-    /// level), so `speed_rpm,speed_rpm:square` offers the speed and its
-    /// square as two candidate inputs.
+    /// `COLUMN`, `COLUMN:rise`, `COLUMN:level`, `COLUMN:square` or
+    /// `COLUMN:over=OTHER`; without a suffix a column ending in `_c` (a
+    /// temperature, °C) is taken as its rise since the start. `square` uses
+    /// the square of the value (as a level), so `speed_rpm,speed_rpm:square`
+    /// offers the speed and its square as two candidate inputs. `over=OTHER`
+    /// uses the rise of `COLUMN − OTHER` since the start (a temperature over
+    /// an ambient sensor).
     pub fn parse(text: &str) -> Result<InputSpec, String> {
         let (column, kind) = match text.split_once(':') {
             Some((c, k)) => (c.trim(), Some(k.trim())),
@@ -215,28 +223,198 @@ impl InputSpec {
         if column.is_empty() {
             return Err(format!("`{text}`: the column name is empty"));
         }
+        let mut over = None;
         let (rise, square) = match kind {
             None => (column.ends_with("_c"), false),
             Some("rise") => (true, false),
             Some("level") => (false, false),
             Some("square") => (false, true),
-            Some(k) => return Err(format!("`{k}` in `{text}`: say rise, level or square")),
+            Some(k) if k.starts_with("over=") => {
+                let other = k["over=".len()..].trim();
+                if other.is_empty() || other.contains(':') {
+                    return Err(format!(
+                        "`{text}`: give the reference column after over=, e.g. t5_c:over=t1_c"
+                    ));
+                }
+                if other == column {
+                    return Err(format!("`{text}`: a column cannot be taken over itself"));
+                }
+                over = Some(other.to_string());
+                (true, false)
+            }
+            Some(k) => {
+                return Err(format!(
+                    "`{k}` in `{text}`: say rise, level, square or over=COLUMN"
+                ));
+            }
         };
         Ok(InputSpec {
             column: column.to_string(),
             rise,
             square,
+            over,
         })
     }
 
-    /// The name the input is known by: its column, with `:square` when squared.
+    /// The name the input is known by: its column, with `:square` when
+    /// squared or `:over=OTHER` when taken over another column (the text
+    /// [`InputSpec::parse`] reads back).
     pub fn name(&self) -> String {
-        if self.square {
-            format!("{}:square", self.column)
-        } else {
-            self.column.clone()
+        input_name(&self.column, self.square, self.over.as_deref())
+    }
+}
+
+/// The one spelling of an input's name ([`InputSpec::name`], [`LogInput::name`]).
+fn input_name(column: &str, square: bool, over: Option<&str>) -> String {
+    match (square, over) {
+        (_, Some(o)) => format!("{column}:over={o}"),
+        (true, None) => format!("{column}:square"),
+        (false, None) => column.to_string(),
+    }
+}
+
+/// The inputs with every temperature but `ambient` taken over `ambient`:
+/// each input that is a rise (not squared, not already over another
+/// column) other than `ambient` itself becomes `COLUMN:over=AMBIENT`;
+/// `ambient` stays as its own rise, the levels (speed, …) as they are.
+///
+/// # Errors
+/// `ambient` is not one of the inputs' rises.
+pub fn inputs_over_ambient(inputs: &[InputSpec], ambient: &str) -> Result<Vec<InputSpec>, String> {
+    let is_candidate = |i: &InputSpec| i.rise && !i.square && i.over.is_none();
+    if !inputs
+        .iter()
+        .any(|i| i.column == ambient && is_candidate(i))
+    {
+        return Err(format!(
+            "the ambient sensor `{ambient}` must be one of the inputs, as a rise (e.g. a column ending in _c)"
+        ));
+    }
+    let over: Vec<InputSpec> = inputs
+        .iter()
+        .map(|i| {
+            if is_candidate(i) && i.column != ambient {
+                InputSpec {
+                    over: Some(ambient.to_string()),
+                    ..i.clone()
+                }
+            } else {
+                i.clone()
+            }
+        })
+        .collect();
+    let names: Vec<String> = over.iter().map(InputSpec::name).collect();
+    for (k, n) in names.iter().enumerate() {
+        if names[..k].contains(n) {
+            return Err(format!(
+                "`{n}` would be offered twice: it is among the inputs, and taking the temperatures over `{ambient}` makes it again"
+            ));
         }
     }
+    Ok(over)
+}
+
+/// How the ambient sensor was chosen ([`least_correlated_rise`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[non_exhaustive]
+pub struct AmbientChoice {
+    /// The chosen column.
+    pub column: String,
+    /// The level input it was compared with (the first input that is
+    /// neither a rise nor squared, e.g. the spindle speed).
+    pub against: String,
+    /// |Pearson correlation| of every candidate with `against` over the
+    /// rows used, in the inputs' order (0 for a constant column).
+    pub correlations: Vec<(String, f64)>,
+    /// Rows the correlations were computed over.
+    pub rows: usize,
+}
+
+/// The ambient sensor a log suggests: among the inputs that are rises (not
+/// squared, not over another column), the one whose raw values are least
+/// correlated (smallest |Pearson r|) with the first level input (the
+/// spindle speed), over the table's rows before `until_min` (minutes from
+/// its first row; all rows when `None`). A row with either cell missing is
+/// left out of that pair. Ties go to the earlier input.
+///
+/// # Errors
+/// No level input, fewer than two rises, a missing column or time column,
+/// a bad cell (at its line).
+pub fn least_correlated_rise(
+    table: &Table,
+    inputs: &[InputSpec],
+    until_min: Option<f64>,
+) -> Result<AmbientChoice, Diagnostics> {
+    let path = table.path();
+    let whole = |m: String| -> Diagnostics { Diagnostic::whole(path, m).into() };
+    let Some(against) = inputs
+        .iter()
+        .find(|i| !i.rise && !i.square && i.over.is_none())
+    else {
+        return Err(whole(
+            "choosing the ambient sensor needs a level input to compare with (the spindle speed, e.g. speed_rpm)"
+                .into(),
+        ));
+    };
+    let candidates: Vec<&InputSpec> = inputs
+        .iter()
+        .filter(|i| i.rise && !i.square && i.over.is_none())
+        .collect();
+    if candidates.len() < 2 {
+        return Err(whole(
+            "choosing the ambient sensor needs at least two temperatures (rises) among the inputs"
+                .into(),
+        ));
+    }
+    let times = time_minutes(table)?;
+    let start = times[0];
+    let rows: Vec<usize> = (0..table.len())
+        .filter(|&r| until_min.is_none_or(|u| times[r] - start < u))
+        .collect();
+    let mut names: Vec<&str> = vec![against.column.as_str()];
+    names.extend(candidates.iter().map(|c| c.column.as_str()));
+    let cols = table.require(&names)?;
+    let value = |r: usize, c: crate::io::Column| -> Result<Option<f64>, Diagnostics> {
+        if is_missing(table.text(r, c)) {
+            Ok(None)
+        } else {
+            table.number(r, c).map(Some).map_err(Diagnostics::from)
+        }
+    };
+    let mut correlations = Vec::with_capacity(candidates.len());
+    for (spec, &c) in candidates.iter().zip(&cols[1..]) {
+        let mut pairs = Vec::with_capacity(rows.len());
+        for &r in &rows {
+            if let (Some(a), Some(b)) = (value(r, c)?, value(r, cols[0])?) {
+                pairs.push((a, b));
+            }
+        }
+        let n = pairs.len() as f64;
+        let (ma, mb) = pairs
+            .iter()
+            .fold((0.0, 0.0), |(x, y), (a, b)| (x + a / n, y + b / n));
+        let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+        for (a, b) in &pairs {
+            let (a, b) = (a - ma, b - mb);
+            sab += a * b;
+            saa += a * a;
+            sbb += b * b;
+        }
+        let r = (sab / (saa * sbb).sqrt()).abs();
+        correlations.push((spec.column.clone(), if r.is_finite() { r } else { 0.0 }));
+    }
+    let best = correlations
+        .iter()
+        .enumerate()
+        .min_by(|(i, a), (j, b)| a.1.total_cmp(&b.1).then(i.cmp(j)))
+        .map(|(i, _)| i)
+        .unwrap_or(0);
+    Ok(AmbientChoice {
+        column: correlations[best].0.clone(),
+        against: against.column.clone(),
+        correlations,
+        rows: rows.len(),
+    })
 }
 
 /// A log averaged onto the sample grid.
@@ -278,26 +456,10 @@ fn is_missing(text: &str) -> bool {
     t.is_empty() || t.eq_ignore_ascii_case("nan") || t.eq_ignore_ascii_case("na")
 }
 
-/// Read a wide log: the time column (`t_s` or `t_min`), the `channels` and
-/// the `inputs`, averaged over bins of `period_min` from the first row.
-///
-/// Errors at their line: a missing column, a cell that is neither a number
-/// nor missing, a time that does not increase, a gap longer than the
-/// period (no row in a whole bin), a bin without any value of a column.
-pub fn read_log(
-    table: &Table,
-    channels: &[ChannelSpec],
-    inputs: &[InputSpec],
-    period_min: f64,
-) -> Result<LogData, Diagnostics> {
+/// The time column of a wide log (`t_s` or `t_min`), in minutes as written
+/// (not yet from the first row), checked to increase row by row.
+fn time_minutes(table: &Table) -> Result<Vec<f64>, Diagnostics> {
     let path = table.path();
-    if !(period_min.is_finite() && period_min > 0.0) {
-        return Err(Diagnostic::whole(
-            path,
-            format!("the model period must be > 0 min, not {period_min}"),
-        )
-        .into());
-    }
     use crate::io::columns::{T_MIN, T_S};
     let (time_col, to_min) = match (table.column(T_S), table.column(T_MIN)) {
         (Some(_), Some(_)) => {
@@ -319,9 +481,6 @@ pub fn read_log(
             .into());
         }
     };
-    let mut names: Vec<&str> = channels.iter().map(|c| c.column.as_str()).collect();
-    names.extend(inputs.iter().map(|c| c.column.as_str()));
-    let cols = table.require(&names)?;
     if table.is_empty() {
         return Err(
             Diagnostic::at_line(path, table.header_line(), "the file has no data rows").into(),
@@ -359,6 +518,54 @@ pub fn read_log(
     if !diags.is_empty() {
         return Err(diags);
     }
+    Ok(times)
+}
+
+/// Read a wide log: the time column (`t_s` or `t_min`), the `channels` and
+/// the `inputs`, averaged over bins of `period_min` from the first row.
+///
+/// Errors at their line: a missing column, a cell that is neither a number
+/// nor missing, a time that does not increase, a gap longer than the
+/// period (no row in a whole bin), a bin without any value of a column.
+pub fn read_log(
+    table: &Table,
+    channels: &[ChannelSpec],
+    inputs: &[InputSpec],
+    period_min: f64,
+) -> Result<LogData, Diagnostics> {
+    let path = table.path();
+    if !(period_min.is_finite() && period_min > 0.0) {
+        return Err(Diagnostic::whole(
+            path,
+            format!("the model period must be > 0 min, not {period_min}"),
+        )
+        .into());
+    }
+    // The value of an input per row: its column, minus its reference's
+    // with `over` (the difference is taken row by row, then averaged).
+    let mut names: Vec<&str> = channels.iter().map(|c| c.column.as_str()).collect();
+    names.extend(inputs.iter().map(|c| c.column.as_str()));
+    let times = time_minutes(table)?;
+    let cols = table.require(&names)?;
+    let overs: Vec<&str> = inputs.iter().filter_map(|c| c.over.as_deref()).collect();
+    let over_cols = table.require(&overs)?;
+    let mut over_cols = over_cols.into_iter();
+    let over_of: Vec<Option<crate::io::Column>> = channels
+        .iter()
+        .map(|_| None)
+        .chain(
+            inputs
+                .iter()
+                .map(|c| c.over.as_ref().and_then(|_| over_cols.next())),
+        )
+        .collect();
+    // What messages call each series: a channel's column, an input's name.
+    let labels: Vec<String> = channels
+        .iter()
+        .map(|c| c.column.clone())
+        .chain(inputs.iter().map(InputSpec::name))
+        .collect();
+    let mut diags = Diagnostics::default();
     let start = times[0];
     let span = ((times[times.len() - 1] - start) / period_min).floor() + 1.0;
     let bins = span as usize;
@@ -384,21 +591,36 @@ pub fn read_log(
         first_row[k] = first_row[k].min(r);
         let mut raw_values = Vec::with_capacity(channels.len());
         for (j, &c) in cols.iter().enumerate() {
-            let text = table.text(r, c);
-            let v = if is_missing(text) {
-                missing[j] += 1;
-                f64::NAN
-            } else {
-                match table.number(r, c) {
-                    Ok(v) => {
+            let mut cell = |c: crate::io::Column| {
+                let text = table.text(r, c);
+                if is_missing(text) {
+                    None
+                } else {
+                    match table.number(r, c) {
+                        Ok(v) => Some(v),
+                        Err(d) => {
+                            diags.push(d);
+                            Some(f64::NAN)
+                        }
+                    }
+                }
+            };
+            let v = match (cell(c), over_of[j].map(&mut cell)) {
+                (Some(v), None) => Some(v),
+                (Some(v), Some(Some(o))) => Some(v - o),
+                _ => None,
+            };
+            let v = match v {
+                None => {
+                    missing[j] += 1;
+                    f64::NAN
+                }
+                Some(v) => {
+                    if v.is_finite() {
                         sums[j][k] += v;
                         counts[j][k] += 1;
-                        v
                     }
-                    Err(d) => {
-                        diags.push(d);
-                        f64::NAN
-                    }
+                    v
                 }
             };
             if j < channels.len() {
@@ -437,7 +659,7 @@ pub fn read_log(
         prev_row = first_row[k];
     }
     if diags.is_empty() {
-        'outer: for (j, name) in names.iter().enumerate() {
+        'outer: for (j, name) in labels.iter().enumerate() {
             for k in 0..bins {
                 if counts[j][k] == 0 {
                     diags.push(table.cell_error(
@@ -456,7 +678,7 @@ pub fn read_log(
     if !diags.is_empty() {
         return Err(diags);
     }
-    for (j, name) in names.iter().enumerate() {
+    for (j, name) in labels.iter().enumerate() {
         if missing[j] > 0 {
             notes.push(format!(
                 "`{name}`: {} missing cells left out of the period means",
@@ -511,17 +733,27 @@ pub struct LogInput {
     /// The square of the value is used (before the scale).
     #[serde(default)]
     pub square: bool,
+    /// The difference from this column is used ([`InputSpec::over`]);
+    /// absent in model files written before it existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub over: Option<String>,
     /// The model sees the input divided by this (its largest training magnitude).
     pub scale: f64,
 }
 
 impl LogInput {
-    /// The name the input is known by: its column, with `:square` when squared.
+    /// The name the input is known by ([`InputSpec::name`]).
     pub fn name(&self) -> String {
-        if self.square {
-            format!("{}:square", self.column)
-        } else {
-            self.column.clone()
+        input_name(&self.column, self.square, self.over.as_deref())
+    }
+
+    /// The log column(s) this input reads and how ([`read_log`]).
+    pub fn spec(&self) -> InputSpec {
+        InputSpec {
+            column: self.column.clone(),
+            rise: self.rise,
+            square: self.square,
+            over: self.over.clone(),
         }
     }
 }
@@ -1548,6 +1780,7 @@ pub fn fit_log_with(
                 column: spec.column.clone(),
                 rise: spec.rise,
                 square: spec.square,
+                over: spec.over.clone(),
                 scale: if m > 0.0 { m } else { 1.0 },
             }
         })
@@ -1855,6 +2088,116 @@ mod tests {
         assert!(!InputSpec::parse("speed_rpm").unwrap().rise);
         assert!(InputSpec::parse("spindle:rise").unwrap().rise);
         assert!(!InputSpec::parse("t1_c:level").unwrap().rise);
+    }
+
+    #[test]
+    fn an_input_over_another_column_parses_names_and_reads_back() {
+        let s = InputSpec::parse("t5_c:over=t1_c").unwrap();
+        assert_eq!(
+            (s.column.as_str(), s.rise, s.square, s.over.as_deref()),
+            ("t5_c", true, false, Some("t1_c"))
+        );
+        assert_eq!(s.name(), "t5_c:over=t1_c");
+        assert_eq!(InputSpec::parse(&s.name()).unwrap(), s);
+        for bad in ["t5_c:over=", "t5_c:over=t5_c", "t5_c:over=t1_c:level"] {
+            assert!(InputSpec::parse(bad).is_err(), "{bad}");
+        }
+        let over = inputs_over_ambient(
+            &specs(
+                &[],
+                &[
+                    "speed_rpm",
+                    "speed_rpm:square",
+                    "t1_c",
+                    "t2_c",
+                    "t3_c:level",
+                ],
+            )
+            .1,
+            "t2_c",
+        )
+        .unwrap();
+        let names: Vec<String> = over.iter().map(InputSpec::name).collect();
+        assert_eq!(
+            names,
+            [
+                "speed_rpm",
+                "speed_rpm:square",
+                "t1_c:over=t2_c",
+                "t2_c",
+                "t3_c"
+            ]
+        );
+        assert!(inputs_over_ambient(&over, "t3_c").is_err());
+        let twice = specs(&[], &["t1_c", "t2_c", "t1_c:over=t2_c"]).1;
+        assert!(
+            inputs_over_ambient(&twice, "t2_c")
+                .unwrap_err()
+                .contains("`t1_c:over=t2_c` would be offered twice")
+        );
+    }
+
+    #[test]
+    fn an_input_over_another_column_is_their_difference_row_by_row() {
+        // Two rows per 1-min period. Row differences a − b: 1, 3 | 5, (b
+        // missing) | 10, 12; the second period's mean is 5 (one cell left).
+        let t = table("t_min,a_c,b_c\n0,11,10\n0.5,13,10\n1,16,11\n1.5,17,\n2,20,10\n2.5,22,10\n");
+        let (_, inputs) = specs(&[], &["a_c:over=b_c", "b_c"]);
+        let log = read_log(&t, &[], &inputs, 1.0).unwrap();
+        assert_eq!(log.inputs[0], [2.0, 5.0, 11.0]);
+        assert_eq!(log.inputs[1], [10.0, 11.0, 10.0]);
+        assert!(
+            log.notes
+                .iter()
+                .any(|n| n.contains("`a_c:over=b_c`: 1 missing")),
+            "{:?}",
+            log.notes
+        );
+        // The reference column is required like any other.
+        let (_, inputs) = specs(&[], &["a_c:over=c_c"]);
+        let e = read_log(&t, &[], &inputs, 1.0).unwrap_err();
+        assert!(e.to_string().contains("c_c"), "{e}");
+    }
+
+    #[test]
+    fn the_ambient_sensor_is_the_rise_least_correlated_with_the_speed() {
+        // Speed 0, 1, 2, 3, 4: `hot` follows it (r = 1), `room` goes up
+        // and down symmetrically (r = 0 exactly), `mixed` in between.
+        let t = table(
+            "t_min,speed,hot_c,room_c,mixed_c\n0,0,20,20,20\n1,1,21,21,20.5\n2,2,22,22,20\n3,3,23,21,21.5\n4,4,24,20,22\n9,4,99,99,99\n",
+        );
+        let (_, inputs) = specs(&[], &["speed", "hot_c", "room_c", "mixed_c"]);
+        let a = least_correlated_rise(&t, &inputs, Some(5.0)).unwrap();
+        assert_eq!(
+            (a.column.as_str(), a.against.as_str(), a.rows),
+            ("room_c", "speed", 5)
+        );
+        let r: Vec<f64> = a.correlations.iter().map(|(_, r)| *r).collect();
+        assert!((r[0] - 1.0).abs() < 1e-12 && r[1].abs() < 1e-12, "{r:?}");
+        assert!(r[2] > 0.5 && r[2] < 1.0, "{r:?}");
+        // Without a level input, or with one temperature, there is no choice.
+        let (_, inputs) = specs(&[], &["hot_c", "room_c"]);
+        assert!(least_correlated_rise(&t, &inputs, None).is_err());
+        let (_, inputs) = specs(&[], &["speed", "room_c"]);
+        assert!(least_correlated_rise(&t, &inputs, None).is_err());
+    }
+
+    #[test]
+    fn a_model_file_without_over_reads_and_one_with_it_round_trips() {
+        let text = "period_min = 1.0\n\n[[inputs]]\ncolumn = \"t1_c\"\nrise = true\nscale = 2.0\n\n\
+                    [[channels]]\ninputs = [0]\na = [1.0, -0.5]\nb = [[0.001]]\nheldout_rms_mm = 0.0\n\
+                    heldout_drift_rms_mm = 0.0\ntraining_rms_mm = 0.0\noutput_error = false\n\n\
+                    [channels.channel]\ncolumn = \"ch1_um\"\nunit = \"um\"\naxis = \"Z\"\n";
+        let mut m = LogModel::from_toml_str(Path::new("m.toml"), text).unwrap();
+        assert_eq!(m.inputs[0].over, None);
+        assert!(!m.to_toml().unwrap().contains("over"));
+        m.inputs[0].over = Some("t0_c".into());
+        let back = LogModel::from_toml_str(Path::new("m.toml"), &m.to_toml().unwrap()).unwrap();
+        assert_eq!(back, m);
+        assert_eq!(
+            back.inputs[0].spec(),
+            InputSpec::parse("t1_c:over=t0_c").unwrap()
+        );
     }
 
     #[test]

@@ -55,7 +55,7 @@ pub use program::{
     thermal_program_on,
 };
 pub use run::{
-    FitRun, FitRunOptions, LogFitProgress, LogFitRun, LogFitRunOptions, LogPredictRun,
+    Ambient, FitRun, FitRunOptions, LogFitProgress, LogFitRun, LogFitRunOptions, LogPredictRun,
     LogPredictRunOptions, PredictRun, PredictRunOptions, is_log_model, plot_file_name, run_fit,
     run_fit_log, run_predict, run_predict_log,
 };

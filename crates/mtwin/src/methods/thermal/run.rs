@@ -16,8 +16,8 @@ use super::doc::{
     ThermalLogPredictDoc,
 };
 use super::log::{
-    ChannelSpec, InputSpec, LogData, LogFitOptions, LogModel, at_time, fit_log_with, predict_log,
-    read_log, score,
+    AmbientChoice, ChannelSpec, InputSpec, LogData, LogFitOptions, LogInput, LogModel, at_time,
+    fit_log_with, inputs_over_ambient, least_correlated_rise, predict_log, read_log, score,
 };
 use super::{
     Programme, ThermalError, ThermalFitDoc, ThermalFitOptions, ThermalModel, ThermalPredictDoc,
@@ -207,8 +207,34 @@ pub struct LogFitRunOptions {
     pub train_until_min: Option<f64>,
     /// Orders, inputs per channel, held-out fraction, bounds.
     pub fit: LogFitOptions,
+    /// Take every temperature but one over an ambient sensor
+    /// ([`inputs_over_ambient`]); `None`: the inputs as given.
+    pub ambient: Option<Ambient>,
     /// The name of the model file the caller writes, for the document.
     pub out: String,
+}
+
+/// The ambient sensor of [`LogFitRunOptions::ambient`].
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum Ambient {
+    /// This input column (a temperature given as a rise).
+    Column(String),
+    /// The temperature least correlated with the spindle speed over the
+    /// training rows ([`least_correlated_rise`]).
+    LeastCorrelatedWithSpeed,
+}
+
+impl std::str::FromStr for Ambient {
+    type Err = String;
+    /// `auto` or a column name.
+    fn from_str(s: &str) -> Result<Ambient, String> {
+        match s.trim() {
+            "" => Err("give an input column or `auto`".into()),
+            "auto" => Ok(Ambient::LeastCorrelatedWithSpeed),
+            c => Ok(Ambient::Column(c.to_string())),
+        }
+    }
 }
 
 impl Default for LogFitRunOptions {
@@ -220,6 +246,7 @@ impl Default for LogFitRunOptions {
             period_min: 1.0,
             train_until_min: None,
             fit: LogFitOptions::default(),
+            ambient: None,
             out: String::new(),
         }
     }
@@ -243,6 +270,9 @@ impl LogFitRunOptions {
             if names[..i].contains(n) {
                 return bad(format!("column `{n}` is named twice"));
             }
+        }
+        if let Some(Ambient::Column(a)) = &self.ambient {
+            inputs_over_ambient(&self.inputs, a).map_err(ThermalError::Options)?;
         }
         if !(self.period_min.is_finite() && self.period_min > 0.0) {
             return bad(format!(
@@ -308,12 +338,27 @@ pub fn run_fit_log(
 ) -> Result<LogFitRun, ThermalError> {
     options.validate()?;
     let table = Table::read(log)?;
-    let data = read_log(
-        &table,
-        &options.channels,
-        &options.inputs,
-        options.period_min,
-    )?;
+    let ambient = match &options.ambient {
+        None => None,
+        Some(Ambient::Column(c)) => Some(AmbientChoice {
+            column: c.clone(),
+            against: String::new(),
+            correlations: Vec::new(),
+            rows: 0,
+        }),
+        Some(Ambient::LeastCorrelatedWithSpeed) => Some(least_correlated_rise(
+            &table,
+            &options.inputs,
+            options.train_until_min,
+        )?),
+    };
+    let inputs = match &ambient {
+        Some(a) => {
+            inputs_over_ambient(&options.inputs, &a.column).map_err(ThermalError::Options)?
+        }
+        None => options.inputs.clone(),
+    };
+    let data = read_log(&table, &options.channels, &inputs, options.period_min)?;
     let n_train = options
         .train_until_min
         .map(|t| ((t / data.period_min).floor() as usize).min(data.len()));
@@ -322,7 +367,7 @@ pub fn run_fit_log(
     let fit = fit_log_with(
         &data,
         &options.channels,
-        &options.inputs,
+        &inputs,
         n_train,
         &options.fit,
         &mut |channel, step| {
@@ -351,6 +396,7 @@ pub fn run_fit_log(
         heldout_samples: fit.heldout_samples,
         folds: fit.folds,
         inputs: fit.model.inputs.clone(),
+        ambient,
         channels: fit
             .model
             .channels
@@ -438,15 +484,7 @@ pub fn run_predict_log(
 ) -> Result<LogPredictRun, ThermalError> {
     let m = LogModel::read(model)?;
     let channels: Vec<ChannelSpec> = m.channels.iter().map(|c| c.channel.clone()).collect();
-    let inputs: Vec<InputSpec> = m
-        .inputs
-        .iter()
-        .map(|i| InputSpec {
-            column: i.column.clone(),
-            rise: i.rise,
-            square: i.square,
-        })
-        .collect();
+    let inputs: Vec<InputSpec> = m.inputs.iter().map(LogInput::spec).collect();
     let table = Table::read(log)?;
     let present: Vec<ChannelSpec> = channels
         .iter()

@@ -320,6 +320,7 @@ mod tests {
                 column: "u".into(),
                 rise: false,
                 square: false,
+                over: None,
                 scale: 1.0,
             }],
             channels: vec![ChannelModel {
