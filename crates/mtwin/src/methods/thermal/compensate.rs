@@ -56,8 +56,10 @@
 //! * a block the rewriter cannot change safely is an error naming the line:
 //!   Z words of arcs in the ZX or YZ plane, X words of arcs in the ZX plane,
 //!   Y words of arcs in the YZ plane (the arc geometry would change),
-//!   several moves in one block, polar coordinates (`@`, `^`: no X or Y
-//!   word to correct); canned cycles and everything else outside
+//!   several moves in one block, a move of a corrected X or Y without X or
+//!   Y words that the interpreter marks `expanded` (polar coordinates `@`,
+//!   `^`; the flag `compensate` goes by): no X or Y word to correct; canned
+//!   cycles and everything else outside
 //!   the interpreter's subset are already errors of the interpreter. A
 //!   Fanuc `G4 X` (a dwell time) is not a target and is left alone.
 //!
@@ -1046,7 +1048,7 @@ pub fn compensate_log(
     let speed: Vec<bool> = model
         .inputs
         .iter()
-        .map(|i| i.column == options.speed_column)
+        .map(|i| i.column == options.speed_column && i.over.is_none())
         .collect();
     let mut needed = vec![false; model.inputs.len()];
     for &(_, c) in &chosen {
@@ -1171,13 +1173,27 @@ fn axis_move(
     for (i, &axis) in LINEAR.iter().enumerate() {
         has[i] = axes.contains(&axis) && block.word(axis.letter() as char)?.is_some();
     }
-    // LinuxCNC's polar words stand for X and Y: no X or Y word to correct.
-    if (axes.contains(&Axis::X) || axes.contains(&Axis::Y))
-        && block.words().any(|w| matches!(w.letter, b'@' | b'^'))
-    {
+    // A move the interpreter marks `expanded` (as `compensate` reads it:
+    // LinuxCNC's polar words `@ ^`, a move a block expands to) that moves a
+    // corrected X or Y has no X or Y word to correct.
+    let xy: Vec<Axis> = [Axis::X, Axis::Y]
+        .into_iter()
+        .filter(|a| axes.contains(a))
+        .collect();
+    let unwritten_xy = events.iter().any(|e| {
+        let (from, to, words) = match &e.kind {
+            EventKind::Traverse(l) | EventKind::Feed(l) => (l.from, l.to, l.words),
+            EventKind::Arc(a) => (a.from, a.to, a.words),
+            _ => return false,
+        };
+        words.expanded && xy.iter().any(|&a| to[a] != from[a])
+    });
+    if unwritten_xy && block.word('X')?.is_none() && block.word('Y')?.is_none() {
         return Err(CompensateError::Unsafe {
             line: block.line(),
-            reason: "polar coordinates (@, ^): the block has no X or Y word to correct".into(),
+            reason: "a move without X or Y words (polar coordinates @ ^, or a move the block expands to): \
+                     the block has no X or Y word to correct"
+                .into(),
         });
     }
     if !has.iter().any(|&h| h) {

@@ -2622,7 +2622,10 @@ mod tests {
             ..LogFitOptions::default()
         };
         // Every draw is fitted (each prints its ratio), then the misses named.
-        let missed: Vec<String> = (1..=20)
+        // The draws are independent: fitted in parallel.
+        use rayon::prelude::*;
+        let missed: Vec<String> = (1..=20u64)
+            .into_par_iter()
             .filter_map(|seed| {
                 let (names, model, truth) = truth_fit_with(seed, &options);
                 let true_inputs =
