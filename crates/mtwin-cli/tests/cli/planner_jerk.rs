@@ -199,36 +199,152 @@ enum Seg {
 }
 
 impl Seg {
-    /// Distance of `p` from the segment (the arc as a helix sampled at 2000
-    /// points per radian; the arcs here are planar or short).
-    fn dist(&self, p: &Vector3<f64>) -> f64 {
+    /// The segment as a polyline: a line is its two ends; an arc the helix
+    /// sampled at 2000 points per radian (the arcs here are planar or
+    /// short), its chords within 1e-7 mm of the arc for radii up to 8 mm.
+    fn polyline(&self) -> Vec<Vector3<f64>> {
         match self {
-            Seg::Line(a, b) => {
-                let d = b - a;
-                let t = if d.norm_squared() > 0.0 {
-                    ((p - a).dot(&d) / d.norm_squared()).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                (p - (a + d * t)).norm()
-            }
+            Seg::Line(a, b) => vec![*a, *b],
             Seg::Arc { c, r, a0, sweep, z } => {
                 let n = ((sweep.abs() * 2000.0).ceil() as usize).max(2);
-                let at = |k: usize| {
-                    let u = k as f64 / n as f64;
-                    let ang = a0 + sweep * u;
-                    Vector3::new(
-                        c[0] + r * ang.cos(),
-                        c[1] + r * ang.sin(),
-                        z[0] + (z[1] - z[0]) * u,
-                    )
-                };
-                (0..n)
-                    .map(|k| Seg::Line(at(k), at(k + 1)).dist(p))
-                    .fold(f64::INFINITY, f64::min)
+                (0..=n)
+                    .map(|k| {
+                        let u = k as f64 / n as f64;
+                        let ang = a0 + sweep * u;
+                        Vector3::new(
+                            c[0] + r * ang.cos(),
+                            c[1] + r * ang.sin(),
+                            z[0] + (z[1] - z[0]) * u,
+                        )
+                    })
+                    .collect()
             }
         }
     }
+}
+
+/// Distance of `p` from the segment `a`–`b`.
+fn off_chord(p: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+    let d = b - a;
+    let t = if d.norm_squared() > 0.0 {
+        ((p - a).dot(&d) / d.norm_squared()).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p - (a + d * t)).norm()
+}
+
+/// Chords per block of [`Path`].
+const BLOCK: usize = 32;
+
+/// The programmed path (lines and arcs, see [`Seg::polyline`]) for many
+/// distance queries: the chords of every segment, in blocks of [`BLOCK`]
+/// with a ball around each (a chord lies in the convex hull of its ends,
+/// so in the ball around them). [`Path::dist`] is the smallest distance to
+/// any chord, as a scan of them all gives it: a block is skipped only when
+/// its ball is farther than the nearest chord found so far.
+struct Path {
+    /// Polylines of the segments.
+    lines: Vec<Vec<Vector3<f64>>>,
+    /// Blocks: segment, first chord, chord count, ball centre and radius.
+    blocks: Vec<(usize, usize, usize, Vector3<f64>, f64)>,
+}
+
+impl Path {
+    fn new(segs: &[Seg]) -> Path {
+        let lines: Vec<Vec<Vector3<f64>>> = segs.iter().map(Seg::polyline).collect();
+        let mut blocks = Vec::new();
+        for (i, l) in lines.iter().enumerate() {
+            let chords = l.len() - 1;
+            for k0 in (0..chords).step_by(BLOCK) {
+                let n = BLOCK.min(chords - k0);
+                let pts = &l[k0..=k0 + n];
+                let c = pts.iter().sum::<Vector3<f64>>() / pts.len() as f64;
+                let r = pts.iter().map(|q| (q - c).norm()).fold(0.0, f64::max);
+                blocks.push((i, k0, n, c, r));
+            }
+        }
+        Path { lines, blocks }
+    }
+
+    /// Distance of `p` from the path, mm.
+    fn dist(&self, p: &Vector3<f64>) -> f64 {
+        // Nearest balls first; the bound is kept 1e-9 mm on the safe side
+        // of rounding.
+        let mut order: Vec<(f64, usize)> = self
+            .blocks
+            .iter()
+            .enumerate()
+            .map(|(b, blk)| ((p - blk.3).norm() - blk.4 - 1e-9, b))
+            .collect();
+        order.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let mut best = f64::INFINITY;
+        for (bound, b) in order {
+            if bound >= best {
+                break;
+            }
+            let (i, k0, n, _, _) = self.blocks[b];
+            let l = &self.lines[i];
+            for k in k0..k0 + n {
+                best = best.min(off_chord(p, &l[k], &l[k + 1]));
+            }
+        }
+        best
+    }
+}
+
+/// [`Path::dist`] skips blocks of chords by their balls: it gives what a
+/// scan of every chord gives, exactly, at points on, near and far from a
+/// line, a planar arc and helical arcs of both senses.
+#[test]
+fn path_distance_is_the_scan_of_every_chord() {
+    let segs = [
+        Seg::Line(Vector3::new(-3.0, 1.0, 0.0), Vector3::new(7.0, -2.0, 4.0)),
+        Seg::Arc {
+            c: [1.0, 2.0],
+            r: 6.5,
+            a0: 0.3,
+            sweep: 2.9,
+            z: [1.0, 1.0],
+        },
+        Seg::Arc {
+            c: [-4.0, 0.5],
+            r: 1.2,
+            a0: -2.0,
+            sweep: -3.1,
+            z: [0.0, 9.0],
+        },
+    ];
+    let path = Path::new(&segs);
+    let lines: Vec<Vec<Vector3<f64>>> = segs.iter().map(Seg::polyline).collect();
+    let scan = |p: &Vector3<f64>| {
+        lines
+            .iter()
+            .flat_map(|l| l.windows(2).map(|w| off_chord(p, &w[0], &w[1])))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let mut n = 0;
+    for i in 0..=20 {
+        for j in 0..=20 {
+            for k in 0..=6 {
+                let p = Vector3::new(
+                    -9.0 + 0.85 * i as f64,
+                    -6.0 + 0.8 * j as f64,
+                    -1.0 + 1.7 * k as f64,
+                );
+                assert_eq!(path.dist(&p), scan(&p), "at {p:?}");
+                n += 1;
+            }
+        }
+    }
+    // Points on the chords' ends: distance zero.
+    for l in &lines {
+        for q in l.iter().step_by(97) {
+            assert_eq!(path.dist(q), 0.0);
+            n += 1;
+        }
+    }
+    assert!(n > 3000);
 }
 
 /// A random short program: from (x0, y0, z0), moves of kinds 0 (G1), 1 (G0),
@@ -360,6 +476,7 @@ fn check_program(prog: &str, segs: &[Seg], m: &Machine, tcp: bool, first_line: u
     assert_limits(&s, m);
     assert_rest(&s, m);
     let kin = Kinematics::nominal(m);
+    let path = Path::new(segs);
     let mut worst = 0.0f64;
     for (_, q, line) in &s {
         // Samples of the programmed moves (not the initial positioning).
@@ -371,11 +488,7 @@ fn check_program(prog: &str, segs: &[Seg], m: &Machine, tcp: bool, first_line: u
         } else {
             Vector3::new(q[0], q[1], q[2])
         };
-        let d = segs
-            .iter()
-            .map(|g| g.dist(&tip))
-            .fold(f64::INFINITY, f64::min);
-        worst = worst.max(d);
+        worst = worst.max(path.dist(&tip));
     }
     assert!(
         worst <= tol,
@@ -678,15 +791,10 @@ fn g64_blends_next_to_arcs_are_never_slower_than_stopping_and_stay_within_p() {
                 .unwrap()
                 .1
                 .duration;
+            let path = Path::new(&c.segs);
             let worst = s
                 .iter()
-                .map(|r| {
-                    let p = Vector3::new(r.1[0], r.1[1], r.1[2]);
-                    c.segs
-                        .iter()
-                        .map(|g| g.dist(&p))
-                        .fold(f64::INFINITY, f64::min)
-                })
+                .map(|r| path.dist(&Vector3::new(r.1[0], r.1[1], r.1[2])))
                 .fold(0.0f64, f64::max);
             let nearest = s
                 .iter()

@@ -173,8 +173,16 @@ fn python_package_builds_installs_and_passes_its_tests() {
     // into the same target folder, so the dependencies `cargo test` compiled are
     // reused where their features agree. (`--profile test` would make cargo build a
     // test harness, not the extension module.)
+    let mut maturin = Command::new(env_dir.join("bin/maturin"));
+    // `RUSTC_BOOTSTRAP` as this test build had it: cargo keeps it in every unit's
+    // fingerprint, so running this binary with it set (libtest's `-Z
+    // unstable-options --report-time`) would otherwise rebuild every dependency.
+    match option_env!("RUSTC_BOOTSTRAP") {
+        Some(v) => maturin.env("RUSTC_BOOTSTRAP", v),
+        None => maturin.env_remove("RUSTC_BOOTSTRAP"),
+    };
     run(
-        Command::new(env_dir.join("bin/maturin"))
+        maturin
             .current_dir(repo())
             // `align-test-build`: the same dependency features as this test build, so
             // that the library and its dependencies are not compiled a second time.
