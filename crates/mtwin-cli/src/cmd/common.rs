@@ -5,8 +5,8 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use mtwin::gcode::{
-    AxisMask, Dialect, GcodeError, InterpOptions, Message, MessageKind, MessageSink, ProgramOptions,
-    ToolTable, Units,
+    AxisMask, Dialect, GcodeError, InterpOptions, Message, MessageKind, MessageSink,
+    ProgramOptions, ToolTable, Units,
 };
 use mtwin::io::{Diagnostics, Table};
 use mtwin::model::{Machine, read_machine};

@@ -633,9 +633,34 @@ fn words_of_axes_the_machine_lacks_are_refused() {
         let msg = format!("{at} invalid block: {letter} word: the machine has no {letter} axis");
         let runs: [&[&str]; 4] = [
             &["gcode", "stats", prog, "--machine", &m, "--format", "json"],
-            &["gcode", "interpolate", "--machine", &m, prog, "--out", "out.csv"],
-            &["compensate", "--machine", &m, "--program", prog, "--out", "out.csv"],
-            &["twin", "predict", "--machine", &twin, "--gcode", prog, "--out", "out.csv"],
+            &[
+                "gcode",
+                "interpolate",
+                "--machine",
+                &m,
+                prog,
+                "--out",
+                "out.csv",
+            ],
+            &[
+                "compensate",
+                "--machine",
+                &m,
+                "--program",
+                prog,
+                "--out",
+                "out.csv",
+            ],
+            &[
+                "twin",
+                "predict",
+                "--machine",
+                &twin,
+                "--gcode",
+                prog,
+                "--out",
+                "out.csv",
+            ],
         ];
         for args in runs {
             expect_failure(d, args, &msg, "out.csv");
@@ -665,7 +690,15 @@ fn words_of_axes_the_machine_lacks_are_refused() {
     // Machine and INI: the axes of both (the trunnion's A refused by the INI).
     expect_failure(
         d,
-        &["gcode", "stats", "a.nc", "--machine", &m, "--ini", "xyzw.ini"],
+        &[
+            "gcode",
+            "stats",
+            "a.nc",
+            "--machine",
+            &m,
+            "--ini",
+            "xyzw.ini",
+        ],
         "a.nc:1:7: invalid block: A word",
         "out.csv",
     );

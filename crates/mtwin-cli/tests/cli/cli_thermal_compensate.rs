@@ -352,10 +352,21 @@ fn documented_commands_run() {
 fn words_of_axes_the_machine_lacks_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     fit_model(&truth(1.0), dir.path());
-    std::fs::write(dir.path().join("W.nc"), "S1000 M3\nG0 Z5\nG1 Z1 W2 F100\nM2\n").unwrap();
+    std::fs::write(
+        dir.path().join("W.nc"),
+        "S1000 M3\nG0 Z5\nG1 Z1 W2 F100\nM2\n",
+    )
+    .unwrap();
     let machine = crate::common::example("ac-trunnion.toml");
     let args = |with_machine: bool| {
-        let mut a = vec!["--model", "THERMAL.toml", "--program", "W.nc", "--out", "OUT.nc"];
+        let mut a = vec![
+            "--model",
+            "THERMAL.toml",
+            "--program",
+            "W.nc",
+            "--out",
+            "OUT.nc",
+        ];
         if with_machine {
             a.extend_from_slice(&["--machine", machine.as_str()]);
         }

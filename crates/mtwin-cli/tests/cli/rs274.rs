@@ -784,8 +784,15 @@ fn feature_of(what: &str) -> String {
     let is_g_number = |w: &str| {
         w.len() > 1 && w.starts_with('G') && w[1..].bytes().all(|b| b.is_ascii_digit() || b == b'.')
     };
-    let words: Vec<&str> = what.split_whitespace().filter(|w| !is_g_number(w)).collect();
-    if words.is_empty() { what.to_string() } else { words.join(" ") }
+    let words: Vec<&str> = what
+        .split_whitespace()
+        .filter(|w| !is_g_number(w))
+        .collect();
+    if words.is_empty() {
+        what.to_string()
+    } else {
+        words.join(" ")
+    }
 }
 
 #[test]

@@ -288,12 +288,21 @@ mod tests {
         assert_eq!(letters(AxisMask::of_machine(&m)), "XYZAC");
         // A gantry's doubled letter counts once, any case, other characters ignored.
         let ini = "[EMC]\nCOORDINATES = Q\n[TRAJ]\nCOORDINATES = x Y YZ w\nCOORDINATES = A\n";
-        assert_eq!(AxisMask::of_linuxcnc_ini(ini).map(letters).as_deref(), Some("XYZW"));
+        assert_eq!(
+            AxisMask::of_linuxcnc_ini(ini).map(letters).as_deref(),
+            Some("XYZW")
+        );
         // [TRAJ] without COORDINATES: LinuxCNC's X Y Z machine.
         let xyz = "[TRAJ]\nLINEAR_UNITS = mm\n";
-        assert_eq!(AxisMask::of_linuxcnc_ini(xyz).map(letters).as_deref(), Some("XYZ"));
+        assert_eq!(
+            AxisMask::of_linuxcnc_ini(xyz).map(letters).as_deref(),
+            Some("XYZ")
+        );
         // No [TRAJ]: the INI describes no machine.
-        assert_eq!(AxisMask::of_linuxcnc_ini("[RS274NGC]\nSUBROUTINE_PATH = s\n"), None);
+        assert_eq!(
+            AxisMask::of_linuxcnc_ini("[RS274NGC]\nSUBROUTINE_PATH = s\n"),
+            None
+        );
         let both = AxisMask::of_machine(&m).intersection(AxisMask::of_linuxcnc_ini(ini).unwrap());
         assert_eq!(letters(both), "XYZ");
     }
