@@ -46,9 +46,14 @@ fn unreadable(py: Python<'_>, program: &Path, e: &std::io::Error) -> PyErr {
 }
 
 /// Interpreter options (LinuxCNC dialect) with the G54 work offsets `offsets`
-/// (`{"X": 10.0, …}`, mm and degrees), as `--offset X=10`.
-fn interp_options(offsets: Option<HashMap<String, f64>>) -> PyResult<InterpOptions> {
+/// (`{"X": 10.0, …}`, mm and degrees), as `--offset X=10`, for a program
+/// run on `machine` (a word of an axis it lacks is refused, as LinuxCNC).
+fn interp_options(
+    offsets: Option<HashMap<String, f64>>,
+    machine: &mtwin::model::Machine,
+) -> PyResult<InterpOptions> {
     let mut o = InterpOptions::default();
+    o.machine_axes = mtwin::gcode::AxisMask::of_machine(machine);
     for (name, value) in offsets.unwrap_or_default() {
         let axis = Axis::from_name(name.trim()).ok_or_else(|| {
             PyValueError::new_err(format!(
@@ -112,7 +117,7 @@ fn gcode_interpolate<'py>(
 ) -> PyResult<(Bound<'py, PyArray2<f64>>, Py<PyAny>)> {
     let m = &machine.inner;
     let mut opts = InterpolateOptions::new(ts);
-    opts.interp = interp_options(offsets)?;
+    opts.interp = interp_options(offsets, &machine.inner)?;
     opts.force_tcp = tcp;
     opts.check_travel = check_travel;
     opts.plan = plan_options(planner, feed_override)?;
@@ -185,7 +190,7 @@ fn twin_predict<'py>(
         (Some(c), None) => (c, None),
         (None, Some(g)) => {
             let mut o = InterpolateOptions::new(ts);
-            o.interp = interp_options(offsets)?;
+            o.interp = interp_options(offsets, &machine.inner)?;
             o.interp.tcp_at_start = tcp;
             o.check_travel = check_travel;
             o.plan = plan_options(planner, feed_override)?;
@@ -256,7 +261,7 @@ fn compensate(
     let mut opts = CompensateOptions::default();
     opts.tol = tol;
     opts.max_correction = max_correction;
-    opts.interp = interp_options(offsets)?;
+    opts.interp = interp_options(offsets, &machine.inner)?;
     opts.interp.tcp_at_start = tcp;
     let m = &machine.inner;
     let r = py.detach(|| {

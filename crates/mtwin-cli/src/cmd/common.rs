@@ -5,8 +5,8 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use mtwin::gcode::{
-    Dialect, GcodeError, InterpOptions, Message, MessageKind, MessageSink, ProgramOptions,
-    ToolTable, Units,
+    AxisMask, Dialect, GcodeError, InterpOptions, Message, MessageKind, MessageSink,
+    ProgramOptions, ToolTable, Units,
 };
 use mtwin::io::{Diagnostics, Table};
 use mtwin::model::{Machine, read_machine};
@@ -144,6 +144,22 @@ impl DialectArgs {
             .with_context(|| format!("cannot read {}", path.display()))?;
         ToolTable::parse(&text, Units::Millimetre)
             .map_err(|e| anyhow::anyhow!("{}:{e}", path.display()))
+    }
+
+    /// The axes a program may name (LinuxCNC's axis mask): those of the
+    /// machine model, and of `--ini`'s `[TRAJ] COORDINATES` when the INI
+    /// has a `[TRAJ]` section (both: the axes in both); all nine without
+    /// either. A word of another axis is refused as LinuxCNC refuses it.
+    pub fn machine_axes(&self, machine: Option<&Machine>) -> anyhow::Result<AxisMask> {
+        let mut mask = machine.map_or(AxisMask::ALL, AxisMask::of_machine);
+        if let Some(path) = &self.ini {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read {}", path.display()))?;
+            if let Some(m) = AxisMask::of_linuxcnc_ini(&text) {
+                mask = mask.intersection(m);
+            }
+        }
+        Ok(mask)
     }
 
     /// Whether blocks starting with `/` are skipped.

@@ -60,7 +60,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .output(&a.out)
         .begin()?;
     let m = load_machine(&a.machine)?;
-    opts.interp = super::gcode::interp_options(&a.offsets, &a.dialect, &a.program)?;
+    opts.interp = super::gcode::interp_options(&a.offsets, &a.dialect, &a.program, Some(&m))?;
     opts.interp.tcp_at_start = a.tcp;
     let (input, bar) = crate::output::open_with_progress(&a.program, "compensate")?;
     let mut result = None;

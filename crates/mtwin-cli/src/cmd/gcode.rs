@@ -132,16 +132,20 @@ pub fn located(
 
 /// Interpreter options from `--offset` items and the program-reading
 /// arguments (dialect, tool table, block delete, var file, subroutine path)
-/// for the program at `program`. With a var file the nine work offsets are
-/// its 5221… parameters; `--offset` sets the G54 axes it names on top.
+/// for the program at `program` on `machine` (its axes are those the
+/// program may name; all nine without a machine). With a var file the nine
+/// work offsets are its 5221… parameters; `--offset` sets the G54 axes it
+/// names on top.
 pub(super) fn interp_options(
     offsets: &[String],
     dialect: &DialectArgs,
     program: &Path,
+    machine: Option<&mtwin::model::Machine>,
 ) -> anyhow::Result<InterpOptions> {
     let mut o = InterpOptions::default();
     dialect.apply(&mut o)?;
     o.program = dialect.program_options(program)?;
+    o.machine_axes = dialect.machine_axes(machine)?;
     if dialect.var_file.is_some() {
         // LinuxCNC starts with the coordinate systems of its var file.
         o.work_offsets = o.program.parameters.work_offsets();
@@ -190,7 +194,7 @@ fn interpolate(a: InterpolateArgs) -> anyhow::Result<()> {
     let m = load_machine(&a.machine)?;
     a.plan.check_machine(&a.machine, &m)?;
     let mut opts = InterpolateOptions::new(a.ts);
-    opts.interp = interp_options(&a.offsets, &a.dialect, &a.program)?;
+    opts.interp = interp_options(&a.offsets, &a.dialect, &a.program, Some(&m))?;
     opts.force_tcp = a.tcp;
     opts.check_travel = !a.no_travel_check;
     opts.plan = a.plan.options();
@@ -263,7 +267,7 @@ fn planned_time(
 fn stats(a: StatsArgs) -> anyhow::Result<()> {
     let machine = a.machine.as_deref().map(load_machine).transpose()?;
     let mut opts = StatsOptions::default();
-    opts.interp = interp_options(&a.offsets, &a.dialect, &a.program)?;
+    opts.interp = interp_options(&a.offsets, &a.dialect, &a.program, machine.as_ref())?;
     if let (Some(m), Some(path)) = (&machine, &a.machine) {
         opts.rapid_feed = m.rapid_feed;
         a.plan.check_machine(path, m)?;

@@ -114,6 +114,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     options.program = a.dialect.program_options(&a.program)?;
     options.tools = a.dialect.tools()?;
     options.skip_deleted_blocks = a.dialect.skip_deleted_blocks();
+    options.machine_axes = a.dialect.machine_axes(machine.as_ref())?;
     options.rapid_feed = a.rapid;
     options.allow_unstable = a.allow_unstable;
     options.timing = machine.map(|machine| PlannedTiming {

@@ -176,7 +176,7 @@ fn predict(a: PredictArgs) -> anyhow::Result<()> {
     let opts = match &a.gcode {
         Some(path) => {
             let mut opts = InterpolateOptions::new(a.ts);
-            opts.interp = interp_options(&a.offsets, &a.dialect, path)?;
+            opts.interp = interp_options(&a.offsets, &a.dialect, path, Some(&machine))?;
             opts.interp.tcp_at_start = a.tcp;
             opts.check_travel = !a.no_travel_check;
             opts.plan = a.plan.options();

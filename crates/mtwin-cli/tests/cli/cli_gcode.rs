@@ -615,3 +615,91 @@ fn tool_table_and_block_delete_options() {
         stderr(&o)
     );
 }
+
+/// A word of an axis the machine lacks is refused by every command that
+/// reads a program on a machine, as LinuxCNC refuses it ("Bad character
+/// 'w' used"): the AC trunnion has X Y Z A C, no B and no W. Without a
+/// machine all nine axes are read; a LinuxCNC INI's `[TRAJ] COORDINATES`
+/// sets them as LinuxCNC's task does (no COORDINATES: X Y Z).
+#[test]
+fn words_of_axes_the_machine_lacks_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let m = example("ac-trunnion.toml");
+    let twin = example("ac-trunnion-twin.toml");
+    write(d, "w.nc", "G21 G90\nG1 X1 Y1 Z1 W2 F100\nM2\n");
+    write(d, "b.nc", "G21 G90\nG1 X1 F100\n  G0 B5\nM2\n");
+    for (prog, at, letter) in [("w.nc", "w.nc:2:13:", 'W'), ("b.nc", "b.nc:3:6:", 'B')] {
+        let msg = format!("{at} invalid block: {letter} word: the machine has no {letter} axis");
+        let runs: [&[&str]; 4] = [
+            &["gcode", "stats", prog, "--machine", &m, "--format", "json"],
+            &[
+                "gcode",
+                "interpolate",
+                "--machine",
+                &m,
+                prog,
+                "--out",
+                "out.csv",
+            ],
+            &[
+                "compensate",
+                "--machine",
+                &m,
+                "--program",
+                prog,
+                "--out",
+                "out.csv",
+            ],
+            &[
+                "twin",
+                "predict",
+                "--machine",
+                &twin,
+                "--gcode",
+                prog,
+                "--out",
+                "out.csv",
+            ],
+        ];
+        for args in runs {
+            expect_failure(d, args, &msg, "out.csv");
+        }
+        // Without a machine: all nine axes.
+        mtwin_ok(d, &["gcode", "stats", prog]);
+    }
+    // LinuxCNC's INI: COORDINATES with W accepts W and refuses A.
+    write(d, "xyzw.ini", "[TRAJ]\nCOORDINATES = X Y Z W\n");
+    write(d, "xyz.ini", "[TRAJ]\nLINEAR_UNITS = mm\n");
+    write(d, "a.nc", "G1 X1 A3 F100\n");
+    mtwin_ok(d, &["gcode", "stats", "w.nc", "--ini", "xyzw.ini"]);
+    for ini in ["xyzw.ini", "xyz.ini"] {
+        expect_failure(
+            d,
+            &["gcode", "stats", "a.nc", "--ini", ini],
+            "a.nc:1:7: invalid block: A word: the machine has no A axis",
+            "out.csv",
+        );
+    }
+    expect_failure(
+        d,
+        &["gcode", "stats", "w.nc", "--ini", "xyz.ini"],
+        "w.nc:2:13: invalid block: W word",
+        "out.csv",
+    );
+    // Machine and INI: the axes of both (the trunnion's A refused by the INI).
+    expect_failure(
+        d,
+        &[
+            "gcode",
+            "stats",
+            "a.nc",
+            "--machine",
+            &m,
+            "--ini",
+            "xyzw.ini",
+        ],
+        "a.nc:1:7: invalid block: A word",
+        "out.csv",
+    );
+}

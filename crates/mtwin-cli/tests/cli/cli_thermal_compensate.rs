@@ -345,3 +345,41 @@ fn documented_commands_run() {
         .unwrap();
     assert_eq!(points, c.len());
 }
+
+/// A word of an axis the machine (`--machine`) lacks is refused with the
+/// program's `file:line:col`, nothing written; without a machine it is read.
+#[test]
+fn words_of_axes_the_machine_lacks_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    fit_model(&truth(1.0), dir.path());
+    std::fs::write(
+        dir.path().join("W.nc"),
+        "S1000 M3\nG0 Z5\nG1 Z1 W2 F100\nM2\n",
+    )
+    .unwrap();
+    let machine = crate::common::example("ac-trunnion.toml");
+    let args = |with_machine: bool| {
+        let mut a = vec![
+            "--model",
+            "THERMAL.toml",
+            "--program",
+            "W.nc",
+            "--out",
+            "OUT.nc",
+        ];
+        if with_machine {
+            a.extend_from_slice(&["--machine", machine.as_str()]);
+        }
+        a
+    };
+    let o = compensate(dir.path(), &args(true));
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("W.nc:3:7: invalid block: W word: the machine has no W axis"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!dir.path().join("OUT.nc").exists());
+    let o = compensate(dir.path(), &args(false));
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}

@@ -777,6 +777,31 @@ enum Verdict {
     Disagree(String),
 }
 
+/// The feature an unsupported block is tallied under: the G-code numbers
+/// generalised away ("canned cycle G81" → "canned cycle"), an M-code kept
+/// ("M-code M190": each unknown M-code is its own feature).
+fn feature_of(what: &str) -> String {
+    let is_g_number = |w: &str| {
+        w.len() > 1 && w.starts_with('G') && w[1..].bytes().all(|b| b.is_ascii_digit() || b == b'.')
+    };
+    let words: Vec<&str> = what
+        .split_whitespace()
+        .filter(|w| !is_g_number(w))
+        .collect();
+    if words.is_empty() {
+        what.to_string()
+    } else {
+        words.join(" ")
+    }
+}
+
+#[test]
+fn unsupported_features_are_named_in_the_tally() {
+    assert_eq!(feature_of("canned cycle G81"), "canned cycle");
+    assert_eq!(feature_of("M-code M190"), "M-code M190");
+    assert_eq!(feature_of("G5.2"), "G5.2");
+}
+
 fn classify(ours: &Outcome, theirs: &Outcome) -> Verdict {
     if let Some(what) = &ours.unsupported {
         // The motion before the unsupported block must still be LinuxCNC's.
@@ -784,13 +809,7 @@ fn classify(ours: &Outcome, theirs: &Outcome) -> Verdict {
         if let Some(d) = first_difference(&ours.steps[..n], &theirs.steps[..n]) {
             return Verdict::Disagree(format!("before the unsupported block ({what}): {d}"));
         }
-        // Generalise "canned cycle G81" to "canned cycle" for the tally.
-        let feature = what
-            .split_whitespace()
-            .filter(|w| !w.starts_with(['G', 'M']) || w.len() == 1)
-            .collect::<Vec<_>>()
-            .join(" ");
-        return Verdict::Unsupported(feature);
+        return Verdict::Unsupported(feature_of(what));
     }
     match (&ours.refused, &theirs.refused) {
         (None, Some(e)) => {
@@ -1000,6 +1019,86 @@ fn gen_line(g: &mut Gen) {
     let t = g.target_words(&axes);
     let f = g.feed_word();
     g.emit(format!("G1{t}{f}"));
+}
+
+/// LinuxCNC's polar words in G17 (in G18/G19, where both refuse them, a
+/// plain line instead): `@` the distance from the program origin and `^`
+/// the angle from +X (degree), in G90 those of the end (one alone keeps the
+/// start's other), in G91 added to the start's (`@` first, then `^`); G0 or
+/// G1, now and then a Z word. Never from within 0.01 unit of the origin,
+/// where the start's angle is that of a rounding residue (rs274 and mtwin
+/// would each be right about a different residue) — from there both words
+/// in G90.
+fn gen_polar(g: &mut Gen) {
+    if g.st.plane != 0 {
+        gen_line(g);
+        return;
+    }
+    let span = if g.st.inch { 4.0 } else { 100.0 };
+    let (x, y) = (g.st.work(0), g.st.work(1));
+    let near_origin = x.hypot(y) < 0.01;
+    let distance = |g: &mut Gen| r4((0.05 + g.rng.below(951) as f64 / 1000.0) * span);
+    let angle = |g: &mut Gen| g.rng.below(1440) as f64 * 0.25 - 180.0;
+    let polar = |r: f64, t: f64| (r * t.to_radians().cos(), r * t.to_radians().sin());
+    let mut words = String::new();
+    let mut g90 = "";
+    let variant = if near_origin { 0 } else { g.rng.below(3) };
+    let end = if !g.st.incremental || near_origin {
+        if g.st.incremental {
+            g90 = "G90 ";
+        }
+        let (r0, t0) = (x.hypot(y), y.atan2(x).to_degrees());
+        let (r, t) = match variant {
+            0 => (distance(g), angle(g)),
+            1 => (distance(g), t0),
+            _ => (r0, angle(g)),
+        };
+        if variant != 2 {
+            write!(words, " @{}", num(r)).unwrap();
+        }
+        if variant != 1 {
+            write!(words, " ^{}", num(t)).unwrap();
+        }
+        polar(r, t)
+    } else {
+        let (mut ex, mut ey) = (x, y);
+        if variant != 2 {
+            // Never through the origin: at most half the distance inwards.
+            let r = ex.hypot(ey);
+            let d = r4((g.rng.below(1001) as f64 / 1000.0 - 0.5) * r.min(span));
+            write!(words, " @{}", num(d)).unwrap();
+            (ex, ey) = polar(r + d, ey.atan2(ex).to_degrees());
+        }
+        if variant != 1 {
+            let t = angle(g);
+            write!(words, " ^{}", num(t)).unwrap();
+            (ex, ey) = polar(ex.hypot(ey), ey.atan2(ex).to_degrees() + t);
+        }
+        (ex, ey)
+    };
+    g.st.set_work(0, end.0);
+    g.st.set_work(1, end.1);
+    let z = if g.rng.chance(0.3) {
+        if !g90.is_empty() {
+            // The Z word is read in G90 too.
+            let v = r4((g.rng.below(2001) as f64 / 1000.0 - 1.0) * span);
+            g.st.set_work(2, v);
+            format!(" Z{}", num(v))
+        } else {
+            g.target_words(&[2])
+        }
+    } else {
+        String::new()
+    };
+    if g.rng.chance(0.3) {
+        g.emit(format!("{g90}G0{words}{z}"));
+    } else {
+        let f = g.feed_word();
+        g.emit(format!("{g90}G1{words}{z}{f}"));
+    }
+    if !g90.is_empty() {
+        g.emit("G91".into());
+    }
 }
 
 /// G2/G3 in the current plane, centre by I J K (incremental or absolute
@@ -1280,6 +1379,7 @@ type Feature = (&'static str, u32, fn(&mut Gen));
 const FEATURES: &[Feature] = &[
     ("traverse", 6, gen_traverse),
     ("line", 10, gen_line),
+    ("polar", 3, gen_polar),
     ("arc", 10, gen_arc),
     ("plane", 2, gen_plane),
     ("units", 2, gen_units),
@@ -2246,7 +2346,7 @@ fn generated_programs_are_reproducible_and_varied() {
     for needle in [
         "G0 ", "G1 ", "G2 ", "G3 ", " R", " I", " K", " P", "G18", "G19", "G20", "G91\n", "G90.1",
         "G55", "G59.3", "G53 ", "G93", "G95", "G4 P", "/", "N10 ", ";", "M30", "M2\n", "G33 ",
-        "G33.1 ", "G76 ", " Q", " H-1", " E", " L3",
+        "G33.1 ", "G76 ", " Q", " H-1", " E", " L3", " @", " ^", "G1 @", "G0 @",
     ] {
         assert!(text.contains(needle), "no {needle:?} in 200 programs");
     }

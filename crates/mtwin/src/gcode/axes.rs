@@ -204,12 +204,108 @@ impl AxisMask {
     pub fn iter(self) -> impl Iterator<Item = Axis> {
         Axis::ALL.into_iter().filter(move |a| self.contains(*a))
     }
+
+    /// The axes in both sets.
+    pub fn intersection(self, other: AxisMask) -> AxisMask {
+        AxisMask(self.0 & other.0)
+    }
+
+    /// The G-code axes of a machine model: each axis whose name is a word
+    /// letter (`x`, `Y`, ...). A name that is no letter adds nothing (the
+    /// interpolator refuses such a machine with its own message).
+    pub fn of_machine(machine: &Machine) -> AxisMask {
+        let mut m = AxisMask::EMPTY;
+        for a in &machine.axes {
+            if let Some(g) = Axis::from_name(&a.name) {
+                m.insert(g);
+            }
+        }
+        m
+    }
+
+    /// The axes of a LinuxCNC INI file, read as LinuxCNC's task reads them
+    /// at start: every letter of `[TRAJ] COORDINATES` that names an axis
+    /// (any case; repeated letters of gantry joints count once); a `[TRAJ]`
+    /// section without `COORDINATES` is an X Y Z machine. `None` when the
+    /// file has no `[TRAJ]` section (an INI given only for its parameters,
+    /// remaps or subroutine path describes no machine). `[KINS]` sets the
+    /// joints of the kinematics, not the axes a program may name.
+    pub fn of_linuxcnc_ini(text: &str) -> Option<AxisMask> {
+        let mut section = "";
+        let mut traj = false;
+        let mut coordinates: Option<&str> = None;
+        for line in text.lines() {
+            let t = line.trim();
+            if let Some(rest) = t.strip_prefix('[') {
+                section = rest.split(']').next().unwrap_or("").trim();
+                traj |= section == "TRAJ";
+                continue;
+            }
+            if section != "TRAJ" {
+                continue;
+            }
+            if let Some((key, value)) = t.split_once('=') {
+                // LinuxCNC's IniFile::Find returns the first occurrence.
+                if key.trim() == "COORDINATES" && coordinates.is_none() {
+                    coordinates = Some(value.trim());
+                }
+            }
+        }
+        if !traj {
+            return None;
+        }
+        let Some(c) = coordinates else {
+            let mut m = AxisMask::EMPTY;
+            for a in [Axis::X, Axis::Y, Axis::Z] {
+                m.insert(a);
+            }
+            return Some(m);
+        };
+        let mut m = AxisMask::EMPTY;
+        for b in c.bytes() {
+            if let Some(a) = Axis::from_letter(b) {
+                m.insert(a);
+            }
+        }
+        Some(m)
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::model::read_machine;
+
+    fn letters(m: AxisMask) -> String {
+        m.iter().map(|a| char::from(a.letter())).collect()
+    }
+
+    #[test]
+    fn axis_mask_of_a_machine_and_of_a_linuxcnc_ini() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../examples/machines/ac-trunnion.toml");
+        let m = read_machine(&path).expect("example machine reads");
+        assert_eq!(letters(AxisMask::of_machine(&m)), "XYZAC");
+        // A gantry's doubled letter counts once, any case, other characters ignored.
+        let ini = "[EMC]\nCOORDINATES = Q\n[TRAJ]\nCOORDINATES = x Y YZ w\nCOORDINATES = A\n";
+        assert_eq!(
+            AxisMask::of_linuxcnc_ini(ini).map(letters).as_deref(),
+            Some("XYZW")
+        );
+        // [TRAJ] without COORDINATES: LinuxCNC's X Y Z machine.
+        let xyz = "[TRAJ]\nLINEAR_UNITS = mm\n";
+        assert_eq!(
+            AxisMask::of_linuxcnc_ini(xyz).map(letters).as_deref(),
+            Some("XYZ")
+        );
+        // No [TRAJ]: the INI describes no machine.
+        assert_eq!(
+            AxisMask::of_linuxcnc_ini("[RS274NGC]\nSUBROUTINE_PATH = s\n"),
+            None
+        );
+        let both = AxisMask::of_machine(&m).intersection(AxisMask::of_linuxcnc_ini(ini).unwrap());
+        assert_eq!(letters(both), "XYZ");
+    }
 
     #[test]
     fn machine_axes_map_one_to_one_onto_letters() {

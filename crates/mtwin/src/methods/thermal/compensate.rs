@@ -115,6 +115,9 @@ pub struct CompensateOptions {
     pub tools: crate::gcode::ToolTable,
     /// Skip blocks starting with `/` (LinuxCNC's default).
     pub skip_deleted_blocks: bool,
+    /// The axes the program may name (the machine's; all nine by default),
+    /// as [`InterpOptions::machine_axes`].
+    pub machine_axes: crate::gcode::AxisMask,
     /// Time the blocks with a trajectory planner on a machine instead of the
     /// programmed feeds (`None`, the default: the estimate without
     /// accelerations; [`CompensateOptions::rapid_feed`] is then unused, the
@@ -146,6 +149,7 @@ impl Default for CompensateOptions {
             program: crate::gcode::ProgramOptions::default(),
             tools: crate::gcode::ToolTable::new(),
             skip_deleted_blocks: true,
+            machine_axes: crate::gcode::AxisMask::ALL,
             timing: None,
         }
     }
@@ -588,6 +592,7 @@ fn compensate_with(
             program: options.program.clone(),
             tools: options.tools.clone(),
             skip_deleted_blocks: options.skip_deleted_blocks,
+            machine_axes: options.machine_axes,
             ..InterpOptions::default()
         },
         rapid_feed: options.rapid_feed,
