@@ -231,38 +231,12 @@ impl AxisMask {
     /// remaps or subroutine path describes no machine). `[KINS]` sets the
     /// joints of the kinematics, not the axes a program may name.
     pub fn of_linuxcnc_ini(text: &str) -> Option<AxisMask> {
-        let mut section = "";
-        let mut traj = false;
-        let mut coordinates: Option<&str> = None;
-        for line in text.lines() {
-            let t = line.trim();
-            if let Some(rest) = t.strip_prefix('[') {
-                section = rest.split(']').next().unwrap_or("").trim();
-                traj |= section == "TRAJ";
-                continue;
-            }
-            if section != "TRAJ" {
-                continue;
-            }
-            if let Some((key, value)) = t.split_once('=') {
-                // LinuxCNC's IniFile::Find returns the first occurrence.
-                if key.trim() == "COORDINATES" && coordinates.is_none() {
-                    coordinates = Some(value.trim());
-                }
-            }
-        }
-        if !traj {
+        let ini = super::linuxcnc_ini::LinuxcncIni::parse(text);
+        if !ini.has_section("TRAJ") {
             return None;
         }
-        let Some(c) = coordinates else {
-            let mut m = AxisMask::EMPTY;
-            for a in [Axis::X, Axis::Y, Axis::Z] {
-                m.insert(a);
-            }
-            return Some(m);
-        };
         let mut m = AxisMask::EMPTY;
-        for b in c.bytes() {
+        for b in ini.get("TRAJ", "COORDINATES").unwrap_or("X Y Z").bytes() {
             if let Some(a) = Axis::from_letter(b) {
                 m.insert(a);
             }

@@ -73,6 +73,7 @@ mod interp;
 mod interpolate;
 mod lathe_diameter_mode;
 mod lexer;
+pub mod linuxcnc_ini;
 pub mod parameters;
 pub mod plan;
 mod profile;

@@ -206,37 +206,15 @@ impl Parameters {
     /// kept.
     pub fn load_ini(&mut self, text: &str) {
         self.ini.clear();
-        let mut seen_sections = BTreeSet::new();
-        let mut section: Option<String> = None;
-        for line in text.lines() {
-            let t = line.trim();
-            if let Some(rest) = t.strip_prefix('[') {
-                let name = rest.split(']').next().unwrap_or("").trim().to_string();
-                // A repeated section is not searched (its first one is).
-                section = seen_sections.insert(name.clone()).then_some(name);
-                continue;
-            }
-            if t.starts_with(['#', ';']) {
-                continue;
-            }
-            let (Some(sec), Some((key, value))) = (&section, t.split_once('=')) else {
-                continue;
-            };
-            let key = format!("{sec}]{}", key.trim());
-            let value = value.trim();
+        for (section, key, value) in super::linuxcnc_ini::LinuxcncIni::parse(text).entries() {
             let plain = !value.is_empty()
                 && value
                     .bytes()
                     .all(|c| c.is_ascii_digit() || matches!(c, b'+' | b'-' | b'.' | b'e' | b'E'));
             let number = value.parse::<f64>().ok().filter(|v| plain && v.is_finite());
-            if let std::collections::hash_map::Entry::Vacant(e) = self.ini.entry(key) {
-                // The first entry of a name counts even when it is not a number.
-                if let Some(v) = number {
-                    e.insert(v);
-                } else {
-                    e.insert(f64::NAN);
-                }
-            }
+            // The first entry of a name counts even when it is not a number.
+            self.ini
+                .insert(format!("{section}]{key}"), number.unwrap_or(f64::NAN));
         }
     }
 

@@ -179,27 +179,14 @@ impl ProgramOptions {
     /// from `dir` too) becomes [`ProgramOptions::python`].
     pub fn apply_ini(&mut self, text: &str, dir: &std::path::Path) {
         Arc::make_mut(&mut self.parameters).load_ini(text);
-        let mut section = "";
-        let mut path_read = false;
-        for line in text.lines() {
-            let t = line.trim();
-            if let Some(rest) = t.strip_prefix('[') {
-                section = rest.split(']').next().unwrap_or("").trim();
-                continue;
+        let ini = super::linuxcnc_ini::LinuxcncIni::parse(text);
+        if let Some(path) = ini.get("RS274NGC", "SUBROUTINE_PATH") {
+            for d in path.split(':').filter(|d| !d.trim().is_empty()) {
+                self.subroutine_path.push(dir.join(d.trim()));
             }
-            let Some((key, value)) = t.split_once('=') else {
-                continue;
-            };
-            // LinuxCNC reads the first SUBROUTINE_PATH entry only.
-            if section == "RS274NGC" && key.trim() == "SUBROUTINE_PATH" && !path_read {
-                path_read = true;
-                for d in value.trim().split(':').filter(|d| !d.trim().is_empty()) {
-                    self.subroutine_path.push(dir.join(d.trim()));
-                }
-            }
-            if section == "PYTHON" && key.trim() == "TOPLEVEL" && !value.trim().is_empty() {
-                self.python = Some(dir.join(value.trim()));
-            }
+        }
+        if let Some(top) = ini.get("PYTHON", "TOPLEVEL").filter(|t| !t.is_empty()) {
+            self.python = Some(dir.join(top));
         }
     }
 }
