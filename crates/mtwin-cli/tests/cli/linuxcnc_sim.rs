@@ -82,7 +82,7 @@ pub struct SimSetup {
     /// Rapid override (`linuxcnc.command.rapidrate`) set before the run.
     pub rapid_override: Option<f64>,
     /// Further HAL signals sampled every period, `(type, signal)` with type
-    /// `f` (float) or `s` (s32): the test's [`SimSetup::hal`] lines create
+    /// `f` (float), `s` (s32) or `b` (bit, 0 or 1): the test's [`SimSetup::hal`] lines create
     /// the signals; the values land in [`Trace::extra`], in this order.
     pub sampled: Vec<(char, String)>,
     /// HAL lines `setp NAME VALUE` / `sets NAME VALUE` set just before the
@@ -432,8 +432,11 @@ fn headless_ini(text: &str, display: &Path, hal_file: &Path) -> String {
     out.join("\n") + "\n"
 }
 
-/// Our HAL file: the sampler on the servo thread (disabled until the
-/// display script starts the program), then the test's lines.
+/// Our HAL file: the sampler on the servo thread, enabled by the signal
+/// `mtwin-sample-on`, then the test's lines. The first program's samples
+/// begin with the servo thread, start-up and homing included (the thermal
+/// tests' `motion.is-all-homed` column shows it): the display script's
+/// switching of the signal bounds the later programs' samples.
 fn hal_text(setup: &SimSetup) -> String {
     let pins = sampled_pins();
     let groups: Vec<&[(char, String)]> = pins.chunks(FIFO_COLUMNS).collect();

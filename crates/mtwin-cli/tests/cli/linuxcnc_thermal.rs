@@ -64,12 +64,14 @@ const SAMPLE: usize = 3;
 const TIME: usize = 4;
 const Z: usize = 5;
 const EOFFSET: usize = 6;
+const HOMED: usize = 7;
 
 /// The simulator set-up from the exported files as a user installs them:
 /// the files beside the ini and the README's ini lines added to it. Then
 /// the test's `hal` lines (run after the configuration's HAL files), and
 /// sampling of the signals `inputs` (one per model input, in order), the
-/// component's clock and outputs and the applied offset.
+/// component's clock and outputs, the applied offset and whether every
+/// joint is homed.
 fn setup_from_export(files: &[(String, String)], hal: &[String], inputs: &[&str]) -> SimSetup {
     let mut setup = SimSetup::default();
     let mut section = String::new();
@@ -109,7 +111,8 @@ fn setup_from_export(files: &[(String, String)], hal: &[String], inputs: &[&str]
         .hal("net mtwin-t-sample mtwin-thermal.sample")
         .hal("net mtwin-t-time mtwin-thermal.time-s")
         .hal("net mtwin-t-z mtwin-thermal.z-mm")
-        .hal("net mtwin-t-eoffset axis.z.eoffset");
+        .hal("net mtwin-t-eoffset axis.z.eoffset")
+        .hal("net mtwin-t-homed motion.is-all-homed");
     let mut setup = inputs.iter().fold(setup, |s, sig| s.sample('f', sig));
     for (ty, sig) in [
         ('f', CLOCK_NAME),
@@ -119,6 +122,7 @@ fn setup_from_export(files: &[(String, String)], hal: &[String], inputs: &[&str]
         ('f', "mtwin-t-time"),
         ('f', "mtwin-t-z"),
         ('f', "mtwin-t-eoffset"),
+        ('b', "mtwin-t-homed"),
     ] {
         setup = setup.sample(ty, sig);
     }
@@ -146,6 +150,8 @@ struct Compared {
     steps: usize,
     /// Largest applied offset, mm.
     max_offset: f64,
+    /// Rows sampled while a joint was not homed.
+    unhomed: usize,
     /// The period means of the inputs, one row per period.
     means: Vec<Vec<f64>>,
 }
@@ -161,7 +167,7 @@ impl Compared {
             "{what}: {rows} rows, {} periods of {} s, poll gap {:.4} s, {} offset changes, \
              largest offset {:.3} µm; component vs thermal predict {:.2e} µm (bound {:.2e} µm), \
              applied vs thermal predict {:.2e} µm on {} settled rows; drift and counts checked \
-             on {} rows",
+             on {} rows; {} rows with a joint not homed",
             c.periods,
             PERIOD_MIN * 60.0,
             c.gap,
@@ -171,7 +177,8 @@ impl Compared {
             c.bound * 1e3,
             c.applied * 1e3,
             c.settled,
-            c.checked
+            c.checked,
+            c.unhomed
         );
         assert!(c.max_offset > 2e-3, "largest offset {} mm", c.max_offset);
         assert!(c.steps >= 8, "{} offset changes", c.steps);
@@ -318,10 +325,31 @@ fn compare_with_predict(t: &Trace, m: &ThermalModel, av_ratio: f64) -> Compared 
         checked: 0,
         steps: 0,
         max_offset: 0.0,
+        unhomed: 0,
         means: means.clone(),
     };
     let mut quiet = 0usize;
+    // Rows since every joint was homed (0 while one is not), and the
+    // counts when homing began.
+    let mut homed_for = 0usize;
+    let mut held: Option<f64> = None;
     for (i, r) in x.iter().enumerate() {
+        // LinuxCNC drops changes of the counts while a joint is not homed;
+        // the component holds them then, and follows the drift again at
+        // its first poll once every joint is (a poll gap later at most).
+        if r[HOMED] != 0.0 {
+            homed_for += 1;
+            held = None;
+        } else {
+            homed_for = 0;
+            let h = *held.get_or_insert(x[i.saturating_sub(1)][COUNTS]);
+            assert_eq!(
+                r[COUNTS], h,
+                "row {i}: the counts changed while a joint was not homed"
+            );
+            c.unhomed += 1;
+        }
+        let following = homed_for as f64 * dt > gap + dt;
         // The component, a userspace process, writes its pins one after
         // the other while the servo thread samples them, so a row may mix
         // values from before and after one of its polls (seen: the drift of
@@ -330,11 +358,12 @@ fn compare_with_predict(t: &Trace, m: &ThermalModel, av_ratio: f64) -> Compared 
         // a poll: those rows are checked, and as each poll's values hold
         // for several servo periods (polls 5 ms or more apart), every
         // poll's values are.
-        let whole = x.get(i + 1).is_some_and(|n| {
-            [COUNTS, DRIFT, SAMPLE, TIME, Z]
-                .iter()
-                .all(|&j| n[j] == r[j])
-        });
+        let whole = following
+            && x.get(i + 1).is_some_and(|n| {
+                [COUNTS, DRIFT, SAMPLE, TIME, Z]
+                    .iter()
+                    .all(|&j| n[j] == r[j])
+            });
         if whole {
             c.checked += 1;
         }
@@ -362,7 +391,7 @@ fn compare_with_predict(t: &Trace, m: &ThermalModel, av_ratio: f64) -> Compared 
         } else {
             quiet += 1;
         }
-        if quiet > 100 {
+        if quiet > 100 && following {
             c.settled += 1;
             let a = (r[EOFFSET] + want).abs();
             c.applied = c.applied.max(a);
@@ -479,7 +508,12 @@ fn recorded_speed_and_temperature_streamed_into_the_pins_give_thermal_predicts_o
         "loadusr -w halstreamer replay.txt".into(),
     ]
     .into();
-    let setup = setup_from_export(&files, &hal, &["replay-speed", "replay-temp"]);
+    // The machine homes Z at 60 mm (its final move at 20 mm/s takes 3 s):
+    // the drift from the stream, which starts with the servo thread, changes
+    // at the first period mark (1.5 s) while Z is still homing, when
+    // LinuxCNC drops changes of the counts.
+    let setup = setup_from_export(&files, &hal, &["replay-speed", "replay-temp"])
+        .ini("JOINT_2", "HOME", 60.0);
     // The stream lasts 12 s; Z holds at 20 mm for 13 s.
     let program = "G21 G90 G94\nG0 X0 Y0 Z20\nG4 P13\nM2\n";
     let t = run_or_panic("thermal replay", program, &setup, SHORT);
@@ -505,6 +539,11 @@ fn recorded_speed_and_temperature_streamed_into_the_pins_give_thermal_predicts_o
         seq.len()
     );
     let c = compare_with_predict(&t, &m, av_ratio(&setup));
+    assert!(
+        c.unhomed as f64 * t.period > 2.0 * PERIOD_MIN * 60.0,
+        "homing ended after {} rows, before the second period mark",
+        c.unhomed
+    );
     let hot = c.means.iter().map(|v| v[1]).fold(0.0, f64::max);
     c.print_and_check(
         &format!(

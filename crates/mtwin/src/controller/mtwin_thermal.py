@@ -25,10 +25,13 @@ the next period, the way the source method of mtwin's thermal compensation
 Outputs: drift-mm (tool relative to workpiece, +Z, mm), offset-mm (= -drift,
 the Z correction), counts (offset-mm / RESOLUTION_MM rounded, for
 axis.z.eoffset-counts with axis.z.eoffset-scale = RESOLUTION_MM), sample (k)
-and time-s (the component's clock at the last poll). While --enable-pin
-(default motion.motion-enabled) is false the counts are 0: LinuxCNC applies
-changes of eoffset-counts, so the whole offset comes back when the machine is
-switched on again.
+and time-s (the component's clock at the last poll). LinuxCNC adds changes
+of eoffset-counts to the offset only while motion is enabled and every joint
+is homed, and zeroes the offset when motion is enabled. So while --enable-pin
+(default motion.motion-enabled) is false the counts are 0 (the whole offset
+comes back when the machine is switched on again), and while --homed-pin
+(default motion.is-all-homed) is false the counts hold their last value (a
+change then would be lost: the offset would stay off the counts for good).
 
 Options: --clock-pin takes the time from the input pin clock-s (seconds)
 instead of the wall clock; for tests and demonstrations --period-s S runs the
@@ -146,6 +149,8 @@ def main(argv):
     p.add_argument("--z-mm", type=float, help="fixed tool height, mm (instead of --z-pin)")
     p.add_argument("--enable-pin", default="motion.motion-enabled",
                    help="bit pin: counts are 0 while it is false ('' for always on)")
+    p.add_argument("--homed-pin", default="motion.is-all-homed",
+                   help="bit pin: counts hold while it is false ('' for always homed)")
     args = p.parse_args(argv)
     period_s = args.period_s if args.period_s else MODEL["period_min"] * 60.0
     if not period_s > 0.0:
@@ -167,6 +172,7 @@ def main(argv):
 
     t0 = time.monotonic()
     limit = 2 ** 31 - 1
+    counts = 0
     try:
         while True:
             now = c["clock-s"] if args.clock_pin else time.monotonic() - t0
@@ -175,7 +181,11 @@ def main(argv):
             z = args.z_mm if args.z_mm is not None else hal.get_value(args.z_pin)
             drift = thermal.drift(z)
             on = True if not args.enable_pin else bool(hal.get_value(args.enable_pin))
-            counts = int(round(-drift / RESOLUTION_MM)) if on else 0
+            homed = True if not args.homed_pin else bool(hal.get_value(args.homed_pin))
+            if not on:
+                counts = 0
+            elif homed:
+                counts = int(round(-drift / RESOLUTION_MM))
             c["drift-mm"] = drift
             c["offset-mm"] = -drift
             c["counts"] = max(-limit, min(limit, counts))

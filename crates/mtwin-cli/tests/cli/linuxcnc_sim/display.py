@@ -5,7 +5,8 @@ LinuxCNC starts it as `display.py -ini INI` once HAL is up; when it exits,
 LinuxCNC shuts down. It resets e-stop, switches the machine on, homes every
 joint, starts readers of the FIFOs of the `sampler` component the test's
 HAL file sets up (their type strings in MTWIN_SIM_CFG, comma-separated; all
-enabled together by the signal `mtwin-sample-on`, off until now), then runs
+enabled together by the signal `mtwin-sample-on`; the first program's
+samples begin with the servo thread, homing included), then runs
 the programs of MTWIN_SIM_RUNS one after the other: a JSON list of
 {"program": path, "feed": feed override, "rapid": rapid override (fractions,
 default 1), "timeout": s of real time, "hal": ["setp|sets NAME VALUE", ...]}.
@@ -95,7 +96,8 @@ class Reader:
                         break
                     time.sleep(0.002)
                     continue
-                f.write("%d %s\n" % (n, " ".join(repr(x) for x in v)))
+                # Bits as 0 and 1, numbers as Python prints them.
+                f.write("%d %s\n" % (n, " ".join(repr(int(x) if isinstance(x, bool) else x) for x in v)))
                 n += 1
             if self.stream.num_overruns != self.overruns:
                 f.write("overrun\n")
