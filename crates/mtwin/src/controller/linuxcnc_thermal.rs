@@ -172,7 +172,11 @@ model's clock is the servo thread's time ({clock}: LinuxCNC's integ of 1 on
 servo-thread, loaded by {HAL_FILE}; if the configuration loads integ
 already, add {clock} to its names= list and delete that loadrt line).
 Time 0 of the model is the start of LinuxCNC: start it with the machine
-cold. Output pins: drift-mm, offset-mm, counts, sample, time-s, z-mm.
+cold. LinuxCNC applies changes of the counts only while the machine is on
+and every joint is homed: the counts are 0 while the machine is off and
+hold their value while a joint is not homed, so the whole correction is
+applied once it is on and homed. Output pins: drift-mm, offset-mm, counts,
+sample, time-s, z-mm.
 ",
         clock = CLOCK_NAME,
         period = crate::io::fmt_f64(model.period_min()),
