@@ -82,8 +82,9 @@ pub struct SimSetup {
     /// Rapid override (`linuxcnc.command.rapidrate`) set before the run.
     pub rapid_override: Option<f64>,
     /// Further HAL signals sampled every period, `(type, signal)` with type
-    /// `f` (float), `s` (s32) or `b` (bit, 0 or 1): the test's [`SimSetup::hal`] lines create
-    /// the signals; the values land in [`Trace::extra`], in this order.
+    /// `f` (float), `s` (s32) or `b` (bit, 0 or 1): the test's
+    /// [`SimSetup::hal`] lines create the signals; the values land in
+    /// [`Trace::extra`], in this order.
     pub sampled: Vec<(char, String)>,
     /// HAL lines `setp NAME VALUE` / `sets NAME VALUE` set just before the
     /// program runs and undone after it (the values before restored), so

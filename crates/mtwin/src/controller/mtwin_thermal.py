@@ -31,7 +31,8 @@ is homed, and zeroes the offset when motion is enabled. So while --enable-pin
 (default motion.motion-enabled) is false the counts are 0 (the whole offset
 comes back when the machine is switched on again), and while --homed-pin
 (default motion.is-all-homed) is false the counts hold their last value (a
-change then would be lost: the offset would stay off the counts for good).
+change then would be lost, leaving the offset off the counts until the
+machine is switched off).
 
 Options: --clock-pin takes the time from the input pin clock-s (seconds)
 instead of the wall clock; for tests and demonstrations --period-s S runs the
