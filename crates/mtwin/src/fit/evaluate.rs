@@ -267,7 +267,18 @@ impl Pass<'_> {
                 row,
             });
         }
-        if let Some(j) = j {
+        // The scan in column order below names the first bad entry; the
+        // quick test over the contiguous rows of J decides whether to scan.
+        let all_finite = |j: faer::MatRef<'_, f64>| {
+            (0..j.nrows()).all(|i| {
+                j.row(i)
+                    .try_as_row_major()
+                    .is_some_and(|row| row.as_slice().iter().all(|x| x.is_finite()))
+            })
+        };
+        if let Some(j) = j
+            && !all_finite(j)
+        {
             for c in 0..j.ncols() {
                 if let Some(row) = j.col(c).iter().position(|x| !x.is_finite()) {
                     return Err(FitError::NonFinite {

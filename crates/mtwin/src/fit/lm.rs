@@ -101,15 +101,26 @@ pub(crate) struct Outcome {
     pub convergence: Convergence,
 }
 
+/// The values of a column of an owned matrix (stored contiguously).
+pub(crate) fn contiguous(col: faer::ColRef<'_, f64>) -> &[f64] {
+    col.try_as_col_major()
+        .expect("an owned matrix's columns are contiguous")
+        .as_slice()
+}
+
 /// Column norms of the evaluated Jacobian (`None` if the pass kept neither
 /// the Jacobian nor `JᵀJ`).
 pub(crate) fn column_norms(eval: &Evaluation) -> Option<Vec<f64>> {
     if let Some(jt) = &eval.jt {
-        Some(
-            (0..jt.nrows())
-                .map(|c| jt.row(c).iter().map(|x| x * x).sum::<f64>().sqrt())
-                .collect(),
-        )
+        // Over the contiguous columns of `Jᵀ` (the rows of J), each sum in
+        // row order as a sum over a column of J would be.
+        let mut sq = vec![0.0f64; jt.nrows()];
+        for i in 0..jt.ncols() {
+            for (s, x) in sq.iter_mut().zip(contiguous(jt.col(i))) {
+                *s += x * x;
+            }
+        }
+        Some(sq.into_iter().map(f64::sqrt).collect())
     } else {
         eval.normal.as_ref().map(|nm| {
             (0..nm.ncols())

@@ -91,7 +91,24 @@ impl Scaled {
             });
         }
         if let Some(jt) = &eval.jt {
-            let js = Mat::<f64>::from_fn(jt.ncols(), k, |i, c| jt[(cols[c], i)] / d[c]);
+            // `js[(i, c)] = J[(i, cols[c])] / d[c]`, read along the
+            // contiguous rows of J (the columns of `Jᵀ`).
+            let mut js = Mat::<f64>::zeros(jt.ncols(), k);
+            let mut out: Vec<&mut [f64]> = js
+                .col_iter_mut()
+                .map(|c| {
+                    c.try_as_col_major_mut()
+                        .expect("an owned matrix's columns are contiguous")
+                        .as_slice_mut()
+                })
+                .collect();
+            for i in 0..jt.ncols() {
+                let row = super::lm::contiguous(jt.col(i));
+                for ((o, &c), &dc) in out.iter_mut().zip(cols).zip(d) {
+                    o[i] = row[c] / dc;
+                }
+            }
+            drop(out);
             let (s, v) = singular_values_and_v(js.as_ref())?;
             // With fewer rows than columns there are only m singular values:
             // the others are zero (V is complete).

@@ -150,19 +150,21 @@ impl<'a> OutputErrorModel<'a> {
             }
         }
         let mut diverged = false;
+        let mut psi_diverged = false;
+        // Per input: its coefficients `b_{u,0..=nb}` and samples, so that
+        // `u(k − j − nk)` for `j = 0..=nb` is the window ending at `k − nk`.
+        let terms: Vec<(&[f64], &[f64], usize)> = o
+            .inputs
+            .iter()
+            .enumerate()
+            .scan(na, |col, (u_i, oi)| {
+                let b = &theta[*col..*col + oi.nb + 1];
+                *col += oi.nb + 1;
+                Some((b, self.run.input(u_i), oi.nk))
+            })
+            .collect();
         for k in self.first..n {
-            let mut v = 0.0;
-            let mut col = na;
-            for (u_i, oi) in o.inputs.iter().enumerate() {
-                let u = self.run.input(u_i);
-                for j in 0..=oi.nb {
-                    v += theta[col] * u[k - j - oi.nk];
-                    col += 1;
-                }
-            }
-            for (i, ai) in a.iter().enumerate() {
-                v -= ai * yhat[k - i - 1];
-            }
+            let v = next_output(&terms, a, &yhat, k);
             if diverged || !(v.is_finite() && v.abs() <= self.bound) {
                 diverged = true;
                 yhat.push(self.bound);
@@ -195,6 +197,7 @@ impl<'a> OutputErrorModel<'a> {
                     .any(|p| !(p.is_finite() && p.abs() <= self.bound))
                 {
                     diverged = true;
+                    psi_diverged = true;
                     now.fill(0.0);
                 }
             }
@@ -207,16 +210,38 @@ impl<'a> OutputErrorModel<'a> {
         Simulation {
             theta: theta.to_vec(),
             with_psi,
+            psi_diverged,
             yhat,
             psi,
         }
     }
 }
 
+/// `ŷ(k) = Σ_u Σ_j b_{u,j}·u(k−j−nk_u) − Σ_i a_i·ŷ(k−i)`, summed in that
+/// order (inputs, then lags, each from the nearest sample back).
+#[inline]
+fn next_output(terms: &[(&[f64], &[f64], usize)], a: &[f64], yhat: &[f64], k: usize) -> f64 {
+    let mut v = 0.0;
+    for &(b, u, nk) in terms {
+        let window = &u[k + 1 - nk - b.len()..=k - nk];
+        for (bj, uj) in b.iter().zip(window.iter().rev()) {
+            v += bj * uj;
+        }
+    }
+    let past = &yhat[k - a.len()..k];
+    for (ai, yi) in a.iter().zip(past.iter().rev()) {
+        v -= ai * yi;
+    }
+    v
+}
+
 /// One simulation of [`OutputErrorModel`] at θ.
 struct Simulation {
     theta: Vec<f64>,
     with_psi: bool,
+    /// The sensitivities left their bound, which froze `yhat` from there on
+    /// (a simulation of the output alone may have gone further).
+    psi_diverged: bool,
     /// `ŷ(k)`, every sample of the run.
     yhat: Vec<f64>,
     /// `∂ŷ(k)/∂θ`, `d` per sample (empty without sensitivities).
@@ -248,9 +273,12 @@ impl Model for OutputErrorModel<'_> {
 
     /// The residuals come from a simulation of the output alone, the
     /// Jacobian from one with the sensitivities (whose divergence also stops
-    /// the simulated output there); the Jacobian is written a column at a
-    /// time, without an index check per element when the columns are
-    /// contiguous.
+    /// the simulated output there). When both are asked for, one simulation
+    /// with the sensitivities gives both unless its sensitivities diverged
+    /// (then the residuals come from a simulation of the output alone, as
+    /// when they are asked for by themselves). The Jacobian is copied a row
+    /// at a time when its rows are contiguous (the engine's transposed
+    /// storage), a column at a time when its columns are.
     fn evaluate(
         &self,
         theta: &[f64],
@@ -259,28 +287,41 @@ impl Model for OutputErrorModel<'_> {
         jac: Option<MatMut<'_, f64>>,
     ) {
         let first = self.first + rows.start;
+        let with_psi = jac.is_some().then(|| self.simulation(theta, true));
         if let Some(r) = r {
-            let sim = self.simulation(theta, false);
+            let sim = match &with_psi {
+                Some(sim) if !sim.psi_diverged => Arc::clone(sim),
+                _ => self.simulation(theta, false),
+            };
             let y = self.run.output();
             for (row, v) in r.iter_mut().enumerate().take(rows.len()) {
                 let k = first + row;
                 *v = sim.yhat[k] - y[k];
             }
         }
-        if let Some(mut jm) = jac {
-            let sim = self.simulation(theta, true);
+        if let (Some(mut jm), Some(sim)) = (jac, with_psi) {
             let d = self.n_all();
-            for c in 0..d {
-                match jm.as_mut().col_mut(c).try_as_col_major_mut() {
-                    Some(col) => {
-                        let col = col.as_slice_mut();
-                        for (row, v) in col.iter_mut().enumerate() {
-                            *v = sim.psi[(first + row) * d + c];
+            let psi_rows = sim.psi[first * d..(first + rows.len()) * d].chunks_exact(d);
+            if jm.col_stride() == 1 {
+                for (row, src) in psi_rows.enumerate() {
+                    let dst = jm.as_mut().row_mut(row).try_as_row_major_mut();
+                    dst.expect("unit column stride")
+                        .as_slice_mut()
+                        .copy_from_slice(src);
+                }
+            } else {
+                for c in 0..d {
+                    match jm.as_mut().col_mut(c).try_as_col_major_mut() {
+                        Some(col) => {
+                            let col = col.as_slice_mut();
+                            for (row, v) in col.iter_mut().enumerate() {
+                                *v = sim.psi[(first + row) * d + c];
+                            }
                         }
-                    }
-                    None => {
-                        for row in 0..rows.len() {
-                            jm[(row, c)] = sim.psi[(first + row) * d + c];
+                        None => {
+                            for row in 0..rows.len() {
+                                jm[(row, c)] = sim.psi[(first + row) * d + c];
+                            }
                         }
                     }
                 }
