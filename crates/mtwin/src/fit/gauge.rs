@@ -525,8 +525,32 @@ enum Kind {
 }
 
 /// Index of the largest `|w_i|` (the first of ties).
+/// Weights within this fraction of the largest of each other count as
+/// equal, so that which term leads a combination, and the order of the
+/// others, does not depend on rounding (two parameters that enter a
+/// combination symmetrically get weights that differ in the last bits, in
+/// either direction).
+const WEIGHT_TIE: f64 = 1e-9;
+
+/// The indices of `w` by decreasing `|w|`, equal weights (to
+/// [`WEIGHT_TIE`] of the largest) in index order, i.e. the model's order.
+pub(crate) fn by_weight(w: &[f64]) -> Vec<usize> {
+    let max = w.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let key = |i: usize| {
+        if max > 0.0 {
+            (w[i].abs() / max / WEIGHT_TIE).round()
+        } else {
+            0.0
+        }
+    };
+    let mut order: Vec<usize> = (0..w.len()).collect();
+    order.sort_by(|&a, &b| key(b).total_cmp(&key(a)).then(a.cmp(&b)));
+    order
+}
+
+/// The index of the leading weight of `w` (see [`by_weight`]).
 fn lead_of(w: &[f64]) -> usize {
-    (0..w.len()).fold(0, |b, i| if w[i].abs() > w[b].abs() { i } else { b })
+    by_weight(w).first().copied().unwrap_or(0)
 }
 
 /// The terms of the scaled vector `w` over the group `members` (terms
@@ -540,7 +564,6 @@ fn terms_of(
     kind: Kind,
 ) -> Vec<CombinationTerm> {
     let lead = lead_of(w);
-    let c = w.len();
     // A combination Σ w_i·y_i is Σ w_i·D_i·θ_i; a direction δy = w is
     // δθ_i = w_i/D_i.
     let unit = |i: usize| match kind {
@@ -548,10 +571,10 @@ fn terms_of(
         Kind::Direction => w[i] / s.d[members[i]],
     };
     let norm = unit(lead);
-    let mut order: Vec<usize> = (0..c)
+    let order: Vec<usize> = by_weight(w)
+        .into_iter()
         .filter(|&i| w[i] != 0.0 && w[i].abs() >= 1e-6 * w[lead].abs())
         .collect();
-    order.sort_by(|&a, &b| w[b].abs().total_cmp(&w[a].abs()).then(a.cmp(&b)));
     order
         .iter()
         .map(|&i| CombinationTerm {
@@ -629,5 +652,24 @@ fn confounded_group(
         undetermined,
         undetermined_directions: directions,
         determined,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::by_weight;
+
+    #[test]
+    fn equal_weights_up_to_rounding_keep_the_models_order() {
+        // Two parameters entering a combination symmetrically: 1/√2 each,
+        // one of them a bit above or below the other after rounding.
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let up = f64::from_bits(h.to_bits() + 1);
+        for w in [[h, -up], [up, -h], [-h, h]] {
+            assert_eq!(by_weight(&w), vec![0, 1], "{w:?}");
+        }
+        // A real difference still orders by weight; zeros go last.
+        assert_eq!(by_weight(&[0.0, 0.5, -0.9, 0.5]), vec![2, 1, 3, 0]);
+        assert_eq!(by_weight(&[0.0, 0.0]), vec![0, 1]);
     }
 }

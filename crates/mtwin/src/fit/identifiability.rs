@@ -283,14 +283,10 @@ fn combination(
     relative_singular_value: Option<f64>,
     params: &[Parameter],
 ) -> Combination {
-    // The first of the largest coefficients leads.
-    let lead = (0..scaled.len()).fold(0, |best, j| {
-        if scaled[j].abs() > scaled[best].abs() {
-            j
-        } else {
-            best
-        }
-    });
+    // The first of the largest coefficients leads, the others follow by
+    // weight (equal weights in the model's order).
+    let order = super::gauge::by_weight(&scaled);
+    let lead = order.first().copied().unwrap_or(0);
     // Sign convention: the leading term is positive.
     if scaled.get(lead).is_some_and(|&x| x < 0.0) {
         scaled.iter_mut().for_each(|x| *x = -*x);
@@ -298,7 +294,8 @@ fn combination(
     }
     let vmax = scaled.get(lead).copied().unwrap_or(0.0);
     let dlead = direction.get(lead).copied().unwrap_or(1.0);
-    let mut terms: Vec<Term> = (0..scaled.len())
+    let terms: Vec<Term> = order
+        .into_iter()
         .filter(|&j| scaled[j].abs() >= 0.1 * vmax && vmax > 0.0)
         .map(|j| Term {
             index: j,
@@ -307,7 +304,6 @@ fn combination(
             coefficient: direction[j] / dlead,
         })
         .collect();
-    terms.sort_by(|a, b| b.scaled.abs().total_cmp(&a.scaled.abs()));
     Combination {
         relative_singular_value,
         scaled,

@@ -195,6 +195,26 @@ const PARALLEL_SVD_ENTRIES: usize = 1 << 20;
 /// `k × k` matrix V of right singular vectors of `a`.
 fn singular_values_and_v(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), FitError> {
     let (m, k) = a.shape();
+    // A tall, thin matrix (the scaled Jacobians of most fits: hundreds or
+    // thousands of rows, a few dozen columns) is first reduced to its
+    // triangle `R` by a Householder QR, and `R` (`k × k`) has the same
+    // singular values and right vectors. faer's SVD would do the same
+    // reduction itself, but its QR computes every Householder norm with an
+    // overflow-safe scaled sum that costs more than the rest of the
+    // factorisation at these shapes; the columns here have unit norm, so
+    // the plain sum of squares of nalgebra's QR cannot overflow. Measured
+    // in BENCHMARKS.md ("Output-error refinement").
+    if k > 0 && m >= 2 * k && m * k < PARALLEL_SVD_ENTRIES {
+        let na = nalgebra::DMatrix::from_fn(m, k, |i, j| a[(i, j)]);
+        let r = na.qr().unpack_r();
+        let rf = Mat::<f64>::from_fn(k, k, |i, j| r[(i, j)]);
+        return svd_of(rf.as_ref());
+    }
+    svd_of(a)
+}
+
+fn svd_of(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), FitError> {
+    let (m, k) = a.shape();
     let par = if m * k < PARALLEL_SVD_ENTRIES {
         Par::Seq
     } else {
