@@ -524,7 +524,6 @@ enum Kind {
     Direction,
 }
 
-/// Index of the largest `|w_i|` (the first of ties).
 /// Weights within this fraction of the largest of each other count as
 /// equal, so that which term leads a combination, and the order of the
 /// others, does not depend on rounding (two parameters that enter a

@@ -203,7 +203,7 @@ fn singular_values_and_v(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), Fit
     // overflow-safe scaled sum that costs more than the rest of the
     // factorisation at these shapes; the columns here have unit norm, so
     // the plain sum of squares of nalgebra's QR cannot overflow. Measured
-    // in BENCHMARKS.md ("Output-error refinement").
+    // in BENCHMARKS.md ("Output-error refinement and the dense fits' QR").
     if k > 0 && m >= 2 * k && m * k < PARALLEL_SVD_ENTRIES {
         let na = nalgebra::DMatrix::from_fn(m, k, |i, j| a[(i, j)]);
         let r = na.qr().unpack_r();
