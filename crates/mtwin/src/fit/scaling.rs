@@ -205,7 +205,13 @@ fn singular_values_and_v(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), Fit
     // the plain sum of squares of nalgebra's QR cannot overflow. Measured
     // in BENCHMARKS.md ("Output-error refinement and the dense fits' QR").
     if k > 0 && m >= 2 * k && m * k < PARALLEL_SVD_ENTRIES {
-        let na = nalgebra::DMatrix::from_fn(m, k, |i, j| a[(i, j)]);
+        let mut na = nalgebra::DMatrix::<f64>::zeros(m, k);
+        for (j, mut dst) in na.column_iter_mut().enumerate() {
+            match a.col(j).try_as_col_major() {
+                Some(src) => dst.copy_from_slice(src.as_slice()),
+                None => dst.iter_mut().enumerate().for_each(|(i, x)| *x = a[(i, j)]),
+            }
+        }
         let r = na.qr().unpack_r();
         let rf = Mat::<f64>::from_fn(k, k, |i, j| r[(i, j)]);
         return svd_of(rf.as_ref());
