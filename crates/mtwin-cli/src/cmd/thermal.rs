@@ -8,7 +8,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use mtwin::methods::thermal::log::{ChannelSpec, InputRule, InputSpec};
+use mtwin::methods::thermal::log::{ChannelSpec, InputRule, InputSearch, InputSpec};
 use mtwin::methods::thermal::{
     self, Ambient, FitRunOptions, LogFitRunOptions, LogPredictRunOptions, PredictRunOptions,
     SpeedModel, ThermalFitOptions,
@@ -159,6 +159,12 @@ pub struct FitArgs {
     /// Default `pooled`.
     #[arg(long, value_parser = parse_input_rule, requires = "log")]
     input_rule: Option<InputRule>,
+    /// With --log: how each channel's input set is searched: `forward` (forward steps, then a
+    /// backward pass) or `exchange` (that, then one chosen input exchanged for one not chosen while
+    /// that lowers the held-out RMS, the forward and backward passes again after each exchange:
+    /// finds sets whose inputs help only together). Default `forward`.
+    #[arg(long, value_parser = parse_input_search, requires = "log")]
+    search: Option<InputSearch>,
     /// With --log: also estimate each channel's start offset with its model: the drift is counted
     /// from the channel's first period mean, one noisy measurement, whose error is otherwise an
     /// offset on every later sample that the inputs are made to explain. Stored per channel
@@ -396,6 +402,10 @@ fn parse_input_rule(s: &str) -> Result<InputRule, String> {
     s.parse()
 }
 
+fn parse_input_search(s: &str) -> Result<InputSearch, String> {
+    s.parse()
+}
+
 fn parse_ambient(s: &str) -> Result<Ambient, String> {
     s.parse()
 }
@@ -414,6 +424,7 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
         ("--folds", a.folds.is_some()),
         ("--lags", a.lags),
         ("--input-rule", a.input_rule.is_some()),
+        ("--search", a.search.is_some()),
         ("--start-offset", a.start_offset),
         ("--ambient", a.ambient.is_some()),
     ];
@@ -494,6 +505,7 @@ fn fit_log(log: &Path, a: FitArgs) -> anyhow::Result<()> {
     options.fit.folds = a.folds.unwrap_or(options.fit.folds);
     options.fit.lags = a.lags;
     options.fit.rule = a.input_rule.unwrap_or(options.fit.rule);
+    options.fit.search = a.search.unwrap_or(options.fit.search);
     options.fit.start_offset = a.start_offset;
     options.ambient = a.ambient.clone();
     options.out = a.out.display().to_string();
@@ -507,7 +519,8 @@ fn fit_log(log: &Path, a: FitArgs) -> anyhow::Result<()> {
     let run = thermal::run_fit_log(log, &options, &mut |p| {
         let c = p.channel as u64 * steps;
         bar.set_position(match p.step {
-            Some(s) => c + s as u64,
+            // Exchanges and removals lengthen the path past the steps.
+            Some(s) => c + (s as u64).min(steps - 1),
             None => c + steps,
         });
     });

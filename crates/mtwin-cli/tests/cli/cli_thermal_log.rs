@@ -219,6 +219,36 @@ fn fit_log_with_lags_and_the_every_block_rule() {
     assert!(err.contains("every-block"), "{err}");
 }
 
+/// `--search exchange`: the forward steps already find the machine's
+/// inputs, so no exchange lowers the held-out error and the same models are
+/// chosen (exact, no held-out error); an unknown search is refused.
+#[test]
+fn fit_log_with_the_exchange_search() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    setup(p);
+    let mut a = FIT.to_vec();
+    a.extend(["--search", "exchange"]);
+    let (doc, _) = json_round_trip::<mtwin::methods::thermal::ThermalLogFitDoc>(p, &a);
+    assert_eq!(doc.channels[0].selection[0].input, "speed_rpm");
+    assert_eq!(doc.channels[1].selection[0].input, "t1_c");
+    for c in &doc.channels {
+        assert!(c.heldout_rms_mm < 1e-7, "{c:?}");
+        assert!(
+            c.selection
+                .iter()
+                .all(|s| s.input != "t2_c" && !s.input.contains(['>', '+'])),
+            "{c:?}"
+        );
+    }
+    let mut bad = FIT.to_vec();
+    bad.extend(["--search", "beam"]);
+    let out = mtwin(p, &bad);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("forward or exchange"), "{err}");
+}
+
 /// `--start-offset`: every sample after the first of both channels reads
 /// high by a constant (0.5 µm on `grow_um`, 0.2 µm on `shift_mm`), as if
 /// the first period mean (the base the drift is counted from) had read that
@@ -1013,6 +1043,7 @@ fn log_only_flags_are_refused_without_a_log() {
         &["--folds", "2"],
         &["--lags"],
         &["--input-rule", "same-sign"],
+        &["--search", "exchange"],
         &["--start-offset"],
         &["--ambient", "auto"],
     ] {

@@ -676,7 +676,9 @@ mod fit_predict_tests {
 /// One step of a channel's input selection.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LogSelectionStepDoc {
-    /// The input added (`-name`: removed by the backward pass).
+    /// The input added (`-name`: removed by the backward pass; with the
+    /// exchange search `old>new`: `old` exchanged for `new`, `a+b`: the pair
+    /// added together).
     pub input: String,
     /// Held-out simulation RMS after the step (mm).
     pub heldout_rms_mm: f64,
