@@ -229,7 +229,14 @@ fn fit_log_with_the_exchange_search() {
     setup(p);
     let mut a = FIT.to_vec();
     a.extend(["--search", "exchange"]);
-    let (doc, _) = json_round_trip::<mtwin::methods::thermal::ThermalLogFitDoc>(p, &a);
+    let (doc, v) = json_round_trip::<mtwin::methods::thermal::ThermalLogFitDoc>(p, &a);
+    // The search is named in the document and the printed summary; the
+    // default search is left out of both.
+    assert_eq!(v["search"], "exchange");
+    assert!(doc.to_string().contains("--search exchange"), "{doc}");
+    let (plain, v) = json_round_trip::<mtwin::methods::thermal::ThermalLogFitDoc>(p, &FIT);
+    assert!(v.get("search").is_none(), "{v}");
+    assert!(!plain.to_string().contains("exchange"), "{plain}");
     assert_eq!(doc.channels[0].selection[0].input, "speed_rpm");
     assert_eq!(doc.channels[1].selection[0].input, "t1_c");
     for c in &doc.channels {

@@ -741,6 +741,10 @@ pub struct ThermalLogFitDoc {
     /// end of the training samples).
     #[serde(default = "one")]
     pub folds: usize,
+    /// How the input sets were searched (left out for the default, the
+    /// forward search).
+    #[serde(default, skip_serializing_if = "super::log::InputSearch::is_forward")]
+    pub search: super::log::InputSearch,
     /// Every candidate input with its scale.
     pub inputs: Vec<super::log::LogInput>,
     /// The ambient sensor the other temperatures were taken over, when one
@@ -802,6 +806,12 @@ impl std::fmt::Display for ThermalLogFitDoc {
                 self.training_samples,
                 self.heldout_samples,
                 self.out
+            )?;
+        }
+        if !self.search.is_forward() {
+            writeln!(
+                f,
+                "input sets searched by forward steps, exchanges and pairs (--search exchange)"
             )?;
         }
         if let Some(a) = &self.ambient {

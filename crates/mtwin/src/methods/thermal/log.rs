@@ -1021,7 +1021,8 @@ impl InputRule {
 
 /// How a channel's input set is searched (each set judged by its held-out
 /// RMS, [`InputRule`] deciding whether a change is worth it).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum InputSearch {
     /// Forward steps, then a backward pass.
     #[default]
@@ -1032,6 +1033,13 @@ pub enum InputSearch {
     /// `max_inputs` exchanges): a set that no single addition reaches from
     /// the forward path (two inputs that help only together).
     Exchange,
+}
+
+impl InputSearch {
+    /// The default search (documents leave it out).
+    pub fn is_forward(&self) -> bool {
+        *self == InputSearch::Forward
+    }
 }
 
 impl std::str::FromStr for InputSearch {

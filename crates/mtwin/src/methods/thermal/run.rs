@@ -395,6 +395,7 @@ pub fn run_fit_log(
         training_samples: fit.training_samples,
         heldout_samples: fit.heldout_samples,
         folds: fit.folds,
+        search: options.fit.search,
         inputs: fit.model.inputs.clone(),
         ambient,
         channels: fit

@@ -5,6 +5,7 @@
 
 use super::{COLORS, decimate, fmt};
 use crate::methods::thermal::ThermalModel;
+use crate::methods::thermal::log::InputSearch;
 use crate::report::html::{Block, Section, Table, Verdict};
 use crate::report::svg::{Series, xy};
 
@@ -180,8 +181,12 @@ pub fn log_section(
             doc.heldout_samples
         )
     };
+    let search = match doc.search {
+        InputSearch::Forward => "forward selection",
+        InputSearch::Exchange => "forward selection with exchanges and pairs",
+    };
     s.push(Block::Text(format!(
-        "One ARX model per drift channel, inputs chosen by forward selection and orders by the simulation \
+        "One ARX model per drift channel, inputs chosen by {search} and orders by the simulation \
          error from cold on held-out data ({how}); sample period {} min, {} of {} samples for training. \
          Drift = displacement of the tool relative to the workpiece along the channel's axis.",
         doc.period_min, doc.training_samples, doc.samples
@@ -377,6 +382,17 @@ mod tests {
             panic!("no test table")
         };
         assert_eq!(t.rows[0], vec!["ch1_um", "2.500", "0.250"]);
+        // The search the document names is the one the text states.
+        let text = |s: &Section| match &s.blocks[0] {
+            Block::Text(t) => t.clone(),
+            _ => panic!("no text first"),
+        };
+        assert!(text(&s).contains("chosen by forward selection and"));
+        let mut exchange = doc.clone();
+        exchange.search = crate::methods::thermal::log::InputSearch::Exchange;
+        let s = log_section(&exchange, &curves);
+        assert!(text(&s).contains("forward selection with exchanges and pairs"));
+        let s = log_section(&doc, &curves);
         assert!(matches!(
             &s.blocks[3],
             Block::Verdict {
