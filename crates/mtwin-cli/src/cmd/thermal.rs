@@ -160,9 +160,10 @@ pub struct FitArgs {
     #[arg(long, value_parser = parse_input_rule, requires = "log")]
     input_rule: Option<InputRule>,
     /// With --log: how each channel's input set is searched: `forward` (forward steps, then a
-    /// backward pass) or `exchange` (that, then one chosen input exchanged for one not chosen while
-    /// that lowers the held-out RMS, the forward and backward passes again after each exchange:
-    /// finds sets whose inputs help only together). Default `forward`.
+    /// backward pass) or `exchange` (that, then while it lowers the held-out RMS one chosen input
+    /// exchanged for one not chosen, or else a pair of inputs added together, the forward and
+    /// backward passes again after each move: finds inputs that help only together; about six
+    /// times the work). Default `forward`.
     #[arg(long, value_parser = parse_input_search, requires = "log")]
     search: Option<InputSearch>,
     /// With --log: also estimate each channel's start offset with its model: the drift is counted

@@ -1027,11 +1027,13 @@ pub enum InputSearch {
     /// Forward steps, then a backward pass.
     #[default]
     Forward,
-    /// Forward steps and the backward pass, then exchanges of one chosen
-    /// input for one not chosen while one lowers the held-out RMS (the
-    /// forward and backward passes run again after each; at most
-    /// `max_inputs` exchanges): a set that no single addition reaches from
-    /// the forward path (two inputs that help only together).
+    /// Forward steps and the backward pass, then moves while one lowers
+    /// the held-out RMS: the best exchange of one chosen input for one not
+    /// chosen or, when no exchange does, the best pair of inputs added
+    /// together; the forward and backward passes run again after each move
+    /// (at most `max_inputs` moves). It reaches sets that no single
+    /// addition reaches from the forward path (two inputs that help only
+    /// together).
     Exchange,
 }
 
@@ -1788,12 +1790,14 @@ fn fail(spec: &ChannelSpec, e: crate::sysid::SysidError) -> ThermalError {
 /// The input selection of one channel: forward steps (the input whose
 /// addition lowers the held-out RMS most, if the rule accepts it), then a
 /// backward pass (an input whose removal costs less than `min_gain` goes),
-/// then, with [`InputSearch::Exchange`], exchanges: the best replacement of
-/// one chosen input by one not chosen, if the rule accepts it over the
-/// current set, after which the forward and backward passes run again.
+/// then, with [`InputSearch::Exchange`], moves: the best replacement of
+/// one chosen input by one not chosen or, when the rule accepts none over
+/// the current set, the best pair of inputs added together, after which
+/// the forward and backward passes run again (at most `max_inputs` moves;
+/// each lowers the held-out RMS, so the search ends).
 /// `judge(set)` is the best structure of an input set ([`best_orders`]);
 /// the path records each step (`name` added, `-name` removed, `old>new`
-/// exchanged) with the held-out RMS after it.
+/// exchanged, `a+b` added together) with the held-out RMS after it.
 fn select_inputs(
     n_inputs: usize,
     names: &[String],
@@ -1803,7 +1807,7 @@ fn select_inputs(
 ) -> (Option<Candidate>, Vec<(String, f64)>) {
     let mut chosen: Option<Candidate> = None;
     let mut path = Vec::new();
-    let mut exchanges = 0;
+    let mut moves = 0;
     loop {
         // Forward steps.
         loop {
@@ -1855,7 +1859,7 @@ fn select_inputs(
                 _ => break,
             }
         }
-        if options.search != InputSearch::Exchange || exchanges >= options.max_inputs {
+        if options.search != InputSearch::Exchange || moves >= options.max_inputs {
             break;
         }
         // Exchanges: one chosen input replaced by one not chosen.
@@ -1884,7 +1888,7 @@ fn select_inputs(
                 d.heldout_rms,
             ));
             chosen = Some(d);
-            exchanges += 1;
+            moves += 1;
             progress(path.len());
             continue;
         }
@@ -1912,7 +1916,7 @@ fn select_inputs(
         let Some((i, j, d)) = two else { break };
         path.push((format!("{}+{}", names[i], names[j]), d.heldout_rms));
         chosen = Some(d);
-        exchanges += 1;
+        moves += 1;
         progress(path.len());
     }
     (chosen, path)
@@ -2797,7 +2801,8 @@ mod tests {
     /// load that is not logged warms the structure by `h` (K, a 60-sample
     /// lag of the load) and the drift is a 20-sample lag of `h` (−8 µm/K);
     /// `sensor_c` reads the ambient plus `h`, `amb_c` the ambient, which
-    /// wanders by several K (a random walk), so neither says much alone;
+    /// wanders by more than `h` (a random walk plus a ±6 K cycle of 600
+    /// samples), so neither says much alone;
     /// `slow_c` follows the load with a 150-sample lag (a sensor elsewhere
     /// on the machine) plus its own small wander. Returns the log and the
     /// noise-free drift, µm.
