@@ -162,8 +162,8 @@ pub struct FitArgs {
     /// With --log: how each channel's input set is searched: `forward` (forward steps, then a
     /// backward pass) or `exchange` (that, then while it lowers the held-out RMS one chosen input
     /// exchanged for one not chosen, or else a pair of inputs added together, the forward and
-    /// backward passes again after each move: finds inputs that help only together; about six
-    /// times the work). Default `forward`.
+    /// backward passes again after each move: finds inputs that help only together; on the real
+    /// record of docs/thermal.md about six times the work, growing with the square of the inputs). Default `forward`.
     #[arg(long, value_parser = parse_input_search, requires = "log")]
     search: Option<InputSearch>,
     /// With --log: also estimate each channel's start offset with its model: the drift is counted

@@ -1006,7 +1006,8 @@ impl std::str::FromStr for InputRule {
 }
 
 impl InputRule {
-    /// Does `new` (a structure with one input more) improve on `old`?
+    /// Does `new` (a structure with one input more, or with an input
+    /// exchanged or a pair added by the exchange search) improve on `old`?
     fn improves(self, old: &Candidate, new: &Candidate, min_gain: f64) -> bool {
         if new.heldout_rms >= (1.0 - min_gain) * old.heldout_rms {
             return false;
@@ -1031,7 +1032,8 @@ pub enum InputSearch {
     /// the held-out RMS: the best exchange of one chosen input for one not
     /// chosen or, when no exchange does, the best pair of inputs added
     /// together; the forward and backward passes run again after each move
-    /// (at most `max_inputs` moves). It reaches sets that no single
+    /// (at most `max_inputs` moves, and no more than there are inputs). It
+    /// reaches sets that no single
     /// addition reaches from the forward path (two inputs that help only
     /// together).
     Exchange,
@@ -1793,8 +1795,10 @@ fn fail(spec: &ChannelSpec, e: crate::sysid::SysidError) -> ThermalError {
 /// then, with [`InputSearch::Exchange`], moves: the best replacement of
 /// one chosen input by one not chosen or, when the rule accepts none over
 /// the current set, the best pair of inputs added together, after which
-/// the forward and backward passes run again (at most `max_inputs` moves;
-/// each lowers the held-out RMS, so the search ends).
+/// the forward and backward passes run again (at most `max_inputs` moves,
+/// and no more than there are inputs: the cap [`LogFitOptions::validate`]
+/// counts, and what ends the search, since a backward removal may raise
+/// the held-out RMS again).
 /// `judge(set)` is the best structure of an input set ([`best_orders`]);
 /// the path records each step (`name` added, `-name` removed, `old>new`
 /// exchanged, `a+b` added together) with the held-out RMS after it.
@@ -1859,7 +1863,7 @@ fn select_inputs(
                 _ => break,
             }
         }
-        if options.search != InputSearch::Exchange || moves >= options.max_inputs {
+        if options.search != InputSearch::Exchange || moves >= options.max_inputs.min(n_inputs) {
             break;
         }
         // Exchanges: one chosen input replaced by one not chosen.
@@ -1935,8 +1939,10 @@ pub fn fit_log(
 }
 
 /// [`fit_log`], calling `progress(channel, Some(steps))` after each forward
-/// selection step of a channel and `progress(channel, None)` when the
-/// channel is finished (for a progress bar).
+/// selection step of a channel (and each move of the exchange search;
+/// `steps` is the length of the selection path so far) and
+/// `progress(channel, None)` when the channel is finished (for a progress
+/// bar).
 pub fn fit_log_with(
     log: &LogData,
     channels: &[ChannelSpec],

@@ -302,7 +302,9 @@ pub struct LogFitProgress {
     pub channel: usize,
     /// Number of channels.
     pub channels: usize,
-    /// Forward selection steps done on this channel; `None` when it is finished.
+    /// Selection steps done on this channel (the length of its selection
+    /// path so far: with the exchange search it may pass `max_steps`);
+    /// `None` when it is finished.
     pub step: Option<usize>,
     /// Most forward steps a channel can take (`max_inputs`, at most the inputs).
     pub max_steps: usize,
