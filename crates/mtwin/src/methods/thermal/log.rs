@@ -1809,6 +1809,10 @@ fn select_inputs(
     judge: &(dyn Fn(&[usize]) -> Option<Candidate> + Sync),
     progress: &mut dyn FnMut(usize),
 ) -> (Option<Candidate>, Vec<(String, f64)>) {
+    let rule = |old: &Candidate, new: &Candidate| options.rule.improves(old, new, options.min_gain);
+    let best = |sets: Vec<Vec<usize>>, accept: &dyn Fn(&Candidate) -> bool| {
+        best_set(sets, options.par, judge, accept)
+    };
     let mut chosen: Option<Candidate> = None;
     let mut path = Vec::new();
     let mut moves = 0;
@@ -1820,110 +1824,96 @@ fn select_inputs(
             if remaining.is_empty() || current.len() >= options.max_inputs {
                 break;
             }
-            // Every candidate alone (in parallel), the best taken in input
-            // order: the same choice as a sequential loop.
-            let step = crate::par::here(options.par, || {
-                crate::par::map(&remaining, 1, |_, &j| {
-                    let mut set = current.clone();
-                    set.push(j);
-                    judge(&set).map(|c| (j, c))
-                })
-            })
-            .into_iter()
-            .flatten()
-            .filter(|(_, cand)| {
-                chosen
-                    .as_ref()
-                    .is_none_or(|c| options.rule.improves(c, cand, options.min_gain))
-            })
-            .min_by(|a, b| a.1.heldout_rms.total_cmp(&b.1.heldout_rms));
-            let Some((j, cand)) = step else { break };
-            path.push((names[j].clone(), cand.heldout_rms));
+            let sets = remaining
+                .iter()
+                .map(|&j| [current.as_slice(), &[j]].concat())
+                .collect();
+            let step = best(sets, &|cand| chosen.as_ref().is_none_or(|c| rule(c, cand)));
+            let Some((k, cand)) = step else { break };
+            path.push((names[remaining[k]].clone(), cand.heldout_rms));
             chosen = Some(cand);
             progress(path.len());
         }
         // Backward pass: an input whose removal costs less than `min_gain`
         // (an input picked early that a later one made redundant) goes.
         while let Some(c) = chosen.as_ref().filter(|c| c.inputs.len() > 1) {
-            let drop = crate::par::here(options.par, || {
-                crate::par::map(&c.inputs, 1, |_, &j| {
-                    let set: Vec<usize> = c.inputs.iter().copied().filter(|&i| i != j).collect();
-                    judge(&set).map(|d| (j, d))
-                })
-            })
-            .into_iter()
-            .flatten()
-            .filter(|(_, d)| !options.rule.improves(d, c, options.min_gain))
-            .min_by(|a, b| a.1.heldout_rms.total_cmp(&b.1.heldout_rms));
-            match drop {
-                Some((j, d)) => {
-                    path.push((format!("-{}", names[j]), d.heldout_rms));
-                    chosen = Some(d);
-                }
-                _ => break,
-            }
+            let sets = c
+                .inputs
+                .iter()
+                .map(|&j| c.inputs.iter().copied().filter(|&i| i != j).collect())
+                .collect();
+            let Some((k, d)) = best(sets, &|d| !rule(d, c)) else {
+                break;
+            };
+            path.push((format!("-{}", names[c.inputs[k]]), d.heldout_rms));
+            chosen = Some(d);
         }
         if options.search != InputSearch::Exchange || moves >= options.max_inputs.min(n_inputs) {
             break;
         }
-        // Exchanges: one chosen input replaced by one not chosen.
         let Some(c) = chosen.as_ref() else { break };
-        let pairs: Vec<(usize, usize)> = (0..c.inputs.len())
-            .flat_map(|p| {
-                (0..n_inputs)
-                    .filter(|j| !c.inputs.contains(j))
-                    .map(move |j| (p, j))
-            })
+        let out: Vec<usize> = (0..n_inputs).filter(|j| !c.inputs.contains(j)).collect();
+        // Exchanges: one chosen input replaced by one not chosen.
+        let swaps: Vec<(usize, usize)> = (0..c.inputs.len())
+            .flat_map(|p| out.iter().map(move |&j| (p, j)))
             .collect();
-        let swap = crate::par::here(options.par, || {
-            crate::par::map(&pairs, 1, |_, &(p, j)| {
+        let sets = swaps
+            .iter()
+            .map(|&(p, j)| {
                 let mut set = c.inputs.clone();
                 set[p] = j;
-                judge(&set).map(|d| (p, j, d))
+                set
             })
-        })
-        .into_iter()
-        .flatten()
-        .filter(|(_, _, d)| options.rule.improves(c, d, options.min_gain))
-        .min_by(|a, b| a.2.heldout_rms.total_cmp(&b.2.heldout_rms));
-        if let Some((p, j, d)) = swap {
-            path.push((
-                format!("{}>{}", names[c.inputs[p]], names[j]),
-                d.heldout_rms,
-            ));
-            chosen = Some(d);
-            moves += 1;
-            progress(path.len());
-            continue;
-        }
-        if c.inputs.len() + 2 > options.max_inputs {
-            break;
-        }
-        let out: Vec<usize> = (0..n_inputs).filter(|j| !c.inputs.contains(j)).collect();
-        let pairs: Vec<(usize, usize)> = out
-            .iter()
-            .enumerate()
-            .flat_map(|(a, &i)| out[a + 1..].iter().map(move |&j| (i, j)))
             .collect();
-        let two = crate::par::here(options.par, || {
-            crate::par::map(&pairs, 1, |_, &(i, j)| {
-                let mut set = c.inputs.clone();
-                set.push(i);
-                set.push(j);
-                judge(&set).map(|d| (i, j, d))
-            })
-        })
-        .into_iter()
-        .flatten()
-        .filter(|(_, _, d)| options.rule.improves(c, d, options.min_gain))
-        .min_by(|a, b| a.2.heldout_rms.total_cmp(&b.2.heldout_rms));
-        let Some((i, j, d)) = two else { break };
-        path.push((format!("{}+{}", names[i], names[j]), d.heldout_rms));
+        let step = match best(sets, &|d| rule(c, d)) {
+            Some((k, d)) => {
+                let (p, j) = swaps[k];
+                Some((format!("{}>{}", names[c.inputs[p]], names[j]), d))
+            }
+            // Else a pair of inputs added together.
+            None if c.inputs.len() + 2 <= options.max_inputs => {
+                let pairs: Vec<(usize, usize)> = out
+                    .iter()
+                    .enumerate()
+                    .flat_map(|(a, &i)| out[a + 1..].iter().map(move |&j| (i, j)))
+                    .collect();
+                let sets = pairs
+                    .iter()
+                    .map(|&(i, j)| [c.inputs.as_slice(), &[i, j]].concat())
+                    .collect();
+                best(sets, &|d| rule(c, d)).map(|(k, d)| {
+                    let (i, j) = pairs[k];
+                    (format!("{}+{}", names[i], names[j]), d)
+                })
+            }
+            None => None,
+        };
+        let Some((name, d)) = step else { break };
+        path.push((name, d.heldout_rms));
         chosen = Some(d);
         moves += 1;
         progress(path.len());
     }
     (chosen, path)
+}
+
+/// The set of `sets` with the lowest held-out RMS among those whose
+/// structure `accept` takes, with its index: every set judged alone (in
+/// parallel, each set's fits on one thread), ties to the earlier set, so
+/// the choice is a sequential loop's.
+fn best_set(
+    sets: Vec<Vec<usize>>,
+    par: crate::par::Par,
+    judge: &(dyn Fn(&[usize]) -> Option<Candidate> + Sync),
+    accept: &dyn Fn(&Candidate) -> bool,
+) -> Option<(usize, Candidate)> {
+    crate::par::here(par, || {
+        crate::par::map(&sets, 1, |k, set| judge(set).map(|c| (k, c)))
+    })
+    .into_iter()
+    .flatten()
+    .filter(|(_, c)| accept(c))
+    .min_by(|a, b| a.1.heldout_rms.total_cmp(&b.1.heldout_rms))
 }
 
 /// Fit one model per channel of `log`, using its first `n_train` samples
