@@ -1453,7 +1453,15 @@ pub fn line_end_times<R: BufRead>(
     o.ts = 1e9;
     o.check_travel = false;
     let mut ends = Vec::new();
-    let s = drive(input, machine, &o, |_| Ok(()), None, Some(&mut ends))?;
+    let mut input = input;
+    let s = drive(
+        &mut input,
+        machine,
+        &o,
+        &mut |_| Ok(()),
+        None,
+        Some(&mut ends),
+    )?;
     Ok(LineEndTimes {
         ends,
         duration: s.duration,
@@ -1480,7 +1488,15 @@ pub fn planned_duration_with<R: BufRead>(
         failed: None,
         run_error: None,
     };
-    let r = drive(input, machine, &o, |_| Ok(()), Some(&mut hook), None);
+    let mut input = input;
+    let r = drive(
+        &mut input,
+        machine,
+        &o,
+        &mut |_| Ok(()),
+        Some(&mut hook),
+        None,
+    );
     if let Some(e) = hook.run_error {
         return Err(e);
     }
@@ -1539,34 +1555,35 @@ fn for_each_event<R: BufRead>(
 /// Interpolates the program read from `input` on `machine`, streaming:
 /// `sink` gets every sample in time order (see the module documentation).
 pub fn interpolate<R, F>(
-    input: R,
+    mut input: R,
     machine: &Machine,
     opts: &InterpolateOptions,
-    sink: F,
+    mut sink: F,
 ) -> Result<InterpolationSummary, InterpolateError>
 where
     R: BufRead,
     F: FnMut(&Sample<'_>) -> io::Result<()>,
 {
-    drive(input, machine, opts, sink, None, None)
+    drive(&mut input, machine, opts, &mut sink, None, None)
 }
+
+/// The sink of [`drive`]: every sample in time order.
+type SampleSink<'s> = dyn FnMut(&Sample<'_>) -> io::Result<()> + 's;
 
 /// [`interpolate`], with the steps also shown to `hook` when there is one
 /// (then a planner that cannot start still lets the program run for it),
 /// and the `(line, end time)` of every planned segment added to `ends` when
-/// given ([`line_end_times`]).
-fn drive<R, F>(
-    input: R,
+/// given ([`line_end_times`]). A `dyn` reader and sink: the interpreter and
+/// the planners are compiled once, whatever the callers' types (the public
+/// functions are thin generic shims over it).
+fn drive(
+    input: &mut dyn BufRead,
     machine: &Machine,
     opts: &InterpolateOptions,
-    mut sink: F,
+    mut sink: &mut SampleSink<'_>,
     mut hook: Option<&mut Hook<'_>>,
     ends: Option<&mut Vec<(u64, f64)>>,
-) -> Result<InterpolationSummary, InterpolateError>
-where
-    R: BufRead,
-    F: FnMut(&Sample<'_>) -> io::Result<()>,
-{
+) -> Result<InterpolationSummary, InterpolateError> {
     if opts.plan.planner == Planner::Jerk {
         return interpolate_jerk(input, machine, opts, sink, hook, ends);
     }
@@ -2554,7 +2571,7 @@ impl<'m> Walker<'m> {
 /// of the programmed path (under TCP from the nominal inverse kinematics).
 /// Memory holds one chain.
 pub fn dense_paths<R, F>(
-    input: R,
+    mut input: R,
     machine: &Machine,
     opts: &InterpolateOptions,
     mut sink: F,
@@ -2563,6 +2580,16 @@ where
     R: BufRead,
     F: FnMut(&DensePath) -> Result<(), InterpolateError>,
 {
+    dense_paths_dyn(&mut input, machine, opts, &mut sink)
+}
+
+/// [`dense_paths`] for a `dyn` reader and sink (the walker compiled once).
+fn dense_paths_dyn(
+    input: &mut dyn BufRead,
+    machine: &Machine,
+    opts: &InterpolateOptions,
+    sink: &mut dyn FnMut(&DensePath) -> Result<(), InterpolateError>,
+) -> Result<(), InterpolateError> {
     let n = machine.axes.len();
     Walker::new(machine, opts)?.run(
         input,

@@ -227,7 +227,7 @@ pub struct RunSummary {
 /// Runs the program read from `input` on `interp`, calling `sink` with every
 /// executed block.
 pub fn run_program<R, E, F>(
-    input: R,
+    mut input: R,
     interp: &mut Interpreter,
     opts: &ProgramOptions,
     dialect: Dialect,
@@ -238,6 +238,47 @@ where
     E: From<GcodeError>,
     F: FnMut(&Step<'_>) -> Result<(), E>,
 {
+    // Only this shim is compiled for each caller's reader, sink and error
+    // types; the runner itself once, for a `dyn` reader and sink.
+    let mut failed: Option<E> = None;
+    let r = run_stream(&mut input, interp, opts, dialect, &mut |step: &Step<'_>| {
+        sink(step).map_err(|e| {
+            failed = Some(e);
+            Stop::Sink
+        })
+    });
+    match r {
+        Ok(summary) => Ok(summary),
+        Err(Stop::Gcode(e)) => Err(e.into()),
+        Err(Stop::Sink) => Err(failed.expect("a sink that stopped the run left its error")),
+    }
+}
+
+/// Why [`run_stream`] stopped: an error of the program, or the sink's own
+/// (kept by [`run_program`], which knows its type).
+#[derive(Debug)]
+enum Stop {
+    Gcode(GcodeError),
+    Sink,
+}
+
+impl From<GcodeError> for Stop {
+    fn from(e: GcodeError) -> Stop {
+        Stop::Gcode(e)
+    }
+}
+
+/// The sink of [`run_stream`]: each step of the run.
+type StepSink<'s> = dyn FnMut(&Step<'_>) -> Result<(), Stop> + 's;
+
+/// [`run_program`] for a `dyn` reader and sink.
+fn run_stream(
+    input: &mut dyn BufRead,
+    interp: &mut Interpreter,
+    opts: &ProgramOptions,
+    dialect: Dialect,
+    sink: &mut StepSink<'_>,
+) -> Result<RunSummary, Stop> {
     let mut reader = BlockReader::new(input);
     let mut block = Block::default();
     let mut events = Vec::new();
@@ -288,7 +329,7 @@ where
                 m98_found: HashMap::new(),
                 recorded: std::collections::HashSet::new(),
             };
-            flow.run(interp, &mut sink)?;
+            flow.run(interp, sink)?;
             interp.finish()?;
             summary.executed = flow.executed;
             summary.files = flow.files;
@@ -1169,11 +1210,7 @@ struct Flow<'a> {
 }
 
 impl Flow<'_> {
-    fn run<E, F>(&mut self, interp: &mut Interpreter, sink: &mut F) -> Result<(), E>
-    where
-        E: From<GcodeError>,
-        F: FnMut(&Step<'_>) -> Result<(), E>,
-    {
+    fn run(&mut self, interp: &mut Interpreter, sink: &mut StepSink<'_>) -> Result<(), Stop> {
         let mut frames: Vec<Frame> = Vec::new();
         let mut loops: Vec<Loop> = Vec::new();
         let mut events = Vec::new();
@@ -1208,7 +1245,7 @@ impl Flow<'_> {
                 return Err(err_at(self.codes[c].file, &self.files, e).into());
             }
             let file = self.codes[c].file;
-            let fail = |files: &[PathBuf], e: GcodeError| -> E { err_at(file, files, e).into() };
+            let fail = |files: &[PathBuf], e: GcodeError| -> Stop { err_at(file, files, e).into() };
             let line = block.line();
             interp.parameters_mut().set_line(line);
             let Some(st) = self.codes[c].stmts[pc].clone() else {

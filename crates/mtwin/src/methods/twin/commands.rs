@@ -23,14 +23,25 @@ const REPORT_EVERY: u64 = 1 << 16;
 pub fn predict_csv<R, F>(
     twin: &Twin,
     path: &Path,
-    reader: R,
-    sink: F,
+    mut reader: R,
+    mut sink: F,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<TwinSummary, TwinError>
 where
     R: BufRead,
     F: FnMut(&TwinSample) -> io::Result<()>,
 {
+    predict_csv_dyn(twin, path, &mut reader, &mut sink, progress)
+}
+
+/// [`predict_csv`] for a `dyn` reader and sink (compiled once).
+fn predict_csv_dyn(
+    twin: &Twin,
+    path: &Path,
+    reader: &mut dyn BufRead,
+    sink: &mut dyn FnMut(&TwinSample) -> io::Result<()>,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<TwinSummary, TwinError> {
     let mut rows = CsvRows::new(path, reader)?;
     let mut names = vec![crate::io::columns::T_S];
     names.extend(twin.axis_names().iter().map(String::as_str));
@@ -102,15 +113,27 @@ where
 pub fn predict_gcode<R, F>(
     twin: &Twin,
     machine: &Machine,
-    input: R,
+    mut input: R,
     opts: &InterpolateOptions,
-    sink: F,
+    mut sink: F,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<TwinSummary, TwinError>
 where
     R: BufRead,
     F: FnMut(&TwinSample) -> io::Result<()>,
 {
+    predict_gcode_dyn(twin, machine, &mut input, opts, &mut sink, progress)
+}
+
+/// [`predict_gcode`] for a `dyn` reader and sink (compiled once).
+fn predict_gcode_dyn(
+    twin: &Twin,
+    machine: &Machine,
+    input: &mut dyn BufRead,
+    opts: &InterpolateOptions,
+    sink: &mut dyn FnMut(&TwinSample) -> io::Result<()>,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<TwinSummary, TwinError> {
     if !(opts.ts.is_finite() && opts.ts > 0.0) {
         return Err(TwinError::Period(opts.ts));
     }

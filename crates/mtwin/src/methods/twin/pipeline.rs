@@ -384,24 +384,23 @@ impl Predictor<'_> {
     /// told how far it got after every chunk.
     pub fn finish<F>(
         self,
-        sink: F,
-        progress: &mut dyn FnMut(Progress),
-    ) -> Result<TwinSummary, TwinError>
-    where
-        F: FnMut(&TwinSample) -> io::Result<()>,
-    {
-        let par = self.twin.par;
-        crate::par::here(par, || self.finish_here(sink, progress))
-    }
-
-    fn finish_here<F>(
-        mut self,
         mut sink: F,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<TwinSummary, TwinError>
     where
         F: FnMut(&TwinSample) -> io::Result<()>,
     {
+        let par = self.twin.par;
+        crate::par::here(par, || self.finish_here(&mut sink, progress))
+    }
+
+    /// [`Predictor::finish`] for a `dyn` sink: compiled once, whatever the
+    /// callers' sink types.
+    fn finish_here(
+        mut self,
+        sink: &mut dyn FnMut(&TwinSample) -> io::Result<()>,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<TwinSummary, TwinError> {
         self.flush().map_err(TwinError::Spool)?;
         let total = self.tips.len() as u64;
         if total == 0 {
