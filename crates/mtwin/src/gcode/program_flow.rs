@@ -2568,4 +2568,53 @@ mod tests {
         .unwrap();
         assert!(s.held.is_empty());
     }
+
+    /// The sink's own error type through the type-erased runner: its error
+    /// comes back as it was returned and stops the run at its block, in a
+    /// streamed and in a held program; a program error comes back through
+    /// `From<GcodeError>`.
+    #[test]
+    fn a_sink_error_of_its_own_type_comes_back_unchanged() {
+        #[derive(Debug, PartialEq)]
+        enum Mine {
+            Stopped(u64),
+            Program(String),
+        }
+        impl From<GcodeError> for Mine {
+            fn from(e: GcodeError) -> Mine {
+                Mine::Program(e.to_string())
+            }
+        }
+        let run = |src: &str, stop_at: u64| {
+            let mut interp = Interpreter::new(InterpOptions::default());
+            let mut seen = Vec::new();
+            let r = run_program(
+                src.as_bytes(),
+                &mut interp,
+                &ProgramOptions::default(),
+                Dialect::LinuxCnc,
+                |st: &Step<'_>| -> Result<(), Mine> {
+                    seen.push(st.block.line());
+                    if st.block.line() == stop_at {
+                        return Err(Mine::Stopped(stop_at));
+                    }
+                    Ok(())
+                },
+            );
+            (r.map(|s| s.executed), seen)
+        };
+        let (r, seen) = run("G0 X1\nG0 X2\nG0 X3\n", 2);
+        assert_eq!(r, Err(Mine::Stopped(2)));
+        assert_eq!(seen, [1, 2]);
+        let (r, seen) = run("o1 repeat [3]\nG0 X1\no1 endrepeat\nM2\n", 2);
+        assert_eq!(r, Err(Mine::Stopped(2)));
+        assert_eq!(seen, [1, 2]);
+        let (r, seen) = run("G0 X1\nG0 X[1 +\nG0 X3\n", 0);
+        match r {
+            Err(Mine::Program(m)) => assert!(m.contains('2'), "{m}"),
+            other => panic!("a program error, not {other:?}"),
+        }
+        assert_eq!(seen, [1]);
+        assert_eq!(run("G0 X1\nG0 X2\n", 0).0, Ok(2));
+    }
 }
