@@ -1402,10 +1402,25 @@ pub fn planned_duration<R: BufRead>(
     machine: &Machine,
     opts: &InterpolateOptions,
 ) -> Result<f64, InterpolateError> {
+    let mut input = input;
+    timing_run(&mut input, machine, opts, None, None).map(|s| s.duration)
+}
+
+/// A run of the planner for its timing alone: nothing is sampled (the
+/// period only bounds the count) and travels are not checked; the steps are
+/// shown to `hook` and the segments' end times added to `ends` as in
+/// [`drive`].
+fn timing_run(
+    input: &mut dyn BufRead,
+    machine: &Machine,
+    opts: &InterpolateOptions,
+    hook: Option<&mut Hook<'_>>,
+    ends: Option<&mut Vec<(u64, f64)>>,
+) -> Result<InterpolationSummary, InterpolateError> {
     let mut o = opts.clone();
     o.ts = 1e9;
     o.check_travel = false;
-    interpolate(input, machine, &o, |_| Ok(())).map(|s| s.duration)
+    drive(input, machine, &o, &mut |_| Ok(()), hook, ends)
 }
 
 /// When each program line's motion ends under the planner of `opts.plan`:
@@ -1449,19 +1464,9 @@ pub fn line_end_times<R: BufRead>(
     machine: &Machine,
     opts: &InterpolateOptions,
 ) -> Result<LineEndTimes, InterpolateError> {
-    let mut o = opts.clone();
-    o.ts = 1e9;
-    o.check_travel = false;
     let mut ends = Vec::new();
     let mut input = input;
-    let s = drive(
-        &mut input,
-        machine,
-        &o,
-        &mut |_| Ok(()),
-        None,
-        Some(&mut ends),
-    )?;
+    let s = timing_run(&mut input, machine, opts, None, Some(&mut ends))?;
     Ok(LineEndTimes {
         ends,
         duration: s.duration,
@@ -1480,23 +1485,13 @@ pub fn planned_duration_with<R: BufRead>(
     opts: &InterpolateOptions,
     on_step: &mut dyn FnMut(&Step<'_>) -> Result<(), GcodeError>,
 ) -> Result<Result<f64, InterpolateError>, GcodeError> {
-    let mut o = opts.clone();
-    o.ts = 1e9;
-    o.check_travel = false;
     let mut hook = Hook {
         on_step,
         failed: None,
         run_error: None,
     };
     let mut input = input;
-    let r = drive(
-        &mut input,
-        machine,
-        &o,
-        &mut |_| Ok(()),
-        Some(&mut hook),
-        None,
-    );
+    let r = timing_run(&mut input, machine, opts, Some(&mut hook), None);
     if let Some(e) = hook.run_error {
         return Err(e);
     }
