@@ -145,9 +145,11 @@ pub struct FitArgs {
     /// With --log: inputs and orders are chosen by blocked cross-validation: the training samples
     /// are cut into N + 1 contiguous blocks, each block after the first is predicted from the
     /// start by a model fitted on the blocks before it, and the errors are pooled; 1: one
-    /// held-out block, the last third. Default 3.
-    #[arg(long, requires = "log")]
-    folds: Option<usize>,
+    /// held-out block, the last third. Default 3. Several values (`2,4,6` or `2-6`): each channel
+    /// is chosen and fitted once per value, and predicted by the per-sample median of those
+    /// models (the model file keeps them all; each value costs a whole fit).
+    #[arg(long, value_parser = parse_fold_counts, requires = "log")]
+    folds: Option<FoldCounts>,
     /// With --log: also try, per channel, every input through one or two first-order lags with
     /// shared time constants (5 to 405 min, refined), beside the ARX orders; chosen only where it
     /// predicts the held-out blocks better (stored as the equivalent ARX model).
@@ -399,6 +401,14 @@ fn parse_speed_model(s: &str) -> Result<SpeedModel, String> {
     s.parse()
 }
 
+/// `--folds`: one number of held-out blocks or several (never empty).
+#[derive(Debug, Clone)]
+struct FoldCounts(Vec<usize>);
+
+fn parse_fold_counts(s: &str) -> Result<FoldCounts, String> {
+    mtwin::methods::thermal::log::parse_fold_counts(s).map(FoldCounts)
+}
+
 fn parse_input_rule(s: &str) -> Result<InputRule, String> {
     s.parse()
 }
@@ -503,7 +513,10 @@ fn fit_log(log: &Path, a: FitArgs) -> anyhow::Result<()> {
     options.train_until_min = a.train_until_min;
     options.fit.max_order = a.max_order.unwrap_or(options.fit.max_order);
     options.fit.max_inputs = a.max_inputs.unwrap_or(options.fit.max_inputs);
-    options.fit.folds = a.folds.unwrap_or(options.fit.folds);
+    if let Some(FoldCounts(folds)) = &a.folds {
+        options.fit.folds = folds[0];
+        options.fit.ensemble_folds = folds[1..].to_vec();
+    }
     options.fit.lags = a.lags;
     options.fit.rule = a.input_rule.unwrap_or(options.fit.rule);
     options.fit.search = a.search.unwrap_or(options.fit.search);
@@ -516,7 +529,8 @@ fn fit_log(log: &Path, a: FitArgs) -> anyhow::Result<()> {
         .output(&a.out)
         .begin()?;
     let steps = (options.fit.max_inputs.min(options.inputs.len()) + 1) as u64;
-    let bar = progress(options.channels.len() as u64 * steps, "selecting");
+    let passes = options.fit.fold_counts().count() as u64;
+    let bar = progress(options.channels.len() as u64 * passes * steps, "selecting");
     let run = thermal::run_fit_log(log, &options, &mut |p| {
         let c = p.channel as u64 * steps;
         bar.set_position(match p.step {

@@ -187,6 +187,62 @@ fn fit_log_with_one_held_out_block() {
     }
 }
 
+/// `--folds 2-4`: each channel chosen with 2, 3 and 4 held-out blocks,
+/// the model file keeping all three models, the summary listing the
+/// members, and the channel predicted by their median: every cut recovers
+/// the known machine here, so the prediction is its drift.
+#[test]
+fn fit_log_with_several_fold_counts_keeps_every_model_and_predicts_their_median() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    setup(p);
+    let mut a = FIT.to_vec();
+    a.extend(["--folds", "2-4"]);
+    let (doc, v) = json_round_trip::<mtwin::methods::thermal::ThermalLogFitDoc>(p, &a);
+    assert_eq!((doc.folds, doc.ensemble_folds.as_slice()), (2, &[3, 4][..]));
+    assert_eq!(v["ensemble_folds"], serde_json::json!([3, 4]));
+    for (c, input) in doc.channels.iter().zip(["speed_rpm", "t1_c"]) {
+        let folds: Vec<usize> = c.members.iter().map(|m| m.folds).collect();
+        assert_eq!(folds, [3, 4], "{c:?}");
+        for m in &c.members {
+            // Its own input first (the drift is noise-free: the others
+            // may come with a negligible gain).
+            assert_eq!(m.inputs[0], input, "{c:?}");
+            assert!(m.heldout_rms_mm < 1e-7, "{c:?}");
+        }
+    }
+    let t = doc.test.as_ref().unwrap();
+    assert!(
+        t.channels.iter().all(|s| s.error_over_drift_rms < 1e-4),
+        "{t:?}"
+    );
+    let model = mtwin::methods::thermal::log::LogModel::read(&p.join("log-model.toml")).unwrap();
+    assert!(model.channels.iter().all(|c| c.members.len() == 2));
+    let o = mtwin(p, &a);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert!(
+        text.contains("also chosen with 3, 4 held-out blocks: predicted by the per-sample median of its 3 models"),
+        "{text}"
+    );
+    assert_eq!(
+        text.lines().filter(|l| l.starts_with("grow_um ")).count(),
+        4,
+        "{text}"
+    );
+    // A count given twice is refused before any work; a falling range by
+    // the argument parser.
+    std::fs::remove_file(p.join("log-model.toml")).unwrap();
+    let mut a = FIT.to_vec();
+    a.extend(["--folds", "3,2-3"]);
+    expect_failure(p, &a, "3 is given twice", "log-model.toml");
+    let mut a = FIT.to_vec();
+    a.extend(["--folds", "4-2"]);
+    let o = mtwin(p, &a);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("a range goes up"), "{}", stderr(&o));
+}
+
 /// `--lags --input-rule every-block`: sums of first-order lags offered beside
 /// the ARX orders, an input kept only when it lowers the error in every
 /// held-out block: the same machine recovered (its exact first-order ARX

@@ -1039,10 +1039,10 @@ pub fn compensate_log(
     if !options.compensate.allow_unstable {
         for &(_, c) in &chosen {
             let channel = &model.channels[c];
-            let arx = channel
-                .arx()
+            let models = channel
+                .arx_models()
                 .map_err(|e| CompensateError::Options(e.to_string()))?;
-            if let Some(reason) = arx.stability().warning() {
+            if let Some(reason) = models.iter().find_map(|arx| arx.stability().warning()) {
                 return Err(CompensateError::UnstableChannel {
                     column: channel.channel.column.clone(),
                     reason,
@@ -1057,7 +1057,7 @@ pub fn compensate_log(
         .collect();
     let mut needed = vec![false; model.inputs.len()];
     for &(_, c) in &chosen {
-        for &i in &model.channels[c].inputs {
+        for i in model.channels[c].used_inputs() {
             needed[i] = true;
         }
     }
@@ -1070,7 +1070,7 @@ pub fn compensate_log(
             let users = chosen
                 .iter()
                 .map(|&(_, c)| &model.channels[c])
-                .filter(|c| c.inputs.iter().any(|i| logged.contains(i)))
+                .filter(|c| c.used_inputs().iter().any(|i| logged.contains(i)))
                 .map(|c| c.channel.column.clone())
                 .collect();
             let mut inputs: Vec<String> = Vec::new();
@@ -1789,6 +1789,7 @@ mod log_tests {
                     training_rms_mm: 0.0,
                     output_error: false,
                     start_offset_mm: 0.0,
+                    members: Vec::new(),
                 })
                 .collect(),
         }
@@ -2119,6 +2120,54 @@ mod log_tests {
             }
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn a_channel_with_members_corrects_by_their_median_and_needs_their_inputs() {
+        use crate::methods::thermal::log::ChannelMember;
+        let member = |inputs: Vec<usize>, pole: f64, b: f64| ChannelMember {
+            folds: 2,
+            inputs,
+            a: vec![1.0, -pole],
+            b: vec![vec![b]],
+            heldout_rms_mm: 0.0,
+            training_rms_mm: 0.0,
+            output_error: false,
+            start_offset_mm: 0.0,
+        };
+        let prog = b"S1000 M3\nG4 P600\nG0 Z-1\n";
+        let z_only = LogCompensateOptions {
+            channels: vec!["dz_um".into()],
+            ..LogCompensateOptions::default()
+        };
+        // Z on the speed with gains 1, 3 and 2 µm per scaled unit, one
+        // pole: the correction is the model's with 2 µm, the median.
+        let mut three = xz();
+        three.channels[1].members = vec![member(vec![0], 0.9, 0.003), member(vec![0], 0.9, 0.002)];
+        let mut two = xz();
+        two.channels[1].b = vec![vec![0.002]];
+        let got = compensate_log(&three, prog, None, &z_only).unwrap();
+        let want = compensate_log(&two, prog, None, &z_only).unwrap();
+        assert!(want.z_blocks[0].correction_mm.abs() > 1e-4);
+        assert!((got.z_blocks[0].correction_mm - want.z_blocks[0].correction_mm).abs() < 1e-15);
+        // A member on the temperature makes the Z channel need the inputs log.
+        let mut needs = xz();
+        needs.channels[1].members = vec![member(vec![1], 0.9, 0.001)];
+        match compensate_log(&needs, prog, None, &z_only) {
+            Err(e @ CompensateError::MissingInputs { .. }) => {
+                let m = e.to_string();
+                assert!(m.contains("dz_um") && m.contains("t1_c"), "{m}");
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(compensate_log(&needs, prog, Some(&temperatures(20.0)), &z_only).is_ok());
+        // An unstable member is refused as an unstable model is.
+        let mut unstable = xz();
+        unstable.channels[1].members = vec![member(vec![0], 1.2, 0.001)];
+        assert!(matches!(
+            compensate_log(&unstable, prog, None, &z_only),
+            Err(CompensateError::UnstableChannel { column, .. }) if column == "dz_um"
+        ));
     }
 
     #[test]

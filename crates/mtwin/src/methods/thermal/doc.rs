@@ -709,6 +709,30 @@ pub struct LogChannelDoc {
     pub output_error: bool,
     /// The selection path.
     pub selection: Vec<LogSelectionStepDoc>,
+    /// The channel's other models, each chosen with another number of
+    /// held-out blocks (`--folds` with several values); the channel is
+    /// predicted by the per-sample median of this model and these.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub members: Vec<LogMemberDoc>,
+}
+
+/// One more model of a channel ([`LogChannelDoc::members`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LogMemberDoc {
+    /// Held-out blocks of the cross-validation it was chosen by.
+    pub folds: usize,
+    /// Denominator order.
+    pub na: usize,
+    /// Numerator order.
+    pub nb: usize,
+    /// The inputs it uses.
+    pub inputs: Vec<String>,
+    /// Held-out simulation RMS it was chosen by (mm).
+    pub heldout_rms_mm: f64,
+    /// Simulation RMS over the training samples (mm).
+    pub training_rms_mm: f64,
+    /// Output-error refinement replaced the least-squares estimate.
+    pub output_error: bool,
 }
 
 /// The prediction of the log after the training time, from the log's start
@@ -741,6 +765,10 @@ pub struct ThermalLogFitDoc {
     /// end of the training samples).
     #[serde(default = "one")]
     pub folds: usize,
+    /// Further numbers of held-out blocks each channel was also fitted
+    /// with ([`LogChannelDoc::members`]); empty for one model per channel.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub ensemble_folds: Vec<usize>,
     /// How the input sets were searched (left out for the default, the
     /// forward search).
     #[serde(default, skip_serializing_if = "super::log::InputSearch::is_forward")]
@@ -808,6 +836,15 @@ impl std::fmt::Display for ThermalLogFitDoc {
                 self.out
             )?;
         }
+        if !self.ensemble_folds.is_empty() {
+            let more: Vec<String> = self.ensemble_folds.iter().map(usize::to_string).collect();
+            writeln!(
+                f,
+                "each channel also chosen with {} held-out blocks: predicted by the per-sample median of its {} models",
+                more.join(", "),
+                1 + self.ensemble_folds.len()
+            )?;
+        }
         if !self.search.is_forward() {
             writeln!(
                 f,
@@ -843,6 +880,30 @@ impl std::fmt::Display for ThermalLogFitDoc {
                 if c.output_error { "yes" } else { "no" },
                 c.inputs.join(",")
             )?;
+        }
+        if self.channels.iter().any(|c| !c.members.is_empty()) {
+            writeln!(
+                f,
+                "{:<12} {:>4} {:>3} {:>3} {:>12} {:>8} {:>12} {:>3}  inputs",
+                "members", "blks", "na", "nb", "held-out µm", "", "training µm", "OE"
+            )?;
+            for c in &self.channels {
+                for m in &c.members {
+                    writeln!(
+                        f,
+                        "{:<12} {:>4} {:>3} {:>3} {:>12.3} {:>8} {:>12.3} {:>3}  {}",
+                        c.column,
+                        m.folds,
+                        m.na,
+                        m.nb,
+                        m.heldout_rms_mm * 1e3,
+                        "",
+                        m.training_rms_mm * 1e3,
+                        if m.output_error { "yes" } else { "no" },
+                        m.inputs.join(",")
+                    )?;
+                }
+            }
         }
         if let Some(t) = &self.test {
             writeln!(

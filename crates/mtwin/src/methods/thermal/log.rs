@@ -47,6 +47,14 @@
 //! that lowers every block's error by matching each fit span's residual is
 //! given whichever sign that span needs.
 //!
+//! **Several cuts** ([`LogFitOptions::ensemble_folds`], none by default).
+//! On a short record which inputs the held-out blocks favour depends on
+//! where the blocks are cut. With further numbers of blocks each channel is
+//! chosen and fitted once per number; the models are kept together
+//! ([`ChannelModel::members`]) and the channel is predicted by the
+//! per-sample median of their simulations ([`ChannelModel::simulate`]), so
+//! one cut whose sensors extrapolate badly does not decide.
+//!
 //! **Start offset** ([`LogFitOptions::start_offset`], off by default). A
 //! drift channel is counted from its first period mean, one measurement
 //! with its noise; that noise is an offset on every later sample, which a
@@ -789,16 +797,149 @@ pub struct ChannelModel {
     /// compensation corrects) is [`LogModel::simulate`], without it.
     #[serde(default)]
     pub start_offset_mm: f64,
+    /// Other models of this channel, each chosen with another number of
+    /// held-out blocks ([`LogFitOptions::ensemble_folds`]); empty for a
+    /// single model. With members, the channel's drift is the per-sample
+    /// median of this model's and its members' simulations
+    /// ([`ChannelModel::simulate`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub members: Vec<ChannelMember>,
+}
+
+/// Another model of a channel, chosen by the same search with another
+/// number of held-out blocks ([`LogFitOptions::ensemble_folds`]); its
+/// fields mean what those of [`ChannelModel`] do.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ChannelMember {
+    /// Held-out blocks of the cross-validation it was chosen by.
+    pub folds: usize,
+    /// Indices into [`LogModel::inputs`] of the inputs it uses.
+    pub inputs: Vec<usize>,
+    /// `[1, a_1, …]`.
+    pub a: Vec<f64>,
+    /// `b` per used input (mm per scaled input unit), delay `nk = 1`.
+    pub b: Vec<Vec<f64>>,
+    /// Simulation RMS on the held-out blocks it was chosen by, mm.
+    pub heldout_rms_mm: f64,
+    /// Simulation RMS over all training samples, mm.
+    pub training_rms_mm: f64,
+    /// True when output-error refinement replaced the least-squares estimate.
+    pub output_error: bool,
+    /// Its start offset, mm ([`ChannelModel::start_offset_mm`]).
+    #[serde(default)]
+    pub start_offset_mm: f64,
+}
+
+/// The ARX model of coefficients `a`, `b` (delay 1) of channel `column`.
+fn arx_of(column: &str, a: &[f64], b: &[Vec<f64>]) -> Result<Arx, ThermalError> {
+    Arx::new(a.to_vec(), b.iter().map(|b| (b.clone(), 1)).collect())
+        .map_err(|e| ThermalError::Model(format!("channel `{column}`: {e}")))
+}
+
+/// One model of a channel: its inputs, ARX model and start offset (mm).
+struct MemberView<'a> {
+    inputs: &'a [usize],
+    a: &'a [f64],
+    b: &'a [Vec<f64>],
+    start_offset_mm: f64,
 }
 
 impl ChannelModel {
     /// The ARX model (inputs in the order of [`ChannelModel::inputs`]).
     pub fn arx(&self) -> Result<Arx, ThermalError> {
-        Arx::new(
-            self.a.clone(),
-            self.b.iter().map(|b| (b.clone(), 1)).collect(),
-        )
-        .map_err(|e| ThermalError::Model(format!("channel `{}`: {e}", self.channel.column)))
+        arx_of(&self.channel.column, &self.a, &self.b)
+    }
+
+    /// The ARX model of this model and of each member, in that order.
+    pub fn arx_models(&self) -> Result<Vec<Arx>, ThermalError> {
+        self.views()
+            .map(|m| arx_of(&self.channel.column, m.a, m.b))
+            .collect()
+    }
+
+    /// Every input this model or a member uses, ascending.
+    pub fn used_inputs(&self) -> Vec<usize> {
+        let mut used: Vec<usize> = self
+            .views()
+            .flat_map(|m| m.inputs.iter().copied())
+            .collect();
+        used.sort_unstable();
+        used.dedup();
+        used
+    }
+
+    fn views(&self) -> impl Iterator<Item = MemberView<'_>> {
+        std::iter::once(MemberView {
+            inputs: &self.inputs,
+            a: &self.a,
+            b: &self.b,
+            start_offset_mm: self.start_offset_mm,
+        })
+        .chain(self.members.iter().map(|m| MemberView {
+            inputs: &m.inputs,
+            a: &m.a,
+            b: &m.b,
+            start_offset_mm: m.start_offset_mm,
+        }))
+    }
+
+    /// The channel's drift (mm since the start) simulated from rest from
+    /// the scaled inputs of every model input ([`LogModel::scaled_inputs`]):
+    /// the model's simulation, or with members the per-sample median of
+    /// the model's and the members' (the mean of the middle two for an
+    /// even count). With `start_offset`, each model's start offset is
+    /// added from the second sample on before the median is taken.
+    pub fn simulate(
+        &self,
+        scaled_inputs: &[Vec<f64>],
+        start_offset: bool,
+    ) -> Result<Vec<f64>, ThermalError> {
+        let n = scaled_inputs.first().map_or(0, Vec::len);
+        let mut runs = Vec::with_capacity(1 + self.members.len());
+        for m in self.views() {
+            let mut sim = if m.inputs.is_empty() {
+                vec![0.0; n]
+            } else {
+                let u: Vec<&[f64]> = m
+                    .inputs
+                    .iter()
+                    .map(|&i| scaled_inputs[i].as_slice())
+                    .collect();
+                arx_of(&self.channel.column, m.a, m.b)?
+                    .simulate(&u)
+                    .map_err(|e| {
+                        ThermalError::Model(format!("channel `{}`: {e}", self.channel.column))
+                    })?
+            };
+            if start_offset {
+                sim.iter_mut().skip(1).for_each(|v| *v += m.start_offset_mm);
+            }
+            runs.push(sim);
+        }
+        if runs.len() == 1 {
+            return Ok(runs.pop().unwrap_or_default());
+        }
+        let mut at = vec![0.0; runs.len()];
+        Ok((0..n)
+            .map(|k| {
+                for (v, r) in at.iter_mut().zip(&runs) {
+                    *v = r[k];
+                }
+                median(&mut at)
+            })
+            .collect())
+    }
+}
+
+/// The median of `v` (the mean of the middle two for an even count; NaN
+/// sorts last). `v` is reordered.
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_unstable_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
     }
 }
 
@@ -842,13 +983,15 @@ impl LogModel {
             }
         }
         for c in &m.channels {
-            if c.inputs.len() != c.b.len() || c.inputs.iter().any(|&i| i >= m.inputs.len()) {
-                return Err(bad(format!(
-                    "channel `{}`: `inputs` and `b` must have one entry per used input, each an index into [[inputs]]",
-                    c.channel.column
-                )));
+            for v in c.views() {
+                if v.inputs.len() != v.b.len() || v.inputs.iter().any(|&i| i >= m.inputs.len()) {
+                    return Err(bad(format!(
+                        "channel `{}`: `inputs` and `b` must have one entry per used input, each an index into [[inputs]]",
+                        c.channel.column
+                    )));
+                }
             }
-            c.arx().map_err(|e| bad(e.to_string()))?;
+            c.arx_models().map_err(|e| bad(e.to_string()))?;
         }
         Ok(m)
     }
@@ -871,23 +1014,12 @@ impl LogModel {
 
     /// The drift of every channel (mm, since the start), simulated from rest
     /// from the scaled inputs alone.
+    /// A channel with members is the per-sample median of its models
+    /// ([`ChannelModel::simulate`]).
     pub fn simulate(&self, scaled_inputs: &[Vec<f64>]) -> Result<Vec<Vec<f64>>, ThermalError> {
         self.channels
             .iter()
-            .map(|c| {
-                let u: Vec<&[f64]> = c
-                    .inputs
-                    .iter()
-                    .map(|&i| scaled_inputs[i].as_slice())
-                    .collect();
-                let arx = c.arx()?;
-                if u.is_empty() {
-                    return Ok(vec![0.0; scaled_inputs.first().map_or(0, Vec::len)]);
-                }
-                arx.simulate(&u).map_err(|e| {
-                    ThermalError::Model(format!("channel `{}`: {e}", c.channel.column))
-                })
-            })
+            .map(|c| c.simulate(scaled_inputs, false))
             .collect()
     }
 }
@@ -917,6 +1049,16 @@ pub struct LogFitOptions {
     /// start, and the held-out errors of all blocks pooled. `1`: a single
     /// block of [`LogFitOptions::holdout`] at the end instead.
     pub folds: usize,
+    /// Further numbers of held-out blocks (each 1 to 50, none equal to
+    /// `folds` or repeated): each channel's structure is also chosen and
+    /// fitted with each of them, the models kept as the channel's members
+    /// ([`ChannelModel::members`]), and the channel is predicted by the
+    /// per-sample median of all its models. Which inputs the held-out
+    /// blocks favour on a short record depends on where the blocks are
+    /// cut; the median of the choices made with several cuts does not rest
+    /// on one of them. Empty by default (one model per channel); each
+    /// entry costs a whole fit more.
+    pub ensemble_folds: Vec<usize>,
     /// With `folds` = 1: fraction of the training samples, at their end,
     /// held out to choose by.
     pub holdout: f64,
@@ -957,6 +1099,7 @@ impl Default for LogFitOptions {
             max_order: 2,
             max_inputs: 6,
             folds: 3,
+            ensemble_folds: Vec::new(),
             holdout: 1.0 / 3.0,
             min_gain: 0.02,
             gain_bound: 10.0,
@@ -1090,11 +1233,17 @@ impl LogFitOptions {
                 self.holdout
             )));
         }
-        if self.folds == 0 || self.folds > 50 {
-            return Err(ThermalError::Options(format!(
-                "the number of cross-validation blocks must be 1 to 50, not {}",
-                self.folds
-            )));
+        for (i, k) in self.fold_counts().enumerate() {
+            if k == 0 || k > 50 {
+                return Err(ThermalError::Options(format!(
+                    "the number of cross-validation blocks must be 1 to 50, not {k}"
+                )));
+            }
+            if self.fold_counts().take(i).any(|j| j == k) {
+                return Err(ThermalError::Options(format!(
+                    "the number of cross-validation blocks {k} is given twice"
+                )));
+            }
         }
         if self.max_inputs == 0 {
             return Err(ThermalError::Options(
@@ -1108,7 +1257,7 @@ impl LogFitOptions {
         // moves tries every exchange (steps x inputs) and every pair to add
         // (inputs x (inputs - 1) / 2), and the forward and backward passes
         // run again after it.
-        let folds = self.folds;
+        let folds: usize = self.fold_counts().sum();
         let passes = 2 * steps * inputs;
         let sets = match self.search {
             InputSearch::Forward => passes,
@@ -1132,6 +1281,45 @@ impl LogFitOptions {
         }
         Ok(fits)
     }
+
+    /// The numbers of held-out blocks fitted with: `folds`, then
+    /// `ensemble_folds`.
+    pub fn fold_counts(&self) -> impl Iterator<Item = usize> + '_ {
+        std::iter::once(self.folds).chain(self.ensemble_folds.iter().copied())
+    }
+}
+
+/// Numbers of held-out blocks as written on a command line: one number,
+/// a list (`2,4,6`), a range (`2-6`) or both (`3,5-6`); the first is
+/// [`LogFitOptions::folds`], the rest [`LogFitOptions::ensemble_folds`].
+/// Never empty; the range and repetition checks are
+/// [`LogFitOptions::validate`]'s, except that a range must ascend.
+pub fn parse_fold_counts(s: &str) -> Result<Vec<usize>, String> {
+    let number = |t: &str| {
+        t.trim().parse::<usize>().map_err(|_| {
+            format!(
+                "`{}`: give whole numbers of held-out blocks, as 3, 2,4,6 or 2-6",
+                t.trim()
+            )
+        })
+    };
+    let mut out = Vec::new();
+    for part in s.split(',') {
+        match part.split_once('-') {
+            Some((a, b)) => {
+                let (a, b) = (number(a)?, number(b)?);
+                if a > b {
+                    return Err(format!("`{}`: a range goes up, as 2-6", part.trim()));
+                }
+                if b - a >= 50 {
+                    return Err(format!("`{}`: at most 50 numbers of blocks", part.trim()));
+                }
+                out.extend(a..=b);
+            }
+            None => out.push(number(part)?),
+        }
+    }
+    Ok(out)
 }
 
 /// The fit of a log with its selection record.
@@ -1932,7 +2120,10 @@ pub fn fit_log(
 /// selection step of a channel (and each move of the exchange search;
 /// `steps` is the length of the selection path so far) and
 /// `progress(channel, None)` when the channel is finished (for a progress
-/// bar).
+/// bar). With [`LogFitOptions::ensemble_folds`] the channels are fitted
+/// once per number of held-out blocks, one pass after the other, and
+/// `channel` counts on across the passes (channel `c` of pass `p` is
+/// `p · channels + c`).
 pub fn fit_log_with(
     log: &LogData,
     channels: &[ChannelSpec],
@@ -1942,6 +2133,51 @@ pub fn fit_log_with(
     progress: &mut dyn FnMut(usize, Option<usize>),
 ) -> Result<LogFit, ThermalError> {
     options.validate(channels.len(), inputs.len())?;
+    if options.ensemble_folds.is_empty() {
+        return fit_one_cut(log, channels, inputs, n_train, options, progress);
+    }
+    let mut single = options.clone();
+    single.ensemble_folds.clear();
+    let mut fit = fit_one_cut(log, channels, inputs, n_train, &single, progress)?;
+    for (pass, &folds) in options.ensemble_folds.iter().enumerate() {
+        single.folds = folds;
+        let first = (pass + 1) * channels.len();
+        let other = fit_one_cut(log, channels, inputs, n_train, &single, &mut |c, s| {
+            progress(first + c, s)
+        })?;
+        // The inputs and their scales depend on the training samples only.
+        debug_assert_eq!(other.model.inputs, fit.model.inputs);
+        for (c, m) in fit.model.channels.iter_mut().zip(other.model.channels) {
+            c.members.push(ChannelMember {
+                folds,
+                inputs: m.inputs,
+                a: m.a,
+                b: m.b,
+                heldout_rms_mm: m.heldout_rms_mm,
+                training_rms_mm: m.training_rms_mm,
+                output_error: m.output_error,
+                start_offset_mm: m.start_offset_mm,
+            });
+        }
+        fit.warnings.extend(
+            other
+                .warnings
+                .into_iter()
+                .map(|w| format!("with {folds} held-out blocks: {w}")),
+        );
+    }
+    Ok(fit)
+}
+
+/// [`fit_log_with`] for `options.folds` alone (`ensemble_folds` ignored).
+fn fit_one_cut(
+    log: &LogData,
+    channels: &[ChannelSpec],
+    inputs: &[InputSpec],
+    n_train: Option<usize>,
+    options: &LogFitOptions,
+    progress: &mut dyn FnMut(usize, Option<usize>),
+) -> Result<LogFit, ThermalError> {
     let n_train = n_train.unwrap_or(log.len()).min(log.len());
     let folds = make_folds(n_train, options);
     let params = 2 * options.max_order + options.max_inputs * (options.max_order + 1);
@@ -2094,6 +2330,7 @@ pub fn fit_log_with(
             training_rms_mm: training_rms,
             output_error,
             start_offset_mm: start_offset,
+            members: Vec::new(),
         });
         selection.push(path);
         progress(ci, None);
@@ -2128,28 +2365,22 @@ pub struct ChannelScore {
 /// `model`: per channel, the predicted value in the channel's unit on the
 /// grid (`start + drift`, sample `k` the mean over `[kT, (k+1)T)`).
 pub fn predict_log(model: &LogModel, log: &LogData) -> Result<Vec<Vec<f64>>, ThermalError> {
-    let drift = model.simulate(&model.scaled_inputs(&log.inputs))?;
-    Ok(model
+    let scaled = model.scaled_inputs(&log.inputs);
+    model
         .channels
         .iter()
-        .zip(drift)
         .enumerate()
-        .map(|(i, (c, d))| {
+        .map(|(i, c)| {
             let base = log
                 .channels
                 .get(i)
                 .and_then(|v| v.first())
                 .copied()
                 .unwrap_or(0.0);
-            d.iter()
-                .enumerate()
-                .map(|(k, e)| {
-                    let offset = if k > 0 { c.start_offset_mm } else { 0.0 };
-                    base + (e + offset) / c.channel.unit.mm()
-                })
-                .collect()
+            let d = c.simulate(&scaled, true)?;
+            Ok(d.iter().map(|e| base + e / c.channel.unit.mm()).collect())
         })
-        .collect())
+        .collect()
 }
 
 /// The value of a grid series (sample `k` the mean over `[kT, (k+1)T)`,
@@ -2341,6 +2572,134 @@ mod tests {
         assert_eq!(
             back.inputs[0].spec(),
             InputSpec::parse("t1_c:over=t0_c").unwrap()
+        );
+    }
+
+    /// A one-input channel `ch_um` whose model and members are static gains
+    /// (`a = [1]`, `b = [[g]]`: drift `g·u[k−1]`) with start offsets.
+    fn static_members(gains_offsets: &[(f64, f64)]) -> LogModel {
+        let member = |&(g, c): &(f64, f64), folds| ChannelMember {
+            folds,
+            inputs: vec![0],
+            a: vec![1.0],
+            b: vec![vec![g]],
+            heldout_rms_mm: 0.0,
+            training_rms_mm: 0.0,
+            output_error: false,
+            start_offset_mm: c,
+        };
+        let first = member(&gains_offsets[0], 3);
+        LogModel {
+            period_min: 1.0,
+            inputs: vec![LogInput {
+                column: "u".into(),
+                rise: false,
+                square: false,
+                over: None,
+                scale: 1.0,
+            }],
+            channels: vec![ChannelModel {
+                channel: ChannelSpec::parse("ch_um:Z").unwrap(),
+                inputs: first.inputs,
+                a: first.a,
+                b: first.b,
+                heldout_rms_mm: 0.0,
+                heldout_drift_rms_mm: 0.0,
+                training_rms_mm: 0.0,
+                output_error: false,
+                start_offset_mm: first.start_offset_mm,
+                members: gains_offsets[1..]
+                    .iter()
+                    .enumerate()
+                    .map(|(i, go)| member(go, 4 + i))
+                    .collect(),
+            }],
+        }
+    }
+
+    #[test]
+    fn a_channel_with_members_is_the_per_sample_median_of_its_models() {
+        // Input 1 from the first sample on: each static model's drift is 0
+        // at k = 0 and its gain after. Gains 1, 3, 2 µm: the median is 2;
+        // with a fourth of 10 µm, the mean of the middle two, 2.5.
+        let u = vec![vec![1.0; 4]];
+        let um = |g: f64| g * 1e-3;
+        let three = static_members(&[(um(1.0), 0.0), (um(3.0), 0.0), (um(2.0), 0.0)]);
+        let d = three.simulate(&u).unwrap();
+        assert_eq!(d[0][0], 0.0);
+        for v in &d[0][1..] {
+            assert!((v - um(2.0)).abs() < 1e-15, "{v}");
+        }
+        let four = static_members(&[
+            (um(1.0), 0.0),
+            (um(3.0), 0.0),
+            (um(2.0), 0.0),
+            (um(10.0), 0.0),
+        ]);
+        for v in &four.simulate(&u).unwrap()[0][1..] {
+            assert!((v - um(2.5)).abs() < 1e-15, "{v}");
+        }
+        // The start offsets enter each model before the median: gains 1, 3,
+        // 2 with offsets 5, 0, 0 µm are 6, 3, 2 after the first sample, so
+        // the channel is predicted at base + 3 µm (the drift alone, what a
+        // compensation corrects, is still the median 2).
+        let offsets = static_members(&[(um(1.0), um(5.0)), (um(3.0), 0.0), (um(2.0), 0.0)]);
+        let log = LogData {
+            path: "LOG.csv".into(),
+            period_min: 1.0,
+            start_min: 0.0,
+            channels: vec![vec![7.0; 4]],
+            inputs: u.clone(),
+            raw: Vec::new(),
+            notes: Vec::new(),
+        };
+        let p = predict_log(&offsets, &log).unwrap();
+        assert_eq!(p[0][0], 7.0);
+        for v in &p[0][1..] {
+            assert!((v - 10.0).abs() < 1e-12, "{v}");
+        }
+        for v in &offsets.simulate(&u).unwrap()[0][1..] {
+            assert!((v - um(2.0)).abs() < 1e-15, "{v}");
+        }
+        // The members round-trip through the model file, and a member's
+        // inputs are checked as the model's are.
+        let text = offsets.to_toml().unwrap();
+        assert!(text.contains("[[channels.members]]"), "{text}");
+        assert_eq!(
+            LogModel::from_toml_str(Path::new("m.toml"), &text).unwrap(),
+            offsets
+        );
+        let mut bad = offsets.clone();
+        bad.channels[0].members[1].inputs = vec![1];
+        let e = LogModel::from_toml_str(Path::new("m.toml"), &bad.to_toml().unwrap()).unwrap_err();
+        assert!(e.to_string().contains("an index into [[inputs]]"), "{e}");
+        assert_eq!(offsets.channels[0].used_inputs(), vec![0]);
+        assert_eq!(offsets.channels[0].arx_models().unwrap().len(), 3);
+    }
+
+    #[test]
+    fn fold_counts_parse_as_numbers_lists_and_ranges_and_are_checked() {
+        assert_eq!(parse_fold_counts("3").unwrap(), vec![3]);
+        assert_eq!(parse_fold_counts("2-6").unwrap(), vec![2, 3, 4, 5, 6]);
+        assert_eq!(parse_fold_counts("3, 5-6,2").unwrap(), vec![3, 5, 6, 2]);
+        for bad in ["", "6-2", "x", "2-", "1-100", "-3"] {
+            assert!(parse_fold_counts(bad).is_err(), "{bad}");
+        }
+        let with = |folds, ensemble_folds| LogFitOptions {
+            folds,
+            ensemble_folds,
+            ..LogFitOptions::default()
+        };
+        assert!(with(3, vec![2, 4]).validate(1, 3).is_ok());
+        let e = with(3, vec![2, 3]).validate(1, 3).unwrap_err();
+        assert!(e.to_string().contains("3 is given twice"), "{e}");
+        let e = with(3, vec![51]).validate(1, 3).unwrap_err();
+        assert!(e.to_string().contains("1 to 50, not 51"), "{e}");
+        // Each further count is a whole fit more: the bound counts them all.
+        let one = with(3, vec![]).validate(2, 5).unwrap();
+        assert_eq!(
+            with(3, vec![2, 4]).validate(2, 5).unwrap(),
+            one * (3 + 2 + 4) / 3
         );
     }
 
@@ -2649,6 +3008,77 @@ mod tests {
         );
         assert!(fit.warnings.is_empty(), "{:?}", fit.warnings);
         (names, model_err, truth_err)
+    }
+
+    #[test]
+    fn several_fold_counts_keep_each_cuts_model_and_predict_their_median() {
+        // The fit with folds 3 and further counts 2 and 5: its model is the
+        // fit with 3 alone, its members those with 2 and 5 alone, and its
+        // prediction the per-sample median of the three fits' predictions.
+        let (c, i) = specs(&["d_um:Z"], &["speed_rpm", "amb_c", "s1_c", "s2_c", "s3_c"]);
+        let (text, _) = truth_log(3, 1500, 0.3);
+        let log = read_log(&table(&text), &c, &i, 1.0).unwrap();
+        let alone = |folds| {
+            let o = LogFitOptions {
+                folds,
+                ..LogFitOptions::default()
+            };
+            fit_log(&log, &c, &i, Some(1000), &o).unwrap()
+        };
+        let options = LogFitOptions {
+            ensemble_folds: vec![2, 5],
+            ..LogFitOptions::default()
+        };
+        let mut steps = Vec::new();
+        let fit = fit_log_with(&log, &c, &i, Some(1000), &options, &mut |ch, s| {
+            steps.push((ch, s))
+        })
+        .unwrap();
+        // One pass per count, the channel index counting on.
+        assert_eq!(
+            steps
+                .iter()
+                .filter(|(_, s)| s.is_none())
+                .map(|(ch, _)| *ch)
+                .collect::<Vec<_>>(),
+            vec![0, 1, 2]
+        );
+        let singles: Vec<LogFit> = [3, 2, 5].into_iter().map(alone).collect();
+        let m = &fit.model.channels[0];
+        let s0 = &singles[0].model.channels[0];
+        assert_eq!((&m.inputs, &m.a, &m.b), (&s0.inputs, &s0.a, &s0.b));
+        assert_eq!(m.members.len(), 2);
+        for (member, (single, folds)) in m.members.iter().zip(singles[1..].iter().zip([2, 5])) {
+            let s = &single.model.channels[0];
+            assert_eq!(member.folds, folds);
+            assert_eq!(
+                (&member.inputs, &member.a, &member.b),
+                (&s.inputs, &s.a, &s.b)
+            );
+            assert_eq!(member.heldout_rms_mm, s.heldout_rms_mm);
+        }
+        let p = predict_log(&fit.model, &log).unwrap();
+        let ps: Vec<Vec<Vec<f64>>> = singles
+            .iter()
+            .map(|f| predict_log(&f.model, &log).unwrap())
+            .collect();
+        // The three cuts choose different models here (so the median is
+        // not one of them throughout).
+        let differ = |a: &[f64], b: &[f64]| a.iter().zip(b).any(|(x, y)| (x - y).abs() > 1e-6);
+        assert!(
+            differ(&ps[0][0], &ps[1][0])
+                && differ(&ps[0][0], &ps[2][0])
+                && differ(&ps[1][0], &ps[2][0])
+        );
+        for k in 0..log.len() {
+            let mut v = [ps[0][0][k], ps[1][0][k], ps[2][0][k]];
+            v.sort_by(f64::total_cmp);
+            assert!(
+                (p[0][k] - v[1]).abs() < 1e-12,
+                "k {k}: {} vs {v:?}",
+                p[0][k]
+            );
+        }
     }
 
     #[test]

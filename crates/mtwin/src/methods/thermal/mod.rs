@@ -37,9 +37,9 @@ pub use compensate::{
 };
 pub use data::{TrainingData, read_training, training_from_table};
 pub use doc::{
-    CompensateAxisDoc, InputChannelDoc, LogChannelDoc, LogPredictedChannelDoc, LogSelectionStepDoc,
-    LogTestDoc, PredictedHeightDoc, SpeedModelDoc, ThermalCompensateDoc, ThermalFitDoc,
-    ThermalHeightDoc, ThermalLogFitDoc, ThermalLogPredictDoc, ThermalPredictDoc,
+    CompensateAxisDoc, InputChannelDoc, LogChannelDoc, LogMemberDoc, LogPredictedChannelDoc,
+    LogSelectionStepDoc, LogTestDoc, PredictedHeightDoc, SpeedModelDoc, ThermalCompensateDoc,
+    ThermalFitDoc, ThermalHeightDoc, ThermalLogFitDoc, ThermalLogPredictDoc, ThermalPredictDoc,
     ThermalSimulateDoc,
 };
 pub use file::{model_from_toml_str, read_model};

@@ -12,8 +12,8 @@ use std::io::Write;
 use std::path::Path;
 
 use super::doc::{
-    LogChannelDoc, LogPredictedChannelDoc, LogSelectionStepDoc, LogTestDoc, ThermalLogFitDoc,
-    ThermalLogPredictDoc,
+    LogChannelDoc, LogMemberDoc, LogPredictedChannelDoc, LogSelectionStepDoc, LogTestDoc,
+    ThermalLogFitDoc, ThermalLogPredictDoc,
 };
 use super::log::{
     AmbientChoice, ChannelSpec, InputSpec, LogData, LogFitOptions, LogInput, LogModel, at_time,
@@ -295,7 +295,10 @@ impl LogFitRunOptions {
 }
 
 /// Where [`run_fit_log`] is: channel `channel` of `channels`, after forward
-/// selection step `step` (`None`: the channel is finished).
+/// selection step `step` (`None`: the channel is finished). With several
+/// numbers of held-out blocks ([`LogFitOptions::ensemble_folds`]) the
+/// channels are fitted once per number, and `channel` and `channels` count
+/// every pass.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct LogFitProgress {
     /// Index of the channel being fitted.
@@ -364,7 +367,7 @@ pub fn run_fit_log(
     let n_train = options
         .train_until_min
         .map(|t| ((t / data.period_min).floor() as usize).min(data.len()));
-    let channels = options.channels.len();
+    let channels = options.channels.len() * options.fit.fold_counts().count();
     let max_steps = options.fit.max_inputs.min(options.inputs.len());
     let fit = fit_log_with(
         &data,
@@ -397,6 +400,7 @@ pub fn run_fit_log(
         training_samples: fit.training_samples,
         heldout_samples: fit.heldout_samples,
         folds: fit.folds,
+        ensemble_folds: options.fit.ensemble_folds.clone(),
         search: options.fit.search,
         inputs: fit.model.inputs.clone(),
         ambient,
@@ -425,6 +429,23 @@ pub fn run_fit_log(
                     .map(|(input, rms)| LogSelectionStepDoc {
                         input: input.clone(),
                         heldout_rms_mm: *rms,
+                    })
+                    .collect(),
+                members: c
+                    .members
+                    .iter()
+                    .map(|m| LogMemberDoc {
+                        folds: m.folds,
+                        na: m.a.len() - 1,
+                        nb: m.b.first().map_or(0, |b| b.len().saturating_sub(1)),
+                        inputs: m
+                            .inputs
+                            .iter()
+                            .map(|&i| fit.model.inputs[i].name())
+                            .collect(),
+                        heldout_rms_mm: m.heldout_rms_mm,
+                        training_rms_mm: m.training_rms_mm,
+                        output_error: m.output_error,
                     })
                     .collect(),
             })

@@ -220,6 +220,41 @@ pub fn log_section(
         ]);
     }
     s.push(Block::Table(t));
+    if doc.channels.iter().any(|c| !c.members.is_empty()) {
+        let mut t = Table::new(
+            &format!(
+                "The other models of each channel, chosen with {} held-out blocks: a channel is predicted by the per-sample median of all its models",
+                doc.ensemble_folds
+                    .iter()
+                    .map(usize::to_string)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            &[
+                "channel",
+                "held-out blocks",
+                "na, nb",
+                "inputs",
+                "held-out RMS (µm)",
+                "training RMS (µm)",
+                "output error",
+            ],
+        );
+        for c in &doc.channels {
+            for m in &c.members {
+                t.row(vec![
+                    c.column.clone(),
+                    m.folds.to_string(),
+                    format!("{}, {}", m.na, m.nb),
+                    m.inputs.join(", "),
+                    fmt(Some(m.heldout_rms_mm * 1e3), 3),
+                    fmt(Some(m.training_rms_mm * 1e3), 3),
+                    if m.output_error { "yes" } else { "no" }.into(),
+                ]);
+            }
+        }
+        s.push(Block::Table(t));
+    }
     if let Some(test) = &doc.test {
         let mut t = Table::new(
             &format!(
@@ -338,6 +373,7 @@ mod tests {
                 training_rms_mm: 0.0,
                 output_error: false,
                 start_offset_mm: 0.0,
+                members: Vec::new(),
             }],
         };
         let log = LogData {
@@ -411,5 +447,32 @@ mod tests {
         assert_eq!(figures.len(), 1);
         assert!(figures[0].contains("ch1_um: measured and predicted drift"));
         assert!(figures[0].contains("measured") && figures[0].contains("predicted"));
+        // With members (several numbers of held-out blocks), a second table
+        // lists them after the model table.
+        let mut ensemble = doc.clone();
+        ensemble.ensemble_folds = vec![2, 4];
+        ensemble.channels[0].members = serde_json::from_value(serde_json::json!([
+            {"folds": 2, "na": 0, "nb": 1, "inputs": ["t4_c"], "heldout_rms_mm": 0.002,
+             "training_rms_mm": 0.001, "output_error": false},
+            {"folds": 4, "na": 1, "nb": 1, "inputs": ["speed_rpm"], "heldout_rms_mm": 0.0025,
+             "training_rms_mm": 0.0012, "output_error": true}
+        ]))
+        .unwrap();
+        let s = log_section(&ensemble, &curves);
+        let Block::Table(t) = &s.blocks[2] else {
+            panic!("no members table")
+        };
+        assert!(
+            t.caption.contains("chosen with 2, 4 held-out blocks"),
+            "{}",
+            t.caption
+        );
+        assert_eq!(
+            t.rows,
+            vec![
+                vec!["ch1_um", "2", "0, 1", "t4_c", "2.000", "1.000", "no"],
+                vec!["ch1_um", "4", "1, 1", "speed_rpm", "2.500", "1.200", "yes"],
+            ]
+        );
     }
 }
