@@ -895,6 +895,29 @@ impl ChannelModel {
         start_offset: bool,
     ) -> Result<Vec<f64>, ThermalError> {
         let n = scaled_inputs.first().map_or(0, Vec::len);
+        let mut runs = self.simulate_each(scaled_inputs, start_offset)?;
+        if runs.len() == 1 {
+            return Ok(runs.pop().unwrap_or_default());
+        }
+        let mut at = vec![0.0; runs.len()];
+        Ok((0..n)
+            .map(|k| {
+                for (v, r) in at.iter_mut().zip(&runs) {
+                    *v = r[k];
+                }
+                median(&mut at)
+            })
+            .collect())
+    }
+
+    /// [`ChannelModel::simulate`] of this model and of each member apart,
+    /// in that order (the spread of a channel's models).
+    pub fn simulate_each(
+        &self,
+        scaled_inputs: &[Vec<f64>],
+        start_offset: bool,
+    ) -> Result<Vec<Vec<f64>>, ThermalError> {
+        let n = scaled_inputs.first().map_or(0, Vec::len);
         let mut runs = Vec::with_capacity(1 + self.members.len());
         for m in self.views() {
             let mut sim = if m.inputs.is_empty() {
@@ -916,18 +939,7 @@ impl ChannelModel {
             }
             runs.push(sim);
         }
-        if runs.len() == 1 {
-            return Ok(runs.pop().unwrap_or_default());
-        }
-        let mut at = vec![0.0; runs.len()];
-        Ok((0..n)
-            .map(|k| {
-                for (v, r) in at.iter_mut().zip(&runs) {
-                    *v = r[k];
-                }
-                median(&mut at)
-            })
-            .collect())
+        Ok(runs)
     }
 }
 
@@ -2383,6 +2395,44 @@ pub fn predict_log(model: &LogModel, log: &LogData) -> Result<Vec<Vec<f64>>, The
         .collect()
 }
 
+/// Per channel of `model` with members, the lowest and the highest of its
+/// models' predictions of `log` per sample (in the channel's unit, placed
+/// as [`predict_log`] places the median); `None` for a channel with one
+/// model.
+#[allow(clippy::type_complexity)]
+pub fn predict_log_range(
+    model: &LogModel,
+    log: &LogData,
+) -> Result<Vec<Option<(Vec<f64>, Vec<f64>)>>, ThermalError> {
+    let scaled = model.scaled_inputs(&log.inputs);
+    model
+        .channels
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            if c.members.is_empty() {
+                return Ok(None);
+            }
+            let base = log
+                .channels
+                .get(i)
+                .and_then(|v| v.first())
+                .copied()
+                .unwrap_or(0.0);
+            let runs = c.simulate_each(&scaled, true)?;
+            let n = runs[0].len();
+            let at = |k: usize, pick: fn(f64, f64) -> f64| {
+                let e = runs.iter().map(|r| r[k]).reduce(pick).unwrap_or(0.0);
+                base + e / c.channel.unit.mm()
+            };
+            Ok(Some((
+                (0..n).map(|k| at(k, f64::min)).collect(),
+                (0..n).map(|k| at(k, f64::max)).collect(),
+            )))
+        })
+        .collect()
+}
+
 /// The value of a grid series (sample `k` the mean over `[kT, (k+1)T)`,
 /// placed at `(k + ½)T`) at time `t` (min since the start), linear between
 /// the sample centres, held at the ends.
@@ -2661,6 +2711,20 @@ mod tests {
         for v in &offsets.simulate(&u).unwrap()[0][1..] {
             assert!((v - um(2.0)).abs() < 1e-15, "{v}");
         }
+        // The range of the models: 7 + 2 … 7 + 6 µm after the first sample.
+        let range = predict_log_range(&offsets, &log).unwrap();
+        let (low, high) = range[0].as_ref().unwrap();
+        assert_eq!((low[0], high[0]), (7.0, 7.0));
+        for (l, h) in low[1..].iter().zip(&high[1..]) {
+            assert!(
+                (l - 9.0).abs() < 1e-12 && (h - 13.0).abs() < 1e-12,
+                "{l} {h}"
+            );
+        }
+        assert_eq!(
+            predict_log_range(&static_members(&[(1.0, 0.0)]), &log).unwrap(),
+            vec![None]
+        );
         // The members round-trip through the model file, and a member's
         // inputs are checked as the model's are.
         let text = offsets.to_toml().unwrap();

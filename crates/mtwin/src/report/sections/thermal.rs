@@ -125,6 +125,12 @@ pub struct LogChannelCurves {
     /// `(t_min, drift_um)`: the model's simulation from the log's start
     /// with the inputs alone.
     pub predicted: Vec<(f64, f64)>,
+    /// For a channel with several models (`--folds` with several values,
+    /// predicted by their median): the lowest and the highest of their
+    /// simulations, as `predicted`; empty otherwise.
+    pub lowest: Vec<(f64, f64)>,
+    /// See [`LogChannelCurves::lowest`].
+    pub highest: Vec<(f64, f64)>,
 }
 
 /// The curves of every channel of `model` present in `log` (read with the
@@ -134,16 +140,30 @@ pub fn log_curves(
     log: &crate::methods::thermal::log::LogData,
 ) -> Result<Vec<LogChannelCurves>, crate::methods::thermal::ThermalError> {
     let pred = crate::methods::thermal::log::predict_log(model, log)?;
+    let range = crate::methods::thermal::log::predict_log_range(model, log)?;
     let t = |k: usize| (k as f64 + 0.5) * log.period_min;
     Ok(model
         .channels
         .iter()
         .zip(&pred)
         .zip(&log.channels)
-        .map(|((c, p), m)| {
+        .zip(&range)
+        .map(|(((c, p), m), r)| {
             let um = c.channel.unit.mm() * 1e3;
             let base = m.first().copied().unwrap_or(0.0);
+            let curve = |s: &[f64]| -> Vec<(f64, f64)> {
+                s.iter()
+                    .enumerate()
+                    .map(|(k, v)| (t(k), (v - base) * um))
+                    .collect()
+            };
+            let (lowest, highest) = match r {
+                Some((low, high)) => (curve(low), curve(high)),
+                None => (Vec::new(), Vec::new()),
+            };
             LogChannelCurves {
+                lowest,
+                highest,
                 column: c.channel.column.clone(),
                 measured: m
                     .iter()
@@ -301,9 +321,28 @@ pub fn log_section(
                 markers: false,
             },
         ];
+        let mut series = series;
+        if !c.lowest.is_empty() {
+            for (name, points) in [
+                ("lowest of the models", &c.lowest),
+                ("highest of the models", &c.highest),
+            ] {
+                series.push(Series {
+                    name: name.into(),
+                    points: decimate(points, 2000),
+                    color: COLORS[2].into(),
+                    markers: false,
+                });
+            }
+        }
         let title = format!("{}: measured and predicted drift", c.column);
+        let models = if c.lowest.is_empty() {
+            ""
+        } else {
+            "; predicted: the median of the channel's models, drawn with the lowest and the highest of them"
+        };
         s.push(Block::Figure {
-            caption: format!("{title} (µm over min, since the log's start)."),
+            caption: format!("{title} (µm over min, since the log's start{models})."),
             svg: xy(&title, "t (min)", "drift (µm)", &series),
         });
     }
@@ -447,6 +486,47 @@ mod tests {
         assert_eq!(figures.len(), 1);
         assert!(figures[0].contains("ch1_um: measured and predicted drift"));
         assert!(figures[0].contains("measured") && figures[0].contains("predicted"));
+        // A member of half the gain: the prediction is the median of two
+        // (the mean, 750·(1 − 0.5^k) µm), drawn between the member's 500·…
+        // and the model's 1000·… µm.
+        let mut two = model.clone();
+        two.channels[0].members = vec![crate::methods::thermal::log::ChannelMember {
+            folds: 2,
+            inputs: vec![0],
+            a: vec![1.0, -0.5],
+            b: vec![vec![0.25]],
+            heldout_rms_mm: 0.0,
+            training_rms_mm: 0.0,
+            output_error: false,
+            start_offset_mm: 0.0,
+        }];
+        let c2 = log_curves(&two, &log).unwrap();
+        for k in 0..4 {
+            let f = 1.0 - 0.5f64.powi(k as i32);
+            for (got, want) in [
+                (c2[0].predicted[k].1, 750.0 * f),
+                (c2[0].lowest[k].1, 500.0 * f),
+                (c2[0].highest[k].1, 1000.0 * f),
+            ] {
+                assert!((got - want).abs() < 1e-9, "{k}: {got} vs {want}");
+            }
+        }
+        assert!(curves[0].lowest.is_empty() && curves[0].highest.is_empty());
+        let s2 = log_section(&doc, &c2);
+        let fig = s2
+            .blocks
+            .iter()
+            .find_map(|b| match b {
+                Block::Figure { svg, caption } => Some((svg, caption)),
+                _ => None,
+            })
+            .unwrap();
+        assert!(fig.0.contains("lowest of the models") && fig.0.contains("highest of the models"));
+        assert!(
+            fig.1.contains("the median of the channel's models"),
+            "{}",
+            fig.1
+        );
         // With members (several numbers of held-out blocks), a second table
         // lists them after the model table.
         let mut ensemble = doc.clone();
