@@ -353,12 +353,19 @@ fn compare_with_predict(t: &Trace, m: &ThermalModel, av_ratio: f64) -> Compared 
         // The component, a userspace process, writes its pins one after
         // the other while the servo thread samples them, so a row may mix
         // values from before and after one of its polls (seen: the drift of
-        // a new period beside the counts of the last). A row whose
-        // component outputs all hold into the next row was not read across
-        // a poll: those rows are checked, and as each poll's values hold
-        // for several servo periods (polls 5 ms or more apart), every
-        // poll's values are.
+        // a new period beside the counts of the last), and under load the
+        // process may be descheduled between two writes for longer than a
+        // servo period. It writes `sample` first and `time-s` last, so a
+        // row read in the middle of a poll that crossed a period end has
+        // sample k beside a time outside period k. Checked: the rows whose
+        // sample and time agree (as the component computes k: the largest
+        // with k·T <= time) and whose outputs all hold into the next row;
+        // as each poll's values hold for several servo periods (polls 5 ms
+        // or more apart), every poll's values are.
+        let k = r[SAMPLE] as usize;
+        let consistent = k as f64 * period <= r[TIME] && r[TIME] < (k + 1) as f64 * period;
         let whole = following
+            && consistent
             && x.get(i + 1).is_some_and(|n| {
                 [COUNTS, DRIFT, SAMPLE, TIME, Z]
                     .iter()
@@ -367,7 +374,6 @@ fn compare_with_predict(t: &Trace, m: &ThermalModel, av_ratio: f64) -> Compared 
         if whole {
             c.checked += 1;
         }
-        let k = r[SAMPLE] as usize;
         assert!(k < n_periods, "sample {k} beyond the run");
         let (e, slope) = at(k);
         // The height the component read differs from Z_MM by the offset

@@ -25,7 +25,9 @@ the next period, the way the source method of mtwin's thermal compensation
 Outputs: drift-mm (tool relative to workpiece, +Z, mm), offset-mm (= -drift,
 the Z correction), counts (offset-mm / RESOLUTION_MM rounded, for
 axis.z.eoffset-counts with axis.z.eoffset-scale = RESOLUTION_MM), sample (k)
-and time-s (the component's clock at the last poll). LinuxCNC adds changes
+and time-s (the component's clock at the last poll). Each poll writes sample
+first and time-s last, so the outputs of one complete poll satisfy
+k T <= time-s < (k+1) T. LinuxCNC adds changes
 of eoffset-counts to the offset only while motion is enabled and every joint
 is homed, and zeroes the offset when motion is enabled. So while --enable-pin
 (default motion.motion-enabled) is false the counts are 0 (the whole offset
@@ -187,12 +189,16 @@ def main(argv):
                 counts = 0
             elif homed:
                 counts = int(round(-drift / RESOLUTION_MM))
+            # sample first and time-s last: a reader that sees the pins
+            # between two writes of one poll (the servo thread samples them
+            # while this process writes) finds sample k with a time-s outside
+            # period k whenever the poll crossed a period end.
+            c["sample"] = thermal.k
             c["drift-mm"] = drift
             c["offset-mm"] = -drift
             c["counts"] = max(-limit, min(limit, counts))
-            c["sample"] = thermal.k
-            c["time-s"] = now
             c["z-mm"] = z
+            c["time-s"] = now
             time.sleep(poll_s)
     except KeyboardInterrupt:
         pass
