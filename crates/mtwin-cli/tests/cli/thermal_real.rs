@@ -327,16 +327,7 @@ fn real_record_last_third_by_the_median_of_the_models_of_five_cuts() {
     let mut model = (*runs[0].model).clone();
     for (k, run) in (3..=6).zip(&runs[1..]) {
         for (c, m) in model.channels.iter_mut().zip(&run.model.channels) {
-            c.members.push(ChannelMember {
-                folds: k,
-                inputs: m.inputs.clone(),
-                a: m.a.clone(),
-                b: m.b.clone(),
-                heldout_rms_mm: m.heldout_rms_mm,
-                training_rms_mm: m.training_rms_mm,
-                output_error: m.output_error,
-                start_offset_mm: m.start_offset_mm,
-            });
+            c.members.push(ChannelMember::from_model(k, m));
         }
     }
     let channels: Vec<ChannelSpec> = model.channels.iter().map(|c| c.channel.clone()).collect();

@@ -830,6 +830,23 @@ pub struct ChannelMember {
     pub start_offset_mm: f64,
 }
 
+impl ChannelMember {
+    /// `model` (a channel's model fitted with `folds` held-out blocks) as a
+    /// member of another model of the channel; its own members are dropped.
+    pub fn from_model(folds: usize, model: &ChannelModel) -> ChannelMember {
+        ChannelMember {
+            folds,
+            inputs: model.inputs.clone(),
+            a: model.a.clone(),
+            b: model.b.clone(),
+            heldout_rms_mm: model.heldout_rms_mm,
+            training_rms_mm: model.training_rms_mm,
+            output_error: model.output_error,
+            start_offset_mm: model.start_offset_mm,
+        }
+    }
+}
+
 /// The ARX model of coefficients `a`, `b` (delay 1) of channel `column`.
 fn arx_of(column: &str, a: &[f64], b: &[Vec<f64>]) -> Result<Arx, ThermalError> {
     Arx::new(a.to_vec(), b.iter().map(|b| (b.clone(), 1)).collect())
@@ -2159,17 +2176,8 @@ pub fn fit_log_with(
         })?;
         // The inputs and their scales depend on the training samples only.
         debug_assert_eq!(other.model.inputs, fit.model.inputs);
-        for (c, m) in fit.model.channels.iter_mut().zip(other.model.channels) {
-            c.members.push(ChannelMember {
-                folds,
-                inputs: m.inputs,
-                a: m.a,
-                b: m.b,
-                heldout_rms_mm: m.heldout_rms_mm,
-                training_rms_mm: m.training_rms_mm,
-                output_error: m.output_error,
-                start_offset_mm: m.start_offset_mm,
-            });
+        for (c, m) in fit.model.channels.iter_mut().zip(&other.model.channels) {
+            c.members.push(ChannelMember::from_model(folds, m));
         }
         fit.warnings.extend(
             other
