@@ -113,7 +113,13 @@ fn program(poly: &[[f64; 2]], diameter: f64, left: bool) -> (String, (u64, u64))
         .fold([0.0, 0.0], |s, p| [s[0] + p[0], s[1] + p[1]]);
     let c = [c[0] / poly.len() as f64, c[1] / poly.len() as f64];
     let v0 = order[0];
-    let start = [v0[0] + (v0[0] - c[0]), v0[1] + (v0[1] - c[1])];
+    // Outwards from the centroid through the first corner, at least a
+    // diameter away: LinuxCNC refuses an entry move not longer than the
+    // radius (a polygon with two corners close together has its centroid
+    // near the third).
+    let (dx, dy) = (v0[0] - c[0], v0[1] - c[1]);
+    let k = dx.hypot(dy).max(diameter) / dx.hypot(dy);
+    let start = [v0[0] + k * dx, v0[1] + k * dy];
     let mut lines = vec![
         "G21 G17 G90 G94 F500".to_string(),
         format!("G0 X{} Y{}", num(start[0]), num(start[1])),
@@ -132,6 +138,35 @@ fn program(poly: &[[f64; 2]], diameter: f64, left: bool) -> (String, (u64, u64))
     (lines.join("\n") + "\n", (first, last))
 }
 
+/// The closed-form checks around `poly` with a tool of `diameter`: no jump,
+/// every point one radius from the polygon, the length its perimeter plus
+/// one turn of the radius.
+fn check_outside(poly: &[[f64; 2]], diameter: f64, left: bool) -> Result<(), String> {
+    let (text, lines) = program(poly, diameter, left);
+    let (points, length, jump) = compensated_path(&text, lines);
+    let r = diameter / 2.0;
+    if jump >= 1e-9 {
+        return Err(format!("the path jumps by {jump}"));
+    }
+    for p in &points {
+        let d = to_polygon(*p, poly);
+        if (d - r).abs() >= 1e-7 {
+            return Err(format!("point {p:?} at {d}, radius {r}\n{text}"));
+        }
+    }
+    let perimeter: f64 = (0..poly.len())
+        .map(|i| {
+            let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+            (b[0] - a[0]).hypot(b[1] - a[1])
+        })
+        .sum();
+    let expected = perimeter + TAU * r;
+    if (length - expected).abs() >= 1e-7 {
+        return Err(format!("length {length}, expected {expected}\n{text}"));
+    }
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
 
@@ -146,23 +181,18 @@ proptest! {
         left in any::<bool>(),
     ) {
         let poly = polygon(cx, cy, big, phase, &weights);
-        let (text, lines) = program(&poly, diameter, left);
-        let (points, length, jump) = compensated_path(&text, lines);
-        let r = diameter / 2.0;
-        prop_assert!(jump < 1e-9, "the path jumps by {jump}");
-        for p in &points {
-            let d = to_polygon(*p, &poly);
-            prop_assert!((d - r).abs() < 1e-7, "point {p:?} at {d}, radius {r}\n{text}");
-        }
-        let perimeter: f64 = (0..poly.len())
-            .map(|i| {
-                let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
-                (b[0] - a[0]).hypot(b[1] - a[1])
-            })
-            .sum();
-        let expected = perimeter + TAU * r;
-        prop_assert!((length - expected).abs() < 1e-7, "length {length}, expected {expected}\n{text}");
+        let checked = check_outside(&poly, diameter, left);
+        prop_assert!(checked.is_ok(), "{}", checked.unwrap_err());
     }
+}
+
+/// A case the random search found: two corners close together put the
+/// centroid near the third, and an entry move from twice the centroid's
+/// distance was shorter than the radius (LinuxCNC refuses it).
+#[test]
+fn a_triangle_with_two_close_corners_gets_an_entry_longer_than_the_radius() {
+    let poly = polygon(0.0, 0.0, 20.0, 0.0, &[0.7568518839193514, 0.05, 0.05]);
+    check_outside(&poly, 10.252341661869478, true).unwrap();
 }
 
 #[test]
