@@ -60,6 +60,22 @@ def thermal_fit(
     extra_inputs: Sequence[str] = (),
 ) -> Tuple[str, Document]: ...
 def thermal_predict(model: _Path, speed: _Path, z: Sequence[float]) -> Tuple[_F64, Document]: ...
+def thermal_fit_log(
+    log: _Path,
+    drift: Sequence[str],
+    inputs: Sequence[str],
+    period_min: float = 1.0,
+    train_until_min: Optional[float] = None,
+    folds: Union[int, Sequence[int]] = 3,
+    max_order: int = 2,
+    max_inputs: int = 6,
+    ambient: Optional[str] = None,
+    lags: bool = False,
+    input_rule: str = "pooled",
+    search: str = "forward",
+    start_offset: bool = False,
+) -> Tuple[str, Document]: ...
+def thermal_predict_log(model: _Path, log: _Path) -> Tuple[_F64, Document]: ...
 def gcode_stats(program: _Path, machine: Optional[Machine] = None, tcp: bool = False) -> Document: ...
 def ballbar_setup_error(length: float, lmax: float, lmin: float, theta2: float) -> Document: ...
 def ballbar_identify(

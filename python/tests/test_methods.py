@@ -5,6 +5,7 @@ file and line."""
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -135,6 +136,65 @@ def test_thermal_fit_and_predict_equal_the_cli(cli, tmp_path):
     header, cli_table = read_csv(tmp_path / "drift.csv")
     assert header == ["t_min", "z_mm", "drift_mm"]
     assert np.array_equal(table, cli_table)
+
+
+def thermal_log(path, minutes=360, drift=True, bad_row=None):
+    """A wide log every 30 s: a Z drift following the speed (pole 0.95 per
+    minute), an X drift following a temperature rise, a temperature that does
+    not act."""
+    rows = []
+    ez = ex = 0.0
+    for k in range(2 * minutes):
+        t = k * 0.5
+        n = [0.0, 3000.0, 6000.0, 1500.0][int(t // 45) % 4]
+        t1 = 20.0 + 4.0 * (1.0 - math.exp(-t / 90.0))
+        t2 = 22.0 + 0.3 * math.sin(t / 40.0)
+        rows.append((t, n, t1, t2, ez, ex))
+        if k % 2 == 1:
+            ez = 0.95 * ez + 0.05 * (-0.004) * n
+            ex = 0.9 * ex + 0.1 * 0.002 * (t1 - 20.0)
+    with open(path, "w") as f:
+        f.write("t_min,speed_rpm,t1_c,t2_c" + (",grow_um,shift_mm" if drift else "") + "\n")
+        for i, (t, n, t1, t2, ez, ex) in enumerate(rows):
+            cells = [repr(t), repr(n), repr(t1), "x" if i == bad_row else repr(t2)]
+            if drift:
+                cells += [repr(ez), repr(ex)]
+            f.write(",".join(cells) + "\n")
+
+
+def test_thermal_fit_log_and_predict_log_equal_the_cli(cli, tmp_path):
+    thermal_log(tmp_path / "log.csv")
+    args = ["thermal", "fit", "--log", "log.csv", "--drift", "grow_um:Z,shift_mm:X",
+            "--inputs", "speed_rpm,t1_c,t2_c", "--train-until-min", "300"]
+    for folds, flag in ((3, "3"), ([2, 3], "2,3")):
+        expected = cli.json(*args, "--folds", flag, "--out", "m.toml", cwd=tmp_path)
+        text, doc = mtwin.thermal_fit_log(tmp_path / "log.csv", ["grow_um:Z", "shift_mm:X"],
+                                          ["speed_rpm", "t1_c", "t2_c"], train_until_min=300.0,
+                                          folds=folds)
+        assert doc.kind == "ThermalLogFitDoc"
+        assert without(doc.to_dict(), "out") == without(expected, "out")
+        assert text == (tmp_path / "m.toml").read_text()
+    assert doc.ensemble_folds == [3]
+    assert [m["folds"] for m in doc.channels[0]["members"]] == [3]
+    thermal_log(tmp_path / "new.csv", minutes=120, drift=False)
+    expected = cli.json("thermal", "predict", "--model", "m.toml", "--log", "new.csv",
+                        "--out", "pred.csv", cwd=tmp_path)
+    table, pdoc = mtwin.thermal_predict_log(tmp_path / "m.toml", tmp_path / "new.csv")
+    assert pdoc.kind == "ThermalLogPredictDoc"
+    assert without(pdoc.to_dict(), "out") == without(expected, "out")
+    header, cli_table = read_csv(tmp_path / "pred.csv")
+    assert header == ["t_min", "grow_um", "shift_mm"]
+    assert np.array_equal(table, cli_table)
+    # Bad input: a cell that is not a number names its line; bad options
+    # raise ValueError before the log is read.
+    thermal_log(tmp_path / "bad.csv", bad_row=7)
+    with pytest.raises(mtwin.InputError) as e:
+        mtwin.thermal_fit_log(tmp_path / "bad.csv", ["grow_um:Z"], ["t2_c"])
+    assert e.value.line == 9 and e.value.file.endswith("bad.csv")
+    with pytest.raises(ValueError, match="given twice"):
+        mtwin.thermal_fit_log(tmp_path / "log.csv", ["grow_um:Z"], ["t1_c"], folds=[3, 3])
+    with pytest.raises(ValueError, match="drift"):
+        mtwin.thermal_fit_log(tmp_path / "log.csv", ["grow_um"], ["t1_c"])
 
 
 def test_ballbar_setup_error_equals_the_cli(cli, tmp_path):

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use mtwin::gcode::{self, GcodeError};
 use mtwin::io::{Diagnostic, Diagnostics, Table};
+use mtwin::methods::thermal::log::{ChannelSpec, InputSpec};
 use mtwin::methods::thermal::{self, ThermalFitOptions};
 use mtwin::methods::tracker::validate::ValidateOptions;
 use mtwin::methods::tracker::{self, IdentifyInputs, IdentifyOptions, TrackerPoint};
@@ -24,6 +25,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tracker_validate, m)?)?;
     m.add_function(wrap_pyfunction!(thermal_fit, m)?)?;
     m.add_function(wrap_pyfunction!(thermal_predict, m)?)?;
+    m.add_function(wrap_pyfunction!(thermal_fit_log, m)?)?;
+    m.add_function(wrap_pyfunction!(thermal_predict_log, m)?)?;
     m.add_function(wrap_pyfunction!(gcode_stats, m)?)?;
     m.add_function(wrap_pyfunction!(ballbar_setup_error, m)?)?;
     m.add_function(wrap_pyfunction!(ballbar_identify, m)?)?;
@@ -194,6 +197,120 @@ fn thermal_predict<'py>(
     Ok((
         numpy::IntoPyArray::into_pyarray(arr, py),
         document(py, "ThermalPredictDoc", &doc)?,
+    ))
+}
+
+/// A thermal error: problems in an input file as `InputError`, the rest as
+/// `ValueError`.
+fn thermal_error(py: Python<'_>, e: thermal::ThermalError) -> PyErr {
+    match e {
+        thermal::ThermalError::Input(d) => input_error(py, &d),
+        other => value_error(other),
+    }
+}
+
+/// `folds` of `thermal_fit_log`: one number of held-out blocks or several.
+#[derive(FromPyObject)]
+enum FoldCounts {
+    One(usize),
+    Many(Vec<usize>),
+}
+
+/// `mtwin thermal fit --log`: one drift model per channel of a wide machine
+/// log (CSV: `t_s` or `t_min`, the drift channels, the inputs), chosen by
+/// held-out simulation error. `drift` and `inputs` are the CLI's `--drift`
+/// and `--inputs` items (`"ch1_um:Z"`, `"t1_c"`, `"speed_rpm:square"`, …);
+/// `folds` one number of held-out blocks or a list (each channel then
+/// predicted by the median of the models of every count). Returns
+/// `(model_toml, doc)`: the model file text `thermal_predict_log` and
+/// `thermal compensate` read, and the `ThermalLogFitDoc`.
+#[pyfunction]
+#[pyo3(signature = (
+    log, drift, inputs, period_min = 1.0, train_until_min = None, folds = FoldCounts::One(3),
+    max_order = 2, max_inputs = 6, ambient = None, lags = false, input_rule = "pooled",
+    search = "forward", start_offset = false
+))]
+#[allow(clippy::too_many_arguments)]
+fn thermal_fit_log(
+    py: Python<'_>,
+    log: PathBuf,
+    drift: Vec<String>,
+    inputs: Vec<String>,
+    period_min: f64,
+    train_until_min: Option<f64>,
+    folds: FoldCounts,
+    max_order: usize,
+    max_inputs: usize,
+    ambient: Option<String>,
+    lags: bool,
+    input_rule: &str,
+    search: &str,
+    start_offset: bool,
+) -> PyResult<(String, Py<PyAny>)> {
+    fn named(what: &'static str) -> impl Fn(String) -> PyErr {
+        move |e| PyValueError::new_err(format!("{what}: {e}"))
+    }
+    let mut options = thermal::LogFitRunOptions::default();
+    options.channels = drift
+        .iter()
+        .map(|s| ChannelSpec::parse(s).map_err(named("drift")))
+        .collect::<PyResult<_>>()?;
+    options.inputs = inputs
+        .iter()
+        .map(|s| InputSpec::parse(s).map_err(named("inputs")))
+        .collect::<PyResult<_>>()?;
+    options.period_min = period_min;
+    options.train_until_min = train_until_min;
+    let folds = match folds {
+        FoldCounts::One(k) => vec![k],
+        FoldCounts::Many(v) => v,
+    };
+    let Some((&first, rest)) = folds.split_first() else {
+        return Err(PyValueError::new_err(
+            "folds: give a number of held-out blocks or a list of them",
+        ));
+    };
+    options.fit.folds = first;
+    options.fit.ensemble_folds = rest.to_vec();
+    options.fit.max_order = max_order;
+    options.fit.max_inputs = max_inputs;
+    options.fit.lags = lags;
+    options.fit.rule = input_rule.parse().map_err(named("input_rule"))?;
+    options.fit.search = search.parse().map_err(named("search"))?;
+    options.fit.start_offset = start_offset;
+    options.ambient = ambient
+        .map(|a| a.parse().map_err(named("ambient")))
+        .transpose()?;
+    options.validate().map_err(value_error)?;
+    let run = py
+        .detach(|| thermal::run_fit_log(&log, &options, &mut |_| {}))
+        .map_err(|e| thermal_error(py, e))?;
+    Ok((run.model_toml, document(py, "ThermalLogFitDoc", &run.doc)?))
+}
+
+/// `mtwin thermal predict --log`: a log model (`model`, a TOML file from
+/// `thermal_fit_log`) predicting a wide log (`log`) from its start with its
+/// inputs alone. Returns `(table, doc)`: an (N, 1 + channels) array of
+/// `t_min` (period centres) and each channel in its unit (the CSV the CLI
+/// writes), and the `ThermalLogPredictDoc`.
+#[pyfunction]
+fn thermal_predict_log<'py>(
+    py: Python<'py>,
+    model: PathBuf,
+    log: PathBuf,
+) -> PyResult<(Bound<'py, numpy::PyArray2<f64>>, Py<PyAny>)> {
+    let run = py
+        .detach(|| {
+            thermal::run_predict_log(&model, &log, &thermal::LogPredictRunOptions::default())
+        })
+        .map_err(|e| thermal_error(py, e))?;
+    let cols = run.columns.len();
+    let flat: Vec<f64> = run.rows.iter().flatten().copied().collect();
+    let arr = numpy::ndarray::Array2::from_shape_vec((run.rows.len(), cols), flat)
+        .expect("one value per column in every row");
+    Ok((
+        numpy::IntoPyArray::into_pyarray(arr, py),
+        document(py, "ThermalLogPredictDoc", &run.doc)?,
     ))
 }
 
