@@ -294,6 +294,15 @@ impl LogFitRunOptions {
     }
 }
 
+/// `(na, nb)` of an ARX model's coefficients `a = [1, a_1, …]` and `b` per
+/// input (one `nb` for all inputs; 0 without inputs).
+fn orders(a: &[f64], b: &[Vec<f64>]) -> (usize, usize) {
+    (
+        a.len().saturating_sub(1),
+        b.first().map_or(0, |b| b.len().saturating_sub(1)),
+    )
+}
+
 /// Where [`run_fit_log`] is: channel `channel` of `channels`, after forward
 /// selection step `step` (`None`: the channel is finished). With several
 /// numbers of held-out blocks ([`LogFitOptions::ensemble_folds`]) the
@@ -413,8 +422,8 @@ pub fn run_fit_log(
                 column: c.channel.column.clone(),
                 unit: c.channel.unit,
                 axis: c.channel.axis,
-                na: c.a.len() - 1,
-                nb: c.b.first().map_or(0, |b| b.len().saturating_sub(1)),
+                na: orders(&c.a, &c.b).0,
+                nb: orders(&c.a, &c.b).1,
                 inputs: c
                     .inputs
                     .iter()
@@ -436,8 +445,8 @@ pub fn run_fit_log(
                     .iter()
                     .map(|m| LogMemberDoc {
                         folds: m.folds,
-                        na: m.a.len() - 1,
-                        nb: m.b.first().map_or(0, |b| b.len().saturating_sub(1)),
+                        na: orders(&m.a, &m.b).0,
+                        nb: orders(&m.a, &m.b).1,
                         inputs: m
                             .inputs
                             .iter()
