@@ -485,15 +485,30 @@ fn interrupt_a_long_write(signal: &str) -> (std::process::ExitStatus, tempfile::
     let d = dir.path();
     slow_program(d);
     std::fs::write(d.join("cmd.csv"), "previous output\n").unwrap();
-    let mut child = Command::new(bin())
+    let mut command = Command::new(bin());
+    command
         .args(["gcode", "interpolate", "--machine"])
         .arg(example("ac-trunnion.toml"))
         .args(["slow.nc", "--ts", "0.001", "--out", "cmd.csv"])
         .current_dir(d)
         .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+        .stderr(Stdio::piped());
+    // The signal as a terminal's Ctrl-C or a `kill` delivers it, whatever
+    // the test runner inherited: started in the background of a
+    // non-interactive shell (as a CI script may start it), it has SIGINT
+    // ignored, and the tool rightly keeps an inherited ignored signal
+    // ignored (`an_ignored_signal_stays_ignored`).
+    use std::os::unix::process::CommandExt;
+    // SAFETY: between fork and exec the closure calls only `signal`, which
+    // is async-signal-safe, and allocates nothing.
+    unsafe {
+        command.pre_exec(|| {
+            libc::signal(libc::SIGINT, libc::SIG_DFL);
+            libc::signal(libc::SIGTERM, libc::SIG_DFL);
+            Ok(())
+        });
+    }
+    let mut child = command.spawn().unwrap();
     let start = Instant::now();
     loop {
         let big = std::fs::read_dir(d).unwrap().any(|e| {
