@@ -416,6 +416,7 @@ impl CutterComp {
 
     /// Where the next move starts: `pos`, plus the tool's offset after G40
     /// (taken once).
+    #[inline]
     pub(crate) fn physical_start(&mut self, pos: &Axes) -> Axes {
         self.entry_held = true;
         match self.exit_delta.take() {
@@ -433,6 +434,7 @@ impl CutterComp {
     /// ([`Self::stop`]): those few fields are kept instead of a copy of
     /// the whole state. A new step that changes another field of such a
     /// state must be added to [`Undo::Off`].
+    #[inline]
     pub(crate) fn undo_point(&self, switching: bool) -> Undo {
         let quiet = !switching
             && self.side.is_none()
@@ -480,6 +482,7 @@ impl CutterComp {
 
     /// Called after a block ran: the events still held leave `out` until a
     /// later block releases them.
+    #[inline]
     pub(crate) fn end_block(&mut self, out: &mut Vec<Event>) {
         if let Some(start) = self.queue_start.take() {
             self.carried = out.split_off(start);

@@ -137,12 +137,14 @@ impl Interpreter {
 
     /// Whether a non-motion code of the block reads its axis words (G10,
     /// G28, G30, G52, G92, G43.1).
+    #[inline]
     pub(super) fn axes_consumed(&self, codes: &Codes) -> bool {
         codes.non_modal.is_some_and(|(c, _)| c.covets_axes()) || codes.has(GCode::G43_1)
     }
 
     /// The motion mode the block's axis words will use: its own motion
     /// code, else the modal one.
+    #[inline]
     pub(super) fn motion_to_be(&self, codes: &Codes) -> Option<MotionMode> {
         if codes.motion.is_none() && self.axes_consumed(codes) {
             return None;

@@ -29,6 +29,11 @@
 //! probes, spindle-synchronised moves, G76 and the stops;
 //! `cutter_radius.rs`: G40/G41/G42 (the offset path itself is
 //! [`cutter_comp`](super::cutter_comp)).
+//!
+//! The short steps carry `#[inline]`: they live in other modules (so in
+//! other code units) than `run`, which calls each once per block, and
+//! without the hint the split into files made `gcode stats` about 5 %
+//! slower (BENCHMARKS.md, "The interpreter split into files").
 
 use super::arc::{self, ArcError};
 use super::axes::{Axes, Axis, AxisMask};
@@ -234,6 +239,7 @@ pub struct ModalState {
 }
 
 /// M-codes accepted without a motion meaning.
+#[inline]
 fn m_ignored(code: u32) -> bool {
     matches!(code, 0 | 1 | 7 | 8 | 9 | 19 | 48..=53 | 60 | 62..=68 | 70..=73)
 }
@@ -258,6 +264,7 @@ struct BlockWords {
 }
 
 /// Where a word letter (`A`–`Z`, `@`, `^`) is filed in [`BlockWords`].
+#[inline]
 fn letter_slot(l: u8) -> usize {
     match l {
         b'@' => 26,
@@ -267,16 +274,19 @@ fn letter_slot(l: u8) -> usize {
 }
 
 impl BlockWords {
+    #[inline]
     fn get(&self, l: u8) -> Option<&Letter> {
         let i = letter_slot(l);
         (self.present & (1 << i) != 0).then(|| &self.letters[i])
     }
 
     /// Whether the block has a polar coordinate word (`@` or `^`).
+    #[inline]
     fn polar(&self) -> bool {
         self.get(b'@').is_some() || self.get(b'^').is_some()
     }
 
+    #[inline]
     fn has_m(&self, codes: &[u32]) -> bool {
         self.m.iter().any(|(c, _)| codes.contains(c))
     }
@@ -315,6 +325,7 @@ struct Codes {
 }
 
 impl Codes {
+    #[inline]
     fn slot(&mut self, group: ModalGroup) -> &mut Option<At<GCode>> {
         match group {
             ModalGroup::NonModal => &mut self.non_modal,
@@ -340,6 +351,7 @@ impl Codes {
     /// modal group, which is the same in every dialect except for G80
     /// (motion in LinuxCNC, its own group in Fanuc's), so only that slot
     /// (or G80's two) is looked at.
+    #[inline]
     fn has(&self, code: GCode) -> bool {
         let is = |s: &Option<At<GCode>>| s.is_some_and(|(c, _)| c == code);
         if code == GCode::G80 {
@@ -368,11 +380,13 @@ impl Codes {
 
     /// The block's motion code other than G80 (the block moves, or sets a
     /// motion mode).
+    #[inline]
     fn explicit_motion(&self) -> Option<At<GCode>> {
         self.motion.filter(|(c, _)| *c != GCode::G80)
     }
 
     /// The non-modal G53, if the block has it.
+    #[inline]
     fn g53(&self) -> Option<usize> {
         self.non_modal
             .filter(|(c, _)| *c == GCode::G53)
@@ -454,6 +468,7 @@ impl Step<'_> {
         self.out.push(Event { at: self.at, kind });
     }
 
+    #[inline]
     fn invalid(&self, column: usize, message: impl Into<String>) -> GcodeError {
         GcodeError::invalid(self.line, column, message)
     }
@@ -615,16 +630,19 @@ impl Interpreter {
     }
 
     /// The modal state after the blocks executed so far.
+    #[inline]
     pub fn state(&self) -> &ModalState {
         &self.state
     }
 
     /// The parameters (numbered, named) after the blocks executed so far.
+    #[inline]
     pub fn parameters(&self) -> &Parameters {
         &self.params
     }
 
     /// The parameters, for program flow (subroutine arguments, returns).
+    #[inline]
     pub fn parameters_mut(&mut self) -> &mut Parameters {
         &mut self.params
     }
@@ -633,17 +651,20 @@ impl Interpreter {
     /// `%` of a program that starts with `%` was read. Later blocks are
     /// ignored; callers stop reading there (LinuxCNC reads no further, so
     /// text after the end is never an error).
+    #[inline]
     pub fn ended(&self) -> bool {
         self.ended
     }
 
     /// Whether the program started with a `%` line (so that the next `%`
     /// line ends it).
+    #[inline]
     pub(crate) fn percent_opened(&self) -> bool {
         self.percent == Percent::Used
     }
 
     /// The tool table as the program has changed it (G10 L1/L10/L11).
+    #[inline]
     pub fn tools(&self) -> &ToolTable {
         &self.tools
     }
@@ -842,6 +863,7 @@ impl Interpreter {
 }
 
 /// The motion mode a group-1 code sets (G80 excluded).
+#[inline]
 fn motion_mode(code: GCode) -> MotionMode {
     match code {
         GCode::G0 => MotionMode::Rapid,
@@ -860,6 +882,7 @@ fn motion_mode(code: GCode) -> MotionMode {
 /// the sign of the programmed value giving the direction.
 /// Rotates X Y of `a` by `deg` degrees about Z (counter-clockwise seen
 /// from +Z, LinuxCNC's `rotate`); no change at all for 0.
+#[inline]
 fn rotate_xy(a: &mut Axes, deg: f64) {
     if deg == 0.0 {
         return;

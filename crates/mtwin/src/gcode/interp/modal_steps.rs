@@ -7,6 +7,7 @@ use super::*;
 
 impl Interpreter {
     /// G93, G94, G95. Each clears the feed rate.
+    #[inline]
     pub(super) fn set_feed_mode(&mut self, codes: &Codes, s: &mut Step) {
         let Some((code, _)) = codes.feed_mode else {
             return;
@@ -25,6 +26,7 @@ impl Interpreter {
     }
 
     /// F, in canonical units (mm/min, 1/min, mm/rev).
+    #[inline]
     pub(super) fn set_feed_rate(&mut self, w: &BlockWords, s: &mut Step) -> Result<(), GcodeError> {
         let Some(f) = w.get(b'F') else {
             return Ok(());
@@ -43,6 +45,7 @@ impl Interpreter {
     }
 
     /// S, rev/min.
+    #[inline]
     pub(super) fn set_spindle_speed(
         &mut self,
         w: &BlockWords,
@@ -63,6 +66,7 @@ impl Interpreter {
     /// 0 must be in it (LinuxCNC refuses T of a tool its table does not
     /// hold); without one, any tool is taken (its offsets are then unknown:
     /// G43 of it is refused).
+    #[inline]
     pub(super) fn select_tool(&mut self, w: &BlockWords, s: &Step) -> Result<(), GcodeError> {
         if let Some(t) = w.get(b'T') {
             let n = nonneg_int(*t, s.line, "T")?;
@@ -133,6 +137,7 @@ impl Interpreter {
     /// on the line of an M6 or M61, where LinuxCNC re-reads the entry only
     /// at the next line, so it is still the tool loaded before (checked
     /// with `rs274` 2.9: `T2 M6`, then `T4 M6 G43 H0` applies tool 2).
+    #[inline]
     pub(super) fn spindle_entry_tool(&self, codes: &Codes) -> u32 {
         if codes.m_tool_change.is_some() {
             self.tool_before_change
@@ -145,6 +150,7 @@ impl Interpreter {
     /// the line of an M6 or M61 the new tool's own entry (LinuxCNC reads
     /// the pocket changed to), unless that is tool 0 (its pocket is the
     /// spindle's entry, still the tool loaded before).
+    #[inline]
     fn g43_default_tool(&self, codes: &Codes) -> u32 {
         if codes.m_tool_change.is_some() && self.state.tool != 0 {
             self.state.tool
@@ -156,6 +162,7 @@ impl Interpreter {
     /// The block's M-codes among `codes` that LinuxCNC's task waits for
     /// motion to end at ([`TaskWait`]), in the order of `codes` (M9 is mist
     /// off, then flood off).
+    #[inline]
     pub(super) fn task_waits(&mut self, w: &BlockWords, s: &mut Step, codes: &[u32]) {
         if w.m.is_empty() {
             return;
@@ -180,6 +187,7 @@ impl Interpreter {
 
     /// An error `message` at `column` while cutter radius compensation is
     /// on (LinuxCNC refuses these codes then).
+    #[inline]
     pub(super) fn refuse_with_comp(
         &self,
         s: &Step,
@@ -194,6 +202,7 @@ impl Interpreter {
 
     /// M-codes accepted without a motion meaning that LinuxCNC refuses
     /// while cutter radius compensation is on (overrides, outputs, inputs).
+    #[inline]
     pub(super) fn m_codes_with_comp(&self, w: &BlockWords, s: &Step) -> Result<(), GcodeError> {
         if !self.comp.is_on() {
             return Ok(());
@@ -222,6 +231,7 @@ impl Interpreter {
     }
 
     /// M3, M4, M5.
+    #[inline]
     pub(super) fn set_spindle_direction(&mut self, codes: &Codes, s: &mut Step) {
         let Some((code, _)) = codes.m_spindle else {
             return;
@@ -236,6 +246,7 @@ impl Interpreter {
     }
 
     /// The configured TCP M-codes (kinematics switch remaps).
+    #[inline]
     pub(super) fn switch_tcp_by_m_code(&mut self, codes: &Codes, s: &mut Step) {
         let Some((code, _)) = codes.m_tcp else {
             return;
@@ -284,6 +295,7 @@ impl Interpreter {
     }
 
     /// G17, G18, G19.
+    #[inline]
     pub(super) fn set_plane(&mut self, codes: &Codes, s: &Step) -> Result<(), GcodeError> {
         if let Some((code, col)) = codes.plane {
             let plane = match code {
@@ -305,6 +317,7 @@ impl Interpreter {
 
     /// G61, G61.1, G64 with its P and Q (program units, converted to mm;
     /// absent or zero means none, as in LinuxCNC).
+    #[inline]
     pub(super) fn set_path_control(
         &mut self,
         w: &BlockWords,
@@ -338,6 +351,7 @@ impl Interpreter {
     }
 
     /// G20, G21.
+    #[inline]
     pub(super) fn set_length_units(&mut self, codes: &Codes, s: &mut Step) {
         if let Some((code, _)) = codes.units {
             self.state.units = if code == GCode::G20 {
@@ -350,6 +364,7 @@ impl Interpreter {
     }
 
     /// Group 15: G7 (diameter mode), G8 (radius mode).
+    #[inline]
     pub(super) fn set_lathe_diameter_mode(&mut self, codes: &Codes) {
         self.state.lathe_diameter = lathe_diameter_mode::mode_after(
             self.state.lathe_diameter,
@@ -360,6 +375,7 @@ impl Interpreter {
     /// In diameter mode (after the block's G7/G8) the X word is read as half
     /// its value, and G76's I, J, K as LinuxCNC 2.9 scales them
     /// ([`lathe_diameter_mode`]).
+    #[inline]
     pub(super) fn read_diameters(&self, w: &mut BlockWords, codes: &Codes) {
         let before = self.state.lathe_diameter;
         let after = lathe_diameter_mode::mode_after(before, codes.lathe_diameter.map(|(c, _)| c));
@@ -506,6 +522,7 @@ impl Interpreter {
     }
 
     /// G90, G91.
+    #[inline]
     pub(super) fn set_distance_mode(&mut self, codes: &Codes) {
         if let Some((code, _)) = codes.distance {
             self.state.distance = if code == GCode::G90 {
@@ -517,6 +534,7 @@ impl Interpreter {
     }
 
     /// G90.1, G91.1.
+    #[inline]
     pub(super) fn set_arc_distance_mode(&mut self, codes: &Codes) {
         if let Some((code, _)) = codes.arc_distance {
             self.state.arc_distance = if code == GCode::G90_1 {
@@ -528,6 +546,7 @@ impl Interpreter {
     }
 
     /// G98, G99.
+    #[inline]
     pub(super) fn set_retract_mode(&mut self, codes: &Codes, s: &Step) -> Result<(), GcodeError> {
         if let Some((code, col)) = codes.retract {
             self.refuse_with_comp(

@@ -6,6 +6,7 @@ use super::*;
 
 impl Interpreter {
     /// G53 (non-modal): needs axis words and a straight motion mode.
+    #[inline]
     pub(super) fn check_g53(
         &self,
         w: &BlockWords,
@@ -27,6 +28,7 @@ impl Interpreter {
 
     /// Sets the total offset from the work, G92 and tool offsets in force,
     /// keeping the machine position.
+    #[inline]
     pub(super) fn apply_offsets(&mut self) {
         let machine = self.to_machine(&self.state.position);
         let st = &mut self.state;
@@ -41,6 +43,7 @@ impl Interpreter {
     }
 
     /// Machine coordinates of a work position (identity kinematics).
+    #[inline]
     pub(super) fn to_machine(&self, p: &Axes) -> Axes {
         let mut m = *p;
         rotate_xy(&mut m, self.state.rotation);
@@ -48,6 +51,7 @@ impl Interpreter {
     }
 
     /// Work coordinates of a machine position (identity kinematics).
+    #[inline]
     pub(super) fn to_work(&self, m: &Axes) -> Axes {
         let mut p = m.sub(&self.state.offset);
         rotate_xy(&mut p, -self.state.rotation);
@@ -56,6 +60,7 @@ impl Interpreter {
 
     /// A work position as the events give it: X Y rotated by the rotation
     /// in force, so that machine = event position + offset.
+    #[inline]
     pub(super) fn event_point(&self, p: &Axes) -> Axes {
         let mut q = *p;
         rotate_xy(&mut q, self.state.rotation);
@@ -63,6 +68,7 @@ impl Interpreter {
     }
 
     /// Refuses what this interpreter does not run in a rotated system.
+    #[inline]
     pub(super) fn check_rotation(&self, s: &Step) -> Result<(), GcodeError> {
         if self.state.rotation != 0.0 && self.state.tcp {
             return Err(GcodeError::unsupported(
@@ -75,6 +81,7 @@ impl Interpreter {
     }
 
     /// The axis words of a block in canonical units (mm, degree).
+    #[inline]
     pub(super) fn axis_words(&self, w: &BlockWords, codes: &Codes) -> (AxisMask, [f64; 9]) {
         let dialect = self.opts.dialect;
         let dwell = codes.has(GCode::G4);
@@ -418,6 +425,7 @@ impl Interpreter {
     /// #5061–#5069 read that end (X Y Z U V W in program units, A B C in
     /// degrees, within [0, 360) on a wrapped rotary axis; the point in the
     /// coordinate system the probe ran in) and #5070 reads 0 (not tripped).
+    #[inline]
     fn set_probe_result(&mut self, end: &Axes) {
         let per_unit = 1.0 / self.state.units.mm_per_unit();
         for (j, a) in Axis::ALL.into_iter().enumerate() {
@@ -654,6 +662,7 @@ impl Interpreter {
 
     /// What a move of cutter radius compensation carries besides its
     /// geometry.
+    #[inline]
     fn move_info(&self, at: SourcePos, column: usize, words: Programmed, feed: Feed) -> MoveInfo {
         let st = &self.state;
         MoveInfo {
@@ -721,6 +730,7 @@ impl Interpreter {
     /// M2, M30: end of program (M0, M1, M60 do not change the motion).
     /// Every stop releases the moves cutter compensation holds back, as they
     /// are; M2 and M30 also turn it off.
+    #[inline]
     pub(super) fn stop(&mut self, codes: &Codes, s: &mut Step) -> Result<(), GcodeError> {
         let Some((code, _)) = codes.m_stop else {
             return Ok(());

@@ -60,6 +60,7 @@ impl Interpreter {
     }
 
     /// Refuses absolute values of wrapped rotary axes outside (−360, 360).
+    #[inline]
     fn check_wrapped(
         &self,
         w: &BlockWords,
@@ -82,6 +83,7 @@ impl Interpreter {
 
     /// The machine position G28.1/G30.1 store (wrapped rotary axes in
     /// [0, 360)).
+    #[inline]
     fn home_to_store(&self) -> Axes {
         let mut m = self.to_machine(&self.state.position);
         for a in self.opts.wrapped_rotary.iter() {
@@ -146,6 +148,7 @@ impl Interpreter {
     }
 
     /// What the block wrote for a move, in the current modes.
+    #[inline]
     pub(super) fn programmed(&self, axes: AxisMask, expanded: bool) -> Programmed {
         Programmed {
             axes,
@@ -379,6 +382,7 @@ impl Interpreter {
     /// with no tool offset (LinuxCNC's `find_current_in_system_without_tlo`):
     /// the machine point without the tool offset in force, taken into
     /// `system`'s origin and rotation, less the G92 offsets if applied.
+    #[inline]
     fn current_in_system_without_tool(&self, system: usize) -> Axes {
         let st = &self.state;
         let mut c = st.position.add(&st.axis_offset);
@@ -445,6 +449,7 @@ impl Interpreter {
 
     /// G92.1 and G92.2 (axis offsets to zero; G92.1 also clears the kept
     /// values), G92.3 (restore the kept values).
+    #[inline]
     pub(super) fn set_g92_applied(&mut self, codes: &Codes, s: &Step) -> Result<(), GcodeError> {
         let Some((code, col)) = codes.g92_applied else {
             return Ok(());
