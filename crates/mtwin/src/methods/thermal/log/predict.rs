@@ -17,6 +17,17 @@ pub struct ChannelScore {
     pub error_over_drift_rms: f64,
 }
 
+/// Where channel `i` of `log` starts, in its unit: its first period mean,
+/// the base every prediction adds its drift to (0 when the log lacks the
+/// channel).
+fn start_value(log: &LogData, i: usize) -> f64 {
+    log.channels
+        .get(i)
+        .and_then(|v| v.first())
+        .copied()
+        .unwrap_or(0.0)
+}
+
 /// The whole log simulated from its start (from rest, inputs only) by
 /// `model`: per channel, the predicted value in the channel's unit on the
 /// grid (`start + drift`, sample `k` the mean over `[kT, (k+1)T)`).
@@ -27,12 +38,7 @@ pub fn predict_log(model: &LogModel, log: &LogData) -> Result<Vec<Vec<f64>>, The
         .iter()
         .enumerate()
         .map(|(i, c)| {
-            let base = log
-                .channels
-                .get(i)
-                .and_then(|v| v.first())
-                .copied()
-                .unwrap_or(0.0);
+            let base = start_value(log, i);
             let d = c.simulate(&scaled, true)?;
             Ok(d.iter().map(|e| base + e / c.channel.unit.mm()).collect())
         })
@@ -57,12 +63,7 @@ pub fn predict_log_range(
             if c.members.is_empty() {
                 return Ok(None);
             }
-            let base = log
-                .channels
-                .get(i)
-                .and_then(|v| v.first())
-                .copied()
-                .unwrap_or(0.0);
+            let base = start_value(log, i);
             let runs = c.simulate_each(&scaled, true)?;
             let n = runs[0].len();
             let at = |k: usize, pick: fn(f64, f64) -> f64| {
