@@ -176,6 +176,18 @@ def test_thermal_fit_log_and_predict_log_equal_the_cli(cli, tmp_path):
         assert text == (tmp_path / "m.toml").read_text()
     assert doc.ensemble_folds == [3]
     assert [m["folds"] for m in doc.channels[0]["members"]] == [3]
+    # The plain rises kept beside those over an ambient sensor: the same
+    # document and model file as the CLI's `--ambient t2_c --also-plain`.
+    expected = cli.json(*args, "--ambient", "t2_c", "--also-plain", "--out", "j.toml",
+                        cwd=tmp_path)
+    text, jdoc = mtwin.thermal_fit_log(tmp_path / "log.csv", ["grow_um:Z", "shift_mm:X"],
+                                       ["speed_rpm", "t1_c", "t2_c"], train_until_min=300.0,
+                                       ambient="t2_c", also_plain=True)
+    assert jdoc.also_plain and without(jdoc.to_dict(), "out") == without(expected, "out")
+    assert text == (tmp_path / "j.toml").read_text()
+    assert len(jdoc.channels[0]["members"]) == 1
+    with pytest.raises(ValueError, match="ambient sensor too"):
+        mtwin.thermal_fit_log(tmp_path / "log.csv", ["grow_um:Z"], ["t1_c"], also_plain=True)
     thermal_log(tmp_path / "new.csv", minutes=120, drift=False)
     expected = cli.json("thermal", "predict", "--model", "m.toml", "--log", "new.csv",
                         "--out", "pred.csv", cwd=tmp_path)

@@ -221,14 +221,16 @@ enum FoldCounts {
 /// held-out simulation error. `drift` and `inputs` are the CLI's `--drift`
 /// and `--inputs` items (`"ch1_um:Z"`, `"t1_c"`, `"speed_rpm:square"`, …);
 /// `folds` one number of held-out blocks or a list (each channel then
-/// predicted by the median of the models of every count). Returns
+/// predicted by the median of the models of every count); `ambient` a
+/// column or `"auto"`, and `also_plain` keeps the models of the plain rises
+/// beside those over it (the CLI's `--ambient`, `--also-plain`). Returns
 /// `(model_toml, doc)`: the model file text `thermal_predict_log` and
 /// `thermal compensate` read, and the `ThermalLogFitDoc`.
 #[pyfunction]
 #[pyo3(signature = (
     log, drift, inputs, period_min = 1.0, train_until_min = None, folds = FoldCounts::One(3),
     max_order = 2, max_inputs = 6, ambient = None, lags = false, input_rule = "pooled",
-    search = "forward", start_offset = false
+    search = "forward", start_offset = false, also_plain = false
 ))]
 #[allow(clippy::too_many_arguments)]
 fn thermal_fit_log(
@@ -246,6 +248,7 @@ fn thermal_fit_log(
     input_rule: &str,
     search: &str,
     start_offset: bool,
+    also_plain: bool,
 ) -> PyResult<(String, Py<PyAny>)> {
     fn named(what: &'static str) -> impl Fn(String) -> PyErr {
         move |e| PyValueError::new_err(format!("{what}: {e}"))
@@ -281,6 +284,7 @@ fn thermal_fit_log(
     options.ambient = ambient
         .map(|a| a.parse().map_err(named("ambient")))
         .transpose()?;
+    options.also_plain = also_plain;
     options.validate().map_err(value_error)?;
     let run = py
         .detach(|| thermal::run_fit_log(&log, &options, &mut |_| {}))

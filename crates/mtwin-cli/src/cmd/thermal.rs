@@ -181,6 +181,11 @@ pub struct FitArgs {
     /// (the spindle speed) over the training rows (docs/thermal.md, "Rises over an ambient sensor").
     #[arg(long, value_name = "COLUMN|auto", value_parser = parse_ambient, requires = "log")]
     ambient: Option<Ambient>,
+    /// With --ambient: also fit every channel on the temperatures as given (the plain rises), and
+    /// predict it by the per-sample median of the models of both kinds (with --folds 2-6, ten
+    /// models); twice the work (docs/thermal.md, "The two kinds of rises together").
+    #[arg(long, requires = "ambient")]
+    also_plain: bool,
     /// Largest ARX order tried: na in 1..=N, nb in 0..=N (default 4); with --log na and nb in
     /// 0..=N (default 2).
     #[arg(long)]
@@ -438,6 +443,7 @@ fn fit(a: FitArgs) -> anyhow::Result<()> {
         ("--search", a.search.is_some()),
         ("--start-offset", a.start_offset),
         ("--ambient", a.ambient.is_some()),
+        ("--also-plain", a.also_plain),
     ];
     if let Some((flag, _)) = log_only.iter().find(|(_, given)| *given) {
         anyhow::bail!("{flag} applies to a wide log (--log LOG.csv), not to --data");
@@ -522,6 +528,7 @@ fn fit_log(log: &Path, a: FitArgs) -> anyhow::Result<()> {
     options.fit.search = a.search.unwrap_or(options.fit.search);
     options.fit.start_offset = a.start_offset;
     options.ambient = a.ambient.clone();
+    options.also_plain = a.also_plain;
     options.out = a.out.display().to_string();
     options.validate()?;
     let mut out = mtwin::io::Outputs::plan()

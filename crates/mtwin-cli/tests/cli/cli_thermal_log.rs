@@ -1086,6 +1086,120 @@ fn fit_log_with_temperatures_over_an_ambient_sensor() {
     expect_failure(p, &named, "the ambient sensor `speed_rpm`", "m3.toml");
 }
 
+/// `--also-plain` keeps, beside each channel's model over the ambient
+/// sensor, its model of the plain rises: the model file holds the inputs of
+/// both (the shared ones once) and each channel is predicted by the median
+/// of the two, here their mean, computed from the two models fitted apart.
+/// With one input and one pole per channel the plain fit can take neither
+/// the housing over the room nor the speed through both lags, so the two
+/// predictions differ. Without `--ambient` the flag is refused.
+#[test]
+fn fit_log_with_the_plain_rises_kept_beside_those_over_the_ambient_sensor() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    let rows = room_machine(600, &[0.0, 3000.0, 1000.0, 5000.0, 0.0, 2000.0], 0.0);
+    std::fs::write(p.join("log.csv"), room_log(&rows, true)).unwrap();
+    let new = room_machine(300, &[4000.0, 0.0, 2500.0], 1.3);
+    std::fs::write(p.join("new.csv"), room_log(&new, false)).unwrap();
+    let fit = |extra: &[&str], out: &str| {
+        let mut a = vec![
+            "thermal",
+            "fit",
+            "--log",
+            "log.csv",
+            "--drift",
+            "z_mm:Z",
+            "--inputs",
+            "speed_rpm,room_c,housing_c,bed_c",
+            "--max-inputs",
+            "1",
+            "--max-order",
+            "1",
+            "--train-until-min",
+            "480",
+            "--out",
+            out,
+        ];
+        a.extend(extra);
+        let a: Vec<String> = a.into_iter().map(String::from).collect();
+        a
+    };
+    let predict = |model: &str, out: &str| {
+        let o = mtwin(
+            p,
+            &[
+                "thermal", "predict", "--model", model, "--log", "new.csv", "--out", out,
+            ],
+        );
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        read_csv(&p.join(out)).1
+    };
+    for (extra, out) in [
+        (&["--ambient", "auto"][..], "over.toml"),
+        (&[][..], "plain.toml"),
+    ] {
+        let a = fit(extra, out);
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        let o = mtwin(p, &a);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    }
+    let a = fit(&["--ambient", "auto", "--also-plain"], "both.toml");
+    let a: Vec<&str> = a.iter().map(String::as_str).collect();
+    let (doc, v) = json_round_trip::<mtwin::methods::thermal::ThermalLogFitDoc>(p, &a);
+    assert!(doc.also_plain && v["also_plain"] == true);
+    let names: Vec<String> = doc.inputs.iter().map(|i| i.name()).collect();
+    assert_eq!(
+        names,
+        [
+            "speed_rpm",
+            "room_c",
+            "housing_c:over=room_c",
+            "bed_c:over=room_c",
+            "housing_c",
+            "bed_c"
+        ]
+    );
+    let c = &doc.channels[0];
+    assert_eq!(c.inputs, ["housing_c:over=room_c"]);
+    assert_eq!(c.members.len(), 1);
+    assert_eq!(c.members[0].inputs.len(), 1);
+    assert!(!c.members[0].inputs[0].contains("over="), "{c:?}");
+    let human = stdout(&mtwin(p, &a));
+    assert!(
+        human.contains("median of its 2 models of both kinds"),
+        "{human}"
+    );
+    let (over, plain, both) = (
+        predict("over.toml", "over.csv"),
+        predict("plain.toml", "plain.csv"),
+        predict("both.toml", "both.csv"),
+    );
+    assert_eq!(both.len(), 300);
+    assert!(
+        over.iter()
+            .zip(&plain)
+            .any(|(o, q)| (o[1] - q[1]).abs() > 1e-3 * (o[1].abs() + 1e-6)),
+        "the two kinds predict the same: {:?} {:?}",
+        &over[..5],
+        &plain[..5]
+    );
+    for (k, ((o, q), j)) in over.iter().zip(&plain).zip(&both).enumerate() {
+        let mean = 0.5 * (o[1] + q[1]);
+        assert!(
+            (j[1] - mean).abs() <= 1e-9 * (1.0 + mean.abs()),
+            "minute {k}: {} vs {mean}",
+            j[1]
+        );
+    }
+    // Without --ambient there is nothing to keep the plain rises beside.
+    let a = fit(&["--also-plain"], "none.toml");
+    let a: Vec<&str> = a.iter().map(String::as_str).collect();
+    let o = mtwin(p, &a);
+    assert_ne!(o.status.code(), Some(0));
+    assert!(stderr(&o).contains("--ambient"), "{}", stderr(&o));
+    assert!(!p.join("none.toml").exists());
+}
+
 /// The flags of a wide log are refused with `--data` (never silently
 /// ignored): exit 1, the flag named, no model written.
 #[test]

@@ -311,6 +311,29 @@ fn real_record_last_third_with_every_setting_chosen_by_cross_validation() {
     assert_documented("chosen by cross-validation, error/drift RMS", &ratio);
 }
 
+/// The fits of `inputs` at 1-min periods with 2, 3, 4, 5 and 6 held-out
+/// blocks, and the model `thermal fit --folds 2-6` assembles from them (the
+/// 2-block model with the others as members).
+fn five_cuts(path: &Path, inputs: &[String]) -> (Vec<Evaluation>, LogModel) {
+    let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+    let runs: Vec<Evaluation> = (2..=6).map(|k| evaluate(path, &inputs, 1.0, k)).collect();
+    let mut model = (*runs[0].model).clone();
+    for (k, run) in (3..=6).zip(&runs[1..]) {
+        for (c, m) in model.channels.iter_mut().zip(&run.model.channels) {
+            c.members.push(ChannelMember::from_model(k, m));
+        }
+    }
+    (runs, model)
+}
+
+/// `model`'s scores on the record read with the model's own inputs.
+fn score_model(path: &Path, model: &LogModel) -> (Vec<f64>, Vec<f64>) {
+    let channels: Vec<ChannelSpec> = model.channels.iter().map(|c| c.channel.clone()).collect();
+    let specs: Vec<InputSpec> = model.inputs.iter().map(|i| i.spec()).collect();
+    let log = read_log(&Table::read(path).unwrap(), &channels, &specs, 1.0).unwrap();
+    score(path, model, &log, TRAIN_UNTIL_MIN as usize)
+}
+
 /// The candidates of the cross-validation row at 1-min periods, each
 /// channel chosen and fitted with 2, 3, 4, 5 and 6 held-out blocks and
 /// predicted by the per-sample median of the five models (`thermal fit
@@ -322,21 +345,8 @@ fn real_record_last_third_by_the_median_of_the_models_of_five_cuts() {
     let Some(path) = record() else { return };
     let mut inputs = vec!["speed_rpm".to_string(), "speed_rpm:square".to_string()];
     inputs.extend(temperatures());
-    let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
-    let runs: Vec<Evaluation> = (2..=6).map(|k| evaluate(&path, &inputs, 1.0, k)).collect();
-    let mut model = (*runs[0].model).clone();
-    for (k, run) in (3..=6).zip(&runs[1..]) {
-        for (c, m) in model.channels.iter_mut().zip(&run.model.channels) {
-            c.members.push(ChannelMember::from_model(k, m));
-        }
-    }
-    let channels: Vec<ChannelSpec> = model.channels.iter().map(|c| c.channel.clone()).collect();
-    let specs: Vec<InputSpec> = inputs
-        .iter()
-        .map(|c| InputSpec::parse(c).unwrap())
-        .collect();
-    let log = read_log(&Table::read(&path).unwrap(), &channels, &specs, 1.0).unwrap();
-    let (mae, ratio) = score(&path, &model, &log, TRAIN_UNTIL_MIN as usize);
+    let (runs, model) = five_cuts(&path, &inputs);
+    let (mae, ratio) = score_model(&path, &model);
     eprintln!("median of five cuts: MAE {mae:.3?} µm, error/drift RMS {ratio:.3?}");
     for (k, run) in (2..=6).zip(&runs) {
         assert_documented(&format!("one cut, {k} held-out blocks, MAE µm"), &run.mae);
@@ -344,6 +354,52 @@ fn real_record_last_third_by_the_median_of_the_models_of_five_cuts() {
     assert_documented("median of the models of 2…6 held-out blocks, MAE µm", &mae);
     assert_documented(
         "median of the models of 2…6 held-out blocks, error/drift RMS",
+        &ratio,
+    );
+}
+
+/// The same five cuts over the ambient sensor (`--folds 2-6 --ambient
+/// auto`), then with the plain rises' five models kept beside them
+/// (`--also-plain`: the model over the ambient sensor joined by the plain
+/// one, ten models per channel, as `thermal fit` joins them). The test
+/// span only scores.
+#[test]
+fn real_record_last_third_by_the_median_of_ten_models_of_both_kinds() {
+    let Some(path) = record() else { return };
+    let mut plain = vec!["speed_rpm".to_string(), "speed_rpm:square".to_string()];
+    plain.extend(temperatures());
+    let ambient = ambient_sensor(&path);
+    let mut over = vec![
+        "speed_rpm".to_string(),
+        "speed_rpm:square".to_string(),
+        format!("t{ambient}_c"),
+    ];
+    over.extend(rises_over(ambient));
+    let (runs, over_model) = five_cuts(&path, &over);
+    let (mae, ratio) = score_model(&path, &over_model);
+    eprintln!("over ambient, median of five cuts: MAE {mae:.3?} µm, error/drift RMS {ratio:.3?}");
+    for (k, run) in (2..=6).zip(&runs) {
+        assert_documented(
+            &format!("over the ambient sensor, one cut, {k} held-out blocks, MAE µm"),
+            &run.mae,
+        );
+    }
+    assert_documented(
+        "over the ambient sensor, median of the models of 2…6 held-out blocks, MAE µm",
+        &mae,
+    );
+    let (_, plain_model) = five_cuts(&path, &plain);
+    let joined = over_model.join(&plain_model, 2).unwrap();
+    assert_eq!(joined.inputs.len(), 3 + 15 + 15);
+    assert!(joined.channels.iter().all(|c| c.members.len() == 9));
+    let (mae, ratio) = score_model(&path, &joined);
+    eprintln!("both kinds, median of ten: MAE {mae:.3?} µm, error/drift RMS {ratio:.3?}");
+    assert_documented(
+        "median of the ten models of both kinds, 2…6 held-out blocks, MAE µm",
+        &mae,
+    );
+    assert_documented(
+        "median of the ten models of both kinds, 2…6 held-out blocks, error/drift RMS",
         &ratio,
     );
 }

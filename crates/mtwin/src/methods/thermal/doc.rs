@@ -769,6 +769,11 @@ pub struct ThermalLogFitDoc {
     /// with ([`LogChannelDoc::members`]); empty for one model per channel.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub ensemble_folds: Vec<usize>,
+    /// Every channel was also fitted on the plain rises, and those models
+    /// are members beside the ones over the ambient sensor
+    /// ([`LogFitRunOptions::also_plain`](super::run::LogFitRunOptions::also_plain)).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub also_plain: bool,
     /// How the input sets were searched (left out for the default, the
     /// forward search).
     #[serde(default, skip_serializing_if = "super::log::InputSearch::is_forward")]
@@ -838,12 +843,20 @@ impl std::fmt::Display for ThermalLogFitDoc {
         }
         if !self.ensemble_folds.is_empty() {
             let more: Vec<String> = self.ensemble_folds.iter().map(usize::to_string).collect();
-            writeln!(
+            write!(
                 f,
-                "each channel also chosen with {} held-out blocks: predicted by the per-sample median of its {} models",
-                more.join(", "),
-                1 + self.ensemble_folds.len()
+                "each channel also chosen with {} held-out blocks",
+                more.join(", ")
             )?;
+            if self.also_plain {
+                writeln!(f)?;
+            } else {
+                writeln!(
+                    f,
+                    ": predicted by the per-sample median of its {} models",
+                    1 + self.ensemble_folds.len()
+                )?;
+            }
         }
         if !self.search.is_forward() {
             writeln!(
@@ -859,6 +872,13 @@ impl std::fmt::Display for ThermalLogFitDoc {
                     a.column, a.against, r, a.rows
                 )?,
                 None => writeln!(f, "temperatures taken over the ambient sensor {}", a.column)?,
+            }
+            if self.also_plain {
+                writeln!(
+                    f,
+                    "each channel also fitted on the plain rises: predicted by the per-sample median of its {} models of both kinds",
+                    2 * (1 + self.ensemble_folds.len())
+                )?;
             }
         }
         writeln!(

@@ -210,6 +210,12 @@ pub struct LogFitRunOptions {
     /// Take every temperature but one over an ambient sensor
     /// ([`inputs_over_ambient`]); `None`: the inputs as given.
     pub ambient: Option<Ambient>,
+    /// With [`LogFitRunOptions::ambient`]: also fit every channel on the
+    /// inputs as given (the plain rises), and keep those models as members
+    /// beside the ones over the ambient sensor ([`LogModel::join`]): each
+    /// channel is predicted by the median of the models of both kinds
+    /// (with several numbers of held-out blocks, twice as many models).
+    pub also_plain: bool,
     /// The name of the model file the caller writes, for the document.
     pub out: String,
 }
@@ -247,6 +253,7 @@ impl Default for LogFitRunOptions {
             train_until_min: None,
             fit: LogFitOptions::default(),
             ambient: None,
+            also_plain: false,
             out: String::new(),
         }
     }
@@ -274,6 +281,12 @@ impl LogFitRunOptions {
         if let Some(Ambient::Column(a)) = &self.ambient {
             inputs_over_ambient(&self.inputs, a).map_err(ThermalError::Options)?;
         }
+        if self.also_plain && self.ambient.is_none() {
+            return bad(
+                "the models of the plain rises are kept beside those over an ambient sensor: give the ambient sensor too"
+                    .into(),
+            );
+        }
         if !(self.period_min.is_finite() && self.period_min > 0.0) {
             return bad(format!(
                 "the model period must be > 0 min, not {}",
@@ -289,8 +302,18 @@ impl LogFitRunOptions {
             ));
         }
         self.fit
-            .validate(self.channels.len(), self.inputs.len())
+            .validate(self.channels.len() * self.kinds(), self.inputs.len())
             .map(|_| ())
+    }
+
+    /// Kinds of candidate inputs each channel is fitted with: 2 with
+    /// [`LogFitRunOptions::also_plain`] (over the ambient sensor and plain), else 1.
+    fn kinds(&self) -> usize {
+        if self.also_plain && self.ambient.is_some() {
+            2
+        } else {
+            1
+        }
     }
 }
 
@@ -372,13 +395,14 @@ pub fn run_fit_log(
         }
         None => options.inputs.clone(),
     };
-    let data = read_log(&table, &options.channels, &inputs, options.period_min)?;
+    let mut data = read_log(&table, &options.channels, &inputs, options.period_min)?;
     let n_train = options
         .train_until_min
         .map(|t| ((t / data.period_min).floor() as usize).min(data.len()));
-    let channels = options.channels.len() * options.fit.fold_counts().count();
+    let per_kind = options.channels.len() * options.fit.fold_counts().count();
+    let channels = per_kind * options.kinds();
     let max_steps = options.fit.max_inputs.min(options.inputs.len());
-    let fit = fit_log_with(
+    let mut fit = fit_log_with(
         &data,
         &options.channels,
         &inputs,
@@ -393,6 +417,40 @@ pub fn run_fit_log(
             })
         },
     )?;
+    if options.kinds() == 2 {
+        // The plain rises' models join those over the ambient sensor as
+        // members; the log is read again with the inputs of both.
+        let plain = read_log(
+            &table,
+            &options.channels,
+            &options.inputs,
+            options.period_min,
+        )?;
+        let other = fit_log_with(
+            &plain,
+            &options.channels,
+            &options.inputs,
+            n_train,
+            &options.fit,
+            &mut |channel, step| {
+                progress(LogFitProgress {
+                    channel: per_kind + channel,
+                    channels,
+                    step,
+                    max_steps,
+                })
+            },
+        )?;
+        fit.model = fit.model.join(&other.model, options.fit.folds)?;
+        let joined: Vec<InputSpec> = fit.model.inputs.iter().map(LogInput::spec).collect();
+        data = read_log(&table, &options.channels, &joined, options.period_min)?;
+        fit.warnings.extend(
+            other
+                .warnings
+                .into_iter()
+                .map(|w| format!("with the plain rises: {w}")),
+        );
+    }
     let test = match n_train {
         Some(n) if n < data.len() => Some(LogTestDoc {
             from_min: n as f64 * data.period_min,
@@ -410,6 +468,7 @@ pub fn run_fit_log(
         heldout_samples: fit.heldout_samples,
         folds: fit.folds,
         ensemble_folds: options.fit.ensemble_folds.clone(),
+        also_plain: options.kinds() == 2,
         search: options.fit.search,
         inputs: fit.model.inputs.clone(),
         ambient,

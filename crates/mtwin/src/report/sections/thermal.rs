@@ -241,15 +241,17 @@ pub fn log_section(
     }
     s.push(Block::Table(t));
     if doc.channels.iter().any(|c| !c.members.is_empty()) {
+        let mut caption = String::from("The other models of each channel");
+        if !doc.ensemble_folds.is_empty() {
+            let blocks: Vec<String> = doc.ensemble_folds.iter().map(usize::to_string).collect();
+            caption += &format!(", chosen with {} held-out blocks", blocks.join(", "));
+        }
+        if doc.also_plain {
+            caption += ", and its models of the plain rises (the temperatures not taken over the ambient sensor)";
+        }
+        caption += ": a channel is predicted by the per-sample median of all its models";
         let mut t = Table::new(
-            &format!(
-                "The other models of each channel, chosen with {} held-out blocks: a channel is predicted by the per-sample median of all its models",
-                doc.ensemble_folds
-                    .iter()
-                    .map(usize::to_string)
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
+            &caption,
             &[
                 "channel",
                 "held-out blocks",
@@ -553,6 +555,30 @@ mod tests {
                 vec!["ch1_um", "2", "0, 1", "t4_c", "2.000", "1.000", "no"],
                 vec!["ch1_um", "4", "1, 1", "speed_rpm", "2.500", "1.200", "yes"],
             ]
+        );
+        // With the plain rises kept beside those over the ambient sensor the
+        // caption says so, with or without other numbers of blocks.
+        ensemble.also_plain = true;
+        let s = log_section(&ensemble, &curves);
+        let Block::Table(t) = &s.blocks[2] else {
+            panic!("no members table")
+        };
+        assert!(
+            t.caption
+                .contains("2, 4 held-out blocks, and its models of the plain rises"),
+            "{}",
+            t.caption
+        );
+        ensemble.ensemble_folds.clear();
+        let s = log_section(&ensemble, &curves);
+        let Block::Table(t) = &s.blocks[2] else {
+            panic!("no members table")
+        };
+        assert!(
+            t.caption
+                .starts_with("The other models of each channel, and its models of the plain rises"),
+            "{}",
+            t.caption
         );
     }
 }

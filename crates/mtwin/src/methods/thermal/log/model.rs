@@ -315,6 +315,51 @@ impl LogModel {
             .collect()
     }
 
+    /// This model with the models of `other` (another fit of the same
+    /// channels on the same training samples and period, e.g. with other
+    /// candidate inputs) added to each channel as members: `other`'s model
+    /// of the channel, chosen with `other_folds` held-out blocks, then its
+    /// own members. Inputs the two share (the same column, transform and
+    /// scale) are kept once; the others are appended and the members'
+    /// indices mapped to them. Each channel is then predicted by the median
+    /// of the models of both ([`ChannelModel::simulate`]).
+    ///
+    /// # Errors
+    /// Another period, or a channel of this model that `other` lacks.
+    pub fn join(mut self, other: &LogModel, other_folds: usize) -> Result<LogModel, ThermalError> {
+        if self.period_min != other.period_min {
+            return Err(ThermalError::Model(format!(
+                "models of {} and {} min periods cannot be joined",
+                self.period_min, other.period_min
+            )));
+        }
+        let map: Vec<usize> = other
+            .inputs
+            .iter()
+            .map(|input| match self.inputs.iter().position(|i| i == input) {
+                Some(k) => k,
+                None => {
+                    self.inputs.push(input.clone());
+                    self.inputs.len() - 1
+                }
+            })
+            .collect();
+        for c in &mut self.channels {
+            let Some(o) = other.channels.iter().find(|o| o.channel == c.channel) else {
+                return Err(ThermalError::Model(format!(
+                    "channel `{}` is missing from the model to join",
+                    c.channel.column
+                )));
+            };
+            let first = ChannelMember::from_model(other_folds, o);
+            for mut m in std::iter::once(first).chain(o.members.iter().cloned()) {
+                m.inputs.iter_mut().for_each(|i| *i = map[*i]);
+                c.members.push(m);
+            }
+        }
+        Ok(self)
+    }
+
     /// The drift of every channel (mm, since the start), simulated from rest
     /// from the scaled inputs alone.
     /// A channel with members is the per-sample median of its models

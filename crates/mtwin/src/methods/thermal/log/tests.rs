@@ -502,6 +502,60 @@ fn the_held_out_error_from_gram_matrices_is_the_simulated_one() {
     assert!((e - direct).abs() < 1e-6 * direct, "{e} vs {direct}");
 }
 
+#[test]
+fn joined_models_share_their_common_inputs_and_predict_the_median_of_all() {
+    // A: channel `ch_um` on input `u`, gains 1 and 3 µm (a model and a
+    // member). B: the same channel on `v` and `u` (its own `u` the same
+    // column, transform and scale as A's), the drift 2 µm per unit of `v`
+    // plus 10 µm per unit of `u`; and a second channel A lacks.
+    let um = |g: f64| g * 1e-3;
+    let a = static_members(&[(um(1.0), 0.0), (um(3.0), 0.0)]);
+    let mut b = static_members(&[(0.0, 0.0)]);
+    let v = LogInput {
+        column: "v".into(),
+        ..b.inputs[0].clone()
+    };
+    b.inputs.insert(0, v);
+    let c = &mut b.channels[0];
+    c.inputs = vec![0, 1];
+    c.b = vec![vec![um(2.0)], vec![um(10.0)]];
+    let mut other = c.clone();
+    other.channel = ChannelSpec::parse("other_um:Z").unwrap();
+    b.channels.push(other);
+    let joined = a.clone().join(&b, 2).unwrap();
+    // `u` kept once at its place, `v` appended; B's model a member with
+    // its indices mapped and the number of blocks it was chosen with.
+    let names: Vec<String> = joined.inputs.iter().map(LogInput::name).collect();
+    assert_eq!(names, ["u", "v"]);
+    let ch = &joined.channels[0];
+    assert_eq!((ch.inputs.as_slice(), ch.members.len()), (&[0][..], 2));
+    assert_eq!(ch.members[1].inputs, vec![1, 0]);
+    assert_eq!(ch.members[1].folds, 2);
+    assert_eq!(joined.channels.len(), 1);
+    // u = 1 and v = 2 from the first sample: the three models give 1, 3
+    // and 2·2 + 10 = 14 µm after it, the median 3 µm; with `v` = −4: 1, 3
+    // and 2 µm, the median B's 2 µm; with `u` = 0: 0, 0 and 4 µm.
+    for (u, v, want) in [(1.0, 2.0, 3.0), (1.0, -4.0, 2.0), (0.0, 2.0, 0.0)] {
+        let d = joined.simulate(&[vec![u; 3], vec![v; 3]]).unwrap();
+        for x in &d[0][1..] {
+            assert!((x - um(want)).abs() < 1e-15, "u {u}, v {v}: {x}");
+        }
+    }
+    // The joined model round-trips through the model file.
+    let text = joined.to_toml().unwrap();
+    assert_eq!(
+        LogModel::from_toml_str(Path::new("m.toml"), &text).unwrap(),
+        joined
+    );
+    // Another period, or a channel missing from the other model, refused.
+    let mut slow = b.clone();
+    slow.period_min = 2.0;
+    let e = a.clone().join(&slow, 2).unwrap_err();
+    assert!(e.to_string().contains("periods cannot be joined"), "{e}");
+    let e = b.join(&a, 3).unwrap_err();
+    assert!(e.to_string().contains("`other_um` is missing"), "{e}");
+}
+
 /// A two-time-constant machine driven by the speed, plus an ambient
 /// temperature acting through the slow constant; measured with the
 /// ambient sensor, three sensors that do not matter, and drift noise.
