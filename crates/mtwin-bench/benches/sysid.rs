@@ -183,6 +183,29 @@ fn benches(c: &mut Criterion) {
                 b.iter(|| fit_log(black_box(&log), &channels, &inputs, None, &options).unwrap())
             });
         }
+        // The setting docs/thermal.md recommends for the published split,
+        // on the whole file as that split fits it (`thermal fit --log
+        // --folds 2-6 --ambient auto --also-plain`: ten models per channel),
+        // beside the same five cuts of the plain rises alone.
+        use mtwin::methods::thermal::{Ambient, LogFitRunOptions, run_fit_log};
+        for (name, ambient) in [
+            ("5 channels x 18 inputs, --folds 2-6", None),
+            (
+                "5 channels x 18 inputs, --folds 2-6 --ambient auto --also-plain",
+                Some(Ambient::LeastCorrelatedWithSpeed),
+            ),
+        ] {
+            let mut options = LogFitRunOptions::default();
+            options.channels = channels.clone();
+            options.inputs = inputs.clone();
+            options.fit.folds = 2;
+            options.fit.ensemble_folds = vec![3, 4, 5, 6];
+            options.also_plain = ambient.is_some();
+            options.ambient = ambient;
+            g.bench_function(name, |b| {
+                b.iter(|| run_fit_log(black_box(&real), &options, &mut |_| {}).unwrap())
+            });
+        }
         g.finish();
     }
 }
