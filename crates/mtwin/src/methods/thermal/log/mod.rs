@@ -53,7 +53,9 @@
 //! chosen and fitted once per number; the models are kept together
 //! ([`ChannelModel::members`]) and the channel is predicted by the
 //! per-sample median of their simulations ([`ChannelModel::simulate`]), so
-//! one cut whose sensors extrapolate badly does not decide.
+//! one cut whose sensors extrapolate badly does not decide. A fit on other
+//! candidate inputs (the temperatures as given beside those over an ambient
+//! sensor) joins the same way ([`LogModel::join`]).
 //!
 //! **Start offset** ([`LogFitOptions::start_offset`], off by default). A
 //! drift channel is counted from its first period mean, one measurement

@@ -72,8 +72,8 @@ pub struct ChannelModel {
     #[serde(default)]
     pub start_offset_mm: f64,
     /// Other models of this channel, each chosen with another number of
-    /// held-out blocks ([`LogFitOptions::ensemble_folds`](super::LogFitOptions::ensemble_folds)); empty for a
-    /// single model. With members, the channel's drift is the per-sample
+    /// held-out blocks ([`LogFitOptions::ensemble_folds`](super::LogFitOptions::ensemble_folds)) or on
+    /// other candidate inputs ([`LogModel::join`]); empty for a single model. With members, the channel's drift is the per-sample
     /// median of this model's and its members' simulations
     /// ([`ChannelModel::simulate`]).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -81,8 +81,9 @@ pub struct ChannelModel {
 }
 
 /// Another model of a channel, chosen by the same search with another
-/// number of held-out blocks ([`LogFitOptions::ensemble_folds`](super::LogFitOptions::ensemble_folds)); its
-/// fields mean what those of [`ChannelModel`] do.
+/// number of held-out blocks ([`LogFitOptions::ensemble_folds`](super::LogFitOptions::ensemble_folds)) or
+/// on other candidate inputs ([`LogModel::join`]); its fields mean what
+/// those of [`ChannelModel`] do.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ChannelMember {
     /// Held-out blocks of the cross-validation it was chosen by.
