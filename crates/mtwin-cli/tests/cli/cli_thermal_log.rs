@@ -882,6 +882,18 @@ fn room_machine(n: usize, levels: &[f64], phase: f64) -> Vec<[f64; 5]> {
         .collect()
 }
 
+/// `thermal fit` of `log.csv` (a [`room_log`]): its drift and inputs.
+const ROOM_FIT: [&str; 8] = [
+    "thermal",
+    "fit",
+    "--log",
+    "log.csv",
+    "--drift",
+    "z_mm:Z",
+    "--inputs",
+    "speed_rpm,room_c,housing_c,bed_c",
+];
+
 fn room_log(rows: &[[f64; 5]], with_drift: bool) -> String {
     let mut s = String::from("t_min,speed_rpm,room_c,housing_c,bed_c");
     s.push_str(if with_drift { ",z_mm\n" } else { "\n" });
@@ -908,21 +920,17 @@ fn fit_log_with_temperatures_over_an_ambient_sensor() {
     let rows = room_machine(600, &[0.0, 3000.0, 1000.0, 5000.0, 0.0, 2000.0], 0.0);
     std::fs::write(p.join("log.csv"), room_log(&rows, true)).unwrap();
     let args = [
-        "thermal",
-        "fit",
-        "--log",
-        "log.csv",
-        "--drift",
-        "z_mm:Z",
-        "--inputs",
-        "speed_rpm,room_c,housing_c,bed_c",
-        "--ambient",
-        "auto",
-        "--train-until-min",
-        "480",
-        "--out",
-        "m.toml",
-    ];
+        &ROOM_FIT[..],
+        &[
+            "--ambient",
+            "auto",
+            "--train-until-min",
+            "480",
+            "--out",
+            "m.toml",
+        ],
+    ]
+    .concat();
     let (doc, _) = json_round_trip::<mtwin::methods::thermal::ThermalLogFitDoc>(p, &args);
     // |r| with the speed over the 480 training rows, computed here.
     let corr = |j: usize| {
@@ -1102,15 +1110,8 @@ fn fit_log_with_the_plain_rises_kept_beside_those_over_the_ambient_sensor() {
     let new = room_machine(300, &[4000.0, 0.0, 2500.0], 1.3);
     std::fs::write(p.join("new.csv"), room_log(&new, false)).unwrap();
     let fit = |extra: &[&str], out: &str| {
-        let mut a = vec![
-            "thermal",
-            "fit",
-            "--log",
-            "log.csv",
-            "--drift",
-            "z_mm:Z",
-            "--inputs",
-            "speed_rpm,room_c,housing_c,bed_c",
+        let mut a = ROOM_FIT.to_vec();
+        a.extend([
             "--max-inputs",
             "1",
             "--max-order",
@@ -1119,7 +1120,7 @@ fn fit_log_with_the_plain_rises_kept_beside_those_over_the_ambient_sensor() {
             "480",
             "--out",
             out,
-        ];
+        ]);
         a.extend(extra);
         let a: Vec<String> = a.into_iter().map(String::from).collect();
         a

@@ -197,6 +197,27 @@ fn temperatures() -> Vec<String> {
     (1..=16).map(|i| format!("t{i}_c")).collect()
 }
 
+/// The candidates of the cross-validation row: the speed, its square and
+/// the sixteen temperatures as rises.
+fn speed_and_rises() -> Vec<String> {
+    let mut inputs = vec!["speed_rpm".to_string(), "speed_rpm:square".to_string()];
+    inputs.extend(temperatures());
+    inputs
+}
+
+/// The speed, its square, the ambient sensor `tA_c` as its own rise and
+/// every other temperature over it (what `--ambient` makes of
+/// [`speed_and_rises`]).
+fn speed_and_rises_over(ambient: usize) -> Vec<String> {
+    let mut inputs = vec![
+        "speed_rpm".to_string(),
+        "speed_rpm:square".to_string(),
+        format!("t{ambient}_c"),
+    ];
+    inputs.extend(rises_over(ambient));
+    inputs
+}
+
 /// The five numbers of the docs/thermal.md table row starting `| {label} |`.
 fn documented(label: &str) -> Vec<f64> {
     let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/thermal.md");
@@ -284,8 +305,7 @@ fn real_record_last_third_with_temperatures_at_five_minute_periods() {
 #[test]
 fn real_record_last_third_with_every_setting_chosen_by_cross_validation() {
     let Some(path) = record() else { return };
-    let mut inputs = vec!["speed_rpm".to_string(), "speed_rpm:square".to_string()];
-    inputs.extend(temperatures());
+    let inputs = speed_and_rises();
     let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
     // 5- and 10-min periods leave 222 and 111 training samples: too few for
     // the default options' four blocks (the fit refuses), so they drop out.
@@ -343,8 +363,7 @@ fn score_model(path: &Path, model: &LogModel) -> (Vec<f64>, Vec<f64>) {
 #[test]
 fn real_record_last_third_by_the_median_of_the_models_of_five_cuts() {
     let Some(path) = record() else { return };
-    let mut inputs = vec!["speed_rpm".to_string(), "speed_rpm:square".to_string()];
-    inputs.extend(temperatures());
+    let inputs = speed_and_rises();
     let (runs, model) = five_cuts(&path, &inputs);
     let (mae, ratio) = score_model(&path, &model);
     eprintln!("median of five cuts: MAE {mae:.3?} µm, error/drift RMS {ratio:.3?}");
@@ -366,15 +385,9 @@ fn real_record_last_third_by_the_median_of_the_models_of_five_cuts() {
 #[test]
 fn real_record_last_third_by_the_median_of_ten_models_of_both_kinds() {
     let Some(path) = record() else { return };
-    let mut plain = vec!["speed_rpm".to_string(), "speed_rpm:square".to_string()];
-    plain.extend(temperatures());
+    let plain = speed_and_rises();
     let ambient = ambient_sensor(&path);
-    let mut over = vec![
-        "speed_rpm".to_string(),
-        "speed_rpm:square".to_string(),
-        format!("t{ambient}_c"),
-    ];
-    over.extend(rises_over(ambient));
+    let over = speed_and_rises_over(ambient);
     let (runs, over_model) = five_cuts(&path, &over);
     let (mae, ratio) = score_model(&path, &over_model);
     eprintln!("over ambient, median of five cuts: MAE {mae:.3?} µm, error/drift RMS {ratio:.3?}");
@@ -411,8 +424,7 @@ fn real_record_last_third_by_the_median_of_ten_models_of_both_kinds() {
 #[test]
 fn real_record_last_third_with_lags_chosen_by_cross_validation() {
     let Some(path) = record() else { return };
-    let mut inputs = vec!["speed_rpm".to_string(), "speed_rpm:square".to_string()];
-    inputs.extend(temperatures());
+    let inputs = speed_and_rises();
     let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
     let with = |lags: bool, rule: InputRule| {
         let mut o = LogFitOptions::default();
@@ -479,8 +491,7 @@ fn real_record_last_third_with_lags_chosen_by_cross_validation() {
 #[test]
 fn real_record_last_third_with_the_same_sign_rule() {
     let Some(path) = record() else { return };
-    let mut inputs = vec!["speed_rpm".to_string(), "speed_rpm:square".to_string()];
-    inputs.extend(temperatures());
+    let inputs = speed_and_rises();
     let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
     let pooled = try_evaluate(&path, &inputs, 1.0, 3).unwrap();
     let mut options = LogFitOptions::default();
@@ -546,17 +557,11 @@ fn rises_over(ambient: usize) -> Vec<String> {
 #[test]
 fn real_record_last_third_with_rises_over_an_ambient_sensor() {
     let Some(path) = record() else { return };
-    let mut inputs = vec!["speed_rpm".to_string(), "speed_rpm:square".to_string()];
-    inputs.extend(temperatures());
+    let inputs = speed_and_rises();
     let plain_inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
     let plain = try_evaluate(&path, &plain_inputs, 1.0, 3).unwrap();
     let ambient = ambient_sensor(&path);
-    let mut inputs = vec![
-        "speed_rpm".to_string(),
-        "speed_rpm:square".to_string(),
-        format!("t{ambient}_c"),
-    ];
-    inputs.extend(rises_over(ambient));
+    let inputs = speed_and_rises_over(ambient);
     let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
     let over = try_evaluate(&path, &inputs, 1.0, 3).unwrap();
     let (chosen, mae, ratio) = choose_by_cross_validation(&plain, &over);
@@ -610,8 +615,7 @@ fn with_speed_on(path: &Path, dir: &Path) -> std::path::PathBuf {
 #[test]
 fn real_record_last_third_with_a_speed_on_indicator() {
     let Some(path) = record() else { return };
-    let mut inputs = vec!["speed_rpm".to_string(), "speed_rpm:square".to_string()];
-    inputs.extend(temperatures());
+    let mut inputs = speed_and_rises();
     let plain_inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
     let plain = try_evaluate(&path, &plain_inputs, 1.0, 3).unwrap();
     let dir = tempfile::tempdir().unwrap();
@@ -644,8 +648,7 @@ fn real_record_last_third_with_a_speed_on_indicator() {
 #[test]
 fn real_record_last_third_with_plain_rises_and_rises_over_ambient() {
     let Some(path) = record() else { return };
-    let mut inputs = vec!["speed_rpm".to_string(), "speed_rpm:square".to_string()];
-    inputs.extend(temperatures());
+    let mut inputs = speed_and_rises();
     let plain_inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
     let plain = try_evaluate(&path, &plain_inputs, 1.0, 3).unwrap();
     inputs.extend(rises_over(ambient_sensor(&path)));

@@ -558,27 +558,25 @@ mod tests {
         );
         // With the plain rises kept beside those over the ambient sensor the
         // caption says so, with or without other numbers of blocks.
+        let members_caption =
+            |doc: &crate::methods::thermal::ThermalLogFitDoc| match &log_section(doc, &curves)
+                .blocks[2]
+            {
+                Block::Table(t) => t.caption.clone(),
+                _ => panic!("no members table"),
+            };
         ensemble.also_plain = true;
-        let s = log_section(&ensemble, &curves);
-        let Block::Table(t) = &s.blocks[2] else {
-            panic!("no members table")
-        };
+        let caption = members_caption(&ensemble);
         assert!(
-            t.caption
-                .contains("2, 4 held-out blocks, and its models of the plain rises"),
-            "{}",
-            t.caption
+            caption.contains("2, 4 held-out blocks, and its models of the plain rises"),
+            "{caption}"
         );
         ensemble.ensemble_folds.clear();
-        let s = log_section(&ensemble, &curves);
-        let Block::Table(t) = &s.blocks[2] else {
-            panic!("no members table")
-        };
+        let caption = members_caption(&ensemble);
         assert!(
-            t.caption
+            caption
                 .starts_with("The other models of each channel, and its models of the plain rises"),
-            "{}",
-            t.caption
+            "{caption}"
         );
     }
 }
