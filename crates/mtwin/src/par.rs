@@ -95,6 +95,28 @@ pub(crate) fn map<T: Sync, R: Send>(
     }
 }
 
+/// `f(i, item)` of every item, collected in order; in parallel unless
+/// sequential, the items taken up one at a time in their order (a free
+/// thread takes the next), so that the first items start first — for work
+/// whose early results make later items cheaper.
+pub(crate) fn map_in_turn<T: Sync, R: Send>(
+    items: &[T],
+    f: impl Fn(usize, &T) -> R + Sync + Send,
+) -> Vec<R> {
+    if sequential() {
+        items.iter().enumerate().map(|(i, x)| f(i, x)).collect()
+    } else {
+        let mut out: Vec<(usize, R)> = items
+            .iter()
+            .enumerate()
+            .par_bridge()
+            .map(|(i, x)| (i, f(i, x)))
+            .collect();
+        out.sort_unstable_by_key(|(i, _)| *i);
+        out.into_iter().map(|(_, r)| r).collect()
+    }
+}
+
 /// [`map`] over the chunks of `chunk` items (the last may be shorter), with
 /// one scratch value per task made by `init`.
 pub(crate) fn map_chunks_init<T: Sync, S, R: Send>(

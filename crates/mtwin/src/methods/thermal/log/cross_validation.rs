@@ -4,12 +4,14 @@
 use super::options::LogFitOptions;
 use super::orders::admissible;
 use crate::sysid::{Arx, ArxOrders, Run, Start, fit_arx};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 pub(super) fn rms(v: impl Iterator<Item = f64>) -> f64 {
     let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
     if n == 0 { 0.0 } else { (s / n as f64).sqrt() }
 }
 
+#[derive(Clone)]
 pub(super) struct Candidate {
     pub(super) inputs: Vec<usize>,
     pub(super) orders: ArxOrders,
@@ -23,6 +25,48 @@ pub(super) struct Candidate {
     /// Time constants (model periods) of a sum-of-lags candidate
     /// ([`best_lags`](super::lags::best_lags)); `None` for an ARX candidate.
     pub(super) lags: Option<Vec<f64>>,
+}
+
+/// The held-out RMS a candidate input set must stay at or below to be
+/// chosen in one selection step: the step's acceptance limit (a change must
+/// lower the held-out RMS below `(1 − min_gain)` times the current one),
+/// lowered to the RMS of every set already judged and accepted in the step.
+/// Shared by the sets judged in parallel; a set whose RMS exceeds it cannot
+/// be the step's choice (the accepted set behind the bound is strictly
+/// better, and a tie is no loss: pruning needs more than the bound), so its
+/// costly output-error refinements stop at the first block whose pooled
+/// RMS so far is above it ([`cv_rms`]). Which sets are cut short depends on
+/// the threads' timing; the choice, and everything recorded of it, does
+/// not.
+pub(super) struct Bound(AtomicU64);
+
+impl Bound {
+    /// A bound starting at `limit` (`f64::INFINITY`: none yet).
+    pub(super) fn new(limit: f64) -> Bound {
+        Bound(AtomicU64::new(limit.to_bits()))
+    }
+
+    /// The bound now.
+    pub(super) fn get(&self) -> f64 {
+        f64::from_bits(self.0.load(Ordering::Relaxed))
+    }
+
+    /// Lower the bound to `rms` (an accepted set's held-out RMS) if that is
+    /// below it.
+    pub(super) fn lower(&self, rms: f64) {
+        let mut now = self.0.load(Ordering::Relaxed);
+        while rms < f64::from_bits(now) {
+            match self.0.compare_exchange_weak(
+                now,
+                rms.to_bits(),
+                Ordering::Relaxed,
+                Ordering::Relaxed,
+            ) {
+                Ok(_) => break,
+                Err(seen) => now = seen,
+            }
+        }
+    }
 }
 
 /// One fold of the blocked cross-validation: the model is fitted on the
@@ -132,6 +176,13 @@ impl HeldOut {
 /// not admissible: the folds are fitted one after the other by `fit(fold
 /// index, fold)` and the first failure ends the candidate (the later folds
 /// are not fitted).
+///
+/// `None` as well, before the next fold is fitted, once `lost(rms)` holds
+/// for the pooled RMS of the blocks so far (their squared errors over the
+/// samples of all the blocks): the later blocks only add squared errors, so
+/// the candidate's RMS can only be at least that (see [`Bound`]).
+// The eight arguments are the data, the candidate and its two rules.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn cv_rms(
     y: &[f64],
     u: &[Vec<f64>],
@@ -140,9 +191,14 @@ pub(super) fn cv_rms(
     mut fit: impl FnMut(usize, &Fold) -> Option<Arx>,
     options: &LogFitOptions,
     y_max: f64,
+    lost: &dyn Fn(f64) -> bool,
 ) -> Option<HeldOut> {
     let mut held = HeldOut::new();
+    let n_all = folds.iter().map(|f| f.test.len()).sum::<usize>().max(1) as f64;
     for (i, fold) in folds.iter().enumerate() {
+        if i > 0 && lost((held.ss.iter().sum::<f64>() / n_all).sqrt()) {
+            return None;
+        }
         let model = &fit(i, fold)?;
         if !admissible(model, options, y_max) {
             return None;

@@ -5,7 +5,7 @@ use super::cross_validation::{fit_fold, make_folds, mean_residual, rms};
 use super::lags::{LAG_GRID_MIN, lag_columns, lags_to_arx, prefix_grams, refine_lags, solve_gains};
 use super::model::{ChannelMember, ChannelModel, LogInput, LogModel, scaled};
 use super::options::LogFitOptions;
-use super::orders::{admissible, best_orders};
+use super::orders::{Judge, admissible};
 use super::read::LogData;
 use super::select::select_inputs;
 use super::spec::{ChannelSpec, InputSpec};
@@ -70,19 +70,35 @@ pub fn fit_log_with(
     options: &LogFitOptions,
     progress: &mut dyn FnMut(usize, Option<usize>),
 ) -> Result<LogFit, ThermalError> {
+    fit_log_pruned(log, channels, inputs, n_train, options, progress, true)
+}
+
+/// [`fit_log_with`], the refinements stopping early against the selection
+/// steps' bounds (`prune`, always but in the test that checks that this
+/// changes nothing).
+pub(super) fn fit_log_pruned(
+    log: &LogData,
+    channels: &[ChannelSpec],
+    inputs: &[InputSpec],
+    n_train: Option<usize>,
+    options: &LogFitOptions,
+    progress: &mut dyn FnMut(usize, Option<usize>),
+    prune: bool,
+) -> Result<LogFit, ThermalError> {
     options.validate(channels.len(), inputs.len())?;
+    let cut = |options: &LogFitOptions, progress: &mut dyn FnMut(usize, Option<usize>)| {
+        fit_one_cut(log, channels, inputs, n_train, options, progress, prune)
+    };
     if options.ensemble_folds.is_empty() {
-        return fit_one_cut(log, channels, inputs, n_train, options, progress);
+        return cut(options, progress);
     }
     let mut single = options.clone();
     single.ensemble_folds.clear();
-    let mut fit = fit_one_cut(log, channels, inputs, n_train, &single, progress)?;
+    let mut fit = cut(&single, progress)?;
     for (pass, &folds) in options.ensemble_folds.iter().enumerate() {
         single.folds = folds;
         let first = (pass + 1) * channels.len();
-        let other = fit_one_cut(log, channels, inputs, n_train, &single, &mut |c, s| {
-            progress(first + c, s)
-        })?;
+        let other = cut(&single, &mut |c, s| progress(first + c, s))?;
         // The inputs and their scales depend on the training samples only.
         debug_assert_eq!(other.model.inputs, fit.model.inputs);
         for (c, m) in fit.model.channels.iter_mut().zip(&other.model.channels) {
@@ -106,6 +122,7 @@ fn fit_one_cut(
     n_train: Option<usize>,
     options: &LogFitOptions,
     progress: &mut dyn FnMut(usize, Option<usize>),
+    prune: bool,
 ) -> Result<LogFit, ThermalError> {
     let n_train = n_train.unwrap_or(log.len()).min(log.len());
     let folds = make_folds(n_train, options);
@@ -153,7 +170,15 @@ fn fit_one_cut(
         let y: Vec<f64> = values.iter().map(|v| (v - base) * spec.unit.mm()).collect();
         let y_max = y[..n_train].iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let names: Vec<String> = model_inputs.iter().map(LogInput::name).collect();
-        let judge = |set: &[usize]| best_orders(&y, &u, set, &folds, options, y_max, &lag_grid);
+        let judge = Judge {
+            y: &y,
+            u: &u,
+            folds: &folds,
+            options,
+            y_max,
+            lag_grid: &lag_grid,
+            prune,
+        };
         let (chosen, path) = select_inputs(u.len(), &names, options, &judge, &mut |steps| {
             progress(ci, Some(steps))
         });

@@ -47,6 +47,19 @@
 //! that lowers every block's error by matching each fit span's residual is
 //! given whichever sign that span needs.
 //!
+//! **Work saved without changing a choice.** In each step the input sets'
+//! least-squares structures are judged first, then their output-error
+//! refinements, taken up in the order of the sets' least-squares RMS. The
+//! blocks' squared errors only add up, so a refinement stops at the first
+//! block after which its pooled RMS is already above a bound it must beat:
+//! the step's acceptance limit (`1 − min_gain` times the current RMS), the
+//! RMS of a set already judged and accepted in the step, or the better
+//! structure already found for the same set. Such a refinement could not
+//! have been chosen, so the fit is the one the full judgement of every set
+//! gives, to the bit (test
+//! `refinements_cut_short_by_the_steps_bound_change_no_choice`), for about
+//! half the work with several blocks.
+//!
 //! **Several cuts** ([`LogFitOptions::ensemble_folds`], none by default).
 //! On a short record which inputs the held-out blocks favour depends on
 //! where the blocks are cut. With further numbers of blocks each channel is
