@@ -27,6 +27,26 @@ pub(super) struct Candidate {
     pub(super) lags: Option<Vec<f64>>,
 }
 
+impl Candidate {
+    /// The candidate of `inputs` with the structure `orders` (and the time
+    /// constants `lags` of a sum of lags) judged by its held-out errors.
+    pub(super) fn judged(
+        inputs: &[usize],
+        orders: ArxOrders,
+        held: &HeldOut,
+        lags: Option<Vec<f64>>,
+    ) -> Candidate {
+        Candidate {
+            inputs: inputs.to_vec(),
+            orders,
+            heldout_rms: held.rms(),
+            blocks: held.block_mse(),
+            gains: held.gains.clone(),
+            lags,
+        }
+    }
+}
+
 /// The held-out RMS a candidate input set must stay at or below to be
 /// chosen in one selection step: the step's acceptance limit (a change must
 /// lower the held-out RMS below `(1 − min_gain)` times the current one),

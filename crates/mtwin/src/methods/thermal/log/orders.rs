@@ -39,14 +39,7 @@ impl Judge<'_> {
                 let fit = |_: usize, f: &Fold| fit_fold(y, u, inputs, f, &orders);
                 let lost = &|_| false;
                 if let Some(e) = cv_rms(y, u, inputs, folds, fit, options, self.y_max, lost) {
-                    ranked.push(Candidate {
-                        inputs: inputs.to_vec(),
-                        orders,
-                        heldout_rms: e.rms(),
-                        blocks: e.block_mse(),
-                        gains: e.gains.clone(),
-                        lags: None,
-                    });
+                    ranked.push(Candidate::judged(inputs, orders, &e, None));
                 }
             }
         }
@@ -103,30 +96,15 @@ impl Judge<'_> {
                 let to_beat = best.as_ref().map_or(f64::INFINITY, |b| b.heldout_rms);
                 let lost = |rms: f64| self.prune && (rms >= to_beat || rms > bound.get());
                 if let Some(e) = cv_rms(y, u, inputs, folds, fit, options, y_max, &lost) {
-                    let c = Candidate {
-                        inputs: inputs.to_vec(),
-                        orders,
-                        heldout_rms: e.rms(),
-                        blocks: e.block_mse(),
-                        gains: e.gains.clone(),
-                        lags: None,
-                    };
-                    keep(&mut best, c);
+                    keep(&mut best, Candidate::judged(inputs, orders, &e, None));
                 }
             }
         }
         if options.lags
             && let Some((taus, e)) = best_lags(y, u, inputs, folds, options, y_max, self.lag_grid)
         {
-            let c = Candidate {
-                inputs: inputs.to_vec(),
-                orders: lag_orders(inputs.len(), taus.len()),
-                heldout_rms: e.rms(),
-                blocks: e.block_mse(),
-                gains: e.gains.clone(),
-                lags: Some(taus),
-            };
-            keep(&mut best, c);
+            let orders = lag_orders(inputs.len(), taus.len());
+            keep(&mut best, Candidate::judged(inputs, orders, &e, Some(taus)));
         }
         best
     }
